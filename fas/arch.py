@@ -1,0 +1,314 @@
+"""Architecture profiles: every hardware figure of the project lives in this module.
+
+One :class:`Profile` per supported chip.  The library (`fas`) reads its limits from
+here; the simulated machine (`fas.sim`) reads its timing model from here; the
+StepperDemo console reads its default pin configuration from here.  Nothing else in
+the code base carries a per-architecture number or an ``if arch == ...`` chain.
+
+Figures come from FastAccelStepper 1.2.6 (seed 000/001 and its platform drivers).
+The ``sim_*`` figures are the timing model of the simulated machine; for the
+ATmega328P they are calibrated against the AVR-simulator runs in
+``shared/conformance`` (see ``docs/timing-model.md``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from . import log2
+from .codes import PIN_UNDEFINED
+
+
+@dataclass(frozen=True)
+class DemoStepper:
+    """StepperDemo's default wiring of one stepper (StepperPins_*.h)."""
+
+    step: int
+    enable_low_active: int
+    direction: int
+    on_delay_us: int
+    off_delay_ms: int
+    enable_high_active: int = PIN_UNDEFINED
+    dir_change_delay_us: int = 0
+    direction_high_counts_up: bool = True
+    auto_enable: bool = True
+
+
+@dataclass(frozen=True)
+class Profile:
+    name: str
+    title: str
+    f_cpu: int
+    ticks_per_s: int
+    min_cmd_ticks: int
+    min_dir_delay_us: int
+    max_dir_delay_us: int
+    queue_len: int
+    max_steppers: int
+    # step pins: one tuple of alternatives per queue (channel); the index is the queue
+    step_pin_groups: tuple[tuple[int, ...], ...]
+    # fixed pin -> queue mapping (AVR timer channels) or first free queue (ESP32)
+    fixed_queue_mapping: bool
+    # max speed (ticks/step) by number of connected steppers: index 0 = one stepper
+    max_speed_ticks_by_count: tuple[int, ...]
+    fill_period_ticks: int  # the periodic ramp task (timer overflow / RTOS task)
+    delay_ms_base: int  # granularity of the auto-disable counter in ms
+    has_stray_digital_read: bool  # StepperDemo's `r` exists (AVR Arduino core only)
+    irq_block_delays_steps: bool  # `e` delays step interrupts (AVR); ESP32 is immune
+    demo_steppers: tuple[DemoStepper, ...]
+    debug_led_pin: int
+    # --- simulated machine timing model (ticks of this profile) ---
+    sim_timer_wrap_ticks: int  # compare timer width: a missed compare waits one wrap
+    sim_queue_start_ticks: int  # startQueue(): first compare this far after the call
+    sim_isr_latency_ticks: int  # compare match -> ISR clears the step pin (pulse width)
+    sim_isr_duration_ticks: int  # one step ISR, for ordering ISRs pending after a block
+    sim_fill_entry_ticks: int  # periodic task start -> first command computed
+    sim_fill_cmd_ticks: int  # CPU time per generated queue command
+    sim_task_phase_ticks: int  # first periodic task after power-on
+    sim_boot_ticks: int  # reset -> first line of setup()
+    sim_loop_pass_ticks: int  # one pass of StepperDemo's loop() without output
+    sim_char_ticks: int  # CPU time to hand one character to the serial driver
+    sim_uart_byte_ticks: int  # one character on the wire (start + 8 data + stop)
+    sim_uart_tx_buffer: int  # characters the serial driver holds before blocking
+    sim_millis_overflow_ticks: int  # Arduino timer0 overflow period (millis() source)
+    sim_irq_block_ticks: int = 0  # StepperDemo's `e`: length of one blocked section
+    notes: str = field(default="", compare=False)
+
+    # ---- derived figures -------------------------------------------------
+    @property
+    def ticks_per_us(self) -> int:
+        return self.ticks_per_s // 1_000_000
+
+    @property
+    def ticks_per_ms(self) -> int:
+        return self.ticks_per_s // 1000
+
+    @property
+    def max_on_delay_ticks(self) -> int:
+        return 65535 * (self.queue_len - 1)
+
+    @property
+    def log2_ticks_per_s(self) -> int:
+        return log2.const(self.ticks_per_s)
+
+    @property
+    def log2_ticks_per_s_div_sqrt2(self) -> int:
+        return log2.const(self.ticks_per_s / 2**0.5)
+
+    @property
+    def log2_accel_factor(self) -> int:
+        return log2.const(self.ticks_per_s * self.ticks_per_s / 2)
+
+    def us_to_ticks(self, us: int) -> int:
+        return (us * self.ticks_per_us) & 0xFFFFFFFF
+
+    def ticks_to_us(self, ticks: int) -> int:
+        return ticks // self.ticks_per_us
+
+    def max_speed_ticks(self, stepper_count: int) -> int:
+        table = self.max_speed_ticks_by_count
+        return table[min(max(stepper_count, 1), len(table)) - 1]
+
+    def queue_for_step_pin(self, pin: int) -> int | None:
+        for idx, group in enumerate(self.step_pin_groups):
+            if pin in group:
+                return idx
+        return None
+
+
+def _avr_uart_byte_ticks(f_cpu: int, baud: int) -> int:
+    # Arduino HardwareSerial uses double speed mode: UBRR = (F_CPU/4/baud - 1)/2
+    ubrr = (f_cpu // 4 // baud - 1) // 2
+    return 10 * 8 * (ubrr + 1)
+
+
+_AVR_TIMING = dict(
+    sim_timer_wrap_ticks=65536,
+    sim_queue_start_ticks=10,
+    sim_isr_latency_ticks=60,
+    sim_isr_duration_ticks=90,
+    sim_fill_entry_ticks=100,
+    sim_fill_cmd_ticks=1200,
+    sim_task_phase_ticks=20000,
+    sim_boot_ticks=1000,
+    sim_loop_pass_ticks=400,
+    sim_char_ticks=40,
+    sim_uart_byte_ticks=_avr_uart_byte_ticks(16_000_000, 115200),
+    sim_uart_tx_buffer=64,
+    sim_millis_overflow_ticks=64 * 256,
+    sim_irq_block_ticks=100 * 16,
+)
+
+ATMEGA328P = Profile(
+    name="atmega328p",
+    title="ATmega328P (Arduino Uno/Nano), timer 1",
+    f_cpu=16_000_000,
+    ticks_per_s=16_000_000,
+    min_cmd_ticks=16_000_000 // 25000,
+    min_dir_delay_us=40,
+    max_dir_delay_us=65535 // 16,
+    queue_len=16,
+    max_steppers=2,
+    step_pin_groups=((9,), (10,)),
+    fixed_queue_mapping=True,
+    max_speed_ticks_by_count=(16_000_000 // 50000, 426, 16_000_000 // 20000),
+    fill_period_ticks=65536,
+    delay_ms_base=65_536_000 // 16_000_000,
+    has_stray_digital_read=True,
+    irq_block_delays_steps=True,
+    demo_steppers=(
+        DemoStepper(step=9, enable_low_active=6, direction=5, on_delay_us=500_000,
+                    off_delay_ms=5000),
+        DemoStepper(step=10, enable_low_active=8, direction=7, on_delay_us=5000,
+                    off_delay_ms=10),
+    ),
+    debug_led_pin=13,
+    **_AVR_TIMING,
+)
+
+ATMEGA2560 = Profile(
+    name="atmega2560",
+    title="ATmega2560 (Arduino Mega), timer 4",
+    f_cpu=16_000_000,
+    ticks_per_s=16_000_000,
+    min_cmd_ticks=16_000_000 // 25000,
+    min_dir_delay_us=40,
+    max_dir_delay_us=65535 // 16,
+    queue_len=16,
+    max_steppers=3,
+    step_pin_groups=((6,), (7,), (8,)),
+    fixed_queue_mapping=True,
+    max_speed_ticks_by_count=(16_000_000 // 50000, 426, 16_000_000 // 20000),
+    fill_period_ticks=65536,
+    delay_ms_base=65_536_000 // 16_000_000,
+    has_stray_digital_read=True,
+    irq_block_delays_steps=True,
+    demo_steppers=(
+        DemoStepper(step=6, enable_low_active=19, direction=21, on_delay_us=500_000,
+                    off_delay_ms=5000),
+        DemoStepper(step=7, enable_low_active=18, direction=20, on_delay_us=5000,
+                    off_delay_ms=10),
+        DemoStepper(step=8, enable_low_active=43, direction=42, on_delay_us=5000,
+                    off_delay_ms=10),
+    ),
+    debug_led_pin=PIN_UNDEFINED,
+    **_AVR_TIMING,
+)
+
+_ESP32_GPIO_OUT = (0, 1, 2, 3, 4, 5, 12, 13, 14, 15, 16, 17, 18, 19, 21, 22, 23, 25, 26,
+                   27, 32, 33)
+
+ESP32 = Profile(
+    name="esp32",
+    title="ESP32 (mcpwm/pcnt driver)",
+    f_cpu=240_000_000,
+    ticks_per_s=16_000_000,
+    min_cmd_ticks=16_000_000 // 5000,
+    min_dir_delay_us=(16_000_000 // 5000) // 16,
+    max_dir_delay_us=65535 // 16,
+    queue_len=32,
+    max_steppers=6,
+    step_pin_groups=tuple(_ESP32_GPIO_OUT for _ in range(6)),
+    fixed_queue_mapping=False,
+    max_speed_ticks_by_count=(80,),
+    fill_period_ticks=4 * 16000,
+    delay_ms_base=4,
+    has_stray_digital_read=False,
+    irq_block_delays_steps=False,
+    demo_steppers=(
+        DemoStepper(step=17, enable_low_active=26, direction=18, on_delay_us=50,
+                    off_delay_ms=1000),
+        DemoStepper(step=15, enable_low_active=13, direction=18, on_delay_us=500,
+                    off_delay_ms=1000),
+        DemoStepper(step=2, enable_low_active=12, direction=19, on_delay_us=500,
+                    off_delay_ms=1000),
+        DemoStepper(step=5, enable_low_active=25, direction=22, on_delay_us=5000,
+                    off_delay_ms=10),
+        DemoStepper(step=16, enable_low_active=27, direction=21, on_delay_us=5000,
+                    off_delay_ms=10),
+        DemoStepper(step=4, enable_low_active=14, direction=21, on_delay_us=5000,
+                    off_delay_ms=10),
+    ),
+    debug_led_pin=PIN_UNDEFINED,
+    sim_timer_wrap_ticks=0,
+    sim_queue_start_ticks=16,
+    sim_isr_latency_ticks=16,
+    sim_isr_duration_ticks=32,
+    sim_fill_entry_ticks=80,
+    sim_fill_cmd_ticks=80,
+    sim_task_phase_ticks=8000,
+    sim_boot_ticks=16000,
+    sim_loop_pass_ticks=32,
+    sim_char_ticks=4,
+    sim_uart_byte_ticks=(10 * 16_000_000) // 115200,
+    sim_uart_tx_buffer=128,
+    sim_millis_overflow_ticks=16000,
+    sim_irq_block_ticks=100 * 16,
+    notes="pulses are generated by the mcpwm peripheral; `e` does not delay them",
+)
+
+SAM_DUE = Profile(
+    name="sam_due",
+    title="Atmel SAM3X8E (Arduino Due)",
+    f_cpu=84_000_000,
+    ticks_per_s=21_000_000,
+    min_cmd_ticks=21_000_000 // 5000,
+    min_dir_delay_us=(21_000_000 // 5000) // 21,
+    max_dir_delay_us=65535 // 21,
+    queue_len=32,
+    max_steppers=6,
+    step_pin_groups=((34, 67, 74, 35), (17, 36, 72, 37, 42), (40, 64, 69, 41), (9,),
+                     (8, 44), (7, 45), (6,)),
+    fixed_queue_mapping=False,
+    max_speed_ticks_by_count=(420,),
+    fill_period_ticks=2 * 21000,
+    delay_ms_base=2,
+    has_stray_digital_read=False,
+    irq_block_delays_steps=False,
+    demo_steppers=(
+        DemoStepper(step=34, enable_low_active=26, direction=18, on_delay_us=50,
+                    off_delay_ms=1000),
+        DemoStepper(step=17, enable_low_active=13, direction=18, on_delay_us=500,
+                    off_delay_ms=1000),
+        DemoStepper(step=40, enable_low_active=12, direction=19, on_delay_us=500,
+                    off_delay_ms=1000),
+        DemoStepper(step=9, enable_low_active=25, direction=22, on_delay_us=5000,
+                    off_delay_ms=10),
+        DemoStepper(step=8, enable_low_active=27, direction=21, on_delay_us=5000,
+                    off_delay_ms=10),
+        DemoStepper(step=7, enable_low_active=14, direction=21, on_delay_us=5000,
+                    off_delay_ms=10),
+    ),
+    debug_led_pin=PIN_UNDEFINED,
+    sim_timer_wrap_ticks=0,
+    sim_queue_start_ticks=21,
+    sim_isr_latency_ticks=21 * 2,
+    sim_isr_duration_ticks=21 * 3,
+    sim_fill_entry_ticks=100,
+    sim_fill_cmd_ticks=400,
+    sim_task_phase_ticks=10000,
+    sim_boot_ticks=21000,
+    sim_loop_pass_ticks=100,
+    sim_char_ticks=10,
+    sim_uart_byte_ticks=(10 * 21_000_000) // 115200,
+    sim_uart_tx_buffer=128,
+    sim_millis_overflow_ticks=21000,
+    sim_irq_block_ticks=100 * 21,
+    notes="step pins: one pin of each PWM group; the demo wiring follows StepperPins_sam.h",
+)
+
+PROFILES: dict[str, Profile] = {p.name: p for p in (ATMEGA328P, ATMEGA2560, ESP32, SAM_DUE)}
+DEFAULT_PROFILE = ATMEGA328P
+
+
+def get_profile(name: str | Profile | None) -> Profile:
+    if name is None:
+        return DEFAULT_PROFILE
+    if isinstance(name, Profile):
+        return name
+    try:
+        return PROFILES[name.lower()]
+    except KeyError:
+        raise ValueError(
+            f"unknown architecture {name!r} (choose from {', '.join(PROFILES)})"
+        ) from None

@@ -1,0 +1,115 @@
+"""The small interface between the library and whatever executes its commands.
+
+A backend supplies a tick clock, calls the engine's periodic task, drives pins and
+executes queue entries through one :class:`QueueChannel` per stepper.  The library
+(:mod:`fas.engine`, :mod:`fas.stepper`, :mod:`fas.queue`) talks only to this
+interface; :mod:`fas.sim` implements it on a simulated microcontroller and
+:mod:`fas.serial` on a real one behind a serial line.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING, Callable
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .arch import Profile
+    from .queue import StepperQueue
+
+
+class QueueChannel(ABC):
+    """Executes the entries of one :class:`~fas.queue.StepperQueue`."""
+
+    @abstractmethod
+    def is_running(self) -> bool:
+        """True from ``start()`` until the channel has found the queue empty."""
+
+    @abstractmethod
+    def start(self) -> None:
+        """Begin executing at ``read_idx`` (no-op if the queue is empty)."""
+
+    @abstractmethod
+    def force_stop(self) -> None:
+        """Stop at once; no further pulse is emitted."""
+
+    @abstractmethod
+    def sync(self) -> None:
+        """Bring ``read_idx`` and the current entry's remaining steps up to now."""
+
+    def ready_for_commands(self) -> bool:
+        return True
+
+    def entry_added(self) -> None:
+        """A new entry was appended (a channel waiting for one may continue)."""
+
+    def positions_shifted(self, delta: int) -> None:
+        """All queued positions were renumbered by ``delta``."""
+
+
+class PulseCounter:
+    """An independent counter of step pulses (ESP32's pcnt unit, simulated everywhere).
+
+    Counts rising step edges up or down by the direction pin level.  On reaching
+    ``high`` (or ``low``) it resets to 0; with both limits 0 it wraps like an int16.
+    """
+
+    def __init__(self, low: int, high: int, dir_high_counts_up: bool = True) -> None:
+        self.low = low
+        self.high = high
+        self.dir_high_counts_up = dir_high_counts_up
+        self.value = 0
+
+    def count(self, steps: int, dir_level: bool) -> None:
+        if steps <= 0:
+            return
+        up = dir_level == self.dir_high_counts_up
+        v = self.value + (steps if up else -steps)
+        if self.high == 0 and self.low == 0:
+            v = ((v + 0x8000) & 0xFFFF) - 0x8000
+        else:
+            if up and self.high > 0 and v >= self.high:
+                v %= self.high
+            elif not up and self.low < 0 and v <= self.low:
+                v = -((-v) % (-self.low))
+        self.value = v
+
+    def read(self) -> int:
+        return self.value
+
+    def clear(self) -> None:
+        self.value = 0
+
+
+class Backend(ABC):
+    profile: Profile
+
+    @abstractmethod
+    def now(self) -> int:
+        """Current time in ticks of ``profile.ticks_per_s``."""
+
+    @abstractmethod
+    def attach_engine(self, manage_steppers: Callable[[], None]) -> None:
+        """Call ``manage_steppers`` periodically (the ~4 ms ramp task)."""
+
+    @abstractmethod
+    def allocate_channel(self, queue: StepperQueue) -> QueueChannel:
+        """Create the executor for ``queue`` (its ``step_pin`` and ``index`` are set)."""
+
+    @abstractmethod
+    def write_pin(self, pin: int, level: int) -> None:
+        """Drive an ordinary output pin (direction, enable, LED)."""
+
+    @abstractmethod
+    def read_pin(self, pin: int) -> int:
+        """Read an output pin's level."""
+
+    @abstractmethod
+    def wait_until(self, predicate: Callable[[], bool], timeout_ticks: int) -> bool:
+        """Let time pass until ``predicate()`` holds; False on timeout."""
+
+    def attach_pulse_counter(self, queue: StepperQueue, counter: PulseCounter) -> bool:
+        """Count ``queue``'s pulses into ``counter``; False if the backend cannot."""
+        return False
+
+    def detach_step_pin(self, queue: StepperQueue, detached: bool) -> None:
+        """Hand the step pin to the application (``detached``) or back to the library."""

@@ -1,0 +1,84 @@
+"""Return codes and ramp-state bits, with the numeric values FastAccelStepper uses."""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+PIN_UNDEFINED = 255
+PIN_EXTERNAL_FLAG = 128
+TICKS_FOR_STOPPED_MOTOR = 0xFFFFFFFF
+
+LOW = 0
+HIGH = 1
+
+
+class MoveResult(IntEnum):
+    OK = 0
+    ERR_NO_DIRECTION_PIN = -1
+    ERR_SPEED_IS_UNDEFINED = -2
+    ERR_ACCELERATION_IS_UNDEFINED = -3
+
+
+class AqeResult(IntEnum):
+    """Result of ``add_queue_entry``; positive values mean "retry later"."""
+
+    OK = 0
+    QUEUE_FULL = 1
+    DIR_PIN_IS_BUSY = 2
+    WAIT_FOR_ENABLE_PIN_ACTIVE = 3
+    DEVICE_NOT_READY = 4
+    DIR_PIN_2MS_PAUSE_ADDED = 5
+    ERROR_TICKS_TOO_LOW = -1
+    ERROR_EMPTY_QUEUE_TO_START = -2
+    ERROR_NO_DIR_PIN_TO_TOGGLE = -3
+
+    @property
+    def retry(self) -> bool:
+        return self.value > 0
+
+
+class DelayResult(IntEnum):
+    OK = 0
+    TOO_LOW = -1
+    TOO_HIGH = -2
+
+
+class RampState(IntEnum):
+    """Values of ``ramp_state() & RAMP_STATE_MASK``."""
+
+    IDLE = 0
+    COAST = 1
+    ACCELERATE = 2
+    DECELERATE = 4
+    REVERSE = 4 + 8
+
+
+RAMP_STATE_MASK = 1 + 2 + 4 + 8 + 16
+RAMP_DIRECTION_MASK = 32 + 64
+RAMP_STATE_ACCELERATING_FLAG = 2
+RAMP_STATE_DECELERATING_FLAG = 4
+RAMP_DIRECTION_COUNT_UP = 32
+RAMP_DIRECTION_COUNT_DOWN = 64
+
+# upstream C names, for users porting sketches
+MOVE_OK = MoveResult.OK
+MOVE_ERR_NO_DIRECTION_PIN = MoveResult.ERR_NO_DIRECTION_PIN
+MOVE_ERR_SPEED_IS_UNDEFINED = MoveResult.ERR_SPEED_IS_UNDEFINED
+MOVE_ERR_ACCELERATION_IS_UNDEFINED = MoveResult.ERR_ACCELERATION_IS_UNDEFINED
+AQE_OK = AqeResult.OK
+AQE_QUEUE_FULL = AqeResult.QUEUE_FULL
+AQE_DIR_PIN_IS_BUSY = AqeResult.DIR_PIN_IS_BUSY
+AQE_WAIT_FOR_ENABLE_PIN_ACTIVE = AqeResult.WAIT_FOR_ENABLE_PIN_ACTIVE
+AQE_DEVICE_NOT_READY = AqeResult.DEVICE_NOT_READY
+AQE_DIR_PIN_2MS_PAUSE_ADDED = AqeResult.DIR_PIN_2MS_PAUSE_ADDED
+AQE_ERROR_TICKS_TOO_LOW = AqeResult.ERROR_TICKS_TOO_LOW
+AQE_ERROR_EMPTY_QUEUE_TO_START = AqeResult.ERROR_EMPTY_QUEUE_TO_START
+AQE_ERROR_NO_DIR_PIN_TO_TOGGLE = AqeResult.ERROR_NO_DIR_PIN_TO_TOGGLE
+DELAY_OK = DelayResult.OK
+DELAY_TOO_LOW = DelayResult.TOO_LOW
+DELAY_TOO_HIGH = DelayResult.TOO_HIGH
+RAMP_STATE_IDLE = RampState.IDLE
+RAMP_STATE_COAST = RampState.COAST
+RAMP_STATE_ACCELERATE = RampState.ACCELERATE
+RAMP_STATE_DECELERATE = RampState.DECELERATE
+RAMP_STATE_REVERSE = RampState.REVERSE

@@ -1,0 +1,218 @@
+"""The per-stepper command queue and its position bookkeeping.
+
+A command ``(ticks, steps, count_up)`` means: ``steps`` pulses ``ticks`` apart, then
+one more ``ticks`` of wait; ``steps == 0`` is a pause.  The queue is a bounded ring
+(16 entries on AVR, 32 on ESP32/SAM).  The library writes at ``next_write_idx``; the
+backend's channel executes from ``read_idx``, counting down the steps of the entry it
+is working on.  The current position at any instant is the end position of that
+entry minus the steps it still has to make.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from .codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED, AqeResult
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .arch import Profile
+    from .backend import Backend, QueueChannel
+
+
+def i32(v: int) -> int:
+    v &= 0xFFFFFFFF
+    return v - 0x100000000 if v & 0x80000000 else v
+
+
+class QueueEntry:
+    __slots__ = ("steps", "ticks", "count_up", "toggle_dir", "dir_level", "end_pos",
+                 "total_steps")
+
+    def __init__(self) -> None:
+        self.steps = 0  # steps still to be made; counted down by the channel
+        self.total_steps = 0
+        self.ticks = 0
+        self.count_up = True
+        self.toggle_dir = False
+        self.dir_level = True
+        self.end_pos = 0
+
+    def __repr__(self) -> str:  # pragma: no cover - debugging aid
+        return (f"QueueEntry(steps={self.steps}/{self.total_steps}, ticks={self.ticks}, "
+                f"up={self.count_up}, toggle={self.toggle_dir}, end={self.end_pos})")
+
+
+class StepperQueue:
+    """Ring buffer of commands shared by the library (writer) and a channel (reader)."""
+
+    def __init__(self, index: int, profile: Profile, backend: Backend, step_pin: int):
+        self.index = index
+        self.profile = profile
+        self.backend = backend
+        self.step_pin = step_pin
+        self.queue_len = profile.queue_len
+        self.entries = [QueueEntry() for _ in range(profile.queue_len)]
+        self.read_idx = 0
+        self.next_write_idx = 0
+        self.queue_end_pos = 0
+        self.queue_end_count_up = True
+        self.queue_end_dir = True
+        self.ignore_commands = False
+        self.dir_pin = PIN_UNDEFINED
+        self.dir_high_counts_up = True
+        self.max_speed_in_ticks = profile.ticks_per_s // 1000
+        self.last_command_ticks = 65535
+        self.entries_added = 0  # statistics for invariants and reports
+        self.max_fill = 0
+        self.channel: QueueChannel = backend.allocate_channel(self)
+
+    # ------------------------------------------------------------- queries
+    def queue_entries(self) -> int:
+        self.channel.sync()
+        return (self.next_write_idx - self.read_idx) & 0xFF
+
+    def is_queue_full(self) -> bool:
+        return self.queue_entries() >= self.queue_len
+
+    def is_queue_empty(self) -> bool:
+        return self.queue_entries() == 0
+
+    def is_running(self) -> bool:
+        return self.channel.is_running()
+
+    def has_steps_in_queue(self) -> bool:
+        self.channel.sync()
+        rp, wp = self.read_idx, self.next_write_idx
+        while rp != wp:
+            if self.entries[rp % self.queue_len].steps > 0:
+                return True
+            rp = (rp + 1) & 0xFF
+        return False
+
+    def ticks_in_queue(self) -> int:
+        """Ticks of all entries after the one being executed."""
+        self.channel.sync()
+        rp, wp = self.read_idx, self.next_write_idx
+        if rp == wp:
+            return 0
+        ticks = 0
+        rp = (rp + 1) & 0xFF
+        while rp != wp:
+            e = self.entries[rp % self.queue_len]
+            ticks += e.ticks * e.steps if e.steps > 1 else e.ticks
+            rp = (rp + 1) & 0xFF
+        return ticks
+
+    def has_ticks_in_queue(self, min_ticks: int) -> bool:
+        self.channel.sync()
+        rp, wp = self.read_idx, self.next_write_idx
+        if rp == wp:
+            return False
+        rp = (rp + 1) & 0xFF
+        while rp != wp:
+            e = self.entries[rp % self.queue_len]
+            tmp = e.ticks * max(e.steps, 1)
+            if tmp >= min_ticks:
+                return True
+            min_ticks -= tmp
+            rp = (rp + 1) & 0xFF
+        return False
+
+    def actual_ticks_with_direction(self) -> tuple[bool, int, bool]:
+        """(valid, ticks, count_up) of the step rate being executed right now."""
+        self.channel.sync()
+        rp, wp = self.read_idx, self.next_write_idx
+        if rp == wp:
+            return True, 0, True
+        e = self.entries[rp % self.queue_len]
+        if e.steps > 0:
+            if e.steps > 1:
+                return True, e.ticks, e.count_up
+            nxt = (rp + 1) & 0xFF
+            if nxt != wp and self.entries[nxt % self.queue_len].steps > 0:
+                return True, e.ticks, e.count_up
+            return False, e.ticks, e.count_up
+        return False, 0, True
+
+    def current_position(self) -> int:
+        self.channel.sync()
+        rp, wp = self.read_idx, self.next_write_idx
+        if rp == wp:
+            return self.queue_end_pos
+        e = self.entries[rp % self.queue_len]
+        if e.steps == 0:
+            return e.end_pos
+        return i32(e.end_pos - e.steps if e.count_up else e.end_pos + e.steps)
+
+    # ------------------------------------------------------------- writing
+    def add_queue_entry(self, ticks: int | None, steps: int = 0, count_up: bool = True,
+                        start: bool = True) -> AqeResult:
+        """Append one command (``ticks is None``: only start the queue)."""
+        if not self.channel.ready_for_commands():
+            return AqeResult.DEVICE_NOT_READY
+        if ticks is None:
+            if start and not self.is_running():
+                if self.next_write_idx == self.read_idx:
+                    return AqeResult.ERROR_EMPTY_QUEUE_TO_START
+                self.channel.start()
+            return AqeResult.OK
+        if self.is_queue_full():
+            return AqeResult.QUEUE_FULL
+        command_rate_ticks = ticks * steps if steps > 1 else ticks
+        if command_rate_ticks < self.profile.min_cmd_ticks:
+            return AqeResult.ERROR_TICKS_TOO_LOW
+
+        wp = self.next_write_idx
+        e = self.entries[wp % self.queue_len]
+        dir_level = count_up == self.dir_high_counts_up
+        toggle_dir = False
+        if self.dir_pin != PIN_UNDEFINED:
+            if (self.is_queue_empty() and not self.is_running()
+                    and (self.dir_pin & PIN_EXTERNAL_FLAG) == 0):
+                # set the pin right here (needed for shared direction pins)
+                self.backend.write_pin(self.dir_pin, 1 if dir_level else 0)
+                self.queue_end_dir = dir_level
+            else:
+                toggle_dir = dir_level != self.queue_end_dir
+        e.steps = steps
+        e.total_steps = steps
+        e.ticks = ticks
+        e.count_up = count_up
+        e.toggle_dir = toggle_dir
+        e.dir_level = dir_level
+        e.end_pos = i32(self.queue_end_pos + (steps if count_up else -steps))
+
+        if not self.ignore_commands:
+            self.next_write_idx = (wp + 1) & 0xFF
+            self.queue_end_pos = e.end_pos
+            self.queue_end_dir = dir_level
+            self.queue_end_count_up = count_up
+            self.entries_added += 1
+            fill = (self.next_write_idx - self.read_idx) & 0xFF
+            if fill > self.max_fill:
+                self.max_fill = fill
+            self.channel.entry_added()
+
+        if start and not self.is_running():
+            self.channel.start()
+        self.last_command_ticks = ticks
+        return AqeResult.OK
+
+    def start_queue(self) -> None:
+        self.channel.start()
+
+    def force_stop(self) -> None:
+        """Stop the channel at once and drop every queued entry."""
+        self.channel.force_stop()
+        self.read_idx = self.next_write_idx
+
+    def shift_positions(self, delta: int) -> None:
+        """Renumber every queued position by ``delta`` (set position while moving)."""
+        self.channel.sync()
+        rp, wp = self.read_idx, self.next_write_idx
+        while rp != wp:
+            e = self.entries[rp % self.queue_len]
+            e.end_pos = i32(e.end_pos + delta)
+            rp = (rp + 1) & 0xFF
+        self.queue_end_pos = i32(self.queue_end_pos + delta)
+        self.channel.positions_shifted(delta)

@@ -1,0 +1,151 @@
+"""Ramp maths: speed as a function of ramp step, and back.
+
+With constant acceleration ``a`` the speed after ``s`` steps from standstill is
+``v = sqrt(2·a·s)``, so the step period is ``ticks = TICKS_PER_S / sqrt(2·a·s)``.
+With linear acceleration over the first ``s_h`` steps the ramp starts with a cubic
+segment ``ticks = cubic / s^(2/3)`` and continues as the constant-acceleration ramp
+shifted by ``s_h/4`` steps.  All of it is evaluated in the log2 fixed-point domain
+(:mod:`fas.log2`) exactly as the firmware does.
+"""
+
+from __future__ import annotations
+
+from .. import log2
+
+
+class RampParameters:
+    """What the application asked for; copied to the ramp task on ``apply``."""
+
+    __slots__ = (
+        "move_value", "min_travel_ticks", "s_h", "s_jump", "log2_accel", "apply",
+        "any_change", "recalc_ramp_steps", "valid_acceleration", "valid_speed",
+        "move_absolute", "keep_running", "keep_running_count_up",
+    )
+
+    def __init__(self) -> None:
+        self.move_value = 0
+        self.min_travel_ticks = 0
+        self.s_h = 0
+        self.s_jump = 0
+        self.log2_accel = 0
+        self.apply = False
+        self.any_change = False
+        self.recalc_ramp_steps = False
+        self.valid_acceleration = False
+        self.valid_speed = False
+        self.move_absolute = True
+        self.keep_running = False
+        self.keep_running_count_up = True
+
+    def copy(self) -> "RampParameters":
+        other = RampParameters.__new__(RampParameters)
+        for name in RampParameters.__slots__:
+            setattr(other, name, getattr(self, name))
+        return other
+
+    # --- application side setters (upstream: ramp_parameters_s) ---
+    def apply_parameters(self) -> None:
+        if self.any_change:
+            self.apply = True
+
+    def set_running(self, count_up: bool) -> None:
+        self.keep_running = True
+        self.keep_running_count_up = count_up
+        self.any_change = True
+        self.apply = True
+
+    def set_target_position(self, pos: int) -> None:
+        self.move_value = pos
+        self.move_absolute = True
+        self.keep_running = False
+        self.keep_running_count_up = True
+        self.any_change = True
+        self.apply = True
+
+    def set_target_relative_position(self, move: int) -> None:
+        if self.any_change and not self.move_absolute:
+            self.move_value = _i32(self.move_value + move)
+        else:
+            self.move_value = move
+        self.move_absolute = False
+        self.keep_running = False
+        self.keep_running_count_up = True
+        self.any_change = True
+        self.apply = True
+
+    def set_cubic_acceleration_steps(self, s_cubic_steps: int) -> None:
+        if self.s_h != s_cubic_steps:
+            self.s_h = s_cubic_steps
+            self.recalc_ramp_steps = True
+            self.any_change = True
+
+    def set_speed_in_ticks(self, min_step_ticks: int) -> None:
+        if not self.valid_speed or self.min_travel_ticks != min_step_ticks:
+            self.min_travel_ticks = min_step_ticks
+            self.valid_speed = True
+            self.any_change = True
+
+    def set_acceleration(self, accel: int) -> None:
+        new_log2_accel = log2.from_u32(accel)
+        if not self.valid_acceleration or self.log2_accel != new_log2_accel:
+            self.valid_acceleration = True
+            self.any_change = True
+            self.recalc_ramp_steps = True
+            self.log2_accel = new_log2_accel
+
+
+class RampConfig:
+    """Parameters as seen by the ramp task plus the figures derived from them."""
+
+    __slots__ = ("parameters", "max_ramp_up_steps", "log2_ticks_h", "cubic",
+                 "_l2_ticks", "_l2_ticks_div_sqrt2", "_l2_accel_factor")
+
+    def __init__(self, log2_ticks_per_s: int, log2_ticks_div_sqrt2: int,
+                 log2_accel_factor: int) -> None:
+        self.parameters = RampParameters()
+        self.max_ramp_up_steps = 0
+        self.log2_ticks_h = 0
+        self.cubic = 0
+        self._l2_ticks = log2_ticks_per_s
+        self._l2_ticks_div_sqrt2 = log2_ticks_div_sqrt2
+        self._l2_accel_factor = log2_accel_factor
+
+    def update(self) -> None:
+        p = self.parameters
+        if p.s_h > 0:
+            log2_s_h = log2.from_u32(p.s_h)
+            # cubic = TICKS_PER_S / sqrt(s_h^(1/3) / (3/2 * a))
+            cubic = log2.wrap16(log2.const(1.5) + p.log2_accel)
+            cubic = log2.sqrt(log2.wrap16(log2.pow_div_3(log2_s_h) - cubic))
+            self.cubic = log2.wrap16(self._l2_ticks + cubic)
+            self.log2_ticks_h = log2.wrap16(self.cubic - log2.pow_2_div_3(log2_s_h))
+        else:
+            self.log2_ticks_h = log2.MAX
+        self.max_ramp_up_steps = self.calculate_ramp_steps(p.min_travel_ticks) or 1
+
+    def calculate_ticks(self, steps: int) -> int:
+        """Step period (ticks) at ramp step ``steps``."""
+        p = self.parameters
+        if steps >= p.s_h:
+            steps -= (p.s_h + 2) >> 2
+            l2 = log2.wrap16(log2.from_u32(steps) + p.log2_accel)
+            l2 = log2.wrap16(self._l2_ticks_div_sqrt2 - log2.sqrt(l2))
+            return log2.to_u32(l2)
+        l2_steps = log2.from_u32(steps)
+        return log2.to_u32(log2.wrap16(self.cubic - log2.pow_2_div_3(l2_steps)))
+
+    def calculate_ramp_steps(self, ticks: int) -> int:
+        """Ramp step at which the step period equals ``ticks``."""
+        p = self.parameters
+        l2_ticks = log2.from_u32(ticks)
+        if l2_ticks <= self.log2_ticks_h:
+            inv_accel2 = log2.wrap16(self._l2_accel_factor - p.log2_accel)
+            steps = log2.to_u32(log2.wrap16(inv_accel2 - log2.square(l2_ticks)))
+            return (steps + ((p.s_h + 2) >> 2)) & 0xFFFFFFFF
+        l2_res = log2.wrap16(self.cubic - l2_ticks)
+        return log2.to_u32(log2.pow_3_div_2(l2_res))
+
+
+def _i32(v: int) -> int:
+    v &= 0xFFFFFFFF
+    return v - 0x100000000 if v & 0x80000000 else v

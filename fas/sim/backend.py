@@ -1,0 +1,118 @@
+"""The simulated backend: the library running on a virtual microcontroller."""
+
+from __future__ import annotations
+
+from typing import Callable
+
+from ..arch import Profile, get_profile
+from ..backend import Backend, PulseCounter
+from ..queue import StepperQueue
+from .channel import SimChannel
+from .machine import PRIO_TASK, Machine
+from .pins import EdgeRecorder
+
+DEFAULT_WAIT_LIMIT_S = 3600
+
+
+class SimBackend(Backend):
+    """Virtual time: ``run_for``/``run_until`` jump from event to event."""
+
+    def __init__(self, profile: Profile | str | None = None, record: bool = False) -> None:
+        self.profile = get_profile(profile)
+        self.machine = Machine(self.profile)
+        self.channels: list[SimChannel] = []
+        self.recorder: EdgeRecorder | None = None
+        if record:
+            self.recorder = EdgeRecorder()
+            self.machine.pins.sinks.append(self.recorder)
+        self._manage: Callable[[], int | None] | None = None
+        self.task_runs = 0
+        self.stray_reads = 0
+        self.stray_reads_during_pulse = 0
+
+    # ------------------------------------------------------------ Backend API
+    def now(self) -> int:
+        return self.machine.now
+
+    def attach_engine(self, manage_steppers: Callable[[], int | None]) -> None:
+        self._manage = manage_steppers
+        first = self.profile.sim_task_phase_ticks
+        self.machine.schedule(first, lambda: self._task(first), PRIO_TASK, isr=True)
+
+    def _task(self, nominal: int) -> None:
+        m = self.machine
+        p = self.profile
+        m.in_task = True
+        m.task_offset = p.sim_fill_entry_ticks
+        try:
+            if self._manage is not None:
+                self._manage()
+        finally:
+            cost = m.task_offset
+            m.task_offset = 0
+            m.in_task = False
+        m.stolen_ticks += cost
+        self.task_runs += 1
+        nxt = nominal + p.fill_period_ticks
+        m.schedule(nxt, lambda: self._task(nxt), PRIO_TASK, isr=True)
+
+    def allocate_channel(self, queue: StepperQueue) -> SimChannel:
+        ch = SimChannel(self.machine, queue)
+        self.channels.append(ch)
+        return ch
+
+    def write_pin(self, pin: int, level: int) -> None:
+        self.machine.pins.set(pin, level, self.machine.cpu_now())
+
+    def read_pin(self, pin: int) -> int:
+        for ch in self.channels:
+            if ch.step_pin == pin and not ch.detached:
+                return 1 if ch.step_pin_high() else 0
+        return self.machine.pins.get(pin)
+
+    def wait_until(self, predicate: Callable[[], bool], timeout_ticks: int = 0) -> bool:
+        m = self.machine
+        limit = timeout_ticks or DEFAULT_WAIT_LIMIT_S * self.profile.ticks_per_s
+        deadline = m.now + limit
+        while not predicate():
+            t = m.next_event_time()
+            if t is None or t > deadline:
+                m.run_until(deadline)
+                return predicate()
+            m.run_until(t)
+        return True
+
+    def attach_pulse_counter(self, queue: StepperQueue, counter: PulseCounter) -> bool:
+        ch = queue.channel
+        if not isinstance(ch, SimChannel):
+            return False
+        ch.sync()
+        ch.pulse_counter = counter
+        return True
+
+    def detach_step_pin(self, queue: StepperQueue, detached: bool) -> None:
+        queue.channel.detached = detached
+
+    # -------------------------------------------------------- conveniences
+    def run_for(self, ticks: int) -> None:
+        self.machine.run_until(self.machine.now + ticks)
+
+    def run_for_ms(self, ms: int) -> None:
+        self.run_for(ms * self.profile.ticks_per_ms)
+
+    def run_until(self, tick: int) -> None:
+        self.machine.run_until(tick)
+
+    def stray_read(self, pins: tuple[int, ...]) -> None:
+        """The firmware's erroneous ``digitalRead()`` of step pins (StepperDemo `r`)."""
+        for pin in pins:
+            self.stray_reads += 1
+            for ch in self.channels:
+                if ch.step_pin == pin and ch.step_pin_high():
+                    self.stray_reads_during_pulse += 1
+
+    def channel_for_pin(self, step_pin: int) -> SimChannel | None:
+        for ch in self.channels:
+            if ch.step_pin == step_pin:
+                return ch
+        return None

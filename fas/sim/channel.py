@@ -1,0 +1,282 @@
+"""Execution of one stepper's command queue by a simulated timer-compare channel.
+
+This models FastAccelStepper's AVR step interrupt.  The timer's compare unit raises
+the step pin at the compare tick (hardware, exact); the compare interrupt then clears
+the pin, counts the step off the current entry and programs the next compare as
+``previous compare + ticks``.  If the interrupt runs so late that this tick has
+already passed (interrupts blocked by the application), the compare only matches
+after the 16-bit timer wraps: a gap of 4.1 ms, no lost step - exactly what the
+firmware shows under StepperDemo's `e`.
+
+Runs of pulses inside one entry are executed as a block (one event for up to 255
+steps); the block is split only when interrupts get blocked in its middle or when
+someone stops the channel.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..backend import PulseCounter, QueueChannel
+from .machine import PRIO_STEP_ISR, Event, Machine
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..queue import QueueEntry, StepperQueue
+
+RESTART_TICKS = 10  # the step ISR's "do it immediately" delay after the queue ran dry
+
+
+class SimChannel(QueueChannel):
+    def __init__(self, machine: Machine, queue: StepperQueue) -> None:
+        p = machine.profile
+        self.m = machine
+        self.q = queue
+        self.pins = machine.pins
+        self.step_pin = queue.step_pin
+        self.lat = p.sim_isr_latency_ticks
+        self.wrap = p.sim_timer_wrap_ticks
+        self.start_ticks = p.sim_queue_start_ticks
+        self.prio = PRIO_STEP_ISR + queue.index
+        self.irq_sensitive = p.irq_block_delays_steps
+        self.running = False
+        self.no_more = False
+        self.mode_one = False
+        self.event: Event | None = None
+        self.pending_compare = 0  # compare tick of the pending single ISR event
+        self.pending_pulse = False
+        # block of pulses of one entry: pulses at b_c0 + j*b_t, j < b_n
+        self.batch = False
+        self.b_entry: QueueEntry | None = None
+        self.b_c0 = 0
+        self.b_t = 0
+        self.b_n = 0
+        self.b_counted = 0  # pulses of the block already given to the pulse counter
+        self.precounted = 0  # the pending single pulse was already counted by sync()
+        self.pulse_counter: PulseCounter | None = None
+        self.detached = False
+        # statistics
+        self.pulses = 0
+        self.starts = 0
+        self.dry = 0  # times the queue ran empty under a running channel
+        self.missed_compares = 0
+        if self.irq_sensitive:
+            machine.block_listeners.append(self._on_block)
+
+    # ----------------------------------------------------------- interface
+    def is_running(self) -> bool:
+        return self.running
+
+    def start(self) -> None:
+        q = self.q
+        if self.running or q.read_idx == q.next_write_idx:
+            return
+        self.running = True
+        self.no_more = False
+        self.starts += 1
+        e = q.entries[q.read_idx % q.queue_len]
+        t = self.m.cpu_now()
+        if e.toggle_dir:
+            self._toggle_dir(t)
+        self.mode_one = e.steps != 0
+        self._program(t + self.start_ticks, e)
+
+    def force_stop(self) -> None:
+        if not self.running:
+            return
+        now = self.m.now
+        if self.batch:
+            self._close_batch_at(now)
+        elif self.pending_pulse and self.pending_compare <= now:
+            self._emit(self.pending_compare, max(now - self.pending_compare, 1), 1)
+            q = self.q
+            if self.precounted:
+                self.precounted = 0
+            elif q.read_idx != q.next_write_idx:
+                self._count(1, q.entries[q.read_idx % q.queue_len].dir_level)
+        self.m.cancel(self.event)
+        self.event = None
+        self.pending_pulse = False
+        self.running = False
+        self.no_more = False
+        self.mode_one = False
+
+    def sync(self) -> None:
+        if self.batch:
+            now = self.m.now
+            c0, t = self.b_c0, self.b_t
+            if now >= c0 + self.lat:
+                done = (now - c0 - self.lat) // t + 1
+                if done > self.b_n - 1:
+                    done = self.b_n - 1
+                self.b_entry.steps = self.b_n - done
+            if self.pulse_counter is not None and now >= c0:
+                risen = min(self.b_n, (now - c0) // t + 1)
+                if risen > self.b_counted:
+                    self.pulse_counter.count(risen - self.b_counted, self.b_entry.dir_level)
+                    self.b_counted = risen
+
+    def entry_added(self) -> None:
+        m = self.m
+        if m.in_task:  # planning one command costs the ramp task CPU time
+            m.task_offset += m.profile.sim_fill_cmd_ticks
+
+    def step_pin_high(self) -> bool:
+        """Is a step pulse on the pin at this very tick?"""
+        now = self.m.now
+        if self.batch:
+            if now < self.b_c0:
+                return False
+            j = (now - self.b_c0) // self.b_t
+            return j < self.b_n and now - (self.b_c0 + j * self.b_t) < self.lat
+        return self.pending_pulse and self.pending_compare <= now
+
+    # ------------------------------------------------------------ internals
+    def _toggle_dir(self, t: int) -> None:
+        pin = self.q.dir_pin
+        if pin & 0x80 == 0:
+            self.pins.set(pin, 1 - self.pins.get(pin), t)
+
+    def _emit(self, first: int, width: int, count: int, period: int = 1) -> None:
+        self.pulses += count
+        if not self.detached:
+            self.pins.pulses(self.step_pin, first, period, count, width)
+
+    def _program(self, compare: int, e: QueueEntry) -> None:
+        """Arm the compare at tick ``compare`` for entry ``e`` (the one at read_idx)."""
+        if self.mode_one and e.steps >= 2:
+            self.batch = True
+            self.b_entry = e
+            self.b_c0 = compare
+            self.b_t = e.ticks
+            self.b_n = e.steps
+            self.b_counted = 0
+            last = compare + (e.steps - 1) * e.ticks + self.lat
+            self.event = self.m.schedule(last, self._batch_end, self.prio, isr=True)
+        else:
+            self.pending_compare = compare
+            self.pending_pulse = self.mode_one
+            self.event = self.m.schedule(compare + self.lat, self._single_isr, self.prio,
+                                         isr=True)
+
+    def _count(self, n: int, dir_level: bool) -> None:
+        if self.pulse_counter is not None and n > 0:
+            self.pulse_counter.count(n, dir_level)
+
+    def _close_batch_at(self, now: int) -> None:
+        """Account the block's pulses up to ``now`` and leave block mode."""
+        c0, t, n, lat = self.b_c0, self.b_t, self.b_n, self.lat
+        risen = 0 if now < c0 else min(n, (now - c0) // t + 1)
+        if risen:
+            complete = risen
+            last_rise = c0 + (risen - 1) * t
+            if now - last_rise < lat:
+                complete -= 1
+            if complete:
+                self._emit(c0, lat, complete, t)
+            if complete < risen:
+                self._emit(last_rise, max(now - last_rise, 1), 1)
+            self._count(risen - self.b_counted, self.b_entry.dir_level)
+        self.batch = False
+
+    def _batch_end(self) -> None:
+        """The interrupt after the block's last pulse: switch to the next entry."""
+        self.event = None
+        e = self.b_entry
+        n, t, c0 = self.b_n, self.b_t, self.b_c0
+        last_c = c0 + (n - 1) * t
+        now = self.m.now
+        if n > 1:
+            self._emit(c0, self.lat, n - 1, t)
+        self._emit(last_c, now - last_c, 1)
+        self._count(n - self.b_counted, e.dir_level)
+        self.batch = False
+        e.steps = 1
+        self._isr(last_c, now)
+
+    def _single_isr(self) -> None:
+        self.event = None
+        c = self.pending_compare
+        now = self.m.now
+        if self.pending_pulse:
+            self.pending_pulse = False
+            self._emit(c, now - c, 1)
+            q = self.q
+            if self.precounted:
+                self.precounted -= 1
+            elif q.read_idx != q.next_write_idx:
+                self._count(1, q.entries[q.read_idx % q.queue_len].dir_level)
+        self._isr(c, now)
+
+    def _isr(self, c: int, now: int) -> None:
+        """FastAccelStepper's compare ISR, for the compare at ``c`` running at ``now``."""
+        q = self.q
+        rp, wp = q.read_idx, q.next_write_idx
+        if rp == wp:
+            self.running = False
+            self.no_more = False
+            self.mode_one = False
+            return
+        e = q.entries[rp % q.queue_len]
+        ticks = e.ticks
+        if e.steps > 1:
+            e.steps -= 1
+            self.mode_one = True
+        else:
+            if self.no_more:
+                self.no_more = False
+                if e.steps != 0:
+                    ticks = RESTART_TICKS
+            else:
+                rp = (rp + 1) & 0xFF
+                q.read_idx = rp
+                if rp == wp:
+                    self.no_more = True
+                    self.dry += 1
+                    self.mode_one = False
+                    self._arm_single(c + ticks, now, e)
+                    return
+                e = q.entries[rp % q.queue_len]
+            if e.toggle_dir:
+                self._toggle_dir(now)
+            self.mode_one = e.steps != 0
+        self._arm(c + ticks, now, e)
+
+    def _next_compare(self, compare: int, now: int) -> int:
+        if self.wrap and compare <= now:
+            self.missed_compares += 1
+            compare += self.wrap * ((now - compare) // self.wrap + 1)
+        return compare
+
+    def _arm(self, compare: int, now: int, e: QueueEntry) -> None:
+        self._program(self._next_compare(compare, now), e)
+
+    def _arm_single(self, compare: int, now: int, e: QueueEntry) -> None:
+        compare = self._next_compare(compare, now)
+        self.pending_compare = compare
+        self.pending_pulse = False
+        self.event = self.m.schedule(compare + self.lat, self._single_isr, self.prio, isr=True)
+
+    def _on_block(self, start: int, end: int) -> None:
+        """Interrupts are blocked from ``start`` (now) to ``end``: split a running block."""
+        if not self.batch:
+            return
+        c0, t, n, lat = self.b_c0, self.b_t, self.b_n, self.lat
+        last_isr = c0 + (n - 1) * t + lat
+        if last_isr < start:
+            return
+        done = 0 if start < c0 + lat else min(n - 1, (start - c0 - lat) // t + 1)
+        if done >= n - 1:
+            return  # only the switching interrupt is left; it is simply held back
+        self.m.cancel(self.event)
+        e = self.b_entry
+        if done:
+            self._emit(c0, lat, done, t)
+        if done > self.b_counted:
+            self._count(done - self.b_counted, e.dir_level)
+        self.precounted = max(0, self.b_counted - done)
+        self.batch = False
+        e.steps = n - done
+        compare = c0 + done * t
+        self.pending_compare = compare
+        self.pending_pulse = True
+        self.event = self.m.schedule(compare + lat, self._single_isr, self.prio, isr=True)

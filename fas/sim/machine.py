@@ -1,0 +1,140 @@
+"""A discrete-event microcontroller on an integer tick clock.
+
+One heap of events ordered by (tick, priority, insertion).  Virtual time jumps from
+event to event.  Interrupt-driven events (step compare interrupts, the periodic ramp
+task) can be held back while the application blocks interrupts (StepperDemo's `e`):
+they run when the block ends, in hardware priority order.
+
+The machine also keeps the pieces of the chip that the application sees: pin levels
+(:class:`PinBank`), ``millis()`` (Arduino's timer-0 bookkeeping), the console UART
+and CPU time taken away from the main loop by interrupt routines.
+"""
+
+from __future__ import annotations
+
+import heapq
+from typing import Callable
+
+from ..arch import Profile
+from .pins import PinBank
+from .uart import Uart
+
+PRIO_STEP_ISR = 10  # + channel index: TIMER1_COMPA before COMPB ...
+PRIO_TASK = 30  # timer overflow: after the compare interrupts
+PRIO_PLAIN = 50  # not an interrupt (application timers, recorders)
+
+
+class Event:
+    __slots__ = ("time", "prio", "fn", "cancelled", "isr")
+
+    def __init__(self, time: int, prio: int, fn: Callable[[], None], isr: bool) -> None:
+        self.time = time
+        self.prio = prio
+        self.fn = fn
+        self.cancelled = False
+        self.isr = isr
+
+
+class Machine:
+    def __init__(self, profile: Profile) -> None:
+        self.profile = profile
+        self.now = 0
+        self._heap: list[tuple[int, int, int, Event]] = []
+        self._seq = 0
+        self.pins = PinBank()
+        self.uart = Uart(profile.sim_uart_byte_ticks, profile.sim_uart_tx_buffer)
+        self.irq_blocked_until = 0
+        self.irq_block_windows = 0
+        self.irq_blocked_ticks = 0
+        self.block_listeners: list[Callable[[int, int], None]] = []
+        self.stolen_ticks = 0  # CPU time of interrupt routines not yet charged to the loop
+        self.task_offset = 0  # CPU time used so far by the running periodic task
+        self.in_task = False
+        self.events_run = 0
+        self._millis_phase = profile.sim_boot_ticks // 2
+
+    # ----------------------------------------------------------- scheduling
+    def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
+                 isr: bool = False) -> Event:
+        if time < self.now:
+            time = self.now
+        ev = Event(time, prio, fn, isr)
+        self._seq += 1
+        heapq.heappush(self._heap, (time, prio, self._seq, ev))
+        return ev
+
+    @staticmethod
+    def cancel(ev: Event | None) -> None:
+        if ev is not None:
+            ev.cancelled = True
+
+    def next_event_time(self) -> int | None:
+        heap = self._heap
+        while heap and heap[0][3].cancelled:
+            heapq.heappop(heap)
+        return heap[0][0] if heap else None
+
+    def run_until(self, t: int) -> None:
+        """Process every event at or before tick ``t``; afterwards ``now == t``."""
+        heap = self._heap
+        pop = heapq.heappop
+        while heap and heap[0][0] <= t:
+            time, prio, _, ev = pop(heap)
+            if ev.cancelled:
+                continue
+            if ev.isr and time < self.irq_blocked_until:
+                # interrupt pending until the block ends; then in priority order
+                ev.time = self.irq_blocked_until
+                self._seq += 1
+                heapq.heappush(heap, (ev.time, prio, self._seq, ev))
+                continue
+            if time > self.now:
+                self.now = time
+            self.events_run += 1
+            ev.fn()
+        if t > self.now:
+            self.now = t
+
+    def run_one(self) -> bool:
+        """Process the next event (advancing time to it); False if none is left."""
+        t = self.next_event_time()
+        if t is None:
+            return False
+        self.run_until(t)
+        return True
+
+    # ------------------------------------------------------- CPU and time
+    def cpu_now(self) -> int:
+        """Tick at which code running right now takes effect (inside a task: later)."""
+        return self.now + self.task_offset
+
+    def consume(self, ticks: int) -> None:
+        """The main loop spends ``ticks`` of CPU time; interrupts steal some on top."""
+        self.run_until(self.now + ticks)
+        while self.stolen_ticks:
+            extra = self.stolen_ticks
+            self.stolen_ticks = 0
+            self.run_until(self.now + extra)
+
+    def block_interrupts(self, ticks: int) -> None:
+        """The main loop runs ``ticks`` with interrupts disabled (busy wait)."""
+        start, end = self.now, self.now + ticks
+        if end > self.irq_blocked_until:
+            self.irq_blocked_until = end
+        self.irq_block_windows += 1
+        self.irq_blocked_ticks += ticks
+        for listener in self.block_listeners:
+            listener(start, end)
+        self.consume(ticks)
+
+    def millis(self) -> int:
+        """Arduino ``millis()``: timer-0 overflows with the 1.024 ms fraction fix-up."""
+        n = (self.now - self._millis_phase) // self.profile.sim_millis_overflow_ticks
+        if n <= 0:
+            return 0
+        if self.profile.sim_millis_overflow_ticks == 16384:
+            return n + (3 * n) // 125
+        return n * self.profile.sim_millis_overflow_ticks * 1000 // self.profile.ticks_per_s
+
+    def micros(self) -> int:
+        return self.now // self.profile.ticks_per_us
