@@ -113,3 +113,34 @@ class Backend(ABC):
 
     def detach_step_pin(self, queue: StepperQueue, detached: bool) -> None:
         """Hand the step pin to the application (``detached``) or back to the library."""
+
+    # --- hosting an application main loop (StepperDemo) beside the library ---
+    def millis(self) -> int:
+        """The application's millisecond clock."""
+        return self.now() * 1000 // self.profile.ticks_per_s
+
+    def tick_at_millis(self, ms: int) -> int:
+        """Earliest tick at which :meth:`millis` returns at least ``ms``."""
+        return -(-ms * self.profile.ticks_per_s // 1000)
+
+    @abstractmethod
+    def app_spend(self, ticks: int) -> None:
+        """The main loop uses ``ticks`` of CPU time (interrupts keep running)."""
+
+    @abstractmethod
+    def app_wait_until(self, tick: int) -> None:
+        """The main loop idles until ``tick`` (interrupts keep running)."""
+
+    @abstractmethod
+    def next_event_time(self) -> int | None:
+        """Tick of the next thing that may change the library's state, if known."""
+
+    def console_write(self, data: bytes) -> None:
+        """The main loop prints ``data`` on its console; may take time (a slow UART)."""
+
+    def block_interrupts(self, ticks: int) -> None:
+        """The main loop busy-waits ``ticks`` with interrupts disabled."""
+        self.app_spend(ticks)
+
+    def stray_read(self, pins: tuple[int, ...]) -> None:
+        """The main loop reads step pins with a stray ``digitalRead()``."""

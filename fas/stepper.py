@@ -124,7 +124,7 @@ class Stepper:
             self._off_delay_count = 1
 
     def set_delay_to_enable(self, delay_us: int) -> DelayResult:
-        delay_ticks = self._profile.us_to_ticks(max(0, delay_us))
+        delay_ticks = self._profile.us_to_ticks(delay_us & 0xFFFFFFFF)
         if 0 < delay_ticks < self._profile.min_cmd_ticks:
             return DelayResult.TOO_LOW
         if delay_ticks > self._profile.max_on_delay_ticks:
@@ -259,18 +259,21 @@ class Stepper:
 
     def set_speed_in_us(self, min_step_us: int) -> int:
         p = self._profile
-        if min_step_us < 0 or min_step_us >= p.ticks_to_us(0xFFFFFFFF):
+        min_step_us &= 0xFFFFFFFF
+        if min_step_us >= p.ticks_to_us(0xFFFFFFFF):
             return -1
         return self.set_speed_in_ticks(p.us_to_ticks(min_step_us))
 
     def set_speed_in_hz(self, speed_hz: int) -> int:
-        if speed_hz <= 0 or speed_hz > 0xFFFFFFFF:
+        speed_hz &= 0xFFFFFFFF
+        if speed_hz == 0:
             return -1
         return self.set_speed_in_ticks(self._rg.div_for_hz(speed_hz))
 
     def set_speed_in_milli_hz(self, speed_mhz: int) -> int:
+        speed_mhz &= 0xFFFFFFFF
         limit = 1000 * self._profile.ticks_per_s // 0xFFFFFFFF + 1
-        if speed_mhz <= limit or speed_mhz > 0xFFFFFFFF:
+        if speed_mhz <= limit:
             return -1
         return self.set_speed_in_ticks(self._rg.div_for_milli_hz(speed_mhz))
 
@@ -320,8 +323,7 @@ class Stepper:
 
     # --------------------------------------------------------- acceleration
     def set_acceleration(self, step_s_s: int) -> int:
-        if step_s_s > 0x7FFFFFFF:
-            return -1
+        step_s_s = i32(step_s_s)
         return self._rg.set_acceleration(step_s_s)
 
     def get_acceleration(self) -> int:

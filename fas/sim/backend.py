@@ -36,7 +36,7 @@ class SimBackend(Backend):
 
     def attach_engine(self, manage_steppers: Callable[[], int | None]) -> None:
         self._manage = manage_steppers
-        first = self.profile.sim_task_phase_ticks
+        first = self.machine.now + self.profile.sim_task_phase_ticks
         self.machine.schedule(first, lambda: self._task(first), PRIO_TASK, isr=True)
 
     def _task(self, nominal: int) -> None:
@@ -92,6 +92,37 @@ class SimBackend(Backend):
 
     def detach_step_pin(self, queue: StepperQueue, detached: bool) -> None:
         queue.channel.detached = detached
+
+    # ------------------------------------------------------ application host
+    def millis(self) -> int:
+        return self.machine.millis()
+
+    def tick_at_millis(self, ms: int) -> int:
+        return self.machine.tick_at_millis(ms)
+
+    def app_spend(self, ticks: int) -> None:
+        self.machine.consume(ticks)
+
+    def app_wait_until(self, tick: int) -> None:
+        if tick > self.machine.now:
+            self.machine.run_until(tick)
+
+    def next_event_time(self) -> int | None:
+        return self.machine.next_event_time()
+
+    def console_write(self, data: bytes) -> None:
+        m = self.machine
+        uart = m.uart
+        char_ticks = self.profile.sim_char_ticks
+        for _ in range(len(data)):
+            room = uart.room_at()
+            if room > m.now:
+                m.run_until(room)
+            uart.put(m.now)
+            m.consume(char_ticks)
+
+    def block_interrupts(self, ticks: int) -> None:
+        self.machine.block_interrupts(ticks)
 
     # -------------------------------------------------------- conveniences
     def run_for(self, ticks: int) -> None:

@@ -118,7 +118,15 @@ class SimChannel(QueueChannel):
     def entry_added(self) -> None:
         m = self.m
         if m.in_task:  # planning one command costs the ramp task CPU time
-            m.task_offset += m.profile.sim_fill_cmd_ticks
+            q = self.q
+            steps = q.entries[(q.next_write_idx - 1) % q.queue_len].total_steps
+            p = m.profile
+            if steps == 0:
+                m.task_offset += p.sim_fill_pause_ticks
+            elif steps == 1:
+                m.task_offset += p.sim_fill_single_ticks
+            else:
+                m.task_offset += p.sim_fill_cmd_ticks
 
     def step_pin_high(self) -> bool:
         """Is a step pulse on the pin at this very tick?"""

@@ -136,5 +136,20 @@ class Machine:
             return n + (3 * n) // 125
         return n * self.profile.sim_millis_overflow_ticks * 1000 // self.profile.ticks_per_s
 
+    def tick_at_millis(self, ms: int) -> int:
+        """Earliest tick at which :meth:`millis` returns at least ``ms``."""
+        ov = self.profile.sim_millis_overflow_ticks
+        if ms <= 0:
+            return self._millis_phase
+        if ov == 16384:
+            # smallest n with n + floor(3n/125) >= ms
+            n = max(0, (ms * 125) // 128 - 2)
+            while n + (3 * n) // 125 < ms:
+                n += 1
+        else:
+            per_ms = self.profile.ticks_per_s // 1000
+            n = -(-ms * per_ms // ov)
+        return self._millis_phase + n * ov
+
     def micros(self) -> int:
         return self.now // self.profile.ticks_per_us

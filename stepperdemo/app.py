@@ -1,0 +1,505 @@
+"""StepperDemo, the firmware's serial console program, running on a backend's clock.
+
+The program is StepperDemo's main loop: each pass takes at most one input character,
+a completed command is executed in the current mode, status lines are printed every
+100 ms while a stepper runs, and the usage is printed when the last stepper stops.
+Everything it prints goes through :meth:`StepperDemo.print`, which on the simulated
+backend is a 115200-baud UART whose buffer makes long prints block the loop, as on
+the chip.
+
+Two input modes: *scripted* (``stepperdemo -c``) behaves like the firmware built with
+a compiled-in input line (the mode the conformance data was recorded in: ``W`` prints
+nothing and only holds the input; test/config usage is not printed); *interactive*
+takes characters as they are typed.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from enum import IntEnum
+from typing import Callable
+
+from fas import Engine
+from fas.backend import Backend
+from fas.codes import PIN_UNDEFINED, RAMP_STATE_MASK
+
+from . import messages as msg
+from .commands import Mode, dispatch
+from .testseq import TEST_STATE_ERROR, SeqSlot
+
+LONG_MAX = 2**31 - 1
+LONG_MIN = -(2**31)
+_WS = b" \t\n\v\f\r"
+
+
+def strtol(data: bytes) -> tuple[int, int]:
+    """C ``strtol(s, &end, 10)`` on a 32-bit long: (value, characters consumed)."""
+    i = 0
+    n = len(data)
+    while i < n and data[i] in _WS:
+        i += 1
+    neg = False
+    if i < n and data[i] in b"+-":
+        neg = data[i] == 0x2D
+        i += 1
+    start = i
+    value = 0
+    while i < n and 0x30 <= data[i] <= 0x39:
+        value = value * 10 + data[i] - 0x30
+        i += 1
+    if i == start:
+        return 0, 0
+    if neg:
+        value = -value
+    value = max(LONG_MIN, min(LONG_MAX, value))
+    return value, i
+
+
+def parse_number(arg: bytes) -> int | None:
+    """The whole of ``arg`` as a number (empty means 0, as in the firmware), else None."""
+    value, used = strtol(arg)
+    if used != len(arg):
+        return None
+    return value
+
+
+def parse_values(arg: bytes) -> list[int] | None:
+    """``get_val1_val2_val3``: one to three comma-separated numbers, else None."""
+    values: list[int] = []
+    rest = arg
+    for i in range(3):
+        value, used = strtol(rest)
+        if used == 0:
+            return None
+        values.append(value)
+        rest = rest[used:]
+        if not rest:
+            return values
+        if i < 2:
+            if rest[:1] != b",":
+                return None
+            rest = rest[1:]
+    return None
+
+
+class EndReason(IntEnum):
+    RUNNING = 0
+    IDLE = 1  # input consumed, everything stopped
+    FIRMWARE_END = 2  # firmware-style end: one second after the input was consumed
+    MAX_TIME = 3
+
+
+class StepperDemo:
+    """The StepperDemo program on a backend; drive it with :meth:`run_until`."""
+
+    def __init__(self, backend: Backend, *, scripted: bool = True,
+                 output: Callable[[bytes], None] | None = None) -> None:
+        self.backend = backend
+        self.profile = backend.profile
+        self.engine = Engine(backend)
+        self.scripted = scripted
+        self.output = output
+        self.transcript = bytearray()
+        self.steppers: list = [None] * self.profile.max_steppers
+        self.mode = Mode.NORMAL
+        self.test_ongoing = False
+        self.test_slots = [SeqSlot() for _ in range(self.profile.max_steppers)]
+        self.in_buffer = bytearray(256)
+        self.write_ptr = 0
+        self.read_ptr = 0
+        self.out_buffer = bytearray()
+        self.stopped = True
+        self.verbose = True
+        self.usage_info = True
+        self.speed_in_milli_hz = False
+        self.last_time = 0
+        self.selected = 0
+        self.pause_ms = 0
+        self.pause_start = 0
+        self.simulate_digital_read_error = False
+        self.simulate_blocked_isr = False
+        self.script = b""
+        self.script_pos = 0
+        self.script_loaded = False
+        self.rx: deque[int] = deque()
+        self.input_consumed_at: int | None = None
+        self.waiting_interactive = False  # interactive W holding the input
+        self.test_failed_count = 0
+        self.tests_completed = 0
+        self.passes = 0
+        self.commands = 0
+        self.rejected = 0
+        self.ramp_aborts = 0
+        self.listeners: list[Callable[[str, bytes], None]] = []
+        self.engine.ramp_abort_listener = self._ramp_abort
+        self._setup_done = False
+
+    # ------------------------------------------------------------- output
+    def print(self, text: str | bytes) -> None:
+        data = text.encode("utf-8") if isinstance(text, str) else bytes(text)
+        if not data:
+            return
+        self.backend.console_write(data)
+        self.transcript += data
+        if self.output is not None:
+            self.output(data)
+
+    def println(self, text: str | bytes = "") -> None:
+        if isinstance(text, str):
+            self.print(text + msg.CRLF)
+        else:
+            self.print(bytes(text) + b"\r\n")
+
+    # -------------------------------------------------------------- setup
+    def setup(self) -> None:
+        if self._setup_done:
+            return
+        self._setup_done = True
+        b = self.backend
+        b.app_spend(self.profile.sim_boot_ticks)
+        self.print(msg.BANNER_VERSION)
+        self.println(msg.BANNER_F_CPU + str(self.profile.f_cpu))
+        self.println(msg.BANNER_TICKS + str(self.profile.ticks_per_s))
+        self.println(msg.BANNER_STEPPERS + str(self.profile.max_steppers))
+        self.engine.init()
+        if self.profile.debug_led_pin != PIN_UNDEFINED:
+            self.engine.set_debug_led(self.profile.debug_led_pin)
+        for i, cfg in enumerate(self.profile.demo_steppers):
+            s = self.engine.stepper_connect_to_pin(cfg.step)
+            if s is None:
+                break
+            s.set_direction_pin(cfg.direction, cfg.direction_high_counts_up,
+                                cfg.dir_change_delay_us)
+            s.set_enable_pin(cfg.enable_low_active, True)
+            s.set_enable_pin(cfg.enable_high_active, False)
+            s.set_auto_enable(cfg.auto_enable)
+            s.set_delay_to_enable(cfg.on_delay_us)
+            s.set_delay_to_disable(cfg.off_delay_ms)
+            self.steppers[i] = s
+        self.usage()
+
+    # --------------------------------------------------------------- input
+    def load_script(self, line: str | bytes) -> None:
+        """Scripted input: the firmware appends one space so the last command ends."""
+        data = line.encode("utf-8") if isinstance(line, str) else bytes(line)
+        self.script = data + b" "
+        self.script_pos = 0
+        self.script_loaded = True
+        self.input_consumed_at = None
+
+    def feed(self, text: str | bytes) -> None:
+        """Interactive input: characters as they arrive on the serial line."""
+        data = text.encode("utf-8") if isinstance(text, str) else bytes(text)
+        self.rx.extend(data)
+
+    def input_pending(self) -> bool:
+        if self.read_ptr != self.write_ptr:
+            return True
+        if self.scripted:
+            return self.script_pos < len(self.script)
+        return bool(self.rx)
+
+    # ---------------------------------------------------------- info lines
+    @property
+    def selected_stepper(self):
+        return self.steppers[self.selected]
+
+    def _info(self, s, long_info: bool) -> None:
+        self.print("@")
+        self.print(str(s.get_current_position()))
+        if s.is_running():
+            if s.is_running_continuously():
+                self.print(msg.STATUS_NONSTOP)
+            else:
+                self.print(msg.STATUS_TARGET)
+                self.print(str(s.target_pos()))
+            self.print(msg.STATUS_QUEUE_END)
+            self.print(str(s.get_position_after_commands_completed()))
+            self.print(msg.STATUS_V)
+            if self.speed_in_milli_hz:
+                self.print(str(s.get_current_speed_in_milli_hz()))
+                self.print(msg.STATUS_MSTEPS)
+            else:
+                self.print(str(s.get_period_in_us_after_commands_completed()))
+                self.print(msg.STATUS_US)
+                self.print(str(s.get_period_in_ticks_after_commands_completed()))
+                self.print(msg.STATUS_TICKS)
+            if s.is_ramp_generator_active():
+                state = s.ramp_state() & RAMP_STATE_MASK
+                text = msg.RAMP_STATE_TEXT.get(state)
+                self.print(text if text is not None else str(s.ramp_state()))
+            else:
+                self.print(msg.STATUS_MANUAL)
+        elif long_info:
+            self.print(msg.ACCELERATION_STATUS)
+            self.print(str(s.get_acceleration()))
+            if self.speed_in_milli_hz:
+                self.print(msg.SPEED_STATUS_FREQ)
+                self.print(str(s.get_speed_in_milli_hz()))
+            else:
+                self.print(msg.SPEED_STATUS_TIME)
+                self.print(str(s.get_speed_in_us()))
+        self.print(" ")
+
+    def output_info(self, only_running: bool) -> None:
+        need_ln = False
+        for i, s in enumerate(self.steppers):
+            if s is None:
+                continue
+            if not only_running:
+                self.print(msg.TABLE_SELECTED if i == self.selected else msg.TABLE_OTHER)
+            if not only_running or s.is_running():
+                self.print("M" + str(i + 1) + ": ")
+                self._info(s, not only_running)
+                if not only_running:
+                    self.println()
+                else:
+                    need_ln = True
+        if need_ln:
+            self.println()
+
+    def stepper_info(self) -> None:
+        self.output_info(False)
+        if self.simulate_blocked_isr:
+            self.print(msg.LONG_INTERRUPT_BLOCK_ENABLED)
+        if self.simulate_digital_read_error:
+            self.print(msg.STRAY_DIGITAL_READ_ENABLED)
+
+    def usage(self) -> None:
+        if self.mode == Mode.NORMAL:
+            self.print(msg.USAGE_NORMAL)
+        elif not self.scripted:
+            self.print(msg.USAGE_TEST if self.mode == Mode.TEST else msg.USAGE_CONFIG)
+        self.stepper_info()
+
+    # ------------------------------------------------------------ the loop
+    def any_running(self) -> bool:
+        return any(s is not None and s.is_running() for s in self.steppers)
+
+    def loop_pass(self) -> None:
+        """One pass of StepperDemo's ``loop()``."""
+        b = self.backend
+        self.passes += 1
+        ch = 0
+        if self.scripted:
+            if self.script_pos < len(self.script):
+                ch = self.script[self.script_pos]
+                self.script_pos += 1
+            elif self.read_ptr == self.write_ptr and self.input_consumed_at is None:
+                self.input_consumed_at = b.now()
+        elif self.rx and not self.waiting_interactive:
+            ch = self.rx.popleft()
+        if ch:
+            if ((self.write_ptr + 1) & 0xFF) == self.read_ptr:
+                self.read_ptr = (self.read_ptr + 1) & 0xFF
+            self.in_buffer[self.write_ptr] = ch
+            self.write_ptr = (self.write_ptr + 1) & 0xFF
+
+        if self.pause_ms > 0:
+            if ((b.millis() - self.pause_start) & 0xFFFFFFFF) >= self.pause_ms:
+                self.pause_ms = 0
+                self.print(msg.WAIT_COMPLETE)
+        elif self.waiting_interactive:
+            s = self.selected_stepper
+            if not s.is_running():
+                self.waiting_interactive = False
+                self.println(msg.STOPPED)
+        elif self.read_ptr != self.write_ptr:
+            c = self.in_buffer[self.read_ptr]
+            self.read_ptr = (self.read_ptr + 1) & 0xFF
+            if c not in (0x20, 0x0A, 0x0D):
+                if len(self.out_buffer) == 255:
+                    self.out_buffer.clear()
+                self.out_buffer.append(c)
+            else:
+                if self.out_buffer:
+                    cmd = bytes(self.out_buffer)
+                    self.commands += 1
+                    if not dispatch(self, cmd):
+                        self.rejected += 1
+                        self.print(msg.UNKNOWN_COMMAND)
+                        self.println(cmd)
+                self.out_buffer.clear()
+
+        ms = b.millis()
+        if self.simulate_digital_read_error:
+            b.stray_read(tuple(s.get_step_pin() for s in self.steppers if s is not None))
+        if self.simulate_blocked_isr and (ms & 0xFF) < 0x40:
+            b.block_interrupts(self.profile.sim_irq_block_ticks)
+
+        if self.mode == Mode.TEST:
+            if self.test_ongoing:
+                self._run_tests(ms)
+        else:
+            running = self.any_running()
+            if running and ((ms - self.last_time) & 0xFFFFFFFF) >= 100:
+                if self.verbose:
+                    self.output_info(True)
+                self.last_time = ms
+            if not self.stopped and not running:
+                self.output_info(True)
+                if self.usage_info:
+                    self.usage()
+            self.stopped = not running
+        b.app_spend(self.profile.sim_loop_pass_ticks)
+
+    def _run_tests(self, ms: int) -> None:
+        finished = True
+        for i, slot in enumerate(self.test_slots):
+            if slot.test is not None and slot.state != TEST_STATE_ERROR:
+                res = slot.test(self, self.steppers[i], slot, ms)
+                if res:
+                    slot.test = None
+                finished = finished and res
+        if finished:
+            self.test_ongoing = False
+            failed = False
+            self.stepper_info()
+            for slot in self.test_slots:
+                slot.test = None
+                if slot.state == TEST_STATE_ERROR:
+                    failed = True
+            self.tests_completed += 1
+            if failed:
+                self.test_failed_count += 1
+                self.print(msg.FAILED_STATUS)
+            else:
+                self.print(msg.PASS_STATUS)
+            self.print(msg.TEST_COMPLETED)
+        else:
+            now = self.backend.millis()
+            if ((now - self.last_time) & 0xFFFFFFFF) >= 100:
+                if self.verbose:
+                    self.output_info(True)
+                self.last_time = now
+
+    # ---------------------------------------------------- driving the loop
+    def _idle(self) -> bool:
+        """Would the next pass only look around (so that passes can be skipped)?
+
+        Skipping is exact: every state the loop looks at changes only at a machine
+        event or when ``millis()`` reaches a deadline, and :meth:`_wake_time` wakes
+        the loop at the earliest of those.
+        """
+        if self.simulate_digital_read_error:
+            return False  # every pass makes a stray read that we count
+        if self.simulate_blocked_isr and (self.backend.millis() & 0xFF) < 0x40:
+            return False  # every pass blocks interrupts in this window
+        if self.mode == Mode.TEST and self.test_ongoing:
+            return self._tests_idle()
+        if self.pause_ms > 0 or self.waiting_interactive:
+            return True
+        if self.read_ptr != self.write_ptr:
+            return self.scripted and self._held_by_w()
+        if self.scripted:
+            return self.script_pos >= len(self.script) and self.input_consumed_at is not None
+        return not self.rx
+
+    def _tests_idle(self) -> bool:
+        """Test sequences may declare that they wait for time or for the machine."""
+        if self.read_ptr != self.write_ptr and not self._held_by_w():
+            return False
+        if self.scripted and self.script_pos < len(self.script) and not self._held_by_w():
+            return False
+        return all(slot.test is None or slot.state == TEST_STATE_ERROR or slot.idle
+                   for slot in self.test_slots)
+
+    def _held_by_w(self) -> bool:
+        if self.out_buffer or self.pause_ms:
+            return False
+        n = (self.write_ptr - self.read_ptr) & 0xFF
+        if n == 0 or self.in_buffer[self.read_ptr] != 0x57:  # "W"
+            return False
+        if n > 1 and self.in_buffer[(self.read_ptr + 1) & 0xFF] not in (0x20, 0x0A, 0x0D):
+            return False
+        s = self.selected_stepper
+        return self.mode in (Mode.NORMAL, Mode.TEST) and (
+            (s is not None and s.is_running()) or self.test_ongoing)
+
+    def _wake_time(self) -> int | None:
+        """Earliest tick at which an idle loop could have something to do."""
+        b = self.backend
+        candidates = []
+        nxt = b.next_event_time()
+        if nxt is not None:
+            candidates.append(nxt)
+        if self.pause_ms > 0:
+            candidates.append(b.tick_at_millis(self.pause_start + self.pause_ms))
+        if self.any_running() or (self.mode == Mode.TEST and self.test_ongoing):
+            candidates.append(b.tick_at_millis(self.last_time + 100))
+        if self.simulate_blocked_isr:
+            candidates.append(b.tick_at_millis((b.millis() | 0xFF) + 1))
+        for slot in self.test_slots:
+            if slot.test is not None and slot.wake_ms is not None:
+                candidates.append(b.tick_at_millis(slot.wake_ms))
+        if not candidates:
+            return None
+        return max(min(candidates), b.now())
+
+    def _advance(self, limit: int) -> None:
+        """One loop pass, after skipping idle time (never beyond ``limit``)."""
+        b = self.backend
+        if self._idle():
+            wake = self._wake_time()
+            if wake is None or wake >= limit:
+                b.app_wait_until(limit)
+                return
+            b.app_wait_until(wake)
+        self.loop_pass()
+
+    def run_until(self, tick: int) -> None:
+        """Run loop passes until simulated time reaches ``tick``."""
+        if not self._setup_done:
+            self.setup()
+        b = self.backend
+        while b.now() < tick:
+            self._advance(tick)
+
+    def finished(self) -> bool:
+        """Input consumed and everything at rest (the end of a scripted run)."""
+        return (self.input_consumed_at is not None and self.stopped and not self.test_ongoing
+                and self.pause_ms == 0 and not self.any_running())
+
+    def run_script(self, line: str | bytes, *, firmware_end: bool = False,
+                   max_ticks: int | None = None) -> EndReason:
+        """Run a scripted line to its end.
+
+        ``firmware_end``: stop one second after the input was consumed (as the
+        conformance runs did).  Otherwise stop once the input is consumed and every
+        stepper and test has come to rest.
+        """
+        self.setup()
+        self.load_script(line)
+        b = self.backend
+        limit = b.now() + (max_ticks if max_ticks is not None
+                           else 3600 * self.profile.ticks_per_s)
+        while True:
+            if self.input_consumed_at is not None:
+                if firmware_end:
+                    b.app_wait_until(self.input_consumed_at + self.profile.ticks_per_s)
+                    return EndReason.FIRMWARE_END
+                if self.finished():
+                    return EndReason.IDLE
+            if b.now() >= limit:
+                return EndReason.MAX_TIME
+            self._advance(limit)
+
+    # ------------------------------------------------------------- helpers
+    def _ramp_abort(self, stepper, res, cmd) -> None:
+        self.ramp_aborts += 1
+        if self.scripted:
+            self.println(msg.ABORT_RAMP)
+            self.print(str(int(res)))
+            self.print(" Steps=" + str(cmd.steps) + " ticks=" + str(cmd.ticks))
+            self.println(" min_cmd_ticks=" + str(self.profile.min_cmd_ticks))
+
+    def force_stop_all(self) -> None:
+        """Console Ctrl-C: stop every stepper at once, keep positions; release holds."""
+        for s in self.steppers:
+            if s is not None and s.is_running():
+                s.force_stop_and_new_position(s.get_current_position())
+        self.pause_ms = 0
+        self.waiting_interactive = False
+        self.test_ongoing = False
+        self.read_ptr = self.write_ptr
+        self.out_buffer.clear()

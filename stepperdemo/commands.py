@@ -1,0 +1,411 @@
+"""StepperDemo's command language: one table from (mode, letter) to a handler.
+
+A handler gets the program and the characters after the letter and returns True if
+it accepted the command; False makes the loop print ``Unknown command: <cmd>``.
+Numbers parse like C ``strtol`` (base 10, optional sign, empty means 0) and the whole
+rest of the command must be the number.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+from typing import TYPE_CHECKING, Callable
+
+from fas.codes import PIN_UNDEFINED
+
+from . import messages as msg
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .app import StepperDemo
+
+
+class Mode(IntEnum):
+    NORMAL = 0
+    TEST = 1
+    CONFIG = 2
+
+
+Handler = Callable[["StepperDemo", bytes], bool]
+TABLE: dict[tuple[Mode, int], Handler] = {}
+
+# letters per mode, with a short description, for completion and help toolbars
+HELP: dict[Mode, list[tuple[str, str]]] = {Mode.NORMAL: [], Mode.TEST: [], Mode.CONFIG: []}
+
+
+def command(letter: str, *modes: Mode, hint: str = "", arg: str = "") -> Callable[[Handler], Handler]:
+    def register(fn: Handler) -> Handler:
+        for mode in modes:
+            TABLE[(mode, ord(letter))] = fn
+            if hint:
+                HELP[mode].append((letter + arg, hint))
+        return fn
+    return register
+
+
+def dispatch(app: StepperDemo, cmd: bytes) -> bool:
+    handler = TABLE.get((app.mode, cmd[0]))
+    if handler is None:
+        return False
+    return handler(app, cmd[1:])
+
+
+def _number(arg: bytes) -> int | None:
+    from .app import parse_number
+    return parse_number(arg)
+
+
+def _values(arg: bytes) -> list[int] | None:
+    from .app import parse_values
+    return parse_values(arg)
+
+
+def _i32(v: int) -> str:
+    return str(v)
+
+
+# ------------------------------------------------------------------ all modes
+@command("M", Mode.NORMAL, Mode.TEST, Mode.CONFIG, hint="select stepper n", arg="<n>")
+def cmd_select(app: StepperDemo, arg: bytes) -> bool:
+    values = _values(arg)
+    if values is None or len(values) != 1:
+        return False
+    n = values[0]
+    if 0 < n <= app.profile.max_steppers and app.steppers[n - 1] is not None:
+        app.print(msg.SELECT_STEPPER)
+        app.selected = n - 1
+        app.println(str(n))
+        return True
+    return False
+
+
+@command("?", Mode.NORMAL, Mode.TEST, Mode.CONFIG, hint="usage and stepper table")
+def cmd_usage(app: StepperDemo, arg: bytes) -> bool:
+    if arg:
+        return False
+    app.usage()
+    return True
+
+
+@command("I", Mode.NORMAL, Mode.TEST, hint="status lines on/off")
+def cmd_toggle_info(app: StepperDemo, arg: bytes) -> bool:
+    if arg:
+        return False
+    app.print(msg.TOGGLE_MOTOR_INFO)
+    app.verbose = not app.verbose
+    return True
+
+
+@command("Q", Mode.NORMAL, Mode.TEST, hint="usage after stop on/off")
+def cmd_toggle_usage(app: StepperDemo, arg: bytes) -> bool:
+    if arg:
+        return False
+    app.print(msg.TOGGLE_USAGE_INFO)
+    app.usage_info = not app.usage_info
+    return True
+
+
+@command("W", Mode.NORMAL, Mode.TEST, hint="hold input until stopped")
+def cmd_wait_stop(app: StepperDemo, arg: bytes) -> bool:
+    if arg:
+        return False
+    s = app.selected_stepper
+    if app.scripted:
+        if s.is_running() or app.test_ongoing:
+            app.read_ptr = (app.read_ptr - 2) & 0xFF
+        return True
+    app.print(msg.BLOCKING_WAIT)
+    if app.mode == Mode.TEST:
+        if app.test_ongoing:
+            app.waiting_interactive = True
+        return True
+    if not s.is_running_continuously() or s.is_stopping():
+        if s.is_running():
+            app.waiting_interactive = True
+        else:
+            app.println(msg.STOPPED)
+    return True
+
+
+@command("x", Mode.TEST, Mode.CONFIG, hint="back to the main menu")
+def cmd_exit(app: StepperDemo, arg: bytes) -> bool:
+    if arg:
+        return False
+    app.print(msg.EXIT_TO_MAIN_MENU)
+    app.test_ongoing = False
+    app.mode = Mode.NORMAL
+    app.usage()
+    return True
+
+
+# ---------------------------------------------------------------- normal mode
+@command("t", Mode.NORMAL, hint="test mode")
+def cmd_test_mode(app: StepperDemo, arg: bytes) -> bool:
+    if arg:
+        return False
+    app.print(msg.ENTER_TEST_MODE)
+    app.mode = Mode.TEST
+    app.usage()
+    return True
+
+
+@command("c", Mode.NORMAL, hint="configuration mode")
+def cmd_config_mode(app: StepperDemo, arg: bytes) -> bool:
+    if arg:
+        return False
+    app.print(msg.ENTER_CONFIG_MODE)
+    app.mode = Mode.CONFIG
+    app.usage()
+    return True
+
+
+@command("r", Mode.NORMAL, hint="stray digitalRead() on/off (AVR)")
+def cmd_stray_read(app: StepperDemo, arg: bytes) -> bool:
+    if arg or not app.profile.has_stray_digital_read:
+        return False
+    app.print(msg.STRAY_DIGITAL_READ_TOGGLE)
+    app.simulate_digital_read_error = not app.simulate_digital_read_error
+    return True
+
+
+@command("e", Mode.NORMAL, hint="100 us interrupt block on/off")
+def cmd_irq_block(app: StepperDemo, arg: bytes) -> bool:
+    if arg:
+        return False
+    app.print(msg.LONG_INTERRUPT_BLOCK_TOGGLE)
+    app.simulate_blocked_isr = not app.simulate_blocked_isr
+    return True
+
+
+def _setter(text: str, apply: Callable, *, milli_hz: bool | None = None,
+            check: bool = True) -> Handler:
+    def handler(app: StepperDemo, arg: bytes) -> bool:
+        value = _number(arg)
+        if value is None:
+            return False
+        if milli_hz is not None:
+            app.speed_in_milli_hz = milli_hz
+        app.print(text)
+        app.println(_i32(value))
+        res = apply(app.selected_stepper, value)
+        if check and res is not None and res < 0:
+            app.print(msg.ERROR_INVALID_VALUE)
+        return True
+    return handler
+
+
+TABLE[(Mode.NORMAL, ord("A"))] = _setter(msg.SET_ACCELERATION_TO,
+                                         lambda s, v: s.set_acceleration(v))
+TABLE[(Mode.NORMAL, ord("V"))] = _setter(msg.SET_SPEED_TO_US, lambda s, v: s.set_speed_in_us(v),
+                                         milli_hz=False)
+TABLE[(Mode.NORMAL, ord("H"))] = _setter(msg.SET_SPEED_TO_HZ, lambda s, v: s.set_speed_in_hz(v),
+                                         milli_hz=True)
+TABLE[(Mode.NORMAL, ord("h"))] = _setter(msg.SET_SPEED_TO_MILLI_HZ,
+                                         lambda s, v: s.set_speed_in_milli_hz(v), milli_hz=True)
+TABLE[(Mode.NORMAL, ord("J"))] = _setter(msg.LINEAR_ACCELERATION,
+                                         lambda s, v: s.set_linear_acceleration(v), check=False)
+TABLE[(Mode.NORMAL, ord("j"))] = _setter(msg.JUMP_START, lambda s, v: s.set_jump_start(v),
+                                         check=False)
+TABLE[(Mode.NORMAL, ord("@"))] = _setter(msg.SET_POSITION,
+                                         lambda s, v: s.set_current_position(v), check=False)
+TABLE[(Mode.NORMAL, ord("D"))] = _setter(msg.SET_DISABLE_TIME,
+                                         lambda s, v: s.set_delay_to_disable(v), check=False)
+HELP[Mode.NORMAL] += [
+    ("A<accel>", "acceleration in steps/s^2"), ("V<us>", "speed as us/step"),
+    ("H<hz>", "speed in steps/s"), ("h<mhz>", "speed in steps/1000s"),
+    ("J<steps>", "linear acceleration steps"), ("j<steps>", "jump start step"),
+    ("@<pos>", "set position"), ("D<ms>", "delay to disable"),
+]
+
+
+def _mover(text: str, apply: Callable) -> Handler:
+    def handler(app: StepperDemo, arg: bytes) -> bool:
+        value = _number(arg)
+        if value is None:
+            return False
+        app.print(text)
+        app.println(_i32(value))
+        res = int(apply(app.selected_stepper, value))
+        app.print(msg.MOVE_RESULT[res])
+        return True
+    return handler
+
+
+TABLE[(Mode.NORMAL, ord("a"))] = _mover(msg.SET_ACCELERATION_TO,
+                                        lambda s, v: s.move_by_acceleration(v))
+TABLE[(Mode.NORMAL, ord("R"))] = _mover(msg.MOVE_STEPS, lambda s, v: s.move(v))
+TABLE[(Mode.NORMAL, ord("P"))] = _mover(msg.MOVE_TO_POSITION, lambda s, v: s.move_to(v))
+HELP[Mode.NORMAL] += [
+    ("a<accel>", "run by acceleration (+/-)"), ("R<n>", "move by n steps"),
+    ("P<pos>", "move to position"),
+]
+
+
+@command("E", Mode.NORMAL, hint="delay from enable to first step", arg="<us>")
+def cmd_enable_delay(app: StepperDemo, arg: bytes) -> bool:
+    value = _number(arg)
+    if value is None:
+        return False
+    app.print(msg.SET_ENABLE_TIME)
+    app.println(_i32(value))
+    res = int(app.selected_stepper.set_delay_to_enable(value))
+    app.print(msg.RETURN_CODE)
+    app.println(str(res & 0xFF))
+    return True
+
+
+@command("w", Mode.NORMAL, hint="hold input for ms", arg="<ms>")
+def cmd_wait_ms(app: StepperDemo, arg: bytes) -> bool:
+    value = _number(arg)
+    if value is None:
+        return False
+    app.print(_i32(value))
+    app.print(msg.WAIT_MS)
+    app.pause_ms = value & 0xFFFFFFFF
+    app.pause_start = app.backend.millis()
+    return True
+
+
+def _simple(letter: str, text: str, action: Callable, hint: str) -> None:
+    def handler(app: StepperDemo, arg: bytes) -> bool:
+        if arg:
+            return False
+        app.print(text)
+        action(app.selected_stepper)
+        return True
+    TABLE[(Mode.NORMAL, ord(letter))] = handler
+    HELP[Mode.NORMAL].append((letter, hint))
+
+
+def _driver_on(s) -> None:
+    s.set_auto_enable(False)
+    s.enable_outputs()
+
+
+def _driver_off(s) -> None:
+    s.set_auto_enable(False)
+    s.disable_outputs()
+
+
+_simple("N", msg.OUTPUT_DRIVER_ON, _driver_on, "driver on, auto enable off")
+_simple("F", msg.OUTPUT_DRIVER_OFF, _driver_off, "driver off, auto enable off")
+_simple("O", msg.OUTPUT_DRIVER_AUTO, lambda s: s.set_auto_enable(True), "auto enable")
+_simple("S", msg.STOP, lambda s: s.stop_move(), "stop with deceleration")
+_simple("K", msg.KEEP_RUNNING, lambda s: s.keep_running(), "keep running")
+_simple("X", msg.IMMEDIATE_STOP, lambda s: s.force_stop_and_new_position(0),
+        "immediate stop, position 0")
+_simple("U", msg.UPDATE_SPEED_ACCELERATION, lambda s: s.apply_speed_acceleration(),
+        "apply speed/acceleration")
+_simple("u", msg.SET_UNIDIRECTIONAL_STEPPER, lambda s: s.set_direction_pin(PIN_UNDEFINED),
+        "unidirectional (no dir pin)")
+
+
+def _runner(letter: str, text: str, forward: bool, hint: str) -> None:
+    def handler(app: StepperDemo, arg: bytes) -> bool:
+        if arg:
+            return False
+        app.print(text)
+        s = app.selected_stepper
+        res = int(s.run_forward() if forward else s.run_backward())
+        app.print(msg.RETURN_CODE)
+        app.println(str(res & 0xFF))
+        return True
+    TABLE[(Mode.NORMAL, ord(letter))] = handler
+    HELP[Mode.NORMAL].append((letter, hint))
+
+
+_runner("f", msg.RUN_FORWARD, True, "run forward")
+_runner("b", msg.RUN_BACKWARD, False, "run backward")
+
+
+def _one_step(letter: str, text: str, forward: bool, hint: str) -> None:
+    def handler(app: StepperDemo, arg: bytes) -> bool:
+        if arg:
+            return False
+        s = app.selected_stepper
+        if not s.is_running():
+            if forward:
+                s.forward_step(blocking=True)
+            else:
+                s.backward_step(blocking=True)
+            app.print(text)
+        return True
+    TABLE[(Mode.NORMAL, ord(letter))] = handler
+    HELP[Mode.NORMAL].append((letter, hint))
+
+
+_one_step("+", msg.STEPPED_FORWARD, True, "one step forward")
+_one_step("-", msg.STEPPED_BACKWARD, False, "one step backward")
+
+
+@command("T", Mode.NORMAL, hint="direct-drive self test")
+def cmd_direct_drive(app: StepperDemo, arg: bytes) -> bool:
+    if arg:
+        return False
+    s = app.selected_stepper
+    if not s.is_running():
+        app.print(msg.TEST_DIRECT_DRIVE)
+        s.detach_from_pin()
+        from .direct_drive import test_direct_drive
+        test_direct_drive(app, app.profile.demo_steppers[app.selected])
+        s.reattach_to_pin()
+    return True
+
+
+# ------------------------------------------------------------------ test mode
+@command("R", Mode.TEST, hint="run the assigned sequences")
+def cmd_run_tests(app: StepperDemo, arg: bytes) -> bool:
+    if arg:
+        return False
+    app.print(msg.RUN_TESTS)
+    app.test_ongoing = True
+    return True
+
+
+def _select_sequence(first: str) -> Handler:
+    def handler(app: StepperDemo, arg: bytes) -> bool:
+        from .testseq import SEQUENCES
+        code = first + arg.decode("latin-1")
+        seq = SEQUENCES.get(code)
+        if seq is None:
+            return False
+        app.print(msg.SELECT_TEST_SEQUENCE)
+        app.println(code)
+        app.test_slots[app.selected].assign(seq)
+        return True
+    return handler
+
+
+TABLE[(Mode.TEST, ord("0"))] = _select_sequence("0")
+TABLE[(Mode.TEST, ord("1"))] = _select_sequence("1")
+HELP[Mode.TEST].append(("01..13", "assign a test sequence"))
+
+
+# ---------------------------------------------------------------- config mode
+@command("d", Mode.CONFIG, hint="direction pin p[,n[,t]] or dc", arg="<p,n,t>")
+def cmd_direction_pin(app: StepperDemo, arg: bytes) -> bool:
+    s = app.selected_stepper
+    if arg == b"c":
+        app.print(msg.DISABLED)
+        s.set_direction_pin(PIN_UNDEFINED)
+        return True
+    values = _values(arg)
+    if values is None:
+        return False
+    pin = values[0] & 0xFF
+    app.print(msg.DIRECTION_PIN)
+    app.print(msg.SET_TO_PIN)
+    app.println(_i32(values[0]))
+    if len(values) == 1:
+        s.set_direction_pin(pin)
+        return True
+    app.print(msg.DIRECTION_PIN)
+    # sic: the firmware prints "down" for n != 0 although n != 0 means high counts up
+    app.print(msg.HIGH_COUNT_DOWN if values[1] != 0 else msg.HIGH_COUNT_UP)
+    app.println()
+    if len(values) == 2:
+        s.set_direction_pin(pin, values[1] != 0)
+    else:
+        app.print(msg.DELAY_IN_US)
+        app.println(_i32(values[2]))
+        s.set_direction_pin(pin, values[1] != 0, values[2] & 0xFFFF)
+    return True

@@ -1,0 +1,214 @@
+"""Every text the console prints, in one place.
+
+Line ends follow the firmware: texts that the original sketch prints with its
+internal message table end in a bare "\\n"; values printed with ``println`` end in
+"\\r\\n".  The acknowledgements, error lines, status lines and the stepper table are
+byte-for-byte those of StepperDemo, so that tools parsing its output keep working.
+The usage texts are our own words; the normal-mode usage keeps the firmware's length
+(2190 characters), because at 115200 baud its printing time decides when the first
+command runs.
+"""
+
+from __future__ import annotations
+
+NL = "\n"
+CRLF = "\r\n"
+VERSION = "py-fas-0.1.0"
+
+BANNER_VERSION = "StepperDemo Version " + VERSION + NL
+BANNER_F_CPU = "    F_CPU="
+BANNER_TICKS = "    TICKS_PER_S="
+BANNER_STEPPERS = "    Steppers="
+
+SELECT_STEPPER = "Select stepper "
+TOGGLE_MOTOR_INFO = "Toggle stepper info" + NL
+TOGGLE_USAGE_INFO = "Toggle usage info" + NL
+ENTER_TEST_MODE = "Enter test mode" + NL
+ENTER_CONFIG_MODE = "Enter config mode" + NL
+EXIT_TO_MAIN_MENU = "Exit to main menu" + NL
+SET_ACCELERATION_TO = "set acceleration to "
+SET_SPEED_TO_US = "set speed (us/step) to "
+SET_SPEED_TO_HZ = "set speed (steps/s) to "
+SET_SPEED_TO_MILLI_HZ = "set speed (steps/1000s) to "
+MOVE_STEPS = "Move steps "
+MOVE_TO_POSITION = "Move to position "
+RETURN_CODE = "returncode = "
+SET_POSITION = "set position "
+SET_ENABLE_TIME = "set enable timeto "  # sic: the firmware joins "time" and "to "
+SET_DISABLE_TIME = "set disable timeto "
+LINEAR_ACCELERATION = "linear acceleration steps="
+JUMP_START = "jump start steps="
+OUTPUT_DRIVER_ON = "Output driver on" + NL
+OUTPUT_DRIVER_OFF = "Output driver off" + NL
+OUTPUT_DRIVER_AUTO = "Output driver automatic mode" + NL
+STOP = "stop" + NL
+KEEP_RUNNING = "Keep running" + NL
+RUN_FORWARD = "run forward" + NL
+RUN_BACKWARD = "run backward" + NL
+IMMEDIATE_STOP = "immediate stop" + NL
+UPDATE_SPEED_ACCELERATION = "Update speed / acceleration " + NL
+BLOCKING_WAIT = "Blocking wait for running stepper to stop" + NL
+STOPPED = "STOPPED"
+TEST_DIRECT_DRIVE = "test direct drive" + NL
+STEPPED_FORWARD = "Stepped forward" + NL
+STEPPED_BACKWARD = "Stepped backward" + NL
+WAIT_MS = " ms wait" + NL
+WAIT_COMPLETE = "Wait complete" + NL
+SELECT_TEST_SEQUENCE = "Select test sequence: "
+RUN_TESTS = "run test " + NL
+FAILED_STATUS = "Failed status from test " + NL
+PASS_STATUS = "test passed" + NL
+TEST_COMPLETED = "test completed" + NL
+ENABLE_LOW_PIN_IS_NOT_LOW = "Cannot set enable LOW pin to LOW " + NL
+ENABLE_LOW_PIN_IS_NOT_HIGH = "Cannot set enable LOW pin to HIGH " + NL
+ENABLE_HIGH_PIN_IS_NOT_LOW = "Cannot set enable HIGH pin to LOW " + NL
+ENABLE_HIGH_PIN_IS_NOT_HIGH = "Cannot set enable HIGH pin to HIGH " + NL
+CANNOT_SET_DIRECTION_PIN = "Cannot set direction pin to "
+STEP_PIN_IS_NOT_LOW = "Cannot set step pin to LOW " + NL
+STEP_PIN_IS_NOT_HIGH = "Cannot set step pin to HIGH " + NL
+ERROR_INVALID_VALUE = "ERROR invalid value" + NL
+MOVE_RESULT = {
+    0: "OK" + NL,
+    -1: "ERROR no direction pin => impossible move" + NL,
+    -2: "ERROR speed is not defined" + NL,
+    -3: "ERROR acceleration is not defined" + NL,
+}
+STRAY_DIGITAL_READ_TOGGLE = "Toggle erroneous digitalRead() to step pin " + NL
+STRAY_DIGITAL_READ_ENABLED = "erroneous digitalRead() to step pin IS ON !!!" + NL
+LONG_INTERRUPT_BLOCK_TOGGLE = "Toggle erroneous 100 µs ISR block" + NL
+LONG_INTERRUPT_BLOCK_ENABLED = "erroneous 100 µs ISR BLOCK IS ON" + NL
+SET_UNIDIRECTIONAL_STEPPER = "set unidirectional stepper" + NL
+DIRECTION_PIN = "direction pin "
+SET_TO_PIN = "set to pin "
+DISABLED = "disabled" + NL
+HIGH_COUNT_UP = "high counts up"
+HIGH_COUNT_DOWN = "high counts down"
+DELAY_IN_US = "delay in us = "
+UNKNOWN_COMMAND = "Unknown command: "
+ACCELERATION_STATUS = " acceleration  [steps/s^2]="
+SPEED_STATUS_FREQ = " speed [mstep/s]="
+SPEED_STATUS_TIME = " speed [us/step]="
+ABORT_RAMP = "Abort ramp due to queue error res="
+PULSE_COUNTER_ERROR = "ERROR attaching pulse counter" + NL
+SEQ_PULSE_COUNTER_ERROR = "Error attaching to pulse counter"
+ATTACH_PULSE_COUNTER = "attach pulse counter "
+CLEAR_PULSE_COUNTER = "clear pulse counter " + NL
+
+# status line pieces
+STATUS_NONSTOP = " nonstop"
+STATUS_TARGET = " => "
+STATUS_QUEUE_END = " QueueEnd="
+STATUS_V = " v="
+STATUS_MSTEPS = "mSteps/s"
+STATUS_US = "us/"
+STATUS_TICKS = "ticks"
+RAMP_STATE_TEXT = {0: " IDLE ", 2: " ACC  ", 4: " RED  ", 1: " COAST", 12: " REV  "}
+STATUS_MANUAL = " MANU"
+TABLE_SELECTED = ">> "
+TABLE_OTHER = "   "
+
+# test sequences
+SPEED_CHANGES = "Speed changes 64us <=> "
+NOT_ALL_RAW_EXECUTED = "not all raw commands executed"
+STEPPER_POS = "stepper pos="
+REAL_POS = "  real pos="
+STEPS_NEEDED_FOR_STOP = "Steps needed for stop="
+STEP_AFTER_STOP = "Step AFTER stop"
+SEQ_SPEED = "speed="
+SEQ_ACCEL = " accel="
+SEQ_MOVE = " move="
+SEQ_PREV_POS = " prev pos="
+SEQ_OLD_POS = " old pos="
+SEQ_CURR_POS = " curr pos="
+SEQ_I = "i="
+
+_USAGE_NORMAL_LINES = [
+    "Enter commands separated by space, carriage return or newline:",
+    "    M1/M2/..  ... choose the stepper the next commands act on",
+    "    c         ... enter configuration mode (direction pins)",
+    "    V<speed>  ... max speed of the chosen stepper, period in us/step",
+    "    H<speed>  ... max speed of the chosen stepper in steps/s",
+    "    h<speed>  ... max speed of the chosen stepper in steps/1000s",
+    "    A<accel>  ... acceleration of the chosen stepper in steps/s^2",
+    "    a<accel>  ... run by acceleration alone: + forward, - backward",
+    "    J<steps>  ... raise the acceleration linearly over <steps>",
+    "    j<steps>  ... jump start: begin the ramp at ramp step <steps>",
+    "    U         ... apply new speed/acceleration to the running move",
+    "    P<pos>    ... move the chosen stepper to position <pos>",
+    "    R<n>      ... move the chosen stepper by <n> steps (+/-)",
+    "    f         ... run forward without end, counting up",
+    "    b         ... run backward without end, counting down",
+    "    K         ... keep the chosen stepper running as it goes now",
+    "    @<pos>    ... the current position is now <pos> (may be < 0)",
+    "    E<us>     ... delay from driver enable to the first step",
+    "    D<ms>     ... delay from the last step to driver disable",
+    "    N         ... driver output on, no automatic enable",
+    "    F         ... driver output off, no automatic enable",
+    "    O         ... automatic driver enable/disable",
+    "    S         ... stop the chosen stepper with its ramp",
+    "    X         ... stop at once without ramp, position := 0",
+    "    I         ... status lines while running: on/off",
+    "    W         ... hold input until the chosen stepper stands still;"
+    " waits for ever if it runs for ever",
+    "    w<ms>     ... hold input for <ms> milliseconds",
+    "    +         ... one step forward of the chosen stepper",
+    "    -         ... one step backward of the chosen stepper",
+    "    T         ... self test: drive the pins directly",
+    "    t         ... test mode (built-in sequences 01..13)",
+    "    u         ... drop the direction pin (until reset)",
+    "    r         ... stray digitalRead() of step pins: on/off",
+    "    e         ... 100us interrupt block in 64 of 256 ms: on/off",
+    "    Q         ... usage after a stepper stops: on/off",
+    "    ?         ... print this usage and stepper table",
+]
+USAGE_NORMAL = NL.join(_USAGE_NORMAL_LINES) + NL + NL
+USAGE_NORMAL_LENGTH = 2190
+
+USAGE_TEST = NL.join([
+    "Enter commands separated by space, carriage return or newline:",
+    "    M1/M2/..  ... choose the stepper that the next sequence number is for",
+    "    01 .. 13  ... assign test sequence 01 .. 13 to the chosen stepper",
+    "    R         ... run all assigned test sequences",
+    "    I         ... status lines on or off while a sequence runs",
+    "    W         ... hold further input until the running test has finished",
+    "    x         ... leave test mode",
+    "    Q         ... usage and table after a stepper stopped on or off",
+    "    ?         ... print this help",
+]) + NL + NL
+
+USAGE_CONFIG = NL.join([
+    "Enter commands separated by space, carriage return or newline:",
+    "    M1/M2/..  ... choose the stepper to configure",
+    "    d<p>      ... direction pin <p>, high level counts up",
+    "    d<p,n>    ... direction pin <p>; n=1: high counts up, n=0: high counts down",
+    "    d<p,n,t>  ... as above, plus <t> us pause between a direction change and",
+    "                  the next step (0 = none)",
+    "    dc        ... no direction pin (unidirectional stepper)",
+    "    x         ... leave configuration mode",
+    "    ?         ... print this help",
+]) + NL + NL
+
+# console (REPL) texts, not part of the firmware
+REPL_WELCOME = ("stepperdemo {version} on a simulated {profile} ({mode}). "
+                "Type StepperDemo commands, /help for console commands, Ctrl-D to quit.")
+REPL_HELP = """Console commands (everything else goes to StepperDemo):
+  /help              this text
+  /quit              leave (Ctrl-D does the same)
+  /arch [name]       show the profile, or restart on another one
+  /stop              force-stop all steppers (Ctrl-C does the same)
+  /time              simulated time and speed-up
+  /speed <factor>    run the simulated clock <factor> times faster than real time
+StepperDemo commands of the current mode: type ? for the firmware usage."""
+REPL_STOPPED_ALL = "all steppers force-stopped"
+REPL_UNKNOWN_META = "unknown console command {cmd!r} - try /help"
+REPL_TIME = "simulated time {sim:.3f} s (x{scale:g} real time)"
+REPL_PROFILE = "profile {name}: {title}, {steppers} steppers, {ticks} ticks/s"
+REPL_SWITCHED = "restarted on profile {name}"
+REPL_BAD_ARG = "{cmd}: {problem}"
+REPL_BYE = "bye"
+REPL_HISTORY_FAILED = "(history file not usable: {error})"
+
+# command line
+CLI_MAX_TIME = ("stopped after {seconds:g} s of simulated time (--max-time): "
+                "a stepper was still running or the input was still held")
+CLI_ERROR = "stepperdemo: {problem}"

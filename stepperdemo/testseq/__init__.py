@@ -1,0 +1,81 @@
+"""StepperDemo's built-in test sequences 01-13.
+
+Each sequence is a state machine called once per loop pass with the time in ms:
+``step(app, stepper, slot, time_ms) -> finished``.  Its state lives in a
+:class:`SeqSlot` (the firmware's ``test_seq_s``).  Setting ``slot.state`` to
+:data:`TEST_STATE_ERROR` marks the test failed.
+
+A sequence also says what it is waiting for, so that the simulated loop can skip
+passes in which nothing can happen: ``slot.idle`` (only the machine or the clock can
+change what it waits for) and ``slot.wake_ms`` (it waits until ``millis()`` reaches
+this value).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Callable
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fas import Stepper
+
+    from ..app import StepperDemo
+
+TEST_STATE_ERROR = 0xFFFF
+
+Sequence = Callable[["StepperDemo", "Stepper", "SeqSlot", int], bool]
+
+
+class SeqSlot:
+    __slots__ = ("test", "state", "u32_1", "s32_1", "s16_1", "s16_2", "idle", "wake_ms",
+                 "rng", "log")
+
+    def __init__(self) -> None:
+        self.test: Sequence | None = None
+        self.state = 0
+        self.u32_1 = 0
+        self.s32_1 = 0
+        self.s16_1 = 0
+        self.s16_2 = 0
+        self.idle = False
+        self.wake_ms: int | None = None
+        self.rng: object | None = None
+        self.log: list[dict] = []  # per-iteration records of the endless sequences
+
+    def assign(self, seq: Sequence) -> None:
+        """As the firmware: only the function and the state are reset."""
+        self.test = seq
+        self.state = 0
+        self.idle = False
+        self.wake_ms = None
+
+    def wait_time(self, since_ms: int, duration_ms: int) -> None:
+        self.idle = True
+        self.wake_ms = (since_ms + duration_ms) & 0xFFFFFFFF
+
+    def wait_machine(self) -> None:
+        self.idle = True
+        self.wake_ms = None
+
+    def busy(self) -> None:
+        self.idle = False
+        self.wake_ms = None
+
+
+def elapsed(now_ms: int, since_ms: int) -> int:
+    """``(uint32_t)(now - since)``."""
+    return (now_ms - since_ms) & 0xFFFFFFFF
+
+
+from . import (  # noqa: E402  (the registry needs SeqSlot defined first)
+    seq01, seq02, seq03, seq04, seq05, seq06, seq07, seq08, seq09, seq10, seq11, seq12,
+    seq13,
+)
+
+SEQUENCES: dict[str, Sequence] = {
+    "01": seq01.step, "02": seq02.step, "03": seq03.step, "04": seq04.step,
+    "05": seq05.step, "06": seq06.step, "07": seq07.step, "08": seq08.step,
+    "09": seq09.step, "10": seq10.step, "11": seq11.step, "12": seq12.step,
+    "13": seq13.step,
+}
+
+__all__ = ["SEQUENCES", "SeqSlot", "TEST_STATE_ERROR", "elapsed"]

@@ -1,0 +1,59 @@
+"""08 - endless: random moves checked against an independent pulse counter.
+
+Moves of random speed (40 us .. ~16 ms/step) and acceleration meant to take about a
+second, alternating direction by the move's bit 1.  Whenever the stepper stands
+still, the pulse counter (attached with limits -16384/16384) must agree with the
+position modulo 2^14; a mismatch prints both and fails.  Runs until `x`.
+"""
+
+from __future__ import annotations
+
+from . import TEST_STATE_ERROR
+from .. import messages as msg
+from .rand import make_rand
+
+VMIN, VMAX = 40, 16384
+AMIN, AMAX = 10, 4 * 65536
+
+
+def step(app, stepper, slot, time_ms: int) -> bool:
+    if slot.state == 0:
+        slot.rng = make_rand(app.profile.name, 135)
+        if not stepper.attach_to_pulse_counter(7):
+            app.println(msg.SEQ_PULSE_COUNTER_ERROR)
+            slot.state = TEST_STATE_ERROR
+            return True
+        slot.u32_1 = time_ms
+        slot.state += 1
+    elif slot.state == 1:
+        if not stepper.is_running():
+            pcnt = stepper.read_pulse_counter()
+            spos = stepper.get_position_after_commands_completed()
+            slot.log.append({"t_ms": time_ms, "position": spos, "counter": pcnt})
+            if (pcnt & 0x3FFF) != (spos & 0x3FFF):
+                app.print(msg.STEPPER_POS)
+                app.print(str(spos))
+                app.print(msg.REAL_POS)
+                app.println(str(pcnt))
+                slot.state = TEST_STATE_ERROR
+                return True
+            rand = slot.rng.rand
+            speed = rand() % (VMAX * 4) & 0xFFFF
+            speed = (speed >> ((speed % 4) + 2)) + VMIN
+            accel = rand() % (AMAX * 4)
+            accel = (accel >> ((accel % 4) + 2)) + AMIN
+            move = 1_000_000 // speed
+            if move & 2:
+                move = -move
+            app.print(msg.SEQ_SPEED)
+            app.print(str(speed))
+            app.print(msg.SEQ_ACCEL)
+            app.print(str(accel))
+            app.print(msg.SEQ_MOVE)
+            app.println(str(move))
+            stepper.set_speed_in_us(speed)
+            stepper.set_acceleration(accel)
+            stepper.move(move)
+            slot.u32_1 = time_ms
+    slot.wait_machine()
+    return False

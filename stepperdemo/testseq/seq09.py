@@ -1,0 +1,84 @@
+"""09 - endless: random runs ended by a forced stop with a new position.
+
+Random speed/acceleration, run forward or backward for 1 s, then
+force_stop_and_new_position(0).  Once stopped, print the steps the pulse counter saw
+after the stop command ("Steps needed for stop="); 100 ms later any further pulse
+prints "Step AFTER stop".  Runs until `x`.
+"""
+
+from __future__ import annotations
+
+from . import TEST_STATE_ERROR, elapsed
+from .. import messages as msg
+from .rand import make_rand
+
+VMIN, VMAX = 40, 16384
+AMIN, AMAX = 10, 4 * 65536
+
+
+def _i16(v: int) -> int:
+    v &= 0xFFFF
+    return v - 0x10000 if v & 0x8000 else v
+
+
+def step(app, stepper, slot, time_ms: int) -> bool:
+    state = slot.state
+    if state == 0:
+        slot.rng = make_rand(app.profile.name, 135)
+        if not stepper.attach_to_pulse_counter(7):
+            app.println(msg.SEQ_PULSE_COUNTER_ERROR)
+            slot.state = TEST_STATE_ERROR
+            return True
+        slot.u32_1 = time_ms
+        slot.state += 1
+    elif state == 1:
+        if not stepper.is_running():
+            rand = slot.rng.rand
+            speed = rand() % (VMAX * 4)
+            speed = (speed >> ((speed % 4) + 2)) + VMIN
+            accel = rand() % (AMAX * 4)
+            accel = (accel >> ((accel % 4) + 2)) + AMIN
+            app.print(msg.SEQ_SPEED)
+            app.print(str(speed))
+            app.print(msg.SEQ_ACCEL)
+            app.println(str(accel))
+            stepper.set_speed_in_us(speed)
+            stepper.set_acceleration(accel)
+            if rand() & 1:
+                stepper.run_forward()
+            else:
+                stepper.run_backward()
+            slot.u32_1 = time_ms
+            slot.state += 1
+    elif state == 2:
+        if elapsed(time_ms, slot.u32_1) >= 1000:
+            slot.s16_1 = stepper.read_pulse_counter()
+            stepper.force_stop_and_new_position(0)
+            slot.u32_1 = time_ms
+            slot.state += 1
+    elif state == 3:
+        if not stepper.is_running():
+            old = slot.s16_1
+            slot.s16_1 = stepper.read_pulse_counter()
+            needed = _i16(old - slot.s16_1) & 0xFFFF
+            app.print(msg.STEPS_NEEDED_FOR_STOP)
+            app.println(str(needed))
+            slot.log.append({"t_ms": time_ms, "steps_for_stop": needed, "after_stop": 0})
+            slot.state += 1
+    elif state == 4:
+        if elapsed(time_ms, slot.u32_1) >= 100:
+            if slot.s16_1 != stepper.read_pulse_counter():
+                app.println(msg.STEP_AFTER_STOP)
+                if slot.log:
+                    slot.log[-1]["after_stop"] = 1
+            slot.u32_1 = time_ms
+            slot.state = 1
+    if slot.state == 2:
+        slot.wait_time(slot.u32_1, 1000)
+    elif slot.state == 4:
+        slot.wait_time(slot.u32_1, 100)
+    elif slot.state in (1, 3):
+        slot.wait_machine()
+    else:
+        slot.busy()
+    return False
