@@ -1,0 +1,111 @@
+"""The simulated machine: event clock, interrupt blocking, UART, millis()."""
+
+from fas.sim import SimBackend
+from fas.sim.machine import Machine
+from fas.arch import ATMEGA328P
+
+from .helpers import make, periods, rising, run_until_idle
+
+
+def test_events_run_in_time_order_and_virtual_time_jumps():
+    m = Machine(ATMEGA328P)
+    seen = []
+    m.schedule(300, lambda: seen.append(("b", m.now)))
+    m.schedule(100, lambda: seen.append(("a", m.now)))
+    ev = m.schedule(200, lambda: seen.append(("x", m.now)))
+    m.cancel(ev)
+    m.run_until(1000)
+    assert seen == [("a", 100), ("b", 300)] and m.now == 1000
+
+
+def test_millis_follows_arduinos_timer0_bookkeeping():
+    m = Machine(ATMEGA328P)
+    m.run_until(m._millis_phase + 1000 * 16384)
+    assert m.millis() == 1024  # 1000 overflows of 1.024 ms
+    for ms in (0, 1, 2, 41, 42, 43, 1000, 123456):
+        t = m.tick_at_millis(ms)
+        m2 = Machine(ATMEGA328P)
+        m2.run_until(t)
+        assert m2.millis() >= ms
+        m3 = Machine(ATMEGA328P)
+        m3.run_until(t - 1)
+        assert m3.millis() < ms or ms == 0
+
+
+def test_uart_blocks_once_its_buffer_is_full():
+    b = SimBackend("atmega328p")
+    t0 = b.now()
+    b.console_write(b"x" * 64)
+    assert b.now() - t0 == 64 * ATMEGA328P.sim_char_ticks  # all fit, no waiting
+    b.console_write(b"y" * 100)
+    byte = ATMEGA328P.sim_uart_byte_ticks
+    # character k can be handed over once character k-64 went onto the wire
+    assert b.now() - t0 >= (164 - 64 - 1) * byte
+
+
+def test_blocked_interrupts_at_25khz_make_timer_wrap_gaps_without_losing_steps():
+    backend, _, s = make()
+    s.set_speed_in_us(40)
+    s.set_acceleration(1_000_000)
+    s.move(5000)
+    backend.run_for_ms(50)  # at full speed now
+    m = backend.machine
+    for _ in range(200):  # the loop of StepperDemo with `e`: 100 us blocked, 25 us free
+        m.block_interrupts(1600)
+        m.consume(400)
+    run_until_idle(backend, s)
+    steps = rising(backend, 9)
+    assert len(steps) == 5000 and s.get_current_position() == 5000
+    p = periods(steps)
+    gaps = [x for x in p if x > 65536]
+    assert gaps and all(x == 65536 + 640 for x in gaps)  # compare missed: one timer wrap
+    times, levels = backend.recorder.pin_edges(9)
+    high = [b - a for a, b, lv in zip(times, times[1:], levels) if lv]
+    assert max(high) > 1000  # pulses stretched to the end of a blocked section
+
+
+def test_blocked_interrupts_at_low_rate_do_not_move_steps():
+    results = []
+    for block in (False, True):
+        backend, _, s = make()
+        s.set_speed_in_us(2000)
+        s.set_acceleration(100_000)
+        s.move(200)
+        m = backend.machine
+        while s.is_running():
+            if block:
+                m.block_interrupts(1600)
+            m.consume(400)
+        results.append(periods(rising(backend, 9)))
+    # the start may wait for a blocked ramp task, but every step time is kept
+    assert results[0] == results[1]
+
+
+def test_esp32_steps_ignore_blocked_interrupts():
+    backend, _, s = make("esp32", dir_pin=18, enable_pin=26)
+    s.set_speed_in_us(40)
+    s.set_acceleration(1_000_000)
+    s.move(3000)
+    m = backend.machine
+    while s.is_running():
+        m.block_interrupts(1600)
+        m.consume(400)
+    assert max(periods(rising(backend, 17))) < 65536
+
+
+def test_stray_reads_are_counted_and_change_nothing():
+    counts = []
+    for stray in (False, True):
+        backend, _, s = make()
+        s.set_speed_in_us(60)
+        s.set_acceleration(20_000)
+        s.move(3000)
+        while s.is_running():
+            if stray:
+                backend.stray_read((9, 10))
+            backend.machine.consume(400)
+        counts.append(rising(backend, 9))
+        if stray:
+            assert backend.stray_reads > 1000
+            assert 0 < backend.stray_reads_during_pulse < backend.stray_reads
+    assert counts[0] == counts[1]
