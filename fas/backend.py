@@ -88,8 +88,15 @@ class Backend(ABC):
         """Current time in ticks of ``profile.ticks_per_s``."""
 
     @abstractmethod
-    def attach_engine(self, manage_steppers: Callable[[], None]) -> None:
-        """Call ``manage_steppers`` periodically (the ~4 ms ramp task)."""
+    def attach_engine(self, engine) -> None:
+        """Run ``engine.manage_steppers()`` periodically (the ~4 ms ramp task).
+
+        A backend may skip runs that ``engine.quiescent_tasks()`` declares idle, and
+        must then report them with ``engine.credit_skipped_tasks(n)``.
+        """
+
+    def wake_task(self) -> None:
+        """The engine has work again: do not skip the next periodic run."""
 
     @abstractmethod
     def allocate_channel(self, queue: StepperQueue) -> QueueChannel:

@@ -33,7 +33,33 @@ class Engine:
         """Start the periodic ramp task (call once, as ``engine.init()`` upstream)."""
         if not self._initialised:
             self._initialised = True
-            self.backend.attach_engine(self.manage_steppers)
+            self.backend.attach_engine(self)
+
+    # ------------------------------------------------- idle periodic task
+    def quiescent_tasks(self) -> int | None:
+        """How many following runs of the periodic task would do nothing at all.
+
+        0 while any stepper moves, plans or counts down to auto-disable; otherwise
+        the runs until the debug LED toggles (None: unbounded).  A backend may skip
+        those runs and credit them with :meth:`credit_skipped_tasks`.
+        """
+        for s in self._steppers:
+            if s is not None and s._needs_task():
+                return 0
+        if self._debug_led_pin == PIN_UNDEFINED:
+            return None
+        half = self._debug_led_half_period
+        to_toggle = half - (self._debug_led_cnt % half)
+        return max(0, to_toggle - 1)
+
+    def credit_skipped_tasks(self, n: int) -> None:
+        if n > 0:
+            self._debug_led_cnt += n
+            self.task_runs += n
+
+    def kick(self) -> None:
+        """A stepper got work: the periodic task must run again from its next slot."""
+        self.backend.wake_task()
 
     # ------------------------------------------------------------ steppers
     def stepper_connect_to_pin(self, step_pin: int) -> Stepper | None:

@@ -187,6 +187,11 @@ class Stepper:
     def _need_auto_disable(self) -> bool:
         return self._auto_disable_delay_counter == 1 and not self.is_running()
 
+    def _needs_task(self) -> bool:
+        return (self._auto_disable_delay_counter > 0 or self._rg.is_ramp_generator_active()
+                or self._rg.force_immediate_stop or self._queue.is_running()
+                or not self._queue.is_queue_empty())
+
     def _uses_auto_enable_pin(self, pin: int) -> bool:
         return pin != PIN_UNDEFINED and pin in (self._enable_pin_high_active,
                                                 self._enable_pin_low_active)
@@ -340,6 +345,7 @@ class Stepper:
 
     def apply_speed_acceleration(self) -> None:
         self._rg.apply_speed_acceleration()
+        self._engine.kick()
 
     def set_forward_planning_time_in_ms(self, ms: int) -> None:
         self._forward_planning_in_ticks = (ms & 0xFF) * self._profile.ticks_per_ms
@@ -354,24 +360,31 @@ class Stepper:
         if move < 0 and self._dir_pin == PIN_UNDEFINED:
             return MoveResult.ERR_NO_DIRECTION_PIN
         res = self._rg.move(move)
+        self._engine.kick()
         if res == MoveResult.OK:
             self._block(blocking)
         return res
 
     def move_to(self, position: int, blocking: bool = False) -> MoveResult:
         res = self._rg.move_to(i32(position), self._queue.queue_end_pos)
+        self._engine.kick()
         if res == MoveResult.OK:
             self._block(blocking)
         return res
 
     def keep_running(self) -> None:
         self._rg.set_keep_running()
+        self._engine.kick()
 
     def run_forward(self) -> MoveResult:
-        return self._rg.start_run(True)
+        res = self._rg.start_run(True)
+        self._engine.kick()
+        return res
 
     def run_backward(self) -> MoveResult:
-        return self._rg.start_run(False)
+        res = self._rg.start_run(False)
+        self._engine.kick()
+        return res
 
     def move_by_acceleration(self, acceleration: int, allow_reverse: bool = True) -> MoveResult:
         res = MoveResult.OK
@@ -395,10 +408,12 @@ class Stepper:
 
     def stop_move(self) -> None:
         self._rg.initiate_stop()
+        self._engine.kick()
 
     def force_stop(self) -> None:
         self._queue.ignore_commands = True
         self._rg.immediate_stop()
+        self._engine.kick()
 
     def force_stop_and_new_position(self, new_pos: int) -> None:
         q = self._queue
@@ -482,6 +497,7 @@ class Stepper:
         res = q.add_queue_entry(ticks, steps, count_up, start=start)
         if res == AqeResult.OK and self._auto_enable:
             self._auto_disable_delay_counter = self._off_delay_count
+        self._engine.kick()
         return res
 
     def _handle_external_direction_pin(self, count_up: bool) -> bool:

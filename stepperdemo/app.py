@@ -436,6 +436,12 @@ class StepperDemo:
             return None
         return max(min(candidates), b.now())
 
+    def next_wake_tick(self) -> int | None:
+        """When the loop next has something to do (None: only new input can wake it)."""
+        if not self._setup_done or not self._idle():
+            return self.backend.now()
+        return self._wake_time()
+
     def _advance(self, limit: int) -> None:
         """One loop pass, after skipping idle time (never beyond ``limit``)."""
         b = self.backend

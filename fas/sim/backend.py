@@ -25,7 +25,11 @@ class SimBackend(Backend):
         if record:
             self.recorder = EdgeRecorder()
             self.machine.pins.sinks.append(self.recorder)
-        self._manage: Callable[[], int | None] | None = None
+        self._engine = None
+        self._task_event = None
+        self._task_next: int | None = None
+        self._task_index = 0
+        self._task_origin = 0
         self.task_runs = 0
         self.stray_reads = 0
         self.stray_reads_during_pulse = 0
@@ -34,27 +38,56 @@ class SimBackend(Backend):
     def now(self) -> int:
         return self.machine.now
 
-    def attach_engine(self, manage_steppers: Callable[[], int | None]) -> None:
-        self._manage = manage_steppers
-        first = self.machine.now + self.profile.sim_task_phase_ticks
-        self.machine.schedule(first, lambda: self._task(first), PRIO_TASK, isr=True)
+    def attach_engine(self, engine) -> None:
+        self._engine = engine
+        self._task_index = 0
+        self._task_origin = self.machine.now + self.profile.sim_task_phase_ticks
+        self._schedule_task(0)
 
-    def _task(self, nominal: int) -> None:
+    def _task_time(self, index: int) -> int:
+        return self._task_origin + index * self.profile.fill_period_ticks
+
+    def _schedule_task(self, index: int) -> None:
+        self._task_event = self.machine.schedule(self._task_time(index),
+                                                 lambda: self._task(index), PRIO_TASK, isr=True)
+        self._task_next = index
+
+    def _task(self, index: int) -> None:
         m = self.machine
         p = self.profile
+        engine = self._engine
+        engine.credit_skipped_tasks(index - self._task_index - 1)
+        self._task_index = index
         m.in_task = True
         m.task_offset = p.sim_fill_entry_ticks
         try:
-            if self._manage is not None:
-                self._manage()
+            engine.manage_steppers()
         finally:
             cost = m.task_offset
             m.task_offset = 0
             m.in_task = False
         m.stolen_ticks += cost
         self.task_runs += 1
-        nxt = nominal + p.fill_period_ticks
-        m.schedule(nxt, lambda: self._task(nxt), PRIO_TASK, isr=True)
+        skip = engine.quiescent_tasks()
+        if skip is None:
+            self._task_event = None  # suspended until wake_task()
+            self._task_next = None
+        else:
+            self._schedule_task(index + 1 + skip)
+
+    def wake_task(self) -> None:
+        if getattr(self, "_engine", None) is None:
+            return
+        m = self.machine
+        period = self.profile.fill_period_ticks
+        due = self._task_index + 1
+        if m.now > self._task_time(due):
+            due = self._task_index + 1 + -(-(m.now - self._task_time(self._task_index + 1))
+                                          // period)
+        if self._task_next is not None and self._task_next <= due:
+            return
+        m.cancel(self._task_event)
+        self._schedule_task(due)
 
     def allocate_channel(self, queue: StepperQueue) -> SimChannel:
         ch = SimChannel(self.machine, queue)

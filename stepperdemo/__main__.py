@@ -1,0 +1,7 @@
+"""``python -m stepperdemo`` works like the ``stepperdemo`` entry point."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -1,0 +1,286 @@
+"""The interactive console: StepperDemo on a simulated chip that runs in real time.
+
+A prompt-toolkit session takes lines; every character goes to the StepperDemo
+program as if typed on its serial port.  A background task advances the simulated
+chip to the wall clock (optionally scaled) and prints what the program prints above
+the prompt.  Lines starting with ``/`` are console commands (``/help``).  Ctrl-C
+force-stops every stepper and returns to the prompt; Ctrl-D leaves.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import time
+from pathlib import Path
+from typing import Awaitable, Callable, Iterable
+
+from prompt_toolkit import PromptSession
+from prompt_toolkit.completion import Completer, Completion
+from prompt_toolkit.formatted_text import FormattedText
+from prompt_toolkit.history import FileHistory, InMemoryHistory
+from prompt_toolkit.patch_stdout import patch_stdout
+from prompt_toolkit.shortcuts import print_formatted_text
+
+from fas.arch import PROFILES, get_profile
+from fas.sim import SimBackend
+
+from . import messages as msg
+from .app import StepperDemo
+from .commands import HELP, Mode
+
+META_COMMANDS = {
+    "/help": "console commands",
+    "/quit": "leave the console",
+    "/arch": "show or change the profile",
+    "/stop": "force-stop all steppers",
+    "/time": "simulated time",
+    "/speed": "clock speed-up factor",
+}
+
+Clock = Callable[[], float]
+Sleep = Callable[[float], Awaitable[None]]
+
+
+def default_history_path() -> Path:
+    base = os.environ.get("XDG_STATE_HOME") or os.path.join(Path.home(), ".local", "state")
+    return Path(base) / "stepperdemo" / "history"
+
+
+class RealTimeDriver:
+    """Keeps the simulated chip at the wall clock: sim time = start + scale * elapsed."""
+
+    def __init__(self, app: StepperDemo, scale: float = 1.0, clock: Clock = time.monotonic):
+        self.app = app
+        self.clock = clock
+        self.scale = scale
+        self._wall0 = clock()
+        self._tick0 = app.backend.now()
+
+    def set_scale(self, scale: float) -> None:
+        self._tick0 = self.target_tick()
+        self._wall0 = self.clock()
+        self.scale = scale
+
+    def target_tick(self) -> int:
+        tps = self.app.profile.ticks_per_s
+        return self._tick0 + int((self.clock() - self._wall0) * self.scale * tps)
+
+    def advance(self) -> float | None:
+        """Run the program up to now; seconds until it next needs the CPU (None: idle)."""
+        app = self.app
+        app.run_until(self.target_tick())
+        wake = app.next_wake_tick()
+        if wake is None:
+            return None
+        tps = app.profile.ticks_per_s
+        return max(0.0, (wake - app.backend.now()) / tps / self.scale)
+
+
+class StepperDemoCompleter(Completer):
+    def __init__(self, console: "Console") -> None:
+        self.console = console
+
+    def get_completions(self, document, complete_event) -> Iterable[Completion]:
+        word = document.get_word_before_cursor(WORD=True)
+        if word.startswith("/"):
+            for name, hint in META_COMMANDS.items():
+                if name.startswith(word):
+                    yield Completion(name, -len(word), display_meta=hint)
+            return
+        mode = self.console.app.mode
+        for letters, hint in HELP[mode]:
+            if not word or letters.startswith(word[:1]):
+                yield Completion(letters.split("<")[0], -len(word), display=letters,
+                                 display_meta=hint)
+
+
+class Console:
+    def __init__(self, arch: str = "atmega328p", *, scale: float = 1.0,
+                 history: str | None = None, clock: Clock = time.monotonic,
+                 sleep: Sleep | None = None, input=None, output=None) -> None:
+        self.clock = clock
+        self.sleep = sleep or asyncio.sleep
+        self.scale = scale
+        self._pending = bytearray()
+        self._wake = asyncio.Event()
+        self._input = input
+        self._output = output
+        self.history = self._make_history(history)
+        self.lines: list[str] = []  # everything shown, for tests
+        self.quit = False
+        self._start(arch)
+
+    # -------------------------------------------------------------- setup
+    def _start(self, arch: str) -> None:
+        self.backend = SimBackend(arch)
+        self.app = StepperDemo(self.backend, scripted=False, output=self._collect)
+        self.driver = RealTimeDriver(self.app, self.scale, self.clock)
+
+    def _make_history(self, path: str | None):
+        target = Path(path) if path else default_history_path()
+        try:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.touch(exist_ok=True)
+            return FileHistory(str(target))
+        except OSError as exc:
+            self._note(msg.REPL_HISTORY_FAILED.format(error=exc))
+            return InMemoryHistory()
+
+    # ------------------------------------------------------------- output
+    def _collect(self, data: bytes) -> None:
+        self._pending += data
+
+    def flush(self, final: bool = False) -> None:
+        """Show complete lines the program printed (and a partial line if ``final``)."""
+        data = self._pending
+        end = data.rfind(b"\n")
+        if end < 0 and not final:
+            return
+        cut = len(data) if final else end + 1
+        chunk = bytes(data[:cut])
+        del data[:cut]
+        text = chunk.decode("utf-8", "replace").replace("\r\n", "\n").replace("\r", "")
+        for line in text.split("\n")[:-1] if text.endswith("\n") else text.split("\n"):
+            self._show(line)
+
+    def _show(self, line: str) -> None:
+        self.lines.append(line)
+        style = ""
+        if line.startswith(("ERROR", "Unknown command", "Failed status")):
+            style = "ansired bold"
+        elif line.startswith("test passed"):
+            style = "ansigreen bold"
+        elif line.startswith(("M1: @", "M2: @", "M3: @", "M4: @", "M5: @", "M6: @")):
+            style = "ansibrightblack"
+        print_formatted_text(FormattedText([(style, line)]), output=self._output)
+
+    def _note(self, text: str) -> None:
+        self.lines.append(text)
+        print_formatted_text(FormattedText([("ansicyan", text)]), output=self._output)
+
+    # ------------------------------------------------------------ toolbar
+    def toolbar(self):
+        app = self.app
+        mode = {Mode.NORMAL: "normal", Mode.TEST: "test", Mode.CONFIG: "config"}[app.mode]
+        hints = "  ".join(f"{k}" for k, _ in HELP[app.mode][:12])
+        t = self.backend.now() / self.backend.profile.ticks_per_s
+        running = sum(1 for s in app.steppers if s is not None and s.is_running())
+        return FormattedText([
+            ("bold", f" {self.backend.profile.name} "),
+            ("", f" {mode} mode | M{app.selected + 1} | t={t:.3f}s | running {running} | "),
+            ("italic", f"{hints}  ? usage  /help"),
+        ])
+
+    # ------------------------------------------------------- meta commands
+    def meta(self, line: str) -> None:
+        parts = line.split()
+        cmd, args = parts[0], parts[1:]
+        if cmd == "/help":
+            for text in msg.REPL_HELP.splitlines():
+                self._note(text)
+        elif cmd in ("/quit", "/exit"):
+            self.quit = True
+        elif cmd == "/stop":
+            self.app.force_stop_all()
+            self._note(msg.REPL_STOPPED_ALL)
+        elif cmd == "/time":
+            self._note(msg.REPL_TIME.format(sim=self.backend.now() / self.backend.profile.ticks_per_s,
+                                            scale=self.driver.scale))
+        elif cmd == "/speed":
+            try:
+                factor = float(args[0])
+                if not 0 < factor <= 1000:
+                    raise ValueError
+            except (IndexError, ValueError):
+                self._note(msg.REPL_BAD_ARG.format(cmd=cmd, problem="give a factor 0 < f <= 1000"))
+                return
+            self.scale = factor
+            self.driver.set_scale(factor)
+        elif cmd == "/arch":
+            if not args:
+                p = self.backend.profile
+                self._note(msg.REPL_PROFILE.format(name=p.name, title=p.title,
+                                                   steppers=p.max_steppers, ticks=p.ticks_per_s))
+                return
+            try:
+                get_profile(args[0])
+            except ValueError as exc:
+                self._note(msg.REPL_BAD_ARG.format(cmd=cmd, problem=exc))
+                return
+            self.flush(final=True)
+            self._start(args[0].lower())
+            self._note(msg.REPL_SWITCHED.format(name=args[0].lower()))
+        else:
+            self._note(msg.REPL_UNKNOWN_META.format(cmd=cmd))
+
+    def handle_line(self, line: str) -> None:
+        stripped = line.strip()
+        if stripped.startswith("/"):
+            self.meta(stripped)
+            return
+        self.app.feed(line + "\n")
+        self._wake.set()
+
+    def interrupt(self) -> None:
+        """Ctrl-C: stop all motion at once."""
+        self.app.force_stop_all()
+        self._note(msg.REPL_STOPPED_ALL)
+        self._wake.set()
+
+    # ---------------------------------------------------------- main loop
+    async def ticker(self) -> None:
+        while not self.quit:
+            delay = self.driver.advance()
+            self.flush()
+            if self.app.rx or self.app.input_pending():
+                delay = 0.0 if delay is None else min(delay, 0.001)
+            timeout = 0.25 if delay is None else min(max(delay, 0.0), 0.05)
+            self._wake.clear()
+            try:
+                await asyncio.wait_for(self._wake_or_sleep(timeout), timeout + 1)
+            except asyncio.TimeoutError:  # pragma: no cover - safety net
+                pass
+
+    async def _wake_or_sleep(self, timeout: float) -> None:
+        sleeper = asyncio.ensure_future(self.sleep(timeout))
+        waiter = asyncio.ensure_future(self._wake.wait())
+        done, pending = await asyncio.wait({sleeper, waiter},
+                                           return_when=asyncio.FIRST_COMPLETED)
+        for task in pending:
+            task.cancel()
+
+    async def run(self) -> int:
+        p = self.backend.profile
+        self._note(msg.REPL_WELCOME.format(version=msg.VERSION, profile=p.name,
+                                           mode=f"x{self.scale:g} real time"))
+        session = PromptSession(history=self.history, completer=StepperDemoCompleter(self),
+                                bottom_toolbar=self.toolbar, input=self._input,
+                                output=self._output, complete_while_typing=False)
+        with patch_stdout(raw=True):
+            tick = asyncio.ensure_future(self.ticker())
+            try:
+                while not self.quit:
+                    try:
+                        line = await session.prompt_async("> ")
+                    except KeyboardInterrupt:
+                        self.interrupt()
+                        continue
+                    except EOFError:
+                        break
+                    self.handle_line(line)
+            finally:
+                self.quit = True
+                self._wake.set()
+                await tick
+                self.flush(final=True)
+        self._note(msg.REPL_BYE)
+        return 0
+
+
+def run_console(args) -> int:
+    console = Console(args.arch, scale=args.speed, history=args.history)
+    return asyncio.run(console.run())
+
+
+__all__ = ["Console", "RealTimeDriver", "run_console", "PROFILES"]

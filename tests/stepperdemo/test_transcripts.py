@@ -1,0 +1,168 @@
+"""Scripted runs print what the firmware prints, byte for byte where it matters."""
+
+import re
+
+from stepperdemo import messages as msg
+
+from .helpers import EndReason, after_setup, lines, run, text
+
+STATUS = re.compile(r"^M1: @-?\d+ => 3200 QueueEnd=-?\d+ v=\d+us/\d+ticks (ACC  |RED  |COAST) $")
+
+
+def test_move_3200_transcript():
+    app, reason = run("M1 A1000 V100 R3200 W")
+    assert reason == EndReason.IDLE
+    t = after_setup(app)
+    assert t.startswith("Select stepper 1\r\nset acceleration to 1000\r\n"
+                        "set speed (us/step) to 100\r\nMove steps 3200\r\nOK\n")
+    status = [ln for ln in lines(app) if ln.startswith("M1: @") and "=> 3200" in ln]
+    assert len(status) >= 30  # every 100 ms for 3.5 s
+    assert all(STATUS.match(ln) for ln in status[1:])
+    assert ">> M1: @3200 acceleration  [steps/s^2]=1000 speed [us/step]=100 \r\n" in t
+    assert "   M2: @0 acceleration  [steps/s^2]=0 speed [us/step]=0 \r\n" in t
+    assert app.steppers[0].get_current_position() == 3200
+
+
+def test_start_banner_and_usage():
+    app, _ = run("")
+    t = text(app)
+    assert t.startswith(msg.BANNER_VERSION + "    F_CPU=16000000\r\n"
+                        "    TICKS_PER_S=16000000\r\n    Steppers=2\r\n")
+    assert msg.USAGE_NORMAL in t
+    assert len(msg.USAGE_NORMAL.encode()) == msg.USAGE_NORMAL_LENGTH
+    for letter in "MVHhAaJjUPRfbK@EDNFOSXIWw+-Ttur eQ?c":
+        if letter != " ":
+            assert f"\n    {letter}" in msg.USAGE_NORMAL
+
+
+def test_error_lines():
+    app, _ = run("M1 R100")
+    assert "Move steps 100\r\nERROR speed is not defined\n" in text(app)
+    app, _ = run("M1 V100 R100")
+    assert "ERROR acceleration is not defined\n" in text(app)
+    app, _ = run("M1 A100 V100 u R-10")
+    assert "set unidirectional stepper\nMove steps -10\r\nERROR no direction pin => impossible move\n" in text(app)
+    app, _ = run("V0")
+    assert "set speed (us/step) to 0\r\nERROR invalid value\n" in text(app)
+    app, _ = run("A-5")
+    assert "set acceleration to -5\r\nERROR invalid value\n" in text(app)
+
+
+def test_unknown_commands():
+    app, _ = run("Zzz R12x M9 M1,2 x")
+    t = after_setup(app)
+    for cmd in ("Zzz", "R12x", "M9", "M1,2", "x"):
+        assert f"Unknown command: {cmd}\r\n" in t
+    assert app.rejected == 5
+
+
+def test_very_long_token_is_harmless():
+    token = "A" * 300
+    app, reason = run(f"{token} M1 A1000 V100 R10")
+    assert reason == EndReason.IDLE
+    # the firmware's 255-character command buffer starts over
+    assert "Unknown command: " + "A" * 45 + "\r\n" in text(app)
+    assert app.steppers[0].get_current_position() == 10
+
+
+def test_numbers_parse_like_strtol():
+    app, _ = run("M1 A+1000 V 100 H")
+    t = after_setup(app)
+    assert "set acceleration to 1000\r\n" in t
+    assert "Unknown command: V\r\n" not in t  # 'V' alone is V0: invalid value
+    assert "set speed (us/step) to 0\r\nERROR invalid value\n" in t
+    assert "Unknown command: 100\r\n" in t
+    assert "set speed (steps/s) to 0\r\nERROR invalid value\n" in t
+    app, _ = run("R99999999999")
+    assert "Move steps 2147483647\r\n" in text(app)
+
+
+def test_enable_time_return_codes_print_as_unsigned():
+    app, _ = run("M1 E10 E100000000 E1000")
+    t = after_setup(app)
+    assert "set enable timeto 10\r\nreturncode = 255\r\n" in t
+    assert "set enable timeto 100000000\r\nreturncode = 254\r\n" in t
+    assert "set enable timeto 1000\r\nreturncode = 0\r\n" in t
+
+
+def test_speed_in_hz_switches_status_and_table_units():
+    app, _ = run("M1 H2000 A3000 R1000 W")
+    t = text(app)
+    assert re.search(r"M1: @\d+ => 1000 QueueEnd=\d+ v=\d+mSteps/s", t)
+    assert ">> M1: @1000 acceleration  [steps/s^2]=3000 speed [mstep/s]=2000000 \r\n" in t
+
+
+def test_run_forward_then_stop_and_keep_running():
+    app, reason = run("M1 A6000 V60 f w600 K w300 S W")
+    t = text(app)
+    assert "run forward\nreturncode = 0\r\n" in t
+    assert "600 ms wait\n" in t and t.count("Wait complete\n") == 2
+    assert "Keep running\n" in t and "stop\n" in t
+    assert re.search(r"M1: @\d+ nonstop QueueEnd=\d+ v=", t)
+    assert reason == EndReason.IDLE and not app.any_running()
+
+
+def test_w_on_a_stepper_that_never_stops_ends_at_max_time():
+    app, reason = run("M1 A1000 V100 f W", max_s=5)
+    assert reason == EndReason.MAX_TIME
+    assert app.backend.now() >= 5 * 16_000_000
+
+
+def test_toggles_and_modes():
+    app, _ = run("I Q e r t x c M2 d7,1,500 dc x ?")
+    t = after_setup(app)
+    for piece in ("Toggle stepper info\n", "Toggle usage info\n",
+                  "Toggle erroneous 100 µs ISR block\n",
+                  "Toggle erroneous digitalRead() to step pin \n",
+                  "Enter test mode\n", "Exit to main menu\n", "Enter config mode\n",
+                  "Select stepper 2\r\n", "direction pin set to pin 7\r\n",
+                  "direction pin high counts down\r\n", "delay in us = 500\r\n", "disabled\n",
+                  "erroneous 100 µs ISR BLOCK IS ON\n",
+                  "erroneous digitalRead() to step pin IS ON !!!\n"):
+        assert piece in t, piece
+    assert app.steppers[1].get_direction_pin() == 255
+
+
+def test_r_is_unknown_where_the_firmware_has_no_stray_read():
+    app, _ = run("r", arch="esp32")
+    assert "Unknown command: r\r\n" in text(app)
+
+
+def test_single_steps_and_direct_drive():
+    app, _ = run("M1 + + + - W", record=True)
+    t = after_setup(app)
+    assert t.count("Stepped forward\n") == 3 and "Stepped backward\n" in t
+    assert app.steppers[0].get_current_position() == 2
+    app, _ = run("M1 T", record=True)
+    assert "test direct drive\n" in text(app)
+    assert app.backend.machine.pins.rising(9) == 6400
+    assert app.steppers[0].get_current_position() == 0  # the library saw nothing
+
+
+def test_immediate_stop_sets_zero():
+    app, _ = run("M1 A9000 V120 R4000 w150 X w100 W")
+    t = text(app)
+    assert "150 ms wait\n" in t and "immediate stop\n" in t
+    assert app.steppers[0].get_current_position() == 0
+
+
+def test_set_position_and_move_to():
+    app, _ = run("M1 A3000 V250 R2000 W @500 P0 W")
+    t = text(app)
+    assert "set position 500\r\nMove to position 0\r\nOK\n" in t
+    assert app.steppers[0].get_current_position() == 0
+
+
+def test_firmware_end_stops_one_second_after_the_input():
+    app, reason = run("M1 A1000 V100 f", firmware_end=True)
+    assert reason == EndReason.FIRMWARE_END
+    assert app.backend.now() - app.input_consumed_at == 16_000_000
+    assert app.any_running()
+
+
+def test_other_profiles_run_the_demo():
+    for arch, steppers in (("atmega2560", 3), ("esp32", 6), ("sam_due", 6)):
+        app, reason = run("M2 A10000 V200 R1000 W", arch=arch)
+        assert reason == EndReason.IDLE
+        assert f"    Steppers={steppers}\r\n" in text(app)
+        assert app.steppers[1].get_current_position() == 1000
