@@ -60,7 +60,8 @@ class Profile:
     # --- simulated machine timing model (ticks of this profile) ---
     sim_timer_wrap_ticks: int  # compare timer width: a missed compare waits one wrap
     sim_queue_start_ticks: int  # startQueue(): first compare this far after the call
-    sim_isr_latency_ticks: int  # compare match -> ISR clears the step pin (pulse width)
+    # compare match -> ISR clears the step pin (the pulse width), per channel
+    sim_isr_latency_ticks: tuple[int, ...]
     sim_isr_duration_ticks: int  # one step ISR, for ordering ISRs pending after a block
     sim_fill_entry_ticks: int  # periodic task start -> first command computed
     sim_fill_cmd_ticks: int  # CPU time per generated queue command with several steps
@@ -107,6 +108,10 @@ class Profile:
     def ticks_to_us(self, ticks: int) -> int:
         return ticks // self.ticks_per_us
 
+    def isr_latency_ticks(self, channel: int) -> int:
+        table = self.sim_isr_latency_ticks
+        return table[min(channel, len(table) - 1)]
+
     def max_speed_ticks(self, stepper_count: int) -> int:
         table = self.max_speed_ticks_by_count
         return table[min(max(stepper_count, 1), len(table)) - 1]
@@ -135,7 +140,7 @@ def _avr_uart_byte_ticks(f_cpu: int, baud: int, sim_bits: int = 10) -> int:
 _AVR_TIMING = dict(
     sim_timer_wrap_ticks=65536,
     sim_queue_start_ticks=10,
-    sim_isr_latency_ticks=60,
+    sim_isr_latency_ticks=(61, 73, 73),
     sim_isr_duration_ticks=90,
     sim_fill_entry_ticks=100,
     sim_fill_cmd_ticks=2577,
@@ -244,7 +249,7 @@ ESP32 = Profile(
     debug_led_pin=PIN_UNDEFINED,
     sim_timer_wrap_ticks=0,
     sim_queue_start_ticks=16,
-    sim_isr_latency_ticks=16,
+    sim_isr_latency_ticks=(16,),
     sim_isr_duration_ticks=32,
     sim_fill_entry_ticks=80,
     sim_fill_cmd_ticks=80,
@@ -296,7 +301,7 @@ SAM_DUE = Profile(
     debug_led_pin=PIN_UNDEFINED,
     sim_timer_wrap_ticks=0,
     sim_queue_start_ticks=21,
-    sim_isr_latency_ticks=21 * 2,
+    sim_isr_latency_ticks=(21 * 2,),
     sim_isr_duration_ticks=21 * 3,
     sim_fill_entry_ticks=100,
     sim_fill_cmd_ticks=400,

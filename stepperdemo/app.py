@@ -385,24 +385,30 @@ class StepperDemo:
             return False  # every pass makes a stray read that we count
         if self.simulate_blocked_isr and (self.backend.millis() & 0xFF) < 0x40:
             return False  # every pass blocks interrupts in this window
+        if not self._input_idle():
+            return False
         if self.mode == Mode.TEST and self.test_ongoing:
-            return self._tests_idle()
-        if self.pause_ms > 0 or self.waiting_interactive:
+            return all(slot.test is None or slot.state == TEST_STATE_ERROR or slot.idle
+                       for slot in self.test_slots)
+        return True
+
+    def _input_idle(self) -> bool:
+        """No input character can be taken or processed in the next pass."""
+        if self.pause_ms > 0 or self.waiting_interactive or self._held_by_w():
             return True
         if self.read_ptr != self.write_ptr:
-            return self.scripted and self._held_by_w()
+            return False
         if self.scripted:
             return self.script_pos >= len(self.script) and self.input_consumed_at is not None
         return not self.rx
 
-    def _tests_idle(self) -> bool:
-        """Test sequences may declare that they wait for time or for the machine."""
-        if self.read_ptr != self.write_ptr and not self._held_by_w():
-            return False
-        if self.scripted and self.script_pos < len(self.script) and not self._held_by_w():
-            return False
-        return all(slot.test is None or slot.state == TEST_STATE_ERROR or slot.idle
-                   for slot in self.test_slots)
+    def _needs_machine_events(self) -> bool:
+        """False when only the clock can end the current wait (test sequences that
+        wait for time): then the loop need not look at every interrupt."""
+        if self.mode != Mode.TEST or not self.test_ongoing:
+            return True
+        return any(slot.test is not None and slot.state != TEST_STATE_ERROR
+                   and slot.wake_ms is None for slot in self.test_slots)
 
     def _held_by_w(self) -> bool:
         if self.out_buffer or self.pause_ms:
@@ -420,9 +426,10 @@ class StepperDemo:
         """Earliest tick at which an idle loop could have something to do."""
         b = self.backend
         candidates = []
-        nxt = b.next_event_time()
-        if nxt is not None:
-            candidates.append(nxt)
+        if self._needs_machine_events():
+            nxt = b.next_event_time()
+            if nxt is not None:
+                candidates.append(nxt)
         if self.pause_ms > 0:
             candidates.append(b.tick_at_millis(self.pause_start + self.pause_ms))
         if self.any_running() or (self.mode == Mode.TEST and self.test_ongoing):

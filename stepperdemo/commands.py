@@ -253,7 +253,7 @@ def cmd_enable_delay(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
-@command("w", Mode.NORMAL, hint="hold input for ms", arg="<ms>")
+@command("w", Mode.NORMAL, Mode.TEST, hint="hold input for ms", arg="<ms>")
 def cmd_wait_ms(app: StepperDemo, arg: bytes) -> bool:
     value = _number(arg)
     if value is None:

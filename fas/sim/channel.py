@@ -33,7 +33,7 @@ class SimChannel(QueueChannel):
         self.q = queue
         self.pins = machine.pins
         self.step_pin = queue.step_pin
-        self.lat = p.sim_isr_latency_ticks
+        self.lat = p.isr_latency_ticks(queue.index)
         self.wrap = p.sim_timer_wrap_ticks
         self.start_ticks = p.sim_queue_start_ticks
         self.prio = PRIO_STEP_ISR + queue.index
