@@ -69,8 +69,10 @@ class Profile:
     sim_fill_pause_ticks: int  # ... without steps (a pause)
     sim_task_phase_ticks: int  # first periodic task after power-on
     sim_boot_ticks: int  # reset -> first line of setup()
+    sim_setup_tail_ticks: int  # steppers configured -> first character of the usage text
     sim_loop_pass_ticks: int  # one pass of StepperDemo's loop() without output
     sim_char_ticks: int  # CPU time to hand one character to the serial driver
+    sim_msg_lookup_ticks: int  # StepperDemo's message table scan, per table position
     sim_uart_byte_ticks: int  # one character on the wire (start + 8 data + stop)
     sim_uart_tx_buffer: int  # characters the serial driver holds before blocking
     sim_millis_overflow_ticks: int  # Arduino timer0 overflow period (millis() source)
@@ -147,9 +149,11 @@ _AVR_TIMING = dict(
     sim_fill_single_ticks=2309,
     sim_fill_pause_ticks=1669,
     sim_task_phase_ticks=66416,
-    sim_boot_ticks=28376,
+    sim_boot_ticks=376,
+    sim_setup_tail_ticks=0,
     sim_loop_pass_ticks=400,
     sim_char_ticks=40,
+    sim_msg_lookup_ticks=280,
     sim_uart_byte_ticks=_avr_uart_byte_ticks(16_000_000, 115200, sim_bits=11),
     sim_uart_tx_buffer=64,
     sim_millis_overflow_ticks=64 * 256,
@@ -257,8 +261,10 @@ ESP32 = Profile(
     sim_fill_pause_ticks=40,
     sim_task_phase_ticks=8000,
     sim_boot_ticks=16000,
+    sim_setup_tail_ticks=1600,
     sim_loop_pass_ticks=32,
     sim_char_ticks=4,
+    sim_msg_lookup_ticks=1,
     sim_uart_byte_ticks=(10 * 16_000_000) // 115200,
     sim_uart_tx_buffer=128,
     sim_millis_overflow_ticks=16000,
@@ -309,8 +315,10 @@ SAM_DUE = Profile(
     sim_fill_pause_ticks=200,
     sim_task_phase_ticks=10000,
     sim_boot_ticks=21000,
+    sim_setup_tail_ticks=2100,
     sim_loop_pass_ticks=100,
     sim_char_ticks=10,
+    sim_msg_lookup_ticks=2,
     sim_uart_byte_ticks=(10 * 21_000_000) // 115200,
     sim_uart_tx_buffer=128,
     sim_millis_overflow_ticks=21000,

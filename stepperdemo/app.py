@@ -136,13 +136,23 @@ class StepperDemo:
 
     # ------------------------------------------------------------- output
     def print(self, text: str | bytes) -> None:
-        data = text.encode("utf-8") if isinstance(text, str) else bytes(text)
+        if isinstance(text, str):
+            index = msg.TABLE_INDEX.get(text)
+            if index is not None:
+                self.lookup(index)
+            data = text.encode("utf-8")
+        else:
+            data = bytes(text)
         if not data:
             return
         self.backend.console_write(data)
         self.transcript += data
         if self.output is not None:
             self.output(data)
+
+    def lookup(self, index: int) -> None:
+        """CPU time the firmware spends finding text ``index`` in its message table."""
+        self.backend.app_spend(index * self.profile.sim_msg_lookup_ticks)
 
     def println(self, text: str | bytes = "") -> None:
         if isinstance(text, str):
@@ -176,6 +186,7 @@ class StepperDemo:
             s.set_delay_to_enable(cfg.on_delay_us)
             s.set_delay_to_disable(cfg.off_delay_ms)
             self.steppers[i] = s
+        b.app_spend(self.profile.sim_setup_tail_ticks)
         self.usage()
 
     # --------------------------------------------------------------- input
@@ -270,6 +281,9 @@ class StepperDemo:
             self.print(msg.USAGE_NORMAL)
         elif not self.scripted:
             self.print(msg.USAGE_TEST if self.mode == Mode.TEST else msg.USAGE_CONFIG)
+        else:  # built-in-input firmware: the text is empty, the table is still scanned
+            self.lookup(msg.TABLE_INDEX[msg.USAGE_TEST if self.mode == Mode.TEST
+                                        else msg.USAGE_CONFIG])
         self.stepper_info()
 
     # ------------------------------------------------------------ the loop
