@@ -77,6 +77,8 @@ class Profile:
     sim_uart_tx_buffer: int  # characters the serial driver holds before blocking
     sim_millis_overflow_ticks: int  # Arduino timer0 overflow period (millis() source)
     sim_irq_block_ticks: int = 0  # StepperDemo's `e`: length of one blocked section
+    # Arduino pin -> I/O port register (AVR); pins of one port are written together
+    pin_ports: dict[int, str] = field(default_factory=dict, compare=False)
     notes: str = field(default="", compare=False)
 
     # ---- derived figures -------------------------------------------------
@@ -184,6 +186,8 @@ ATMEGA328P = Profile(
                     off_delay_ms=10),
     ),
     debug_led_pin=13,
+    pin_ports={**{p: "D" for p in range(0, 8)}, **{p: "B" for p in range(8, 14)},
+               **{p: "C" for p in range(14, 20)}},
     **_AVR_TIMING,
 )
 

@@ -237,7 +237,73 @@ REPL_BAD_ARG = "{cmd}: {problem}"
 REPL_BYE = "bye"
 REPL_HISTORY_FAILED = "(history file not usable: {error})"
 
+# stepperdemo run (scenario files)
+RUN_DESCRIPTION = ("Run scenario files (sequences/*.toml) on virtual time and compare "
+                   "the result with their expectations.")
+RUN_TABLE_TITLE = "scenario results"
+RUN_REPORT_TITLE = "conformance report: step times against the reference"
+RUN_BROKEN = "broken scenario file"
+RUN_CHECKS_PASSED = "{n} checks"
+RUN_PROGRESS = "running"
+RUN_SUMMARY = "{total} scenarios, {failed} failed"
+RUN_NO_FILE = "stepperdemo run: no such file or folder: {path}"
+RUN_NOTHING = "stepperdemo run: no scenario files found"
+
 # command line
 CLI_MAX_TIME = ("stopped after {seconds:g} s of simulated time (--max-time): "
                 "a stepper was still running or the input was still held")
 CLI_ERROR = "stepperdemo: {problem}"
+
+# ---------------------------------------------------------------------------------------
+# Watching a run (issue 6): VCD trace, plots, timing report, step CSV.  Console texts,
+# not part of the firmware.  Times in the report are microseconds ("us", as the firmware
+# writes them), exact to 4 decimals.
+VCD_COMMENT = "StepperDemo on a simulated {profile}; pins as in its demo wiring"
+REPORT_TITLE = "timing report: {profile}, {start:.3f} s .. {end:.3f} s of simulated time"
+REPORT_NOT_RECORDED = "timing report: the steps were not recorded"
+REPORT_NO_STEPS = "  no stepper made a step or changed a pin"
+REPORT_NONE = "-"
+REPORT_STEPPER = "M{n}  step pin {step}{pins}"
+REPORT_PIN = ", {role} pin {pin}"
+REPORT_PULSES = ("  pulses       {pulses} (the channel counted {counted}), net {net:+d} steps,"
+                 " position {position} by the pins")
+REPORT_POSITION_DIFFERS = "  position     the library says {library} (set with @ or X?)"
+REPORT_PERIOD = "  step period  min {min} us, median {median} us, max {max} us"
+REPORT_SPEED = ("  peak speed   {speed:.0f} steps/s; acceleration up to {acc:.0f},"
+                " deceleration up to {dec:.0f} steps/s^2")
+REPORT_DEVIATION = ("  vs. plan     {compared} step intervals: {ontime} as planned,"
+                    " {late} late (max +{late_max} us), {early} early (max -{early_max} us)")
+REPORT_DEVIATION_NONE = "  vs. plan     all {compared} step intervals as planned"
+REPORT_HIGH = "  pulse high   min {min} us, max {max} us"
+REPORT_GAPS = "  gaps         {gaps} longer than {factor}x the period before (longest {longest} us)"
+REPORT_GAPS_NONE = "  gaps         none longer than {factor}x the period before"
+REPORT_QUEUE = ("  queue        {motions} motion(s), ran empty {dry}x, underruns {restarts},"
+                " missed compares {missed}")
+REPORT_DIR = "  direction    {changes} change(s), shortest dir-to-step {delay} us"
+REPORT_ENABLE = ("  enable       {enables} activation(s), enable-to-first-step {min} .. {max} us,"
+                 " {disabled} steps with the driver disabled")
+REPORT_IRQ = "interrupts blocked  {windows} window(s), {ms:.1f} ms in total"
+REPORT_STRAY = "stray digitalRead() {reads} of the step pins, {during} during a pulse"
+REPORT_LATE_EDGES = "warning: {n} edges arrived out of order (clamped in the trace)"
+PLOT_EXTRA_MISSING = ("PNG plots need matplotlib, which is not installed: "
+                      "pip install 'stepperdemo[plot]'")
+PLOT_TITLE_POSITION = "position [steps]"
+PLOT_TITLE_SPEED = "speed [steps/s]"
+PLOT_AXIS_TIME = "time [s]"
+PLOT_TERMINAL_HEADER = "M{n} {what}"
+PLOT_NO_DATA = "nothing to plot: no steps recorded"
+OBSERVE_BAD_SIZE = "--plot-size {size!r}: give WIDTHxHEIGHT in pixels, e.g. 1200x800"
+OBSERVE_FILE_ERROR = "cannot write {path}: {error}"
+OBSERVE_WROTE = "wrote {path}"
+REPL_HELP_OBSERVE = """Watching the run:
+  /trace on|off      record the pins from now on (for /vcd, /plot, /report) or stop
+  /vcd FILE          save the recorded pins as a VCD file (GTKWave, PulseView)
+  /plot [FILE.png]   position and speed over time: in the terminal, or as PNG
+  /report            timing report per stepper (periods, deviations, gaps, ...)"""
+REPL_TRACE_ON = "trace on: recording the pins of every stepper from t={t:.3f} s"
+REPL_TRACE_ALREADY = "trace is already on (since t={t:.3f} s)"
+REPL_TRACE_OFF = "trace off: {edges} edges recorded (t={start:.3f} .. {end:.3f} s)"
+REPL_TRACE_NOT_ON = "trace is off"
+REPL_TRACE_STATUS = "trace {state}: {edges} edges so far (from t={start:.3f} s)"
+REPL_TRACE_NOTHING = "nothing recorded yet: /trace on first"
+REPL_VCD_WROTE = "wrote {path}: {edges} edges, t={start:.3f} .. {end:.3f} s"

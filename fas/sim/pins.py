@@ -43,7 +43,7 @@ class EdgeRecorder:
 
 class PinBank:
     __slots__ = ("level", "rise", "fall", "high_since", "high_max", "high_total", "sinks",
-                 "names")
+                 "names", "first_write", "_writes")
 
     def __init__(self) -> None:
         self.level: dict[int, int] = {}
@@ -54,6 +54,9 @@ class PinBank:
         self.high_total: dict[int, int] = {}
         self.sinks: list[EdgeSink] = []
         self.names: dict[int, str] = {}
+        # per pin: (order of its first write among all writes, level written first)
+        self.first_write: dict[int, tuple[int, int]] = {}
+        self._writes = 0
 
     def get(self, pin: int) -> int:
         return self.level.get(pin, 0)
@@ -61,6 +64,9 @@ class PinBank:
     def set(self, pin: int, level: int, t: int) -> bool:
         """Drive ``pin`` to ``level`` at tick ``t``; True if that was an edge."""
         level = 1 if level else 0
+        if pin not in self.first_write:
+            self.first_write[pin] = (self._writes, level)
+        self._writes += 1
         if self.level.get(pin, 0) == level:
             return False
         self.level[pin] = level

@@ -1,0 +1,173 @@
+"""Pin-trace evaluation as FastAccelStepper's own simulator tests do it.
+
+The conformance data counts pin activity from a trace of the chip's port registers:
+per pin the L->H and H->L transitions, the longest and the summed HIGH phase, and
+per stepper the position counted from step edges and the direction level.  The trace
+only knows a pin's level once its port register has been written for the first time;
+that first write sets the starting level and is not counted as a transition (so the
+direction pin that setup() drives HIGH as the very first write of its port shows no
+L->H).  :func:`pin_activity` applies the same rules to the simulated pins so that
+like is compared with like.
+"""
+
+from __future__ import annotations
+
+import bisect
+import gzip
+import statistics
+from dataclasses import dataclass
+from pathlib import Path
+
+from fas.arch import Profile
+from fas.codes import PIN_UNDEFINED
+from fas.sim import SimBackend
+
+LETTERS = "ABCDEF"
+
+
+@dataclass
+class PinActivity:
+    rises: int
+    falls: int
+    high_max_us: float
+    high_total_us: float
+
+
+@dataclass
+class StepperPins:
+    letter: str
+    step: int
+    direction: int
+    enable: int
+
+
+def stepper_pins(profile: Profile) -> list[StepperPins]:
+    out = []
+    for i, cfg in enumerate(profile.demo_steppers):
+        out.append(StepperPins(LETTERS[i], cfg.step, cfg.direction, cfg.enable_low_active))
+    return out
+
+
+def _uncounted_first_edge(backend: SimBackend, pin: int) -> bool:
+    """Was this pin's first write also the first write of its port, and an edge?"""
+    ports = backend.profile.pin_ports
+    pins = backend.machine.pins
+    port = ports.get(pin)
+    if port is None or pin not in pins.first_write:
+        return False
+    order, level = pins.first_write[pin]
+    first_of_port = min((pins.first_write[p][0] for p, q in ports.items()
+                         if q == port and p in pins.first_write), default=order)
+    return order == first_of_port and level == 1
+
+
+def pin_activity(backend: SimBackend, pin: int) -> PinActivity:
+    """Counts for one pin from the recorded edges (needs ``record=True``)."""
+    if backend.recorder is None:
+        raise ValueError("pin_activity needs a backend created with record=True")
+    times, levels = backend.recorder.pin_edges(pin)
+    tps_us = backend.profile.ticks_per_us
+    skip_first = _uncounted_first_edge(backend, pin)
+    rises = falls = 0
+    high_max = high_total = 0.0
+    rise_at = None
+    for i, (t, lv) in enumerate(zip(times, levels)):
+        if i == 0 and skip_first:
+            continue  # the port's initialising write: sets the level, counts nothing
+        if lv:
+            rises += 1
+            rise_at = t
+        else:
+            falls += 1
+            if rise_at is not None:
+                h = (t - rise_at) / tps_us
+                high_total += h
+                high_max = max(high_max, h)
+            rise_at = None
+    return PinActivity(rises, falls, high_max, high_total)
+
+
+def position_from_pins(backend: SimBackend, step_pin: int, dir_pin: int) -> int:
+    """Step edges counted up while the direction pin is HIGH, down while LOW."""
+    times, levels = backend.recorder.pin_edges(step_pin)
+    if dir_pin == PIN_UNDEFINED:
+        return sum(1 for lv in levels if lv)
+    dtimes, dlevels = backend.recorder.pin_edges(dir_pin)
+    pos = 0
+    for t, lv in zip(times, levels):
+        if not lv:
+            continue
+        i = bisect.bisect_right(dtimes, t) - 1
+        level = dlevels[i] if i >= 0 else 0
+        pos += 1 if level else -1
+    return pos
+
+
+def step_times_us(backend: SimBackend, step_pin: int) -> list[float]:
+    tps_us = backend.profile.ticks_per_us
+    times, levels = backend.recorder.pin_edges(step_pin)
+    return [t / tps_us for t, lv in zip(times, levels) if lv]
+
+
+def read_reference_steps(path: Path) -> list[float]:
+    """One rising step edge per line: time in µs since reset, tab, direction level."""
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rt") as fh:
+        return [float(line.split()[0]) for line in fh if line.strip()]
+
+
+@dataclass
+class TimingComparison:
+    steps_ours: int
+    steps_ref: int
+    median_abs_us: float
+    max_abs_us: float
+    worst_index: int
+    duration_ours_us: float
+    duration_ref_us: float
+    offset_us: float  # subtracted from ours before comparing (0 unless aligned)
+    first_dev_us: float = 0.0  # ours - reference at the first step, before any alignment
+
+    @property
+    def duration_ratio(self) -> float:
+        if self.duration_ref_us <= 0:
+            return 1.0
+        return self.duration_ours_us / self.duration_ref_us
+
+
+MOVE_GAP_US = 100_000.0  # a pause this long in the reference separates two moves
+
+
+def move_starts(ref: list[float]) -> list[int]:
+    """Indices of the first step of each move (after a pause of MOVE_GAP_US or more)."""
+    return [0] + [i for i in range(1, len(ref)) if ref[i] - ref[i - 1] >= MOVE_GAP_US]
+
+
+def compare_steps(ours: list[float], ref: list[float], align: str = "absolute"
+                  ) -> TimingComparison:
+    """Per-step time deviation between two lists of rising edges (µs).
+
+    ``align``: "absolute" compares times as they are; "first_step" removes the offset of
+    the first step; "each_move" removes each move's own start offset (moves are
+    separated by pauses of at least MOVE_GAP_US in the reference).
+    """
+    n = min(len(ours), len(ref))
+    offset = 0.0
+    offsets = [0.0] * n
+    if align == "first_step" and n:
+        offset = ours[0] - ref[0]
+        offsets = [offset] * n
+    elif align == "each_move" and n:
+        starts = [i for i in move_starts(ref) if i < n] + [n]
+        for a, b in zip(starts, starts[1:]):
+            o = ours[a] - ref[a]
+            offset = max(offset, abs(o))
+            for i in range(a, b):
+                offsets[i] = o
+    devs = [abs(ours[i] - offsets[i] - ref[i]) for i in range(n)]
+    worst = max(range(n), key=devs.__getitem__) if n else -1
+    dur_o = ours[-1] - ours[0] if len(ours) > 1 else 0.0
+    dur_r = ref[-1] - ref[0] if len(ref) > 1 else 0.0
+    return TimingComparison(len(ours), len(ref), statistics.median(devs) if devs else 0.0,
+                            max(devs) if devs else 0.0, worst, dur_o, dur_r, offset,
+                            ours[0] - ref[0] if n else 0.0)

@@ -1,0 +1,268 @@
+"""``stepperdemo run``: run scenario files on virtual time and check their expectations."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+from fas.sim import SimBackend
+
+from . import messages as msg
+from .app import EndReason, StepperDemo
+from .evaluate import (
+    TimingComparison,
+    compare_steps,
+    pin_activity,
+    position_from_pins,
+    read_reference_steps,
+    step_times_us,
+    stepper_pins,
+)
+from .scenario import Scenario, ScenarioError, collect, load
+
+EXIT_OK = 0
+EXIT_USAGE = 2
+EXIT_FAILED = 4
+
+
+@dataclass
+class Check:
+    what: str
+    expected: object
+    measured: object
+    deviation: float | None
+    tolerance: float | None
+    ok: bool
+
+
+@dataclass
+class ScenarioResult:
+    path: str
+    name: str
+    ok: bool
+    error: str | None = None
+    end: str = ""
+    sim_s: float = 0.0
+    wall_s: float = 0.0
+    checks: list[Check] = field(default_factory=list)
+    timing: dict[str, dict] = field(default_factory=dict)
+    long: bool = False
+
+
+def _num_check(what: str, expected: float, measured: float, tol: float) -> Check:
+    dev = measured - expected
+    return Check(what, expected, measured, dev, tol, abs(dev) <= tol)
+
+
+def run_scenario(sc: Scenario, *, observers=None) -> ScenarioResult:
+    backend = SimBackend(sc.profile, record=True)
+    obs = observers(backend) if observers is not None else None
+    app = StepperDemo(backend, scripted=True)
+    t0 = time.perf_counter()
+    reason = app.run_script(sc.input, firmware_end=(sc.end == "firmware"),
+                            max_ticks=int(sc.max_time_s * backend.profile.ticks_per_s))
+    wall = time.perf_counter() - t0
+    res = ScenarioResult(str(sc.path), sc.name, True, end=reason.name.lower(),
+                         sim_s=backend.now() / backend.profile.ticks_per_s, wall_s=wall,
+                         long=sc.long)
+    if reason == EndReason.MAX_TIME:
+        res.checks.append(Check("end", "input consumed, all idle", "max time reached",
+                                None, None, False))
+    pins = {p.letter: p for p in stepper_pins(backend.profile)}
+    for exp in sc.steppers:
+        p = pins.get(exp.letter)
+        if p is None:
+            res.checks.append(Check(f"{exp.letter}", "a stepper", "profile has none",
+                                    None, None, False))
+            continue
+        v, tol = exp.values, exp.tol
+        if "position" in v:
+            res.checks.append(_num_check(f"{exp.letter} position", v["position"],
+                                         position_from_pins(backend, p.step, p.direction),
+                                         tol.get("position", 0)))
+        step = pin_activity(backend, p.step)
+        if "pulses" in v:
+            res.checks.append(_num_check(f"{exp.letter} pulses", v["pulses"], step.rises,
+                                         tol.get("pulses", 0)))
+        if "step_high_total_us" in v:
+            pct = tol.get("step_high_total_pct", 0)
+            # +1 us: the reference truncates its sum to whole microseconds
+            res.checks.append(_num_check(f"{exp.letter} pulse high total us",
+                                         v["step_high_total_us"], int(step.high_total_us),
+                                         v["step_high_total_us"] * pct / 100 + 1))
+        if "dir_transitions" in v:
+            d = pin_activity(backend, p.direction)
+            for name, e, m in (("rising", v["dir_transitions"][0], d.rises),
+                               ("falling", v["dir_transitions"][1], d.falls)):
+                res.checks.append(_num_check(f"{exp.letter} dir {name}", e, m, tol.get("dir", 0)))
+        en = pin_activity(backend, p.enable) if (
+            "enable_transitions" in v or "enable_high_max_us" in v) else None
+        if "enable_transitions" in v:
+            for name, e, m in (("rising", v["enable_transitions"][0], en.rises),
+                               ("falling", v["enable_transitions"][1], en.falls)):
+                res.checks.append(_num_check(f"{exp.letter} enable {name}", e, m,
+                                             tol.get("enable", 0)))
+        if "enable_high_max_us" in v:
+            res.checks.append(_num_check(f"{exp.letter} enable off time us",
+                                         v["enable_high_max_us"], int(en.high_max_us),
+                                         tol.get("enable_high_us", 0)))
+    if sc.timing is not None and sc.reference is not None:
+        for letter in sc.timing.steppers:
+            ref = read_reference_steps(sc.reference / f"steps_{letter}.tsv.gz")
+            ours = step_times_us(backend, pins[letter].step)
+            cmp = compare_steps(ours, ref, sc.timing.align)
+            res.timing[letter] = _timing_dict(cmp)
+            t = sc.timing
+            if t.median_us is not None:
+                res.checks.append(Check(f"{letter} step time median |dev| us", 0,
+                                        round(cmp.median_abs_us, 3), cmp.median_abs_us,
+                                        t.median_us, cmp.median_abs_us <= t.median_us))
+            if t.max_us is not None:
+                res.checks.append(Check(f"{letter} step time max |dev| us", 0,
+                                        round(cmp.max_abs_us, 3), cmp.max_abs_us, t.max_us,
+                                        cmp.max_abs_us <= t.max_us))
+            if t.start_us is not None:
+                res.checks.append(Check(f"{letter} move start |offset| us", 0,
+                                        round(abs(cmp.offset_us), 3), abs(cmp.offset_us),
+                                        t.start_us, abs(cmp.offset_us) <= t.start_us))
+            if t.duration_ratio is not None:
+                dev = cmp.duration_ratio - 1
+                res.checks.append(Check(f"{letter} duration ratio", 1.0,
+                                        round(cmp.duration_ratio, 6), dev, t.duration_ratio,
+                                        abs(dev) <= t.duration_ratio))
+    transcript = app.transcript.decode("utf-8", "replace")
+    for piece in sc.contains:
+        res.checks.append(Check("transcript contains", piece, piece in transcript, None, None,
+                                piece in transcript))
+    for piece in sc.not_contains:
+        res.checks.append(Check("transcript lacks", piece, piece not in transcript, None, None,
+                                piece not in transcript))
+    if obs is not None:
+        obs.finish(app)
+    res.ok = all(c.ok for c in res.checks)
+    return res
+
+
+def _timing_dict(cmp: TimingComparison) -> dict:
+    d = asdict(cmp)
+    d["duration_ratio"] = cmp.duration_ratio
+    return d
+
+
+def run_file(path: Path, **kw) -> ScenarioResult:
+    try:
+        sc = load(path)
+    except ScenarioError as exc:
+        return ScenarioResult(str(path), path.stem, False, error=str(exc))
+    return run_scenario(sc, **kw)
+
+
+# ---------------------------------------------------------------- output
+def _fmt(v: object) -> str:
+    if isinstance(v, float):
+        return f"{v:.3f}".rstrip("0").rstrip(".")
+    return str(v)
+
+
+def print_results(results: list[ScenarioResult], console, *, verbose: bool) -> None:
+    from rich.table import Table
+    from rich.text import Text
+
+    table = Table(title=msg.RUN_TABLE_TITLE, show_lines=False)
+    for col in ("scenario", "check", "expected", "measured", "deviation", "tolerance", ""):
+        table.add_column(col)
+    for r in results:
+        name = Text(r.name)
+        if r.error:
+            table.add_row(name, msg.RUN_BROKEN, "", "", "", "", Text("ERROR", "red"))
+            continue
+        shown = r.checks if (verbose or not r.ok) else []
+        if not shown:
+            table.add_row(name, msg.RUN_CHECKS_PASSED.format(n=len(r.checks)), "", "", "",
+                          "", Text("ok", "green"))
+        for c in shown:
+            table.add_row(name, Text(c.what), Text(_fmt(c.expected)), Text(_fmt(c.measured)),
+                          "" if c.deviation is None else _fmt(c.deviation),
+                          "" if c.tolerance is None else _fmt(c.tolerance),
+                          Text("ok", "green") if c.ok else Text("FAIL", "bold red"))
+    console.print(table)
+    for r in results:
+        if r.error:
+            console.print(Text(r.error, "red"))
+
+
+def print_report(results: list[ScenarioResult], console) -> None:
+    from rich.table import Table
+    from rich.text import Text
+
+    table = Table(title=msg.RUN_REPORT_TITLE)
+    for col in ("scenario", "stepper", "steps ours/ref", "median |dev| us", "max |dev| us",
+                "duration ratio", "align"):
+        table.add_column(col)
+    for r in results:
+        for letter, t in r.timing.items():
+            table.add_row(Text(r.name), letter, f"{t['steps_ours']}/{t['steps_ref']}",
+                          f"{t['median_abs_us']:.2f}", f"{t['max_abs_us']:.2f}",
+                          f"{t['duration_ratio']:.6f}",
+                          "first step" if t["offset_us"] else "absolute")
+    console.print(table)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="stepperdemo run", description=msg.RUN_DESCRIPTION)
+    ap.add_argument("paths", nargs="+", help="scenario files or folders (searched for *.toml)")
+    ap.add_argument("--json", action="store_true", help="machine-readable results on stdout")
+    ap.add_argument("--report", action="store_true",
+                    help="conformance report: per-step timing against the reference files")
+    ap.add_argument("-v", "--verbose", action="store_true", help="show every check")
+    ap.add_argument("-k", metavar="TEXT", help="only scenarios whose name contains TEXT")
+    ap.add_argument("--skip-long", action="store_true", help="skip scenarios marked long")
+    return ap
+
+
+def main(argv: Sequence[str]) -> int:
+    from rich.console import Console
+    from rich.progress import Progress
+
+    args = build_parser().parse_args(list(argv))
+    files = collect(args.paths)
+    missing = [f for f in files if not f.exists()]
+    for f in missing:
+        print(msg.RUN_NO_FILE.format(path=f), file=sys.stderr)
+    files = [f for f in files if f.exists()]
+    if not files:
+        print(msg.RUN_NOTHING, file=sys.stderr)
+        return EXIT_USAGE
+    err = Console(stderr=True)
+    out = Console(soft_wrap=False) if not args.json else None
+    results: list[ScenarioResult] = []
+    with Progress(console=err, transient=True, disable=args.json or not err.is_terminal) as bar:
+        task = bar.add_task(msg.RUN_PROGRESS, total=len(files))
+        for f in files:
+            bar.update(task, description=f.stem)
+            try:
+                sc = load(f)
+            except ScenarioError as exc:
+                results.append(ScenarioResult(str(f), f.stem, False, error=str(exc)))
+                bar.advance(task)
+                continue
+            if (args.k and args.k not in sc.name) or (args.skip_long and sc.long):
+                bar.advance(task)
+                continue
+            results.append(run_scenario(sc))
+            bar.advance(task)
+    failed = [r for r in results if not r.ok]
+    if args.json:
+        json.dump([asdict(r) for r in results], sys.stdout, indent=1, default=str)
+        sys.stdout.write("\n")
+    else:
+        print_results(results, out, verbose=args.verbose)
+        if args.report:
+            print_report(results, out)
+        out.print(msg.RUN_SUMMARY.format(total=len(results), failed=len(failed)))
+    return EXIT_FAILED if failed or missing else EXIT_OK

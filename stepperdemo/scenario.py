@@ -1,0 +1,176 @@
+"""Scenario files (``sequences/*.toml``): one StepperDemo input line and its expected result.
+
+A broken file raises :class:`ScenarioError` naming the file, the key and the problem;
+the format is documented in the README ("Scenario files").
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fas.arch import PROFILES
+
+STEPPER_KEYS = {
+    "position": int, "pulses": int, "dir_transitions": list, "enable_transitions": list,
+    "enable_high_max_us": (int, float), "step_high_total_us": (int, float),
+}
+TOLERANCE_KEYS = {
+    "position": int, "pulses": int, "dir": int, "enable": int,
+    "enable_high_us": (int, float), "step_high_total_pct": (int, float),
+}
+TIMING_KEYS = {
+    "steppers": list, "align": str, "median_us": (int, float), "max_us": (int, float),
+    "duration_ratio": (int, float), "start_us": (int, float),
+}
+TOP_KEYS = {
+    "name": str, "description": str, "profile": str, "input": str, "end": str,
+    "max_time_s": (int, float), "long": bool, "reference": str, "justification": str,
+    "steppers": dict, "timing": dict, "transcript": dict,
+}
+
+
+class ScenarioError(Exception):
+    def __init__(self, path: Path | str, key: str, problem: str) -> None:
+        super().__init__(f"{path}: {key}: {problem}")
+        self.path = str(path)
+        self.key = key
+        self.problem = problem
+
+
+@dataclass
+class StepperExpectation:
+    letter: str
+    values: dict[str, Any]
+    tol: dict[str, Any]
+
+
+@dataclass
+class TimingExpectation:
+    steppers: list[str]
+    align: str = "absolute"
+    median_us: float | None = None
+    max_us: float | None = None
+    duration_ratio: float | None = None
+    start_us: float | None = None  # bound on the removed start offset(s)
+
+
+@dataclass
+class Scenario:
+    path: Path
+    name: str
+    input: str
+    description: str = ""
+    profile: str = "atmega328p"
+    end: str = "idle"
+    max_time_s: float = 600.0
+    long: bool = False
+    reference: Path | None = None
+    justification: str = ""
+    steppers: list[StepperExpectation] = field(default_factory=list)
+    timing: TimingExpectation | None = None
+    contains: list[str] = field(default_factory=list)
+    not_contains: list[str] = field(default_factory=list)
+
+
+def _check_types(path: Path, prefix: str, table: dict, schema: dict) -> None:
+    for key, value in table.items():
+        if key not in schema:
+            raise ScenarioError(path, prefix + key,
+                                f"unknown key (known: {', '.join(sorted(schema))})")
+        want = schema[key]
+        if isinstance(value, bool) and want is not bool and bool not in (
+                want if isinstance(want, tuple) else (want,)):
+            raise ScenarioError(path, prefix + key, "expected a number, not true/false")
+        if not isinstance(value, want):
+            names = "/".join(t.__name__ for t in (want if isinstance(want, tuple) else (want,)))
+            raise ScenarioError(path, prefix + key, f"expected {names}, got {value!r}")
+
+
+def load(path: Path | str) -> Scenario:
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ScenarioError(path, "-", f"cannot read: {exc.strerror or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(path, "-", f"not valid TOML: {exc}") from None
+    _check_types(path, "", data, TOP_KEYS)
+    for key in ("name", "input"):
+        if key not in data:
+            raise ScenarioError(path, key, "missing (required)")
+    profile = data.get("profile", "atmega328p")
+    if profile not in PROFILES:
+        raise ScenarioError(path, "profile", f"unknown profile {profile!r}")
+    end = data.get("end", "idle")
+    if end not in ("idle", "firmware"):
+        raise ScenarioError(path, "end", "must be 'idle' or 'firmware'")
+    if data.get("max_time_s", 1) <= 0:
+        raise ScenarioError(path, "max_time_s", "must be positive")
+    sc = Scenario(path=path, name=data["name"], input=data["input"],
+                  description=data.get("description", ""), profile=profile, end=end,
+                  max_time_s=float(data.get("max_time_s", 600.0)), long=data.get("long", False),
+                  justification=data.get("justification", ""))
+    if "reference" in data:
+        ref = (path.parent / data["reference"]).resolve()
+        if not ref.is_dir():
+            raise ScenarioError(path, "reference", f"no such folder: {ref}")
+        sc.reference = ref
+    for letter, table in data.get("steppers", {}).items():
+        prefix = f"steppers.{letter}."
+        if letter not in "ABCDEF" or len(letter) != 1:
+            raise ScenarioError(path, f"steppers.{letter}", "stepper names are A..F")
+        if not isinstance(table, dict):
+            raise ScenarioError(path, f"steppers.{letter}", "expected a table")
+        tol = table.get("tol", {})
+        values = {k: v for k, v in table.items() if k != "tol"}
+        _check_types(path, prefix, values, STEPPER_KEYS)
+        if not isinstance(tol, dict):
+            raise ScenarioError(path, prefix + "tol", "expected a table")
+        _check_types(path, prefix + "tol.", tol, TOLERANCE_KEYS)
+        for key in ("dir_transitions", "enable_transitions"):
+            if key in values and (len(values[key]) != 2
+                                  or not all(isinstance(x, int) for x in values[key])):
+                raise ScenarioError(path, prefix + key, "expected [rising, falling] integers")
+        sc.steppers.append(StepperExpectation(letter, values, tol))
+    if "timing" in data:
+        t = data["timing"]
+        _check_types(path, "timing.", t, TIMING_KEYS)
+        if sc.reference is None:
+            raise ScenarioError(path, "timing", "needs 'reference' (the folder of steps files)")
+        align = t.get("align", "absolute")
+        if align not in ("absolute", "first_step", "each_move"):
+            raise ScenarioError(path, "timing.align",
+                                "must be 'absolute', 'first_step' or 'each_move'")
+        steppers = t.get("steppers", ["A"])
+        for letter in steppers:
+            if not (sc.reference / f"steps_{letter}.tsv.gz").exists():
+                raise ScenarioError(path, "timing.steppers",
+                                    f"no steps_{letter}.tsv.gz in {sc.reference}")
+        sc.timing = TimingExpectation(steppers, align, t.get("median_us"), t.get("max_us"),
+                                      t.get("duration_ratio"), t.get("start_us"))
+    if "transcript" in data:
+        tr = data["transcript"]
+        for key, value in tr.items():
+            if key not in ("contains", "not_contains"):
+                raise ScenarioError(path, f"transcript.{key}",
+                                    "unknown key (known: contains, not_contains)")
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise ScenarioError(path, f"transcript.{key}", "expected a list of strings")
+        sc.contains = list(tr.get("contains", []))
+        sc.not_contains = list(tr.get("not_contains", []))
+    return sc
+
+
+def collect(paths: list[str | Path]) -> list[Path]:
+    """Scenario files named directly or found (recursively) in folders, sorted."""
+    files: list[Path] = []
+    for p in paths:
+        p = Path(p)
+        if p.is_dir():
+            files.extend(sorted(p.rglob("*.toml")))
+        else:
+            files.append(p)
+    return files
