@@ -468,7 +468,7 @@ class StepperDemo:
         b = self.backend
         if self._idle():
             wake = self._wake_time()
-            if wake is None or wake >= limit:
+            if wake is None or wake > limit:
                 b.app_wait_until(limit)
                 return
             b.app_wait_until(wake)

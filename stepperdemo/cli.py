@@ -9,6 +9,7 @@ from typing import Sequence
 from fas.arch import PROFILES
 
 from . import messages as msg
+from . import observe, serial_cli
 
 EXIT_OK = 0
 EXIT_TEST_FAILED = 1
@@ -25,11 +26,16 @@ Without arguments: an interactive console (prompt-toolkit) running the simulated
 chip in real time.  With -c: run one line of StepperDemo commands on virtual time
 and print the transcript as the firmware would.
 
+With --port DEVICE: the same, the queue commands executed by a device behind a
+serial port or pty (real time; see docs/serial-protocol.md).
+
 Subcommands:
   stepperdemo run FILES|FOLDERS ...   run scenario files (sequences/*.toml)
+  stepperdemo device --pty            a simulated device on a new pty (--help)
+  stepperdemo relay DEVICE            a fault-injecting relay to a device (--help)
 
 exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
-            3 --max-time reached, 4 a scenario failed (run)"""
+            3 --max-time reached, 4 a scenario failed (run), 5 device lost"""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -53,6 +59,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="interactive: run the simulated clock FACTOR times real time")
     ap.add_argument("--history", metavar="FILE",
                     help="interactive: history file (default: in the user state directory)")
+    observe.add_arguments(ap)  # --vcd --plot --plot-size --report --steps-csv (issue 6)
+    serial_cli.add_arguments(ap)  # --port --baud --watchdog-ms (issue 7)
     return ap
 
 
@@ -66,11 +74,22 @@ def run_scripted(args: argparse.Namespace) -> int:
     def write(data: bytes) -> None:
         out.write(data.replace(b"\r\n", b"\n") if args.lf else data)
 
+    if args.port:  # issue 7: a device behind a serial port executes the queue commands
+        return serial_cli.run_scripted(args, write)
     backend = SimBackend(args.arch)
+    try:  # watching the run (issue 6): --vcd, --plot, --report, --steps-csv
+        observers = observe.from_arguments(backend, args)
+    except OSError as exc:
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        return EXIT_USAGE
     app = StepperDemo(backend, scripted=True, output=write)
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
     reason = app.run_script(args.command, firmware_end=args.firmware_end, max_ticks=max_ticks)
     out.flush()
+    if observers is not None:  # issue 6: close the files, write the plot, print the report
+        for line in observe.finish_arguments(observers, args, app, title=args.command[:100]):
+            print(line)
+        sys.stdout.flush()
     if reason == EndReason.MAX_TIME:
         print(msg.CLI_MAX_TIME.format(seconds=args.max_time), file=sys.stderr)
         return EXIT_MAX_TIME
@@ -85,12 +104,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         if argv[0] == "run":
             from .runner import main as run_main
             return run_main(argv[1:])
+        if argv[0] in ("device", "relay"):  # issue 7
+            return serial_cli.main(argv)
         print(msg.CLI_ERROR.format(problem=f"{argv[0]}: not available in this version"),
               file=sys.stderr)
         return EXIT_USAGE
     args = build_parser().parse_args(argv)
     if args.max_time <= 0:
         print(msg.CLI_ERROR.format(problem="--max-time must be positive"), file=sys.stderr)
+        return EXIT_USAGE
+    problem = observe.check_arguments(args)  # issue 6: e.g. --plot without matplotlib
+    if problem is not None:
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
     if args.command is not None:
         return run_scripted(args)

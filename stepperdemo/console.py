@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import os
+import sys
 import time
 from pathlib import Path
 from typing import Awaitable, Callable, Iterable
@@ -28,6 +29,9 @@ from fas.sim import SimBackend
 from . import messages as msg
 from .app import StepperDemo
 from .commands import HELP, Mode
+from .trace_commands import META_COMMANDS as TRACE_META_COMMANDS
+from .trace_commands import TraceCommands
+from . import serial_cli  # issue 7: --port, /reconnect /link /estop
 
 META_COMMANDS = {
     "/help": "console commands",
@@ -36,6 +40,8 @@ META_COMMANDS = {
     "/stop": "force-stop all steppers",
     "/time": "simulated time",
     "/speed": "clock speed-up factor",
+    **TRACE_META_COMMANDS,  # /trace /vcd /plot /report (issue 6)
+    **serial_cli.META_COMMANDS,  # /reconnect /link /estop (issue 7)
 }
 
 Clock = Callable[[], float]
@@ -73,8 +79,10 @@ class RealTimeDriver:
         wake = app.next_wake_tick()
         if wake is None:
             return None
+        # the chip may be ahead of the wall clock (a long print): wait for the clock
+        wake = max(wake, app.backend.now())
         tps = app.profile.ticks_per_s
-        return max(0.0, (wake - app.backend.now()) / tps / self.scale)
+        return max(0.0, (wake - self.target_tick()) / tps / self.scale)
 
 
 class StepperDemoCompleter(Completer):
@@ -98,7 +106,11 @@ class StepperDemoCompleter(Completer):
 class Console:
     def __init__(self, arch: str = "atmega328p", *, scale: float = 1.0,
                  history: str | None = None, clock: Clock = time.monotonic,
-                 sleep: Sleep | None = None, input=None, output=None) -> None:
+                 sleep: Sleep | None = None, input=None, output=None,
+                 port: str | None = None, baud: int = 115200, watchdog_ms: int = 500,
+                 backend=None) -> None:
+        self.port, self.baud, self.watchdog_ms = port, baud, watchdog_ms  # issue 7
+        self._given_backend = backend  # issue 7: a connected serial backend (tests)
         self.clock = clock
         self.sleep = sleep or asyncio.sleep
         self.scale = scale
@@ -109,11 +121,19 @@ class Console:
         self.history = self._make_history(history)
         self.lines: list[str] = []  # everything shown, for tests
         self.quit = False
+        self.trace = TraceCommands(lambda: self.app)  # /trace /vcd /plot /report (issue 6)
         self._start(arch)
 
     # -------------------------------------------------------------- setup
     def _start(self, arch: str) -> None:
-        self.backend = SimBackend(arch)
+        if self.port or self._given_backend is not None:  # issue 7: a device does the work
+            self.backend = self._given_backend or serial_cli.open_backend(
+                self.port, self.baud, self.watchdog_ms)
+            self.port = self.port or self.backend.port or "?"
+            serial_cli.console_attach(self, self.backend)
+            self.scale = self.backend.clock_hz / self.backend.profile.ticks_per_s
+        else:
+            self.backend = SimBackend(arch)
         self.app = StepperDemo(self.backend, scripted=False, output=self._collect)
         self.driver = RealTimeDriver(self.app, self.scale, self.clock)
 
@@ -177,7 +197,9 @@ class Console:
         parts = line.split()
         cmd, args = parts[0], parts[1:]
         if cmd == "/help":
-            for text in msg.REPL_HELP.splitlines():
+            for text in msg.REPL_HELP.splitlines() + msg.REPL_HELP_OBSERVE.splitlines():
+                self._note(text)
+            for text in msg.REPL_HELP_SERIAL.splitlines() if self.port else ():  # issue 7
                 self._note(text)
         elif cmd in ("/quit", "/exit"):
             self.quit = True
@@ -187,6 +209,11 @@ class Console:
         elif cmd == "/time":
             self._note(msg.REPL_TIME.format(sim=self.backend.now() / self.backend.profile.ticks_per_s,
                                             scale=self.driver.scale))
+        elif self.port and (cmd in ("/speed", "/arch") and args or self.trace.handles(cmd)):
+            self._note(msg.SERIAL_NOT_ON_DEVICE.format(cmd=cmd))  # issue 7
+        elif cmd in serial_cli.META_COMMANDS:  # issue 7: /reconnect /link /estop
+            for text in serial_cli.console_meta(self, cmd, args):
+                self._note(text)
         elif cmd == "/speed":
             try:
                 factor = float(args[0])
@@ -209,8 +236,12 @@ class Console:
                 self._note(msg.REPL_BAD_ARG.format(cmd=cmd, problem=exc))
                 return
             self.flush(final=True)
+            self.trace.stop()  # the recording belongs to the old chip (issue 6)
             self._start(args[0].lower())
             self._note(msg.REPL_SWITCHED.format(name=args[0].lower()))
+        elif self.trace.handles(cmd):  # /trace /vcd /plot /report (issue 6)
+            for text in self.trace.command(cmd, args):
+                self._note(text)
         else:
             self._note(msg.REPL_UNKNOWN_META.format(cmd=cmd))
 
@@ -235,7 +266,8 @@ class Console:
             self.flush()
             if self.app.rx or self.app.input_pending():
                 delay = 0.0 if delay is None else min(delay, 0.001)
-            timeout = 0.25 if delay is None else min(max(delay, 0.0), 0.05)
+            # sleep until the program next needs the CPU; typed input wakes us earlier
+            timeout = 1.0 if delay is None else min(max(delay, 0.0), 1.0)
             self._wake.clear()
             try:
                 await asyncio.wait_for(self._wake_or_sleep(timeout), timeout + 1)
@@ -252,8 +284,12 @@ class Console:
 
     async def run(self) -> int:
         p = self.backend.profile
-        self._note(msg.REPL_WELCOME.format(version=msg.VERSION, profile=p.name,
-                                           mode=f"x{self.scale:g} real time"))
+        if self.port:  # issue 7
+            self._note(msg.REPL_WELCOME_SERIAL.format(version=msg.VERSION, profile=p.name,
+                                                      port=self.port))
+        else:
+            self._note(msg.REPL_WELCOME.format(version=msg.VERSION, profile=p.name,
+                                               mode=f"x{self.scale:g} real time"))
         session = PromptSession(history=self.history, completer=StepperDemoCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
                                 output=self._output, complete_while_typing=False)
@@ -274,12 +310,22 @@ class Console:
                 self._wake.set()
                 await tick
                 self.flush(final=True)
+                self.trace.close()  # issue 6: stop recording, remove the spool file
+                if self.port:  # issue 7: end the device session
+                    self.backend.close()
         self._note(msg.REPL_BYE)
         return 0
 
 
 def run_console(args) -> int:
-    console = Console(args.arch, scale=args.speed, history=args.history)
+    port = getattr(args, "port", None)  # issue 7
+    try:
+        console = Console(args.arch, scale=args.speed, history=args.history, port=port,
+                          baud=getattr(args, "baud", 115200),
+                          watchdog_ms=getattr(args, "watchdog_ms", 500))
+    except ConnectionError as exc:  # issue 7: fas.serial.SerialError
+        print(msg.CLI_SERIAL_CONNECT.format(port=port, error=exc), file=sys.stderr)
+        return serial_cli.EXIT_USAGE
     return asyncio.run(console.run())
 
 

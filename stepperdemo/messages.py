@@ -293,6 +293,10 @@ PLOT_AXIS_TIME = "time [s]"
 PLOT_TERMINAL_HEADER = "M{n} {what}"
 PLOT_NO_DATA = "nothing to plot: no steps recorded"
 OBSERVE_BAD_SIZE = "--plot-size {size!r}: give WIDTHxHEIGHT in pixels, e.g. 1200x800"
+OBSERVE_NOT_INTERACTIVE = ("--vcd, --plot, --report and --steps-csv go with -c (or run); "
+                           "in the console use /trace on, /vcd, /plot and /report")
+OBSERVE_BAD_TIMESCALE = ("--vcd-timescale {timescale!r}: give 1, 10 or 100 and a unit "
+                         "s, ms, us, ns, ps or fs, e.g. '1 us'")
 OBSERVE_FILE_ERROR = "cannot write {path}: {error}"
 OBSERVE_WROTE = "wrote {path}"
 REPL_HELP_OBSERVE = """Watching the run:
@@ -307,3 +311,46 @@ REPL_TRACE_NOT_ON = "trace is off"
 REPL_TRACE_STATUS = "trace {state}: {edges} edges so far (from t={start:.3f} s)"
 REPL_TRACE_NOTHING = "nothing recorded yet: /trace on first"
 REPL_VCD_WROTE = "wrote {path}: {edges} edges, t={start:.3f} .. {end:.3f} s"
+
+# ---------------------------------------------------------------------------------------
+# serial backend (issue 7): stepperdemo --port, stepperdemo device, stepperdemo relay
+REPL_WELCOME_SERIAL = ("stepperdemo {version} on a {profile} device at {port}. "
+                       "Type StepperDemo commands, /help for console commands, Ctrl-D to quit.")
+REPL_HELP_SERIAL = """On a device (--port):
+  /reconnect [port]  open the device again (after it was lost), or another port
+  /link              link statistics (retransmissions, CRC errors) and device counters
+  /estop             emergency stop: the device halts every motion at once"""
+SERIAL_NOT_SERIAL = "{cmd}: only with a device (stepperdemo --port DEVICE)"
+SERIAL_NOT_ON_DEVICE = "{cmd}: not on a device (its profile and clock are its own)"
+SERIAL_LOST = "device lost: {reason} - /reconnect to restore the session"
+SERIAL_RECONNECTED = "device back on {port} ({profile}, session {sessions})"
+SERIAL_RECONNECT_FAILED = "reconnect failed: {error}"
+SERIAL_ESTOP_DONE = "emergency stop: every motion halted, positions taken from the device"
+SERIAL_LINK_STATS = ("link: {frames_sent} frames sent, {retransmissions} retransmitted, "
+                     "{naks} NAKs; {frames_received} received, {crc_errors} CRC errors, "
+                     "{framing_errors} framing errors; rtt {rtt_us} us; "
+                     "{sessions} session(s)")
+SERIAL_DEVICE_STATS = ("device: {entries} commands, {entries_lost} lost, "
+                       "{entries_duplicated} duplicated, {underruns} underruns, "
+                       "{late_starts} late starts; frames {frames_ok} ok, "
+                       "{frames_duplicate} repeated, {frames_out_of_order} out of order, "
+                       "{crc_errors} CRC errors; {watchdog_trips} watchdog stops")
+SERIAL_STEPPER_STATS = "device M{n}: position {position}, {pulses} pulses, {underruns} underruns"
+CLI_SERIAL_LOST = "stepperdemo: device lost: {reason}"
+CLI_SERIAL_CONNECT = "stepperdemo: cannot use the device at {port}: {error}"
+SERIAL_NO_OBSERVE = ("--vcd, --plot, --report and --steps-csv record the simulated pins; "
+                     "with --port the pins are on the device")
+DEVICE_LISTENING = ("device {profile} ({title}) on {path}{link}, clock x{speed:g}; "
+                    "Ctrl-C ends")
+DEVICE_EVENT = "device: {event}"
+DEVICE_STEPPER_STATS = "M{n}: position {position}, {pulses} pulses"
+DEVICE_COUNTERS = ("counters: {entries} commands, {entries_lost} lost, {entries_duplicated} "
+                   "duplicated, {underruns} underruns, {late_starts} late starts, "
+                   "{frames_ok} frames, {frames_duplicate} repeated, {frames_out_of_order} "
+                   "out of order, {crc_errors} CRC errors, {framing_errors} framing errors, "
+                   "{watchdog_trips} watchdog stops, {rejected} rejected")
+RELAY_LISTENING = "relay: host side {path}{link} <-> device {device}; Ctrl-C ends"
+RELAY_DEVICE_GONE = "relay: device side closed ({reason})"
+RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {dropped} dropped, "
+               "{corrupted} corrupted, {duplicated} duplicated")
+# --------------------------------------------------------------- end of serial texts

@@ -33,6 +33,7 @@ class SimBackend(Backend):
         self.task_runs = 0
         self.stray_reads = 0
         self.stray_reads_during_pulse = 0
+        self.channel_listeners: list[Callable[[SimChannel], None]] = []  # observers
 
     # ------------------------------------------------------------ Backend API
     def now(self) -> int:
@@ -92,6 +93,8 @@ class SimBackend(Backend):
     def allocate_channel(self, queue: StepperQueue) -> SimChannel:
         ch = SimChannel(self.machine, queue)
         self.channels.append(ch)
+        for fn in self.channel_listeners:
+            fn(ch)
         return ch
 
     def write_pin(self, pin: int, level: int) -> None:

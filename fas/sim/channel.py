@@ -15,6 +15,7 @@ someone stops the channel.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..backend import PulseCounter, QueueChannel
@@ -24,6 +25,11 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..queue import QueueEntry, StepperQueue
 
 RESTART_TICKS = 10  # the step ISR's "do it immediately" delay after the queue ran dry
+
+# kinds of entry notes (``SimChannel.entry_listeners``): which entry the channel works on
+ENTRY_START = 0  # first entry after the channel was started (a new motion)
+ENTRY_NEXT = 1  # the following entry of the queue
+ENTRY_RESTART = 2  # an entry that arrived after the queue had run dry
 
 
 class SimChannel(QueueChannel):
@@ -59,6 +65,10 @@ class SimChannel(QueueChannel):
         self.starts = 0
         self.dry = 0  # times the queue ran empty under a running channel
         self.missed_compares = 0
+        # observers (traces, timing reports): fn(kind, pulse_index, ticks, steps) when the
+        # channel takes up an entry; pulse_index is the number of its first pulse
+        self.entry_listeners: list[Callable[[int, int, int, int], None]] = []
+        self._noted: QueueEntry | None = None
         if self.irq_sensitive:
             machine.block_listeners.append(self._on_block)
 
@@ -78,6 +88,8 @@ class SimChannel(QueueChannel):
         if e.toggle_dir:
             self._toggle_dir(t)
         self.mode_one = e.steps != 0
+        if self.entry_listeners:
+            self._note_entry(ENTRY_START, e)
         self._program(t + self.start_ticks, e)
 
     def force_stop(self) -> None:
@@ -226,6 +238,7 @@ class SimChannel(QueueChannel):
             return
         e = q.entries[rp % q.queue_len]
         ticks = e.ticks
+        was_dry = self.no_more
         if e.steps > 1:
             e.steps -= 1
             self.mode_one = True
@@ -247,7 +260,42 @@ class SimChannel(QueueChannel):
             if e.toggle_dir:
                 self._toggle_dir(now)
             self.mode_one = e.steps != 0
+        if self.entry_listeners and e is not self._noted:
+            self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)
         self._arm(c + ticks, now, e)
+
+    def _note_entry(self, kind: int, e: QueueEntry) -> None:
+        self._noted = e
+        for fn in self.entry_listeners:
+            fn(kind, self.pulses, e.ticks, e.total_steps)
+
+    def deliver_until(self, now: int) -> None:
+        """Report the complete pulses of the running block up to ``now`` to the pins
+        (a trace that ends wants them before the block does); timing is unchanged."""
+        if not self.batch or now < self.b_c0 + self.lat:
+            return
+        c0, t, n = self.b_c0, self.b_t, self.b_n
+        done = min(n - 1, (now - c0 - self.lat) // t + 1)  # the last stays for _batch_end
+        if done <= 0:
+            return
+        self._emit(c0, self.lat, done, t)
+        if done > self.b_counted:
+            self._count(done - self.b_counted, self.b_entry.dir_level)
+            self.b_counted = 0
+        else:
+            self.b_counted -= done
+        self.b_c0 = c0 + done * t
+        self.b_n = n - done
+        self.b_entry.steps = self.b_n  # as sync() keeps it: steps not yet done
+
+    def undelivered_from(self) -> int | None:
+        """Earliest tick of a step edge that was made (or is due) but is not yet reported
+        to the pin sinks: pulses of a block are reported when the block ends."""
+        if self.batch:
+            return self.b_c0
+        if self.pending_pulse:
+            return self.pending_compare
+        return None
 
     def _next_compare(self, compare: int, now: int) -> int:
         if self.wrap and compare <= now:

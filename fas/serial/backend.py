@@ -1,0 +1,545 @@
+"""The serial backend: the library on this computer, its queue commands on a device.
+
+:class:`SerialBackend` implements :class:`fas.backend.Backend`.  The engine's ramp
+task runs here every ``fill_period_ticks`` of host time; the entries it writes go to
+the device through one :class:`~fas.serial.channel.SerialChannel` per stepper and a
+:class:`~fas.serial.link.HostLink`.  Host time is counted in device ticks (the rate
+the device announces), from the first connection on; a clock offset measured with
+round trips converts it to the device's own counter for synchronized starts.
+
+Losing the device (port error, silence, a device reset or watchdog stop) is reported
+to ``listeners`` once; every stepper is then force-stopped at its last known
+position, time goes on, and :meth:`reconnect` opens a new session.  Reconnected to
+the same device (same boot id), the host takes over the positions the device
+reports, so the axes keep their coordinates.
+"""
+
+from __future__ import annotations
+
+import random
+from typing import Callable
+
+from ..arch import Profile, get_profile
+from ..backend import Backend, PulseCounter
+from ..queue import StepperQueue
+from .channel import SerialChannel
+from .clock import RealClock
+from .link import HostLink, LinkStats
+from .protocol import (
+    D_ESTOP,
+    D_SESSION,
+    D_WATCHDOG,
+    PROTOCOL_VERSION,
+    Bye,
+    DeviceStatus,
+    EmergencyStop,
+    Hello,
+    Ident,
+    Message,
+    Pin,
+    Progress,
+    Start,
+    Status,
+    StatusRequest,
+    SyncReply,
+)
+from .stream import ByteStream, LinkClosed, open_serial
+
+NS_PER_S = 1_000_000_000
+MS = 1_000_000
+DEFAULT_WAIT_LIMIT_S = 3600
+SYNC_SAMPLES = 8
+
+
+class SerialError(ConnectionError):
+    """The device could not be reached or does not fit."""
+
+
+Listener = Callable[[str, str], None]  # (event, text): "lost", "connected"
+
+
+class SerialBackend(Backend):
+    """Drives a device that speaks docs/serial-protocol.md (see module text)."""
+
+    def __init__(self, port: str | ByteStream, *, baud: int = 115200, clock=None,
+                 watchdog_ms: int = 500, report_ms: int = 4, connect_timeout_ms: int = 3000,
+                 start_lead_us: int = 1000, window: int = 16, max_payload: int = 40,
+                 sync_interval_ms: int = 1000,
+                 opener: Callable[[str, int], ByteStream] = open_serial) -> None:
+        self.clock = clock or RealClock()
+        self.opener = opener
+        self.port = port if isinstance(port, str) else None
+        self.baud = baud
+        self.watchdog_ms = watchdog_ms
+        self.report_ms = report_ms
+        self.connect_timeout_ns = connect_timeout_ms * MS
+        self.start_lead_us = start_lead_us
+        self.window = window
+        self.max_payload = max_payload
+        self.sync_interval_ns = sync_interval_ms * MS
+        self.profile: Profile | None = None
+        self.link: HostLink | None = None
+        self.ident: Ident | None = None
+        self.connected = False
+        self.lost_reason: str | None = None
+        self.listeners: list[Listener] = []
+        self.channels: list[SerialChannel] = []
+        self._by_index: dict[int, SerialChannel] = {}
+        self.pins: dict[int, int] = {}  # levels the host wrote (replayed on reconnect)
+        self.device_status: DeviceStatus | None = None
+        self.statuses: dict[int, Status] = {}
+        self._status_count = 0
+        self._ident_wanted: int | None = None
+        self._nonce = 0
+        self._boot_id: int | None = None
+        self._estopping = False
+        self._problem: str | None = None
+        self.sessions = 0
+        self._closed_stats = LinkStats()
+        # host clock: ticks at the device's rate, counted from the first connection
+        self.clock_hz = 16_000_000
+        self._tick_base = 0
+        self._ns_base = self.clock.now_ns()
+        self._offset32 = 0
+        self._sync_samples: list[tuple[int, int]] = []  # (rtt_ticks, offset32)
+        self.rtt_ticks = 0
+        self._next_sync_ns = 0
+        # the periodic ramp task
+        self._engine = None
+        self._task_origin = 0
+        self._task_index = -1
+        self._task_next: int | None = None
+        self._task_tick: int | None = None
+        self.task_runs = 0
+        self.connect(port if not isinstance(port, str) else None)
+
+    # ------------------------------------------------------------------ time
+    def now(self) -> int:
+        return self._tick_base + (self.clock.now_ns() - self._ns_base) * self.clock_hz // NS_PER_S
+
+    def _ns_at(self, tick: int) -> int:
+        return self._ns_base + -(-(tick - self._tick_base) * NS_PER_S // self.clock_hz)
+
+    def _set_rate(self, clock_hz: int) -> None:
+        if clock_hz != self.clock_hz:
+            now_ns = self.clock.now_ns()
+            self._tick_base = self.now()
+            self._ns_base = now_ns
+            self.clock_hz = clock_hz
+
+    def device_tick32(self, host_tick: int) -> int:
+        """The device's 32-bit tick counter at host tick ``host_tick`` (estimated)."""
+        return (host_tick + self._offset32) & 0xFFFFFFFF
+
+    # ------------------------------------------------------------- sessions
+    def connect(self, stream: ByteStream | None = None) -> None:
+        """Open the port (unless ``stream`` is given) and start a session."""
+        if stream is None:
+            if self.port is None:
+                raise SerialError("no port to open")
+            try:
+                stream = self.opener(self.port, self.baud)
+            except LinkClosed as exc:
+                raise SerialError(str(exc)) from exc
+        self._open_session(stream)
+
+    def reconnect(self, port: str | None = None) -> None:
+        """Close what is left of the old line, open ``port`` (default: the same) again."""
+        if port:
+            self.port = port
+        self._drop_link("reconnect")
+        self.connect()
+
+    def _drop_link(self, reason: str) -> None:
+        if self.link is not None:
+            self._account(self.link)
+            self.link.close(reason)
+            self.link = None
+        self.connected = False
+
+    def _account(self, link: HostLink) -> None:
+        total = self._closed_stats
+        for name, value in link.stats.as_dict().items():
+            if name != "rtt_us":
+                setattr(total, name, getattr(total, name) + value)
+
+    def _open_session(self, stream: ByteStream) -> None:
+        link = HostLink(stream, self.clock, window=self.window, max_payload=self.max_payload,
+                        min_rto_ms=10.0, baud=self.baud)
+        link.handler = self._on_messages
+        self.link = link
+        self.connected = False
+        self._nonce = (self._nonce + 1 + random.getrandbits(15)) & 0xFFFF or 1
+        self._ident_wanted = self._nonce
+        self.ident = None
+        statuses_before = self._status_count
+        self.statuses = {}
+        hello = Hello(PROTOCOL_VERSION, self._nonce, self.watchdog_ms, self.report_ms)
+        ok = self._await(lambda: self.ident is not None and self._status_count > statuses_before,
+                         self.connect_timeout_ns, lambda: link.send_unsequenced(hello))
+        if not ok:
+            problem = link.closed or "no answer from the device"
+            self._drop_link(problem)
+            raise SerialError(problem)
+        ident = self.ident
+        try:
+            profile = self._check_ident(ident)
+        except SerialError:
+            self._drop_link("unsuitable device")
+            raise
+        link.window = min(self.window, ident.rx_window)
+        self._set_rate(ident.clock_hz)
+        self._sync_samples.clear()
+        for _ in range(3):
+            self._sync_once(link)
+        adopt = self._boot_id == ident.boot_id and self.profile is not None
+        self.profile = profile
+        self._boot_id = ident.boot_id
+        self.connected = True
+        self.lost_reason = None
+        self._problem = None
+        self.sessions += 1
+        self._next_sync_ns = self.clock.now_ns() + self._sync_interval()
+        for pin, level in self.pins.items():
+            link.send(Pin(pin, level))
+        for ch in self.channels:
+            ch.configure()
+        if adopt and self._engine is not None:
+            for s in self._engine.steppers:
+                st = self.statuses.get(s.queue.index)
+                if st is not None:
+                    s.force_stop_and_new_position(st.position)
+        link.flush()
+        self._notify("connected", f"{profile.name} boot {ident.boot_id:04x}")
+
+    def _check_ident(self, ident: Ident) -> Profile:
+        if ident.version != PROTOCOL_VERSION:
+            raise SerialError(f"device speaks protocol {ident.version}, "
+                              f"host {PROTOCOL_VERSION}")
+        try:
+            p = get_profile(ident.name)
+        except ValueError as exc:
+            raise SerialError(f"device profile {ident.name!r} unknown") from exc
+        if (p.ticks_per_s != ident.ticks_per_s or p.max_steppers != ident.max_steppers
+                or p.queue_len != ident.queue_len
+                or p.ticks_per_s // p.min_cmd_ticks != ident.min_cmd_ticks_div):
+            raise SerialError(f"device figures differ from profile {p.name}")
+        if self.profile is not None and p.name != self.profile.name:
+            raise SerialError(f"device is {p.name}, this session runs {self.profile.name}")
+        return p
+
+    def _sync_interval(self) -> int:
+        return min(self.sync_interval_ns, self.watchdog_ms * MS // 4 or self.sync_interval_ns)
+
+    def _sync_once(self, link: HostLink) -> None:
+        count = len(self._sync_samples)
+        stamp = self.now()
+        self._await(lambda: len(self._sync_samples) > count, 200 * MS,
+                    lambda: link.sync_request(stamp), resend_ns=1000 * MS)
+
+    def _await(self, cond: Callable[[], bool], timeout_ns: int,
+               resend: Callable[[], None] | None = None, resend_ns: int = 200 * MS) -> bool:
+        link = self.link
+        clock = self.clock
+        end = clock.now_ns() + timeout_ns
+        next_resend = clock.now_ns()
+        while True:
+            if cond():
+                return True
+            now = clock.now_ns()
+            if now >= end or link is None or link.closed:
+                return False
+            if resend is not None and now >= next_resend:
+                resend()
+                next_resend = now + resend_ns
+            link.service()
+            if cond():
+                return True
+            link.wait(min(end, next_resend) if resend is not None else end)
+
+    def close(self) -> None:
+        """End the session politely (the device stops without a watchdog trip)."""
+        if self.link is not None and self.connected:
+            self.link.flush()
+            self.link.send_unsequenced(Bye(self._nonce))
+        self._drop_link("closed")
+
+    def _lose(self, reason: str) -> None:
+        if not self.connected:
+            return
+        self._drop_link(reason)
+        self.lost_reason = reason
+        for ch in self.channels:
+            ch.connection_lost()
+        if self._engine is not None:
+            for s in self._engine.steppers:
+                s.force_stop_and_new_position(s.get_current_position())
+        self._notify("lost", reason)
+
+    def _notify(self, event: str, text: str) -> None:
+        for fn in list(self.listeners):
+            fn(event, text)
+
+    # --------------------------------------------------------------- reports
+    def _on_messages(self, msgs: list[Message], acked_mid: int) -> None:
+        for m in msgs:
+            if isinstance(m, Progress):
+                ch = self._by_index.get(m.stepper)
+                if ch is not None:
+                    ch.apply(m, acked_mid)
+            elif isinstance(m, Status):
+                self.statuses[m.stepper] = m
+                ch = self._by_index.get(m.stepper)
+                if ch is not None:
+                    ch.last_status = m
+                    if self.connected:
+                        ch.apply(m.progress(), acked_mid)
+            elif isinstance(m, DeviceStatus):
+                self.device_status = m
+                self._status_count += 1
+                if self.connected and not self._estopping:
+                    if not m.state & D_SESSION:
+                        self._problem = "device was reset"
+                    elif m.state & D_WATCHDOG:
+                        self._problem = "device watchdog stopped the motion"
+                    elif m.state & D_ESTOP:
+                        self._problem = "device in emergency stop"
+            elif isinstance(m, SyncReply):
+                self._sync_sample(m)
+            elif isinstance(m, Ident):
+                if m.nonce == self._ident_wanted:
+                    self.ident = m
+
+    def _sync_sample(self, m: SyncReply) -> None:
+        t1 = self.now()
+        rtt = (t1 - m.stamp) & 0xFFFFFFFF
+        if rtt > self.clock_hz * 5:
+            return
+        t0 = t1 - rtt
+        offset = (m.device_tick - (t0 + rtt // 2)) & 0xFFFFFFFF
+        self._sync_samples.append((rtt, offset))
+        del self._sync_samples[:-SYNC_SAMPLES]
+        best = min(self._sync_samples)
+        self.rtt_ticks, self._offset32 = best
+        if self.link is not None:
+            self.link.stats.sync_samples += 1
+            self.link.rtt_sample(rtt * NS_PER_S // self.clock_hz)
+
+    # ------------------------------------------------------------ the loop
+    def _service(self) -> None:
+        link = self.link
+        if link is None or not self.connected:
+            return
+        link.service()
+        if link.closed:
+            self._lose(link.closed)
+            return
+        if self._problem:
+            self._lose(self._problem)
+            return
+        now_ns = self.clock.now_ns()
+        if now_ns >= self._next_sync_ns:
+            self._next_sync_ns = now_ns + self._sync_interval()
+            link.sync_request(self.now())
+
+    def _run_until(self, tick: int, pred: Callable[[], bool] | None = None) -> bool:
+        """Let host time reach ``tick`` (or ``pred()`` hold): link, ramp task, waiting."""
+        while True:
+            self._service()
+            if self._task_next is not None and self.now() >= self._task_time(self._task_next):
+                self._run_task()
+                continue
+            if pred is not None and pred():
+                return True
+            now = self.now()
+            if now >= tick:
+                return False
+            deadline = tick
+            if self._task_next is not None:
+                deadline = min(deadline, self._task_time(self._task_next))
+            deadline_ns = self._ns_at(deadline)
+            if self.connected and self.link is not None:
+                self.link.wait(min(deadline_ns, self._next_sync_ns))
+            else:
+                self.clock.wait(deadline_ns, None)
+
+    # ---------------------------------------------------------- ramp task
+    def attach_engine(self, engine) -> None:
+        self._engine = engine
+        self._task_origin = self.now() + self.profile.fill_period_ticks
+        self._task_index = -1
+        self._task_next = 0
+
+    def _task_time(self, index: int) -> int:
+        return self._task_origin + index * self.profile.fill_period_ticks
+
+    def _run_task(self) -> None:
+        period = self.profile.fill_period_ticks
+        idx = self._task_next
+        late = (self.now() - self._task_time(idx)) // period
+        if late > 0:
+            idx += late
+        engine = self._engine
+        engine.credit_skipped_tasks(idx - self._task_index - 1)
+        self._task_index = idx
+        self._task_tick = self._task_time(idx)
+        try:
+            engine.manage_steppers()
+        finally:
+            self._task_tick = None
+        self.task_runs += 1
+        skip = engine.quiescent_tasks()
+        self._task_next = None if skip is None else idx + 1 + skip
+        if self.link is not None and self.connected:
+            self.link.flush()
+
+    def wake_task(self) -> None:
+        if self._engine is None:
+            return
+        period = self.profile.fill_period_ticks
+        due = self._task_index + 1
+        now = self.now()
+        if now > self._task_time(due):
+            due += -(-(now - self._task_time(due)) // period)
+        if self._task_next is not None and self._task_next <= due:
+            return
+        self._task_next = due
+
+    # ----------------------------------------------------------- channels
+    def allocate_channel(self, queue: StepperQueue) -> SerialChannel:
+        ch = SerialChannel(self, queue)
+        self.channels.append(ch)
+        self._by_index[queue.index] = ch
+        return ch
+
+    def send(self, msg: Message) -> int:
+        """Queue a sequenced message for the device (0 while disconnected)."""
+        if not self.connected or self.link is None:
+            return 0
+        return self.link.send(msg)
+
+    def send_start(self, index: int) -> int:
+        base = self._task_tick if self._task_tick is not None else self.now()
+        return self.send(Start(1 << index, self.device_tick32(base + self.start_lead_ticks())))
+
+    def start_lead_ticks(self) -> int:
+        """How far ahead a start is scheduled: the way there plus what is queued before."""
+        hz = self.clock_hz
+        lead = self.start_lead_us * hz // 1_000_000
+        backlog = 16 + (self.link.backlog_bytes() if self.link is not None else 0)
+        return lead + self.rtt_ticks // 2 + backlog * 10 * hz // self.baud
+
+    # --------------------------------------------------------------- pins
+    def write_pin(self, pin: int, level: int) -> None:
+        level = 1 if level else 0
+        self.pins.pop(pin, None)
+        self.pins[pin] = level
+        self.send(Pin(pin, level))
+
+    def read_pin(self, pin: int) -> int:
+        for ch in self.channels:
+            if ch.step_pin == pin and not ch.detached:
+                return 0  # pulses are the device's; between them the pin is low
+        return self.pins.get(pin, 0)
+
+    def attach_pulse_counter(self, queue: StepperQueue, counter: PulseCounter) -> bool:
+        if not self.connected:
+            return False
+        self._by_index[queue.index].attach_counter(counter)
+        return True
+
+    def detach_step_pin(self, queue: StepperQueue, detached: bool) -> None:
+        self._by_index[queue.index].set_detached(detached)
+
+    def wait_until(self, predicate: Callable[[], bool], timeout_ticks: int = 0) -> bool:
+        limit = timeout_ticks or DEFAULT_WAIT_LIMIT_S * self.profile.ticks_per_s
+        return self._run_until(self.now() + limit, predicate)
+
+    # ------------------------------------------------------ application host
+    def app_spend(self, ticks: int) -> None:
+        self._run_until(self.now() + ticks)
+
+    def app_wait_until(self, tick: int) -> None:
+        self._run_until(tick)
+
+    def next_event_time(self) -> int | None:
+        """The next ramp task, or the next heartbeat: an idle application must still
+        let the link run before the device's watchdog expires."""
+        times = []
+        if self._task_next is not None:
+            times.append(self._task_time(self._task_next))
+        if self.connected:
+            times.append(self._tick_at_ns(self._next_sync_ns))
+        return min(times) if times else None
+
+    def _tick_at_ns(self, ns: int) -> int:
+        return self._tick_base + -(-(ns - self._ns_base) * self.clock_hz // NS_PER_S)
+
+    # --------------------------------------------------------------- extras
+    def emergency_stop(self) -> bool:
+        """Stop every motion on the device at once, take its positions, open a new session.
+
+        False if the device could not be reached (the session is then lost).
+        """
+        link = self.link
+        if link is None or not self.connected:
+            return False
+        self._estopping = True
+        try:
+            count = self._status_count
+            link.send_unsequenced(EmergencyStop())
+            ok = self._await(lambda: self._status_count > count and self.device_status
+                             is not None and bool(self.device_status.state & D_ESTOP),
+                             self.connect_timeout_ns,
+                             lambda: link.send_unsequenced(EmergencyStop()), 50 * MS)
+            if not ok:
+                self._lose(link.closed or "no answer to the emergency stop")
+                return False
+            stream = link.stream
+            self._account(link)
+            self.connected = False
+            try:
+                self._open_session(stream)
+            except SerialError as exc:
+                self.connected = True  # so that _lose reports it
+                self._lose(str(exc))
+                return False
+            return True
+        finally:
+            self._estopping = False
+
+    def request_status(self, timeout_ms: int = 2000) -> DeviceStatus | None:
+        """Ask the device for its counters and every stepper's status; wait for them."""
+        link = self.link
+        if link is None or not self.connected:
+            return None
+        count = self._status_count
+        ok = self._await(lambda: self._status_count > count, timeout_ms * MS,
+                         lambda: link.send_unsequenced(StatusRequest()), 100 * MS)
+        return self.device_status if ok else None
+
+    def settle(self, timeout_ms: int = 2000) -> bool:
+        """Wait until every message is acknowledged and the device reports all queues idle."""
+        link = self.link
+        if link is None or not self.connected:
+            return False
+
+        def done() -> bool:
+            return link.idle() and not any(ch.is_running() for ch in self.channels)
+
+        return self._run_until(self.now() + timeout_ms * self.clock_hz // 1000, done)
+
+    def link_stats(self) -> dict[str, int]:
+        """Link counters over every session so far (rtt: the current one)."""
+        total = LinkStats(**self._closed_stats.as_dict())
+        if self.link is not None:
+            for name, value in self.link.stats.as_dict().items():
+                if name != "rtt_us":
+                    setattr(total, name, getattr(total, name) + value)
+            total.rtt_us = self.link.stats.rtt_us
+        out = total.as_dict()
+        out["sessions"] = self.sessions
+        return out
+
+    def device_counters(self) -> dict[str, int]:
+        return self.device_status.counters() if self.device_status is not None else {}

@@ -1,0 +1,167 @@
+"""The host's mirror of one device queue.
+
+The library writes entries into its :class:`~fas.queue.StepperQueue` as on any
+backend; this channel sends each one to the device and follows the device's
+progress reports.  The mirror is *conservative*: an entry counts as executed only
+once the device has said so, and a started queue counts as running until a report
+that already reflects the start says it stopped.  So the host never believes the
+device queue emptier or idler than it is - the free slots it sees are the device's
+flow control, and a direction pin is never set while steps are still pending.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ..backend import PulseCounter, QueueChannel
+from ..queue import i32
+from .protocol import (
+    Config,
+    Detach,
+    DirPin,
+    P_HAS_PCNT,
+    Entry,
+    ForceStop,
+    PcntAttach,
+    PcntClear,
+    Progress,
+    SetEndPos,
+)
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..queue import StepperQueue
+    from .backend import SerialBackend
+
+
+class SerialChannel(QueueChannel):
+    def __init__(self, backend: SerialBackend, queue: StepperQueue) -> None:
+        self.b = backend
+        self.q = queue
+        self.index = queue.index
+        self.step_pin = queue.step_pin
+        self.dev_running = False  # as last reported
+        self.pending_start_mid = 0  # a start the device has not reported on yet
+        self.epoch_mid = 0  # reports from before this message (a stop) are stale
+        self.sent_dir_pin = queue.dir_pin
+        self.dev_end_pos: int | None = queue.queue_end_pos  # the device's queue end
+        self.detached = False
+        self.pulse_counter: PulseCounter | None = None
+        self.pcnt_epoch_mid = 0
+        self.bad_reports = 0
+        self.last_status = None  # the last Status message (position, pulses, underruns)
+        self.configure()
+
+    # ------------------------------------------------------------ session
+    def configure(self) -> None:
+        """Tell the device this queue, as it stands (new channel or new session)."""
+        q = self.q
+        self.pending_start_mid = 0
+        self.dev_running = False
+        self.sent_dir_pin = q.dir_pin
+        self.dev_end_pos = q.queue_end_pos
+        mid = self.b.send(Config(self.index, self.step_pin, q.dir_pin & 0xFF,
+                                 q.next_write_idx, q.queue_end_pos))
+        self.epoch_mid = mid
+        if self.detached:
+            self.b.send(Detach(self.index, 1))
+        if self.pulse_counter is not None:
+            c = self.pulse_counter
+            self.pcnt_epoch_mid = self.b.send(PcntAttach(self.index, c.low, c.high,
+                                                         int(c.dir_high_counts_up), c.value))
+
+    def connection_lost(self) -> None:
+        self.pending_start_mid = 0
+        self.dev_running = False
+
+    # ---------------------------------------------------------- interface
+    def is_running(self) -> bool:
+        return self.dev_running or self.pending_start_mid != 0
+
+    def start(self) -> None:
+        q = self.q
+        if self.is_running() or q.read_idx == q.next_write_idx or not self.b.connected:
+            return
+        self.pending_start_mid = self.b.send_start(self.index)
+
+    def force_stop(self) -> None:
+        self.pending_start_mid = 0
+        self.dev_running = False
+        if self.b.connected:
+            self.epoch_mid = self.b.send(ForceStop(self.index, self.q.next_write_idx))
+        # the device calls its stop point by the pulses made; the host names it next
+        self.dev_end_pos = None
+
+    def sync(self) -> None:
+        q = self.q
+        if (q.read_idx == q.next_write_idx and q.queue_end_pos != self.dev_end_pos
+                and self.b.connected):
+            self.b.send(SetEndPos(self.index, q.queue_end_pos))
+            self.dev_end_pos = q.queue_end_pos
+
+    def ready_for_commands(self) -> bool:
+        return self.b.connected
+
+    def entry_added(self) -> None:
+        q = self.q
+        if not self.b.connected:
+            return
+        w = (q.next_write_idx - 1) & 0xFF
+        e = q.entries[w % q.queue_len]
+        if q.dir_pin != self.sent_dir_pin:
+            self.b.send(DirPin(self.index, q.dir_pin & 0xFF))
+            self.sent_dir_pin = q.dir_pin
+        before = i32(e.end_pos - e.total_steps if e.count_up else e.end_pos + e.total_steps)
+        if before != self.dev_end_pos:
+            self.b.send(SetEndPos(self.index, before))
+        self.b.send(Entry(self.index, w, e.total_steps, e.ticks, e.toggle_dir, e.dir_level,
+                          e.count_up, self.is_running()))
+        self.dev_end_pos = e.end_pos
+
+    def positions_shifted(self, delta: int) -> None:
+        if self.b.connected:
+            self.b.send(SetEndPos(self.index, self.q.queue_end_pos))
+            self.dev_end_pos = self.q.queue_end_pos
+
+    # --------------------------------------------------------- extras
+    def set_detached(self, detached: bool) -> None:
+        self.detached = detached
+        if self.b.connected:
+            self.b.send(Detach(self.index, int(detached)))
+
+    def attach_counter(self, counter: PulseCounter) -> None:
+        self.pulse_counter = counter
+        plain_clear = counter.clear
+
+        def clear() -> None:
+            plain_clear()
+            if self.b.connected:
+                self.pcnt_epoch_mid = self.b.send(PcntClear(self.index))
+
+        counter.clear = clear  # the device's counter must be cleared, too
+        if self.b.connected:
+            self.pcnt_epoch_mid = self.b.send(PcntAttach(
+                self.index, counter.low, counter.high, int(counter.dir_high_counts_up),
+                counter.value))
+
+    # --------------------------------------------------------- reports
+    def apply(self, rep: Progress, acked_mid: int) -> None:
+        """A progress report that reflects every message up to ``acked_mid``."""
+        if acked_mid < self.epoch_mid:
+            return  # from before a stop or a new configuration
+        q = self.q
+        fill = (q.next_write_idx - q.read_idx) & 0xFF
+        advance = (rep.index - q.read_idx) & 0xFF
+        if advance > fill:
+            self.bad_reports += 1
+            return
+        q.read_idx = rep.index
+        if rep.has_entry and rep.index != q.next_write_idx:
+            e = q.entries[rep.index % q.queue_len]
+            if rep.steps_left <= e.total_steps:
+                e.steps = rep.steps_left
+        self.dev_running = rep.running
+        if self.pending_start_mid and acked_mid >= self.pending_start_mid:
+            self.pending_start_mid = 0
+        if (self.pulse_counter is not None and rep.flags & P_HAS_PCNT
+                and acked_mid >= self.pcnt_epoch_mid):
+            self.pulse_counter.value = rep.pcnt

@@ -1,0 +1,596 @@
+"""A device that speaks the serial protocol and executes on the simulated machine.
+
+It is what a board's firmware does, on this computer: the host's queue entries land
+in real command queues, and a tick-exact model of the step timer
+(:class:`fas.sim.channel.SimChannel`, the AVR compare-interrupt model) executes them.
+The device reports queue progress, obeys stops and pin writes, and stops every motion
+when the host has been silent longer than its watchdog time.
+
+Time: the machine's tick counter is the device clock, advanced to ``clock`` - the
+wall clock (optionally sped up) when serving a pty, or a
+:class:`~fas.serial.clock.VirtualClock` in tests, where the device is a peer.
+"""
+
+from __future__ import annotations
+
+import random
+from typing import Callable
+
+from ..arch import Profile, get_profile
+from ..backend import PulseCounter
+from ..queue import StepperQueue, i32
+from ..sim.channel import SimChannel
+from ..sim.machine import PRIO_PLAIN, Event
+from ..sim.pins import EdgeRecorder
+from ..sim.backend import SimBackend
+from .clock import RealClock
+from .protocol import (
+    D_ESTOP,
+    D_SESSION,
+    D_WATCHDOG,
+    DEVICE_COUNTERS,
+    MAX_PAYLOAD,
+    P_DETACHED,
+    P_HAS_ENTRY,
+    P_HAS_PCNT,
+    P_RUNNING,
+    P_START_PENDING,
+    PROTOCOL_VERSION,
+    UNSEQUENCED,
+    Bye,
+    Config,
+    Detach,
+    DeviceStatus,
+    DirPin,
+    EmergencyStop,
+    Entry,
+    ForceStop,
+    FrameDecoder,
+    Hello,
+    Ident,
+    Message,
+    Nak,
+    PcntAttach,
+    PcntClear,
+    Pin,
+    Progress,
+    ProtocolError,
+    SetEndPos,
+    Start,
+    Status,
+    StatusRequest,
+    SyncReply,
+    SyncRequest,
+    decode_messages,
+    encode_frame,
+    pack_messages,
+    seq_diff,
+    tick_diff32,
+)
+from .stream import ByteStream, LinkClosed
+
+NS_PER_S = 1_000_000_000
+DEFAULT_WATCHDOG_MS = 500
+DEFAULT_REPORT_MS = 4
+DEFAULT_STATUS_MS = 100
+RX_WINDOW = 16
+
+
+class DeviceChannel(SimChannel):
+    """The simulated step timer, plus the position its emitted pulses amount to."""
+
+    def __init__(self, machine, queue: StepperQueue) -> None:
+        super().__init__(machine, queue)
+        self.pulse_pos = 0  # exact position from the pulses made (survives any stop)
+        self.underruns = 0
+
+    def _emit(self, first: int, width: int, count: int, period: int = 1) -> None:
+        q = self.q
+        e = q.entries[q.read_idx % q.queue_len]
+        self.pulse_pos = i32(self.pulse_pos + (count if e.count_up else -count))
+        super()._emit(first, width, count, period)
+
+
+class Device:
+    """The protocol's device side on a :class:`SimBackend` machine (see module text)."""
+
+    def __init__(self, stream: ByteStream | None, profile: Profile | str | None = None,
+                 clock=None, *, watchdog_ms: int = DEFAULT_WATCHDOG_MS,
+                 status_ms: int = DEFAULT_STATUS_MS, record: bool = False,
+                 boot_id: int | None = None) -> None:
+        self.profile = get_profile(profile)
+        p = self.profile
+        self.clock = clock or RealClock()
+        self.sim = SimBackend(p)  # the machine and its pins; no engine runs here
+        self.machine = self.sim.machine
+        self.recorder: EdgeRecorder | None = None
+        if record:
+            self.recorder = EdgeRecorder()
+            self.machine.pins.sinks.append(self.recorder)
+        self.tps = p.ticks_per_s
+        self.boot_ns = self.clock.now_ns()
+        self.boot_id = random.getrandbits(16) if boot_id is None else boot_id & 0xFFFF
+        self.default_watchdog_ms = watchdog_ms
+        self.watchdog_ticks = self._ms_ticks(watchdog_ms)
+        self.report_ticks = self._ms_ticks(DEFAULT_REPORT_MS)
+        self.status_ticks = self._ms_ticks(status_ms)
+        self.queues: dict[int, StepperQueue] = {}
+        self.start_events: dict[int, Event] = {}
+        self.decoder = FrameDecoder()
+        self.expected = 0
+        self.nonce: int | None = None
+        self.session = False
+        self.watchdog_tripped = False
+        self.estopped = False
+        self.halt_tick: int | None = None
+        self.last_rx_tick = 0
+        self.out: list[bytes] = []
+        self.ack_due = False
+        self.last_progress: dict[int, tuple[int, int, int, int]] = {}
+        self.next_report_tick = 0
+        self.next_status_tick = 0
+        self._nak_expected: int | None = None
+        self._nak_high = 0
+        self.counters = dict.fromkeys(DEVICE_COUNTERS, 0)
+        self.listeners: list[Callable[[str], None]] = []  # session events, for the CLI
+        self.stream: ByteStream | None = None
+        self.in_wires: list = []
+        self.attach(stream)
+
+    # ---------------------------------------------------------------- clock
+    def _ms_ticks(self, ms: int) -> int:
+        return ms * self.tps // 1000
+
+    def tick_at(self, now_ns: int) -> int:
+        return (now_ns - self.boot_ns) * self.tps // NS_PER_S
+
+    def ns_at(self, tick: int) -> int:
+        return self.boot_ns + -(-tick * NS_PER_S // self.tps)
+
+    @property
+    def now(self) -> int:
+        return self.machine.now
+
+    @property
+    def clock_hz(self) -> int:
+        return int(self.tps * self.clock.scale)
+
+    # ----------------------------------------------------------- the line
+    def attach(self, stream: ByteStream | None) -> None:
+        """Plug a line in (``None``: unplugged; the machine keeps running)."""
+        self.stream = stream
+        self.decoder.reset()
+        self.in_wires = [stream.rx_wire] if stream is not None and stream.rx_wire else []
+
+    def unplug(self) -> None:
+        if self.stream is not None:
+            if self.stream.rx_wire is not None:
+                self.stream.rx_wire.drain()
+            self.stream.close()
+        self.attach(None)
+
+    def poll(self) -> None:
+        """Take every byte that arrived and act on the frames in it."""
+        if self.stream is None:
+            return
+        try:
+            data = self.stream.read_available()
+        except LinkClosed:
+            self.attach(None)
+            return
+        if not data:
+            return
+        for seq, payload in self.decoder.feed(data):
+            self._on_frame(seq, payload)
+        self.counters["crc_errors"] = self.decoder.crc_errors
+        self.counters["framing_errors"] = self.decoder.framing_errors
+
+    def flush(self) -> bool:
+        """Send what is queued (and a bare acknowledgement if one is due)."""
+        if not self.out and not self.ack_due:
+            return False
+        if self.ack_due:
+            self._changed_progress(only_changed=True)
+        payloads = pack_messages(self.out, MAX_PAYLOAD) or [b""]
+        self.out = []
+        self.ack_due = False
+        if self.stream is None:
+            return False
+        wrote = False
+        for payload in payloads:
+            try:
+                n = self.stream.write(encode_frame(self.expected, payload))
+            except LinkClosed:
+                self.attach(None)
+                return wrote
+            wrote = wrote or n > 0
+        self.counters["tx_dropped"] = getattr(self.stream, "tx_dropped", 0)
+        return wrote
+
+    # --------------------------------------------------------------- time
+    def advance(self, now_ns: int) -> None:
+        """Run the machine up to ``now_ns``; stop on host silence; queue due reports."""
+        t = self.tick_at(now_ns)
+        m = self.machine
+        deadline = self._watchdog_deadline()
+        if deadline is not None and deadline <= t:
+            if deadline > m.now:
+                m.run_until(deadline)
+            self._trip_watchdog()
+        if t > m.now:
+            m.run_until(t)
+        if self.session and t >= self.next_report_tick:
+            self.next_report_tick = t - (t % self.report_ticks) + self.report_ticks
+            self._changed_progress(only_changed=False)
+        if self.session and t >= self.next_status_tick:
+            self.next_status_tick = t + self.status_ticks
+            self._queue_status()
+
+    def next_ns(self) -> int | None:
+        times = []
+        t = self.machine.next_event_time()
+        if t is not None:
+            times.append(t)
+        if self.session:
+            times.append(self.next_status_tick)
+            if self._reporting():
+                times.append(self.next_report_tick)
+            deadline = self._watchdog_deadline()
+            if deadline is not None:
+                times.append(deadline)
+        if not times:
+            return None
+        return self.ns_at(max(min(times), self.machine.now + 1))
+
+    def _watchdog_deadline(self) -> int | None:
+        if not self.session or self.watchdog_tripped or not self.watchdog_ticks:
+            return None
+        return self.last_rx_tick + self.watchdog_ticks + 1
+
+    def _reporting(self) -> bool:
+        for idx, q in self.queues.items():
+            if q.channel.running or idx in self.start_events:
+                return True
+            if self.last_progress.get(idx) != self._progress_key(idx, q):
+                return True
+        return False
+
+    def serve(self, stop: Callable[[], bool] = lambda: False) -> None:
+        """Run in real time until ``stop()`` (the device's main loop on a pty)."""
+        clock = self.clock
+        while not stop():
+            self.advance(clock.now_ns())
+            self.flush()
+            nxt = self.next_ns()
+            if nxt is not None:
+                nxt = min(nxt, clock.now_ns() + int(0.2 * NS_PER_S * clock.scale))
+            clock.wait(nxt, self.stream)
+            self.advance(clock.now_ns())
+            self.poll()
+            self.flush()
+
+    # ------------------------------------------------------------- frames
+    def _on_frame(self, seq: int, payload: bytes) -> None:
+        try:
+            msgs = decode_messages(payload)
+        except ProtocolError:
+            self.counters["framing_errors"] += 1
+            return
+        if self.session:
+            self.last_rx_tick = self.machine.now
+        if seq & UNSEQUENCED:
+            for m in msgs:
+                self._unsequenced(m)
+            return
+        if not self.session:
+            self.counters["rejected"] += 1
+            self.out.append(self._device_status().encode())
+            return
+        d = seq_diff(seq, self.expected)
+        self.ack_due = True
+        if d < 0:
+            self.counters["frames_duplicate"] += 1
+            return
+        if d > 0:
+            self.counters["frames_out_of_order"] += 1
+            # one NAK per gap and round: again only once the host has begun resending
+            if self._nak_expected != self.expected or seq_diff(seq, self._nak_high) <= 0:
+                self._nak_expected = self.expected
+                self.out.append(Nak(self.expected).encode())
+            self._nak_high = seq
+            return
+        self.expected = (self.expected + 1) & 0x7F
+        self.counters["frames_ok"] += 1
+        for m in msgs:
+            self._sequenced(m)
+
+    def _unsequenced(self, m: Message) -> None:
+        if isinstance(m, Hello):
+            self._hello(m)
+        elif isinstance(m, SyncRequest):
+            self.out.append(SyncReply(m.stamp, self.machine.now & 0xFFFFFFFF).encode())
+        elif isinstance(m, StatusRequest):
+            self._queue_status()
+        elif isinstance(m, Bye):
+            if self.session and m.nonce == self.nonce:
+                self._halt()
+                self.session = False
+                self.nonce = None
+                self._notify("session closed")
+        elif isinstance(m, EmergencyStop):
+            if not self.estopped:
+                self.estopped = True
+                self._halt()
+                self._notify("emergency stop")
+            self._queue_status()
+        else:
+            self.counters["rejected"] += 1
+
+    def _hello(self, m: Hello) -> None:
+        p = self.profile
+        new_session = m.nonce != self.nonce or not self.session
+        watchdog_ms = (m.watchdog_ms or self.default_watchdog_ms) if new_session \
+            else self.watchdog_ticks * 1000 // self.tps
+        self.out.append(Ident(PROTOCOL_VERSION, m.nonce, self.boot_id, p.ticks_per_s,
+                              self.clock_hz, p.max_steppers, p.queue_len, RX_WINDOW,
+                              watchdog_ms, p.ticks_per_s // p.min_cmd_ticks, p.name).encode())
+        # the state as the new host finds it (positions, a watchdog stop, counters) ...
+        self._queue_status()
+        if new_session:
+            # ... then a fresh session: motion stopped, counters from zero
+            self.counters = dict.fromkeys(DEVICE_COUNTERS, 0)
+            self.decoder.crc_errors = self.decoder.framing_errors = 0
+            self.nonce = m.nonce
+            self._halt()
+            self.session = True
+            self.watchdog_tripped = False
+            self.estopped = False
+            self.expected = 0
+            self._nak_expected = None
+            self.watchdog_ticks = self._ms_ticks(m.watchdog_ms or self.default_watchdog_ms)
+            if m.report_ms:
+                self.report_ticks = self._ms_ticks(m.report_ms)
+            self.last_rx_tick = self.machine.now
+            self.next_status_tick = self.machine.now + self.status_ticks
+            self._notify("session opened")
+
+    def _sequenced(self, m: Message) -> None:
+        if isinstance(m, Entry):
+            self._entry(m)
+        elif isinstance(m, Start):
+            self._start(m)
+        elif isinstance(m, Pin):
+            self.machine.pins.set(m.pin, m.level, self.machine.now)
+        elif isinstance(m, ForceStop):
+            self._force_stop(m)
+        elif isinstance(m, SetEndPos):
+            self._set_end_pos(m)
+        elif isinstance(m, Config):
+            self._config(m)
+        elif isinstance(m, DirPin):
+            q = self._queue(m.stepper)
+            if q is not None:
+                q.dir_pin = m.dir_pin
+        elif isinstance(m, Detach):
+            q = self._queue(m.stepper)
+            if q is not None:
+                q.channel.detached = bool(m.detached)
+        elif isinstance(m, PcntAttach):
+            q = self._queue(m.stepper)
+            if q is not None:
+                q.channel.sync()
+                counter = PulseCounter(m.low, m.high, bool(m.dir_high_counts_up))
+                counter.value = m.value
+                q.channel.pulse_counter = counter
+        elif isinstance(m, PcntClear):
+            q = self._queue(m.stepper)
+            if q is not None and q.channel.pulse_counter is not None:
+                q.channel.sync()
+                q.channel.pulse_counter.clear()
+        else:
+            self.counters["rejected"] += 1
+
+    # ------------------------------------------------------------ queues
+    def allocate_channel(self, queue: StepperQueue) -> DeviceChannel:
+        """(StepperQueue calls this while it is built: the device is its backend.)"""
+        ch = DeviceChannel(self.machine, queue)
+        self.sim.channels.append(ch)
+        return ch
+
+    def _queue(self, stepper: int) -> StepperQueue | None:
+        q = self.queues.get(stepper)
+        if q is None:
+            self.counters["rejected"] += 1
+        return q
+
+    def _config(self, m: Config) -> None:
+        if m.stepper >= self.profile.max_steppers:
+            self.counters["rejected"] += 1
+            return
+        q = self.queues.get(m.stepper)
+        if q is not None and q.step_pin != m.step_pin:
+            self._stop_queue(m.stepper, q)
+            self.sim.channels.remove(q.channel)
+            q = None
+        if q is None:
+            q = StepperQueue(m.stepper, self.profile, self, m.step_pin)
+            self.queues[m.stepper] = q
+        else:
+            self._stop_queue(m.stepper, q)
+        q.dir_pin = m.dir_pin
+        q.channel.pulses = 0
+        q.channel.underruns = 0
+        q.read_idx = q.next_write_idx = m.index & 0xFF
+        q.queue_end_pos = m.end_pos
+        q.channel.pulse_pos = m.end_pos
+        self.last_progress.pop(m.stepper, None)
+
+    def _stop_queue(self, stepper: int, q: StepperQueue) -> None:
+        ev = self.start_events.pop(stepper, None)
+        if ev is not None:
+            self.machine.cancel(ev)
+        q.channel.force_stop()
+
+    def _entry(self, m: Entry) -> None:
+        q = self._queue(m.stepper)
+        if q is None:
+            return
+        if self.watchdog_tripped or self.estopped:
+            self.counters["rejected"] += 1
+            return
+        wp = q.next_write_idx
+        gap = (m.index - wp) & 0x0F
+        if gap >= 8:
+            self.counters["entries_duplicated"] += 1
+            return
+        if gap:
+            self.counters["entries_lost"] += gap
+        if ((wp - q.read_idx) & 0xFF) >= q.queue_len:
+            self.counters["overflows"] += 1
+            return
+        e = q.entries[wp % q.queue_len]
+        e.steps = e.total_steps = m.steps
+        e.ticks = m.ticks
+        e.count_up = m.count_up
+        e.toggle_dir = m.toggle_dir
+        e.dir_level = m.dir_level
+        e.end_pos = i32(q.queue_end_pos + (m.steps if m.count_up else -m.steps))
+        q.next_write_idx = (wp + 1) & 0xFF
+        q.queue_end_pos = e.end_pos
+        q.queue_end_count_up = m.count_up
+        q.queue_end_dir = m.dir_level
+        q.entries_added += 1
+        self.counters["entries"] += 1
+        ch = q.channel
+        if m.cont and not ch.running and m.stepper not in self.start_events:
+            # the host meant this to follow a running queue, which already ran dry
+            self.counters["underruns"] += 1
+            ch.underruns += 1
+            ch.start()
+
+    def _start(self, m: Start) -> None:
+        delta = tick_diff32(m.at, self.machine.now & 0xFFFFFFFF)
+        for idx in range(8):
+            if not m.mask & (1 << idx):
+                continue
+            q = self._queue(idx)
+            if q is None:
+                continue
+            if self.watchdog_tripped or self.estopped:
+                self.counters["rejected"] += 1
+                continue
+            old = self.start_events.pop(idx, None)
+            if old is not None:
+                self.machine.cancel(old)
+            if delta <= 0:
+                if delta < 0:
+                    self.counters["late_starts"] += 1
+                q.channel.start()
+            else:
+                self.start_events[idx] = self.machine.schedule(
+                    self.machine.now + delta, lambda i=idx: self._timed_start(i), PRIO_PLAIN)
+
+    def _timed_start(self, idx: int) -> None:
+        self.start_events.pop(idx, None)
+        q = self.queues.get(idx)
+        if q is not None:
+            q.channel.start()
+
+    def _force_stop(self, m: ForceStop) -> None:
+        q = self._queue(m.stepper)
+        if q is None:
+            return
+        self._stop_queue(m.stepper, q)
+        # the position is where the pulses stopped; the host may rename it (SetEndPos)
+        q.read_idx = q.next_write_idx = m.index & 0xFF
+        q.queue_end_pos = q.channel.pulse_pos
+
+    def _set_end_pos(self, m: SetEndPos) -> None:
+        q = self._queue(m.stepper)
+        if q is None:
+            return
+        delta = i32(m.pos - q.queue_end_pos)
+        if delta:
+            q.shift_positions(delta)
+            q.channel.pulse_pos = i32(q.channel.pulse_pos + delta)
+
+    def _halt(self) -> None:
+        """Stop every queue at once; positions stay exact (where the pulses stopped)."""
+        self.halt_tick = self.machine.now
+        for idx, q in self.queues.items():
+            self._stop_queue(idx, q)
+            q.read_idx = q.next_write_idx
+            q.queue_end_pos = q.channel.pulse_pos
+
+    def _trip_watchdog(self) -> None:
+        self.watchdog_tripped = True
+        self.counters["watchdog_trips"] += 1
+        self._halt()
+        self._queue_status()
+        self._notify("watchdog: host silent, motion stopped")
+
+    def _notify(self, event: str) -> None:
+        for fn in self.listeners:
+            fn(event)
+
+    # ------------------------------------------------------------ reports
+    def _progress_key(self, idx: int, q: StepperQueue) -> tuple[int, int, int, int]:
+        ch = q.channel
+        ch.sync()
+        rp = q.read_idx
+        flags = 0
+        steps = 0
+        if rp != q.next_write_idx:
+            flags |= P_HAS_ENTRY
+            steps = q.entries[rp % q.queue_len].steps
+        if ch.running:
+            flags |= P_RUNNING
+        if idx in self.start_events:
+            flags |= P_START_PENDING
+        if ch.detached:
+            flags |= P_DETACHED
+        pcnt = 0
+        if ch.pulse_counter is not None:
+            flags |= P_HAS_PCNT
+            pcnt = ch.pulse_counter.read()
+        return flags, rp, steps, pcnt
+
+    def _changed_progress(self, only_changed: bool) -> None:
+        for idx, q in self.queues.items():
+            key = self._progress_key(idx, q)
+            moving = key[0] & (P_RUNNING | P_START_PENDING)
+            if key != self.last_progress.get(idx) or (moving and not only_changed):
+                self.last_progress[idx] = key
+                self.out.append(Progress(idx, *key).encode())
+
+    def _queue_status(self) -> None:
+        for idx, q in self.queues.items():
+            key = self._progress_key(idx, q)
+            self.last_progress[idx] = key
+            flags, rp, steps, pcnt = key
+            self.out.append(Status(idx, flags, rp, steps, q.current_position(),
+                                   q.channel.pulses & 0xFFFFFFFF,
+                                   q.channel.underruns & 0xFFFF, pcnt).encode())
+        self.out.append(self._device_status().encode())
+
+    def _device_status(self) -> DeviceStatus:
+        state = (D_WATCHDOG if self.watchdog_tripped else 0) | (D_ESTOP if self.estopped else 0) \
+            | (D_SESSION if self.session else 0)
+        c = self.counters
+        wrap = [c[name] & (0xFFFFFFFF if i < 2 else 0xFFFF)
+                for i, name in enumerate(DEVICE_COUNTERS)]
+        return DeviceStatus(self.machine.now & 0xFFFFFFFF, state, *wrap)
+
+    # ---------------------------------------------------------- inspection
+    def position(self, stepper: int) -> int:
+        return self.queues[stepper].current_position()
+
+    def pulses(self, stepper: int) -> int:
+        return self.queues[stepper].channel.pulses
+
+    def step_edges(self, stepper: int) -> int:
+        """Rising edges seen on the stepper's step pin."""
+        return self.machine.pins.rising(self.queues[stepper].step_pin)
+
+    def running(self) -> bool:
+        return any(q.channel.running for q in self.queues.values()) or bool(self.start_events)

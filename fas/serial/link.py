@@ -1,0 +1,305 @@
+"""The host end of the serial link: reliable, ordered delivery of messages to a device.
+
+Sequenced messages (queue entries, pins, starts, stops) are packed into frames of at
+most ``max_payload`` bytes, numbered mod 128 and kept until the device acknowledges
+them.  Every frame from the device carries its acknowledgement in the SEQ byte; a
+frame not acknowledged within the retransmission timeout - or announced missing by
+a NAK - is sent again together with everything after it (go-back-N).  The device
+drops repeated frames, so a message takes effect exactly once.
+
+Unsequenced messages (hello, clock sync, status request, emergency stop) travel in
+frames of their own, are never repeated by the link and may overtake the rest.
+
+Each message gets a message id (``mid``).  ``acked_mid`` is the highest id the device
+has processed; a report that arrives in a frame tells the state after exactly those
+messages, which is how the backend knows whether a report already reflects, say, a
+start it sent.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, fields
+from typing import Callable
+
+from .protocol import (
+    MAX_PAYLOAD,
+    SEQ_MASK,
+    SEQ_MOD,
+    UNSEQUENCED,
+    FrameDecoder,
+    Message,
+    Nak,
+    ProtocolError,
+    SyncReply,
+    SyncRequest,
+    decode_messages,
+    encode_frame,
+)
+from .stream import ByteStream, LinkClosed
+
+MS = 1_000_000  # ns
+
+
+@dataclass
+class LinkStats:
+    frames_sent: int = 0
+    bytes_sent: int = 0
+    messages_sent: int = 0
+    retransmissions: int = 0  # frames sent again
+    retransmit_timeouts: int = 0
+    naks: int = 0
+    frames_received: int = 0
+    bytes_received: int = 0
+    crc_errors: int = 0
+    framing_errors: int = 0
+    discarded_bytes: int = 0
+    bad_payloads: int = 0
+    stale_acks: int = 0
+    sync_samples: int = 0
+    rtt_us: int = 0  # smoothed round trip of acknowledged frames
+
+    def as_dict(self) -> dict[str, int]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+class _Frame:
+    __slots__ = ("seq", "data", "last_mid", "sent_ns", "resent")
+
+    def __init__(self, seq: int, data: bytes, last_mid: int, sent_ns: int) -> None:
+        self.seq = seq
+        self.data = data
+        self.last_mid = last_mid
+        self.sent_ns = sent_ns
+        self.resent = False
+
+
+Handler = Callable[[list[Message], int], None]
+
+
+class HostLink:
+    """Framing, acknowledgement, retransmission and clock samples over one stream."""
+
+    def __init__(self, stream: ByteStream, clock, *, window: int = 16,
+                 max_payload: int = 40, min_payload: int = 12, min_rto_ms: float = 10.0,
+                 initial_rto_ms: float = 100.0, max_rto_ms: float = 250.0,
+                 silence_ms: float = 1500.0, baud: int = 115200) -> None:
+        self.stream = stream
+        self.clock = clock
+        self.window = window
+        self.max_payload = min(max_payload, MAX_PAYLOAD)
+        self.min_payload = min(min_payload, self.max_payload)
+        self.payload = self.max_payload  # current frame size limit, shrinks on losses
+        self._clean_acks = 0
+        self._backoff = 0
+        self.min_rto_ns = int(min_rto_ms * MS)
+        self.max_rto_ns = int(max_rto_ms * MS)
+        self.rto_ns = int(initial_rto_ms * MS)
+        self.silence_ns = int(silence_ms * MS)
+        self.byte_ns = 10 * 1_000_000_000 // baud if baud else 0  # wire time of one byte
+        self.srtt_ns: int | None = None
+        self.rttvar_ns = 0
+        self.decoder = FrameDecoder()
+        self.next_seq = 0
+        self.unacked: deque[_Frame] = deque()
+        self.pending: deque[tuple[int, bytes]] = deque()  # (mid, encoded) not yet framed
+        self.next_mid = 1
+        self.acked_mid = 0
+        self.handler: Handler | None = None
+        self.stats = LinkStats()
+        now = clock.now_ns()
+        self.last_rx_ns = now
+        self.last_tx_ns = now
+        self.closed: str | None = None
+        self._last_nak_ns = -(1 << 62)
+
+    # ----------------------------------------------------------------- sending
+    def send(self, msg: Message) -> int:
+        """Queue a sequenced message; returns its message id."""
+        mid = self.next_mid
+        self.next_mid += 1
+        self.pending.append((mid, msg.encode()))
+        self.stats.messages_sent += 1
+        return mid
+
+    def send_unsequenced(self, *msgs: Message) -> None:
+        """Send at once in a frame outside the sequence (never repeated by the link)."""
+        payload = b"".join(m.encode() for m in msgs)
+        self._write(encode_frame(UNSEQUENCED, payload))
+        self.stats.messages_sent += len(msgs)
+
+    def in_flight(self) -> int:
+        return len(self.unacked)
+
+    def backlog_bytes(self) -> int:
+        """Bytes sent but not acknowledged plus bytes queued (for start-time leads)."""
+        return sum(len(f.data) for f in self.unacked) + sum(len(m) for _, m in self.pending)
+
+    def idle(self) -> bool:
+        return not self.unacked and not self.pending
+
+    def flush(self) -> None:
+        """Frame queued messages while the window has room; retransmit when due."""
+        if self.closed:
+            return
+        now = self.clock.now_ns()
+        if self.unacked and now >= self.unacked[0].sent_ns + self._timeout_ns():
+            self.stats.retransmit_timeouts += 1
+            self._backoff = min(self._backoff + 1, 4)
+            self._retransmit(now)
+        while self.pending and len(self.unacked) < self.window:
+            payload = bytearray()
+            last_mid = 0
+            while self.pending:
+                mid, enc = self.pending[0]
+                if payload and len(payload) + len(enc) > self.payload:
+                    break
+                payload += enc
+                last_mid = mid
+                self.pending.popleft()
+            seq = self.next_seq
+            self.next_seq = (seq + 1) % SEQ_MOD
+            data = encode_frame(seq, bytes(payload))
+            self.unacked.append(_Frame(seq, data, last_mid, now))
+            self._write(data)
+
+    def _timeout_ns(self) -> int:
+        """Retransmission timeout of the oldest open frame: the round trip plus the wire
+        time of everything sent with it (a busy 115200-baud line queues frames)."""
+        wire = self.byte_ns * sum(len(f.data) for f in self.unacked)
+        return min(self.rto_ns << self._backoff, self.max_rto_ns) + wire
+
+    def _retransmit(self, now: int) -> None:
+        # a lossy line: smaller frames get through more often
+        self.payload = max(self.min_payload, self.payload * 2 // 3)
+        self._clean_acks = 0
+        for f in self.unacked:
+            f.sent_ns = now
+            f.resent = True
+            self.stats.retransmissions += 1
+            self._write(f.data)
+
+    def _write(self, data: bytes) -> None:
+        try:
+            self.stream.write(data)
+        except LinkClosed as exc:
+            self._close(str(exc))
+            return
+        self.stats.frames_sent += 1
+        self.stats.bytes_sent += len(data)
+        self.last_tx_ns = self.clock.now_ns()
+
+    # --------------------------------------------------------------- receiving
+    def service(self) -> None:
+        """Take what arrived, process acknowledgements and messages, send what is due."""
+        if self.closed:
+            return
+        try:
+            data = self.stream.read_available()
+        except LinkClosed as exc:
+            self._close(str(exc))
+            return
+        now = self.clock.now_ns()
+        if data:
+            self.stats.bytes_received += len(data)
+            for seq, payload in self.decoder.feed(data):
+                self.last_rx_ns = now
+                self.stats.frames_received += 1
+                self._on_frame(seq, payload, now)
+                if self.closed:
+                    return
+            d = self.decoder
+            self.stats.crc_errors = d.crc_errors
+            self.stats.framing_errors = d.framing_errors
+            self.stats.discarded_bytes = d.discarded_bytes
+        elif now - self.last_rx_ns > self.silence_ns:
+            self._close("device silent")
+            return
+        self.flush()
+
+    def _on_frame(self, seq: int, payload: bytes, now: int) -> None:
+        self._ack(seq & SEQ_MASK, now)
+        try:
+            msgs = decode_messages(payload)
+        except ProtocolError:
+            self.stats.bad_payloads += 1
+            return
+        for m in msgs:
+            if isinstance(m, Nak):
+                self._on_nak(m.expected, now)
+        if self.handler is not None and msgs:
+            self.handler(msgs, self.acked_mid)
+
+    def _ack(self, expected: int, now: int) -> None:
+        if not self.unacked:
+            return
+        n = (expected - self.unacked[0].seq) % SEQ_MOD
+        if n > len(self.unacked):
+            self.stats.stale_acks += 1
+            return
+        if n:
+            self._backoff = 0
+        for _ in range(n):
+            f = self.unacked.popleft()
+            self.acked_mid = max(self.acked_mid, f.last_mid)
+            if not f.resent:
+                self.rtt_sample(now - f.sent_ns)
+                self._clean_acks += 1
+                if self._clean_acks >= 8 and self.payload < self.max_payload:
+                    self.payload += 1
+
+    def _on_nak(self, expected: int, now: int) -> None:
+        self.stats.naks += 1
+        if not self.unacked or self.unacked[0].seq != expected & SEQ_MASK:
+            return
+        guard = self.srtt_ns or 0
+        if now - self.unacked[0].sent_ns >= guard and now - self._last_nak_ns >= guard:
+            self._last_nak_ns = now
+            self._retransmit(now)
+
+    def rtt_sample(self, rtt: int) -> None:
+        """A measured round trip (acknowledged frame or clock sample), in ns."""
+        if self.srtt_ns is None:
+            self.srtt_ns = rtt
+            self.rttvar_ns = rtt // 2
+        else:
+            self.rttvar_ns += (abs(self.srtt_ns - rtt) - self.rttvar_ns) // 4
+            self.srtt_ns += (rtt - self.srtt_ns) // 8
+        self.rto_ns = min(max(self.min_rto_ns, self.srtt_ns + 4 * self.rttvar_ns),
+                          self.max_rto_ns)
+        self.stats.rtt_us = self.srtt_ns // 1000
+
+    # ------------------------------------------------------------------ timing
+    def next_deadline_ns(self) -> int | None:
+        """When :meth:`service` must run again even if nothing arrives."""
+        if self.closed:
+            return None
+        times = [self.last_rx_ns + self.silence_ns + 1]
+        if self.unacked:
+            times.append(self.unacked[0].sent_ns + self._timeout_ns())
+        return min(times)
+
+    def wait(self, deadline_ns: int | None) -> None:
+        """Sleep until input arrives or ``deadline_ns`` (or a link timer) comes."""
+        self.flush()
+        own = self.next_deadline_ns()
+        if own is not None and (deadline_ns is None or own < deadline_ns):
+            deadline_ns = own
+        self.clock.wait(deadline_ns, None if self.closed else self.stream)
+
+    def sync_request(self, stamp: int) -> None:
+        self.send_unsequenced(SyncRequest(stamp & 0xFFFFFFFF))
+
+    def _close(self, reason: str) -> None:
+        if self.closed is None:
+            self.closed = reason
+        try:
+            self.stream.close()
+        except Exception:  # noqa: BLE001
+            pass
+
+    def close(self, reason: str = "closed by host") -> None:
+        self._close(reason)
+
+
+__all__ = ["HostLink", "LinkStats", "SyncReply"]

@@ -1,0 +1,530 @@
+"""The wire format of the serial backend: frames, CRC-16 and messages.
+
+A frame is ``LEN SEQ PAYLOAD... CRC_HI CRC_LO SYNC``:
+
+* ``LEN`` - the whole frame's length in bytes (5 .. :data:`MAX_FRAME`);
+* ``SEQ`` - host to device: bit 7 marks an *unsequenced* frame (handled on arrival,
+  never acknowledged), bits 0-6 the sequence number; device to host: the
+  acknowledgement, i.e. the next sequence number the device expects;
+* ``PAYLOAD`` - zero or more messages, each starting with its type byte;
+* ``CRC`` - CRC-16/CCITT-FALSE over ``LEN SEQ PAYLOAD``, high byte first;
+* ``SYNC`` - 0x7E.  After any error the receiver drops bytes up to and including
+  the next 0x7E and expects a frame to begin right after it.
+
+Multi-byte fields are little-endian.  docs/serial-protocol.md is the specification;
+this module is its one implementation on the host side and in the simulated device.
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import astuple, dataclass
+from typing import ClassVar
+
+PROTOCOL_VERSION = 1
+SYNC = 0x7E
+FRAME_OVERHEAD = 5  # LEN, SEQ, CRC (2), SYNC
+MAX_FRAME = 64
+MAX_PAYLOAD = MAX_FRAME - FRAME_OVERHEAD
+SEQ_MOD = 128
+SEQ_MASK = 0x7F
+UNSEQUENCED = 0x80
+MAX_STEPPERS = 8
+
+
+class ProtocolError(ValueError):
+    """A payload that passed its CRC but does not parse as messages."""
+
+
+# ------------------------------------------------------------------------ CRC-16
+def _crc_table() -> tuple[int, ...]:
+    table = []
+    for byte in range(256):
+        crc = byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else (crc << 1)
+        table.append(crc & 0xFFFF)
+    return tuple(table)
+
+
+_CRC_TABLE = _crc_table()
+
+
+def crc16(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
+    """CRC-16/CCITT-FALSE: polynomial 0x1021, initial value 0xFFFF, no reflection."""
+    table = _CRC_TABLE
+    for b in data:
+        crc = ((crc << 8) & 0xFFFF) ^ table[(crc >> 8) ^ b]
+    return crc
+
+
+# ------------------------------------------------------------------------ frames
+def encode_frame(seq: int, payload: bytes) -> bytes:
+    """One frame around ``payload`` (``seq`` already carries the unsequenced bit)."""
+    n = len(payload) + FRAME_OVERHEAD
+    if n > MAX_FRAME:
+        raise ValueError(f"payload of {len(payload)} bytes exceeds {MAX_PAYLOAD}")
+    body = bytes((n, seq & 0xFF)) + payload
+    crc = crc16(body)
+    return body + bytes((crc >> 8, crc & 0xFF, SYNC))
+
+
+class FrameDecoder:
+    """Cuts a byte stream into checked frames; counts and skips everything else."""
+
+    __slots__ = ("_buf", "frames", "crc_errors", "framing_errors", "discarded_bytes")
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+        self.frames = 0
+        self.crc_errors = 0  # frames whose CRC did not match
+        self.framing_errors = 0  # impossible length byte or no SYNC where the frame ends
+        self.discarded_bytes = 0
+
+    def reset(self) -> None:
+        self._buf.clear()
+
+    def feed(self, data: bytes) -> list[tuple[int, bytes]]:
+        """Take received bytes; return the complete valid frames as ``(seq, payload)``."""
+        buf = self._buf
+        buf += data
+        out: list[tuple[int, bytes]] = []
+        pos = 0
+        end = len(buf)
+        while pos < end:
+            n = buf[pos]
+            if n < FRAME_OVERHEAD or n > MAX_FRAME:
+                self.framing_errors += 1
+                pos = self._resync(pos)
+                continue
+            if end - pos < n:
+                break
+            if buf[pos + n - 1] != SYNC:
+                self.framing_errors += 1
+                pos = self._resync(pos)
+                continue
+            crc = (buf[pos + n - 3] << 8) | buf[pos + n - 2]
+            if crc16(memoryview(buf)[pos:pos + n - 3]) != crc:
+                self.crc_errors += 1
+                pos = self._resync(pos)
+                continue
+            out.append((buf[pos + 1], bytes(buf[pos + 2:pos + n - 3])))
+            self.frames += 1
+            pos += n
+        del buf[:pos]
+        return out
+
+    def _resync(self, pos: int) -> int:
+        """Drop bytes up to and including the next SYNC after ``pos``."""
+        buf = self._buf
+        nxt = buf.find(SYNC, pos)
+        new = len(buf) if nxt < 0 else nxt + 1
+        self.discarded_bytes += new - pos
+        return new
+
+
+def seq_diff(a: int, b: int) -> int:
+    """``a - b`` in sequence space, in -64 .. 63."""
+    return ((a - b + SEQ_MOD // 2) % SEQ_MOD) - SEQ_MOD // 2
+
+
+def tick_diff32(a: int, b: int) -> int:
+    """``a - b`` of two 32-bit tick counter values, as a signed number."""
+    return ((a - b + 0x80000000) & 0xFFFFFFFF) - 0x80000000
+
+
+# ---------------------------------------------------------------------- messages
+class Message:
+    """A message with fixed fields packed by ``FMT`` (little-endian) after its code."""
+
+    CODE: ClassVar[int]
+    FMT: ClassVar[struct.Struct]
+
+    def encode(self) -> bytes:
+        return bytes((self.CODE,)) + self.FMT.pack(*astuple(self))
+
+    @classmethod
+    def decode(cls, data: bytes, pos: int) -> tuple[Message, int]:
+        size = cls.FMT.size
+        if pos + size > len(data):
+            raise ProtocolError(f"{cls.__name__}: truncated")
+        return cls(*cls.FMT.unpack_from(data, pos)), pos + size
+
+
+def _fmt(spec: str) -> struct.Struct:
+    return struct.Struct("<" + spec)
+
+
+# --- host -> device -------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class Hello(Message):
+    """Open a session (unsequenced).  A new nonce resets the device's session."""
+
+    CODE: ClassVar[int] = 0x01
+    FMT: ClassVar[struct.Struct] = _fmt("BHHB")
+    version: int
+    nonce: int
+    watchdog_ms: int
+    report_ms: int
+
+
+@dataclass(frozen=True, slots=True)
+class SyncRequest(Message):
+    """Clock sample and heartbeat (unsequenced): the device answers :class:`SyncReply`."""
+
+    CODE: ClassVar[int] = 0x02
+    FMT: ClassVar[struct.Struct] = _fmt("I")
+    stamp: int
+
+
+@dataclass(frozen=True, slots=True)
+class Config(Message):
+    """(Re)initialise one stepper's queue: stopped, empty at ``index``, end at ``end_pos``."""
+
+    CODE: ClassVar[int] = 0x03
+    FMT: ClassVar[struct.Struct] = _fmt("BBBBi")
+    stepper: int
+    step_pin: int
+    dir_pin: int
+    index: int
+    end_pos: int
+
+
+@dataclass(frozen=True, slots=True)
+class DirPin(Message):
+    CODE: ClassVar[int] = 0x04
+    FMT: ClassVar[struct.Struct] = _fmt("BB")
+    stepper: int
+    dir_pin: int
+
+
+@dataclass(frozen=True, slots=True)
+class Start(Message):
+    """Start the queues in ``mask`` at device tick ``at`` (32-bit; past: at once)."""
+
+    CODE: ClassVar[int] = 0x06
+    FMT: ClassVar[struct.Struct] = _fmt("BI")
+    mask: int
+    at: int
+
+
+@dataclass(frozen=True, slots=True)
+class ForceStop(Message):
+    """Stop at once and drop the queue; read and write index become ``index``."""
+
+    CODE: ClassVar[int] = 0x07
+    FMT: ClassVar[struct.Struct] = _fmt("BB")
+    stepper: int
+    index: int
+
+
+@dataclass(frozen=True, slots=True)
+class SetEndPos(Message):
+    """Renumber the queue's positions so that the queue ends at ``pos``."""
+
+    CODE: ClassVar[int] = 0x08
+    FMT: ClassVar[struct.Struct] = _fmt("Bi")
+    stepper: int
+    pos: int
+
+
+@dataclass(frozen=True, slots=True)
+class Pin(Message):
+    CODE: ClassVar[int] = 0x09
+    FMT: ClassVar[struct.Struct] = _fmt("BB")
+    pin: int
+    level: int
+
+
+@dataclass(frozen=True, slots=True)
+class Detach(Message):
+    CODE: ClassVar[int] = 0x0A
+    FMT: ClassVar[struct.Struct] = _fmt("BB")
+    stepper: int
+    detached: int
+
+
+@dataclass(frozen=True, slots=True)
+class PcntAttach(Message):
+    CODE: ClassVar[int] = 0x0B
+    FMT: ClassVar[struct.Struct] = _fmt("BhhBh")
+    stepper: int
+    low: int
+    high: int
+    dir_high_counts_up: int
+    value: int
+
+
+@dataclass(frozen=True, slots=True)
+class PcntClear(Message):
+    CODE: ClassVar[int] = 0x0C
+    FMT: ClassVar[struct.Struct] = _fmt("B")
+    stepper: int
+
+
+@dataclass(frozen=True, slots=True)
+class StatusRequest(Message):
+    """Ask for :class:`Status` of every stepper and :class:`DeviceStatus` (unsequenced)."""
+
+    CODE: ClassVar[int] = 0x0D
+    FMT: ClassVar[struct.Struct] = _fmt("")
+
+
+@dataclass(frozen=True, slots=True)
+class EmergencyStop(Message):
+    """Stop every queue at once and refuse motion until the next Hello (unsequenced)."""
+
+    CODE: ClassVar[int] = 0x0E
+    FMT: ClassVar[struct.Struct] = _fmt("")
+
+
+ENTRY_BASE = 0x40  # 0x40 | stepper
+E_TOGGLE_DIR = 0x10
+E_DIR_LEVEL = 0x20
+E_COUNT_UP = 0x40
+E_CONT = 0x80
+
+
+@dataclass(frozen=True, slots=True)
+class Entry(Message):
+    """One queue command: ``steps`` pulses ``ticks`` apart (5 bytes on the wire).
+
+    ``index`` is the entry's write index (mod 256; 4 bits travel) for the device's
+    own check against lost and repeated commands.  ``cont``: the host sent it as the
+    continuation of a running queue - a device whose queue already ran dry restarts
+    it at once (and counts an underrun).
+    """
+
+    CODE: ClassVar[int] = ENTRY_BASE
+    stepper: int
+    index: int
+    steps: int
+    ticks: int
+    toggle_dir: bool
+    dir_level: bool
+    count_up: bool
+    cont: bool
+
+    def encode(self) -> bytes:
+        flags = (self.index & 0x0F) | (E_TOGGLE_DIR if self.toggle_dir else 0) \
+            | (E_DIR_LEVEL if self.dir_level else 0) | (E_COUNT_UP if self.count_up else 0) \
+            | (E_CONT if self.cont else 0)
+        return bytes((ENTRY_BASE | self.stepper, flags, self.steps,
+                      self.ticks & 0xFF, self.ticks >> 8))
+
+    @classmethod
+    def decode(cls, data: bytes, pos: int) -> tuple[Message, int]:
+        if pos + 5 > len(data):
+            raise ProtocolError("Entry: truncated")
+        code, flags, steps, lo, hi = data[pos:pos + 5]
+        return cls(code & 0x07, flags & 0x0F, steps, lo | (hi << 8), bool(flags & E_TOGGLE_DIR),
+                   bool(flags & E_DIR_LEVEL), bool(flags & E_COUNT_UP),
+                   bool(flags & E_CONT)), pos + 5
+
+
+# --- device -> host -------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class Ident(Message):
+    """The device's answer to Hello: its profile and clock."""
+
+    CODE: ClassVar[int] = 0x81
+    FMT: ClassVar[struct.Struct] = _fmt("BHHIIBBBHH")
+    version: int
+    nonce: int
+    boot_id: int
+    ticks_per_s: int
+    clock_hz: int  # rate of the tick counter per host-clock second (differs when sped up)
+    max_steppers: int
+    queue_len: int
+    rx_window: int  # sequenced frames the device accepts in flight
+    watchdog_ms: int
+    min_cmd_ticks_div: int  # ticks_per_s // min_cmd_ticks (a cross-check of the profile)
+    name: str = ""
+
+    def encode(self) -> bytes:
+        fields = astuple(self)[:-1]
+        raw = self.name.encode("ascii")[:24]
+        return bytes((self.CODE,)) + self.FMT.pack(*fields) + bytes((len(raw),)) + raw
+
+    @classmethod
+    def decode(cls, data: bytes, pos: int) -> tuple[Message, int]:
+        size = cls.FMT.size
+        if pos + size + 1 > len(data):
+            raise ProtocolError("Ident: truncated")
+        fields = cls.FMT.unpack_from(data, pos)
+        n = data[pos + size]
+        start = pos + size + 1
+        if start + n > len(data):
+            raise ProtocolError("Ident: truncated name")
+        name = data[start:start + n].decode("ascii", "replace")
+        return cls(*fields, name=name), start + n
+
+
+@dataclass(frozen=True, slots=True)
+class SyncReply(Message):
+    CODE: ClassVar[int] = 0x82
+    FMT: ClassVar[struct.Struct] = _fmt("II")
+    stamp: int
+    device_tick: int
+
+
+PROGRESS_BASE = 0x50  # 0x50 | stepper
+P_RUNNING = 0x01
+P_HAS_ENTRY = 0x02
+P_HAS_PCNT = 0x04
+P_START_PENDING = 0x08
+P_DETACHED = 0x10
+
+
+@dataclass(frozen=True, slots=True)
+class Progress(Message):
+    """A stepper's queue state: read index, steps left of the entry at it, flags."""
+
+    CODE: ClassVar[int] = PROGRESS_BASE
+    stepper: int
+    flags: int
+    index: int
+    steps_left: int
+    pcnt: int = 0
+
+    def encode(self) -> bytes:
+        out = bytes((PROGRESS_BASE | self.stepper, self.flags, self.index, self.steps_left))
+        if self.flags & P_HAS_PCNT:
+            out += struct.pack("<h", self.pcnt)
+        return out
+
+    @classmethod
+    def decode(cls, data: bytes, pos: int) -> tuple[Message, int]:
+        if pos + 4 > len(data):
+            raise ProtocolError("Progress: truncated")
+        code, flags, index, steps = data[pos:pos + 4]
+        pos += 4
+        pcnt = 0
+        if flags & P_HAS_PCNT:
+            if pos + 2 > len(data):
+                raise ProtocolError("Progress: truncated counter")
+            (pcnt,) = struct.unpack_from("<h", data, pos)
+            pos += 2
+        return cls(code & 0x07, flags, index, steps, pcnt), pos
+
+    @property
+    def running(self) -> bool:
+        return bool(self.flags & (P_RUNNING | P_START_PENDING))
+
+    @property
+    def has_entry(self) -> bool:
+        return bool(self.flags & P_HAS_ENTRY)
+
+
+@dataclass(frozen=True, slots=True)
+class Status(Message):
+    """A stepper in full: queue state as :class:`Progress` plus position and counters."""
+
+    CODE: ClassVar[int] = 0x84
+    FMT: ClassVar[struct.Struct] = _fmt("BBBBiIHh")
+    stepper: int
+    flags: int
+    index: int
+    steps_left: int
+    position: int
+    pulses: int
+    underruns: int
+    pcnt: int
+
+    def progress(self) -> Progress:
+        return Progress(self.stepper, self.flags, self.index, self.steps_left, self.pcnt)
+
+
+D_WATCHDOG = 0x01  # motion stopped by the host-silence watchdog
+D_ESTOP = 0x02  # motion stopped by an emergency stop
+D_SESSION = 0x04  # a host session is open
+
+DEVICE_COUNTERS = ("frames_ok", "entries", "frames_duplicate", "frames_out_of_order",
+                   "crc_errors", "framing_errors", "entries_lost", "entries_duplicated",
+                   "overflows", "underruns", "late_starts", "watchdog_trips", "rejected",
+                   "tx_dropped")
+
+
+@dataclass(frozen=True, slots=True)
+class DeviceStatus(Message):
+    """Device-wide state and counters (wrapping: 32 bits for the first two, else 16)."""
+
+    CODE: ClassVar[int] = 0x85
+    FMT: ClassVar[struct.Struct] = _fmt("IBII" + "H" * (len(DEVICE_COUNTERS) - 2))
+    tick: int
+    state: int
+    frames_ok: int
+    entries: int
+    frames_duplicate: int
+    frames_out_of_order: int
+    crc_errors: int
+    framing_errors: int
+    entries_lost: int
+    entries_duplicated: int
+    overflows: int
+    underruns: int
+    late_starts: int
+    watchdog_trips: int
+    rejected: int
+    tx_dropped: int
+
+    def counters(self) -> dict[str, int]:
+        return {name: getattr(self, name) for name in DEVICE_COUNTERS}
+
+
+@dataclass(frozen=True, slots=True)
+class Nak(Message):
+    """The device saw a frame after a gap: please resend from ``expected`` now."""
+
+    CODE: ClassVar[int] = 0x86
+    FMT: ClassVar[struct.Struct] = _fmt("B")
+    expected: int
+
+
+@dataclass(frozen=True, slots=True)
+class Bye(Message):
+    """The host ends its session (unsequenced): motion stops, no watchdog trip counted."""
+
+    CODE: ClassVar[int] = 0x0F
+    FMT: ClassVar[struct.Struct] = _fmt("H")
+    nonce: int
+
+
+_BY_CODE: dict[int, type[Message]] = {}
+for _cls in (Hello, SyncRequest, Config, DirPin, Start, ForceStop, SetEndPos, Pin, Detach,
+             PcntAttach, PcntClear, StatusRequest, EmergencyStop, Bye, Ident, SyncReply, Status,
+             DeviceStatus, Nak):
+    _BY_CODE[_cls.CODE] = _cls
+for _s in range(MAX_STEPPERS):
+    _BY_CODE[ENTRY_BASE | _s] = Entry
+    _BY_CODE[PROGRESS_BASE | _s] = Progress
+
+UNSEQUENCED_TYPES = (Hello, SyncRequest, StatusRequest, EmergencyStop, Bye)
+
+
+def decode_messages(payload: bytes) -> list[Message]:
+    """All messages of a frame's payload (raises :class:`ProtocolError`)."""
+    out: list[Message] = []
+    pos = 0
+    n = len(payload)
+    while pos < n:
+        cls = _BY_CODE.get(payload[pos])
+        if cls is None:
+            raise ProtocolError(f"unknown message type 0x{payload[pos]:02x}")
+        msg, pos = cls.decode(payload, pos + (0 if cls in (Entry, Progress) else 1))
+        out.append(msg)
+    return out
+
+
+def pack_messages(encoded: list[bytes], max_payload: int = MAX_PAYLOAD) -> list[bytes]:
+    """Group encoded messages into payloads of at most ``max_payload`` bytes, in order."""
+    payloads: list[bytes] = []
+    cur = b""
+    for m in encoded:
+        if cur and len(cur) + len(m) > max_payload:
+            payloads.append(cur)
+            cur = b""
+        cur += m
+    if cur:
+        payloads.append(cur)
+    return payloads

@@ -1,0 +1,352 @@
+"""Fuzzing the console: random input lines and the invariants every run must keep.
+
+:func:`grammar_line` makes StepperDemo lines from the command language (all three
+modes, extreme and malformed numbers, waits, mode switches); :func:`raw_line` makes
+noise (random bytes, control characters, long tokens, non-ASCII).  :func:`check_line`
+runs one line on virtual time and returns the violated invariants:
+
+* the run ends (input consumed and all at rest, or ``max_time`` reached) without an
+  exception;
+* the position each stepper reports equals the position counted from its step and
+  direction pins, up to exactly what ``@``, ``X`` (or a new position) declared;
+* no step period is shorter than the profile allows; no step while the driver is
+  disabled under auto enable; a configured direction-change delay is kept, and the
+  direction never changes during a pulse; no queue holds more entries than its depth;
+* every rejected command printed exactly one error line, every accepted one none
+  beyond its own ``ERROR`` result.
+"""
+
+from __future__ import annotations
+
+import bisect
+import random
+from dataclasses import dataclass, field
+
+from fas.codes import PIN_UNDEFINED
+from fas.sim import SimBackend
+
+from . import commands
+from .app import StepperDemo
+
+NUMBERS = [0, 1, -1, 2, 7, 40, 100, 255, 256, 999, 1000, 4095, 4096, 32767, 32768, 65535,
+           65536, 100000, 1000000, 2147483647, -2147483648, 2147483648, 99999999999,
+           -99999999999]
+NORMAL_NUMERIC = "VHhAaJjPR@EDw"
+NORMAL_PLAIN = "NFOSXIW+-fbKUuQ?tcre"
+TEST_CMDS = ["R", "I", "W", "x", "Q", "?"] + [f"{i:02d}" for i in range(0, 15)]
+CONFIG_FORMS = ["x", "?", "dc", "d{p}", "d{p},0", "d{p},1,500", "d{q},1", "d{p},1,1", "d255",
+                "d{p},1,5000", "d{p},", "d,", "d{p},1,2,3", "d{u},0,40"]
+
+
+def _number(rng: random.Random, fast: bool) -> str:
+    r = rng.random()
+    if r < 0.5:
+        n = rng.choice(NUMBERS)
+    elif r < 0.8:
+        n = rng.randint(-5000, 50000)
+    else:
+        n = rng.randint(-(2**40), 2**40)
+    if fast:
+        n = abs(n) % 400 if rng.random() < 0.7 else n
+    text = str(n)
+    r = rng.random()
+    if r < 0.05:
+        text = "+" + text.lstrip("-")
+    elif r < 0.10:
+        text = text + rng.choice(["x", ".5", ",", "e3", " "])
+    elif r < 0.12:
+        text = ""
+    return text
+
+
+def _config_command(rng: random.Random, profile) -> str:
+    """A config-mode command; direction pins are the profile's own (a pin that is also
+    another stepper's step pin would make steps by itself - a wiring error, not a bug)."""
+    dirs = sorted({c.direction for c in profile.demo_steppers})
+    used = {c.step for c in profile.demo_steppers} | {c.enable_low_active
+                                                       for c in profile.demo_steppers}
+    unused = next(p for p in range(2, 60) if p not in used and p not in dirs)
+    return rng.choice(CONFIG_FORMS).format(p=rng.choice(dirs), q=rng.choice(dirs), u=unused)
+
+
+def grammar_line(rng: random.Random, length: int = 12, arch: str = "atmega328p") -> str:
+    """A plausible StepperDemo line: mostly valid commands, some malformed ones."""
+    from fas.arch import get_profile
+    profile = get_profile(arch)
+    tokens: list[str] = []
+    mode = "normal"
+    for _ in range(rng.randint(1, length)):
+        if mode == "normal":
+            r = rng.random()
+            if r < 0.1:
+                tokens.append(f"M{rng.choice([1, 2, 2, 0, 3, 9])}")
+            elif r < 0.55:
+                c = rng.choice(NORMAL_NUMERIC)
+                num = _number(rng, fast=c in "w")
+                if c == "w":
+                    num = str(rng.choice([0, 1, 5, 20, 50, 150, 400]))
+                if c in "VA" and rng.random() < 0.6:
+                    num = str(rng.choice([40, 60, 100, 250, 1000] if c == "V"
+                                         else [100, 1000, 10000, 100000, 1000000]))
+                if c in "RP" and rng.random() < 0.6:
+                    num = str(rng.randint(-3000, 3000))
+                tokens.append(c + num)
+            elif r < 0.9:
+                c = rng.choice(NORMAL_PLAIN)
+                tokens.append(c)
+                if c == "t":
+                    mode = "test"
+                elif c == "c":
+                    mode = "config"
+            else:
+                tokens.append(rng.choice(["Zzz", "R12x", "V-", "M1,2", "A1000000000000",
+                                          "a", "ww", "W1", "T", "?x"]))
+        elif mode == "test":
+            c = rng.choice(TEST_CMDS + ["M1", "M2", "w200", "w500"])
+            tokens.append(c)
+            if c == "x":
+                mode = "normal"
+        else:
+            c = rng.choice(["M1", "M2", "M3", "config"])
+            if c == "config":
+                c = _config_command(rng, profile)
+            tokens.append(c)
+            if c == "x":
+                mode = "normal"
+    if mode == "test":
+        tokens.append("x")
+    sep = rng.choice([" ", " ", " ", "\n", "\r", "\r\n", "  "])
+    return sep.join(tokens)
+
+
+def raw_line(rng: random.Random) -> bytes:
+    """Noise: random bytes, control characters, very long tokens, non-ASCII."""
+    kind = rng.random()
+    if kind < 0.3:
+        return bytes(rng.randrange(256) for _ in range(rng.randint(1, 80)))
+    if kind < 0.5:
+        return rng.choice([b"A", b"V", b"R", b"M", b"w"]) * rng.randint(250, 700)
+    if kind < 0.7:
+        ctrl = bytes([rng.choice([0, 1, 3, 4, 7, 8, 9, 11, 12, 13, 10, 27, 127])
+                      for _ in range(rng.randint(1, 20))])
+        return b"M1 A1000 V100 " + ctrl + b" R100 W"
+    text = rng.choice(["µ", "é", "Ω", "→", "🙂", "\u200b", "Ａ"]) * rng.randint(1, 5)
+    return ("M1 A1000 V100 R1" + text + " R20 " + text + " W").encode("utf-8")
+
+
+@dataclass
+class FuzzResult:
+    line: bytes
+    arch: str
+    end: str = ""
+    violations: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.violations
+
+
+class _Tracker:
+    """Follows the renumberings (@, X) and auto-enable settings of each stepper."""
+
+    def __init__(self, app: StepperDemo, backend: SimBackend) -> None:
+        self.app = app
+        self.backend = backend
+        self.offset: dict[int, int] = {}
+        self.auto_enable: dict[int, list[tuple[int, bool]]] = {}
+        self.dir_delay: dict[int, list[tuple[int, int, int]]] = {}
+        self.detached: dict[int, bool] = {}
+
+    def attach(self) -> None:
+        app = self.app
+        for i, s in enumerate(app.steppers):
+            if s is None:
+                continue
+            self.offset[i] = 0
+            self.auto_enable[i] = [(0, s._auto_enable)]
+            self.dir_delay[i] = [(0, s._dir_pin, s._dir_change_delay_ticks)]
+            self.detached[i] = False
+            self._wrap(i, s)
+
+    def _wrap(self, i: int, s) -> None:
+        tracker = self
+        backend = self.backend
+        orig_set = s.set_current_position
+        orig_force = s.force_stop_and_new_position
+        orig_after = s.set_position_after_commands_completed
+        orig_auto = s.set_auto_enable
+        orig_dir = s.set_direction_pin
+        orig_detach = s.detach_from_pin
+
+        def set_current_position(new_pos):
+            before = s.get_current_position()
+            orig_set(new_pos)
+            tracker.offset[i] += s.get_current_position() - before
+
+        def set_position_after(new_pos):
+            before = s.get_current_position()
+            orig_after(new_pos)
+            tracker.offset[i] += s.get_current_position() - before
+
+        def force_stop_and_new_position(new_pos):
+            orig_force(new_pos)
+            pins = tracker.app.profile.demo_steppers[i]
+            physical = _pin_position(backend, pins.step, s.get_direction_pin(),
+                                     s.direction_pin_high_counts_up())
+            tracker.offset[i] = s.get_current_position() - physical
+
+        def set_auto_enable(value):
+            orig_auto(value)
+            tracker.auto_enable[i].append((backend.now(), bool(value)))
+
+        def set_direction_pin(pin, high_counts_up=True, delay_us=0):
+            orig_dir(pin, high_counts_up, delay_us)
+            tracker.dir_delay[i].append((backend.now(), pin, s._dir_change_delay_ticks))
+
+        def detach_from_pin():
+            tracker.detached[i] = True
+            orig_detach()
+
+        s.detach_from_pin = detach_from_pin
+        s.set_current_position = set_current_position
+        s.set_position_after_commands_completed = set_position_after
+        s.force_stop_and_new_position = force_stop_and_new_position
+        s.set_auto_enable = set_auto_enable
+        s.set_direction_pin = set_direction_pin
+
+
+def _pin_position(backend: SimBackend, step_pin: int, dir_pin: int, high_up: bool) -> int:
+    """Steps counted from the pins, with the level the library gives the dir pin."""
+    times, levels = backend.recorder.pin_edges(step_pin)
+    if dir_pin == PIN_UNDEFINED or dir_pin & 0x80:
+        return sum(1 for lv in levels if lv)
+    dtimes, dlevels = backend.recorder.pin_edges(dir_pin)
+    pos = 0
+    for t, lv in zip(times, levels):
+        if not lv:
+            continue
+        k = bisect.bisect_right(dtimes, t) - 1
+        level = dlevels[k] if k >= 0 else 0
+        pos += 1 if (level == 1) == high_up else -1
+    return pos
+
+
+def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 20.0
+               ) -> FuzzResult:
+    data = line.encode("utf-8") if isinstance(line, str) else bytes(line)
+    res = FuzzResult(data, arch)
+    backend = SimBackend(arch, record=True)
+    app = StepperDemo(backend, scripted=True)
+    tracker = _Tracker(app, backend)
+    app.setup()
+    tracker.attach()
+    errors_seen: list[tuple[bytes, bool, int]] = []
+    orig_dispatch = commands.dispatch
+
+    def counting_dispatch(a, cmd):
+        before = app.transcript.count(b"ERROR") + app.transcript.count(b"Unknown command")
+        ok = orig_dispatch(a, cmd)
+        after = app.transcript.count(b"ERROR") + app.transcript.count(b"Unknown command")
+        errors_seen.append((cmd, ok, after - before))
+        return ok
+
+    from . import app as app_module
+    app_module.dispatch = counting_dispatch
+    try:
+        reason = app.run_script(data, max_ticks=int(max_time_s * backend.profile.ticks_per_s))
+        res.end = reason.name.lower()
+    except Exception as exc:  # the whole point: nothing may raise
+        import traceback
+        res.violations.append("exception: " + "".join(
+            traceback.format_exception_only(type(exc), exc)).strip())
+        res.violations.append(traceback.format_exc(limit=-3))
+        return res
+    finally:
+        app_module.dispatch = orig_dispatch
+    # an unknown command prints "Unknown command: <cmd>" once (after dispatch returns)
+    unknown = app.transcript.count(b"Unknown command: ")
+    if unknown != sum(1 for _, ok, _ in errors_seen if not ok):
+        res.violations.append(f"{unknown} 'Unknown command' lines for "
+                              f"{sum(1 for _, ok, _ in errors_seen if not ok)} rejected commands")
+    for cmd, ok, n in errors_seen:
+        if ok and n > 1:
+            res.violations.append(f"command {cmd!r} printed {n} error lines")
+    _check_motion(app, backend, tracker, res)
+    return res
+
+
+def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
+                  res: FuzzResult) -> None:
+    prof = app.profile
+    rec = backend.recorder
+    n_steppers = sum(1 for s in app.steppers if s is not None)
+    min_period = prof.max_speed_ticks(n_steppers)
+    for i, s in enumerate(app.steppers):
+        if s is None:
+            continue
+        pins = prof.demo_steppers[i]
+        name = f"M{i + 1}"
+        # position: library == pins + declared renumberings
+        physical = _pin_position(backend, pins.step, s.get_direction_pin(),
+                                 s.direction_pin_high_counts_up())
+        pos = s.get_current_position()
+        if len(tracker.dir_delay[i]) > 1 or tracker.detached[i]:
+            pass  # direction pin changed or pins driven directly (T): another frame
+        elif not s.is_running() and (pos - physical - tracker.offset[i]) & 0xFFFFFFFF:
+            res.violations.append(f"{name}: position {pos} but pins counted {physical} "
+                                  f"+ declared {tracker.offset[i]}")
+        if s.queue.max_fill > prof.queue_len:
+            res.violations.append(f"{name}: queue held {s.queue.max_fill} > {prof.queue_len}")
+        times, levels = rec.pin_edges(pins.step)
+        rises = [t for t, lv in zip(times, levels) if lv]
+        falls = [t for t, lv in zip(times, levels) if not lv]
+        if not backend.channels[i].detached:
+            for a, b in zip(rises, rises[1:]):
+                if b - a < min_period:
+                    res.violations.append(f"{name}: step period {b - a} ticks < {min_period}")
+                    break
+        # no step while disabled under auto enable
+        en_pin = pins.enable_low_active
+        if en_pin != PIN_UNDEFINED and rises and not tracker.detached[i]:
+            etimes, elevels = rec.pin_edges(en_pin)
+            history = tracker.auto_enable[i]
+            for t in rises:
+                k = bisect.bisect_right(etimes, t) - 1
+                enabled = k >= 0 and elevels[k] == 0
+                h = bisect.bisect_right([x for x, _ in history], t) - 1
+                auto = history[h][1]
+                if auto and not enabled and not _shared_enable(app, en_pin):
+                    res.violations.append(f"{name}: step at tick {t} with the driver disabled")
+                    break
+        # direction: never during a pulse; configured delay before the next step
+        dir_changes = tracker.dir_delay[i]
+        dpin = pins.direction
+        if dpin != PIN_UNDEFINED:
+            dtimes, _ = rec.pin_edges(dpin)
+            for t in dtimes:
+                k = bisect.bisect_right(rises, t) - 1
+                if k >= 0 and k < len(falls) and falls[k] > t and rises[k] < t:
+                    res.violations.append(f"{name}: direction changed during a pulse at {t}")
+                    break
+                h = bisect.bisect_right([x for x, _, _ in dir_changes], t) - 1
+                _, cfg_pin, delay = dir_changes[h]
+                j = bisect.bisect_left(rises, t)
+                if delay and cfg_pin == dpin and j < len(rises) and rises[j] - t < delay - 100:
+                    res.violations.append(f"{name}: step {rises[j] - t} ticks after a "
+                                          f"direction change (delay {delay})")
+                    break
+
+
+def _shared_enable(app: StepperDemo, pin: int) -> bool:
+    return sum(1 for c in app.profile.demo_steppers if c.enable_low_active == pin) > 1
+
+
+def fuzz(lines: int, seed: int, *, arch_choice: tuple[str, ...] = ("atmega328p",),
+         raw_share: float = 0.2, max_time_s: float = 20.0):
+    """Yield a FuzzResult per generated line (deterministic for a seed)."""
+    rng = random.Random(seed)
+    for _ in range(lines):
+        arch = rng.choice(arch_choice)
+        line = (raw_line(rng) if rng.random() < raw_share
+                else grammar_line(rng, arch=arch).encode())
+        yield check_line(line, arch, max_time_s)

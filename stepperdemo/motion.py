@@ -1,0 +1,408 @@
+"""What the pins show: per-stepper motion figures from the time-ordered edge stream.
+
+A consumer of :class:`fas.sim.trace.EdgeStream`.  Every figure is computed as the
+edges go by, so memory does not grow with the length of a run: step periods go into
+a histogram (exact median), position/speed samples for plots are thinned out as they
+grow, and CSV rows are written at once.
+
+The planned timing comes from the simulated channels: each time a channel takes up
+a queue entry it reports ``(kind, index of its first pulse, ticks, steps)``.  The
+interval from one pulse to the next is planned as the entry's ``ticks`` inside an
+entry, and as the previous entry's trailing ``ticks`` plus any pauses between two
+entries.  The difference between the actual and the planned interval is the
+*deviation*: timer-wrap gaps under StepperDemo's ``e`` show up as large positive
+deviations, a clean run has none.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import IO
+
+from fas.arch import DemoStepper, Profile
+from fas.codes import PIN_UNDEFINED
+from fas.sim.channel import ENTRY_RESTART, ENTRY_START, SimChannel
+from fas.sim.trace import IRQ_BLOCKED
+
+GAP_FACTOR = 4  # an interval longer than this many times the last regular one is a gap
+ACC_WINDOWS_PER_S = 100  # acceleration: speed change between windows of >= 10 ms
+PLOT_POINTS = 4000  # samples kept per stepper for plots (thinned by halving)
+CSV_HEADER = "time_us,stepper,direction,position,tick\n"
+
+
+@dataclass(frozen=True)
+class Wiring:
+    """The pins of one StepperDemo stepper as a logic analyser would name them."""
+
+    number: int  # 1-based, as M1, M2 ...
+    label: str  # "A", "B" ...
+    step: int
+    direction: int | None
+    enable_low: int | None
+    enable_high: int | None
+    high_counts_up: bool
+
+    @classmethod
+    def from_demo(cls, index: int, cfg: DemoStepper) -> Wiring:
+        def pin(p: int) -> int | None:
+            return None if p == PIN_UNDEFINED else p
+
+        return cls(index + 1, chr(ord("A") + index), cfg.step, pin(cfg.direction),
+                   pin(cfg.enable_low_active), pin(cfg.enable_high_active),
+                   cfg.direction_high_counts_up)
+
+
+def demo_wiring(profile: Profile) -> list[Wiring]:
+    return [Wiring.from_demo(i, cfg) for i, cfg in enumerate(profile.demo_steppers)]
+
+
+class StepperMotion:
+    """Figures of one stepper, fed edge by edge in global time order."""
+
+    def __init__(self, wiring: Wiring, ticks_per_s: int, levels: dict[int, int],
+                 position: int = 0, csv: IO[str] | None = None) -> None:
+        self.wiring = wiring
+        self.tps = ticks_per_s
+        self.levels = levels  # shared pin levels of the stream (dir/enable lookups)
+        self.csv = csv
+        self.start_position = self.position = position
+        self.channel: SimChannel | None = None
+        self.base = {"pulses": 0, "dry": 0, "missed_compares": 0, "starts": 0}
+        # plan of the channel: (kind, first pulse index, ticks, steps), consumed in order
+        self.plan: deque[tuple[int, int, int, int]] = deque()
+        self.index = 0  # channel pulse index of the next rising edge
+        self.cur_ticks: int | None = None
+        self.pulses = 0
+        self.last_rise: int | None = None
+        self.first_rise: int | None = None
+        self.last_interval: int | None = None
+        self.new_motion = True
+        self.motions = 0
+        self.restarts = 0
+        self.periods: dict[int, int] = {}
+        self.period_min: int | None = None
+        self.period_max: int | None = None
+        self.high_min: int | None = None
+        self.high_max: int | None = None
+        self.gaps = 0
+        self.gap_max = 0
+        self.dev_compared = 0
+        self.dev_late = 0
+        self.dev_early = 0
+        self.dev_max_late = 0
+        self.dev_max_early = 0
+        self.acc_max = 0.0
+        self.dec_max = 0.0
+        self._win_ticks = max(1, ticks_per_s // ACC_WINDOWS_PER_S)
+        self._win: list[int] | None = None  # [start tick, intervals, sign]
+        self._prev_win: tuple[float, float] | None = None  # (signed speed, mid tick)
+        self.dir_changes = 0
+        self.dir_to_step_min: int | None = None
+        self._dir_edge: int | None = None
+        self.enables = 0
+        self.enable_to_step: list[int] = []  # one per driver activation followed by a step
+        self._enable_edge: int | None = None
+        self.steps_disabled = 0
+        self.samples: list[tuple[int, int, float]] = []  # (tick, position, speed steps/s)
+        self._stride = 1
+        self._since_sample = 0
+
+    # --------------------------------------------------------------- channel
+    def bind(self, channel: SimChannel) -> None:
+        self.channel = channel
+        self.index = channel.pulses
+        self.base = {"pulses": channel.pulses, "dry": channel.dry,
+                     "missed_compares": channel.missed_compares, "starts": channel.starts}
+        channel.entry_listeners.append(self.entry)
+
+    def unbind(self) -> None:
+        if self.channel is not None and self.entry in self.channel.entry_listeners:
+            self.channel.entry_listeners.remove(self.entry)
+
+    def entry(self, kind: int, index: int, ticks: int, steps: int) -> None:
+        self.plan.append((kind, index, ticks, steps))
+
+    def channel_count(self, name: str) -> int:
+        if self.channel is None:
+            return 0
+        return getattr(self.channel, name) - self.base[name]
+
+    # ----------------------------------------------------------------- pins
+    def direction_up(self) -> bool:
+        w = self.wiring
+        if w.direction is None:
+            return True
+        return (self.levels.get(w.direction, 0) == 1) == w.high_counts_up
+
+    def enabled(self) -> bool:
+        w = self.wiring
+        ok = True
+        if w.enable_low is not None:
+            ok = self.levels.get(w.enable_low, 0) == 0
+        if w.enable_high is not None:
+            ok = ok and self.levels.get(w.enable_high, 0) == 1
+        return ok
+
+    def dir_edge(self, t: int) -> None:
+        self.dir_changes += 1
+        self._dir_edge = t
+
+    def enable_edge(self, t: int, was_enabled: bool) -> None:
+        if not was_enabled and self.enabled():
+            self.enables += 1
+            self._enable_edge = t
+
+    def step_run(self, times: Sequence[int], levels: bytes) -> None:
+        rise = self._rise
+        last = self.last_rise
+        for t, lv in zip(times, levels):
+            if lv:
+                rise(t)
+                last = t
+            elif last is not None:
+                high = t - last
+                if self.high_min is None or high < self.high_min:
+                    self.high_min = high
+                if self.high_max is None or high > self.high_max:
+                    self.high_max = high
+
+    # ---------------------------------------------------------------- steps
+    def _planned(self, k: int) -> int | None:
+        """Planned interval before pulse ``k``; consumes the entries taken up before it."""
+        plan = self.plan
+        if not plan or plan[0][1] > k:
+            return self.cur_ticks
+        acc = self.cur_ticks
+        planned: int | None = None
+        stepping = False
+        while plan and plan[0][1] <= k:
+            kind, _, ticks, steps = plan.popleft()
+            if kind == ENTRY_START:
+                self.new_motion = True
+                acc = None
+            elif kind == ENTRY_RESTART:
+                self.restarts += 1
+            if steps == 0:
+                if acc is not None:
+                    acc += ticks
+            else:
+                stepping = True
+                planned = acc
+                self.cur_ticks = acc = ticks
+        return planned if stepping else acc
+
+    def _rise(self, t: int) -> None:
+        planned = self._planned(self.index)
+        self.index += 1
+        up = self.direction_up()
+        self.position += 1 if up else -1
+        self.pulses += 1
+        if self.first_rise is None:
+            self.first_rise = t
+        prev = self.last_rise
+        speed = 0.0
+        if prev is None or self.new_motion:
+            if prev is not None:
+                self._sample(prev, self.position - (1 if up else -1), 0.0, force=True)
+            self.motions += 1
+            self._close_window(prev)
+            self._prev_win = None
+            self.last_interval = None
+        else:
+            interval = t - prev
+            self._period(interval)
+            ref = self.last_interval
+            if ref is not None and interval > GAP_FACTOR * ref:
+                self.gaps += 1
+                self.gap_max = max(self.gap_max, interval)
+                self._win = None
+                self._prev_win = None
+            else:
+                self._window(prev, t, 1 if up else -1)
+                self.last_interval = interval
+            if planned is not None:
+                self._deviation(interval - planned)
+            speed = self.tps / interval if up else -self.tps / interval
+        self.new_motion = False
+        self.last_rise = t
+        if self._dir_edge is not None:
+            d = t - self._dir_edge
+            if self.dir_to_step_min is None or d < self.dir_to_step_min:
+                self.dir_to_step_min = d
+            self._dir_edge = None
+        if self._enable_edge is not None:
+            self.enable_to_step.append(t - self._enable_edge)
+            self._enable_edge = None
+        if not self.enabled():
+            self.steps_disabled += 1
+        self._sample(t, self.position, speed, force=speed == 0.0)
+        if self.csv is not None:
+            self.csv.write(f"{t * 1_000_000 / self.tps:.4f},{self.wiring.number},"
+                           f"{1 if up else -1},{self.position},{t}\n")
+
+    def _period(self, interval: int) -> None:
+        self.periods[interval] = self.periods.get(interval, 0) + 1
+        if self.period_min is None or interval < self.period_min:
+            self.period_min = interval
+        if self.period_max is None or interval > self.period_max:
+            self.period_max = interval
+
+    def _deviation(self, dev: int) -> None:
+        self.dev_compared += 1
+        if dev > 0:
+            self.dev_late += 1
+            self.dev_max_late = max(self.dev_max_late, dev)
+        elif dev < 0:
+            self.dev_early += 1
+            self.dev_max_early = max(self.dev_max_early, -dev)
+
+    # ---------------------------------------------- acceleration from periods
+    def _window(self, start: int, end: int, sign: int) -> None:
+        """Mean speeds over windows of >= 10 ms of steps; acceleration is the change of
+        mean speed between window middles (exact for a constant acceleration, and
+        blind to the tick rounding of single commands)."""
+        win = self._win
+        if win is not None and win[2] != sign:
+            self._close_window(start)
+            win = None
+        if win is None:
+            win = self._win = [start, 0, sign]
+        win[1] += 1
+        if end - win[0] >= self._win_ticks:
+            self._close_window(end)
+
+    def _close_window(self, end: int | None) -> None:
+        win = self._win
+        self._win = None
+        if win is None or end is None or end <= win[0] or not win[1]:
+            return
+        speed = win[2] * win[1] * self.tps / (end - win[0])
+        mid = (win[0] + end) / 2
+        prev = self._prev_win
+        self._prev_win = (speed, mid)
+        if prev is None:
+            return
+        dt = (mid - prev[1]) / self.tps
+        if speed * prev[0] < 0:  # a reversal counts as deceleration
+            acc = -abs(speed - prev[0]) / dt
+        else:
+            acc = (abs(speed) - abs(prev[0])) / dt
+        if acc > self.acc_max:
+            self.acc_max = acc
+        elif -acc > self.dec_max:
+            self.dec_max = -acc
+
+    # ------------------------------------------------------------ plot data
+    def _sample(self, t: int, pos: int, speed: float, force: bool = False) -> None:
+        self._since_sample += 1
+        if not force and self._since_sample < self._stride:
+            return
+        self._since_sample = 0
+        self.samples.append((t, pos, speed))
+        if len(self.samples) > PLOT_POINTS:
+            self.samples = self.samples[::2]
+            self._stride *= 2
+
+    def finish(self, end_tick: int) -> None:
+        self._close_window(self.last_rise)
+        if self.last_rise is not None and (not self.samples or self.samples[-1][2] != 0.0):
+            self.samples.append((self.last_rise, self.position, 0.0))
+        self.unbind()
+
+    # -------------------------------------------------------------- figures
+    def period_median(self) -> int | None:
+        total = sum(self.periods.values())
+        if not total:
+            return None
+        half = (total + 1) // 2
+        seen = 0
+        for period in sorted(self.periods):
+            seen += self.periods[period]
+            if seen >= half:
+                return period
+        return None  # pragma: no cover
+
+
+class MotionAnalysis:
+    """Consumer of the ordered edge stream for all StepperDemo steppers of a backend."""
+
+    def __init__(self, backend, wiring: Sequence[Wiring], *,
+                 positions: Sequence[int] | None = None, csv: IO[str] | None = None,
+                 initial: dict[int, int] | None = None) -> None:
+        self.backend = backend
+        self.tps = backend.profile.ticks_per_s
+        self.levels: dict[int, int] = dict(initial or {})
+        self.csv = csv
+        if csv is not None:
+            csv.write(CSV_HEADER)
+        self.steppers = [
+            StepperMotion(w, self.tps, self.levels,
+                          positions[i] if positions is not None and i < len(positions)
+                          and positions[i] is not None else 0, csv)
+            for i, w in enumerate(wiring)]
+        self._by_step = {m.wiring.step: m for m in self.steppers}
+        self._by_dir: dict[int, list[StepperMotion]] = {}
+        self._by_enable: dict[int, list[StepperMotion]] = {}
+        for m in self.steppers:
+            w = m.wiring
+            if w.direction is not None:
+                self._by_dir.setdefault(w.direction, []).append(m)
+            for pin in (w.enable_low, w.enable_high):
+                if pin is not None:
+                    self._by_enable.setdefault(pin, []).append(m)
+        self.irq_windows = 0
+        self.irq_ticks = 0
+        self._irq_rise: int | None = None
+        self.stray_base = (backend.stray_reads, backend.stray_reads_during_pulse)
+        for ch in backend.channels:
+            self._bind(ch)
+        backend.channel_listeners.append(self._bind)
+
+    def _bind(self, channel: SimChannel) -> None:
+        m = self._by_step.get(channel.step_pin)
+        if m is not None and m.channel is None:
+            m.bind(channel)
+
+    # ----------------------------------------------------- OrderedEdgeSink
+    def edge_run(self, pin: int, times: Sequence[int], levels: bytes) -> None:
+        m = self._by_step.get(pin)
+        if m is not None:
+            m.step_run(times, levels)
+            return
+        if pin == IRQ_BLOCKED:
+            self._irq(times, levels)
+            return
+        dirs = self._by_dir.get(pin)
+        enables = self._by_enable.get(pin)
+        for t, lv in zip(times, levels):
+            was = [s.enabled() for s in enables] if enables else []
+            self.levels[pin] = lv
+            if dirs:
+                for s in dirs:
+                    s.dir_edge(t)
+            if enables:
+                for s, w in zip(enables, was):
+                    s.enable_edge(t, w)
+
+    def _irq(self, times: Sequence[int], levels: bytes) -> None:
+        for t, lv in zip(times, levels):
+            if lv:
+                self.irq_windows += 1
+                self._irq_rise = t
+            elif self._irq_rise is not None:
+                self.irq_ticks += t - self._irq_rise
+                self._irq_rise = None
+
+    def finish(self, end_tick: int) -> None:
+        for m in self.steppers:
+            m.finish(end_tick)
+        if self._bind in self.backend.channel_listeners:
+            self.backend.channel_listeners.remove(self._bind)
+
+    @property
+    def stray_reads(self) -> tuple[int, int]:
+        b = self.backend
+        return (b.stray_reads - self.stray_base[0],
+                b.stray_reads_during_pulse - self.stray_base[1])

@@ -1,0 +1,237 @@
+"""Watching a simulated run: VCD trace, per-step CSV, timing report and plots.
+
+``attach(backend, vcd=..., csv=...)`` subscribes recorders to a :class:`SimBackend`
+before (or while) StepperDemo runs on it; ``finish()`` closes the files.  The timing
+report and the plots are available afterwards (and, for the console, at any time
+while recording: :meth:`Observers.flush` brings the figures up to date).
+
+The signals follow StepperDemo's wiring of the profile (``profile.demo_steppers``):
+``StepA``/``DirA``/``EnableA`` for stepper 1, ``B`` for stepper 2 and so on, plus
+``IrqBlocked`` for the interrupt-blocked windows of the ``e`` injection.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+from collections.abc import Sequence
+from typing import IO
+
+from fas.sim import SimBackend
+from fas.sim.trace import (
+    IRQ_BLOCKED,
+    IRQ_BLOCKED_NAME,
+    EdgeStream,
+    VcdWriter,
+    pin_levels,
+    timescale_factor,
+)
+
+from . import messages as msg
+from .motion import MotionAnalysis, Wiring, demo_wiring
+
+
+def vcd_signals(wiring: Sequence[Wiring]) -> dict[int, list[str]]:
+    """Pin -> VCD names; a pin shared by several steppers gets every name (aliases)."""
+    signals: dict[int, list[str]] = {}
+    for w in wiring:
+        for pin, name in ((w.step, "Step"), (w.direction, "Dir"), (w.enable_low, "Enable"),
+                          (w.enable_high, "EnableHigh")):
+            if pin is not None:
+                signals.setdefault(pin, []).append(name + w.label)
+    signals[IRQ_BLOCKED] = [IRQ_BLOCKED_NAME]
+    return signals
+
+
+class Observers:
+    """Recorders on one simulated backend: an ordered edge stream and its consumers."""
+
+    def __init__(self, backend: SimBackend, *, vcd: str | None = None,
+                 spool_vcd: bool = False, csv: str | None = None, analyse: bool = True,
+                 positions: Sequence[int | None] | None = None,
+                 timescale: str | None = None) -> None:
+        self.backend = backend
+        self.profile = backend.profile
+        self.wiring = demo_wiring(self.profile)
+        self.signals = vcd_signals(self.wiring)
+        self.stream = EdgeStream(backend)
+        self.vcd_path = vcd
+        self._spool = spool_vcd and vcd is None
+        self._vcd_file: IO[str] | None = None
+        self._csv_file: IO[str] | None = None
+        self.csv_path = csv
+        self.vcd: VcdWriter | None = None
+        self.analysis: MotionAnalysis | None = None
+        self._analyse = analyse or csv is not None
+        self._positions = positions
+        self._timescale = timescale
+        self.end_tick: int | None = None
+
+    # ------------------------------------------------------------ lifecycle
+    def start(self) -> Observers:
+        """Open the files and subscribe (raises OSError for a file that cannot be written)."""
+        start = self.stream.start()
+        levels = pin_levels(self.backend, self.signals)
+        try:
+            if self.vcd_path is not None or self._spool:
+                if self._spool:
+                    fd, self.vcd_path = tempfile.mkstemp(prefix="stepperdemo-", suffix=".vcd")
+                    os.close(fd)
+                self._vcd_file = open(self.vcd_path, "w", encoding="ascii",  # noqa: SIM115
+                                      newline="\n", buffering=1 << 20)
+                self.vcd = VcdWriter(self._vcd_file, self.signals, self.profile.ticks_per_s,
+                                     start_tick=start, initial=levels,
+                                     timescale=self._timescale,
+                                     comment=msg.VCD_COMMENT.format(profile=self.profile.name))
+                self.stream.add(self.vcd)
+            if self.csv_path is not None:
+                self._csv_file = open(self.csv_path, "w", encoding="ascii",  # noqa: SIM115
+                                      newline="\n", buffering=1 << 20)
+        except OSError:
+            self._abort()
+            raise
+        if self._analyse:
+            self.analysis = MotionAnalysis(self.backend, self.wiring, positions=self._positions,
+                                           csv=self._csv_file, initial=levels)
+            self.stream.add(self.analysis)
+        return self
+
+    def _abort(self) -> None:
+        self.stream.stop()
+        for f in (self._vcd_file, self._csv_file):
+            if f is not None:
+                f.close()
+        if self._spool and self.vcd_path:
+            _remove(self.vcd_path)
+
+    @property
+    def active(self) -> bool:
+        return self.end_tick is None
+
+    def flush(self) -> None:
+        """Hand on every edge that can no longer change (figures up to date)."""
+        if self.active:
+            self.stream.flush(settle=True)
+
+    def finish(self) -> None:
+        """Stop recording: hand on everything, close the files.  Idempotent."""
+        if not self.active:
+            return
+        self.end_tick = end = self.stream.stop()
+        if self.analysis is not None:
+            self.analysis.finish(end)
+        if self.vcd is not None:
+            self.vcd.close(end)
+            self._vcd_file.close()
+        if self._csv_file is not None:
+            self._csv_file.close()
+
+    def discard(self) -> None:
+        """Finish and remove a spooled VCD file."""
+        self.finish()
+        if self._spool and self.vcd_path:
+            _remove(self.vcd_path)
+            self.vcd_path = None
+
+    # --------------------------------------------------------------- output
+    def now_tick(self) -> int:
+        return self.end_tick if self.end_tick is not None else max(self.stream.last_tick,
+                                                                    self.backend.now())
+
+    def export_vcd(self, path: str) -> int:
+        """Copy the VCD recorded so far to ``path``; returns the number of edges in it."""
+        if self.vcd is None or not self.vcd_path:
+            raise ValueError("no VCD is being recorded")
+        self.flush()
+        self.vcd.copy_to(path, self.now_tick())
+        return self.vcd.changes
+
+    def edges(self) -> int:
+        return self.stream.edges_out
+
+
+def _remove(path: str) -> None:
+    try:
+        os.remove(path)
+    except OSError:
+        pass
+
+
+def attach(backend: SimBackend, *, vcd: str | None = None, csv: str | None = None,
+           analyse: bool = True, positions: Sequence[int | None] | None = None,
+           timescale: str | None = None) -> Observers:
+    """Start recording a simulated run (see :class:`Observers`); call ``finish()`` after."""
+    return Observers(backend, vcd=vcd, csv=csv, analyse=analyse, positions=positions,
+                     timescale=timescale).start()
+
+
+# ----------------------------------------------------------- command line
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The observer options of ``stepperdemo -c`` (and ``stepperdemo run``)."""
+    g = ap.add_argument_group("watching the run (simulated backend)")
+    g.add_argument("--vcd", metavar="FILE",
+                   help="write the step/dir/enable pins of every stepper and the "
+                        "interrupt-blocked windows as a VCD file (GTKWave, PulseView)")
+    g.add_argument("--vcd-timescale", metavar="UNIT",
+                   help="VCD time unit, e.g. '1 us' (default: the coarsest standard unit "
+                        "in which every tick is exact, 100 ps at 16 MHz; a coarser unit "
+                        "rounds the times but keeps PulseView imports small)")
+    g.add_argument("--plot", metavar="FILE.png",
+                   help="plot position and speed over time per stepper as PNG "
+                        "(needs the 'plot' extra: matplotlib)")
+    g.add_argument("--plot-size", metavar="WxH", default="1200x800",
+                   help="pixel size of the --plot image (default 1200x800)")
+    g.add_argument("--report", action="store_true",
+                   help="print a timing report per stepper after the transcript")
+    g.add_argument("--steps-csv", metavar="FILE",
+                   help="write one row per step: time_us,stepper,direction,position,tick")
+
+
+def wanted(args: argparse.Namespace) -> bool:
+    return bool(getattr(args, "vcd", None) or getattr(args, "plot", None)
+                or getattr(args, "report", False) or getattr(args, "steps_csv", None))
+
+
+def check_arguments(args: argparse.Namespace) -> str | None:
+    """A problem with the observer options (before anything runs), else None."""
+    from . import plots
+
+    if getattr(args, "command", "") is None and wanted(args):
+        return msg.OBSERVE_NOT_INTERACTIVE
+    timescale = getattr(args, "vcd_timescale", None)
+    if timescale is not None:
+        try:
+            timescale_factor(timescale, 1_000_000)
+        except (ValueError, KeyError):
+            return msg.OBSERVE_BAD_TIMESCALE.format(timescale=timescale)
+    if getattr(args, "plot", None):
+        if plots.parse_size(args.plot_size) is None:
+            return msg.OBSERVE_BAD_SIZE.format(size=args.plot_size)
+        if not plots.png_available():
+            return msg.PLOT_EXTRA_MISSING
+    return None
+
+
+def from_arguments(backend: SimBackend, args: argparse.Namespace) -> Observers | None:
+    """Attach what the options ask for (None if nothing); OSError if a file can't be made."""
+    if not wanted(args):
+        return None
+    return attach(backend, vcd=args.vcd, csv=args.steps_csv,
+                  analyse=bool(args.report or args.plot or args.steps_csv),
+                  timescale=getattr(args, "vcd_timescale", None))
+
+
+def finish_arguments(obs: Observers, args: argparse.Namespace, app=None,
+                     title: str = "") -> list[str]:
+    """Finish recording, write the plot; returns the report lines to print (maybe none)."""
+    from . import plots, report
+
+    obs.finish()
+    out: list[str] = []
+    if args.plot:
+        size = plots.parse_size(args.plot_size)
+        plots.write_png(plots.series_of(obs), args.plot, size, title=title)
+    if args.report:
+        out.extend(report.report_lines(obs, positions=report.library_positions(app)))
+    return out

@@ -1,0 +1,148 @@
+"""Position and speed over time per stepper: in the terminal (braille) or as PNG.
+
+The speed is derived from the step periods (steps/s = ticks_per_s / period, signed by
+the direction).  The terminal plot needs nothing beyond the standard library; the
+PNG needs matplotlib (the optional extra ``plot``).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from . import messages as msg
+from .observe import Observers
+
+BRAILLE = 0x2800
+# dot bit of braille cell column x (0/1) and row y (0..3)
+_DOTS = ((0x01, 0x02, 0x04, 0x40), (0x08, 0x10, 0x20, 0x80))
+
+
+@dataclass
+class Series:
+    number: int  # stepper 1, 2, ...
+    t_s: list[float]
+    position: list[int]
+    speed: list[float]
+
+    @property
+    def label(self) -> str:
+        return f"M{self.number}"
+
+
+def series_of(obs: Observers) -> list[Series]:
+    """The plot data of every stepper that made steps."""
+    obs.flush()
+    if obs.analysis is None:
+        return []
+    tps = obs.profile.ticks_per_s
+    out = []
+    for m in obs.analysis.steppers:
+        if not m.samples:
+            continue
+        out.append(Series(m.wiring.number, [t / tps for t, _, _ in m.samples],
+                          [p for _, p, _ in m.samples], [v for _, _, v in m.samples]))
+    return out
+
+
+def parse_size(text: str) -> tuple[int, int] | None:
+    m = re.fullmatch(r"\s*(\d{2,5})\s*[xX]\s*(\d{2,5})\s*", text or "")
+    if not m:
+        return None
+    return int(m.group(1)), int(m.group(2))
+
+
+# --------------------------------------------------------------- terminal
+def _braille_chart(ts: Sequence[float], ys: Sequence[float], width: int,
+                   height: int, t_range: tuple[float, float]) -> tuple[list[str], float, float]:
+    w, h = width * 2, height * 4
+    t0, t1 = t_range
+    lo, hi = min(ys), max(ys)
+    if hi == lo:
+        hi, lo = hi + 1, lo - 1
+    cells = [[0] * width for _ in range(height)]
+
+    def dot(x: int, y: int) -> None:
+        cells[y // 4][x // 2] |= _DOTS[x % 2][y % 4]
+
+    def xy(t: float, v: float) -> tuple[int, int]:
+        x = round((t - t0) / (t1 - t0) * (w - 1)) if t1 > t0 else 0
+        y = round((hi - v) / (hi - lo) * (h - 1))
+        return min(max(x, 0), w - 1), min(max(y, 0), h - 1)
+
+    px, py = xy(ts[0], ys[0])
+    dot(px, py)
+    for t, v in zip(ts[1:], ys[1:]):
+        x, y = xy(t, v)
+        n = max(abs(x - px), abs(y - py))
+        for i in range(1, n + 1):
+            dot(px + (x - px) * i // n, py + (y - py) * i // n)
+        px, py = x, y
+    rows = ["".join(chr(BRAILLE + c) for c in row) for row in cells]
+    return rows, lo, hi
+
+
+def _num(v: float) -> str:
+    return f"{v:.0f}" if abs(v) >= 100 or v == int(v) else f"{v:.3g}"
+
+
+def terminal_plot(series: Sequence[Series], width: int = 64, height: int = 8) -> list[str]:
+    """Text lines: per stepper a position chart and a speed chart (braille dots)."""
+    if not series:
+        return [msg.PLOT_NO_DATA]
+    t0 = min(s.t_s[0] for s in series)
+    t1 = max(s.t_s[-1] for s in series)
+    lines: list[str] = []
+    for s in series:
+        for what, ys in ((msg.PLOT_TITLE_POSITION, s.position), (msg.PLOT_TITLE_SPEED, s.speed)):
+            rows, lo, hi = _braille_chart(s.t_s, ys, width, height, (t0, t1))
+            lines.append(msg.PLOT_TERMINAL_HEADER.format(n=s.number, what=what))
+            label_w = max(len(_num(hi)), len(_num(lo)))
+            for i, row in enumerate(rows):
+                label = _num(hi) if i == 0 else _num(lo) if i == len(rows) - 1 else ""
+                lines.append(f"{label:>{label_w}} |{row}")
+            left, right = f"{t0:.3f} s", f"{t1:.3f} s"
+            lines.append(" " * label_w + " +" + "-" * width)
+            lines.append(" " * (label_w + 2) + left + right.rjust(width - len(left)))
+    return lines
+
+
+# -------------------------------------------------------------------- PNG
+def png_available() -> bool:
+    return importlib.util.find_spec("matplotlib") is not None
+
+
+class PlotExtraMissing(RuntimeError):
+    pass
+
+
+def write_png(series: Sequence[Series], path: str, size: tuple[int, int] = (1200, 800),
+              title: str = "") -> None:
+    """Position and speed over time, one line per stepper, as a PNG of ``size`` pixels."""
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError as exc:  # pragma: no cover - depends on the installation
+        raise PlotExtraMissing(msg.PLOT_EXTRA_MISSING) from exc
+    dpi = 100
+    fig = Figure(figsize=(size[0] / dpi, size[1] / dpi), dpi=dpi, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax_pos, ax_speed = fig.subplots(2, 1, sharex=True)
+    for s in series:
+        ax_pos.plot(s.t_s, s.position, label=s.label, linewidth=1.2)
+        ax_speed.plot(s.t_s, s.speed, label=s.label, linewidth=1.2)
+    ax_pos.set_ylabel(msg.PLOT_TITLE_POSITION)
+    ax_speed.set_ylabel(msg.PLOT_TITLE_SPEED)
+    ax_speed.set_xlabel(msg.PLOT_AXIS_TIME)
+    for ax in (ax_pos, ax_speed):
+        ax.grid(True, alpha=0.3)
+        if series:
+            ax.legend(loc="best")
+    if not series:
+        ax_pos.text(0.5, 0.5, msg.PLOT_NO_DATA, ha="center", va="center",
+                    transform=ax_pos.transAxes)
+    if title:
+        fig.suptitle(title)
+    fig.savefig(path, dpi=dpi)

@@ -1,0 +1,299 @@
+"""The console's serial side: ``--port``, ``stepperdemo device``, ``stepperdemo relay``.
+
+* ``stepperdemo --port DEVICE [-c LINE]`` runs StepperDemo on this computer with the
+  serial backend (:mod:`fas.serial`): the device executes the queue commands.
+* ``stepperdemo device --pty`` is a device on the simulated machine, serving a new
+  pseudo-terminal in real time (prints its path).
+* ``stepperdemo relay DEVICE`` sits between a host and a device and injects faults.
+
+Also the console's meta commands for a serial session (``/reconnect``, ``/link``,
+``/estop``) and the statistics lines.  Every text is in :mod:`.messages`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from typing import Iterable, Sequence
+
+from fas.arch import PROFILES
+
+from . import messages as msg
+
+EXIT_USAGE = 2
+EXIT_LINK_LOST = 5
+
+META_COMMANDS = {
+    "/reconnect": "serial: open the device again (optionally another port)",
+    "/link": "serial: link and device statistics",
+    "/estop": "serial: emergency stop on the device",
+}
+
+
+# ------------------------------------------------------------------- host side
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    ap.add_argument("--port", metavar="DEVICE",
+                    help="run on a device behind this serial port or pty (see "
+                         "'stepperdemo device'); the device decides the profile")
+    ap.add_argument("--baud", type=int, default=115200, metavar="N",
+                    help="serial line speed for --port (default 115200)")
+    ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
+                    help="--port: the device stops all motion after MS of host silence")
+
+
+def open_backend(port: str, baud: int = 115200, watchdog_ms: int = 500):
+    """A connected :class:`fas.serial.SerialBackend` (raises ``SerialError``)."""
+    from fas.serial import SerialBackend
+
+    return SerialBackend(port, baud=baud, watchdog_ms=watchdog_ms)
+
+
+def stats_lines(backend) -> list[str]:
+    """Link statistics, device counters and per-stepper figures, one line each."""
+    lines = [msg.SERIAL_LINK_STATS.format(**backend.link_stats())]
+    counters = backend.device_counters()
+    if counters:
+        lines.append(msg.SERIAL_DEVICE_STATS.format(**counters))
+    for idx in sorted(backend.statuses):
+        st = backend.statuses[idx]
+        lines.append(msg.SERIAL_STEPPER_STATS.format(n=idx + 1, position=st.position,
+                                                     pulses=st.pulses,
+                                                     underruns=st.underruns))
+    return lines
+
+
+def run_scripted(args: argparse.Namespace, write) -> int:
+    """``stepperdemo --port DEVICE -c LINE``: the line in real time on the device."""
+    from fas.serial import SerialError
+
+    from . import observe
+    from .app import EndReason, StepperDemo
+
+    if observe.wanted(args):
+        print(msg.CLI_ERROR.format(problem=msg.SERIAL_NO_OBSERVE), file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        backend = open_backend(args.port, args.baud, args.watchdog_ms)
+    except SerialError as exc:
+        print(msg.CLI_SERIAL_CONNECT.format(port=args.port, error=exc), file=sys.stderr)
+        return EXIT_USAGE
+    app = StepperDemo(backend, scripted=True, output=write)
+    max_ticks = int(args.max_time * backend.profile.ticks_per_s)
+    try:
+        reason = app.run_script(args.command, firmware_end=args.firmware_end,
+                                max_ticks=max_ticks)
+    except KeyboardInterrupt:
+        backend.emergency_stop()
+        raise
+    finally:
+        sys.stdout.flush()
+    code = finish_scripted(backend)
+    if code:
+        return code
+    if reason == EndReason.MAX_TIME:
+        print(msg.CLI_MAX_TIME.format(seconds=args.max_time), file=sys.stderr)
+        return 3
+    return 1 if app.test_failed_count else 0
+
+
+def finish_scripted(backend, out=sys.stderr) -> int:
+    """After ``-c`` on a device: wait for it, print the statistics, end the session."""
+    lost = backend.lost_reason
+    if backend.connected:
+        backend.settle()
+        backend.request_status()
+    for line in stats_lines(backend):
+        print(line, file=out)
+    if lost or not backend.connected:
+        print(msg.CLI_SERIAL_LOST.format(reason=lost or backend.lost_reason), file=out)
+        backend.close()
+        return EXIT_LINK_LOST
+    backend.close()
+    return 0
+
+
+# ------------------------------------------------------------ console (REPL)
+def console_attach(console, backend) -> None:
+    """Report a lost device in one line above the prompt."""
+    def on_event(event: str, text: str) -> None:
+        if event == "lost":
+            console._note(msg.SERIAL_LOST.format(reason=text))
+    backend.listeners.append(on_event)
+
+
+def console_meta(console, cmd: str, args: list[str]) -> Iterable[str]:
+    """``/reconnect [port]``, ``/link``, ``/estop``: the lines to show."""
+    from fas.serial import SerialError
+
+    backend = console.backend
+    if not getattr(console, "port", None):
+        return [msg.SERIAL_NOT_SERIAL.format(cmd=cmd)]
+    if cmd == "/reconnect":
+        try:
+            backend.reconnect(args[0] if args else None)
+        except SerialError as exc:
+            return [msg.SERIAL_RECONNECT_FAILED.format(error=exc)]
+        console.port = backend.port
+        return [msg.SERIAL_RECONNECTED.format(port=backend.port, profile=backend.profile.name,
+                                              sessions=backend.sessions)]
+    if cmd == "/link":
+        if backend.connected:
+            backend.request_status(500)
+        lines = stats_lines(backend)
+        if not backend.connected:
+            lines.append(msg.SERIAL_LOST.format(reason=backend.lost_reason))
+        return lines
+    if cmd == "/estop":
+        if backend.emergency_stop():
+            return [msg.SERIAL_ESTOP_DONE]
+        return []
+    return [msg.REPL_UNKNOWN_META.format(cmd=cmd)]
+
+
+# ------------------------------------------------------------- subcommands
+class _Stop:
+    def __init__(self) -> None:
+        self.flag = False
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self._set)
+
+    def _set(self, *_args) -> None:
+        self.flag = True
+
+    def __call__(self) -> bool:
+        return self.flag
+
+
+def device_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="stepperdemo device",
+        description="A device that speaks the serial protocol (docs/serial-protocol.md) "
+                    "and executes on the simulated machine in real time.")
+    where = ap.add_mutually_exclusive_group()
+    where.add_argument("--pty", action="store_true",
+                       help="serve a new pseudo-terminal and print its path (default)")
+    where.add_argument("--port", metavar="PATH", help="serve an existing serial port")
+    ap.add_argument("--arch", default="atmega328p", choices=sorted(PROFILES),
+                    help="the device's profile (default atmega328p)")
+    ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
+                    help="stop all motion after MS of host silence unless the host asks "
+                         "for another time (default 500)")
+    ap.add_argument("--speed", type=float, default=1.0, metavar="FACTOR",
+                    help="run the device clock FACTOR times faster than real time")
+    ap.add_argument("--link", metavar="PATH",
+                    help="also make PATH a symbolic link to the pty (a stable name)")
+    ap.add_argument("--quiet", action="store_true", help="print only the pty path")
+    return ap
+
+
+def run_device(argv: Sequence[str]) -> int:
+    from fas.arch import get_profile
+    from fas.serial import Device, LinkClosed, Pty, RealClock, open_serial
+    from fas.serial.stream import remove_link, set_link
+
+    args = device_parser().parse_args(argv)
+    if args.speed <= 0 or args.watchdog_ms < 0:
+        print(msg.CLI_ERROR.format(problem="--speed must be positive, --watchdog-ms >= 0"),
+              file=sys.stderr)
+        return EXIT_USAGE
+    profile = get_profile(args.arch)
+    pty = None
+    if args.port:
+        try:
+            stream = open_serial(args.port)
+        except LinkClosed as exc:
+            print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+            return EXIT_USAGE
+        path = args.port
+    else:
+        pty = Pty("device")
+        stream, path = pty.stream, pty.path
+        set_link(args.link, path)
+    device = Device(stream, profile, RealClock(args.speed), watchdog_ms=args.watchdog_ms)
+    if args.quiet:
+        print(path, flush=True)
+    else:
+        print(msg.DEVICE_LISTENING.format(profile=profile.name, title=profile.title, path=path,
+                                          link=f" ({args.link})" if args.link else "",
+                                          speed=args.speed), flush=True)
+        device.listeners.append(lambda event: print(msg.DEVICE_EVENT.format(event=event),
+                                                    flush=True))
+    stop = _Stop()
+    try:
+        device.serve(stop)
+    finally:
+        if pty is not None:
+            remove_link(args.link, path)
+            pty.close()
+        elif device.stream is not None:
+            device.stream.close()
+    if not args.quiet:
+        for idx in sorted(device.queues):
+            print(msg.DEVICE_STEPPER_STATS.format(n=idx + 1, position=device.position(idx),
+                                                  pulses=device.pulses(idx)))
+        print(msg.DEVICE_COUNTERS.format(**device.counters))
+    return 0
+
+
+def relay_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="stepperdemo relay",
+        description="Relay between a new pty (for the host) and a device's port, with "
+                    "seeded byte faults, latency and an optional baud-rate pace.")
+    ap.add_argument("device", metavar="DEVICE", help="the device's port or pty path")
+    ap.add_argument("--drop", type=float, default=0.0, metavar="P",
+                    help="probability that a byte is lost")
+    ap.add_argument("--corrupt", type=float, default=0.0, metavar="P",
+                    help="probability that a byte has one bit flipped")
+    ap.add_argument("--dup", type=float, default=0.0, metavar="P",
+                    help="probability that a byte arrives twice")
+    ap.add_argument("--latency-ms", type=float, default=0.0, metavar="MS",
+                    help="delay added to every byte, each direction")
+    ap.add_argument("--baud", type=int, default=0, metavar="N",
+                    help="pace each direction to N baud, 10 bits a byte (0: no pacing)")
+    ap.add_argument("--chunk-ms", type=float, default=0.0, metavar="MS",
+                    help="deliver in bursts every MS (a USB adapter's latency timer)")
+    ap.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
+    ap.add_argument("--link", metavar="PATH",
+                    help="also make PATH a symbolic link to the host-side pty")
+    return ap
+
+
+def run_relay(argv: Sequence[str]) -> int:
+    from fas.serial import Faults, LinkClosed, Pty, Relay, open_serial
+    from fas.serial.stream import remove_link, set_link
+
+    args = relay_parser().parse_args(argv)
+    try:
+        faults = Faults(drop=args.drop, corrupt=args.corrupt, dup=args.dup,
+                        latency_ms=args.latency_ms, baud=args.baud, seed=args.seed,
+                        chunk_ms=args.chunk_ms)
+        device_side = open_serial(args.device)
+    except (ValueError, LinkClosed) as exc:
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        return EXIT_USAGE
+    pty = Pty("relay")
+    set_link(args.link, pty.path)
+    relay = Relay(pty.stream, device_side, faults)
+    print(msg.RELAY_LISTENING.format(path=pty.path, device=args.device,
+                                     link=f" ({args.link})" if args.link else ""), flush=True)
+    stop = _Stop()
+    try:
+        relay.serve(stop)
+    finally:
+        remove_link(args.link, pty.path)
+        pty.close()
+        device_side.close()
+    if relay.closed:
+        print(msg.RELAY_DEVICE_GONE.format(reason=relay.closed))
+    for direction, figures in relay.stats().items():
+        print(msg.RELAY_STATS.format(direction=direction.replace("_", " "), **figures))
+    return 0
+
+
+def main(argv: Sequence[str]) -> int:
+    """``stepperdemo device ...`` or ``stepperdemo relay ...``."""
+    if argv[0] == "device":
+        return run_device(argv[1:])
+    return run_relay(argv[1:])
