@@ -248,6 +248,7 @@ RUN_PROGRESS = "running"
 RUN_SUMMARY = "{total} scenarios, {failed} failed"
 RUN_NO_FILE = "stepperdemo run: no such file or folder: {path}"
 RUN_NOTHING = "stepperdemo run: no scenario files found"
+RUN_TIMING_REPORT_HEAD = "--- timing report: {name} ---"
 
 # command line
 CLI_MAX_TIME = ("stopped after {seconds:g} s of simulated time (--max-time): "

@@ -59,9 +59,32 @@ def _num_check(what: str, expected: float, measured: float, tol: float) -> Check
     return Check(what, expected, measured, dev, tol, abs(dev) <= tol)
 
 
-def run_scenario(sc: Scenario, *, observers=None) -> ScenarioResult:
+@dataclass
+class Watch:
+    """Per-scenario outputs of issue 6 for `stepperdemo run`: files named after it."""
+
+    vcd_dir: str | None = None
+    csv_dir: str | None = None
+    plot_dir: str | None = None
+    timing_report: bool = False
+    report_lines: list[str] = field(default_factory=list)
+
+    def wanted(self) -> bool:
+        return bool(self.vcd_dir or self.csv_dir or self.plot_dir or self.timing_report)
+
+
+def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
     backend = SimBackend(sc.profile, record=True)
-    obs = observers(backend) if observers is not None else None
+    obs = None
+    if watch is not None and watch.wanted():
+        from . import observe
+
+        def named(folder: str | None, suffix: str) -> str | None:
+            return str(Path(folder) / f"{sc.name}{suffix}") if folder else None
+        obs = observe.attach(backend, vcd=named(watch.vcd_dir, ".vcd"),
+                             csv=named(watch.csv_dir, ".csv"),
+                             analyse=bool(watch.csv_dir or watch.plot_dir
+                                          or watch.timing_report))
     app = StepperDemo(backend, scripted=True)
     t0 = time.perf_counter()
     reason = app.run_script(sc.input, firmware_end=(sc.end == "firmware"),
@@ -143,7 +166,16 @@ def run_scenario(sc: Scenario, *, observers=None) -> ScenarioResult:
         res.checks.append(Check("transcript lacks", piece, piece not in transcript, None, None,
                                 piece not in transcript))
     if obs is not None:
-        obs.finish(app)
+        from . import plots, report
+
+        obs.finish()
+        if watch.plot_dir and plots.png_available():
+            plots.write_png(plots.series_of(obs), str(Path(watch.plot_dir) / f"{sc.name}.png"),
+                            (1200, 800), title=f"{sc.name}: {sc.input[:80]}")
+        if watch.timing_report:
+            watch.report_lines.append(msg.RUN_TIMING_REPORT_HEAD.format(name=sc.name))
+            watch.report_lines += report.report_lines(
+                obs, positions=report.library_positions(app))
     res.ok = all(c.ok for c in res.checks)
     return res
 
@@ -222,12 +254,20 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("-v", "--verbose", action="store_true", help="show every check")
     ap.add_argument("-k", metavar="TEXT", help="only scenarios whose name contains TEXT")
     ap.add_argument("--skip-long", action="store_true", help="skip scenarios marked long")
+    g = ap.add_argument_group("watching the runs (one file per scenario, named after it)")
+    g.add_argument("--vcd", metavar="DIR", help="write <scenario>.vcd into DIR")
+    g.add_argument("--steps-csv", metavar="DIR", help="write <scenario>.csv into DIR")
+    g.add_argument("--plot", metavar="DIR", help="write <scenario>.png into DIR "
+                   "(needs the 'plot' extra)")
+    g.add_argument("--timing-report", action="store_true",
+                   help="print the timing report of every scenario")
     return ap
 
 
 def main(argv: Sequence[str]) -> int:
     from rich.console import Console
     from rich.progress import Progress
+    from rich.text import Text
 
     args = build_parser().parse_args(list(argv))
     files = collect(args.paths)
@@ -238,6 +278,15 @@ def main(argv: Sequence[str]) -> int:
     if not files:
         print(msg.RUN_NOTHING, file=sys.stderr)
         return EXIT_USAGE
+    watch = Watch(args.vcd, args.steps_csv, args.plot, args.timing_report)
+    for folder in (args.vcd, args.steps_csv, args.plot):
+        if folder:
+            Path(folder).mkdir(parents=True, exist_ok=True)
+    if args.plot:
+        from . import plots
+        if not plots.png_available():
+            print(msg.PLOT_EXTRA_MISSING, file=sys.stderr)
+            return EXIT_USAGE
     err = Console(stderr=True)
     out = Console(soft_wrap=False) if not args.json else None
     results: list[ScenarioResult] = []
@@ -254,7 +303,7 @@ def main(argv: Sequence[str]) -> int:
             if (args.k and args.k not in sc.name) or (args.skip_long and sc.long):
                 bar.advance(task)
                 continue
-            results.append(run_scenario(sc))
+            results.append(run_scenario(sc, watch=watch))
             bar.advance(task)
     failed = [r for r in results if not r.ok]
     if args.json:
@@ -264,5 +313,7 @@ def main(argv: Sequence[str]) -> int:
         print_results(results, out, verbose=args.verbose)
         if args.report:
             print_report(results, out)
+        for line in watch.report_lines:
+            out.print(Text(line))
         out.print(msg.RUN_SUMMARY.format(total=len(results), failed=len(failed)))
     return EXIT_FAILED if failed or missing else EXIT_OK

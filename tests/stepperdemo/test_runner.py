@@ -79,3 +79,12 @@ def test_cli_exit_code_zero_when_all_pass(tmp_path, capsys):
     write(tmp_path, "good.toml", GOOD)
     assert main(["run", str(tmp_path / "good.toml")]) == EXIT_OK
     assert "1 scenarios, 0 failed" in capsys.readouterr().out
+
+
+def test_run_writes_one_vcd_per_scenario(tmp_path, capsys):
+    write(tmp_path, "good.toml", GOOD)
+    out = tmp_path / "vcd"
+    assert main(["run", str(tmp_path / "good.toml"), "--vcd", str(out), "--timing-report"]) == 0
+    text = (out / "good.vcd").read_text()
+    assert "StepA" in text and "$enddefinitions" in text
+    assert "timing report: good" in capsys.readouterr().out
