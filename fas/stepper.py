@@ -119,9 +119,16 @@ class Stepper:
         return self._enable_pin_low_active
 
     def set_auto_enable(self, auto_enable: bool) -> None:
+        was = self._auto_enable
         self._auto_enable = bool(auto_enable)
         if auto_enable and self._off_delay_count == 0:
             self._off_delay_count = 1
+        if auto_enable and not was and self._queue.has_steps_in_queue():
+            # steps queued before are still to come: auto enable means the driver is on
+            # for them (upstream waits for the next queued command to switch it on)
+            if self.enable_outputs():
+                self._auto_disable_delay_counter = self._off_delay_count
+                self._engine.kick()
 
     def set_delay_to_enable(self, delay_us: int) -> DelayResult:
         delay_ticks = self._profile.us_to_ticks(delay_us & 0xFFFFFFFF)

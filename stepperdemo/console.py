@@ -136,6 +136,8 @@ class Console:
             self.backend = SimBackend(arch)
         self.app = StepperDemo(self.backend, scripted=False, output=self._collect)
         self.driver = RealTimeDriver(self.app, self.scale, self.clock)
+        if self.port:  # issue 7: the device's clock runs by itself
+            self.driver = serial_cli.DeviceDriver(self.app, self.scale)
 
     def _make_history(self, path: str | None):
         target = Path(path) if path else default_history_path()

@@ -290,7 +290,7 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
         physical = _pin_position(backend, pins.step, s.get_direction_pin(),
                                  s.direction_pin_high_counts_up())
         pos = s.get_current_position()
-        if len(tracker.dir_delay[i]) > 1 or tracker.detached[i]:
+        if _dir_frame_changed(app, tracker, i):
             pass  # direction pin changed or pins driven directly (T): another frame
         elif not s.is_running() and (pos - physical - tracker.offset[i]) & 0xFFFFFFFF:
             res.violations.append(f"{name}: position {pos} but pins counted {physical} "
@@ -321,7 +321,7 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
         # direction: never during a pulse; configured delay before the next step
         dir_changes = tracker.dir_delay[i]
         dpin = pins.direction
-        if dpin != PIN_UNDEFINED:
+        if dpin != PIN_UNDEFINED and not _dir_frame_changed(app, tracker, i):
             dtimes, _ = rec.pin_edges(dpin)
             for t in dtimes:
                 k = bisect.bisect_right(rises, t) - 1
@@ -335,6 +335,23 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
                     res.violations.append(f"{name}: step {rises[j] - t} ticks after a "
                                           f"direction change (delay {delay})")
                     break
+
+
+def _dir_frame_changed(app: StepperDemo, tracker: _Tracker, i: int) -> bool:
+    """Did anything but stepper i's own queue drive its direction pin?  Its own new
+    direction configuration, another stepper configured onto that pin, or a direct
+    drive test (T) of a stepper sharing it: then the pins count in another frame."""
+    pin = app.profile.demo_steppers[i].direction
+    if len(tracker.dir_delay[i]) > 1 or tracker.detached[i]:
+        return True
+    for j, changes in tracker.dir_delay.items():
+        if j == i:
+            continue
+        if any(p == pin for _, p, _ in changes[1:]):
+            return True
+        if tracker.detached[j] and app.profile.demo_steppers[j].direction == pin:
+            return True
+    return False
 
 
 def _shared_enable(app: StepperDemo, pin: int) -> bool:

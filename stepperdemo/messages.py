@@ -344,7 +344,8 @@ SERIAL_NO_OBSERVE = ("--vcd, --plot, --report and --steps-csv record the simulat
 DEVICE_LISTENING = ("device {profile} ({title}) on {path}{link}, clock x{speed:g}; "
                     "Ctrl-C ends")
 DEVICE_EVENT = "device: {event}"
-DEVICE_STEPPER_STATS = "M{n}: position {position}, {pulses} pulses"
+DEVICE_STEPPER_STATS = ("M{n}: position {position}, {pulses} pulses in the last session, "
+                        "{edges} since the start")
 DEVICE_COUNTERS = ("counters: {entries} commands, {entries_lost} lost, {entries_duplicated} "
                    "duplicated, {underruns} underruns, {late_starts} late starts, "
                    "{frames_ok} frames, {frames_duplicate} repeated, {frames_out_of_order} "

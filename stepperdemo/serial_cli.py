@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 from fas.arch import PROFILES
 
@@ -80,14 +80,24 @@ def run_scripted(args: argparse.Namespace, write) -> int:
         return EXIT_USAGE
     app = StepperDemo(backend, scripted=True, output=write)
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
+
+    def on_event(event: str, text: str) -> None:
+        if event == "lost":  # a script cannot go on without its device
+            raise _DeviceLost(text)
+
+    backend.listeners.append(on_event)
+    reason = None
     try:
         reason = app.run_script(args.command, firmware_end=args.firmware_end,
                                 max_ticks=max_ticks)
+    except _DeviceLost:
+        pass
     except KeyboardInterrupt:
         backend.emergency_stop()
         raise
     finally:
         sys.stdout.flush()
+        backend.listeners.remove(on_event)
     code = finish_scripted(backend)
     if code:
         return code
@@ -95,6 +105,10 @@ def run_scripted(args: argparse.Namespace, write) -> int:
         print(msg.CLI_MAX_TIME.format(seconds=args.max_time), file=sys.stderr)
         return 3
     return 1 if app.test_failed_count else 0
+
+
+class _DeviceLost(Exception):
+    pass
 
 
 def finish_scripted(backend, out=sys.stderr) -> int:
@@ -114,6 +128,38 @@ def finish_scripted(backend, out=sys.stderr) -> int:
 
 
 # ------------------------------------------------------------ console (REPL)
+class DeviceDriver:
+    """The console's driver on a device: host time runs by itself (it is the device's).
+
+    The simulator's driver runs the program up to the wall clock; here the clock does
+    not wait for the program, so each call serves the link, runs the ramp tasks that
+    are due and makes one pass of the program's loop - as ``loop()`` on a board that
+    never sleeps - and says how long the program may sleep.
+    """
+
+    def __init__(self, app, scale: float = 1.0) -> None:
+        self.app = app
+        self.scale = scale
+
+    def set_scale(self, scale: float) -> None:  # the device decides its clock
+        pass
+
+    def target_tick(self) -> int:
+        return self.app.backend.now()
+
+    def advance(self) -> float | None:
+        app = self.app
+        backend = app.backend
+        app.run_until(backend.now())  # setup() on the first call; serves the link
+        backend.app_wait_until(backend.now())
+        app.loop_pass()
+        wake = app.next_wake_tick()
+        if wake is None:
+            return None
+        tps = app.profile.ticks_per_s
+        return max(0.0, (wake - backend.now()) / tps / self.scale)
+
+
 def console_attach(console, backend) -> None:
     """Report a lost device in one line above the prompt."""
     def on_event(event: str, text: str) -> None:
@@ -231,7 +277,8 @@ def run_device(argv: Sequence[str]) -> int:
     if not args.quiet:
         for idx in sorted(device.queues):
             print(msg.DEVICE_STEPPER_STATS.format(n=idx + 1, position=device.position(idx),
-                                                  pulses=device.pulses(idx)))
+                                                  pulses=device.pulses(idx),
+                                                  edges=device.step_edges(idx)))
         print(msg.DEVICE_COUNTERS.format(**device.counters))
     return 0
 

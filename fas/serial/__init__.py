@@ -15,5 +15,15 @@ from .device import Device
 from .relay import Faults, Relay
 from .stream import LinkClosed, Pty, open_serial
 
-__all__ = ["SerialBackend", "SerialError", "Device", "Relay", "Faults", "RealClock",
-           "VirtualClock", "LinkClosed", "Pty", "open_serial"]
+__all__ = [
+           "Device",
+           "Faults",
+           "LinkClosed",
+           "Pty",
+           "RealClock",
+           "Relay",
+           "SerialBackend",
+           "SerialError",
+           "VirtualClock",
+           "open_serial",
+]

@@ -17,7 +17,7 @@ reports, so the axes keep their coordinates.
 from __future__ import annotations
 
 import random
-from typing import Callable
+from collections.abc import Callable
 
 from ..arch import Profile, get_profile
 from ..backend import Backend, PulseCounter
@@ -62,7 +62,7 @@ class SerialBackend(Backend):
     """Drives a device that speaks docs/serial-protocol.md (see module text)."""
 
     def __init__(self, port: str | ByteStream, *, baud: int = 115200, clock=None,
-                 watchdog_ms: int = 500, report_ms: int = 4, connect_timeout_ms: int = 3000,
+                 watchdog_ms: int = 500, report_ms: int = 2, connect_timeout_ms: int = 3000,
                  start_lead_us: int = 1000, window: int = 16, max_payload: int = 40,
                  sync_interval_ms: int = 1000,
                  opener: Callable[[str, int], ByteStream] = open_serial) -> None:
@@ -88,6 +88,7 @@ class SerialBackend(Backend):
         self.pins: dict[int, int] = {}  # levels the host wrote (replayed on reconnect)
         self.device_status: DeviceStatus | None = None
         self.statuses: dict[int, Status] = {}
+        self._status_seen: set[int] = set()
         self._status_count = 0
         self._ident_wanted: int | None = None
         self._nonce = 0
@@ -176,7 +177,8 @@ class SerialBackend(Backend):
         self.statuses = {}
         hello = Hello(PROTOCOL_VERSION, self._nonce, self.watchdog_ms, self.report_ms)
         ok = self._await(lambda: self.ident is not None and self._status_count > statuses_before,
-                         self.connect_timeout_ns, lambda: link.send_unsequenced(hello))
+                         self.connect_timeout_ns, lambda: link.send_unsequenced(hello),
+                         50 * MS)
         if not ok:
             problem = link.closed or "no answer from the device"
             self._drop_link(problem)
@@ -229,13 +231,17 @@ class SerialBackend(Backend):
         return p
 
     def _sync_interval(self) -> int:
-        return min(self.sync_interval_ns, self.watchdog_ms * MS // 4 or self.sync_interval_ns)
+        """Host-clock ns between clock samples; they are the heartbeat, too, so at least
+        four fall in the device's watchdog time (device ms; a sped-up device's are short)."""
+        watchdog_ns = self.watchdog_ms * MS * (self.profile.ticks_per_s if self.profile
+                                               else self.clock_hz) // self.clock_hz
+        return min(self.sync_interval_ns, watchdog_ns // 4 or self.sync_interval_ns)
 
     def _sync_once(self, link: HostLink) -> None:
         count = len(self._sync_samples)
         stamp = self.now()
         self._await(lambda: len(self._sync_samples) > count, 200 * MS,
-                    lambda: link.sync_request(stamp), resend_ns=1000 * MS)
+                    lambda: link.sync_request(stamp), resend_ns=50 * MS)
 
     def _await(self, cond: Callable[[], bool], timeout_ns: int,
                resend: Callable[[], None] | None = None, resend_ns: int = 200 * MS) -> bool:
@@ -261,12 +267,15 @@ class SerialBackend(Backend):
         """End the session politely (the device stops without a watchdog trip)."""
         if self.link is not None and self.connected:
             self.link.flush()
-            self.link.send_unsequenced(Bye(self._nonce))
+            for _ in range(3):  # unsequenced and unanswered: a noisy line may eat one
+                self.link.send_unsequenced(Bye(self._nonce))
         self._drop_link("closed")
 
     def _lose(self, reason: str) -> None:
-        if not self.connected:
-            return
+        if self.connected:
+            self._declare_lost(reason)
+
+    def _declare_lost(self, reason: str) -> None:
         self._drop_link(reason)
         self.lost_reason = reason
         for ch in self.channels:
@@ -289,6 +298,7 @@ class SerialBackend(Backend):
                     ch.apply(m, acked_mid)
             elif isinstance(m, Status):
                 self.statuses[m.stepper] = m
+                self._status_seen.add(m.stepper)
                 ch = self._by_index.get(m.stepper)
                 if ch is not None:
                     ch.last_status = m
@@ -306,9 +316,8 @@ class SerialBackend(Backend):
                         self._problem = "device in emergency stop"
             elif isinstance(m, SyncReply):
                 self._sync_sample(m)
-            elif isinstance(m, Ident):
-                if m.nonce == self._ident_wanted:
-                    self.ident = m
+            elif isinstance(m, Ident) and m.nonce == self._ident_wanted:
+                self.ident = m
 
     def _sync_sample(self, m: SyncReply) -> None:
         t1 = self.now()
@@ -487,11 +496,11 @@ class SerialBackend(Backend):
         self._estopping = True
         try:
             count = self._status_count
-            link.send_unsequenced(EmergencyStop())
+            link.send_unsequenced(EmergencyStop(self._nonce))
             ok = self._await(lambda: self._status_count > count and self.device_status
                              is not None and bool(self.device_status.state & D_ESTOP),
                              self.connect_timeout_ns,
-                             lambda: link.send_unsequenced(EmergencyStop()), 50 * MS)
+                             lambda: link.send_unsequenced(EmergencyStop(self._nonce)), 50 * MS)
             if not ok:
                 self._lose(link.closed or "no answer to the emergency stop")
                 return False
@@ -501,8 +510,7 @@ class SerialBackend(Backend):
             try:
                 self._open_session(stream)
             except SerialError as exc:
-                self.connected = True  # so that _lose reports it
-                self._lose(str(exc))
+                self._declare_lost(str(exc))
                 return False
             return True
         finally:
@@ -514,8 +522,11 @@ class SerialBackend(Backend):
         if link is None or not self.connected:
             return None
         count = self._status_count
-        ok = self._await(lambda: self._status_count > count, timeout_ms * MS,
-                         lambda: link.send_unsequenced(StatusRequest()), 100 * MS)
+        self._status_seen = set()
+        wanted = {ch.index for ch in self.channels}
+        ok = self._await(lambda: self._status_count > count and wanted <= self._status_seen,
+                         timeout_ms * MS, lambda: link.send_unsequenced(StatusRequest()),
+                         100 * MS)
         return self.device_status if ok else None
 
     def settle(self, timeout_ms: int = 2000) -> bool:

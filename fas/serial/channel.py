@@ -16,10 +16,10 @@ from typing import TYPE_CHECKING
 from ..backend import PulseCounter, QueueChannel
 from ..queue import i32
 from .protocol import (
+    P_HAS_PCNT,
     Config,
     Detach,
     DirPin,
-    P_HAS_PCNT,
     Entry,
     ForceStop,
     PcntAttach,

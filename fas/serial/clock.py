@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import select
 import time
-from typing import Protocol, Sequence
+from collections.abc import Sequence
+from typing import Protocol
 
 
 class Waitable(Protocol):
@@ -27,7 +28,7 @@ class Waitable(Protocol):
 class Wire:
     """Byte counters of one direction of a link (virtual clock only)."""
 
-    __slots__ = ("sent", "received", "reader", "name")
+    __slots__ = ("name", "reader", "received", "sent")
 
     def __init__(self, reader: object | None = None, name: str = "") -> None:
         self.sent = 0

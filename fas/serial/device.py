@@ -14,15 +14,15 @@ wall clock (optionally sped up) when serving a pty, or a
 from __future__ import annotations
 
 import random
-from typing import Callable
+from collections.abc import Callable
 
 from ..arch import Profile, get_profile
 from ..backend import PulseCounter
 from ..queue import StepperQueue, i32
+from ..sim.backend import SimBackend
 from ..sim.channel import SimChannel
 from ..sim.machine import PRIO_PLAIN, Event
 from ..sim.pins import EdgeRecorder
-from ..sim.backend import SimBackend
 from .clock import RealClock
 from .protocol import (
     D_ESTOP,
@@ -71,9 +71,11 @@ from .stream import ByteStream, LinkClosed
 
 NS_PER_S = 1_000_000_000
 DEFAULT_WATCHDOG_MS = 500
-DEFAULT_REPORT_MS = 4
+DEFAULT_REPORT_MS = 2
 DEFAULT_STATUS_MS = 100
 RX_WINDOW = 16
+FRAME_BREAK = b""  # in the output list: start a new frame (small frames survive noise)
+DEVICE_STATUS_EVERY = 5  # status periods between unrequested DeviceStatus messages
 
 
 class DeviceChannel(SimChannel):
@@ -119,16 +121,19 @@ class Device:
         self.decoder = FrameDecoder()
         self.expected = 0
         self.nonce: int | None = None
+        self._old_nonces: tuple[tuple[int, int], ...] = ()  # (nonce, tick) of ended sessions
         self.session = False
         self.watchdog_tripped = False
         self.estopped = False
         self.halt_tick: int | None = None
         self.last_rx_tick = 0
         self.out: list[bytes] = []
-        self.ack_due = False
+        self.ack_due = False  # an acknowledgement is owed; it rides the next report ...
+        self._ack_now = False  # ... unless the host is waiting for it (it repeated a frame)
         self.last_progress: dict[int, tuple[int, int, int, int]] = {}
         self.next_report_tick = 0
         self.next_status_tick = 0
+        self._refresh_round = 0
         self._nak_expected: int | None = None
         self._nak_high = 0
         self.counters = dict.fromkeys(DEVICE_COUNTERS, 0)
@@ -171,29 +176,39 @@ class Device:
 
     def poll(self) -> None:
         """Take every byte that arrived and act on the frames in it."""
+        for seq, payload in self._receive():
+            self._on_frame(seq, payload)
+
+    def _receive(self) -> list[tuple[int, bytes]]:
         if self.stream is None:
-            return
+            return []
         try:
             data = self.stream.read_available()
         except LinkClosed:
             self.attach(None)
-            return
-        if not data:
-            return
-        for seq, payload in self.decoder.feed(data):
-            self._on_frame(seq, payload)
+            return []
+        frames = self.decoder.feed(data) if data else []
         self.counters["crc_errors"] = self.decoder.crc_errors
         self.counters["framing_errors"] = self.decoder.framing_errors
+        return frames
 
     def flush(self) -> bool:
         """Send what is queued (and a bare acknowledgement if one is due)."""
-        if not self.out and not self.ack_due:
+        if not self.out and not (self.ack_due and self._ack_now):
             return False
         if self.ack_due:
             self._changed_progress(only_changed=True)
-        payloads = pack_messages(self.out, MAX_PAYLOAD) or [b""]
+        payloads = []
+        group: list[bytes] = []
+        for m in [*self.out, FRAME_BREAK]:
+            if not m:  # FRAME_BREAK (every message has at least its type byte)
+                payloads += pack_messages(group, MAX_PAYLOAD)
+                group = []
+            else:
+                group.append(m)
+        payloads = payloads or [b""]
         self.out = []
-        self.ack_due = False
+        self.ack_due = self._ack_now = False
         if self.stream is None:
             return False
         wrote = False
@@ -222,9 +237,19 @@ class Device:
         if self.session and t >= self.next_report_tick:
             self.next_report_tick = t - (t % self.report_ticks) + self.report_ticks
             self._changed_progress(only_changed=False)
+            self._ack_now = self.ack_due
         if self.session and t >= self.next_status_tick:
+            # the slow refresh: every queue's state (a lost report heals here) and,
+            # every few rounds, the device state - small, so acknowledgements and
+            # reports never queue long behind it on a 115200-baud line
             self.next_status_tick = t + self.status_ticks
-            self._queue_status()
+            self._refresh_round += 1
+            for idx, q in self.queues.items():
+                key = self._progress_key(idx, q)
+                self.last_progress[idx] = key
+                self.out.append(Progress(idx, *key).encode())
+            if self._refresh_round % DEVICE_STATUS_EVERY == 0:
+                self.out.append(self._device_status().encode())
 
     def next_ns(self) -> int | None:
         times = []
@@ -233,7 +258,7 @@ class Device:
             times.append(t)
         if self.session:
             times.append(self.next_status_tick)
-            if self._reporting():
+            if self.ack_due or self._reporting():
                 times.append(self.next_report_tick)
             deadline = self._watchdog_deadline()
             if deadline is not None:
@@ -262,11 +287,19 @@ class Device:
             self.advance(clock.now_ns())
             self.flush()
             nxt = self.next_ns()
-            if nxt is not None:
-                nxt = min(nxt, clock.now_ns() + int(0.2 * NS_PER_S * clock.scale))
+            limit = clock.now_ns() + int(0.2 * NS_PER_S * clock.scale)  # look at stop()
+            nxt = limit if nxt is None else min(nxt, limit)
             clock.wait(nxt, self.stream)
-            self.advance(clock.now_ns())
-            self.poll()
+            # frames that waited in the buffer while this process was busy arrived before
+            # now: they count for the watchdog before time is caught up (a UART interrupt
+            # would have taken them on arrival)
+            now = clock.now_ns()
+            frames = self._receive()
+            if frames and self.session:
+                self.last_rx_tick = max(self.last_rx_tick, self.tick_at(now))
+            self.advance(now)
+            for seq, payload in frames:
+                self._on_frame(seq, payload)
             self.flush()
 
     # ------------------------------------------------------------- frames
@@ -290,6 +323,7 @@ class Device:
         self.ack_due = True
         if d < 0:
             self.counters["frames_duplicate"] += 1
+            self._ack_now = True  # the host repeats itself: it waits for this
             return
         if d > 0:
             self.counters["frames_out_of_order"] += 1
@@ -315,9 +349,13 @@ class Device:
             if self.session and m.nonce == self.nonce:
                 self._halt()
                 self.session = False
+                self._old_nonces = (*self._old_nonces, (m.nonce, self.machine.now))[-4:]
                 self.nonce = None
                 self._notify("session closed")
         elif isinstance(m, EmergencyStop):
+            if m.nonce not in (0, self.nonce):
+                self.counters["rejected"] += 1
+                return
             if not self.estopped:
                 self.estopped = True
                 self._halt()
@@ -327,8 +365,15 @@ class Device:
             self.counters["rejected"] += 1
 
     def _hello(self, m: Hello) -> None:
+        if any(n == m.nonce and self.machine.now - t < self.tps
+               for n, t in self._old_nonces):
+            self.counters["rejected"] += 1  # a late copy from a session just ended
+            return
         p = self.profile
-        new_session = m.nonce != self.nonce or not self.session
+        # the same nonce again: the host did not hear the answer and still shakes hands
+        # (it has sent no command yet), so a watchdog stop meanwhile is simply undone
+        new_session = (m.nonce != self.nonce or not self.session or self.watchdog_tripped
+                       or self.estopped)
         watchdog_ms = (m.watchdog_ms or self.default_watchdog_ms) if new_session \
             else self.watchdog_ticks * 1000 // self.tps
         self.out.append(Ident(PROTOCOL_VERSION, m.nonce, self.boot_id, p.ticks_per_s,
@@ -340,6 +385,8 @@ class Device:
             # ... then a fresh session: motion stopped, counters from zero
             self.counters = dict.fromkeys(DEVICE_COUNTERS, 0)
             self.decoder.crc_errors = self.decoder.framing_errors = 0
+            if self.nonce is not None and self.nonce != m.nonce:
+                self._old_nonces = (*self._old_nonces, (self.nonce, self.machine.now))[-4:]
             self.nonce = m.nonce
             self._halt()
             self.session = True
@@ -568,10 +615,13 @@ class Device:
             key = self._progress_key(idx, q)
             self.last_progress[idx] = key
             flags, rp, steps, pcnt = key
+            self.out.append(FRAME_BREAK)
             self.out.append(Status(idx, flags, rp, steps, q.current_position(),
                                    q.channel.pulses & 0xFFFFFFFF,
                                    q.channel.underruns & 0xFFFF, pcnt).encode())
+        self.out.append(FRAME_BREAK)
         self.out.append(self._device_status().encode())
+        self.out.append(FRAME_BREAK)
 
     def _device_status(self) -> DeviceStatus:
         state = (D_WATCHDOG if self.watchdog_tripped else 0) | (D_ESTOP if self.estopped else 0) \

@@ -19,10 +19,11 @@ start it sent.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, fields
-from typing import Callable
 
 from .protocol import (
+    MAX_FRAME,
     MAX_PAYLOAD,
     SEQ_MASK,
     SEQ_MOD,
@@ -64,7 +65,7 @@ class LinkStats:
 
 
 class _Frame:
-    __slots__ = ("seq", "data", "last_mid", "sent_ns", "resent")
+    __slots__ = ("data", "last_mid", "resent", "sent_ns", "seq")
 
     def __init__(self, seq: int, data: bytes, last_mid: int, sent_ns: int) -> None:
         self.seq = seq
@@ -166,7 +167,7 @@ class HostLink:
     def _timeout_ns(self) -> int:
         """Retransmission timeout of the oldest open frame: the round trip plus the wire
         time of everything sent with it (a busy 115200-baud line queues frames)."""
-        wire = self.byte_ns * sum(len(f.data) for f in self.unacked)
+        wire = self.byte_ns * (sum(len(f.data) for f in self.unacked) + MAX_FRAME)
         return min(self.rto_ns << self._backoff, self.max_rto_ns) + wire
 
     def _retransmit(self, now: int) -> None:
@@ -293,10 +294,7 @@ class HostLink:
     def _close(self, reason: str) -> None:
         if self.closed is None:
             self.closed = reason
-        try:
-            self.stream.close()
-        except Exception:  # noqa: BLE001
-            pass
+        self.stream.close()
 
     def close(self, reason: str = "closed by host") -> None:
         self._close(reason)

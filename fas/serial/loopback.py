@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from typing import Self
 
 from .backend import SerialBackend
 from .clock import VirtualClock, Wire
@@ -105,7 +106,7 @@ class Loopback:
         except OSError:
             pass
 
-    def __enter__(self) -> Loopback:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc) -> None:

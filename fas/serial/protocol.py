@@ -72,7 +72,7 @@ def encode_frame(seq: int, payload: bytes) -> bytes:
 class FrameDecoder:
     """Cuts a byte stream into checked frames; counts and skips everything else."""
 
-    __slots__ = ("_buf", "frames", "crc_errors", "framing_errors", "discarded_bytes")
+    __slots__ = ("_buf", "crc_errors", "discarded_bytes", "frames", "framing_errors")
 
     def __init__(self) -> None:
         self._buf = bytearray()
@@ -272,10 +272,14 @@ class StatusRequest(Message):
 
 @dataclass(frozen=True, slots=True)
 class EmergencyStop(Message):
-    """Stop every queue at once and refuse motion until the next Hello (unsequenced)."""
+    """Stop every queue at once and refuse motion until the next Hello (unsequenced).
+
+    ``nonce``: the session it is meant for (0: whatever session), so that a late copy
+    cannot stop the next session."""
 
     CODE: ClassVar[int] = 0x0E
-    FMT: ClassVar[struct.Struct] = _fmt("")
+    FMT: ClassVar[struct.Struct] = _fmt("H")
+    nonce: int = 0
 
 
 ENTRY_BASE = 0x40  # 0x40 | stepper

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import random
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, fields
-from typing import Callable
 
 from .clock import RealClock
 from .stream import ByteStream, LinkClosed

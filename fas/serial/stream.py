@@ -142,6 +142,7 @@ class SerialStream(ByteStream):
     def __init__(self, port, *, name: str = "") -> None:
         self.port = port
         self.name = name or getattr(port, "port", "") or ""
+        self.close_error = ""
 
     def fileno(self) -> int:
         return self.port.fileno()
@@ -168,8 +169,8 @@ class SerialStream(ByteStream):
     def close(self) -> None:
         try:
             self.port.close()
-        except Exception:  # noqa: BLE001 - closing a dead port may fail in many ways
-            pass
+        except (OSError, ValueError) as exc:  # a dead port may fail to close
+            self.close_error = str(exc)
 
 
 def open_serial(path: str, baud: int = 115200) -> SerialStream:

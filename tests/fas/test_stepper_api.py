@@ -398,3 +398,20 @@ def test_pulse_counter_counts_independently_and_wraps():
     s.clear_pulse_counter()
     assert s.read_pulse_counter() == 0
     assert not s.attach_to_pulse_counter(0, 5, 10)  # low must not be positive
+
+
+def test_switching_auto_enable_on_while_steps_are_queued_enables_the_driver_at_once():
+    # found by fuzzing (`F b O`): upstream runs the queued steps with the driver off
+    backend, _, s = make(auto_enable=False)
+    s.set_speed_in_us(100)
+    s.set_acceleration(10_000)
+    s.disable_outputs()
+    s.run_backward()
+    backend.run_for_ms(100)
+    assert backend.read_pin(6) == 1  # driver off, steps running (the user asked for it)
+    s.set_auto_enable(True)
+    assert backend.read_pin(6) == 0
+    n = len(rising(backend, 9))
+    backend.run_for_ms(50)
+    times, levels = backend.recorder.pin_edges(6)
+    assert levels[-1] == 0 and len(rising(backend, 9)) > n

@@ -58,3 +58,25 @@ def test_direct_drive_steps_are_outside_the_auto_enable_rule():
     # `T` drives the pins itself; the library may auto-disable meanwhile (firmware too)
     res = check_line("M1 A100000 V100 R100 W T", arch="esp32", max_time_s=10)
     assert res.ok, res.violations
+
+
+def test_direct_drive_of_a_stepper_sharing_a_direction_pin_changes_the_frame():
+    # SAM demo wiring: steppers 1 and 2 share direction pin 18; `T` on stepper 2
+    # toggles it while stepper 1 runs (firmware too) - not a library fault
+    line = b"H2\ra7702\rU\rH32388\rN\rb\ra37067e3\rM2\rQ\rb\rT\rD1077130787361"
+    res = check_line(line, "sam_due", max_time_s=20)
+    assert res.ok, res.violations
+
+
+def test_configuring_another_steppers_direction_pin_changes_its_frame():
+    # config mode gives stepper 2 stepper 1's direction pin with the other polarity
+    res = check_line("e V21153 A100000 ? A1000 P314 c M2 M2 d5,0 M1", max_time_s=20)
+    assert res.ok, res.violations
+
+
+def test_auto_enable_switched_on_during_a_run_covers_the_queued_steps():
+    # found by fuzzing: F (driver off), b (run), O (auto enable) left up to 20 ms of
+    # queued steps running with the driver off
+    line = b"j2147483647 J F a0 E25337 H33408 M9 ? b O P1050215827290 W"
+    res = check_line(line, "esp32", max_time_s=10)
+    assert res.ok, res.violations

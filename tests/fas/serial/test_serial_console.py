@@ -62,3 +62,23 @@ def test_serial_commands_need_a_device(tmp_path):
     console = Console(output=DummyOutput(), history=str(tmp_path / "history"))
     console.handle_line("/reconnect")
     assert console.lines[-1] == "/reconnect: only with a device (stepperdemo --port DEVICE)"
+
+
+def test_console_driver_runs_the_program_while_the_device_clock_runs(tmp_path):
+    """The console's ticker on a device: one pass per call, sleeping until the next wake."""
+    with Loopback() as lb:
+        console = Console(backend=lb.backend, output=DummyOutput(),
+                          history=str(tmp_path / "history"))
+        backend = console.backend
+        console.handle_line("M1 A2000 V200 R2000")
+        console.handle_line("W")
+        end = backend.now() + 4 * TPS
+        while backend.now() < end and "STOPPED" not in console.lines:
+            delay = console.driver.advance()
+            console.flush()
+            sleep_ticks = TPS // 20 if delay is None else int(delay * TPS)
+            backend.app_wait_until(backend.now() + max(sleep_ticks, 1))
+        assert "STOPPED" in console.lines
+        status = [line for line in console.lines if line.startswith("M1: @")]
+        assert len(status) > 10  # status lines every 100 ms while it moved
+        assert console.app.steppers[0].get_current_position() == 2000

@@ -72,24 +72,25 @@ def device(tmp_path):
 def _host(port: str, line: str, *extra: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "stepperdemo", "--port", port, "-c", line,
                            "--lf", *extra], cwd=ROOT, capture_output=True, text=True,
-                          timeout=120)
+                          timeout=120, check=False)
 
 
 def test_cli_port_runs_a_line_on_a_device_process(device):
     proc, path, _ = device
-    res = _host(path, "M1 A1000 V100 R3200 W")
+    # a generous watchdog: a busy test machine must not stop the device (see the kill test)
+    res = _host(path, "M1 A1000 V100 R3200 W", "--watchdog-ms", "2000")
     assert res.returncode == 0, res.stderr
     assert ">> M1: @3200 " in res.stdout
     assert "device M1: position 3200, 3200 pulses" in res.stderr
     assert re.search(r"device: 2030 commands, 0 lost, 0 duplicated", res.stderr)
     out, _ = _end(proc)
-    assert "M1: position 3200, 3200 pulses" in out
+    assert "M1: position 3200, 3200 pulses in the last session" in out
     assert "session closed" in out
 
 
 def test_closed_pty_is_reported_and_a_new_device_takes_over(device, tmp_path):
-    proc, path, link = device
-    backend = SerialBackend(link)
+    proc, _path, link = device
+    backend = SerialBackend(link, watchdog_ms=2000)
     app = StepperDemo(backend, scripted=True)
     app.run_script("M1 A2000 V200 R1000 W")
     assert app.steppers[0].get_current_position() == 1000
@@ -108,14 +109,14 @@ def test_closed_pty_is_reported_and_a_new_device_takes_over(device, tmp_path):
         assert app.steppers[0].get_current_position() == 600
         backend.close()
         out, _ = _end(second)
-        assert "M1: position 600, 400 pulses" in out
+        assert "M1: position 600, 400 pulses in the last session, 400 since" in out
     finally:
         _end(second)
 
 
 @pytest.mark.long
 def test_relay_with_faults_between_processes(device):
-    proc, path, _ = device
+    _proc, path, _ = device
     relay = _spawn("relay", path, "--corrupt", "0.01", "--drop", "0.005", "--dup", "0.005",
                    "--latency-ms", "1", "--seed", "3")
     try:
@@ -153,3 +154,17 @@ def test_killed_host_leaves_a_stopped_device(device):
         assert not backend.statuses[0].progress().running
     finally:
         backend.close()
+
+
+def test_scripted_run_ends_with_code_5_when_the_device_goes(device):
+    proc, path, _ = device
+    host = _spawn("--port", path, "-c", "M1 A1000 V100 R200000 W", "--lf",
+                  "--watchdog-ms", "2000")
+    try:
+        _wait_for(host, r"M1: @\d{2,} ")
+        proc.send_signal(signal.SIGKILL)
+        _out, err = host.communicate(timeout=30)
+    finally:
+        _end(host)
+    assert host.returncode == 5
+    assert "stepperdemo: device lost:" in err

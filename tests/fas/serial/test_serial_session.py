@@ -20,7 +20,7 @@ def _moving(lb: Loopback, steps: int = 100_000, run_ms: int = 500):
 
 def test_device_stops_within_its_watchdog_time_when_the_host_dies():
     with Loopback(watchdog_ms=200) as lb:
-        app, s = _moving(lb)
+        _app, s = _moving(lb)
         dev = lb.device
         assert dev.running()
         last_host_frame = dev.last_rx_tick
@@ -53,7 +53,7 @@ def test_heartbeats_keep_an_idle_session_alive():
 def test_unplugged_device_is_reported_once_and_reconnect_keeps_the_position():
     with Loopback(watchdog_ms=300) as lb:
         backend = lb.backend
-        app, s = _moving(lb)
+        _app, s = _moving(lb)
         events = []
         backend.listeners.append(lambda e, t: events.append(e))
         lb.unplug()
@@ -79,7 +79,7 @@ def test_unplugged_device_is_reported_once_and_reconnect_keeps_the_position():
 def test_force_stop_with_new_position_names_the_devices_stop_point():
     with Loopback() as lb:
         backend = lb.backend
-        app, s = _moving(lb)
+        _app, s = _moving(lb)
         s.force_stop_and_new_position(0)  # StepperDemo's X
         assert not s.is_running()
         backend.settle()
@@ -95,7 +95,7 @@ def test_force_stop_with_new_position_names_the_devices_stop_point():
 def test_emergency_stop_halts_and_takes_the_devices_positions():
     with Loopback() as lb:
         backend = lb.backend
-        app, s = _moving(lb)
+        _app, s = _moving(lb)
         assert backend.emergency_stop()
         assert backend.connected
         assert not s.is_running()
@@ -110,7 +110,7 @@ def test_emergency_stop_halts_and_takes_the_devices_positions():
 def test_set_position_while_moving_shifts_the_device_too():
     with Loopback() as lb:
         backend = lb.backend
-        app, s = _moving(lb, steps=4000, run_ms=300)
+        _app, s = _moving(lb, steps=4000, run_ms=300)
         s.set_current_position(s.get_current_position() + 10_000)
         backend.wait_until(lambda: not s.is_running())
         backend.settle()
