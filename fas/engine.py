@@ -153,7 +153,8 @@ class Engine:
             agree = True
             for j, other in enumerate(steppers):
                 if i != j and other is not None:
-                    if other._uses_auto_enable_pin(high_pin) or other._uses_auto_enable_pin(low_pin):
+                    if (other._uses_auto_enable_pin(high_pin)
+                            or other._uses_auto_enable_pin(low_pin)):
                         if not other._agree_with_auto_disable():
                             agree = False
                             break

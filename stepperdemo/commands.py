@@ -32,7 +32,8 @@ TABLE: dict[tuple[Mode, int], Handler] = {}
 HELP: dict[Mode, list[tuple[str, str]]] = {Mode.NORMAL: [], Mode.TEST: [], Mode.CONFIG: []}
 
 
-def command(letter: str, *modes: Mode, hint: str = "", arg: str = "") -> Callable[[Handler], Handler]:
+def command(letter: str, *modes: Mode, hint: str = "",
+            arg: str = "") -> Callable[[Handler], Handler]:
     def register(fn: Handler) -> Handler:
         for mode in modes:
             TABLE[(mode, ord(letter))] = fn

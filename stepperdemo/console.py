@@ -27,11 +27,11 @@ from fas.arch import PROFILES, get_profile
 from fas.sim import SimBackend
 
 from . import messages as msg
+from . import serial_cli  # issue 7: --port, /reconnect /link /estop
 from .app import StepperDemo
 from .commands import HELP, Mode
 from .trace_commands import META_COMMANDS as TRACE_META_COMMANDS
 from .trace_commands import TraceCommands
-from . import serial_cli  # issue 7: --port, /reconnect /link /estop
 
 META_COMMANDS = {
     "/help": "console commands",
@@ -209,7 +209,8 @@ class Console:
             self.app.force_stop_all()
             self._note(msg.REPL_STOPPED_ALL)
         elif cmd == "/time":
-            self._note(msg.REPL_TIME.format(sim=self.backend.now() / self.backend.profile.ticks_per_s,
+            sim_s = self.backend.now() / self.backend.profile.ticks_per_s
+            self._note(msg.REPL_TIME.format(sim=sim_s,
                                             scale=self.driver.scale))
         elif self.port and (cmd in ("/speed", "/arch") and args or self.trace.handles(cmd)):
             self._note(msg.SERIAL_NOT_ON_DEVICE.format(cmd=cmd))  # issue 7

@@ -60,7 +60,8 @@ class TraceCommands:
             if obs is None or not obs.active:
                 return [msg.REPL_TRACE_NOT_ON]
             obs.finish()
-            return [msg.REPL_TRACE_OFF.format(edges=obs.edges(), start=self._s(obs.stream.start_tick),
+            start = self._s(obs.stream.start_tick)
+            return [msg.REPL_TRACE_OFF.format(edges=obs.edges(), start=start,
                                               end=self._s(obs.end_tick))]
         if what:
             return [msg.REPL_BAD_ARG.format(cmd="/trace", problem="on or off")]

@@ -27,6 +27,8 @@ from stepperdemo.evaluate import read_reference_steps  # noqa: E402
 from stepperdemo.runner import run_scenario  # noqa: E402
 from stepperdemo.scenario import Scenario, StepperExpectation, TimingExpectation  # noqa: E402
 
+DESCRIPTION = ("Conformance: the original firmware (FastAccelStepper 1.2.6 StepperDemo, "
+               "ATmega328P in an AVR simulator) for this input line")
 SLOT_US = 4096.0  # the ramp task period of the ATmega328P (65536 ticks)
 START_BOUND_US = 200.0  # start of a move inside the same ramp-task slot (fill CPU model)
 PULSE_PCT_BOUND = 10.0
@@ -75,8 +77,8 @@ def parse_result(path: Path) -> dict:
     res: dict = {}
     for line in path.read_text().splitlines():
         line = line.strip()
-        m = re.match(r"(\w+):\s+(\d+)\*L->H,\s+(\d+)\*H->L(?:, Max High=(\d+)us Total High=(\d+)us)?",
-                     line)
+        m = re.match(r"(\w+):\s+(\d+)\*L->H,\s+(\d+)\*H->L"
+                     r"(?:, Max High=(\d+)us Total High=(\d+)us)?", line)
         if m:
             res[m.group(1)] = dict(rise=int(m.group(2)), fall=int(m.group(3)),
                                    total_high=int(m.group(5)) if m.group(5) else None)
@@ -298,7 +300,7 @@ def toml_str(s: str) -> str:
 def render(name, line, run_info, steppers, timing, reasons, letters) -> str:
     long = run_info["simulated_us"] > 30e6
     out = [f"name = {toml_str(name)}",
-           f"description = {toml_str('Conformance: the original firmware (FastAccelStepper 1.2.6 StepperDemo, ATmega328P in an AVR simulator) for this input line')}",
+           f"description = {toml_str(DESCRIPTION)}",
            'profile = "atmega328p"',
            f"input = {toml_str(line)}",
            'end = "firmware"  # the reference ends 1 s after the last input character',

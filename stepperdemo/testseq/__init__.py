@@ -67,7 +67,18 @@ def elapsed(now_ms: int, since_ms: int) -> int:
 
 
 from . import (  # noqa: E402  (the registry needs SeqSlot defined first)
-    seq01, seq02, seq03, seq04, seq05, seq06, seq07, seq08, seq09, seq10, seq11, seq12,
+    seq01,
+    seq02,
+    seq03,
+    seq04,
+    seq05,
+    seq06,
+    seq07,
+    seq08,
+    seq09,
+    seq10,
+    seq11,
+    seq12,
     seq13,
 )
 

@@ -8,8 +8,8 @@ position modulo 2^14; a mismatch prints both and fails.  Runs until `x`.
 
 from __future__ import annotations
 
-from . import TEST_STATE_ERROR
 from .. import messages as msg
+from . import TEST_STATE_ERROR
 from .rand import make_rand
 
 VMIN, VMAX = 40, 16384

@@ -8,8 +8,8 @@ prints "Step AFTER stop".  Runs until `x`.
 
 from __future__ import annotations
 
-from . import TEST_STATE_ERROR, elapsed
 from .. import messages as msg
+from . import TEST_STATE_ERROR, elapsed
 from .rand import make_rand
 
 VMIN, VMAX = 40, 16384

@@ -7,8 +7,8 @@ between 64 us and 64+d us, 11 times per d, for d = 0, 1, -1, 2, -2 ... +-24
 
 from __future__ import annotations
 
-from . import elapsed
 from .. import messages as msg
+from . import elapsed
 
 
 def run(app, stepper, slot, time_ms: int, *, period_ms: int, move_to: int | None,

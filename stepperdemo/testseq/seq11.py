@@ -11,8 +11,8 @@ samples would show as a backwards difference between them).
 
 from __future__ import annotations
 
-from . import TEST_STATE_ERROR
 from .. import messages as msg
+from . import TEST_STATE_ERROR
 
 READS_PER_PASS = 1001
 SAMPLES_PER_PASS = 11

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from fas.codes import AqeResult
 
-from . import TEST_STATE_ERROR, elapsed
 from .. import messages as msg
+from . import TEST_STATE_ERROR, elapsed
 
 
 def step(app, stepper, slot, time_ms: int) -> bool:

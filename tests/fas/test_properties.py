@@ -1,5 +1,6 @@
 """Property tests: random command sequences on virtual time keep the invariants."""
 
+import os
 from bisect import bisect_left, bisect_right
 
 from hypothesis import HealthCheck, given, settings
@@ -20,7 +21,7 @@ op = st.one_of(
     st.tuples(st.just("wait_ms"), st.integers(0, 400)),
 )
 
-PROP = settings(max_examples=int(__import__("os").environ.get("FAS_PROP_EXAMPLES", "40")), deadline=None,
+PROP = settings(max_examples=int(os.environ.get("FAS_PROP_EXAMPLES", "40")), deadline=None,
                 suppress_health_check=[HealthCheck.too_slow])
 
 

@@ -1,8 +1,8 @@
 """The simulated machine: event clock, interrupt blocking, UART, millis()."""
 
+from fas.arch import ATMEGA328P
 from fas.sim import SimBackend
 from fas.sim.machine import Machine
-from fas.arch import ATMEGA328P
 
 from .helpers import make, periods, rising, run_until_idle
 

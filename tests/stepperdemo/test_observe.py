@@ -111,7 +111,8 @@ def test_vcd_of_the_readme_move_has_its_3200_steps_and_position(tmp_path):
     assert vcd.rising("StepB") == []
     pins = backend.machine.pins
     for name, pin in (("DirA", 5), ("EnableA", 6), ("DirB", 7), ("EnableB", 8)):
-        assert len(vcd.rising(name)) == pins.rising(pin) and len(vcd.falling(name)) == pins.falling(pin)
+        assert len(vcd.rising(name)) == pins.rising(pin)
+        assert len(vcd.falling(name)) == pins.falling(pin)
     # the enable pin (LOW active) went LOW before the first step and stays there
     first_step = vcd.rising("StepA")[0]
     assert vcd.level_at("EnableA", first_step) == 0

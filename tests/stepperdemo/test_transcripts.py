@@ -41,7 +41,8 @@ def test_error_lines():
     app, _ = run("M1 V100 R100")
     assert "ERROR acceleration is not defined\n" in text(app)
     app, _ = run("M1 A100 V100 u R-10")
-    assert "set unidirectional stepper\nMove steps -10\r\nERROR no direction pin => impossible move\n" in text(app)
+    assert ("set unidirectional stepper\nMove steps -10\r\n"
+            "ERROR no direction pin => impossible move\n") in text(app)
     app, _ = run("V0")
     assert "set speed (us/step) to 0\r\nERROR invalid value\n" in text(app)
     app, _ = run("A-5")
