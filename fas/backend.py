@@ -122,6 +122,9 @@ class Backend(ABC):
         """Hand the step pin to the application (``detached``) or back to the library."""
 
     # --- hosting an application main loop (StepperDemo) beside the library ---
+    def app_started(self) -> None:
+        """The application's ``setup()`` begins (Arduino has just started ``millis()``)."""
+
     def millis(self) -> int:
         """The application's millisecond clock."""
         return self.now() * 1000 // self.profile.ticks_per_s

@@ -136,23 +136,48 @@ class StepperDemo:
 
     # ------------------------------------------------------------- output
     def print(self, text: str | bytes) -> None:
+        scan = None
         if isinstance(text, str):
-            index = msg.TABLE_INDEX.get(text)
-            if index is not None:
-                self.lookup(index)
+            scan = msg.TABLE_SCAN.get(text)
             data = text.encode("utf-8")
         else:
             data = bytes(text)
+        if scan is None:
+            if data:
+                self.backend.console_write(data)
+        else:
+            self._print_from_table(data, scan)
         if not data:
             return
-        self.backend.console_write(data)
         self.transcript += data
         if self.output is not None:
             self.output(data)
 
-    def lookup(self, index: int) -> None:
-        """CPU time the firmware spends finding text ``index`` in its message table."""
-        self.backend.app_spend(index * self.profile.sim_msg_lookup_ticks)
+    def _print_from_table(self, data: bytes, scan: tuple[int, int, int, int]) -> None:
+        """CPU time of the firmware's table look-ups, interleaved with the output.
+
+        What is read before the first character is spent first; the look-ups made
+        while the text goes out are spread evenly over its characters.
+        """
+        lead_bytes, lead_lookups, total_bytes, total_lookups = scan
+        p = self.profile
+        b = self.backend
+        b.app_spend(lead_bytes * p.sim_msg_scan_byte_ticks
+                    + lead_lookups * p.sim_msg_lookup_ticks)
+        rest = ((total_bytes - lead_bytes) * p.sim_msg_scan_byte_ticks
+                + (total_lookups - lead_lookups) * p.sim_msg_lookup_ticks)
+        n = len(data)
+        if n == 0:
+            b.app_spend(rest)
+            return
+        share, extra = divmod(rest, n)
+        for i in range(n):
+            b.console_write(data[i:i + 1])
+            b.app_spend(share + (1 if i < extra else 0))
+
+    def lookup(self, text: str) -> None:
+        """CPU time the firmware spends on a text it looks up but does not print."""
+        self._print_from_table(b"", msg.TABLE_SCAN[text])
 
     def println(self, text: str | bytes = "") -> None:
         if isinstance(text, str):
@@ -166,7 +191,12 @@ class StepperDemo:
             return
         self._setup_done = True
         b = self.backend
-        b.app_spend(self.profile.sim_boot_ticks)
+        boot = self.profile.sim_boot_ticks
+        if self.script_loaded:  # the built-in line is start-up data copied at reset
+            boot += len(self.script) * self.profile.sim_boot_script_byte_ticks
+        b.app_spend(boot)
+        b.app_started()
+        b.app_spend(self.profile.sim_setup_head_ticks)
         self.print(msg.BANNER_VERSION)
         self.println(msg.BANNER_F_CPU + str(self.profile.f_cpu))
         self.println(msg.BANNER_TICKS + str(self.profile.ticks_per_s))
@@ -282,8 +312,7 @@ class StepperDemo:
         elif not self.scripted:
             self.print(msg.USAGE_TEST if self.mode == Mode.TEST else msg.USAGE_CONFIG)
         else:  # built-in-input firmware: the text is empty, the table is still scanned
-            self.lookup(msg.TABLE_INDEX[msg.USAGE_TEST if self.mode == Mode.TEST
-                                        else msg.USAGE_CONFIG])
+            self.lookup(msg.USAGE_TEST if self.mode == Mode.TEST else msg.USAGE_CONFIG)
         self.stepper_info()
 
     # ------------------------------------------------------------ the loop
@@ -495,8 +524,8 @@ class StepperDemo:
         conformance runs did).  Otherwise stop once the input is consumed and every
         stepper and test has come to rest.
         """
-        self.setup()
         self.load_script(line)
+        self.setup()
         b = self.backend
         limit = b.now() + (max_ticks if max_ticks is not None
                            else 3600 * self.profile.ticks_per_s)

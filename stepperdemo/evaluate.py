@@ -111,9 +111,21 @@ def step_times_us(backend: SimBackend, step_pin: int) -> list[float]:
 
 def read_reference_steps(path: Path) -> list[float]:
     """One rising step edge per line: time in µs since reset, tab, direction level."""
+    return read_reference_track(path)[0]
+
+
+def read_reference_track(path: Path) -> tuple[list[float], list[int]]:
+    """Times (µs) and direction levels of the reference's rising step edges."""
     opener = gzip.open if path.suffix == ".gz" else open
+    times: list[float] = []
+    dirs: list[int] = []
     with opener(path, "rt") as fh:
-        return [float(line.split()[0]) for line in fh if line.strip()]
+        for line in fh:
+            parts = line.split()
+            if parts:
+                times.append(float(parts[0]))
+                dirs.append(int(parts[1]) if len(parts) > 1 else 0)
+    return times, dirs
 
 
 @dataclass
@@ -138,18 +150,21 @@ class TimingComparison:
 MOVE_GAP_US = 100_000.0  # a pause this long in the reference separates two moves
 
 
-def move_starts(ref: list[float]) -> list[int]:
-    """Indices of the first step of each move (after a pause of MOVE_GAP_US or more)."""
-    return [0] + [i for i in range(1, len(ref)) if ref[i] - ref[i - 1] >= MOVE_GAP_US]
+def move_starts(ref: list[float], dirs: list[int] | None = None) -> list[int]:
+    """Indices of the first step of each move: after a pause of MOVE_GAP_US or more, or
+    where the direction changes (a stepper stops before it reverses)."""
+    return [0] + [i for i in range(1, len(ref))
+                  if ref[i] - ref[i - 1] >= MOVE_GAP_US
+                  or (dirs is not None and dirs[i] != dirs[i - 1])]
 
 
-def compare_steps(ours: list[float], ref: list[float], align: str = "absolute"
-                  ) -> TimingComparison:
+def compare_steps(ours: list[float], ref: list[float], align: str = "absolute",
+                  ref_dirs: list[int] | None = None) -> TimingComparison:
     """Per-step time deviation between two lists of rising edges (µs).
 
     ``align``: "absolute" compares times as they are; "first_step" removes the offset of
     the first step; "each_move" removes each move's own start offset (moves are
-    separated by pauses of at least MOVE_GAP_US in the reference).
+    separated by pauses of at least MOVE_GAP_US or by a change of ``ref_dirs``).
     """
     n = min(len(ours), len(ref))
     offset = 0.0
@@ -158,10 +173,12 @@ def compare_steps(ours: list[float], ref: list[float], align: str = "absolute"
         offset = ours[0] - ref[0]
         offsets = [offset] * n
     elif align == "each_move" and n:
-        starts = [i for i in move_starts(ref) if i < n] + [n]
+        starts = [i for i in move_starts(ref, ref_dirs) if i < n] + [n]
+        previous = 0.0
         for a, b in zip(starts, starts[1:]):
             o = ours[a] - ref[a]
-            offset = max(offset, abs(o))
+            offset = max(offset, abs(o - previous))  # this move's own start shift
+            previous = o
             for i in range(a, b):
                 offsets[i] = o
     devs = [abs(ours[i] - offsets[i] - ref[i]) for i in range(n)]

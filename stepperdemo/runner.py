@@ -13,13 +13,14 @@ from typing import Sequence
 from fas.sim import SimBackend
 
 from . import messages as msg
+from . import transcript as transcript_cmp
 from .app import EndReason, StepperDemo
 from .evaluate import (
     TimingComparison,
     compare_steps,
     pin_activity,
     position_from_pins,
-    read_reference_steps,
+    read_reference_track,
     step_times_us,
     stepper_pins,
 )
@@ -136,9 +137,9 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
                                          tol.get("enable_high_us", 0)))
     if sc.timing is not None and sc.reference is not None:
         for letter in sc.timing.steppers:
-            ref = read_reference_steps(sc.reference / f"steps_{letter}.tsv.gz")
+            ref, ref_dirs = read_reference_track(sc.reference / f"steps_{letter}.tsv.gz")
             ours = step_times_us(backend, pins[letter].step)
-            cmp = compare_steps(ours, ref, sc.timing.align)
+            cmp = compare_steps(ours, ref, sc.timing.align, ref_dirs)
             res.timing[letter] = _timing_dict(cmp)
             t = sc.timing
             if t.median_us is not None:
@@ -165,6 +166,11 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
     for piece in sc.not_contains:
         res.checks.append(Check("transcript lacks", piece, piece not in transcript, None, None,
                                 piece not in transcript))
+    if sc.transcript_ref is not None:
+        diff = transcript_cmp.first_difference(transcript_cmp.ours_marked(app.transcript),
+                                               transcript_cmp.read_reference(sc.transcript_ref))
+        res.checks.append(Check("transcript matches reference", "same",
+                                diff or "same", None, None, diff is None))
     if obs is not None:
         from . import plots, report
 

@@ -73,6 +73,7 @@ class Scenario:
     timing: TimingExpectation | None = None
     contains: list[str] = field(default_factory=list)
     not_contains: list[str] = field(default_factory=list)
+    transcript_ref: Path | None = None  # whole transcript to match (stepperdemo.transcript)
 
 
 def _check_types(path: Path, prefix: str, table: dict, schema: dict) -> None:
@@ -154,9 +155,17 @@ def load(path: Path | str) -> Scenario:
     if "transcript" in data:
         tr = data["transcript"]
         for key, value in tr.items():
+            if key == "matches":
+                if not isinstance(value, str):
+                    raise ScenarioError(path, "transcript.matches", "expected a file name")
+                ref = (path.parent / value).resolve()
+                if not ref.is_file():
+                    raise ScenarioError(path, "transcript.matches", f"no such file: {ref}")
+                sc.transcript_ref = ref
+                continue
             if key not in ("contains", "not_contains"):
                 raise ScenarioError(path, f"transcript.{key}",
-                                    "unknown key (known: contains, not_contains)")
+                                    "unknown key (known: contains, not_contains, matches)")
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
                 raise ScenarioError(path, f"transcript.{key}", "expected a list of strings")
         sc.contains = list(tr.get("contains", []))

@@ -3,7 +3,8 @@
     python tools/import_conformance.py [CONFORMANCE_DIR] [--out sequences]
 
 For every folder of the conformance data: write ``sequences/conformance/<name>.toml``
-with the reference figures as expectations, and copy its per-step timestamps to
+with the reference figures as expectations, and copy its per-step timestamps and its
+console transcript (version and usage text replaced by markers) to
 ``sequences/reference/<name>/``.  Tolerances are the smallest our simulation meets,
 and each must lie within a bound that follows from the timing model; the file states
 the reason.  A deviation beyond its bound is printed and the file is written with the
@@ -13,6 +14,7 @@ bound, so that the scenario fails until the model is fixed.
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import math
 import re
@@ -24,8 +26,10 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from stepperdemo.evaluate import read_reference_steps  # noqa: E402
+from stepperdemo.messages import USAGE_NORMAL  # noqa: E402
 from stepperdemo.runner import run_scenario  # noqa: E402
 from stepperdemo.scenario import Scenario, StepperExpectation, TimingExpectation  # noqa: E402
+from stepperdemo.transcript import mark_reference  # noqa: E402
 
 DESCRIPTION = ("Conformance: the original firmware (FastAccelStepper 1.2.6 StepperDemo, "
                "ATmega328P in an AVR simulator) for this input line")
@@ -50,9 +54,6 @@ REASON_SLOT = ("The firmware starts the first move one ramp-task slot (4.096 ms)
                "message table gives (docs/timing-model.md).  Step timing is therefore "
                "compared from the first step on (align = first_step), and the enable-off "
                "time allows one slot.")
-REASON_GARBLED = ("the 'e' acknowledgement: the firmware's message table decodes the UTF-8 "
-                  "'µ' as two table references and prints 30 more characters ('100 set "
-                  "acceleration to , counting s ISR block'); we print the intended text")
 REASON_E_TIMING = ("With `e` the step interrupt misses its compare whenever it is held "
                    "back more than one period; the next step then waits for the 16-bit timer "
                    "to wrap (4.1 ms).  Which steps are hit depends on the loop's phase to the "
@@ -67,6 +68,12 @@ REASON_EACH_MOVE = ("Each move is started by a console command after the previou
                     "4.096 ms ramp-task slot off (console CPU model, docs/timing-model.md). "
                     "Step times are compared move by move (align = each_move) and the start "
                     "offsets are bounded by start_us.")
+REASON_SEQ_MOVES = ("The test sequence starts each move from the loop once the previous one "
+                    "has stopped.  When the loop notices the stop within microseconds of "
+                    "a ramp-task start, the move starts one 4.096 ms slot off (console CPU "
+                    "model, docs/timing-model.md); the offsets add up over the sequence. "
+                    "Step times are compared move by move (align = each_move) and the "
+                    "start offsets are bounded by start_us.")
 REASON_ENABLE = ("Enable-off time = start-up to the first auto-enable; it depends on when "
                  "the console took the first move command (see the timing model).")
 REASON_PULSE = ("Pulse high time is the step interrupt's latency, modelled as a constant per "
@@ -148,6 +155,10 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
             ref_dir.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(src, ref_dir / src.name)
             letters.append(ch)
+    ref_dir.mkdir(parents=True, exist_ok=True)
+    marked = mark_reference((folder / "transcript.txt").read_bytes(), len(USAGE_NORMAL))
+    with gzip.open(ref_dir / "transcript.txt.gz", "wt", encoding="utf-8", newline="") as f:
+        f.write(marked)
     timed = is_timed(line)
     n_timed = timed_commands(line)
     problems: list[str] = []
@@ -171,11 +182,15 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
     # run our model once without tolerances to measure the deviations
     sc = Scenario(path=out_dir / "conformance" / f"{name}.toml", name=name, input=line,
                   end="firmware", max_time_s=math.ceil(run_info["simulated_us"] / 1e6) + 60,
-                  reference=ref_dir if letters else None, steppers=steppers)
+                  reference=ref_dir if letters else None, steppers=steppers,
+                  transcript_ref=ref_dir / "transcript.txt.gz")
     if letters:
         sc.timing = TimingExpectation(letters, "absolute")
     res = run_scenario(sc)
     dev = {c.what: c.deviation for c in res.checks}
+    for c in res.checks:
+        if c.what == "transcript matches reference" and not c.ok:
+            problems.append(f"{name}: transcript differs: {c.measured}")
 
     ref_steps = {ch: read_reference_steps(ref_dir / f"steps_{ch}.tsv.gz") for ch in letters}
     v_top = max((top_speed_steps_per_us(s) for s in ref_steps.values()), default=0.0)
@@ -228,7 +243,6 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
         ratio = max(abs(pres.timing[ch]["duration_ratio"] - 1) for ch in letters)
         timing = dict(steppers=letters, align="first_step",
                       duration_ratio=max(0.0005, round_up(ratio * 1.2, 0.0005)))
-        slot_reason = REASON_GARBLED
         reasons_extra.append(REASON_E_TIMING)
         if ratio > 0.01:
             problems.append(f"{name}: duration differs by {ratio * 100:.2f} %")
@@ -239,8 +253,10 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
         start_us = None
         direct = any(t in ("+", "-") for t in line.split())
         bound = START_BOUND_US + 2 * SLOT_US * n_timed + (DIRECT_BOUND_US if direct else 0)
-        if mx > bound and not direct and n_timed == 0:
-            # untimed, several moves: each console-issued move may start one slot off
+        test_mode = "t" in line.split()
+        if mx > bound and not direct and (n_timed == 0 or test_mode):
+            # several moves, each issued by the loop after the previous one stopped
+            # (console commands after W, or a test sequence): each may start one slot off
             probe = Scenario(path=sc.path, name=name, input=line, end="firmware",
                              max_time_s=sc.max_time_s, reference=ref_dir, steppers=[],
                              timing=TimingExpectation(letters, "each_move"))
@@ -250,7 +266,7 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
             mx = max(pres.timing[ch]["max_abs_us"] for ch in letters)
             off = max(abs(pres.timing[ch]["offset_us"]) for ch in letters)
             start_us = round_up(off * 1.02 + 1, 1)
-            reasons_extra.append(REASON_EACH_MOVE)
+            reasons_extra.append(REASON_SEQ_MOVES if test_mode else REASON_EACH_MOVE)
             if off > SLOT_US + START_BOUND_US:
                 problems.append(f"{name}: a move starts {off:.0f} us off")
         elif any(abs(abs(res.timing[ch]["first_dev_us"]) - SLOT_US) < START_BOUND_US
@@ -321,6 +337,9 @@ def render(name, line, run_info, steppers, timing, reasons, letters) -> str:
         if exp.tol:
             items = ", ".join(f"{k} = {json.dumps(v)}" for k, v in exp.tol.items())
             out.append(f"tol = {{ {items} }}")
+    out.append("")
+    out.append("[transcript]  # status lines (M1: @...) depend on timing: compared up to the @")
+    out.append(f'matches = "../reference/{name}/transcript.txt.gz"')
     if timing:
         out.append("")
         out.append("[timing]")

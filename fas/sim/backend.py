@@ -64,7 +64,7 @@ class SimBackend(Backend):
         try:
             engine.manage_steppers()
         finally:
-            cost = m.task_offset
+            cost = m.stretched(m.task_offset)
             m.task_offset = 0
             m.in_task = False
         m.stolen_ticks += cost
@@ -93,6 +93,7 @@ class SimBackend(Backend):
     def allocate_channel(self, queue: StepperQueue) -> SimChannel:
         ch = SimChannel(self.machine, queue)
         self.channels.append(ch)
+        self.machine.block_sources.append(ch)
         for fn in self.channel_listeners:
             fn(ch)
         return ch
@@ -130,6 +131,9 @@ class SimBackend(Backend):
         queue.channel.detached = detached
 
     # ------------------------------------------------------ application host
+    def app_started(self) -> None:
+        self.machine.start_millis()
+
     def millis(self) -> int:
         return self.machine.millis()
 
@@ -140,8 +144,12 @@ class SimBackend(Backend):
         self.machine.consume(ticks)
 
     def app_wait_until(self, tick: int) -> None:
-        if tick > self.machine.now:
-            self.machine.run_until(tick)
+        m = self.machine
+        if tick > m.now:
+            # while the loop waits, interrupts delay only the pass that wakes up
+            m.run_until(tick - 1)
+            m.forget_stolen()
+            m.run_until(tick)
 
     def next_event_time(self) -> int | None:
         return self.machine.next_event_time()

@@ -201,6 +201,7 @@ class SimChannel(QueueChannel):
     def _batch_end(self) -> None:
         """The interrupt after the block's last pulse: switch to the next entry."""
         self.event = None
+        self.m.stolen_ticks += self.m.profile.sim_isr_duration_ticks
         e = self.b_entry
         n, t, c0 = self.b_n, self.b_t, self.b_c0
         last_c = c0 + (n - 1) * t
@@ -213,8 +214,22 @@ class SimChannel(QueueChannel):
         e.steps = 1
         self._isr(last_c, now)
 
+    def block_isrs_between(self, begin: int, end: int) -> int:
+        """Step interrupts of the running block in ``(begin, end]`` (its last one, which
+        switches to the next entry, runs as an event of its own)."""
+        if not self.batch:
+            return 0
+        first = self.b_c0 + self.lat  # interrupt j of the block runs at first + j * t
+        last = self.b_n - 2
+        if last < 0 or end < first:
+            return 0
+        hi = min(last, (end - first) // self.b_t)
+        lo = 0 if begin < first else (begin - first) // self.b_t + 1
+        return max(0, hi - lo + 1)
+
     def _single_isr(self) -> None:
         self.event = None
+        self.m.stolen_ticks += self.m.profile.sim_isr_duration_ticks
         c = self.pending_compare
         now = self.m.now
         if self.pending_pulse:

@@ -48,10 +48,11 @@ class Machine:
         self.irq_blocked_ticks = 0
         self.block_listeners: list[Callable[[int, int], None]] = []
         self.stolen_ticks = 0  # CPU time of interrupt routines not yet charged to the loop
+        self.block_sources: list = []  # step channels that simulate runs of pulses as one
         self.task_offset = 0  # CPU time used so far by the running periodic task
         self.in_task = False
         self.events_run = 0
-        self._millis_phase = profile.sim_boot_ticks // 2
+        self._millis_phase = 0  # timer 0 starts counting (see start_millis)
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
@@ -106,15 +107,48 @@ class Machine:
     # ------------------------------------------------------- CPU and time
     def cpu_now(self) -> int:
         """Tick at which code running right now takes effect (inside a task: later)."""
-        return self.now + self.task_offset
+        if not self.task_offset:
+            return self.now
+        return self.now + self.stretched(self.task_offset)
+
+    def stretched(self, work: int) -> int:
+        """Ticks that ``work`` ticks of interruptible code take from now on.
+
+        The console UART's transmit interrupt refills its data register once per
+        character while text is queued; each time it takes its CPU time from the
+        code that runs (the periodic task's work is interruptible).
+        """
+        cost = self.profile.sim_uart_isr_ticks
+        if not cost:
+            return work
+        t = work
+        while True:
+            n = self.uart.isr_loads_between(self.now, self.now + t)
+            if work + n * cost == t:
+                return t
+            t = work + n * cost
 
     def consume(self, ticks: int) -> None:
-        """The main loop spends ``ticks`` of CPU time; interrupts steal some on top."""
-        self.run_until(self.now + ticks)
-        while self.stolen_ticks:
-            extra = self.stolen_ticks
+        """The main loop spends ``ticks`` of CPU time; interrupts steal some on top.
+
+        Stolen are the periodic task's work and one ``sim_isr_duration_ticks`` per step
+        interrupt: those run as events add their time themselves, those of a run of
+        pulses simulated as one block are counted here for the window."""
+        cost = self.profile.sim_isr_duration_ticks
+        while True:
+            start = self.now
+            self.run_until(start + ticks)
+            if cost:
+                for src in self.block_sources:
+                    self.stolen_ticks += cost * src.block_isrs_between(start, self.now)
+            ticks = self.stolen_ticks
+            if not ticks:
+                return
             self.stolen_ticks = 0
-            self.run_until(self.now + extra)
+
+    def forget_stolen(self) -> None:
+        """The loop only polled while interrupts ran: their time delayed nothing."""
+        self.stolen_ticks = 0
 
     def block_interrupts(self, ticks: int) -> None:
         """The main loop runs ``ticks`` with interrupts disabled (busy wait)."""
@@ -123,9 +157,14 @@ class Machine:
             self.irq_blocked_until = end
         self.irq_block_windows += 1
         self.irq_blocked_ticks += ticks
+        self.uart.interrupts_blocked(start, end)
         for listener in self.block_listeners:
             listener(start, end)
         self.consume(ticks)
+
+    def start_millis(self) -> None:
+        """Arduino's start-up has just started timer 0, the source of ``millis()``."""
+        self._millis_phase = self.now
 
     def millis(self) -> int:
         """Arduino ``millis()``: timer-0 overflows with the 1.024 ms fraction fix-up."""

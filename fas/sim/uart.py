@@ -3,9 +3,15 @@
 StepperDemo prints at 115200 baud.  The Arduino serial driver holds 63 characters in
 its buffer plus one in the UART's data register; the next ``print`` waits until a
 slot frees.  So a long usage text shifts every later command by milliseconds, which
-is visible in the firmware's timing (e.g. when the first move starts).  Character
-``k`` starts on the wire at ``S[k] = max(write time, S[k-1] + byte time)`` and a write
-of character ``k`` can complete only once character ``k-buffer`` has started.
+is visible in the firmware's timing (e.g. when the first move starts).
+
+Character ``k`` is moved from the buffer into the data register ("loaded") by the
+transmit interrupt as soon as the register is free, which is when character ``k-1``
+starts on the wire: ``L[k] = max(write time, S[k-1])``, and it starts at
+``S[k] = max(L[k], S[k-1] + byte time)``.  While the main loop has interrupts
+disabled (StepperDemo's ``e``) the interrupt cannot load, so a load that falls into
+such a window waits for its end; the line goes idle meanwhile.  A write of character
+``k`` can complete only once character ``k-buffer`` has started.
 """
 
 from __future__ import annotations
@@ -14,27 +20,69 @@ from collections import deque
 
 
 class Uart:
-    __slots__ = ("byte_ticks", "capacity", "_starts", "last_start", "chars")
+    __slots__ = ("byte_ticks", "capacity", "_chars", "last_start", "chars")
 
     def __init__(self, byte_ticks: int, capacity: int) -> None:
         self.byte_ticks = byte_ticks
         self.capacity = capacity
-        self._starts: deque[int] = deque(maxlen=capacity)
+        # the newest ``capacity`` characters as
+        # [write tick, load tick, start tick, start tick of the one before]
+        self._chars: deque[list[int]] = deque(maxlen=capacity)
         self.last_start = -(1 << 62)
         self.chars = 0
 
     def room_at(self) -> int:
         """Earliest tick at which one more character can be handed over."""
-        if len(self._starts) < self.capacity:
+        if len(self._chars) < self.capacity:
             return -(1 << 62)
-        return self._starts[0]
+        return self._chars[0][2]
 
     def put(self, t: int) -> None:
         """Hand over one character at tick ``t`` (``t >= room_at()``)."""
-        start = max(t, self.last_start + self.byte_ticks)
+        prev = self.last_start
+        load = max(t, prev)
+        start = max(load, prev + self.byte_ticks)
         self.last_start = start
-        self._starts.append(start)
+        self._chars.append([t, load, start, prev])
         self.chars += 1
+
+    def interrupts_blocked(self, begin: int, end: int) -> None:
+        """Interrupts are off in ``[begin, end)``: loads due in it wait for its end.
+
+        Windows arrive in time order and never before a pending write, so only
+        characters loaded at or after ``begin`` move (with all that follow them).
+        """
+        prev_start = None
+        for ch in self._chars:
+            if prev_start is None:
+                if ch[1] < begin:
+                    continue
+                prev_start = ch[3]
+            load = max(ch[0], prev_start)
+            if begin <= load < end:
+                load = end
+            start = max(load, prev_start + self.byte_ticks)
+            ch[1] = load
+            ch[2] = start
+            ch[3] = prev_start
+            prev_start = start
+        if prev_start is not None:
+            self.last_start = prev_start
+
+    def isr_loads_between(self, begin: int, end: int) -> int:
+        """Characters the transmit interrupt loads in ``(begin, end]``.
+
+        A character written while the data register is free goes there directly;
+        only the ones that waited in the buffer are loaded by the interrupt.
+        """
+        n = 0
+        for ch in reversed(self._chars):
+            load = ch[1]
+            if load <= begin:
+                break
+            if load <= end and load > ch[0]:
+                n += 1
+        return n
 
     def idle_at(self) -> int:
         """Tick at which the last character handed over has left the wire."""

@@ -109,3 +109,60 @@ def test_stray_reads_are_counted_and_change_nothing():
             assert backend.stray_reads > 1000
             assert 0 < backend.stray_reads_during_pulse < backend.stray_reads
     assert counts[0] == counts[1]
+
+
+def test_uart_loads_wait_while_the_main_loop_blocks_interrupts():
+    from fas.sim.uart import Uart
+    u = Uart(1496, 64)
+    for _ in range(3):
+        u.put(0)
+    assert [c[2] for c in u._chars] == [0, 1496, 2992]
+    # interrupts off in [1000, 5000): character 1 already sits in the data register and
+    # goes out; character 2 can only be loaded by the interrupt once they are back on
+    u.interrupts_blocked(1000, 5000)
+    assert [c[2] for c in u._chars] == [0, 1496, 5000]
+    assert u.idle_at() == 5000 + 1496
+    u.interrupts_blocked(20000, 30000)  # after the text: nothing moves
+    assert [c[2] for c in u._chars] == [0, 1496, 5000]
+
+
+def test_uart_interrupts_stretch_the_ramp_task_while_text_goes_out():
+    m = Machine(ATMEGA328P)
+    byte, isr = ATMEGA328P.sim_uart_byte_ticks, ATMEGA328P.sim_uart_isr_ticks
+    assert m.stretched(10_000) == 10_000  # quiet console: no stretch
+    for _ in range(20):
+        m.uart.put(0)
+    # characters 2.. are loaded by the interrupt at 1 x byte, 2 x byte, ...
+    t = 10_000
+    while True:
+        n = sum(1 for k in range(1, 20) if 0 < k * byte <= t)
+        if 10_000 + n * isr == t:
+            break
+        t = 10_000 + n * isr
+    assert m.stretched(10_000) == t > 10_000
+
+
+def test_step_interrupts_take_their_time_from_the_main_loop():
+    backend, _, s = make()
+    s.set_speed_in_us(40)
+    s.set_acceleration(1_000_000)
+    s.move(20_000)
+    backend.run_for_ms(60)  # at 25 kHz, pulses simulated as blocks
+    m = backend.machine
+    isr = ATMEGA328P.sim_isr_duration_ticks
+    m.stolen_ticks = 0
+    t0 = m.now
+    m.consume(16_000)  # 1 ms of loop work
+    spent = m.now - t0
+    steps = [t for t in rising(backend, 9) if t0 <= t < m.now]
+    assert spent > 16_000 + 20 * isr  # ~25 interrupts in the first ms alone
+    assert abs(spent - (16_000 + len(steps) * isr)) <= 2 * isr + ATMEGA328P.sim_fill_entry_ticks * 4
+
+
+def test_interrupts_during_an_idle_wait_do_not_delay_the_loop_afterwards():
+    backend, _, s = make()
+    s.set_speed_in_us(40)
+    s.set_acceleration(1_000_000)
+    s.move(20_000)
+    backend.app_wait_until(backend.now() + 16_000 * 100)  # 100 ms idle: 2500 interrupts
+    assert backend.machine.stolen_ticks <= ATMEGA328P.sim_isr_duration_ticks

@@ -88,3 +88,14 @@ def test_run_writes_one_vcd_per_scenario(tmp_path, capsys):
     text = (out / "good.vcd").read_text()
     assert "StepA" in text and "$enddefinitions" in text
     assert "timing report: good" in capsys.readouterr().out
+
+
+def test_each_move_alignment_splits_at_reversals_and_bounds_each_start_shift():
+    from stepperdemo.evaluate import compare_steps
+    ref = [0.0, 10.0, 20.0, 1000.0, 1010.0, 2000.0, 2010.0]
+    dirs = [1, 1, 1, 0, 0, 1, 1]  # three moves, no long pause between them
+    ours = [0.0, 10.0, 20.0, 5096.0, 5106.0, 10192.0, 10202.0]  # moves 2, 3 one slot late
+    c = compare_steps(ours, ref, "each_move", dirs)
+    assert c.max_abs_us == 0 and c.offset_us == 5096 - 1000  # each start moved by one slot
+    assert compare_steps(ours, ref, "each_move").max_abs_us == 8192  # no directions: 1 move
+    assert compare_steps(ours, ref, "absolute").max_abs_us == 8192

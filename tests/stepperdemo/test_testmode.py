@@ -107,7 +107,7 @@ def test_interrupt_block_at_25khz_keeps_every_step_but_takes_longer():
     pins = with_e.backend.machine.pins
     assert 90 * 16 < pins.high_max[9] < 110 * 16  # pulses held high ~100 us
     assert without.backend.machine.pins.high_max[9] < 16 * 16
-    assert "erroneous 100 µs ISR BLOCK IS ON\n" in text(with_e)
+    assert "erroneous 100 set acceleration to , counting s ISR BLOCK IS ON\n" in text(with_e)
 
 
 def test_interrupt_block_at_low_rate_does_not_move_steps():

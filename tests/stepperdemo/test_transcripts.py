@@ -2,7 +2,11 @@
 
 import re
 
+from fas.arch import ATMEGA328P
+from fas.sim import SimBackend
 from stepperdemo import messages as msg
+from stepperdemo import transcript as tr
+from stepperdemo.app import StepperDemo
 
 from .helpers import EndReason, after_setup, lines, run, text
 
@@ -73,7 +77,7 @@ def test_numbers_parse_like_strtol():
     assert "Unknown command: V\r\n" not in t  # 'V' alone is V0: invalid value
     assert "set speed (us/step) to 0\r\nERROR invalid value\n" in t
     assert "Unknown command: 100\r\n" in t
-    assert "set speed (steps/s) to 0\r\nERROR invalid value\n" in t
+    assert "set speed (steps /s) to 0\r\nERROR invalid value\n" in t
     app, _ = run("R99999999999")
     assert "Move steps 2147483647\r\n" in text(app)
 
@@ -113,12 +117,12 @@ def test_toggles_and_modes():
     app, _ = run("I Q e r t x c M2 d7,1,500 dc x ?")
     t = after_setup(app)
     for piece in ("Toggle stepper info\n", "Toggle usage info\n",
-                  "Toggle erroneous 100 µs ISR block\n",
+                  "Toggle erroneous 100 set acceleration to , counting s ISR block\n",
                   "Toggle erroneous digitalRead() to step pin \n",
                   "Enter test mode\n", "Exit to main menu\n", "Enter config mode\n",
                   "Select stepper 2\r\n", "direction pin set to pin 7\r\n",
                   "direction pin high counts down\r\n", "delay in us = 500\r\n", "disabled\n",
-                  "erroneous 100 µs ISR BLOCK IS ON\n",
+                  "erroneous 100 set acceleration to , counting s ISR BLOCK IS ON\n",
                   "erroneous digitalRead() to step pin IS ON !!!\n"):
         assert piece in t, piece
     assert app.steppers[1].get_direction_pin() == 255
@@ -167,3 +171,54 @@ def test_other_profiles_run_the_demo():
         assert reason == EndReason.IDLE
         assert f"    Steppers={steppers}\r\n" in text(app)
         assert app.steppers[1].get_current_position() == 1000
+
+
+def test_boot_time_grows_with_the_built_in_line_as_in_the_firmware():
+    # the firmware's built-in input is start-up data: reset takes 9 ticks per byte
+    # longer, which moves the console, millis() and the ramp task alike
+    origins = []
+    for line in ("M1 A1000 V100 R100 W", "M1  A1000 V100 R100 W"):
+        app, _ = run(line)
+        origins.append((app.backend._task_origin, app.backend.machine._millis_phase))
+    per_byte = ATMEGA328P.sim_boot_script_byte_ticks
+    assert origins[1][0] - origins[0][0] == per_byte
+    assert origins[1][1] - origins[0][1] == per_byte
+    assert origins[0][1] == ATMEGA328P.sim_boot_ticks + len("M1 A1000 V100 R100 W ") * per_byte
+
+
+def test_printing_a_text_first_scans_the_message_table():
+    b = SimBackend("atmega328p")
+    app = StepperDemo(b, scripted=True)
+    lead, lead_lookups, total, lookups = msg.TABLE_SCAN[msg.STOP]
+    t0 = b.now()
+    app.print(msg.STOP)
+    p = ATMEGA328P
+    first_char = b.machine.uart._chars[0][2]
+    lead_ticks = lead * p.sim_msg_scan_byte_ticks + lead_lookups * p.sim_msg_lookup_ticks
+    assert first_char == t0 + lead_ticks
+    # all of the scan is spent by the time the text is handed over
+    spent = total * p.sim_msg_scan_byte_ticks + lookups * p.sim_msg_lookup_ticks
+    assert b.now() - t0 == spent + len(msg.STOP) * p.sim_char_ticks
+
+
+def test_transcript_comparison_masks_only_what_timing_decides():
+    ours = ("StepperDemo Version <version>\n<usage>set speed (steps /s) to 100\r\n"
+            "M1: @12 => 100 QueueEnd=14 v=900us/14400ticks ACC   \r\n809\n")
+    same = ours.replace("@12 => 100 QueueEnd=14", "@13 nonstop QueueEnd=15").replace(
+        "809", "810")
+    assert tr.first_difference(ours, same) is None
+    changed = ours.replace("(steps /s)", "(steps/s)")
+    assert tr.first_difference(ours, changed).startswith("line 2:")
+    assert tr.first_difference(ours, ours + "x\n") is not None
+
+
+def test_reference_transcripts_get_markers_for_version_and_usage():
+    usage = "u" * 20
+    ref = ("StepperDemo Version 9.9\n    F_CPU=1\n    T=1\n    S=2\n" + usage
+           + "M1 done\n" + usage + "\n").encode()
+    marked = tr.mark_reference(ref, len(usage))
+    assert marked == ("StepperDemo Version <version>\n    F_CPU=1\n    T=1\n    S=2\n"
+                      "<usage>M1 done\n<usage>\n")
+    app, _ = run("")
+    assert tr.ours_marked(app.transcript).startswith("StepperDemo Version <version>\n")
+    assert "<usage>" in tr.ours_marked(app.transcript)
