@@ -71,7 +71,7 @@ class Profile:
     sim_boot_ticks: int  # reset -> first line of setup()
     sim_boot_script_byte_ticks: int  # ... plus this per byte of a built-in input line
     sim_setup_head_ticks: int  # setup() entry -> first character of the banner
-    sim_setup_tail_ticks: int  # steppers configured -> first character of the usage text
+    sim_setup_steppers_ticks: int  # engine.init() -> first stepper's pins configured
     sim_loop_pass_ticks: int  # one pass of StepperDemo's loop() without output
     sim_char_ticks: int  # CPU time to hand one character to the serial driver
     sim_msg_scan_byte_ticks: int  # StepperDemo's message table: one byte read
@@ -157,7 +157,7 @@ _AVR_TIMING = dict(
     sim_boot_ticks=11200,
     sim_boot_script_byte_ticks=9,
     sim_setup_head_ticks=1768,
-    sim_setup_tail_ticks=0,
+    sim_setup_steppers_ticks=4081,
     sim_loop_pass_ticks=400,
     sim_char_ticks=140,
     sim_msg_scan_byte_ticks=12,
@@ -274,7 +274,7 @@ ESP32 = Profile(
     sim_boot_ticks=16000,
     sim_boot_script_byte_ticks=0,
     sim_setup_head_ticks=0,
-    sim_setup_tail_ticks=1600,
+    sim_setup_steppers_ticks=1600,
     sim_loop_pass_ticks=32,
     sim_char_ticks=4,
     sim_msg_scan_byte_ticks=1,
@@ -332,7 +332,7 @@ SAM_DUE = Profile(
     sim_boot_ticks=21000,
     sim_boot_script_byte_ticks=0,
     sim_setup_head_ticks=0,
-    sim_setup_tail_ticks=2100,
+    sim_setup_steppers_ticks=2100,
     sim_loop_pass_ticks=100,
     sim_char_ticks=10,
     sim_msg_scan_byte_ticks=2,

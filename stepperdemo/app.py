@@ -204,6 +204,7 @@ class StepperDemo:
         self.engine.init()
         if self.profile.debug_led_pin != PIN_UNDEFINED:
             self.engine.set_debug_led(self.profile.debug_led_pin)
+        b.app_spend(self.profile.sim_setup_steppers_ticks)
         for i, cfg in enumerate(self.profile.demo_steppers):
             s = self.engine.stepper_connect_to_pin(cfg.step)
             if s is None:
@@ -216,7 +217,6 @@ class StepperDemo:
             s.set_delay_to_enable(cfg.on_delay_us)
             s.set_delay_to_disable(cfg.off_delay_ms)
             self.steppers[i] = s
-        b.app_spend(self.profile.sim_setup_tail_ticks)
         self.usage()
 
     # --------------------------------------------------------------- input
