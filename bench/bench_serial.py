@@ -31,20 +31,8 @@ from fas.serial.loopback import Loopback  # noqa: E402
 from fas.serial.relay import Faults  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
 from stepperdemo.app import StepperDemo  # noqa: E402
+from tests.fas.serial.helpers import LINES  # noqa: E402  (the issue's acceptance lines)
 
-LINES = [
-    "M1 A1000 V100 R3200 W",
-    "M1 A2000 V150 R6000 W",
-    "M1 A15000 V40 P-5000 W P2500 W",
-    "M1 A2000 V400 J100 R3000 W",
-    "M1 A2000 V400 j30 R3000 W",
-    "M1 A6000 V90 R5000 M2 A5000 V110 R-4000 W M1 W",
-    "M1 h2500000 A4000 R2500 W",
-    "M1 A700 V900 R-500 W R500 W",
-    "M1 A2000 V200 + + + - W",
-    "M1 A3000 V250 R2000 W @500 P0 W",
-    "M1 A1000000 V40 R20000 W",
-]
 BAUD = 115200
 WINDOW_MS = 20
 LINE = Faults(latency_ms=1.0, baud=BAUD, chunk_ms=1.0)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fas.arch import Profile
-from fas.codes import PIN_UNDEFINED
+from fas.codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
 from fas.sim import SimBackend
 
 LETTERS = "ABCDEF"
@@ -87,10 +87,13 @@ def pin_activity(backend: SimBackend, pin: int) -> PinActivity:
     return PinActivity(rises, falls, high_max, high_total)
 
 
-def position_from_pins(backend: SimBackend, step_pin: int, dir_pin: int) -> int:
-    """Step edges counted up while the direction pin is HIGH, down while LOW."""
+def position_from_pins(backend: SimBackend, step_pin: int, dir_pin: int,
+                       high_counts_up: bool = True) -> int:
+    """Step edges counted up while the direction pin is at its counting-up level
+    (HIGH unless ``high_counts_up`` is False), down otherwise.  Without a direction
+    pin on the chip (none, or an external one) every step counts up."""
     times, levels = backend.recorder.pin_edges(step_pin)
-    if dir_pin == PIN_UNDEFINED:
+    if dir_pin == PIN_UNDEFINED or dir_pin & PIN_EXTERNAL_FLAG:
         return sum(1 for lv in levels if lv)
     dtimes, dlevels = backend.recorder.pin_edges(dir_pin)
     pos = 0
@@ -99,7 +102,7 @@ def position_from_pins(backend: SimBackend, step_pin: int, dir_pin: int) -> int:
             continue
         i = bisect.bisect_right(dtimes, t) - 1
         level = dlevels[i] if i >= 0 else 0
-        pos += 1 if level else -1
+        pos += 1 if (level == 1) == high_counts_up else -1
     return pos
 
 

@@ -27,6 +27,7 @@ from fas.sim import SimBackend
 
 from . import commands
 from .app import StepperDemo
+from .evaluate import position_from_pins
 
 NUMBERS = [0, 1, -1, 2, 7, 40, 100, 255, 256, 999, 1000, 4095, 4096, 32767, 32768, 65535,
            65536, 100000, 1000000, 2147483647, -2147483648, 2147483648, 99999999999,
@@ -191,7 +192,7 @@ class _Tracker:
         def force_stop_and_new_position(new_pos):
             orig_force(new_pos)
             pins = tracker.app.profile.demo_steppers[i]
-            physical = _pin_position(backend, pins.step, s.get_direction_pin(),
+            physical = position_from_pins(backend, pins.step, s.get_direction_pin(),
                                      s.direction_pin_high_counts_up())
             tracker.offset[i] = s.get_current_position() - physical
 
@@ -213,22 +214,6 @@ class _Tracker:
         s.force_stop_and_new_position = force_stop_and_new_position
         s.set_auto_enable = set_auto_enable
         s.set_direction_pin = set_direction_pin
-
-
-def _pin_position(backend: SimBackend, step_pin: int, dir_pin: int, high_up: bool) -> int:
-    """Steps counted from the pins, with the level the library gives the dir pin."""
-    times, levels = backend.recorder.pin_edges(step_pin)
-    if dir_pin == PIN_UNDEFINED or dir_pin & 0x80:
-        return sum(1 for lv in levels if lv)
-    dtimes, dlevels = backend.recorder.pin_edges(dir_pin)
-    pos = 0
-    for t, lv in zip(times, levels):
-        if not lv:
-            continue
-        k = bisect.bisect_right(dtimes, t) - 1
-        level = dlevels[k] if k >= 0 else 0
-        pos += 1 if (level == 1) == high_up else -1
-    return pos
 
 
 def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 20.0
@@ -287,12 +272,12 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
         pins = prof.demo_steppers[i]
         name = f"M{i + 1}"
         # position: library == pins + declared renumberings
-        physical = _pin_position(backend, pins.step, s.get_direction_pin(),
+        physical = position_from_pins(backend, pins.step, s.get_direction_pin(),
                                  s.direction_pin_high_counts_up())
         pos = s.get_current_position()
-        if _dir_frame_changed(app, tracker, i):
-            pass  # direction pin changed or pins driven directly (T): another frame
-        elif not s.is_running() and (pos - physical - tracker.offset[i]) & 0xFFFFFFFF:
+        # a changed direction pin, or pins driven directly (T), count in another frame
+        if (not _dir_frame_changed(app, tracker, i) and not s.is_running()
+                and (pos - physical - tracker.offset[i]) & 0xFFFFFFFF):
             res.violations.append(f"{name}: position {pos} but pins counted {physical} "
                                   f"+ declared {tracker.offset[i]}")
         if s.queue.max_fill > prof.queue_len:

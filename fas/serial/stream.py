@@ -14,6 +14,7 @@ import errno
 import os
 import select
 import tty
+from abc import ABC, abstractmethod
 
 from .clock import Wire, wait_readable
 
@@ -25,24 +26,28 @@ class LinkClosed(ConnectionError):
     """The serial line is gone."""
 
 
-class ByteStream:
+class ByteStream(ABC):
     """Base: non-blocking reads, best-effort writes, optional wire counters."""
 
     tx_wire: Wire | None = None
     rx_wire: Wire | None = None
     name = ""
 
-    def fileno(self) -> int:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def fileno(self) -> int:
+        """Implemented by each kind of line."""
 
-    def _read_raw(self) -> bytes:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def _read_raw(self) -> bytes:
+        """Implemented by each kind of line."""
 
-    def _write_raw(self, data: bytes) -> int:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def _write_raw(self, data: bytes) -> int:
+        """Implemented by each kind of line."""
 
-    def close(self) -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
+    @abstractmethod
+    def close(self) -> None:
+        """Implemented by each kind of line."""
 
     def read_available(self) -> bytes:
         wire = self.rx_wire

@@ -15,12 +15,16 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Callable
 
+from .. import messages as msg
+from .rand import make_rand
+
 if TYPE_CHECKING:  # pragma: no cover
     from fas import Stepper
 
     from ..app import StepperDemo
 
 TEST_STATE_ERROR = 0xFFFF
+PULSE_COUNTER_RAND_SEED = 135  # sequences 08 and 09 seed their random numbers with it
 
 Sequence = Callable[["StepperDemo", "Stepper", "SeqSlot", int], bool]
 
@@ -66,7 +70,22 @@ def elapsed(now_ms: int, since_ms: int) -> int:
     return (now_ms - since_ms) & 0xFFFFFFFF
 
 
-from . import (  # noqa: E402  (the registry needs SeqSlot defined first)
+def start_with_pulse_counter(app: StepperDemo, stepper: Stepper, slot: SeqSlot,
+                             time_ms: int) -> bool:
+    """First state of sequences 08 and 09: seed the random numbers, attach pulse
+    counter 7 and note the time.  True when the counter cannot be attached: the
+    error is printed and the test has failed."""
+    slot.rng = make_rand(app.profile.name, PULSE_COUNTER_RAND_SEED)
+    if not stepper.attach_to_pulse_counter(7):
+        app.println(msg.SEQ_PULSE_COUNTER_ERROR)
+        slot.state = TEST_STATE_ERROR
+        return True
+    slot.u32_1 = time_ms
+    slot.state += 1
+    return False
+
+
+from . import (  # noqa: E402  (the registry needs the helpers above)
     seq01,
     seq02,
     seq03,
@@ -90,3 +109,4 @@ SEQUENCES: dict[str, Sequence] = {
 }
 
 __all__ = ["SEQUENCES", "SeqSlot", "TEST_STATE_ERROR", "elapsed"]
+

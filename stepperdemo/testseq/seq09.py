@@ -9,8 +9,7 @@ prints "Step AFTER stop".  Runs until `x`.
 from __future__ import annotations
 
 from .. import messages as msg
-from . import TEST_STATE_ERROR, elapsed
-from .rand import make_rand
+from . import elapsed, start_with_pulse_counter
 
 VMIN, VMAX = 40, 16384
 AMIN, AMAX = 10, 4 * 65536
@@ -24,13 +23,8 @@ def _i16(v: int) -> int:
 def step(app, stepper, slot, time_ms: int) -> bool:
     state = slot.state
     if state == 0:
-        slot.rng = make_rand(app.profile.name, 135)
-        if not stepper.attach_to_pulse_counter(7):
-            app.println(msg.SEQ_PULSE_COUNTER_ERROR)
-            slot.state = TEST_STATE_ERROR
+        if start_with_pulse_counter(app, stepper, slot, time_ms):
             return True
-        slot.u32_1 = time_ms
-        slot.state += 1
     elif state == 1:
         if not stepper.is_running():
             rand = slot.rng.rand
