@@ -33,8 +33,8 @@ def startup(runs: int = 5) -> float:
 
 async def drive(seconds: float, line: str | None, arch: str) -> float:
     from fas.sim import SimBackend
-    from stepperdemo.app import StepperDemo
-    from stepperdemo.console import RealTimeDriver
+    from stepperdemo.demo.app import StepperDemo
+    from stepperdemo.front.console import RealTimeDriver
 
     app = StepperDemo(SimBackend(arch), scripted=False)
     driver = RealTimeDriver(app)

@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 from fas.codes import PIN_UNDEFINED
 from fas.sim import SimBackend
 
-from . import commands
-from .app import StepperDemo
-from .evaluate import position_from_pins
+from .demo import commands
+from .demo.app import StepperDemo
+from .scenarios.evaluate import position_from_pins
 
 NUMBERS = [0, 1, -1, 2, 7, 40, 100, 255, 256, 999, 1000, 4095, 4096, 32767, 32768, 65535,
            65536, 100000, 1000000, 2147483647, -2147483648, 2147483648, 99999999999,
@@ -235,7 +235,7 @@ def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 
         errors_seen.append((cmd, ok, after - before))
         return ok
 
-    from . import app as app_module
+    from .demo import app as app_module
     app_module.dispatch = counting_dispatch
     try:
         reason = app.run_script(data, max_ticks=int(max_time_s * backend.profile.ticks_per_s))

@@ -4,8 +4,8 @@ from pathlib import Path
 
 import pytest
 
-from stepperdemo.runner import run_file
-from stepperdemo.scenario import collect, load
+from stepperdemo.scenarios.runner import run_file
+from stepperdemo.scenarios.scenario import collect, load
 
 ROOT = Path(__file__).resolve().parent.parent
 FILES = collect([ROOT / "sequences"])

@@ -25,11 +25,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from stepperdemo.evaluate import read_reference_steps  # noqa: E402
 from stepperdemo.messages import USAGE_NORMAL  # noqa: E402
-from stepperdemo.runner import run_scenario  # noqa: E402
-from stepperdemo.scenario import Scenario, StepperExpectation, TimingExpectation  # noqa: E402
-from stepperdemo.transcript import mark_reference  # noqa: E402
+from stepperdemo.scenarios.evaluate import read_reference_steps  # noqa: E402
+from stepperdemo.scenarios.runner import run_scenario  # noqa: E402
+from stepperdemo.scenarios.scenario import Scenario, StepperExpectation, TimingExpectation  # noqa: E402
+from stepperdemo.scenarios.transcript import mark_reference  # noqa: E402
 
 DESCRIPTION = ("Conformance: the original firmware (FastAccelStepper 1.2.6 StepperDemo, "
                "ATmega328P in an AVR simulator) for this input line")

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from fas.sim import SimBackend
-from stepperdemo.app import EndReason, StepperDemo
+from stepperdemo.demo.app import EndReason, StepperDemo
 
 
 def run(line: str, arch: str = "atmega328p", *, firmware_end: bool = False,

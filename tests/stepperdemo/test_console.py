@@ -5,7 +5,7 @@ import asyncio
 from prompt_toolkit.input import create_pipe_input
 from prompt_toolkit.output import DummyOutput
 
-from stepperdemo.console import Console, RealTimeDriver
+from stepperdemo.front.console import Console, RealTimeDriver
 
 
 class FakeClock:
@@ -107,7 +107,7 @@ def test_meta_commands_and_errors_keep_the_session(tmp_path):
 
 def test_real_time_driver_follows_the_clock_and_sleeps_when_idle():
     from fas.sim import SimBackend
-    from stepperdemo.app import StepperDemo
+    from stepperdemo.demo.app import StepperDemo
 
     clock = FakeClock()
     app = StepperDemo(SimBackend("esp32"), scripted=False)

@@ -7,8 +7,8 @@ import os
 import pytest
 from prompt_toolkit.output import DummyOutput
 
-from stepperdemo import plots
-from stepperdemo.console import META_COMMANDS, Console
+from stepperdemo.front.console import META_COMMANDS, Console
+from stepperdemo.watch import plots
 from tests.vcdread import read_vcd
 
 

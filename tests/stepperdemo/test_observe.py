@@ -11,10 +11,10 @@ import pytest
 
 from fas.sim import SimBackend
 from fas.sim.trace import IRQ_BLOCKED
-from stepperdemo import observe, plots
-from stepperdemo.app import StepperDemo
-from stepperdemo.cli import EXIT_OK, EXIT_USAGE, main
-from stepperdemo.report import report_lines
+from stepperdemo.demo.app import StepperDemo
+from stepperdemo.front.cli import EXIT_OK, EXIT_USAGE, main
+from stepperdemo.watch import observe, plots
+from stepperdemo.watch.report import report_lines
 from tests.vcdread import Vcd, read_vcd, read_vcd_pyvcd
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -2,9 +2,9 @@
 
 import json
 
-from stepperdemo.cli import main
-from stepperdemo.runner import EXIT_FAILED, EXIT_OK, run_file
-from stepperdemo.scenario import ScenarioError, load
+from stepperdemo.front.cli import main
+from stepperdemo.scenarios.runner import EXIT_FAILED, EXIT_OK, run_file
+from stepperdemo.scenarios.scenario import ScenarioError, load
 
 GOOD = """
 name = "good"
@@ -91,7 +91,7 @@ def test_run_writes_one_vcd_per_scenario(tmp_path, capsys):
 
 
 def test_each_move_alignment_splits_at_reversals_and_bounds_each_start_shift():
-    from stepperdemo.evaluate import compare_steps
+    from stepperdemo.scenarios.evaluate import compare_steps
     ref = [0.0, 10.0, 20.0, 1000.0, 1010.0, 2000.0, 2010.0]
     dirs = [1, 1, 1, 0, 0, 1, 1]  # three moves, no long pause between them
     ours = [0.0, 10.0, 20.0, 5096.0, 5106.0, 10192.0, 10202.0]  # moves 2, 3 one slot late

@@ -4,7 +4,7 @@ import re
 
 import pytest
 
-from stepperdemo.cli import main
+from stepperdemo.front.cli import main
 
 from .helpers import EndReason, after_setup, run, text
 

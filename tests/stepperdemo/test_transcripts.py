@@ -5,8 +5,8 @@ import re
 from fas.arch import ATMEGA328P
 from fas.sim import SimBackend
 from stepperdemo import messages as msg
-from stepperdemo import transcript as tr
-from stepperdemo.app import StepperDemo
+from stepperdemo.demo.app import StepperDemo
+from stepperdemo.scenarios import transcript as tr
 
 from .helpers import EndReason, after_setup, lines, run, text
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from fas.serial.loopback import Loopback
 from fas.serial.relay import Faults
 from fas.sim import SimBackend
-from stepperdemo.app import EndReason, StepperDemo
+from stepperdemo.demo.app import EndReason, StepperDemo
 
 TPS = 16_000_000
 

@@ -3,7 +3,7 @@
 from prompt_toolkit.output import DummyOutput
 
 from fas.serial.loopback import Loopback
-from stepperdemo.console import Console
+from stepperdemo.front.console import Console
 
 from .helpers import TPS
 

@@ -19,7 +19,7 @@ import pytest
 
 from fas.serial import SerialBackend
 from fas.serial.protocol import D_WATCHDOG
-from stepperdemo.app import StepperDemo
+from stepperdemo.demo.app import StepperDemo
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
 PTY_RE = re.compile(r"(/dev/pts/\d+)")

@@ -1,7 +1,7 @@
 """Sessions on the serial backend: watchdog, lost devices, reconnection, stops."""
 
 from fas.serial.loopback import Loopback
-from stepperdemo.app import StepperDemo
+from stepperdemo.demo.app import StepperDemo
 
 from .helpers import TPS
 

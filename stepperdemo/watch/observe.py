@@ -28,7 +28,7 @@ from fas.sim.trace import (
     timescale_factor,
 )
 
-from . import messages as msg
+from .. import messages as msg
 from .motion import MotionAnalysis, Wiring, demo_wiring
 
 

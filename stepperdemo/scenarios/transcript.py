@@ -14,7 +14,7 @@ import gzip
 import re
 from pathlib import Path
 
-from . import messages as msg
+from .. import messages as msg
 
 USAGE_MARK = "<usage>"
 VERSION_MARK = "<version>"

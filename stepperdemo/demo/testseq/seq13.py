@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from fas.codes import AqeResult
 
-from .. import messages as msg
+from ... import messages as msg
 from . import TEST_STATE_ERROR, elapsed
 
 

@@ -8,7 +8,7 @@ prints "Step AFTER stop".  Runs until `x`.
 
 from __future__ import annotations
 
-from .. import messages as msg
+from ... import messages as msg
 from . import elapsed, start_with_pulse_counter
 
 VMIN, VMAX = 40, 16384

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Callable
 
-from .. import messages as msg
+from ... import messages as msg
 from .rand import make_rand
 
 if TYPE_CHECKING:  # pragma: no cover

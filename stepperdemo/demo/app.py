@@ -23,7 +23,7 @@ from fas import Engine
 from fas.backend import Backend
 from fas.codes import PIN_UNDEFINED, RAMP_STATE_MASK
 
-from . import messages as msg
+from .. import messages as msg
 from .commands import Mode, dispatch
 from .testseq import TEST_STATE_ERROR, SeqSlot
 

@@ -11,7 +11,7 @@ samples would show as a backwards difference between them).
 
 from __future__ import annotations
 
-from .. import messages as msg
+from ... import messages as msg
 from . import TEST_STATE_ERROR
 
 READS_PER_PASS = 1001

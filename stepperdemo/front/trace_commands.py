@@ -12,8 +12,8 @@ from __future__ import annotations
 import shutil
 from collections.abc import Callable
 
-from . import messages as msg
-from .observe import Observers
+from .. import messages as msg
+from ..watch.observe import Observers
 
 META_COMMANDS = {
     "/trace": "record the pins: on|off",
@@ -85,7 +85,7 @@ class TraceCommands:
                                           end=self._s(obs.now_tick()))]
 
     def _plot(self, args: list[str]) -> list[str]:
-        from . import plots
+        from ..watch import plots
 
         series = plots.series_of(self.observers)
         if not args:
@@ -100,7 +100,7 @@ class TraceCommands:
         return [msg.OBSERVE_WROTE.format(path=args[0])]
 
     def _report(self) -> list[str]:
-        from . import report
+        from ..watch import report
 
         return report.report_lines(self.observers,
                                    positions=report.library_positions(self._app_of_trace()))

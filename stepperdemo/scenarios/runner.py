@@ -12,9 +12,9 @@ from typing import Sequence
 
 from fas.sim import SimBackend
 
-from . import messages as msg
+from .. import messages as msg
+from ..demo.app import EndReason, StepperDemo
 from . import transcript as transcript_cmp
-from .app import EndReason, StepperDemo
 from .evaluate import (
     TimingComparison,
     compare_steps,
@@ -78,7 +78,7 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
     backend = SimBackend(sc.profile, record=True)
     obs = None
     if watch is not None and watch.wanted():
-        from . import observe
+        from ..watch import observe
 
         def named(folder: str | None, suffix: str) -> str | None:
             return str(Path(folder) / f"{sc.name}{suffix}") if folder else None
@@ -172,7 +172,7 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
         res.checks.append(Check("transcript matches reference", "same",
                                 diff or "same", None, None, diff is None))
     if obs is not None:
-        from . import plots, report
+        from ..watch import plots, report
 
         obs.finish()
         if watch.plot_dir and plots.png_available():
@@ -289,7 +289,7 @@ def main(argv: Sequence[str]) -> int:
         if folder:
             Path(folder).mkdir(parents=True, exist_ok=True)
     if args.plot:
-        from . import plots
+        from ..watch import plots
         if not plots.png_available():
             print(msg.PLOT_EXTRA_MISSING, file=sys.stderr)
             return EXIT_USAGE

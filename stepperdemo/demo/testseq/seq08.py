@@ -8,7 +8,7 @@ position modulo 2^14; a mismatch prints both and fails.  Runs until `x`.
 
 from __future__ import annotations
 
-from .. import messages as msg
+from ... import messages as msg
 from . import TEST_STATE_ERROR, start_with_pulse_counter
 
 VMIN, VMAX = 40, 16384

@@ -73,7 +73,7 @@ class Scenario:
     timing: TimingExpectation | None = None
     contains: list[str] = field(default_factory=list)
     not_contains: list[str] = field(default_factory=list)
-    transcript_ref: Path | None = None  # whole transcript to match (stepperdemo.transcript)
+    transcript_ref: Path | None = None  # whole transcript to match (scenarios.transcript)
 
 
 def _check_types(path: Path, prefix: str, table: dict, schema: dict) -> None:

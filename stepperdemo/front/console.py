@@ -26,10 +26,10 @@ from prompt_toolkit.shortcuts import print_formatted_text
 from fas.arch import PROFILES, get_profile
 from fas.sim import SimBackend
 
-from . import messages as msg
+from .. import messages as msg
+from ..demo.app import StepperDemo
+from ..demo.commands import HELP, Mode
 from . import serial_cli  # issue 7: --port, /reconnect /link /estop
-from .app import StepperDemo
-from .commands import HELP, Mode
 from .trace_commands import META_COMMANDS as TRACE_META_COMMANDS
 from .trace_commands import TraceCommands
 

@@ -12,7 +12,7 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from . import messages as msg
+from .. import messages as msg
 from .observe import Observers
 
 BRAILLE = 0x2800

@@ -8,8 +8,9 @@ from typing import Sequence
 
 from fas.arch import PROFILES
 
-from . import messages as msg
-from . import observe, serial_cli
+from .. import messages as msg
+from ..watch import observe
+from . import serial_cli
 
 EXIT_OK = 0
 EXIT_TEST_FAILED = 1
@@ -67,7 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
 def run_scripted(args: argparse.Namespace) -> int:
     from fas.sim import SimBackend
 
-    from .app import EndReason, StepperDemo
+    from ..demo.app import EndReason, StepperDemo
 
     out = sys.stdout.buffer
 
@@ -102,7 +103,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] in SUBCOMMANDS:
         if argv[0] == "run":
-            from .runner import main as run_main
+            from ..scenarios.runner import main as run_main
             return run_main(argv[1:])
         if argv[0] in ("device", "relay"):  # issue 7
             return serial_cli.main(argv)

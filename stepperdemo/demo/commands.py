@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Callable
 
 from fas.codes import PIN_UNDEFINED
 
-from . import messages as msg
+from .. import messages as msg
 
 if TYPE_CHECKING:  # pragma: no cover
     from .app import StepperDemo

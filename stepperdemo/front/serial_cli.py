@@ -19,7 +19,7 @@ from collections.abc import Iterable, Sequence
 
 from fas.arch import PROFILES
 
-from . import messages as msg
+from .. import messages as msg
 
 EXIT_USAGE = 2
 EXIT_LINK_LOST = 5
@@ -67,8 +67,8 @@ def run_scripted(args: argparse.Namespace, write) -> int:
     """``stepperdemo --port DEVICE -c LINE``: the line in real time on the device."""
     from fas.serial import SerialError
 
-    from . import observe
-    from .app import EndReason, StepperDemo
+    from ..demo.app import EndReason, StepperDemo
+    from ..watch import observe
 
     if observe.wanted(args):
         print(msg.CLI_ERROR.format(problem=msg.SERIAL_NO_OBSERVE), file=sys.stderr)

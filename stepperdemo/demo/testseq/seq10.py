@@ -7,7 +7,7 @@ between 64 us and 64+d us, 11 times per d, for d = 0, 1, -1, 2, -2 ... +-24
 
 from __future__ import annotations
 
-from .. import messages as msg
+from ... import messages as msg
 from . import elapsed
 
 

@@ -9,7 +9,7 @@ interrupt-blocked windows (`e`) and the stray pin reads (`r`) of the run.
 
 from __future__ import annotations
 
-from . import messages as msg
+from .. import messages as msg
 from .motion import GAP_FACTOR, StepperMotion
 from .observe import Observers
 
