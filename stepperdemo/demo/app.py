@@ -16,7 +16,6 @@ takes characters as they are typed.
 from __future__ import annotations
 
 from collections import deque
-from enum import IntEnum
 from typing import Callable
 
 from fas import Engine
@@ -24,7 +23,8 @@ from fas.backend import Backend
 from fas.codes import PIN_UNDEFINED, RAMP_STATE_MASK
 
 from .. import messages as msg
-from .commands import Mode, dispatch
+from ..program import EndReason, Program
+from .commands import HELP, Mode, dispatch
 from .testseq import TEST_STATE_ERROR, SeqSlot
 
 LONG_MAX = 2**31 - 1
@@ -82,20 +82,14 @@ def parse_values(arg: bytes) -> list[int] | None:
     return None
 
 
-class EndReason(IntEnum):
-    RUNNING = 0
-    IDLE = 1  # input consumed, everything stopped
-    FIRMWARE_END = 2  # firmware-style end: one second after the input was consumed
-    MAX_TIME = 3
-
-
-class StepperDemo:
+class StepperDemo(Program):
     """The StepperDemo program on a backend; drive it with :meth:`run_until`."""
+
+    title = "StepperDemo"
 
     def __init__(self, backend: Backend, *, scripted: bool = True,
                  output: Callable[[bytes], None] | None = None) -> None:
         self.backend = backend
-        self.profile = backend.profile
         self.engine = Engine(backend)
         self.scripted = scripted
         self.output = output
@@ -559,3 +553,16 @@ class StepperDemo:
         self.test_ongoing = False
         self.read_ptr = self.write_ptr
         self.out_buffer.clear()
+
+    # --------------------------------------------------- hosted by the console
+    def mode_name(self) -> str:
+        return {Mode.NORMAL: "normal", Mode.TEST: "test", Mode.CONFIG: "config"}[self.mode]
+
+    def completions(self) -> list[tuple[str, str]]:
+        return HELP[self.mode]
+
+    def toolbar_status(self) -> str:
+        return f"M{self.selected + 1}"
+
+    def exit_code(self) -> int:
+        return 1 if self.test_failed_count else 0

@@ -39,7 +39,7 @@ exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
             3 --max-time reached, 4 a scenario failed (run), 5 device lost"""
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(program: str = "demo") -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="stepperdemo", description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -62,13 +62,14 @@ def build_parser() -> argparse.ArgumentParser:
                     help="interactive: history file (default: in the user state directory)")
     observe.add_arguments(ap)  # --vcd --plot --plot-size --report --steps-csv (issue 6)
     serial_cli.add_arguments(ap)  # --port --baud --watchdog-ms (issue 7)
+    ap.set_defaults(program=program)
     return ap
 
 
 def run_scripted(args: argparse.Namespace) -> int:
     from fas.sim import SimBackend
 
-    from ..demo.app import EndReason, StepperDemo
+    from ..program import EndReason, make_program
 
     out = sys.stdout.buffer
 
@@ -83,7 +84,7 @@ def run_scripted(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return EXIT_USAGE
-    app = StepperDemo(backend, scripted=True, output=write)
+    app = make_program(args.program, backend, scripted=True, output=write)
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
     reason = app.run_script(args.command, firmware_end=args.firmware_end, max_ticks=max_ticks)
     out.flush()
@@ -94,9 +95,7 @@ def run_scripted(args: argparse.Namespace) -> int:
     if reason == EndReason.MAX_TIME:
         print(msg.CLI_MAX_TIME.format(seconds=args.max_time), file=sys.stderr)
         return EXIT_MAX_TIME
-    if app.test_failed_count:
-        return EXIT_TEST_FAILED
-    return EXIT_OK
+    return app.exit_code()  # EXIT_TEST_FAILED when a test sequence failed
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -27,8 +27,7 @@ from fas.arch import PROFILES, get_profile
 from fas.sim import SimBackend
 
 from .. import messages as msg
-from ..demo.app import StepperDemo
-from ..demo.commands import HELP, Mode
+from ..program import Program, make_program
 from . import serial_cli  # issue 7: --port, /reconnect /link /estop
 from .trace_commands import META_COMMANDS as TRACE_META_COMMANDS
 from .trace_commands import TraceCommands
@@ -56,7 +55,7 @@ def default_history_path() -> Path:
 class RealTimeDriver:
     """Keeps the simulated chip at the wall clock: sim time = start + scale * elapsed."""
 
-    def __init__(self, app: StepperDemo, scale: float = 1.0, clock: Clock = time.monotonic):
+    def __init__(self, app: Program, scale: float = 1.0, clock: Clock = time.monotonic):
         self.app = app
         self.clock = clock
         self.scale = scale
@@ -85,7 +84,7 @@ class RealTimeDriver:
         return max(0.0, (wake - self.target_tick()) / tps / self.scale)
 
 
-class StepperDemoCompleter(Completer):
+class ProgramCompleter(Completer):
     def __init__(self, console: "Console") -> None:
         self.console = console
 
@@ -96,8 +95,7 @@ class StepperDemoCompleter(Completer):
                 if name.startswith(word):
                     yield Completion(name, -len(word), display_meta=hint)
             return
-        mode = self.console.app.mode
-        for letters, hint in HELP[mode]:
+        for letters, hint in self.console.app.completions():
             if not word or letters.startswith(word[:1]):
                 yield Completion(letters.split("<")[0], -len(word), display=letters,
                                  display_meta=hint)
@@ -108,7 +106,8 @@ class Console:
                  history: str | None = None, clock: Clock = time.monotonic,
                  sleep: Sleep | None = None, input=None, output=None,
                  port: str | None = None, baud: int = 115200, watchdog_ms: int = 500,
-                 backend=None) -> None:
+                 backend=None, program: str = "demo") -> None:
+        self.program = program  # which program the console hosts (stepperdemo.program)
         self.port, self.baud, self.watchdog_ms = port, baud, watchdog_ms  # issue 7
         self._given_backend = backend  # issue 7: a connected serial backend (tests)
         self.clock = clock
@@ -134,7 +133,8 @@ class Console:
             self.scale = self.backend.clock_hz / self.backend.profile.ticks_per_s
         else:
             self.backend = SimBackend(arch)
-        self.app = StepperDemo(self.backend, scripted=False, output=self._collect)
+        self.app = make_program(self.program, self.backend, scripted=False,
+                                output=self._collect)
         self.driver = RealTimeDriver(self.app, self.scale, self.clock)
         if self.port:  # issue 7: the device's clock runs by itself
             self.driver = serial_cli.DeviceDriver(self.app, self.scale)
@@ -184,13 +184,14 @@ class Console:
     # ------------------------------------------------------------ toolbar
     def toolbar(self):
         app = self.app
-        mode = {Mode.NORMAL: "normal", Mode.TEST: "test", Mode.CONFIG: "config"}[app.mode]
-        hints = "  ".join(f"{k}" for k, _ in HELP[app.mode][:12])
+        hints = "  ".join(f"{k}" for k, _ in app.completions()[:12])
         t = self.backend.now() / self.backend.profile.ticks_per_s
         running = sum(1 for s in app.steppers if s is not None and s.is_running())
+        status = app.toolbar_status()
         return FormattedText([
             ("bold", f" {self.backend.profile.name} "),
-            ("", f" {mode} mode | M{app.selected + 1} | t={t:.3f}s | running {running} | "),
+            ("", f" {app.mode_name()} mode | {status + ' | ' if status else ''}t={t:.3f}s"
+                 f" | running {running} | "),
             ("italic", f"{hints}  ? usage  /help"),
         ])
 
@@ -267,7 +268,7 @@ class Console:
         while not self.quit:
             delay = self.driver.advance()
             self.flush()
-            if self.app.rx or self.app.input_pending():
+            if self.app.input_pending():
                 delay = 0.0 if delay is None else min(delay, 0.001)
             # sleep until the program next needs the CPU; typed input wakes us earlier
             timeout = 1.0 if delay is None else min(max(delay, 0.0), 1.0)
@@ -293,7 +294,7 @@ class Console:
         else:
             self._note(msg.REPL_WELCOME.format(version=msg.VERSION, profile=p.name,
                                                mode=f"x{self.scale:g} real time"))
-        session = PromptSession(history=self.history, completer=StepperDemoCompleter(self),
+        session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
                                 output=self._output, complete_while_typing=False)
         with patch_stdout(raw=True):
@@ -325,7 +326,8 @@ def run_console(args) -> int:
     try:
         console = Console(args.arch, scale=args.speed, history=args.history, port=port,
                           baud=getattr(args, "baud", 115200),
-                          watchdog_ms=getattr(args, "watchdog_ms", 500))
+                          watchdog_ms=getattr(args, "watchdog_ms", 500),
+                          program=getattr(args, "program", "demo"))
     except ConnectionError as exc:  # issue 7: fas.serial.SerialError
         print(msg.CLI_SERIAL_CONNECT.format(port=port, error=exc), file=sys.stderr)
         return serial_cli.EXIT_USAGE

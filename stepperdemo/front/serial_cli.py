@@ -67,7 +67,7 @@ def run_scripted(args: argparse.Namespace, write) -> int:
     """``stepperdemo --port DEVICE -c LINE``: the line in real time on the device."""
     from fas.serial import SerialError
 
-    from ..demo.app import EndReason, StepperDemo
+    from ..program import EndReason, make_program
     from ..watch import observe
 
     if observe.wanted(args):
@@ -78,7 +78,7 @@ def run_scripted(args: argparse.Namespace, write) -> int:
     except SerialError as exc:
         print(msg.CLI_SERIAL_CONNECT.format(port=args.port, error=exc), file=sys.stderr)
         return EXIT_USAGE
-    app = StepperDemo(backend, scripted=True, output=write)
+    app = make_program(args.program, backend, scripted=True, output=write)
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
 
     def on_event(event: str, text: str) -> None:
@@ -104,7 +104,7 @@ def run_scripted(args: argparse.Namespace, write) -> int:
     if reason == EndReason.MAX_TIME:
         print(msg.CLI_MAX_TIME.format(seconds=args.max_time), file=sys.stderr)
         return 3
-    return 1 if app.test_failed_count else 0
+    return app.exit_code()
 
 
 class _DeviceLost(Exception):

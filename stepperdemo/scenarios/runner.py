@@ -13,7 +13,7 @@ from typing import Sequence
 from fas.sim import SimBackend
 
 from .. import messages as msg
-from ..demo.app import EndReason, StepperDemo
+from ..program import EndReason, make_program
 from . import transcript as transcript_cmp
 from .evaluate import (
     TimingComparison,
@@ -86,7 +86,7 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
                              csv=named(watch.csv_dir, ".csv"),
                              analyse=bool(watch.csv_dir or watch.plot_dir
                                           or watch.timing_report))
-    app = StepperDemo(backend, scripted=True)
+    app = make_program(sc.program, backend, scripted=True)
     t0 = time.perf_counter()
     reason = app.run_script(sc.input, firmware_end=(sc.end == "firmware"),
                             max_ticks=int(sc.max_time_s * backend.profile.ticks_per_s))

@@ -13,6 +13,8 @@ from typing import Any
 
 from fas.arch import PROFILES
 
+from ..program import PROGRAMS
+
 STEPPER_KEYS = {
     "position": int, "pulses": int, "dir_transitions": list, "enable_transitions": list,
     "enable_high_max_us": (int, float), "step_high_total_us": (int, float),
@@ -26,7 +28,7 @@ TIMING_KEYS = {
     "duration_ratio": (int, float), "start_us": (int, float),
 }
 TOP_KEYS = {
-    "name": str, "description": str, "profile": str, "input": str, "end": str,
+    "name": str, "description": str, "program": str, "profile": str, "input": str, "end": str,
     "max_time_s": (int, float), "long": bool, "reference": str, "justification": str,
     "steppers": dict, "timing": dict, "transcript": dict,
 }
@@ -63,6 +65,7 @@ class Scenario:
     name: str
     input: str
     description: str = ""
+    program: str = "demo"  # the program the input is for (stepperdemo.program.PROGRAMS)
     profile: str = "atmega328p"
     end: str = "idle"
     max_time_s: float = 600.0
@@ -105,13 +108,18 @@ def load(path: Path | str) -> Scenario:
     profile = data.get("profile", "atmega328p")
     if profile not in PROFILES:
         raise ScenarioError(path, "profile", f"unknown profile {profile!r}")
+    program = data.get("program", "demo")
+    if program not in PROGRAMS:
+        raise ScenarioError(path, "program",
+                            f"unknown program {program!r} (known: {', '.join(sorted(PROGRAMS))})")
     end = data.get("end", "idle")
     if end not in ("idle", "firmware"):
         raise ScenarioError(path, "end", "must be 'idle' or 'firmware'")
     if data.get("max_time_s", 1) <= 0:
         raise ScenarioError(path, "max_time_s", "must be positive")
     sc = Scenario(path=path, name=data["name"], input=data["input"],
-                  description=data.get("description", ""), profile=profile, end=end,
+                  description=data.get("description", ""), program=program,
+                  profile=profile, end=end,
                   max_time_s=float(data.get("max_time_s", 600.0)), long=data.get("long", False),
                   justification=data.get("justification", ""))
     if "reference" in data:

@@ -37,6 +37,12 @@ def test_good_scenario_passes(tmp_path):
     assert {c.what for c in res.checks} >= {"A position", "A pulses", "transcript contains"}
 
 
+def test_the_program_key_names_the_program_that_runs_the_input(tmp_path):
+    sc = load(write(tmp_path, "prog.toml", 'program = "demo"\n' + GOOD))
+    assert sc.program == "demo"
+    assert run_file(sc.path).ok
+
+
 def test_wrong_expectation_fails_with_the_deviation(tmp_path):
     res = run_file(write(tmp_path, "wrong.toml", WRONG))
     assert not res.ok
@@ -52,6 +58,7 @@ def test_broken_files_name_file_and_key(tmp_path):
                          "steppers.A.position"),
         "badtoml.toml": ('name = "x\n', "-"),
         "badprofile.toml": ('name = "x"\ninput = "M1"\nprofile = "z80"\n', "profile"),
+        "badprogram.toml": ('name = "x"\ninput = "M1"\nprogram = "tetris"\n', "program"),
     }
     for fname, (text, key) in cases.items():
         p = write(tmp_path, fname, text)

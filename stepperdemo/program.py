@@ -1,0 +1,108 @@
+"""What the front ends need from a program they host.
+
+The console hosts programs - StepperDemo, and beside it the other systems that run on
+the same library (the winder, G-code, ...).  Every front end - the REPL, ``-c``
+scripted runs, scenario files, ``--port`` - drives a program only through this
+interface, so a new program gets all of them by implementing it and registering its
+factory in :data:`PROGRAMS`.
+
+A program runs on a backend's clock: :meth:`Program.run_until` advances it,
+:meth:`Program.next_wake_tick` says when it next needs the CPU, typed characters
+arrive through :meth:`Program.feed`, and everything it prints goes to the ``output``
+callback given at construction (bytes, the program's own line ends) and into
+:attr:`Program.transcript`.
+"""
+
+from __future__ import annotations
+
+import importlib
+from abc import ABC, abstractmethod
+from enum import IntEnum
+from typing import Callable
+
+from fas.backend import Backend
+
+Output = Callable[[bytes], None]
+
+
+class EndReason(IntEnum):
+    RUNNING = 0
+    IDLE = 1  # input consumed, everything stopped
+    FIRMWARE_END = 2  # firmware-style end: one second after the input was consumed
+    MAX_TIME = 3
+
+
+class Program(ABC):
+    """A console program on a backend (see the module text)."""
+
+    #: shown in the toolbar and the welcome line
+    title: str = "program"
+    backend: Backend
+    #: everything printed so far
+    transcript: bytearray
+    #: the library's steppers (``None`` where a slot is unused), for plots and reports
+    steppers: list
+
+    @property
+    def profile(self):
+        return self.backend.profile
+
+    # ------------------------------------------------------------ driving
+    @abstractmethod
+    def feed(self, text: str | bytes) -> None:
+        """Characters typed at the console (interactive input)."""
+
+    @abstractmethod
+    def input_pending(self) -> bool:
+        """Input received but not yet taken by the program."""
+
+    @abstractmethod
+    def run_until(self, tick: int) -> None:
+        """Run the program until the backend's clock reaches ``tick``."""
+
+    @abstractmethod
+    def loop_pass(self) -> None:
+        """One pass of the program's loop, now (a device driver runs it as ``loop()``)."""
+
+    @abstractmethod
+    def next_wake_tick(self) -> int | None:
+        """When the program next has something to do (None: only input wakes it)."""
+
+    @abstractmethod
+    def run_script(self, line: str | bytes, *, firmware_end: bool = False,
+                   max_ticks: int | None = None) -> EndReason:
+        """Run one scripted line on virtual time to its end."""
+
+    @abstractmethod
+    def force_stop_all(self) -> None:
+        """Console Ctrl-C: stop all motion at once and release any held input."""
+
+    # -------------------------------------------------------- the console
+    @abstractmethod
+    def mode_name(self) -> str:
+        """The input mode, for the toolbar (``normal``, ``test``, ...)."""
+
+    @abstractmethod
+    def completions(self) -> list[tuple[str, str]]:
+        """``(command, hint)`` pairs of the current mode, for completion and toolbar."""
+
+    def toolbar_status(self) -> str:
+        """Program-specific toolbar text (selected stepper, inputs, ...)."""
+        return ""
+
+    def exit_code(self) -> int:
+        """0 when a scripted run succeeded; non-zero (1) when it reported a failure."""
+        return 0
+
+
+#: program name -> "module:factory"; a factory takes (backend, *, scripted, output)
+PROGRAMS: dict[str, str] = {
+    "demo": "stepperdemo.demo.app:StepperDemo",
+}
+
+
+def make_program(name: str, backend: Backend, *, scripted: bool,
+                 output: Output | None = None) -> Program:
+    module, _, attr = PROGRAMS[name].partition(":")
+    factory = getattr(importlib.import_module(module), attr)
+    return factory(backend, scripted=scripted, output=output)
