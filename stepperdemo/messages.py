@@ -381,3 +381,6 @@ RELAY_DEVICE_GONE = "relay: device side closed ({reason})"
 RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {dropped} dropped, "
                "{corrupted} corrupted, {duplicated} duplicated")
 # --------------------------------------------------------------- end of serial texts
+
+# ------------------------------------------------- issue 16: the console as people use it
+RUN_FAILED_CHECKS = "FAIL ({n} failed)"

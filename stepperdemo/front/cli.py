@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Sequence
 
@@ -17,6 +18,7 @@ EXIT_TEST_FAILED = 1
 EXIT_USAGE = 2
 EXIT_MAX_TIME = 3
 EXIT_SCENARIO_FAILED = 4
+EXIT_CLOSED_PIPE = 141  # 128 + SIGPIPE: what a shell reports for a tool whose reader left
 
 SUBCOMMANDS = ("run", "device", "relay")
 
@@ -36,7 +38,8 @@ Subcommands:
   stepperdemo relay DEVICE            a fault-injecting relay to a device (--help)
 
 exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
-            3 --max-time reached, 4 a scenario failed (run), 5 device lost"""
+            3 --max-time reached, 4 a scenario failed (run), 5 device lost,
+            141 the reader of the output went away (e.g. `| head`), quietly"""
 
 
 def build_parser(program: str = "demo") -> argparse.ArgumentParser:
@@ -99,6 +102,33 @@ def run_scripted(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The ``stepperdemo`` command; a closed output pipe ends it quietly (issue 16)."""
+    try:
+        return _main(argv)
+    except BrokenPipeError:
+        return closed_pipe()
+
+
+def closed_pipe() -> int:
+    """The reader of our output went away (``| head``): stop without a traceback, as
+    Unix tools do.  Standard output (and standard error, if it is the same pipe) is
+    pointed at /dev/null so that the interpreter's last flush finds nothing to fail."""
+    try:
+        same = os.path.samestat(os.fstat(sys.stdout.fileno()), os.fstat(sys.stderr.fileno()))
+    except (OSError, ValueError):
+        same = False
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    for stream, wanted in ((sys.stdout, True), (sys.stderr, same)):
+        if wanted:
+            try:
+                os.dup2(devnull, stream.fileno())
+            except (OSError, ValueError):
+                pass
+    os.close(devnull)
+    return EXIT_CLOSED_PIPE
+
+
+def _main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] in SUBCOMMANDS:
         if argv[0] == "run":
