@@ -13,6 +13,7 @@ import asyncio
 import os
 import sys
 import time
+from collections import deque
 from pathlib import Path
 from typing import Awaitable, Callable, Iterable
 
@@ -42,6 +43,8 @@ META_COMMANDS = {
     **TRACE_META_COMMANDS,  # /trace /vcd /plot /report (issue 6)
     **serial_cli.META_COMMANDS,  # /reconnect /link /estop (issue 7)
 }
+
+TOOLBAR_REFRESH_S = 0.25  # the toolbar (time, running steppers, mode) redraws this often
 
 Clock = Callable[[], float]
 Sleep = Callable[[float], Awaitable[None]]
@@ -120,6 +123,9 @@ class Console:
         self.history = self._make_history(history)
         self.lines: list[str] = []  # everything shown, for tests
         self.quit = False
+        self.session: PromptSession | None = None
+        self._toolbar_at = -TOOLBAR_REFRESH_S  # wall time of the last toolbar redraw
+        self.toolbar_shown: deque[str] = deque(maxlen=64)  # recent toolbar texts, for tests
         self.trace = TraceCommands(lambda: self.app)  # /trace /vcd /plot /report (issue 6)
         self._start(arch)
 
@@ -188,12 +194,25 @@ class Console:
         t = self.backend.now() / self.backend.profile.ticks_per_s
         running = sum(1 for s in app.steppers if s is not None and s.is_running())
         status = app.toolbar_status()
+        state = (f" {app.mode_name()} mode | {status + ' | ' if status else ''}t={t:.3f}s"
+                 f" | running {running} | ")
+        self.toolbar_shown.append(state)
         return FormattedText([
             ("bold", f" {self.backend.profile.name} "),
-            ("", f" {app.mode_name()} mode | {status + ' | ' if status else ''}t={t:.3f}s"
-                 f" | running {running} | "),
+            ("", state),
             ("italic", f"{hints}  ? usage  /help"),
         ])
+
+    def refresh_toolbar(self) -> None:
+        """Redraw the prompt (and its toolbar) every TOOLBAR_REFRESH_S of wall time, so
+        that time, running steppers and mode move on while nobody types."""
+        now = self.clock()
+        if now - self._toolbar_at < TOOLBAR_REFRESH_S:
+            return
+        self._toolbar_at = now
+        session = self.session
+        if session is not None and session.app.is_running:
+            session.app.invalidate()
 
     # ------------------------------------------------------- meta commands
     def meta(self, line: str) -> None:
@@ -268,10 +287,13 @@ class Console:
         while not self.quit:
             delay = self.driver.advance()
             self.flush()
+            self.refresh_toolbar()
             if self.app.input_pending():
                 delay = 0.0 if delay is None else min(delay, 0.001)
-            # sleep until the program next needs the CPU; typed input wakes us earlier
-            timeout = 1.0 if delay is None else min(max(delay, 0.0), 1.0)
+            # sleep until the program next needs the CPU or the toolbar is due; typed
+            # input wakes us earlier
+            due = max(0.0, self._toolbar_at + TOOLBAR_REFRESH_S - self.clock())
+            timeout = min(due, 1.0 if delay is None else min(max(delay, 0.0), 1.0))
             self._wake.clear()
             try:
                 await asyncio.wait_for(self._wake_or_sleep(timeout), timeout + 1)
@@ -297,6 +319,7 @@ class Console:
         session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
                                 output=self._output, complete_while_typing=False)
+        self.session = session
         with patch_stdout(raw=True):
             tick = asyncio.ensure_future(self.ticker())
             try:
