@@ -109,7 +109,8 @@ class Console:
                  history: str | None = None, clock: Clock = time.monotonic,
                  sleep: Sleep | None = None, input=None, output=None,
                  port: str | None = None, baud: int = 115200, watchdog_ms: int = 500,
-                 backend=None, program: str = "demo") -> None:
+                 backend=None, program: str = "demo",
+                 redraw_postpone_s: float | None = 0.01) -> None:
         self.program = program  # which program the console hosts (stepperdemo.program)
         self.port, self.baud, self.watchdog_ms = port, baud, watchdog_ms  # issue 7
         self._given_backend = backend  # issue 7: a connected serial backend (tests)
@@ -124,6 +125,9 @@ class Console:
         self.lines: list[str] = []  # everything shown, for tests
         self.quit = False
         self.session: PromptSession | None = None
+        # prompt-toolkit postpones a redraw by up to this much *real* time while its loop
+        # is busy (its default); on a virtual clock (tests) pass None: redraw at once
+        self.redraw_postpone_s = redraw_postpone_s
         self._toolbar_at = -TOOLBAR_REFRESH_S  # wall time of the last toolbar redraw
         self.toolbar_shown: deque[str] = deque(maxlen=64)  # recent toolbar texts, for tests
         self.trace = TraceCommands(lambda: self.app)  # /trace /vcd /plot /report (issue 6)
@@ -319,6 +323,7 @@ class Console:
         session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
                                 output=self._output, complete_while_typing=False)
+        session.app.max_render_postpone_time = self.redraw_postpone_s
         self.session = session
         with patch_stdout(raw=True):
             tick = asyncio.ensure_future(self.ticker())

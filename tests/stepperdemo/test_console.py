@@ -41,7 +41,8 @@ def run_session(script, tmp_path):
         clock = FakeClock()
         with create_pipe_input() as inp:
             console = Console("atmega328p", clock=clock, sleep=clock.sleep, input=inp,
-                              output=DummyOutput(), history=str(tmp_path / "history"))
+                              output=DummyOutput(), history=str(tmp_path / "history"),
+                              redraw_postpone_s=None)
             task = asyncio.ensure_future(console.run())
             await settle()
             await script(inp, clock, console)
@@ -127,9 +128,6 @@ def test_toolbar_moves_on_while_nobody_types(tmp_path):
     seen: dict[str, list[str]] = {}
 
     async def script(inp, clock, console):
-        # prompt-toolkit postpones a redraw by up to 10 ms of *real* time while the loop
-        # is busy; on the virtual clock the redraw must come at once
-        console.session.app.max_render_postpone_time = None
         await wait(clock, 0.5)
         console.toolbar_shown.clear()
         await wait(clock, 2.0)  # idle: no key, no output
