@@ -138,8 +138,9 @@ class Backend(ABC):
         """The main loop uses ``ticks`` of CPU time (interrupts keep running)."""
 
     @abstractmethod
-    def app_wait_until(self, tick: int) -> None:
-        """The main loop idles until ``tick`` (interrupts keep running)."""
+    def app_wait_until(self, tick: int, until: Callable[[], bool] | None = None) -> bool:
+        """The main loop idles until ``tick`` (interrupts keep running), or until
+        ``until()`` holds after something happened; True if it stopped for that."""
 
     @abstractmethod
     def next_event_time(self) -> int | None:

@@ -64,7 +64,9 @@ class SimBackend(Backend):
         try:
             engine.manage_steppers()
         finally:
-            cost = m.stretched(m.task_offset)
+            # the task's own CPU time; the UART interrupts that run inside it are
+            # counted as such by the loop (Machine.consume)
+            cost = m.task_offset
             m.task_offset = 0
             m.in_task = False
         m.stolen_ticks += cost
@@ -143,13 +145,17 @@ class SimBackend(Backend):
     def app_spend(self, ticks: int) -> None:
         self.machine.consume(ticks)
 
-    def app_wait_until(self, tick: int) -> None:
+    def app_wait_until(self, tick: int, until: Callable[[], bool] | None = None) -> bool:
         m = self.machine
+        stopped = False
         if tick > m.now:
-            # while the loop waits, interrupts delay only the pass that wakes up
-            m.run_until(tick - 1)
-            m.forget_stolen()
-            m.run_until(tick)
+            if until is None:
+                m.run_until(tick)
+            else:
+                stopped = m.run_until_changed(tick, until)
+        # the loop polled while interrupts ran; it goes on once the CPU is free
+        m.resume()
+        return stopped
 
     def next_event_time(self) -> int | None:
         return self.machine.next_event_time()
@@ -161,7 +167,8 @@ class SimBackend(Backend):
         for _ in range(len(data)):
             room = uart.room_at()
             if room > m.now:
-                m.run_until(room)
+                m.run_until(room)  # the print waits for a free place in the buffer
+                m.resume()
             uart.put(m.now)
             m.consume(char_ticks)
 

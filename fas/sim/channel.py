@@ -227,6 +227,19 @@ class SimChannel(QueueChannel):
         lo = 0 if begin < first else (begin - first) // self.b_t + 1
         return max(0, hi - lo + 1)
 
+    def block_isr_running_at(self, t: int, cost: int) -> int | None:
+        """End of the block's step interrupt that runs at tick ``t`` (``cost`` long)."""
+        if not self.batch:
+            return None
+        first = self.b_c0 + self.lat
+        if t < first:
+            return None
+        j = (t - first) // self.b_t
+        if j > self.b_n - 2:
+            return None
+        end = first + j * self.b_t + cost
+        return end if t < end else None
+
     def _single_isr(self) -> None:
         self.event = None
         self.m.stolen_ticks += self.m.profile.sim_isr_duration_ticks

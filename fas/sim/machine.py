@@ -48,11 +48,13 @@ class Machine:
         self.irq_blocked_ticks = 0
         self.block_listeners: list[Callable[[int, int], None]] = []
         self.stolen_ticks = 0  # CPU time of interrupt routines not yet charged to the loop
+        self.busy_until = 0  # interrupt routines run as events keep the CPU until here
         self.block_sources: list = []  # step channels that simulate runs of pulses as one
         self.task_offset = 0  # CPU time used so far by the running periodic task
         self.in_task = False
         self.events_run = 0
         self._millis_phase = 0  # timer 0 starts counting (see start_millis)
+        self._millis_started = False
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
@@ -92,9 +94,26 @@ class Machine:
             if time > self.now:
                 self.now = time
             self.events_run += 1
+            stolen = self.stolen_ticks
             ev.fn()
+            if self.stolen_ticks != stolen:  # an interrupt routine: the CPU is busy
+                busy = self.busy_until
+                self.busy_until = (busy if busy > time else time) + self.stolen_ticks - stolen
         if t > self.now:
             self.now = t
+
+    def run_until_changed(self, t: int, changed: Callable[[], bool]) -> bool:
+        """Like :meth:`run_until`, but stop after the events of the first tick at which
+        ``changed()`` holds (then ``now`` is that tick); True if it stopped that way."""
+        heap = self._heap
+        while True:
+            nxt = self.next_event_time()
+            if nxt is None or nxt > t:
+                self.run_until(t)
+                return False
+            self.run_until(nxt)
+            if changed():
+                return True
 
     def run_one(self) -> bool:
         """Process the next event (advancing time to it); False if none is left."""
@@ -133,22 +152,60 @@ class Machine:
 
         Stolen are the periodic task's work and one ``sim_isr_duration_ticks`` per step
         interrupt: those run as events add their time themselves, those of a run of
-        pulses simulated as one block are counted here for the window."""
+        pulses simulated as one block are counted here for the window, as are the
+        timer-0 overflow interrupts of ``millis()``."""
         cost = self.profile.sim_isr_duration_ticks
+        millis_cost = self.profile.sim_millis_isr_ticks if self._millis_started else 0
+        uart_cost = self.profile.sim_uart_isr_ticks
+        uart = self.uart
         while True:
             start = self.now
             self.run_until(start + ticks)
             if cost:
                 for src in self.block_sources:
                     self.stolen_ticks += cost * src.block_isrs_between(start, self.now)
+            if millis_cost:
+                self.stolen_ticks += millis_cost * self.millis_isrs_between(start, self.now)
+            if uart_cost:
+                self.stolen_ticks += uart_cost * uart.isr_loads_between(start, self.now)
             ticks = self.stolen_ticks
             if not ticks:
                 return
             self.stolen_ticks = 0
 
-    def forget_stolen(self) -> None:
-        """The loop only polled while interrupts ran: their time delayed nothing."""
+    def resume(self) -> None:
+        """The loop waited (polling) until now; it goes on once no interrupt routine
+        holds the CPU.  What the routines took while it waited delayed nothing."""
         self.stolen_ticks = 0
+        now = self.now
+        wait = self.busy_until - now
+        for end in self._isrs_running_at(now):
+            if end - now > wait:
+                wait = end - now
+        if wait > 0:
+            self.consume(wait)
+
+    def _isrs_running_at(self, t: int):
+        """Ends of the interrupt routines not simulated as events (step interrupts inside
+        a block of pulses, UART loads, timer 0) that run at tick ``t``."""
+        p = self.profile
+        cost = p.sim_isr_duration_ticks
+        if cost:
+            for src in self.block_sources:
+                end = src.block_isr_running_at(t, cost)
+                if end is not None:
+                    yield end
+        cost = p.sim_uart_isr_ticks
+        if cost:
+            end = self.uart.isr_running_at(t, cost)
+            if end is not None:
+                yield end
+        cost = p.sim_millis_isr_ticks
+        if cost and self._millis_started and t >= self._millis_phase:
+            ov = p.sim_millis_overflow_ticks
+            last = t - (t - self._millis_phase) % ov
+            if last > self._millis_phase and t < last + cost:
+                yield last + cost
 
     def block_interrupts(self, ticks: int) -> None:
         """The main loop runs ``ticks`` with interrupts disabled (busy wait)."""
@@ -165,6 +222,13 @@ class Machine:
     def start_millis(self) -> None:
         """Arduino's start-up has just started timer 0, the source of ``millis()``."""
         self._millis_phase = self.now
+        self._millis_started = True
+
+    def millis_isrs_between(self, begin: int, end: int) -> int:
+        """Timer-0 overflow interrupts in ``(begin, end]``."""
+        ov = self.profile.sim_millis_overflow_ticks
+        phase = self._millis_phase
+        return max(0, (end - phase) // ov) - max(0, (begin - phase) // ov)
 
     def millis(self) -> int:
         """Arduino ``millis()``: timer-0 overflows with the 1.024 ms fraction fix-up."""

@@ -84,6 +84,16 @@ class Uart:
                 n += 1
         return n
 
+    def isr_running_at(self, t: int, cost: int) -> int | None:
+        """End of the transmit interrupt (``cost`` long) that runs at tick ``t``."""
+        for ch in reversed(self._chars):
+            load = ch[1]
+            if load <= t - cost:
+                return None
+            if load <= t and load > ch[0]:
+                return load + cost
+        return None
+
     def idle_at(self) -> int:
         """Tick at which the last character handed over has left the wire."""
         return self.last_start + self.byte_ticks

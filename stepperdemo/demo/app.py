@@ -173,7 +173,24 @@ class StepperDemo(Program):
         """CPU time the firmware spends on a text it looks up but does not print."""
         self._print_from_table(b"", msg.TABLE_SCAN[text])
 
+    def print_number(self, value: int) -> None:
+        """A number as the firmware prints it: a minus sign, then the digits, which
+        ``Print::printNumber`` computes first (one 32-bit division each)."""
+        p = self.profile
+        text = str(value)
+        if value < 0:
+            self.print("-")
+            text = text[1:]
+        self.backend.app_spend(p.sim_print_call_ticks + len(text) * p.sim_print_digit_ticks)
+        self.print(text)
+
+    def println_number(self, value: int) -> None:
+        self.print_number(value)
+        self.println()
+
     def println(self, text: str | bytes = "") -> None:
+        if not text and self.profile.sim_print_call_ticks:
+            self.backend.app_spend(self.profile.sim_print_call_ticks)  # println("")
         if isinstance(text, str):
             self.print(text + msg.CRLF)
         else:
@@ -192,9 +209,12 @@ class StepperDemo(Program):
         b.app_started()
         b.app_spend(self.profile.sim_setup_head_ticks)
         self.print(msg.BANNER_VERSION)
-        self.println(msg.BANNER_F_CPU + str(self.profile.f_cpu))
-        self.println(msg.BANNER_TICKS + str(self.profile.ticks_per_s))
-        self.println(msg.BANNER_STEPPERS + str(self.profile.max_steppers))
+        self.print(msg.BANNER_F_CPU)
+        self.println_number(self.profile.f_cpu)
+        self.print(msg.BANNER_TICKS)
+        self.println_number(self.profile.ticks_per_s)
+        self.print(msg.BANNER_STEPPERS)
+        self.println_number(self.profile.max_steppers)
         self.engine.init()
         if self.profile.debug_led_pin != PIN_UNDEFINED:
             self.engine.set_debug_led(self.profile.debug_led_pin)
@@ -240,51 +260,60 @@ class StepperDemo(Program):
         return self.steppers[self.selected]
 
     def _info(self, s, long_info: bool) -> None:
+        self.backend.app_spend(self.profile.sim_info_ticks)
         self.print("@")
-        self.print(str(s.get_current_position()))
+        self.print_number(s.get_current_position())
         if s.is_running():
             if s.is_running_continuously():
                 self.print(msg.STATUS_NONSTOP)
             else:
                 self.print(msg.STATUS_TARGET)
-                self.print(str(s.target_pos()))
+                self.print_number(s.target_pos())
             self.print(msg.STATUS_QUEUE_END)
-            self.print(str(s.get_position_after_commands_completed()))
+            self.print_number(s.get_position_after_commands_completed())
             self.print(msg.STATUS_V)
             if self.speed_in_milli_hz:
-                self.print(str(s.get_current_speed_in_milli_hz()))
+                self.print_number(s.get_current_speed_in_milli_hz())
                 self.print(msg.STATUS_MSTEPS)
             else:
-                self.print(str(s.get_period_in_us_after_commands_completed()))
+                self.print_number(s.get_period_in_us_after_commands_completed())
                 self.print(msg.STATUS_US)
-                self.print(str(s.get_period_in_ticks_after_commands_completed()))
+                self.print_number(s.get_period_in_ticks_after_commands_completed())
                 self.print(msg.STATUS_TICKS)
             if s.is_ramp_generator_active():
                 state = s.ramp_state() & RAMP_STATE_MASK
                 text = msg.RAMP_STATE_TEXT.get(state)
-                self.print(text if text is not None else str(s.ramp_state()))
+                if text is not None:
+                    self.print(text)
+                else:
+                    self.print_number(s.ramp_state())
             else:
                 self.print(msg.STATUS_MANUAL)
         elif long_info:
             self.print(msg.ACCELERATION_STATUS)
-            self.print(str(s.get_acceleration()))
+            self.print_number(s.get_acceleration())
             if self.speed_in_milli_hz:
                 self.print(msg.SPEED_STATUS_FREQ)
-                self.print(str(s.get_speed_in_milli_hz()))
+                self.print_number(s.get_speed_in_milli_hz())
             else:
                 self.print(msg.SPEED_STATUS_TIME)
-                self.print(str(s.get_speed_in_us()))
+                self.print_number(s.get_speed_in_us())
         self.print(" ")
 
     def output_info(self, only_running: bool) -> None:
         need_ln = False
+        scan = self.profile.sim_info_scan_ticks
         for i, s in enumerate(self.steppers):
             if s is None:
                 continue
+            if scan:
+                self.backend.app_spend(scan)
             if not only_running:
                 self.print(msg.TABLE_SELECTED if i == self.selected else msg.TABLE_OTHER)
             if not only_running or s.is_running():
-                self.print("M" + str(i + 1) + ": ")
+                self.print("M")
+                self.print_number(i + 1)
+                self.print(": ")
                 self._info(s, not only_running)
                 if not only_running:
                     self.println()
@@ -352,6 +381,7 @@ class StepperDemo(Program):
                 if self.out_buffer:
                     cmd = bytes(self.out_buffer)
                     self.commands += 1
+                    self._spend_command(cmd)
                     if not dispatch(self, cmd):
                         self.rejected += 1
                         self.print(msg.UNKNOWN_COMMAND)
@@ -379,6 +409,14 @@ class StepperDemo(Program):
                     self.usage()
             self.stopped = not running
         b.app_spend(self.profile.sim_loop_pass_ticks)
+
+    def _spend_command(self, cmd: bytes) -> None:
+        """CPU time of parsing and executing a command, without its prints."""
+        p = self.profile
+        ticks = p.sim_cmd_ticks.get(chr(cmd[0]), p.sim_cmd_default_ticks)
+        ticks += (len(cmd) - 1) * p.sim_cmd_arg_char_ticks
+        if ticks:
+            self.backend.app_spend(ticks)
 
     def _run_tests(self, ms: int) -> None:
         finished = True
@@ -440,12 +478,22 @@ class StepperDemo(Program):
         return not self.rx
 
     def _needs_machine_events(self) -> bool:
-        """False when only the clock can end the current wait (test sequences that
-        wait for time): then the loop need not look at every interrupt."""
+        """True when a test sequence waits for something in the machine (a stepper to
+        stop, ...): then the loop looks at every interrupt, as the firmware's passes
+        do.  Otherwise only a stepper starting or stopping can end an idle wait
+        (:meth:`_watch`), besides the clock."""
         if self.mode != Mode.TEST or not self.test_ongoing:
-            return True
+            return False
         return any(slot.test is not None and slot.state != TEST_STATE_ERROR
                    and slot.wake_ms is None for slot in self.test_slots)
+
+    def _running_key(self) -> tuple[bool, ...]:
+        return tuple(s is not None and s.is_running() for s in self.steppers)
+
+    def _watch(self) -> Callable[[], bool]:
+        """A predicate: has any stepper started or stopped since now?"""
+        key = self._running_key()
+        return lambda: self._running_key() != key
 
     def _held_by_w(self) -> bool:
         if self.out_buffer or self.pause_ms:
@@ -481,20 +529,28 @@ class StepperDemo(Program):
         return max(min(candidates), b.now())
 
     def next_wake_tick(self) -> int | None:
-        """When the loop next has something to do (None: only new input can wake it)."""
+        """When the loop next has something to do (None: only new input can wake it).
+        A stepper may stop at any interrupt: the next machine event is a candidate."""
         if not self._setup_done or not self._idle():
             return self.backend.now()
-        return self._wake_time()
+        times = [t for t in (self._wake_time(), self.backend.next_event_time())
+                 if t is not None]
+        return max(min(times), self.backend.now()) if times else None
 
     def _advance(self, limit: int) -> None:
-        """One loop pass, after skipping idle time (never beyond ``limit``)."""
+        """One loop pass, after skipping idle time (never beyond ``limit``).
+
+        While idle the loop only polls: it takes up work at the next deadline of the
+        clock, or as soon as a stepper starts or stops, once no interrupt routine
+        holds the CPU (``app_wait_until``)."""
         b = self.backend
         if self._idle():
             wake = self._wake_time()
             if wake is None or wake > limit:
-                b.app_wait_until(limit)
-                return
-            b.app_wait_until(wake)
+                if not b.app_wait_until(limit, self._watch()):
+                    return
+            else:
+                b.app_wait_until(wake, self._watch())
         self.loop_pass()
 
     def run_until(self, tick: int) -> None:
@@ -539,9 +595,13 @@ class StepperDemo(Program):
         self.ramp_aborts += 1
         if self.scripted:
             self.println(msg.ABORT_RAMP)
-            self.print(str(int(res)))
-            self.print(" Steps=" + str(cmd.steps) + " ticks=" + str(cmd.ticks))
-            self.println(" min_cmd_ticks=" + str(self.profile.min_cmd_ticks))
+            self.print_number(int(res))
+            self.print(" Steps=")
+            self.print_number(cmd.steps)
+            self.print(" ticks=")
+            self.print_number(cmd.ticks)
+            self.print(" min_cmd_ticks=")
+            self.println_number(self.profile.min_cmd_ticks)
 
     def force_stop_all(self) -> None:
         """Console Ctrl-C: stop every stepper at once, keep positions; release holds."""

@@ -56,7 +56,7 @@ def run(app, stepper, slot, time_ms: int, *, period_ms: int, move_to: int | None
                     stepper.stop_move()
                 else:
                     app.print(msg.SPEED_CHANGES)
-                    app.print(str((64 + slot.s16_1) & 0xFFFF))
+                    app.print_number((64 + slot.s16_1) & 0xFFFF)
                     app.println("us")
                     slot.state = 2
     elif state == 4:
