@@ -105,7 +105,6 @@ class Machine:
     def run_until_changed(self, t: int, changed: Callable[[], bool]) -> bool:
         """Like :meth:`run_until`, but stop after the events of the first tick at which
         ``changed()`` holds (then ``now`` is that tick); True if it stopped that way."""
-        heap = self._heap
         while True:
             nxt = self.next_event_time()
             if nxt is None or nxt > t:
