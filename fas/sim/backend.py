@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Sequence
 
 from ..arch import Profile, get_profile
 from ..backend import Backend, PulseCounter
@@ -71,6 +71,10 @@ class SimBackend(Backend):
             m.in_task = False
         m.stolen_ticks += cost
         self.task_runs += 1
+        for ch in self.channels:  # a stepper whose channel stands may have stopped
+            if not ch.running:
+                m.activity += 1
+                break
         skip = engine.quiescent_tasks()
         if skip is None:
             self._task_event = None  # suspended until wake_task()
@@ -160,17 +164,25 @@ class SimBackend(Backend):
     def next_event_time(self) -> int | None:
         return self.machine.next_event_time()
 
-    def console_write(self, data: bytes) -> None:
+    def console_write(self, data: bytes, cpu_after: Sequence[int] | None = None) -> None:
         m = self.machine
         uart = m.uart
+        chars = uart._chars
+        capacity = uart.capacity
+        consume = m.consume
         char_ticks = self.profile.sim_char_ticks
-        for _ in range(len(data)):
-            room = uart.room_at()
-            if room > m.now:
-                m.run_until(room)  # the print waits for a free place in the buffer
-                m.resume()
+        for i in range(len(data)):
+            if len(chars) >= capacity:  # Uart.room_at()
+                room = chars[0][2]
+                if room > m.now:
+                    m.run_until(room)  # the print waits for a free place in the buffer
+                    m.resume()
             uart.put(m.now)
-            m.consume(char_ticks)
+            consume(char_ticks)
+            if cpu_after is not None:
+                ticks = cpu_after[i]
+                if ticks:
+                    consume(ticks)
 
     def block_interrupts(self, ticks: int) -> None:
         self.machine.block_interrupts(ticks)

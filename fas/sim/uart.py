@@ -16,7 +16,11 @@ such a window waits for its end; the line goes idle meanwhile.  A write of chara
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from collections import deque
+from operator import itemgetter
+
+_load = itemgetter(1)  # the load tick of a character record
 
 
 class Uart:
@@ -75,12 +79,15 @@ class Uart:
         A character written while the data register is free goes there directly;
         only the ones that waited in the buffer are loaded by the interrupt.
         """
+        chars = self._chars
+        if not chars or chars[-1][1] <= begin:
+            return 0  # the common case: nothing loaded after ``begin``
+        lo = bisect_right(chars, begin, key=_load)
+        hi = bisect_right(chars, end, lo, key=_load)
         n = 0
-        for ch in reversed(self._chars):
-            load = ch[1]
-            if load <= begin:
-                break
-            if load <= end and load > ch[0]:
+        for i in range(lo, hi):
+            ch = chars[i]
+            if ch[1] > ch[0]:
                 n += 1
         return n
 

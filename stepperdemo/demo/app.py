@@ -165,9 +165,7 @@ class StepperDemo(Program):
             b.app_spend(rest)
             return
         share, extra = divmod(rest, n)
-        for i in range(n):
-            b.console_write(data[i:i + 1])
-            b.app_spend(share + (1 if i < extra else 0))
+        b.console_write(data, [share + 1] * extra + [share] * (n - extra))
 
     def lookup(self, text: str) -> None:
         """CPU time the firmware spends on a text it looks up but does not print."""
