@@ -59,6 +59,7 @@ class SimBackend(Backend):
         engine = self._engine
         engine.credit_skipped_tasks(index - self._task_index - 1)
         self._task_index = index
+        may_stop = engine.may_stop_without_channel()
         m.in_task = True
         m.task_offset = p.sim_fill_entry_ticks
         try:
@@ -71,10 +72,8 @@ class SimBackend(Backend):
             m.in_task = False
         m.stolen_ticks += cost
         self.task_runs += 1
-        for ch in self.channels:  # a stepper whose channel stands may have stopped
-            if not ch.running:
-                m.activity += 1
-                break
+        if may_stop or engine.may_stop_without_channel():
+            m.activity += 1  # a stepper whose channel stands may have started or stopped
         skip = engine.quiescent_tasks()
         if skip is None:
             self._task_event = None  # suspended until wake_task()
@@ -178,11 +177,9 @@ class SimBackend(Backend):
                     m.run_until(room)  # the print waits for a free place in the buffer
                     m.resume()
             uart.put(m.now)
-            consume(char_ticks)
-            if cpu_after is not None:
-                ticks = cpu_after[i]
-                if ticks:
-                    consume(ticks)
+            # handing the character over, then what follows it: one span of loop time
+            # (Machine.consume counts every interrupt in it, so this is exact)
+            consume(char_ticks if cpu_after is None else char_ticks + cpu_after[i])
 
     def block_interrupts(self, ticks: int) -> None:
         self.machine.block_interrupts(ticks)

@@ -173,48 +173,53 @@ class Machine:
         phase = self._millis_phase
         ov = p.sim_millis_overflow_ticks
         uart_cost = p.sim_uart_isr_ticks
-        chars = self.uart._chars
+        uart = self.uart
+        chars = uart._chars
         heap = self._heap
         sources = self.block_sources
         while True:
             start = self.now
             end = start + ticks
             isrs = 0
-            if cost:  # step interrupts inside blocks so far (SimChannel.block_isrs_until)
-                for src in sources:
-                    isrs -= src.block_isrs_done
-                    if src.batch:
-                        first = src.b_c0 + src.lat
-                        if start >= first:
-                            k = (start - first) // src.b_t + 1
-                            isrs -= k if k < src.b_n else src.b_n - 1
-            if heap and heap[0][0] <= end:
+            if heap and heap[0][0] <= end:  # events in the window: blocks may change
+                if cost:
+                    for src in sources:
+                        isrs -= src.block_isrs_until(start)
                 self.run_until(end)
-            else:
+                stolen = self.stolen_ticks
+                if cost:
+                    for src in sources:
+                        isrs += src.block_isrs_until(end)
+            else:  # no event: the running blocks stay (SimChannel.block_isrs_until)
                 self.now = end
-            stolen = self.stolen_ticks
-            if cost:  # ... and by the end of the window: every one in between steals
-                for src in sources:
-                    isrs += src.block_isrs_done
-                    if src.batch:
-                        first = src.b_c0 + src.lat
-                        if end >= first:
-                            k = (end - first) // src.b_t + 1
-                            isrs += k if k < src.b_n else src.b_n - 1
-                if isrs:
-                    stolen += cost * isrs
+                stolen = self.stolen_ticks
+                if cost:
+                    for src in sources:
+                        if src.batch:
+                            first = src.b_c0 + src.lat
+                            if end >= first:
+                                t = src.b_t
+                                last = src.b_n - 1
+                                k = (end - first) // t + 1
+                                if k > last:
+                                    k = last
+                                if start >= first:
+                                    k0 = (start - first) // t + 1
+                                    k -= k0 if k0 < last else last
+                                isrs += k
+            if isrs:
+                stolen += cost * isrs
             if millis_cost and end >= phase:
                 n = (end - phase) // ov
                 if start > phase:
                     n -= (start - phase) // ov
                 stolen += millis_cost * n
             if uart_cost and chars and chars[-1][1] > start:
-                stolen += uart_cost * self.uart.isr_loads_between(start, end)
+                stolen += uart_cost * uart.isr_loads_between(start, end)
+            self.stolen_ticks = 0
             if not stolen:
-                self.stolen_ticks = 0
                 return
             ticks = stolen
-            self.stolen_ticks = 0
 
     def resume(self) -> None:
         """The loop waited (polling) until now; it goes on once no interrupt routine

@@ -10,7 +10,7 @@ from typing import Sequence
 from fas.arch import PROFILES
 
 from .. import messages as msg
-from ..watch import observe
+from ..watch import options as observe_options
 from . import serial_cli
 
 EXIT_OK = 0
@@ -63,7 +63,7 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
                     help="interactive: run the simulated clock FACTOR times real time")
     ap.add_argument("--history", metavar="FILE",
                     help="interactive: history file (default: in the user state directory)")
-    observe.add_arguments(ap)  # --vcd --plot --plot-size --report --steps-csv (issue 6)
+    observe_options.add_arguments(ap)  # --vcd --plot --plot-size --report --steps-csv (issue 6)
     serial_cli.add_arguments(ap)  # --port --baud --watchdog-ms (issue 7)
     ap.set_defaults(program=program)
     return ap
@@ -82,8 +82,11 @@ def run_scripted(args: argparse.Namespace) -> int:
     if args.port:  # issue 7: a device behind a serial port executes the queue commands
         return serial_cli.run_scripted(args, write)
     backend = SimBackend(args.arch)
+    observers = None
     try:  # watching the run (issue 6): --vcd, --plot, --report, --steps-csv
-        observers = observe.from_arguments(backend, args)
+        if observe_options.wanted(args):
+            from ..watch import observe
+            observers = observe.from_arguments(backend, args)
     except OSError as exc:
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return EXIT_USAGE
@@ -143,7 +146,7 @@ def _main(argv: Sequence[str] | None = None) -> int:
     if args.max_time <= 0:
         print(msg.CLI_ERROR.format(problem="--max-time must be positive"), file=sys.stderr)
         return EXIT_USAGE
-    problem = observe.check_arguments(args)  # issue 6: e.g. --plot without matplotlib
+    problem = observe_options.check_arguments(args)  # issue 6: e.g. --plot without matplotlib
     if problem is not None:
         print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE

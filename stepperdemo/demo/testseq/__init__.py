@@ -85,28 +85,39 @@ def start_with_pulse_counter(app: StepperDemo, stepper: Stepper, slot: SeqSlot,
     return False
 
 
-from . import (  # noqa: E402  (the registry needs the helpers above)
-    seq01,
-    seq02,
-    seq03,
-    seq04,
-    seq05,
-    seq06,
-    seq07,
-    seq08,
-    seq09,
-    seq10,
-    seq11,
-    seq12,
-    seq13,
-)
+def _registry() -> dict[str, Sequence]:
+    from . import (
+        seq01,
+        seq02,
+        seq03,
+        seq04,
+        seq05,
+        seq06,
+        seq07,
+        seq08,
+        seq09,
+        seq10,
+        seq11,
+        seq12,
+        seq13,
+    )
 
-SEQUENCES: dict[str, Sequence] = {
-    "01": seq01.step, "02": seq02.step, "03": seq03.step, "04": seq04.step,
-    "05": seq05.step, "06": seq06.step, "07": seq07.step, "08": seq08.step,
-    "09": seq09.step, "10": seq10.step, "11": seq11.step, "12": seq12.step,
-    "13": seq13.step,
-}
+    return {
+        "01": seq01.step, "02": seq02.step, "03": seq03.step, "04": seq04.step,
+        "05": seq05.step, "06": seq06.step, "07": seq07.step, "08": seq08.step,
+        "09": seq09.step, "10": seq10.step, "11": seq11.step, "12": seq12.step,
+        "13": seq13.step,
+    }
+
+
+def __getattr__(name: str):
+    """``SEQUENCES`` (code -> sequence) is made on first use: a console that never
+    enters test mode does not load the sequences (start-up time)."""
+    if name == "SEQUENCES":
+        table = globals()["SEQUENCES"] = _registry()
+        return table
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = ["SEQUENCES", "SeqSlot", "TEST_STATE_ERROR", "elapsed"]
 
