@@ -72,10 +72,12 @@ class StepperQueue:
         return (self.next_write_idx - self.read_idx) & 0xFF
 
     def is_queue_full(self) -> bool:
-        return self.queue_entries() >= self.queue_len
+        self.channel.sync()
+        return ((self.next_write_idx - self.read_idx) & 0xFF) >= self.queue_len
 
     def is_queue_empty(self) -> bool:
-        return self.queue_entries() == 0
+        self.channel.sync()
+        return self.next_write_idx == self.read_idx
 
     def is_running(self) -> bool:
         return self.channel.is_running()

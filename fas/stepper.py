@@ -587,9 +587,13 @@ class Stepper:
         need_delayed_start = False
         ticks_prepared = q.ticks_in_queue()
         generated = 0
-        while (not q.is_queue_full()
-               and (ticks_prepared < self._forward_planning_in_ticks or q.queue_entries() <= 1)
-               and rg.is_ramp_generator_active()):
+        forward = self._forward_planning_in_ticks
+        queue_len = q.queue_len
+        while True:
+            entries = q.queue_entries()
+            if (entries >= queue_len or (ticks_prepared >= forward and entries > 1)
+                    or not rg.is_ramp_generator_active()):
+                break
             res = AqeResult.OK
             cmd = rg.get_next_command(q.queue_end_pos, q.queue_end_count_up)
             if cmd.ticks != 0:

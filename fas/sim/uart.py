@@ -93,12 +93,19 @@ class Uart:
 
     def isr_running_at(self, t: int, cost: int) -> int | None:
         """End of the transmit interrupt (``cost`` long) that runs at tick ``t``."""
-        for ch in reversed(self._chars):
+        chars = self._chars
+        if not chars or chars[0][1] > t:
+            i = 0
+        else:
+            i = bisect_right(chars, t, key=_load)  # characters loaded by ``t``
+        while i > 0:
+            ch = chars[i - 1]
             load = ch[1]
             if load <= t - cost:
                 return None
-            if load <= t and load > ch[0]:
+            if load > ch[0]:  # loaded by the interrupt (not written to an idle line)
                 return load + cost
+            i -= 1
         return None
 
     def idle_at(self) -> int:
