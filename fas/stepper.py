@@ -589,8 +589,10 @@ class Stepper:
         generated = 0
         forward = self._forward_planning_in_ticks
         queue_len = q.queue_len
+        # ticks_in_queue() brought the channel's view up to date; the task runs at one
+        # instant and only appends, so the count follows from the indices
         while True:
-            entries = q.queue_entries()
+            entries = (q.next_write_idx - q.read_idx) & 0xFF
             if (entries >= queue_len or (ticks_prepared >= forward and entries > 1)
                     or not rg.is_ramp_generator_active()):
                 break

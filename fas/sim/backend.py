@@ -82,6 +82,9 @@ class SimBackend(Backend):
             self._schedule_task(index + 1 + skip)
 
     def wake_task(self) -> None:
+        nxt = self._task_next
+        if nxt is not None and nxt <= self._task_index + 1:
+            return  # the task of the next slot is planned already (the common case)
         if getattr(self, "_engine", None) is None:
             return
         m = self.machine
@@ -169,12 +172,16 @@ class SimBackend(Backend):
         chars = uart._chars
         capacity = uart.capacity
         consume = m.consume
+        heap = m._heap
         char_ticks = self.profile.sim_char_ticks
         for i in range(len(data)):
             if len(chars) >= capacity:  # Uart.room_at()
                 room = chars[0][2]
-                if room > m.now:
-                    m.run_until(room)  # the print waits for a free place in the buffer
+                if room > m.now:  # the print waits for a free place in the buffer
+                    if heap and heap[0][0] <= room:
+                        m.run_until(room)
+                    else:
+                        m.now = room
                     m.resume()
             uart.put(m.now)
             # handing the character over, then what follows it: one span of loop time

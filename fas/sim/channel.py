@@ -212,9 +212,13 @@ class SimChannel(QueueChannel):
         n, t, c0 = self.b_n, self.b_t, self.b_c0
         last_c = c0 + (n - 1) * t
         now = self.m.now
-        if n > 1:
-            self._emit(c0, self.lat, n - 1, t)
-        self._emit(last_c, now - last_c, 1)
+        lat = self.lat
+        if now - last_c == lat:  # on time: all n pulses alike
+            self._emit(c0, lat, n, t)
+        else:  # held back: the last pulse stays high until the interrupt runs
+            if n > 1:
+                self._emit(c0, lat, n - 1, t)
+            self._emit(last_c, now - last_c, 1)
         self._count(n - self.b_counted, e.dir_level)
         self.block_isrs_done += n - 1
         self.batch = False
