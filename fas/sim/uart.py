@@ -24,7 +24,7 @@ _load = itemgetter(1)  # the load tick of a character record
 
 
 class Uart:
-    __slots__ = ("byte_ticks", "capacity", "_chars", "last_start", "chars")
+    __slots__ = ("byte_ticks", "capacity", "_chars", "last_start", "chars", "_loads", "_pos")
 
     def __init__(self, byte_ticks: int, capacity: int) -> None:
         self.byte_ticks = byte_ticks
@@ -34,6 +34,10 @@ class Uart:
         self._chars: deque[list[int]] = deque(maxlen=capacity)
         self.last_start = -(1 << 62)
         self.chars = 0
+        # load ticks of the characters the transmit interrupt loaded, in order, and the
+        # number of them at or before the last window asked about (windows move forward)
+        self._loads: list[int] = []
+        self._pos = 0
 
     def room_at(self) -> int:
         """Earliest tick at which one more character can be handed over."""
@@ -49,6 +53,8 @@ class Uart:
         self.last_start = start
         self._chars.append([t, load, start, prev])
         self.chars += 1
+        if load > t:
+            self._loads.append(load)
 
     def interrupts_blocked(self, begin: int, end: int) -> None:
         """Interrupts are off in ``[begin, end)``: loads due in it wait for its end.
@@ -72,6 +78,9 @@ class Uart:
             prev_start = start
         if prev_start is not None:
             self.last_start = prev_start
+            self._loads = ([x for x in self._loads if x < begin]
+                           + [ch[1] for ch in self._chars if ch[1] >= begin and ch[1] > ch[0]])
+            self._pos = min(self._pos, bisect_right(self._loads, begin))
 
     def isr_loads_between(self, begin: int, end: int) -> int:
         """Characters the transmit interrupt loads in ``(begin, end]``.
@@ -79,33 +88,29 @@ class Uart:
         A character written while the data register is free goes there directly;
         only the ones that waited in the buffer are loaded by the interrupt.
         """
-        chars = self._chars
-        if not chars or chars[-1][1] <= begin:
-            return 0  # the common case: nothing loaded after ``begin``
-        lo = bisect_right(chars, begin, key=_load)
-        hi = bisect_right(chars, end, lo, key=_load)
-        n = 0
-        for i in range(lo, hi):
-            ch = chars[i]
-            if ch[1] > ch[0]:
-                n += 1
-        return n
+        loads = self._loads
+        n = len(loads)
+        i = self._pos
+        if i and loads[i - 1] > begin:  # a window before the last one
+            i = bisect_right(loads, begin)
+        while i < n and loads[i] <= begin:
+            i += 1
+        if i > 4096:  # forget what lies far behind
+            del loads[:i - 256]
+            n -= i - 256
+            i = 256
+        self._pos = i
+        j = i
+        while j < n and loads[j] <= end:
+            j += 1
+        return j - i
 
     def isr_running_at(self, t: int, cost: int) -> int | None:
         """End of the transmit interrupt (``cost`` long) that runs at tick ``t``."""
-        chars = self._chars
-        if not chars or chars[0][1] > t:
-            i = 0
-        else:
-            i = bisect_right(chars, t, key=_load)  # characters loaded by ``t``
-        while i > 0:
-            ch = chars[i - 1]
-            load = ch[1]
-            if load <= t - cost:
-                return None
-            if load > ch[0]:  # loaded by the interrupt (not written to an idle line)
-                return load + cost
-            i -= 1
+        loads = self._loads
+        i = bisect_right(loads, t)
+        if i and loads[i - 1] > t - cost:
+            return loads[i - 1] + cost
         return None
 
     def idle_at(self) -> int:
