@@ -174,7 +174,9 @@ class SimBackend(Backend):
         consume = m.consume
         heap = m._heap
         char_ticks = self.profile.sim_char_ticks
+        resume_wait = m.resume_wait
         for i in range(len(data)):
+            ticks = char_ticks if cpu_after is None else char_ticks + cpu_after[i]
             if len(chars) >= capacity:  # Uart.room_at()
                 room = chars[0][2]
                 if room > m.now:  # the print waits for a free place in the buffer
@@ -182,11 +184,17 @@ class SimBackend(Backend):
                         m.run_until(room)
                     else:
                         m.now = room
-                    m.resume()
+                    # it goes on once the interrupts running now are done (Machine.resume)
+                    # and hands the character over: the buffer is full, so the character
+                    # goes onto the wire when the one before it is done, whatever the
+                    # exact moment of the hand-over; the CPU time adds up exactly
+                    wait = resume_wait()
+                    if wait > 0:
+                        ticks += wait
             uart.put(m.now)
             # handing the character over, then what follows it: one span of loop time
             # (Machine.consume counts every interrupt in it, so this is exact)
-            consume(char_ticks if cpu_after is None else char_ticks + cpu_after[i])
+            consume(ticks)
 
     def block_interrupts(self, ticks: int) -> None:
         self.machine.block_interrupts(ticks)

@@ -223,7 +223,14 @@ class Machine:
 
     def resume(self) -> None:
         """The loop waited (polling) until now; it goes on once no interrupt routine
-        holds the CPU.  What the routines took while it waited delayed nothing.
+        holds the CPU.  What the routines took while it waited delayed nothing."""
+        wait = self.resume_wait()
+        if wait > 0:
+            self.consume(wait)
+
+    def resume_wait(self) -> int:
+        """For :meth:`resume`: forget what interrupts took while the loop waited, and
+        return how long the routines running now still hold the CPU.
         (Written out for speed: a print that waits for the UART comes here per character.)"""
         self.stolen_ticks = 0
         now = self.now
@@ -252,8 +259,7 @@ class Machine:
             last = now - (now - self._millis_phase) % p.sim_millis_overflow_ticks
             if last > self._millis_phase and now < last + cost and last + cost - now > wait:
                 wait = last + cost - now
-        if wait > 0:
-            self.consume(wait)
+        return wait
 
     def block_interrupts(self, ticks: int) -> None:
         """The main loop runs ``ticks`` with interrupts disabled (busy wait)."""
