@@ -175,6 +175,8 @@ class SimBackend(Backend):
         heap = m._heap
         char_ticks = self.profile.sim_char_ticks
         resume_wait = m.resume_wait
+        byte_ticks = uart.byte_ticks
+        loads = uart._loads
         for i in range(len(data)):
             ticks = char_ticks if cpu_after is None else char_ticks + cpu_after[i]
             if len(chars) >= capacity:  # Uart.room_at()
@@ -191,7 +193,18 @@ class SimBackend(Backend):
                     wait = resume_wait()
                     if wait > 0:
                         ticks += wait
-            uart.put(m.now)
+            # Uart.put(now), written out
+            t = m.now
+            prev = uart.last_start
+            load = t if t > prev else prev
+            start = prev + byte_ticks
+            if load > start:
+                start = load
+            uart.last_start = start
+            chars.append([t, load, start, prev])
+            uart.chars += 1
+            if load > t:
+                loads.append(load)
             # handing the character over, then what follows it: one span of loop time
             # (Machine.consume counts every interrupt in it, so this is exact)
             consume(ticks)

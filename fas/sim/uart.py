@@ -78,8 +78,9 @@ class Uart:
             prev_start = start
         if prev_start is not None:
             self.last_start = prev_start
-            self._loads = ([x for x in self._loads if x < begin]
-                           + [ch[1] for ch in self._chars if ch[1] >= begin and ch[1] > ch[0]])
+            self._loads[:] = ([x for x in self._loads if x < begin]
+                              + [ch[1] for ch in self._chars
+                                 if ch[1] >= begin and ch[1] > ch[0]])
             self._pos = min(self._pos, bisect_right(self._loads, begin))
 
     def isr_loads_between(self, begin: int, end: int) -> int:
