@@ -45,6 +45,24 @@ class QueueChannel(ABC):
     def positions_shifted(self, delta: int) -> None:
         """All queued positions were renumbered by ``delta``."""
 
+    # --- timing of the queue (electronic gearing, :mod:`fas.gear`) ---
+    def end_tick(self) -> int | None:
+        """While the channel works through its queue without a gap: the tick at which
+        the last queued entry ends - where an entry appended now begins.  None when
+        the channel is idle, ran dry, or this backend cannot tell."""
+        return None
+
+    def earliest_start_tick(self) -> int | None:
+        """The earliest tick at which :meth:`start_at` called now could begin the entry
+        at ``read_idx`` (None: this backend has no timed start)."""
+        return None
+
+    def start_at(self, tick: int) -> int | None:
+        """Start the idle channel so that the entry at ``read_idx`` begins at ``tick``
+        (an absolute tick), or as soon after as possible.  Returns the tick at which
+        it will begin; None if it cannot (running, empty queue, no timed start)."""
+        return None
+
 
 class PulseCounter:
     """An independent counter of step pulses (ESP32's pcnt unit, simulated everywhere).
@@ -80,8 +98,13 @@ class PulseCounter:
         self.value = 0
 
 
+InputListener = Callable[[int, int, int], None]  # (pin, value, tick)
+
+
 class Backend(ABC):
     profile: Profile
+    #: called with (pin, value, tick) when a watched input changes (see watch_input)
+    input_listeners: list[InputListener]
 
     @abstractmethod
     def now(self) -> int:
@@ -154,3 +177,24 @@ class Backend(ABC):
 
     def stray_read(self, pins: tuple[int, ...]) -> None:
         """The main loop reads step pins with a stray ``digitalRead()``."""
+
+    # --- inputs of the application: switches and potentiometers ---
+    def watch_input(self, pin: int, analog: bool = False, pullup: bool = True,
+                    period_ms: int = 0) -> bool:
+        """Read ``pin`` as an input from now on: digital (0/1, with the pull-up
+        resistor if ``pullup``) or analog (0..1023, sampled every ``period_ms``).
+        Changes go to :attr:`input_listeners`.  False if this backend has no inputs."""
+        return False
+
+    def read_input(self, pin: int) -> int | None:
+        """The last known value of a watched input (None: not known yet)."""
+        return None
+
+    def drive_input(self, pin: int, value: int) -> bool:
+        """The simulated world sets what an input reads (a switch closes, a pot turns).
+        False where the inputs are real pins (a device)."""
+        return False
+
+    def _notify_input(self, pin: int, value: int, tick: int) -> None:
+        for fn in list(getattr(self, "input_listeners", ())):
+            fn(pin, value, tick)

@@ -34,6 +34,10 @@ class SimBackend(Backend):
         self.stray_reads = 0
         self.stray_reads_during_pulse = 0
         self.channel_listeners: list[Callable[[SimChannel], None]] = []  # observers
+        # inputs of the application (switches, pots): pin -> analog?; analog values
+        self.input_listeners = []
+        self._inputs: dict[int, bool] = {}
+        self._analog: dict[int, int] = {}
 
     # ------------------------------------------------------------ Backend API
     def now(self) -> int:
@@ -167,6 +171,39 @@ class SimBackend(Backend):
 
     def block_interrupts(self, ticks: int) -> None:
         self.machine.block_interrupts(ticks)
+
+    # ------------------------------------------------------------- inputs
+    def watch_input(self, pin: int, analog: bool = False, pullup: bool = True,
+                    period_ms: int = 0) -> bool:
+        self._inputs[pin] = analog
+        pins = self.machine.pins
+        if not analog and pullup and pin not in pins.level:
+            pins.set(pin, 1, self.machine.now)  # the pull-up holds an open input high
+        return True
+
+    def read_input(self, pin: int) -> int | None:
+        analog = self._inputs.get(pin)
+        if analog is None:
+            return None
+        if analog:
+            return self._analog.get(pin)
+        return self.machine.pins.get(pin)
+
+    def drive_input(self, pin: int, value: int) -> bool:
+        """The simulated world: a switch pulls ``pin`` to ``value`` (0/1), a pot turns
+        the analog input to ``value`` (0..1023).  Listeners hear of it at once."""
+        m = self.machine
+        if self._inputs.get(pin):
+            value = min(max(int(value), 0), 1023)
+            changed = self._analog.get(pin) != value
+            self._analog[pin] = value
+        else:
+            value = 1 if value else 0
+            changed = m.pins.get(pin) != value or pin not in m.pins.level
+            m.pins.set(pin, value, m.cpu_now())
+        if changed:
+            self._notify_input(pin, value, m.cpu_now())
+        return True
 
     # -------------------------------------------------------- conveniences
     def run_for(self, ticks: int) -> None:

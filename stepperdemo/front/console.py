@@ -235,7 +235,10 @@ class Console:
                                                    steppers=p.max_steppers, ticks=p.ticks_per_s))
                 return
             try:
-                get_profile(args[0])
+                profile = get_profile(args[0])
+                problem = getattr(type(self.app), "profile_problem", lambda _p: None)(profile)
+                if problem:  # the program cannot run there (the winder: two dir pins)
+                    raise ValueError(problem)
             except ValueError as exc:
                 self._note(msg.REPL_BAD_ARG.format(cmd=cmd, problem=exc))
                 return
@@ -330,6 +333,9 @@ def run_console(args) -> int:
                           program=getattr(args, "program", "demo"))
     except ConnectionError as exc:  # issue 7: fas.serial.SerialError
         print(msg.CLI_SERIAL_CONNECT.format(port=port, error=exc), file=sys.stderr)
+        return serial_cli.EXIT_USAGE
+    except ValueError as exc:  # the profile cannot host the program
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return serial_cli.EXIT_USAGE
     return asyncio.run(console.run())
 

@@ -78,7 +78,12 @@ def run_scripted(args: argparse.Namespace, write) -> int:
     except SerialError as exc:
         print(msg.CLI_SERIAL_CONNECT.format(port=args.port, error=exc), file=sys.stderr)
         return EXIT_USAGE
-    app = make_program(args.program, backend, scripted=True, output=write)
+    try:
+        app = make_program(args.program, backend, scripted=True, output=write)
+    except ValueError as exc:  # the profile cannot host the program
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        backend.close()
+        return EXIT_USAGE
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
 
     def on_event(event: str, text: str) -> None:
