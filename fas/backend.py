@@ -99,12 +99,15 @@ class PulseCounter:
 
 
 InputListener = Callable[[int, int, int], None]  # (pin, value, tick)
+LimitListener = Callable[[int, int, int, int], None]  # (queue index, pin, position, tick)
 
 
 class Backend(ABC):
     profile: Profile
     #: called with (pin, value, tick) when a watched input changes (see watch_input)
     input_listeners: list[InputListener]
+    #: called with (queue index, pin, position, tick) for every queue a limit stopped
+    limit_listeners: list[LimitListener]
 
     @abstractmethod
     def now(self) -> int:
@@ -198,3 +201,22 @@ class Backend(ABC):
     def _notify_input(self, pin: int, value: int, tick: int) -> None:
         for fn in list(getattr(self, "input_listeners", ())):
             fn(pin, value, tick)
+
+    # --- limit switches: stops where the pulses are made ---
+    def set_limit(self, index: int, pin: int, level: int, up: bool,
+                  stop: tuple[int, ...] = ()) -> bool:
+        """A limit switch for queue ``index``: whenever it steps ``up`` (or down) while
+        ``pin`` reads ``level`` - the switch closes during a move, or a move starts
+        towards a closed one - the backend stops it and the queues in ``stop`` at once,
+        without a further pulse, where the pulses are made (the chip, the device), and
+        reports each stopped queue to :attr:`limit_listeners` with the position where
+        its pulses stopped.  The application must then force-stop those steppers at
+        that position.  Setting a limit again replaces it.  False: not supported."""
+        return False
+
+    def clear_limit(self, index: int, up: bool) -> None:
+        """Remove queue ``index``'s limit in that direction."""
+
+    def _notify_limit(self, index: int, pin: int, position: int, tick: int) -> None:
+        for fn in list(getattr(self, "limit_listeners", ())):
+            fn(index, pin, position, tick)

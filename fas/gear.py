@@ -403,6 +403,7 @@ class Gear:
     def _commit(self) -> None:
         f = self.follower
         q = f.queue
+        q.ignore_commands = False  # the gear plans this queue (as the ramp task's fill)
         ch = q.channel
         events = self._events
         final = not self.leader.is_ramp_generator_active()

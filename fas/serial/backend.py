@@ -34,7 +34,12 @@ from .protocol import (
     DeviceStatus,
     EmergencyStop,
     Hello,
+    Halted,
     Ident,
+    Input,
+    L_CLEAR,
+    L_UP,
+    Limit,
     Message,
     Pin,
     Progress,
@@ -42,6 +47,11 @@ from .protocol import (
     Status,
     StatusRequest,
     SyncReply,
+    W_ANALOG,
+    W_DIGITAL,
+    W_PULLUP,
+    WatchInput,
+    tick_diff32,
 )
 from .stream import ByteStream, LinkClosed, open_serial
 
@@ -86,6 +96,14 @@ class SerialBackend(Backend):
         self.channels: list[SerialChannel] = []
         self._by_index: dict[int, SerialChannel] = {}
         self.pins: dict[int, int] = {}  # levels the host wrote (replayed on reconnect)
+        # inputs on the device's pins (issue 13): watched (replayed), last values
+        self.input_listeners = []
+        self.watches: dict[int, WatchInput] = {}
+        self.inputs: dict[int, int] = {}
+        self.input_ticks: dict[int, int] = {}  # host tick at which the device read it
+        self.limit_listeners = []
+        self.limits: dict[tuple[int, bool], Limit] = {}  # limit switches (replayed)
+        self.last_start_at = 0  # host tick of the last Start sent
         self.device_status: DeviceStatus | None = None
         self.statuses: dict[int, Status] = {}
         self._status_seen: set[int] = set()
@@ -206,6 +224,10 @@ class SerialBackend(Backend):
             link.send(Pin(pin, level))
         for ch in self.channels:
             ch.configure()
+        for watch in self.watches.values():  # the device forgot them with the session
+            link.send(watch)
+        for limit in self.limits.values():
+            link.send(limit)
         if adopt and self._engine is not None:
             for s in self._engine.steppers:
                 st = self.statuses.get(s.queue.index)
@@ -316,8 +338,30 @@ class SerialBackend(Backend):
                         self._problem = "device in emergency stop"
             elif isinstance(m, SyncReply):
                 self._sync_sample(m)
+            elif isinstance(m, Input):
+                self._input(m)
+            elif isinstance(m, Halted):
+                ch = self._by_index.get(m.stepper)
+                if ch is not None:
+                    ch.halted(m, acked_mid)
+                self._notify_limit(m.stepper, m.pin, m.position, self.host_tick(m.tick))
             elif isinstance(m, Ident) and m.nonce == self._ident_wanted:
                 self.ident = m
+
+    def _input(self, m: Input) -> None:
+        if m.pin not in self.watches:
+            return
+        tick = self.host_tick(m.tick)
+        old = self.inputs.get(m.pin)
+        self.inputs[m.pin] = m.value
+        if old != m.value:
+            self.input_ticks[m.pin] = tick
+            self._notify_input(m.pin, m.value, tick)
+
+    def host_tick(self, device_tick: int) -> int:
+        """The host tick at which the device's counter showed ``device_tick`` (recent)."""
+        now = self.now()
+        return now + tick_diff32(device_tick, self.device_tick32(now))
 
     def _sync_sample(self, m: SyncReply) -> None:
         t1 = self.now()
@@ -427,9 +471,18 @@ class SerialBackend(Backend):
             return 0
         return self.link.send(msg)
 
-    def send_start(self, index: int) -> int:
+    def send_start(self, index: int, at: int | None = None) -> int:
+        """Start queue ``index`` at host tick ``at`` (default: as soon as it can)."""
+        if at is None:
+            at = self.earliest_start()
+        self.last_start_at = at
+        return self.send(Start(1 << index, self.device_tick32(at)))
+
+    def earliest_start(self) -> int:
+        """The earliest host tick a Start sent now can name: the ramp task's time (or
+        now) plus the lead."""
         base = self._task_tick if self._task_tick is not None else self.now()
-        return self.send(Start(1 << index, self.device_tick32(base + self.start_lead_ticks())))
+        return base + self.start_lead_ticks()
 
     def start_lead_ticks(self) -> int:
         """How far ahead a start is scheduled: the way there plus what is queued before."""
@@ -450,6 +503,36 @@ class SerialBackend(Backend):
             if ch.step_pin == pin and not ch.detached:
                 return 0  # pulses are the device's; between them the pin is low
         return self.pins.get(pin, 0)
+
+    # -------------------------------------------------------------- inputs
+    def watch_input(self, pin: int, analog: bool = False, pullup: bool = True,
+                    period_ms: int = 0) -> bool:
+        mode = W_ANALOG if analog else (W_PULLUP if pullup else W_DIGITAL)
+        watch = WatchInput(pin, mode, min(max(period_ms, 0), 255))
+        self.watches[pin] = watch
+        self.send(watch)
+        if self.link is not None and self.connected:
+            self.link.flush()
+        return True
+
+    def read_input(self, pin: int) -> int | None:
+        return self.inputs.get(pin)
+
+    def set_limit(self, index: int, pin: int, level: int, up: bool,
+                  stop: tuple[int, ...] = ()) -> bool:
+        mask = 0
+        for i in stop:
+            mask |= 1 << i
+        limit = Limit(index, pin, 1 if level else 0, L_UP if up else 0, mask)
+        self.limits[(index, bool(up))] = limit
+        self.send(limit)
+        if self.link is not None and self.connected:
+            self.link.flush()
+        return True
+
+    def clear_limit(self, index: int, up: bool) -> None:
+        if self.limits.pop((index, bool(up)), None) is not None:
+            self.send(Limit(index, 0, 0, (L_UP if up else 0) | L_CLEAR, 0))
 
     def attach_pulse_counter(self, queue: StepperQueue, counter: PulseCounter) -> bool:
         if not self.connected:

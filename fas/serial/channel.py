@@ -49,6 +49,10 @@ class SerialChannel(QueueChannel):
         self.pcnt_epoch_mid = 0
         self.bad_reports = 0
         self.last_status = None  # the last Status message (position, pulses, underruns)
+        # timing of the device queue as the host planned it (fas.gear): the host tick at
+        # which the queued entries end, while the device runs them without a gap
+        self.start_ticks = backend.profile.sim_queue_start_ticks
+        self.t_end: int | None = None
         self.configure()
 
     # ------------------------------------------------------------ session
@@ -72,6 +76,7 @@ class SerialChannel(QueueChannel):
     def connection_lost(self) -> None:
         self.pending_start_mid = 0
         self.dev_running = False
+        self.t_end = None
 
     # ---------------------------------------------------------- interface
     def is_running(self) -> bool:
@@ -82,10 +87,44 @@ class SerialChannel(QueueChannel):
         if self.is_running() or q.read_idx == q.next_write_idx or not self.b.connected:
             return
         self.pending_start_mid = self.b.send_start(self.index)
+        self._plan_from(self.b.last_start_at)
+
+    # --- queue timing: a Start at host tick `at` begins the first entry at
+    # `at + start_ticks`, the entries follow each other without a gap
+    def _plan_from(self, at: int) -> None:
+        q = self.q
+        t = at + self.start_ticks
+        rp = q.read_idx
+        while rp != q.next_write_idx:
+            e = q.entries[rp % q.queue_len]
+            t += e.ticks * max(e.total_steps, 1)
+            rp = (rp + 1) & 0xFF
+        self.t_end = t
+
+    def end_tick(self) -> int | None:
+        q = self.q
+        if self.t_end is None or not self.is_running() or q.read_idx == q.next_write_idx:
+            return None
+        if self.t_end <= self.b.now():
+            return None  # by now the device has run dry: the timing is lost
+        return self.t_end
+
+    def earliest_start_tick(self) -> int | None:
+        return self.b.earliest_start() + self.start_ticks
+
+    def start_at(self, tick: int) -> int | None:
+        q = self.q
+        if self.is_running() or q.read_idx == q.next_write_idx or not self.b.connected:
+            return None
+        at = max(tick - self.start_ticks, self.b.earliest_start())
+        self.pending_start_mid = self.b.send_start(self.index, at)
+        self._plan_from(at)
+        return at + self.start_ticks
 
     def force_stop(self) -> None:
         self.pending_start_mid = 0
         self.dev_running = False
+        self.t_end = None
         if self.b.connected:
             self.epoch_mid = self.b.send(ForceStop(self.index, self.q.next_write_idx))
         # the device calls its stop point by the pulses made; the host names it next
@@ -113,9 +152,15 @@ class SerialChannel(QueueChannel):
         before = i32(e.end_pos - e.total_steps if e.count_up else e.end_pos + e.total_steps)
         if before != self.dev_end_pos:
             self.b.send(SetEndPos(self.index, before))
+        running = self.is_running()
         self.b.send(Entry(self.index, w, e.total_steps, e.ticks, e.toggle_dir, e.dir_level,
-                          e.count_up, self.is_running()))
+                          e.count_up, running))
         self.dev_end_pos = e.end_pos
+        if self.t_end is not None:
+            if running and self.t_end > self.b.now():
+                self.t_end += e.ticks * max(e.total_steps, 1)
+            else:
+                self.t_end = None  # a continuation after the device ran dry: untimed
 
     def positions_shifted(self, delta: int) -> None:
         if self.b.connected:
@@ -143,6 +188,13 @@ class SerialChannel(QueueChannel):
                 self.index, counter.low, counter.high, int(counter.dir_high_counts_up),
                 counter.value))
 
+    def halted(self, m, acked_mid: int) -> None:
+        """The device stopped this queue at a limit (``Halted``): nothing runs there
+        until the library force-stops the stepper (its ForceStop lets entries in)."""
+        self.dev_running = False
+        self.pending_start_mid = 0
+        self.t_end = None
+
     # --------------------------------------------------------- reports
     def apply(self, rep: Progress, acked_mid: int) -> None:
         """A progress report that reflects every message up to ``acked_mid``."""
@@ -162,6 +214,8 @@ class SerialChannel(QueueChannel):
         self.dev_running = rep.running
         if self.pending_start_mid and acked_mid >= self.pending_start_mid:
             self.pending_start_mid = 0
+        if not self.is_running():
+            self.t_end = None
         if (self.pulse_counter is not None and rep.flags & P_HAS_PCNT
                 and acked_mid >= self.pcnt_epoch_mid):
             self.pulse_counter.value = rep.pcnt

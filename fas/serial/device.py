@@ -47,7 +47,12 @@ from .protocol import (
     ForceStop,
     FrameDecoder,
     Hello,
+    Halted,
     Ident,
+    Input,
+    L_CLEAR,
+    L_UP,
+    Limit,
     Message,
     Nak,
     PcntAttach,
@@ -61,6 +66,10 @@ from .protocol import (
     StatusRequest,
     SyncReply,
     SyncRequest,
+    W_ANALOG,
+    W_OFF,
+    W_PULLUP,
+    WatchInput,
     decode_messages,
     encode_frame,
     pack_messages,
@@ -76,6 +85,8 @@ DEFAULT_STATUS_MS = 100
 RX_WINDOW = 16
 FRAME_BREAK = b""  # in the output list: start a new frame (small frames survive noise)
 DEVICE_STATUS_EVERY = 5  # status periods between unrequested DeviceStatus messages
+DEFAULT_ANALOG_MS = 50  # WatchInput period 0: sample analog inputs every 50 ms
+ANALOG_DEFAULT = 512  # an analog input nobody has set reads mid-scale (a centred pot)
 
 
 class DeviceChannel(SimChannel):
@@ -137,6 +148,12 @@ class Device:
         self._nak_expected: int | None = None
         self._nak_high = 0
         self.counters = dict.fromkeys(DEVICE_COUNTERS, 0)
+        # watched inputs: pin -> [mode, sample period (ticks), next sample, value reported]
+        self.watches: dict[int, list[int]] = {}
+        self.analog: dict[int, int] = {}  # the analog inputs' values (set_input)
+        # limit switches: (stepper, up) -> (pin, level, stop mask); queues a limit halted
+        self.limits: dict[tuple[int, bool], tuple[int, int, int]] = {}
+        self.halted: set[int] = set()
         self.listeners: list[Callable[[str], None]] = []  # session events, for the CLI
         self.stream: ByteStream | None = None
         self.in_wires: list = []
@@ -234,6 +251,8 @@ class Device:
             self._trip_watchdog()
         if t > m.now:
             m.run_until(t)
+        if self.session and self.watches:
+            self._sample_inputs()
         if self.session and t >= self.next_report_tick:
             self.next_report_tick = t - (t % self.report_ticks) + self.report_ticks
             self._changed_progress(only_changed=False)
@@ -248,6 +267,8 @@ class Device:
                 key = self._progress_key(idx, q)
                 self.last_progress[idx] = key
                 self.out.append(Progress(idx, *key).encode())
+            for pin, w in self.watches.items():  # a lost input report heals here
+                self.out.append(Input(pin, w[3], m.now & 0xFFFFFFFF).encode())
             if self._refresh_round % DEVICE_STATUS_EVERY == 0:
                 self.out.append(self._device_status().encode())
 
@@ -263,6 +284,9 @@ class Device:
             deadline = self._watchdog_deadline()
             if deadline is not None:
                 times.append(deadline)
+            for pin, w in self.watches.items():
+                if w[0] == W_ANALOG and self._input_value(pin, w[0]) != w[3]:
+                    times.append(w[2])  # a changed analog input is read at its sample
         if not times:
             return None
         return self.ns_at(max(min(times), self.machine.now + 1))
@@ -389,6 +413,9 @@ class Device:
                 self._old_nonces = (*self._old_nonces, (self.nonce, self.machine.now))[-4:]
             self.nonce = m.nonce
             self._halt()
+            self.watches.clear()  # the new host asks for the inputs it wants
+            self.limits.clear()
+            self.halted.clear()
             self.session = True
             self.watchdog_tripped = False
             self.estopped = False
@@ -429,6 +456,10 @@ class Device:
                 counter = PulseCounter(m.low, m.high, bool(m.dir_high_counts_up))
                 counter.value = m.value
                 q.channel.pulse_counter = counter
+        elif isinstance(m, WatchInput):
+            self._watch(m)
+        elif isinstance(m, Limit):
+            self._limit(m)
         elif isinstance(m, PcntClear):
             q = self._queue(m.stepper)
             if q is not None and q.channel.pulse_counter is not None:
@@ -465,6 +496,7 @@ class Device:
         else:
             self._stop_queue(m.stepper, q)
         q.dir_pin = m.dir_pin
+        self.halted.discard(m.stepper)
         q.channel.pulses = 0
         q.channel.underruns = 0
         q.read_idx = q.next_write_idx = m.index & 0xFF
@@ -482,7 +514,7 @@ class Device:
         q = self._queue(m.stepper)
         if q is None:
             return
-        if self.watchdog_tripped or self.estopped:
+        if self.watchdog_tripped or self.estopped or m.stepper in self.halted:
             self.counters["rejected"] += 1
             return
         wp = q.next_write_idx
@@ -523,7 +555,7 @@ class Device:
             q = self._queue(idx)
             if q is None:
                 continue
-            if self.watchdog_tripped or self.estopped:
+            if self.watchdog_tripped or self.estopped or idx in self.halted:
                 self.counters["rejected"] += 1
                 continue
             old = self.start_events.pop(idx, None)
@@ -548,6 +580,7 @@ class Device:
         if q is None:
             return
         self._stop_queue(m.stepper, q)
+        self.halted.discard(m.stepper)  # the host knows of a limit stop now
         # the position is where the pulses stopped; the host may rename it (SetEndPos)
         q.read_idx = q.next_write_idx = m.index & 0xFF
         q.queue_end_pos = q.channel.pulse_pos
@@ -579,6 +612,107 @@ class Device:
     def _notify(self, event: str) -> None:
         for fn in self.listeners:
             fn(event)
+
+    # ------------------------------------------------------------ inputs
+    def _watch(self, m: WatchInput) -> None:
+        if m.mode == W_OFF:
+            self.watches.pop(m.pin, None)
+            return
+        if m.mode > W_ANALOG:
+            self.counters["rejected"] += 1
+            return
+        pins = self.machine.pins
+        if m.mode == W_PULLUP and m.pin not in pins.level:
+            pins.set(m.pin, 1, self.machine.now)  # the pull-up holds an open input high
+        period = self._ms_ticks(m.period_ms or DEFAULT_ANALOG_MS)
+        value = self._input_value(m.pin, m.mode)
+        self.watches[m.pin] = [m.mode, period, self.machine.now + period, value]
+        self.out.append(Input(m.pin, value, self.machine.now & 0xFFFFFFFF).encode())
+
+    def _input_value(self, pin: int, mode: int) -> int:
+        if mode == W_ANALOG:
+            return self.analog.get(pin, ANALOG_DEFAULT)
+        return self.machine.pins.get(pin)
+
+    def _sample_inputs(self) -> None:
+        """Digital inputs are reported as soon as they change, analog ones when their
+        sample is due and shows a new value."""
+        now = self.machine.now
+        for pin, w in self.watches.items():
+            mode = w[0]
+            if mode == W_ANALOG:
+                if now < w[2]:
+                    continue
+                w[2] += w[1] * ((now - w[2]) // w[1] + 1)
+            value = self._input_value(pin, mode)
+            if value != w[3]:
+                w[3] = value
+                self.out.append(Input(pin, value, now & 0xFFFFFFFF).encode())
+
+    def set_input(self, pin: int, value: int, analog: bool | None = None) -> None:
+        """The world outside the board: a switch pulls ``pin`` to ``value`` (0/1) or a
+        pot turns analog input ``pin`` to ``value`` (0..1023).  ``analog`` None: as the
+        host watches the pin (digital if it does not)."""
+        w = self.watches.get(pin)
+        if analog is None:
+            analog = (w is not None and w[0] == W_ANALOG) or (w is None and pin in self.analog)
+        if analog:
+            self.analog[pin] = min(max(int(value), 0), 1023)
+        else:
+            self.machine.pins.set(pin, 1 if value else 0, self.machine.now)
+        if self.session and w is not None:
+            self._sample_inputs()
+        if not analog:
+            self._limit_pin_changed(pin, 1 if value else 0)
+
+    # ------------------------------------------------------ limit switches
+    def _limit(self, m: Limit) -> None:
+        q = self._queue(m.stepper)
+        if q is None:
+            return
+        key = (m.stepper, bool(m.flags & L_UP))
+        if m.flags & L_CLEAR:
+            self.limits.pop(key, None)
+            return
+        self.limits[key] = (m.pin, 1 if m.level else 0, m.stop_mask)
+        q.channel.entry_guard = lambda e, i=m.stepper: self._guard(i, e)
+
+    def _guard(self, idx: int, entry) -> bool:
+        lim = self.limits.get((idx, entry.count_up))
+        if lim is None or self.machine.pins.get(lim[0]) != lim[1]:
+            return False
+        q = self.queues[idx]
+        q.channel.on_halt = lambda: self._limit_stop(idx, lim)
+        return True
+
+    def _limit_pin_changed(self, pin: int, level: int) -> None:
+        for (idx, up), lim in list(self.limits.items()):
+            if lim[0] != pin or lim[1] != level:
+                continue
+            q = self.queues.get(idx)
+            if q is not None and q.channel.is_running() and q.channel.moving_up() == up:
+                self._limit_stop(idx, lim)
+
+    def _limit_stop(self, idx: int, lim: tuple[int, int, int]) -> None:
+        """Stop the queue and those in the limit's mask where their pulses are; tell
+        the host; refuse their entries until the host's ForceStop."""
+        now = self.machine.now
+        for i in sorted({idx} | {j for j in self.queues if lim[2] & (1 << j)}):
+            q = self.queues[i]
+            if i != idx and not q.channel.is_running():
+                continue
+            q.channel.on_halt = None
+            self._stop_queue(i, q)
+            q.read_idx = q.next_write_idx
+            q.queue_end_pos = q.channel.pulse_pos
+            self.halted.add(i)
+            self.out.append(Halted(i, lim[0], q.next_write_idx, q.channel.pulse_pos,
+                                   now & 0xFFFFFFFF).encode())
+
+    def schedule_input(self, tick: int, pin: int, value: int,
+                       analog: bool | None = None) -> None:
+        """``set_input`` at device tick ``tick`` (a switch that closes at a known time)."""
+        self.machine.schedule(tick, lambda: self.set_input(pin, value, analog), PRIO_PLAIN)
 
     # ------------------------------------------------------------ reports
     def _progress_key(self, idx: int, q: StepperQueue) -> tuple[int, int, int, int]:

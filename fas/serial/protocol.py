@@ -494,10 +494,74 @@ class Bye(Message):
     nonce: int
 
 
+# --- inputs: switches and potentiometers on the device's pins (issue 13) ----------
+W_OFF = 0  # stop watching the pin
+W_DIGITAL = 1  # digital input, no pull-up
+W_PULLUP = 2  # digital input with the pull-up resistor
+W_ANALOG = 3  # analog input, 0..1023
+
+
+@dataclass(frozen=True, slots=True)
+class WatchInput(Message):
+    """Read ``pin`` as an input and report it (:class:`Input`): ``mode`` W_*;
+    analog inputs are sampled every ``period_ms`` (0: 50 ms)."""
+
+    CODE: ClassVar[int] = 0x10
+    FMT: ClassVar[struct.Struct] = _fmt("BBB")
+    pin: int
+    mode: int
+    period_ms: int
+
+
+@dataclass(frozen=True, slots=True)
+class Input(Message):
+    """A watched input's value (0/1, or 0..1023 analog) and the device tick it was
+    read at: on every change, when the watch begins, and with the slow refresh."""
+
+    CODE: ClassVar[int] = 0x87
+    FMT: ClassVar[struct.Struct] = _fmt("BHI")
+    pin: int
+    value: int
+    tick: int
+
+
+L_UP = 0x01  # Limit.flags: the limit stops steps that count up (else down)
+L_CLEAR = 0x80  # ... remove the limit of that direction
+
+
+@dataclass(frozen=True, slots=True)
+class Limit(Message):
+    """A limit switch: while ``stepper`` steps in the direction of ``flags`` and ``pin``
+    reads ``level``, stop it and the queues in ``stop_mask`` at once (:class:`Halted`)."""
+
+    CODE: ClassVar[int] = 0x11
+    FMT: ClassVar[struct.Struct] = _fmt("BBBBB")
+    stepper: int
+    pin: int
+    level: int
+    flags: int
+    stop_mask: int
+
+
+@dataclass(frozen=True, slots=True)
+class Halted(Message):
+    """A limit on ``pin`` stopped queue ``stepper`` at device tick ``tick``: no entry is
+    left (read = write = ``index``), the pulses stopped at ``position``.  The queue
+    refuses entries and starts until the host's ForceStop for it."""
+
+    CODE: ClassVar[int] = 0x88
+    FMT: ClassVar[struct.Struct] = _fmt("BBBiI")
+    stepper: int
+    pin: int
+    index: int
+    position: int
+    tick: int
+
+
 _BY_CODE: dict[int, type[Message]] = {}
 for _cls in (Hello, SyncRequest, Config, DirPin, Start, ForceStop, SetEndPos, Pin, Detach,
              PcntAttach, PcntClear, StatusRequest, EmergencyStop, Bye, Ident, SyncReply, Status,
-             DeviceStatus, Nak):
+             DeviceStatus, Nak, WatchInput, Input, Limit, Halted):
     _BY_CODE[_cls.CODE] = _cls
 for _s in range(MAX_STEPPERS):
     _BY_CODE[ENTRY_BASE | _s] = Entry

@@ -71,6 +71,10 @@ class SimChannel(QueueChannel):
         self._noted: QueueEntry | None = None
         self._start_event: Event | None = None  # a timed start (start_at) waiting
         self._start_tick = 0  # ... and the tick of its first compare
+        # limit switches: entry_guard(entry) True stops the channel before the entry's
+        # first pulse; on_halt() is told afterwards (set by the backend)
+        self.entry_guard: Callable[[QueueEntry], bool] | None = None
+        self.on_halt: Callable[[], None] | None = None
         if self.irq_sensitive:
             machine.block_listeners.append(self._on_block)
 
@@ -92,6 +96,9 @@ class SimChannel(QueueChannel):
         t = self.m.cpu_now()
         if e.toggle_dir:
             self._toggle_dir(t)
+        if e.steps and self.entry_guard is not None and self.entry_guard(e):
+            self._halt()
+            return
         self.mode_one = e.steps != 0
         if self.entry_listeners:
             self._note_entry(ENTRY_START, e)
@@ -119,6 +126,50 @@ class SimChannel(QueueChannel):
         self.running = False
         self.no_more = False
         self.mode_one = False
+
+    def _halt(self) -> None:
+        """A limit stops the channel before the entry at read_idx makes a pulse."""
+        self.running = False
+        self.no_more = False
+        self.mode_one = False
+        self.pending_pulse = False
+        self.event = None
+        if self.on_halt is not None:
+            self.on_halt()
+
+    def stop_now(self) -> int:
+        """Stop at once (as :meth:`force_stop`); the position where the pulses stopped."""
+        q = self.q
+        rp = q.read_idx
+        if rp == q.next_write_idx:
+            self.force_stop()
+            return q.queue_end_pos
+        e = q.entries[rp % q.queue_len]
+        now = self.m.now
+        if not self.running:
+            remaining = e.steps
+        elif self.batch:
+            risen = 0 if now < self.b_c0 else min(self.b_n, (now - self.b_c0) // self.b_t + 1)
+            remaining = self.b_n - risen
+        elif self.pending_pulse and self.pending_compare <= now:
+            remaining = e.steps - 1
+        else:
+            remaining = e.steps
+        self.force_stop()
+        pos = e.end_pos - remaining if e.count_up else e.end_pos + remaining
+        return ((pos + 0x80000000) & 0xFFFFFFFF) - 0x80000000
+
+    def moving_up(self) -> bool | None:
+        """The direction of the pulses being made or next (None: none queued)."""
+        self.sync()
+        q = self.q
+        rp = q.read_idx
+        while rp != q.next_write_idx:
+            e = q.entries[rp % q.queue_len]
+            if e.steps:
+                return e.count_up
+            rp = (rp + 1) & 0xFF
+        return None
 
     # ------------------------------------------------------- queue timing
     def end_tick(self) -> int | None:
@@ -328,6 +379,9 @@ class SimChannel(QueueChannel):
                 e = q.entries[rp % q.queue_len]
             if e.toggle_dir:
                 self._toggle_dir(now)
+            if e.steps and self.entry_guard is not None and self.entry_guard(e):
+                self._halt()
+                return
             self.mode_one = e.steps != 0
         if self.entry_listeners and e is not self._noted:
             self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)

@@ -105,7 +105,8 @@ class Winder(Program):
         # limit stops: (switch A-number, tick the switch closed, tick S2 was stopped)
         self.limit_stops: list[tuple[int, int, int]] = []
         self._switch_tick: dict[int, int] = {}
-        self._defer_limits = False
+        self._later: list[str] = []  # lines held back to the end of a command or pass
+        self.hw_limits = False  # the backend stops S2 at its limits (else: software)
 
     @staticmethod
     def profile_problem(profile) -> str | None:
@@ -158,6 +159,8 @@ class Winder(Program):
                          guard=self._gear_may_step, on_blocked=self._gear_blocked)
         self._watch_inputs()
         b.input_listeners.append(self._on_input)
+        b.limit_listeners.append(self._on_limit)
+        self._arm_limits()
         self._power_up()
         self.next_sample = b.now()
 
@@ -264,11 +267,13 @@ class Winder(Program):
             if self._sampling():
                 self._sample()
             self.next_sample = now + self.sample_ticks
+        self._say_later()
         if self._runnable():
             self._execute(self.pending.popleft())
         if not self.pending and self.pause_until is None and self.input_consumed_at is None:
             self.input_consumed_at = b.now()
         self._check_limits()
+        self._say_later()
         self._watch_motion()
         b.app_spend(self.profile.sim_loop_pass_ticks)
 
@@ -357,6 +362,7 @@ class Winder(Program):
         if axis is self.s2:
             if self.gear.engaged:
                 self.gear.disengage()
+                self._arm_limits()
                 self.say(msg.WINDER_INTERLOCK_RELEASED)
             if self.limit_closed(up):
                 self._note(axis, msg.WINDER_HELD_AT_LIMIT.format(
@@ -406,12 +412,14 @@ class Winder(Program):
                 self.interlock = False
                 return
             s2.motion = FOLLOW
+            self._arm_limits()
             n, m = self.ratio
             self.say(msg.WINDER_INTERLOCK_ENGAGED.format(
                 n=n, m=m, s1=self.s1.stepper.get_current_position(), x0=gear.x0,
                 s2=st.get_current_position()))
         elif not want and gear.engaged:
             gear.disengage()
+            self._arm_limits()
             s2.motion = IDLE
             self.say(msg.WINDER_INTERLOCK_RELEASED)
 
@@ -441,6 +449,7 @@ class Winder(Program):
                 self.say(msg.WINDER_INTERLOCK_OFF_BY_LINK)
             if self.gear.engaged:
                 self.gear.disengage()
+                self._arm_limits()
             if self.traverse is not None and self.traverse.active:
                 self.traverse.stop()
         if axis.motion == POT:
@@ -448,16 +457,33 @@ class Winder(Program):
             axis.pot_applied = None
 
     # -------------------------------------------------------------- limits
+    def _arm_limits(self) -> None:
+        """A2/A3 as limit switches where S2's pulses are made (the chip, the device):
+        S2 stops there without a further step; interlocked, S1 stops with it."""
+        stop = (0,) if self.gear is not None and self.gear.engaged else ()
+        ok = True
+        for up, a in ((True, fig.LIMIT_HIGH), (False, fig.LIMIT_LOW)):
+            ok = self.backend.set_limit(1, self.pin(a), fig.SWITCH_CLOSED_LEVEL, up, stop) and ok
+        self.hw_limits = ok
+
     def _on_input(self, pin: int, value: int, tick: int) -> None:
         for a in (fig.LIMIT_LOW, fig.LIMIT_HIGH):
-            if pin == self.pin(a):
-                if value == fig.SWITCH_CLOSED_LEVEL:
-                    self._switch_tick[a] = tick
-                if not self._defer_limits:
-                    self._check_limits()
+            if pin == self.pin(a) and value == fig.SWITCH_CLOSED_LEVEL:
+                self._switch_tick[a] = tick
+        if not self.hw_limits:
+            self._check_limits()  # at once, as a pin-change interrupt would
+
+    def _on_limit(self, index: int, pin: int, position: int, tick: int) -> None:
+        """The backend stopped a stepper at a limit: the library follows suit."""
+        st = self.steppers[index]
+        st.force_stop_and_new_position(position)
+        if index == 1:
+            up = pin == self.pin(fig.LIMIT_HIGH)
+            self._after_limit(up, tick, both=self.gear.engaged)
 
     def _check_limits(self) -> None:
-        if not self._setup_done:
+        """The check in software (backends without limit switches, and a backstop)."""
+        if not self._setup_done or self.hw_limits:
             return
         st = self.s2.stepper
         if not st.is_running():
@@ -465,34 +491,50 @@ class Winder(Program):
         up = self.moving_up(st)
         if up is None or not self.limit_closed(up):
             return
-        self._limit_stop(up)
+        both = self.gear.engaged
+        if both:
+            self.gear.force_stop()
+        else:
+            st.force_stop_and_new_position(st.get_current_position())
+        self._after_limit(up, self.backend.now(), both)
 
-    def _limit_stop(self, up: bool) -> None:
+    def _after_limit(self, up: bool, tick: int, both: bool) -> None:
         a = fig.LIMIT_HIGH if up else fig.LIMIT_LOW
         s2 = self.s2
         st = s2.stepper
-        now = self.backend.now()
-        if self.gear.engaged:
-            self.gear.force_stop()  # interlocked: the spindle stops with it
+        which = msg.WINDER_UPPER if up else msg.WINDER_LOWER
+        if both:  # interlocked: the spindle stopped with it
+            s1 = self.s1.stepper
+            if s1.is_running():  # a backend stops only S2: then S1 here
+                s1.force_stop_and_new_position(s1.get_current_position())
+            self.gear.disengage()
             for axis in self.axes:
                 self._halt(axis)
             self.interlock = False
-            self.say(msg.WINDER_LIMIT_STOP_BOTH.format(
-                a=a, which=msg.WINDER_UPPER if up else msg.WINDER_LOWER,
-                s1=self.s1.stepper.get_current_position(), s2=st.get_current_position()))
+            self._arm_limits()
+            self.later(msg.WINDER_LIMIT_STOP_BOTH.format(
+                a=a, which=which, s1=self.s1.stepper.get_current_position(),
+                s2=st.get_current_position()))
         else:
-            st.force_stop_and_new_position(st.get_current_position())
             traversing = s2.motion == TRAVERSE and self.traverse is not None \
                 and self.traverse.active
             if traversing:
                 self.traverse.limit_hit()
             else:
                 self._halt(s2)
-            self.say(msg.WINDER_LIMIT_STOP.format(
-                a=a, which=msg.WINDER_UPPER if up else msg.WINDER_LOWER,
-                position=st.get_current_position(),
+            self.later(msg.WINDER_LIMIT_STOP.format(
+                a=a, which=which, position=st.get_current_position(),
                 then=msg.WINDER_LIMIT_TURN if traversing else ""))
-        self.limit_stops.append((a, self._switch_tick.get(a, now), now))
+        self.limit_stops.append((a, self._switch_tick.get(a, tick), tick))
+
+    def later(self, text: str) -> None:
+        """A line said at the end of the current command or loop pass (a limit may
+        act inside an interrupt, where the program does not print)."""
+        self._later.append(text)
+
+    def _say_later(self) -> None:
+        while self._later:
+            self.say(self._later.pop(0))
 
     def _halt(self, axis: Axis) -> None:
         """The axis was stopped by force: a pot that drives it must be centred first."""
@@ -500,14 +542,16 @@ class Winder(Program):
             axis.motion = IDLE
         if axis.pots and axis.pot_applied is not None:
             axis.hold = True
-            self.say(msg.WINDER_HOLD.format(name=axis.name, a=axis.pot_input))
+            self.later(msg.WINDER_HOLD.format(name=axis.name, a=axis.pot_input))
         axis.pot_applied = None
 
     def _gear_may_step(self, up: bool) -> bool:
         return not self.limit_closed(up)
 
     def _gear_blocked(self, up: bool) -> None:
-        self._limit_stop(up)
+        """The interlocked S2 would step into a closed limit: both stop."""
+        self.gear.force_stop()
+        self._after_limit(up, self.backend.now(), True)
 
     # ------------------------------------------------------------ commands
     def _execute(self, item: Item) -> None:
@@ -663,8 +707,8 @@ class Winder(Program):
         return None
 
     def _traverse_event(self, what: str, value: int) -> None:
-        if what == "done":
-            self.say(msg.WINDER_TRAVERSE_DONE.format(position=value))
+        if what == "done":  # from the ramp task: said by the loop
+            self.later(msg.WINDER_TRAVERSE_DONE.format(position=value))
 
     def cmd_status(self) -> str | None:
         for line in self.status_lines():
@@ -702,16 +746,12 @@ class Winder(Program):
         if value not in (0, 1):
             return msg.WINDER_BAD_BOOL.format(word=v_word)
         level = fig.SWITCH_CLOSED_LEVEL if value else 1 - fig.SWITCH_CLOSED_LEVEL
-        self._defer_limits = True  # say what changed before what it caused
-        try:
-            driven = self.backend.drive_input(self.pin(a), level)
-        finally:
-            self._defer_limits = False
-        if not driven:
+        said = len(self._later)
+        if not self.backend.drive_input(self.pin(a), level):
             return msg.WINDER_INPUTS_ARE_PINS.format(what="switches")
-        self.say(msg.WINDER_SWITCH.format(a=a, state="closed" if value else "open",
-                                          role=msg.WINDER_SWITCH_ROLES[a]))
-        self._check_limits()
+        # what changed first, then what it caused
+        self._later.insert(said, msg.WINDER_SWITCH.format(
+            a=a, state="closed" if value else "open", role=msg.WINDER_SWITCH_ROLES[a]))
         return None
 
     def cmd_reset(self) -> str | None:
@@ -777,6 +817,7 @@ class Winder(Program):
             self.engine.remove_task_hook(self.traverse)
         if self.gear is not None and self.gear.engaged:
             self.gear.force_stop()
+            self._arm_limits()
         for axis in self.axes:
             s = axis.stepper
             s.force_stop_and_new_position(s.get_current_position())

@@ -196,8 +196,11 @@ class TraverseFeeder:
         q = s.queue
         if self.leg is None and s.is_ramp_generator_active():
             return  # another motion still ramps down
+        q.ignore_commands = False  # a planner of this queue, as the ramp task's fill
         started = q.is_running()
-        while self.active and not q.is_queue_full():
+        for _ in range(q.queue_len):  # at most a queue's worth per task
+            if not self.active or q.is_queue_full():
+                break
             if q.ticks_in_queue() >= self.ahead_ticks:
                 break
             if self._seg is None or self._seg[1] == 0:
