@@ -387,8 +387,9 @@ RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {droppe
 # firmware's: plain lines, errors begin with "ERROR".
 WINDER_BANNER = ("Helix winder {version} on {profile}: S1 spindle step {s1_step} dir {s1_dir}, "
                  "S2 traverse step {s2_step} dir {s2_dir}")
-WINDER_INPUTS = ("inputs: pots A0 (pin {a0}) -> S1, A1 (pin {a1}) -> S2; limits of S2: A2 "
-                 "(pin {a2}) lower, A3 (pin {a3}) upper; A4 (pin {a4}) fixture; A5 (pin {a5}) spare")
+WINDER_INPUTS = ("inputs: pots A0 (pin {a0}) -> S1, A1 (pin {a1}) -> S2; limits of S2: "
+                 "A2 (pin {a2}) lower, A3 (pin {a3}) upper; A4 (pin {a4}) fixture; "
+                 "A5 (pin {a5}) spare")
 WINDER_FIXTURE_MODE = "A4 closed at power-up: fixture mode, the pots drive S1 and S2"
 WINDER_LINK_MODE = "A4 open at power-up: link mode, the pots rest until 'pots'"
 WINDER_BAD_PROFILE = "the winder needs {why}; profile {profile} does not have them"

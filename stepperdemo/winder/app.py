@@ -24,7 +24,7 @@ from collections.abc import Callable
 
 from fas import Engine
 from fas.backend import Backend
-from fas.codes import RAMP_DIRECTION_COUNT_UP, PIN_UNDEFINED
+from fas.codes import PIN_UNDEFINED, RAMP_DIRECTION_COUNT_UP
 from fas.gear import Gear, GearResult
 
 from .. import messages as msg
@@ -286,14 +286,14 @@ class Winder(Program):
         return min(times) if times else None
 
     def next_wake_tick(self) -> int | None:
-        if not self._setup_done or self._runnable():
+        if not self._setup_done or self._runnable() or self._later:
             return self.backend.now()
         wake = self._wake_time()
         return None if wake is None else max(wake, self.backend.now())
 
     def _advance(self, limit: int) -> None:
         b = self.backend
-        if not self._runnable():
+        if not self._runnable() and not self._later:
             wake = self._wake_time()
             if wake is None or wake > limit:
                 b.app_wait_until(limit)
