@@ -158,6 +158,7 @@ class Gear:
         self._ingest(initial=True)
         self._open_span(self._origin_tick)
         self.engine.add_task_hook(self)
+        self._commit()  # the leader may be under way: its first steps come soon
         return GearResult.OK
 
     def _open_span(self, start: int) -> None:

@@ -622,7 +622,7 @@ class Device:
             self.counters["rejected"] += 1
             return
         pins = self.machine.pins
-        if m.mode == W_PULLUP and m.pin not in pins.level:
+        if m.mode == W_PULLUP and m.pin not in pins.first_write:
             pins.set(m.pin, 1, self.machine.now)  # the pull-up holds an open input high
         period = self._ms_ticks(m.period_ms or DEFAULT_ANALOG_MS)
         value = self._input_value(m.pin, m.mode)

@@ -180,7 +180,7 @@ class SimBackend(Backend):
                     period_ms: int = 0) -> bool:
         self._inputs[pin] = analog
         pins = self.machine.pins
-        if not analog and pullup and pin not in pins.level:
+        if not analog and pullup and pin not in pins.first_write:
             pins.set(pin, 1, self.machine.now)  # the pull-up holds an open input high
         return True
 
@@ -202,7 +202,7 @@ class SimBackend(Backend):
             self._analog[pin] = value
         else:
             value = 1 if value else 0
-            changed = m.pins.get(pin) != value or pin not in m.pins.level
+            changed = m.pins.get(pin) != value or pin not in m.pins.first_write
             m.pins.set(pin, value, m.cpu_now())
         if changed:
             if not self._inputs.get(pin):
