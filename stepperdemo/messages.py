@@ -474,4 +474,30 @@ WINDER_REPORT_INTERLOCK = ("interlock    {spans} stretch(es) at {ratios}: max |S
                            "{at}); {commands} S2 commands + {pauses} pauses, {late} step(s) "
                            "outside their window")
 WINDER_REPORT_NO_INTERLOCK = "interlock    not engaged in this run"
+WINDER_CLI_DESCRIPTION = """\
+The helix winder of seed 002 on the fas library: S1 (spindle) and S2 (traverse),
+two pots, four switches and a link.
+
+Without -c: an interactive console (history, completion, a toolbar with the pots,
+switches, control and interlock).  With -c: one line of commands on virtual time,
+e.g.  stepperdemo winder -c "pots pot 1 1023 w2000 pot 1 512 w1000" --report
+
+Commands (s = stepper 1 or 2; several per line, separated by spaces):
+  move s count      link move, -65535..65535 (+-65535 until told, 0 stops)
+  period s counts   link step period in 4 us counts, 9..65535 (default 250)
+  accel s a         acceleration for all speed changes (default 50000 steps/s^2)
+  interlock 0|1     S2 follows S1 at the ratio while A1 is centred
+  ratio n:m         S2 steps per S1 steps, 1 <= n <= m
+  pots              the pots drive again (a link command makes link control sticky)
+  traverse from to  S2 end to end continuously (trapezoid replanned every 50 ms)
+  status, ?, reset, w<ms>
+  pot s 0..1023     simulation: turn A0 (S1) or A1 (S2); dead zone 462..562,
+                    log scale 10 .. 20 000 steps/s as a 4 us period
+  switch An 0|1     simulation: A2/A3 S2's lower/upper limit, A4 fixture (read at
+                    power-up / reset), A5 spare
+
+On a device (--port) the pots and switches are its pins A0..A5, reported by the
+device; the limits stop S2 on the device itself.
+
+exit codes: 0 ok, 2 bad arguments, 3 --max-time reached, 5 device lost"""
 # ------------------------------------------------------------- end of winder texts

@@ -74,6 +74,7 @@ class Winder(Program):
     """The winder program on a backend (see module text)."""
 
     title = "helix winder"
+    cli_description = msg.WINDER_CLI_DESCRIPTION
 
     def __init__(self, backend: Backend, *, scripted: bool = True,
                  output: Callable[[bytes], None] | None = None) -> None:

@@ -70,10 +70,11 @@ class Leg:
                 if self.ramp_steps + steps > self.half:  # a short leg: down at half way
                     steps = self.half - self.ramp_steps
                     counts = period_counts(mean)
+                    self.ramp_steps += max(steps, 0)
+                    self._to_plateau(counts)
                     if steps > 0:
                         self.up.append((counts, steps))
-                        self.ramp_steps += steps
-                    self._to_plateau(counts)
+                        return self._emit(counts, steps)
                 else:
                     counts = period_counts(mean)
                     self.up.append((counts, steps))
