@@ -47,6 +47,7 @@ if TYPE_CHECKING:  # pragma: no cover
 MAX_TICKS = 65535  # one queue command's period
 MAX_STEPS = 255  # ... and its steps
 TRIM_PULSES = 4096  # drop leader pulses already behind us in chunks of this size
+LINK_PLANNING_MS = 40  # behind a link the leader plans this much further ahead
 
 
 class GearResult(IntEnum):
@@ -119,6 +120,8 @@ class Gear:
         p = engine.profile
         self.min_cmd_ticks = p.min_cmd_ticks
         self.urgent_ticks = 3 * p.fill_period_ticks  # commit what starts within this
+        self._urgent = self.urgent_ticks  # ... plus the way to the step timer (per task)
+        self._tail = self.urgent_ticks
         self.start_margin = p.ticks_per_ms  # timed start: room for the task's own work
         self.tight_run_ticks = 2 * p.ticks_per_ms  # a tight run this long keeps the rate low
         self.guard = guard  # may the follower step up (True) / down (False)?
@@ -129,6 +132,7 @@ class Gear:
         self.engaged = False
         self.stats = GearStats()
         self.spans: list[GearSpan] = []  # every stretch of following, for measurements
+        self._leader_planning: int | None = None
         self._reset_tracking()
 
     # ----------------------------------------------------------------- control
@@ -154,6 +158,14 @@ class Gear:
             return GearResult.ERR_NO_TIMING
         self._set_phase()
         self._reset_tracking()
+        # behind a link (a device) the leader plans further ahead, so that the follower's
+        # commands derived from its plan still reach the step timer in time
+        lead = max(0, f.queue.channel.earliest_start_tick() - self.engine.backend.now())
+        p = self.engine.profile
+        self._leader_planning = self.leader._forward_planning_in_ticks
+        if lead > p.ticks_per_ms:
+            base_ms = self._leader_planning // p.ticks_per_ms
+            self.leader.set_forward_planning_time_in_ms(min(255, base_ms + LINK_PLANNING_MS))
         self.engaged = True
         self._ingest(initial=True)
         self._open_span(self._origin_tick)
@@ -182,6 +194,8 @@ class Gear:
 
     def disengage(self) -> None:
         """Stop deriving follower steps; the steps already queued still run."""
+        if self.engaged and self._leader_planning is not None:
+            self.leader._forward_planning_in_ticks = self._leader_planning
         self.engaged = False
         self.engine.remove_task_hook(self)
         self._events.clear()
@@ -217,6 +231,8 @@ class Gear:
     def run_task(self) -> None:
         if not self.engaged:
             return
+        if self._resync_pending and not self.follower.queue.channel.is_running():
+            self._restart_tracking()
         self._ingest()
         self._commit()
         self._trim()
@@ -240,6 +256,8 @@ class Gear:
         self._y = 0  # follower steps committed
         self._t_last = None  # tick of the last follower step committed
         self._resync_pending = False
+        self._unresolved: list[tuple[int, int, bool, int]] = []  # commands not yet timed
+        self._expect_end: int | None = None  # the leader's end tick as last seen
         self._origin_tick = self.engine.backend.now()
         self.x0 = self.leader.get_current_position()
         self.y0 = self.follower.get_current_position()
@@ -248,35 +266,53 @@ class Gear:
         return self._y_base + (self.n * (x - self._x_base) + self.h) // self.m
 
     def _ingest(self, initial: bool = False) -> None:
-        """Read the leader commands queued since the last look; derive follower steps."""
+        """Read the leader commands queued since the last look; derive follower steps.
+
+        The commands are copied at once (the ring slot is reused once executed); their
+        ticks are resolved backwards from the queue's end tick as soon as the backend
+        knows it (a device confirms a start a round trip later)."""
         q = self.leader.queue
         added = q.entries_added
-        if initial:
-            q.channel.sync()
-            new = (q.next_write_idx - q.read_idx) & 0xFF
-        else:
-            new = added - self._seen
+        queued = (q.next_write_idx - q.read_idx) & 0xFF
+        new = queued if initial else added - self._seen
         self._seen = added
+        if new > queued:
+            self._resync()  # commands ran before the gear saw them
+            return
+        idx = (q.next_write_idx - new) & 0xFF
+        for _ in range(new):
+            e = q.entries[idx % q.queue_len]
+            self._unresolved.append((e.ticks, e.total_steps, e.count_up, e.end_pos))
+            idx = (idx + 1) & 0xFF
         end = q.channel.end_tick()
-        if end is None:
-            if new and q.is_running():  # underway but its timing unknown (ran dry)
-                self._resync()
+        if end is None:  # not known (yet): resolve at a later task
             if not q.is_running():
                 self._horizon = 0
+                self._expect_end = None
+                self._unresolved.clear()  # it stopped: those commands are history
             return
+        expect = self._expect_end
+        if expect is not None:
+            expect += sum(t * max(st, 1) for t, st, _up, _pos in self._unresolved[-new:]) \
+                if new else 0
+            if end != expect and not self._resync_pending:
+                # the leader's timeline moved (a late start a device reported): the
+                # follower's queued steps no longer fit it
+                self._expect_end = None
+                self._unresolved.clear()
+                self._resync()
+                return
+        self._expect_end = end
         self._horizon = end
-        if new <= 0 or self._resync_pending:
+        if not self._unresolved or self._resync_pending:
+            self._unresolved.clear()
             return
-        new = min(new, (q.next_write_idx - q.read_idx) & 0xFF)
-        # begin ticks of the new commands: back from the end of the queue
         spans = []
-        idx = q.next_write_idx
         t = end
-        for _ in range(new):
-            idx = (idx - 1) & 0xFF
-            e = q.entries[idx % q.queue_len]
-            t -= e.ticks * max(e.total_steps, 1)
-            spans.append((t, e.ticks, e.total_steps, e.count_up, e.end_pos))
+        for ticks, steps, up, end_pos in reversed(self._unresolved):
+            t -= ticks * max(steps, 1)
+            spans.append((t, ticks, steps, up, end_pos))
+        self._unresolved.clear()
         spans.reverse()
         skip_before = None
         if initial:  # join the leader from a little ahead: the follower must start
@@ -414,6 +450,13 @@ class Gear:
             if ch.is_running() and q.is_queue_empty():
                 return  # its last command runs out: a timed start follows
             now = self.engine.backend.now()
+            # what must be written now: the next tasks' time plus the way to the step
+            # timer (a device: the link's lead)
+            lead = max(0, ch.earliest_start_tick() - now)
+            self._urgent = self.urgent_ticks + lead
+            # a step with no known successor is written only when the follower would
+            # otherwise run dry before the next task
+            self._tail = 2 * self.engine.profile.fill_period_ticks + lead
             ev0 = events[0]
             lo0, hi0 = self._window(ev0)
             if not ch.is_running():
@@ -422,7 +465,7 @@ class Gear:
                     continue
                 earliest = ch.earliest_start_tick() + self.start_margin
                 t0 = max(ev0.tick, lo0, earliest)
-                if t0 - now > self.urgent_ticks and len(events) < 2 and not final:
+                if t0 - now > self._urgent and len(events) < 2 and not final:
                     return  # not yet: the next step decides the first command
                 saved = (list(events), self._y, self._t_last)
                 self._f_end = t0
@@ -463,20 +506,26 @@ class Gear:
             if gap < self.min_cmd_ticks:
                 target = f_end + self.min_cmd_ticks
                 gap = self.min_cmd_ticks
-            if target - now > self.urgent_ticks and not final:
+            if target - now > self._urgent and not final:
                 # far ahead: pause only as far as needed now
-                if f_end - now > self.urgent_ticks:
+                if f_end - now > self._urgent:
                     return None
                 chunk = min(MAX_TICKS, target - f_end - self.min_cmd_ticks)
-                if chunk < self.min_cmd_ticks:
+                if chunk < self.min_cmd_ticks or not self._room(1):
                     return None
                 self._pause(chunk)
+                return None
+            if not self._room(len(split_ticks(gap)) + 1):
                 return None
             self._pause_chain(gap)
             t0 = target
         self._bound = True
         self._f_end = t0
         return t0
+
+    def _room(self, entries: int) -> bool:
+        q = self.follower.queue
+        return q.queue_len - q.queue_entries() >= entries
 
     def _fit(self, t0: int, tol: int) -> tuple[tuple[int, int, int] | None, bool]:
         """The longest run from the first event at ``t0`` on an even grid inside the
@@ -511,7 +560,7 @@ class Gear:
         full one-step windows."""
         events = self._events
         ev0 = events[0]
-        urgent = t0 - now <= self.urgent_ticks
+        urgent = t0 - now <= self._urgent
         best, ran_out = self._fit(t0, self.tight_m)
         good = best is not None and (ran_out or best[0] == MAX_STEPS
                                      or best[0] * best[1] >= self.tight_run_ticks)
@@ -528,6 +577,8 @@ class Gear:
             k, lo, hi = best
             if ran_out and not urgent and not final and events[k].open_hi:
                 return False  # more leader pulses may lengthen this run: wait
+            if not self._room(1):
+                return False
             ideal = (events[k].tick - t0) / k
             d = min(max(round(ideal), lo), hi)
             self._queue_steps(d, k, ev0.up)
@@ -544,6 +595,8 @@ class Gear:
             dmin1 = max(p, min_cmd)
             if t1 - t0 < dmin1:
                 t1 = t0 + dmin1
+            if not self._room(len(split_ticks(t1 - t0))):
+                return False
             self._shifted(t0, ev0)
             self._single(t0, t1 - t0, ev0.up)
             del events[:1]
@@ -551,12 +604,14 @@ class Gear:
             self._bound = True
             return True
         # only this step is known
-        if not (urgent or final):
+        if not (t0 - now <= self._tail or final):
             return False
         if final and self._horizon <= t0 + 2 * min_cmd:
             wait = max(p, min_cmd)  # the leader stops: so does the follower
         else:
             wait = min(MAX_TICKS, max(max(p, min_cmd), self._horizon - t0 - min_cmd))
+        if not self._room(1):
+            return False
         self._shifted(t0, ev0)
         self._single(t0, wait, ev0.up)
         del events[:1]

@@ -500,4 +500,5 @@ On a device (--port) the pots and switches are its pins A0..A5, reported by the
 device; the limits stop S2 on the device itself.
 
 exit codes: 0 ok, 2 bad arguments, 3 --max-time reached, 5 device lost"""
+DEVICE_INPUT_SET = "device: input {text}"
 # ------------------------------------------------------------- end of winder texts

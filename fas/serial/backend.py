@@ -47,6 +47,7 @@ from .protocol import (
     Pin,
     Progress,
     Start,
+    Started,
     Status,
     StatusRequest,
     SyncReply,
@@ -340,6 +341,10 @@ class SerialBackend(Backend):
                 self._sync_sample(m)
             elif isinstance(m, Input):
                 self._input(m)
+            elif isinstance(m, Started):
+                ch = self._by_index.get(m.stepper)
+                if ch is not None:
+                    ch.started(self.host_tick(m.tick))
             elif isinstance(m, Halted):
                 ch = self._by_index.get(m.stepper)
                 if ch is not None:
@@ -476,7 +481,12 @@ class SerialBackend(Backend):
         if at is None:
             at = self.earliest_start()
         self.last_start_at = at
-        return self.send(Start(1 << index, self.device_tick32(at)))
+        mid = self.send(Start(1 << index, self.device_tick32(at)))
+        if self.link is not None and self.connected:
+            # the Start ends its frame: what is queued after it must not delay it (a
+            # frame counts only when its last byte is in)
+            self.link.flush()
+        return mid
 
     def earliest_start(self) -> int:
         """The earliest host tick a Start sent now can name: the ramp task's time (or

@@ -53,6 +53,7 @@ class SerialChannel(QueueChannel):
         # which the queued entries end, while the device runs them without a gap
         self.start_ticks = backend.profile.sim_queue_start_ticks
         self.t_end: int | None = None
+        self.t_begin: int | None = None  # planned begin of a start not yet confirmed
         self.configure()
 
     # ------------------------------------------------------------ session
@@ -94,6 +95,7 @@ class SerialChannel(QueueChannel):
     def _plan_from(self, at: int) -> None:
         q = self.q
         t = at + self.start_ticks
+        self.t_begin = t  # until the device's Started says when it really began
         rp = q.read_idx
         while rp != q.next_write_idx:
             e = q.entries[rp % q.queue_len]
@@ -101,10 +103,18 @@ class SerialChannel(QueueChannel):
             rp = (rp + 1) & 0xFF
         self.t_end = t
 
+    def started(self, tick: int) -> None:
+        """The device's Started: the queue's first entry began at host tick ``tick``."""
+        if self.t_begin is not None and self.t_end is not None:
+            self.t_end += tick - self.t_begin  # a late start shifts the whole timeline
+            self.t_begin = None
+        else:  # it restarted by itself after running dry: the timeline is lost
+            self.t_end = None
+
     def end_tick(self) -> int | None:
         q = self.q
         if self.t_end is None or not self.is_running() or q.read_idx == q.next_write_idx:
-            return None
+            return None  # (a start not yet confirmed counts as planned: see started())
         if self.t_end <= self.b.now():
             return None  # by now the device has run dry: the timing is lost
         return self.t_end
@@ -125,6 +135,7 @@ class SerialChannel(QueueChannel):
         self.pending_start_mid = 0
         self.dev_running = False
         self.t_end = None
+        self.t_begin = None
         if self.b.connected:
             self.epoch_mid = self.b.send(ForceStop(self.index, self.q.next_write_idx))
         # the device calls its stop point by the pulses made; the host names it next

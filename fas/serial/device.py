@@ -65,6 +65,7 @@ from .protocol import (
     ProtocolError,
     SetEndPos,
     Start,
+    Started,
     Status,
     StatusRequest,
     SyncReply,
@@ -304,10 +305,14 @@ class Device:
                 return True
         return False
 
-    def serve(self, stop: Callable[[], bool] = lambda: False) -> None:
-        """Run in real time until ``stop()`` (the device's main loop on a pty)."""
+    def serve(self, stop: Callable[[], bool] = lambda: False,
+              each: Callable[[], None] | None = None) -> None:
+        """Run in real time until ``stop()`` (the device's main loop on a pty);
+        ``each()`` runs once per turn of the loop (e.g. inputs typed at the terminal)."""
         clock = self.clock
         while not stop():
+            if each is not None:
+                each()
             self.advance(clock.now_ns())
             self.flush()
             nxt = self.next_ns()
@@ -545,7 +550,7 @@ class Device:
             # the host meant this to follow a running queue, which already ran dry
             self.counters["underruns"] += 1
             ch.underruns += 1
-            ch.start()
+            self._start_queue(m.stepper, q)
 
     def _start(self, m: Start) -> None:
         delta = tick_diff32(m.at, self.machine.now & 0xFFFFFFFF)
@@ -564,7 +569,7 @@ class Device:
             if delta <= 0:
                 if delta < 0:
                     self.counters["late_starts"] += 1
-                q.channel.start()
+                self._start_queue(idx, q)
             else:
                 self.start_events[idx] = self.machine.schedule(
                     self.machine.now + delta, lambda i=idx: self._timed_start(i), PRIO_PLAIN)
@@ -573,7 +578,17 @@ class Device:
         self.start_events.pop(idx, None)
         q = self.queues.get(idx)
         if q is not None:
-            q.channel.start()
+            self._start_queue(idx, q)
+
+    def _start_queue(self, idx: int, q: StepperQueue) -> None:
+        """Start the step timer on the queue and tell the host when its first entry
+        begins (the host plans other queues on that timeline)."""
+        ch = q.channel
+        was = ch.is_running()
+        begin = ch.earliest_start_tick()
+        ch.start()
+        if not was and ch.is_running():
+            self.out.append(Started(idx, begin & 0xFFFFFFFF).encode())
 
     def _force_stop(self, m: ForceStop) -> None:
         q = self._queue(m.stepper)

@@ -558,10 +558,21 @@ class Halted(Message):
     tick: int
 
 
+@dataclass(frozen=True, slots=True)
+class Started(Message):
+    """Queue ``stepper`` began its first entry at device tick ``tick`` (a Start on time
+    or late, or an entry that restarted a queue that had run dry)."""
+
+    CODE: ClassVar[int] = 0x89
+    FMT: ClassVar[struct.Struct] = _fmt("BI")
+    stepper: int
+    tick: int
+
+
 _BY_CODE: dict[int, type[Message]] = {}
 for _cls in (Hello, SyncRequest, Config, DirPin, Start, ForceStop, SetEndPos, Pin, Detach,
              PcntAttach, PcntClear, StatusRequest, EmergencyStop, Bye, Ident, SyncReply, Status,
-             DeviceStatus, Nak, WatchInput, Input, Limit, Halted):
+             DeviceStatus, Nak, WatchInput, Input, Limit, Halted, Started):
     _BY_CODE[_cls.CODE] = _cls
 for _s in range(MAX_STEPPERS):
     _BY_CODE[ENTRY_BASE | _s] = Entry
