@@ -17,6 +17,7 @@ from fas.serial.protocol import (
     Halted,
     Input,
     Limit,
+    Started,
     WatchInput,
     decode_messages,
 )
@@ -29,10 +30,26 @@ SWITCH, POT = 17, 14
 def test_input_and_limit_messages_round_trip():
     msgs = [WatchInput(14, W_ANALOG, 50), Input(17, 1023, 0xFFFFFFFF),
             Limit(1, 17, 0, L_UP, 0b01), Limit(1, 0, 0, L_CLEAR, 0),
-            Halted(1, 17, 200, -123456, 77)]
+            Halted(1, 17, 200, -123456, 77), Started(0, 0x12345678)]
     payload = b"".join(m.encode() for m in msgs)
     assert decode_messages(payload) == msgs
-    assert [len(m.encode()) for m in msgs] == [4, 8, 6, 6, 12]
+    assert [len(m.encode()) for m in msgs] == [4, 8, 6, 6, 12, 6]
+
+
+def test_the_device_reports_when_a_queue_really_started():
+    with Loopback() as lb:
+        b = lb.backend
+        engine, s1, s2 = rig(lb)
+        s1.add_queue_entry(2000, 200, True, start=False)
+        ch = s1.queue.channel
+        at = ch.start_at(b.now() + TPS // 100)
+        planned_end = ch.end_tick()
+        assert planned_end == at + 400000
+        ch.t_begin += 160  # pretend the host had planned 10 us too late
+        ch.t_end += 160
+        b.app_wait_until(b.now() + TPS * 15 // 1000)
+        assert ch.t_begin is None  # confirmed by Started ...
+        assert ch.end_tick() == planned_end  # ... and moved back to where it really is
 
 
 def test_the_host_reads_the_device_inputs_as_they_change():
