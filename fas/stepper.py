@@ -139,6 +139,15 @@ class Stepper:
         self._on_delay_ticks = delay_ticks
         return DelayResult.OK
 
+    def get_delay_to_enable_ticks(self) -> int:
+        """The enable delay set with :meth:`set_delay_to_enable` (not in upstream's API:
+        a front end that enables drivers itself waits this long before a step)."""
+        return self._on_delay_ticks
+
+    def get_dir_change_delay_ticks(self) -> int:
+        """The direction-change delay of :meth:`set_direction_pin` (0: none)."""
+        return self._dir_change_delay_ticks
+
     def set_delay_to_disable(self, delay_ms: int) -> None:
         delay_ms &= 0xFFFF
         delay_count = delay_ms // self._profile.delay_ms_base

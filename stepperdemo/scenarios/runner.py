@@ -177,7 +177,8 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
         obs.finish()
         if watch.plot_dir and plots.png_available():
             plots.write_png(plots.series_of(obs), str(Path(watch.plot_dir) / f"{sc.name}.png"),
-                            (1200, 800), title=f"{sc.name}: {sc.input[:80]}")
+                            (1200, 800), title=f"{sc.name}: {sc.input[:80]}",
+                            outputs=plots.outputs_of(obs))
         if watch.timing_report:
             watch.report_lines.append(msg.RUN_TIMING_REPORT_HEAD.format(name=sc.name))
             watch.report_lines += report.report_lines(
