@@ -130,6 +130,11 @@ class Stepper:
                 self._auto_disable_delay_counter = self._off_delay_count
                 self._engine.kick()
 
+    def get_auto_enable(self) -> bool:
+        """Is auto enable on (not in upstream's API; a front end that switches the
+        drivers itself for a while restores it afterwards)."""
+        return self._auto_enable
+
     def set_delay_to_enable(self, delay_us: int) -> DelayResult:
         delay_ticks = self._profile.us_to_ticks(delay_us & 0xFFFFFFFF)
         if 0 < delay_ticks < self._profile.min_cmd_ticks:

@@ -450,3 +450,5 @@ GCODE_ERR_SETTING_VALUE = "setting value '{text}' is not a number"
 GCODE_ERR_NOT_IDLE = "settings change only when idle"
 GCODE_ERR_SETTING_RANGE = "${n} must be {range}"
 GCODE_ERR_NO_SETTING = "no setting ${n}"
+GCODE_CLI_BAD_SET = "--set {text!r}: expected '$N=VALUE'"
+ENTER_GCODE_MODE = "Enter G-code mode (a line is a block, x alone leaves)" + NL
