@@ -39,7 +39,7 @@ from fas.pwm import PwmSetting, count_percent, duty_count, frequency_range
 from .. import messages as msg
 from .interp import Action, Dwell, End, Interpreter, Move, SetOutput
 from .line import Limits, StepTimes, axis_commands, line_profile
-from .parser import AXES, GcodeError, parse_line
+from .parser import AXES, GcodeError, parse_line, strip_comments
 from .settings import (
     KEEP_ENABLED,
     SETTING_HELP,
@@ -212,7 +212,7 @@ class GcodeMachine:
         stripped = text.strip()
         try:
             if stripped.startswith("$"):
-                self._dollar(stripped)
+                self._dollar(strip_comments(stripped).strip())
             else:
                 block = parse_line(text)
                 if self.alarm and not block.empty:
