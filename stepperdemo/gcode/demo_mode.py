@@ -77,6 +77,9 @@ class DemoGcode:
     def _leave(self) -> None:
         self.leaving = False
         for s, auto in zip(self.machine.steppers, self.auto_enable):
+            # the ramp generator's target is where the G-code moves ended (R<n> is
+            # relative to it): name the place where the stepper stands
+            s.force_stop_and_new_position(s.get_current_position())
             s.set_auto_enable(auto)
             if auto:  # back in automatic mode: the driver is off while at rest
                 s.disable_outputs()

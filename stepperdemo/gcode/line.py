@@ -155,27 +155,28 @@ def axis_commands(times: Sequence[int], count_up: bool, tail: int,
             yield waits[0], 1, count_up
             for w in waits[1:]:
                 yield w, 0, count_up
+            cur += span
         else:
-            yield from _group(span, m, count_up, limits)
-        cur += span
+            for cmd in _group(span, m, count_up, limits):
+                cur += cmd[0] * cmd[1]  # what the queue really does: the next group
+                yield cmd  # starts from there and makes up a rounding
         k += m
 
 
 def _group(span: int, m: int, count_up: bool,
-           limits: Limits) -> Iterator[tuple[int, int, bool]]:
-    """``m`` evenly spaced steps over exactly ``span`` ticks: one command, or two whose
-    periods differ by a tick (when both are long enough to be commands)."""
+           limits: Limits) -> list[tuple[int, int, bool]]:
+    """``m`` evenly spaced steps over ``span`` ticks: exactly as one command, or two whose
+    periods differ by a tick (when both are long enough to be commands); else the
+    nearest period."""
     t, r = divmod(span, m)
-    t_ok = max(t, limits.min_step_ticks)
-    if r == 0 or t < limits.min_step_ticks:
-        yield t_ok, m, count_up
-        return
+    if t < limits.min_step_ticks:
+        return [(limits.min_step_ticks, m, count_up)]
+    if r == 0:
+        return [(t, m, count_up)]
     a, b = m - r, r
     if _valid(t, a, limits) and _valid(t + 1, b, limits):
-        yield t, a, count_up
-        yield t + 1, b, count_up
-    else:
-        yield round(span / m), m, count_up
+        return [(t, a, count_up), (t + 1, b, count_up)]
+    return [(t + (1 if 2 * r >= m else 0), m, count_up)]
 
 
 def _valid(ticks: int, steps: int, limits: Limits) -> bool:

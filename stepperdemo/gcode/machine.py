@@ -126,6 +126,9 @@ class MotionRun:
     def begin(self) -> None:
         """Fill every queue, then start them all on one tick."""
         for axis in self.axes:
+            # after a force stop the queue ignores commands until a new motion is planned
+            # (the ramp generator clears this; raw commands must do it themselves)
+            axis.stepper.queue.ignore_commands = False
             err = axis.feed(start=False)
             self.error = self.error or err
         for axis in self.axes:
@@ -296,10 +299,11 @@ class GcodeMachine:
             counts=setting.counts, hz=setting.frequency_hz))
 
     def _output_problem(self, res: OutputResult, analog: bool, number: int,
-                        hz: float | None = None) -> str:
+                        hz: float | None = None, pin: int | None = None) -> str:
         outputs = self.engine.outputs
         name = f"{'Aout' if analog else 'Dout'}{number}"
-        pin = (outputs.analog_pin if analog else outputs.digital_pin)(number)
+        if pin is None:
+            pin = (outputs.analog_pin if analog else outputs.digital_pin)(number)
         profile = self.backend.profile
         if res == OutputResult.ERR_NO_PIN:
             return msg.GCODE_ERR_NO_OUTPUT_PIN.format(name=name, profile=profile.name,
@@ -528,11 +532,7 @@ class GcodeMachine:
         else:
             res = outputs.set_analog_pin(n, int(value))
         if res != OutputResult.OK:
-            if res == OutputResult.ERR_PIN_IN_USE:
-                raise GcodeError(msg.GCODE_ERR_OUTPUT_PIN_USED.format(
-                    name=f"{'Aout' if base == 160 else 'Dout'}{n}", pin=int(value),
-                    user=outputs.pin_user(int(value))))
-            raise GcodeError(self._output_problem(res, base == 160, n))
+            raise GcodeError(self._output_problem(res, base == 160, n, pin=int(value)))
 
     def settings_lines(self) -> list[str]:
         st = self.settings
