@@ -171,7 +171,7 @@ class Console:
     def _show(self, line: str) -> None:
         self.lines.append(line)
         style = ""
-        if line.startswith(("ERROR", "Unknown command", "Failed status")):
+        if line.startswith(("ERROR", "Unknown command", "Failed status", "error:", "ALARM")):
             style = "ansired bold"
         elif line.startswith("test passed"):
             style = "ansigreen bold"
