@@ -25,9 +25,9 @@ ROOT = Path(__file__).resolve().parent.parent
 TPS = 16_000_000
 MOVE = "M1 A1000 V100 R3200 W"
 RUNS = [("FastAccelStepper ramp", MOVE)] + [
-    (f"QuickStep p{n}", f"c M1 l1 q{2 * n + 1} p{n} x {MOVE}") for n in (4, 17, 64)]
+    (f"QuickStep p{n}", f"c M1 q{2 * n + 1} p{n} l1 x {MOVE}") for n in (4, 17, 64)]
 SHORT = "M1 A20000 V250 R400 R400 R400 R400 R400 W"
-DEPTHS = [(f"QuickStep q{q} p4", f"c M1 l1 q{q} p4 x {SHORT}") for q in (1, 20)]
+DEPTHS = [(f"QuickStep q{q} p4", f"c M1 q{q} p4 l1 x {SHORT}") for q in (1, 20)]
 
 
 def step_ticks(line: str) -> list[int]:
