@@ -32,6 +32,7 @@ class Engine:
         self.task_runs = 0
         self.sync = SyncQueue(self)  # synchronized outputs and the motion behind them
         self.outputs = UserOutputs(self)  # Dout0..3, Aout0..3 (seed 003)
+        self.quickstep_clock = None  # fas.quickstep.clock.QuickStepClock, made on first use
 
     def init(self) -> None:
         """Start the periodic ramp task (call once, as ``engine.init()`` upstream)."""

@@ -46,6 +46,7 @@ class OutputResult(IntEnum):
     ERR_FREQUENCY = -5  # the timer cannot make that frequency
     ERR_BUSY = -6  # a synchronized change on this timer waits: change the frequency later
     ERR_NOT_A_NUMBER = -7  # NaN duty or frequency
+    ERR_TIMER_IN_USE = -8  # the QuickStep planner runs on this timer (fas.quickstep)
 
 
 @dataclass(frozen=True)
@@ -165,6 +166,17 @@ class UserOutputs:
             return p.user_analog[number].timer
         return None
 
+    def pwm_uses_timer(self, timer: str) -> bool:
+        """Does a started analog output run on ``timer`` (QuickStep asks, issue 14)?"""
+        return any(self._analog_setting[n] is not None and self.timer_name(n) == timer
+                   for n in range(OUTPUTS))
+
+    def _timer_taken(self, timer: str) -> bool:
+        """The QuickStep planner runs on ``timer`` (AVR: "timer 2")."""
+        clock = self._engine.quickstep_clock
+        return (clock is not None and bool(clock.planners) and clock.timer is not None
+                and timer == f"timer {clock.timer.number}")
+
     def timer_name(self, number: int) -> str | None:
         """The PWM timer of Aout ``number`` on its current pin."""
         pin = self.analog_pin(number)
@@ -191,6 +203,8 @@ class UserOutputs:
         timer = self.profile.pwm_timer(self._timer_of_pin(number, pin) or "")
         if timer is None:
             return OutputResult.ERR_NOT_PWM_PIN
+        if self._timer_taken(timer.name):
+            return OutputResult.ERR_TIMER_IN_USE
         try:
             setting = pwm_setting(timer, frequency_hz)
         except PwmFrequencyError:
@@ -267,6 +281,8 @@ class UserOutputs:
             found = self.frequency_setting(number)
             if not isinstance(found, PwmSetting):
                 return found
+            if self._timer_taken(found.timer):
+                return OutputResult.ERR_TIMER_IN_USE
             # a shared timer already running for another output keeps its setting
             for n in self._sharing(found.timer):
                 if self._analog_setting[n] is not None:

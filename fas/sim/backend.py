@@ -38,6 +38,7 @@ class SimBackend(Backend):
         self.channel_listeners: list[Callable[[SimChannel], None]] = []  # observers
         self._sync_outputs: list[tuple[object, OutputChange]] = []  # waiting for idle queues
         self.output_listeners: list[Callable[[OutputChange, int], None]] = []  # (change, tick)
+        self._qs_load = None  # QuickStep's timer interrupt load (fas.sim.quickstep)
 
     # ------------------------------------------------------------ Backend API
     def now(self) -> int:
@@ -105,14 +106,32 @@ class SimBackend(Backend):
             fn(ch)
         return ch
 
+    def allocate_order_channel(self, queue, fas_queue, clock) -> SimChannel:
+        """QuickStep's FIFO runs on the profile's QuickStep timer (timer 2 on AVR)."""
+        from .quickstep import QuickStepChannel, TimerLoad
+        load = self._qs_load
+        if load is None or load.clock is not clock:
+            load = self._qs_load = TimerLoad(self.machine, clock)
+            self.machine.block_sources.append(load)
+        ch = QuickStepChannel(self.machine, queue, clock, load)
+        ch.on_idle = self._queue_idle
+        self.channels.append(ch)
+        self.machine.block_sources.append(ch)
+        for fn in self.channel_listeners:
+            fn(ch)
+        return ch
+
     def write_pin(self, pin: int, level: int) -> None:
         self.machine.pins.set(pin, level, self.machine.cpu_now())
 
     def read_pin(self, pin: int) -> int:
-        for ch in self.channels:
+        found = False
+        for ch in self.channels:  # (a QuickStep stepper has two: its FIFO's and the idle one)
             if ch.step_pin == pin and not ch.detached:
-                return 1 if ch.step_pin_high() else 0
-        return self.machine.outputs.level(pin, self.machine.now)
+                if ch.step_pin_high():
+                    return 1
+                found = True
+        return 0 if found else self.machine.outputs.level(pin, self.machine.now)
 
     # ------------------------------------------------------- user outputs
     def configure_pwm(self, number: int, pin: int, setting: PwmSetting, count: int) -> None:

@@ -256,12 +256,15 @@ class GcodeMachine:
             self._check_directions(action)
 
     def _check_directions(self, move: Move) -> None:
-        """Two axes of one move on one direction pin must go the same way."""
+        """Two axes of one move on one direction pin must go the same way (and every
+        moving axis must use FastAccelStepper's queue, not QuickStep's FIFO)."""
         seen: dict[int, tuple[int, bool]] = {}
         for i, (t, s) in enumerate(zip(move.target, move.start)):
             if t == s:
                 continue
             stepper = self.steppers[i]
+            if getattr(stepper, "quickstep", None) is not None:
+                raise GcodeError(msg.GCODE_ERR_QUICKSTEP_AXIS.format(letter=AXES[i]))
             pin = stepper.get_direction_pin()
             if pin == PIN_UNDEFINED:
                 if t < s:
@@ -321,6 +324,8 @@ class GcodeMachine:
                 low=f"{low:.4g}", high=f"{high:.4g}")
         if res == OutputResult.ERR_BUSY:
             return msg.GCODE_ERR_OUTPUT_BUSY.format(name=name)
+        if res == OutputResult.ERR_TIMER_IN_USE:
+            return msg.GCODE_ERR_TIMER_QUICKSTEP.format(name=name, timer=outputs.timer_name(number))
         return msg.GCODE_ERR_OUTPUT.format(name=name, code=res.name)
 
     # ----------------------------------------------------------- execution

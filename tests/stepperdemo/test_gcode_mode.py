@@ -114,3 +114,11 @@ def test_g_mode_in_the_stepperdemo_console(tmp_path):
     assert "Enter G-code mode (a line is a block, x alone leaves)" in console.lines
     assert "Exit to main menu" in console.lines
     assert console.app.steppers[0].get_current_position() == 100
+
+
+def test_quickstep_and_pwm_do_not_share_timer_2():
+    _, _, text = demo("c l1 x g\nM68 E0 Q50\nG0 X10\nx\n")
+    assert "error: Aout0: timer 2 runs the QuickStep planner (l0 frees it)" in text
+    assert "error: axis X runs the QuickStep planner" in text
+    _, _, text = demo("g\nM68 E0 Q50\nx\nc l1 x")
+    assert "ERROR timer 2 makes the PWM of a user output: no QuickStep on it" in text
