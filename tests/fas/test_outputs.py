@@ -228,3 +228,19 @@ def test_pwm_without_listeners_costs_no_edges():
     wave = b.machine.outputs.waves[5]
     b.machine.outputs.deliver_until(b.now())
     assert wave.k >= 4999  # but it knows where it is
+
+
+def test_a_profile_without_an_output_table_has_no_outputs():
+    from dataclasses import replace
+
+    from fas.arch import get_profile
+
+    bare = replace(get_profile("esp32"), name="bare", user_digital_pins=(), user_analog=(),
+                   pwm_timers=(), pwm_pins=(), pwm_any_pin=False)
+    e = Engine(SimBackend(bare))
+    e.init()
+    assert e.outputs.digital(0, True) == OutputResult.ERR_NO_PIN
+    assert e.outputs.analog(0, 10) == OutputResult.ERR_NO_PIN
+    assert e.outputs.set_analog_pin(0, 5) == OutputResult.ERR_NOT_PWM_PIN
+    assert e.outputs.set_digital_pin(0, 5) == OutputResult.OK
+    assert e.outputs.digital(0, True) == OutputResult.OK
