@@ -108,9 +108,11 @@ class Program(ABC):
         return []
 
 
-#: program name -> "module:factory"; a factory takes (backend, *, scripted, output)
+#: program name -> "module:factory"; a factory takes (backend, *, scripted, output,
+#: **options) - options are the program's own (its command line gives them)
 PROGRAMS: dict[str, str] = {
     "demo": "stepperdemo.demo.app:StepperDemo",
+    "gcode": "stepperdemo.gcode.program:GcodeProgram",  # issue 12
     "winder": "stepperdemo.winder.app:Winder",  # issue 13: the helix winder (seed 002)
 }
 
@@ -121,5 +123,5 @@ def program_factory(name: str):
 
 
 def make_program(name: str, backend: Backend, *, scripted: bool,
-                 output: Output | None = None) -> Program:
-    return program_factory(name)(backend, scripted=scripted, output=output)
+                 output: Output | None = None, **options) -> Program:
+    return program_factory(name)(backend, scripted=scripted, output=output, **options)

@@ -31,6 +31,8 @@ from .protocol import (
     D_WATCHDOG,
     L_CLEAR,
     L_UP,
+    O_ANALOG,
+    O_SYNCHRONIZED,
     PROTOCOL_VERSION,
     W_ANALOG,
     W_DIGITAL,
@@ -44,6 +46,9 @@ from .protocol import (
     Input,
     Limit,
     Message,
+    OutputCancel,
+    OutputPwm,
+    OutputSet,
     Pin,
     Progress,
     Start,
@@ -105,6 +110,9 @@ class SerialBackend(Backend):
         self.limit_listeners = []
         self.limits: dict[tuple[int, bool], Limit] = {}  # limit switches (replayed)
         self.last_start_at = 0  # host tick of the last Start sent
+        # user outputs (issue 12): PWM configurations and states, replayed on reconnect
+        self._pwm: dict[int, OutputPwm] = {}
+        self._outputs: dict[tuple[bool, int], OutputSet] = {}
         self.device_status: DeviceStatus | None = None
         self.statuses: dict[int, Status] = {}
         self._status_seen: set[int] = set()
@@ -223,6 +231,8 @@ class SerialBackend(Backend):
         self._next_sync_ns = self.clock.now_ns() + self._sync_interval()
         for pin, level in self.pins.items():
             link.send(Pin(pin, level))
+        for message in (*self._pwm.values(), *self._outputs.values()):  # issue 12
+            link.send(message)
         for ch in self.channels:
             ch.configure()
         for watch in self.watches.values():  # the device forgot them with the session
@@ -543,6 +553,35 @@ class SerialBackend(Backend):
     def clear_limit(self, index: int, up: bool) -> None:
         if self.limits.pop((index, bool(up)), None) is not None:
             self.send(Limit(index, 0, 0, (L_UP if up else 0) | L_CLEAR, 0))
+
+    # ---------------------------------------------------- user outputs (issue 12)
+    def configure_pwm(self, number: int, pin: int, setting, count: int) -> None:
+        message = OutputPwm(number, pin, setting.clock_div, setting.counts, count)
+        self._pwm[number] = message
+        self._outputs.pop((True, number), None)
+        self.send(message)
+
+    def _output_message(self, change, flags: int) -> OutputSet:
+        return OutputSet(flags | (O_ANALOG if change.analog else 0), change.number, change.pin,
+                         change.value)
+
+    def set_output(self, change) -> None:
+        self._outputs[(change.analog, change.number)] = self._output_message(change, 0)
+        self.send(self._output_message(change, 0))
+
+    def sync_output(self, change) -> object:
+        """In order after the entries sent so far; the device makes it when its queues
+        have run dry (docs/serial-protocol.md, section 16)."""
+        self._outputs[(change.analog, change.number)] = self._output_message(change, 0)
+        return self.send(self._output_message(change, O_SYNCHRONIZED))
+
+    def sync_output_done(self, token: object) -> bool:
+        # the device makes it before it reports its queues idle; the engine passes the
+        # barrier only once it has seen that report
+        return True
+
+    def cancel_sync_outputs(self) -> None:
+        self.send(OutputCancel())
 
     def attach_pulse_counter(self, queue: StepperQueue, counter: PulseCounter) -> bool:
         if not self.connected:

@@ -79,7 +79,8 @@ def run_scripted(args: argparse.Namespace, write) -> int:
         print(msg.CLI_SERIAL_CONNECT.format(port=args.port, error=exc), file=sys.stderr)
         return EXIT_USAGE
     try:
-        app = make_program(args.program, backend, scripted=True, output=write)
+        app = make_program(args.program, backend, scripted=True, output=write,
+                           **getattr(args, "program_options", {}))
     except ValueError as exc:  # the profile cannot host the program
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         backend.close()
