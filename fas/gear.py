@@ -262,9 +262,6 @@ class Gear:
         self.x0 = self.leader.get_current_position()
         self.y0 = self.follower.get_current_position()
 
-    def _target(self, x: int) -> int:
-        return self._y_base + (self.n * (x - self._x_base) + self.h) // self.m
-
     def _ingest(self, initial: bool = False) -> None:
         """Read the leader commands queued since the last look; derive follower steps.
 
@@ -458,11 +455,11 @@ class Gear:
             # otherwise run dry before the next task
             self._tail = 2 * self.engine.profile.fill_period_ticks + lead
             ev0 = events[0]
-            lo0, hi0 = self._window(ev0)
+            lo0 = self._window(ev0)[0]
             if not ch.is_running():
                 if self._resync_pending:
-                    self._restart_tracking()
-                    continue
+                    self._restart_tracking()  # a new origin; the next task goes on
+                    return
                 earliest = ch.earliest_start_tick() + self.start_margin
                 t0 = max(ev0.tick, lo0, earliest)
                 if t0 - now > self._urgent and len(events) < 2 and not final:

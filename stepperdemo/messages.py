@@ -246,7 +246,7 @@ TABLE_SCAN: dict[str, tuple[int, int, int, int]] = {
 
 # console (REPL) texts, not part of the firmware
 REPL_WELCOME = ("stepperdemo {version} on a simulated {profile} ({mode}). "
-                "Type StepperDemo commands, /help for console commands, Ctrl-D to quit.")
+                "Type {title} commands, /help for console commands, Ctrl-D to quit.")
 REPL_HELP = """Console commands (everything else goes to StepperDemo):
   /help              this text
   /quit              leave (Ctrl-D does the same)
@@ -345,7 +345,7 @@ REPL_VCD_WROTE = "wrote {path}: {edges} edges, t={start:.3f} .. {end:.3f} s"
 # ---------------------------------------------------------------------------------------
 # serial backend (issue 7): stepperdemo --port, stepperdemo device, stepperdemo relay
 REPL_WELCOME_SERIAL = ("stepperdemo {version} on a {profile} device at {port}. "
-                       "Type StepperDemo commands, /help for console commands, Ctrl-D to quit.")
+                       "Type {title} commands, /help for console commands, Ctrl-D to quit.")
 REPL_HELP_SERIAL = """On a device (--port):
   /reconnect [port]  open the device again (after it was lost), or another port
   /link              link statistics (retransmissions, CRC errors) and device counters

@@ -295,10 +295,11 @@ class Console:
         p = self.backend.profile
         if self.port:  # issue 7
             self._note(msg.REPL_WELCOME_SERIAL.format(version=msg.VERSION, profile=p.name,
-                                                      port=self.port))
+                                                      port=self.port, title=self.app.title))
         else:
             self._note(msg.REPL_WELCOME.format(version=msg.VERSION, profile=p.name,
-                                               mode=f"x{self.scale:g} real time"))
+                                               mode=f"x{self.scale:g} real time",
+                                               title=self.app.title))
         session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
                                 output=self._output, complete_while_typing=False)

@@ -212,3 +212,24 @@ def test_split_ticks_keeps_each_part_a_valid_command():
         assert sum(parts) == gap
         assert all(640 <= p <= 65535 for p in parts)
         assert parts[0] == max(parts)
+
+
+def test_a_leader_timeline_that_moves_makes_the_gear_take_a_new_origin():
+    """Interrupts blocked past a compare (StepperDemo's `e`): the leader's next steps
+    come a timer wrap later than planned; the gear sees its end tick move, lets the
+    follower's queued steps run out and follows again from there."""
+    backend, engine, s1, s2 = rig()
+    gear = Gear(engine, s1, s2)
+    gear.engage(1, 2)
+    s1.run_forward()
+    backend.run_for_ms(300)
+    missed = s1.queue.channel.missed_compares
+    backend.block_interrupts(2000)
+    backend.run_for_ms(300)
+    assert s1.queue.channel.missed_compares == missed + 1
+    assert gear.stats.resyncs == 1 and len(gear.spans) == 2
+    s1.stop_move()
+    settle(backend, s1, s2)
+    sp = gear.spans[-1]
+    worst, x, y = errors_by_pins(backend, 1, 2, sp.x0, sp.y0, since=sp.start)
+    assert worst <= 1.0
