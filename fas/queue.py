@@ -62,6 +62,9 @@ class StepperQueue:
         self.dir_high_counts_up = True
         self.max_speed_in_ticks = profile.ticks_per_s // 1000
         self.last_command_ticks = 65535
+        # False: the driver cannot tell how far the running command got (ESP32 RMT,
+        # I2S); get_current_position() then reports the command's start position
+        self.position_in_command = True
         self.entries_added = 0  # statistics for invariants and reports
         self.max_fill = 0
         self.channel: QueueChannel = backend.allocate_channel(self)
@@ -142,7 +145,8 @@ class StepperQueue:
         e = self.entries[rp % self.queue_len]
         if e.steps == 0:
             return e.end_pos
-        return i32(e.end_pos - e.steps if e.count_up else e.end_pos + e.steps)
+        left = e.steps if self.position_in_command else e.total_steps
+        return i32(e.end_pos - left if e.count_up else e.end_pos + left)
 
     # ------------------------------------------------------------- writing
     def add_queue_entry(self, ticks: int | None, steps: int = 0, count_up: bool = True,

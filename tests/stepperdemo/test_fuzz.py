@@ -61,10 +61,10 @@ def test_direct_drive_steps_are_outside_the_auto_enable_rule():
 
 
 def test_direct_drive_of_a_stepper_sharing_a_direction_pin_changes_the_frame():
-    # SAM demo wiring: steppers 1 and 2 share direction pin 18; `T` on stepper 2
+    # ESP32 demo wiring: steppers 1 and 2 share direction pin 18; `T` on stepper 2
     # toggles it while stepper 1 runs (firmware too) - not a library fault
     line = b"H2\ra7702\rU\rH32388\rN\rb\ra37067e3\rM2\rQ\rb\rT\rD1077130787361"
-    res = check_line(line, "sam_due", max_time_s=20)
+    res = check_line(line, "esp32", max_time_s=20)
     assert res.ok, res.violations
 
 
