@@ -22,7 +22,7 @@ from fas.arch import Profile
 from fas.codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
 from fas.sim import SimBackend
 
-LETTERS = "ABCDEF"
+LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"  # stepper 1 = A ... (ESP32 has up to 14 in the demo)
 
 
 @dataclass
