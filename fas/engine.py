@@ -33,8 +33,7 @@ class Engine:
         self._allocator = QueueAllocator(self.profile)
         self._task_rate_ms = self.profile.fill_period_ticks // self.profile.ticks_per_ms
         self.cpu_core = 255
-        self._i2s_mux_state = 0
-        self._pcnt_units: set[int] = set()
+        self._pcnt_units: dict[int, object] = {}  # unit -> the stepper counting on it
         self.i2s_mux_pins: tuple[int, int, int] | None = None
 
     def init(self, cpu_core: int = 255) -> None:
@@ -80,20 +79,18 @@ class Engine:
         return True
 
     def i2s_mux_set_bit(self, slot: int, value: bool) -> None:
+        """Drive one slot of the multiplexer (the backend sees it as pin
+        ``PIN_I2S_FLAG | slot``; direction changes of mux steppers land there too)."""
         self._need_i2s("i2s_mux_set_bit()")
         if self.i2s_mux_pins is None or not 0 <= slot < 32:
             return
-        if value:
-            self._i2s_mux_state |= 1 << slot
-        else:
-            self._i2s_mux_state &= ~(1 << slot)
         self.backend.write_pin(PIN_I2S_FLAG | slot, 1 if value else 0)
 
     def i2s_mux_get_bit(self, slot: int) -> bool:
         self._need_i2s("i2s_mux_get_bit()")
         if self.i2s_mux_pins is None or not 0 <= slot < 32:
             return False
-        return bool(self._i2s_mux_state >> slot & 1)
+        return bool(self.backend.read_pin(PIN_I2S_FLAG | slot))
 
     def write_output(self, pin: int, level: int) -> None:
         """Drive a direction/enable output: a GPIO, or a slot of the I2S multiplexer."""
@@ -105,18 +102,24 @@ class Engine:
     def claim_mux_slot(self, slot: int) -> bool:
         return self._allocator.claim_mux_slot(slot)
 
-    def claim_pulse_counter(self, unit: int) -> bool:
-        """A pcnt unit for ``attach_to_pulse_counter``.  MCPWM/PCNT steppers use one
-        each (ESP-IDF 4: unit n for the n-th of them); ESP-IDF 5 picks any free one."""
+    def claim_pulse_counter(self, unit: int, owner: object) -> bool:
+        """A pcnt unit for ``attach_to_pulse_counter`` of ``owner``.  MCPWM/PCNT
+        steppers use one each (ESP-IDF 4: unit n for the n-th of them); ESP-IDF 5
+        picks a free one itself (a stepper attached again keeps its unit)."""
         p = self.profile
         mcpwm = self._allocator.per_driver.get(FasDriver.MCPWM_PCNT, 0)
+        taken = {u for u, o in self._pcnt_units.items() if o is not owner}
         if p.dynamic_allocation:
-            if mcpwm + len(self._pcnt_units) >= p.pulse_counter_units:
+            if any(o is owner for o in self._pcnt_units.values()):
+                return True
+            if mcpwm + len(taken) >= p.pulse_counter_units:
                 return False
-            unit = len(self._pcnt_units) + 1000  # the system's choice; any free unit
-        elif not 0 <= unit < p.pulse_counter_units or unit < mcpwm or unit in self._pcnt_units:
+            unit = max(self._pcnt_units, default=mcpwm - 1) + 1
+        elif not 0 <= unit < p.pulse_counter_units or unit < mcpwm or unit in taken:
             return False
-        self._pcnt_units.add(unit)
+        for u in [u for u, o in self._pcnt_units.items() if o is owner]:
+            del self._pcnt_units[u]
+        self._pcnt_units[unit] = owner
         return True
 
     # ------------------------------------------------- idle periodic task

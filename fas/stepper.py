@@ -616,7 +616,7 @@ class Stepper:
                                    "on ESP32 builds with a pulse counter (ESP-IDF < 5.5)")
         if not (-32768 <= low_value <= 0 <= high_value <= 32767):
             return False
-        if self._pulse_counter is None and not self._engine.claim_pulse_counter(pcnt_unit):
+        if not self._engine.claim_pulse_counter(pcnt_unit, self):
             return False
         readback = None
         dir_pin = dir_pin_readback if dir_pin_readback != PIN_UNDEFINED else self._dir_pin
