@@ -45,6 +45,10 @@ class QueueEntry:
 class StepperQueue:
     """Ring buffer of commands shared by the library (writer) and a channel (reader)."""
 
+    # False: the driver cannot tell how far the running command got (ESP32 RMT, I2S);
+    # get_current_position() then reports the command's start position
+    position_in_command = True
+
     def __init__(self, index: int, profile: Profile, backend: Backend, step_pin: int):
         self.index = index
         self.profile = profile
@@ -62,9 +66,6 @@ class StepperQueue:
         self.dir_high_counts_up = True
         self.max_speed_in_ticks = profile.ticks_per_s // 1000
         self.last_command_ticks = 65535
-        # False: the driver cannot tell how far the running command got (ESP32 RMT,
-        # I2S); get_current_position() then reports the command's start position
-        self.position_in_command = True
         self.entries_added = 0  # statistics for invariants and reports
         self.max_fill = 0
         self.channel: QueueChannel = backend.allocate_channel(self)

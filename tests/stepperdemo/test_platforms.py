@@ -160,3 +160,20 @@ def test_interactive_w_in_test_mode_blocks_on_the_selected_stepper():
     assert "M1: @" not in body[:stopped]
     assert body.index("Enter commands", stopped) > stopped or "M1: @" in body[stopped:]
     assert app.test_ongoing  # 02 goes on after the first of its moves stopped
+
+
+def test_restart_switches_user_outputs_off():
+    # seed 003: power-on and reset leave every user output off
+    app = StepperDemo(SimBackend("sam_due"), scripted=True)  # its output pins are free
+    app.run_script("")
+    b = app.backend
+    outputs = app.engine.outputs
+    pin_d, pin_a = outputs.digital_pin(0), outputs.analog_pin(0)
+    assert outputs.digital(0, True, synchronized=False) == 0
+    assert outputs.analog(0, 50.0, synchronized=False) == 0
+    b.run_for_ms(5)
+    assert b.read_pin(pin_d) == 1 and pin_a in b.machine.outputs.waves
+    app.restart()
+    b.run_for_ms(5)
+    assert b.read_pin(pin_d) == 0 and not b.machine.outputs.waves
+    assert b.read_pin(pin_a) == 0
