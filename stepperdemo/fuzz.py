@@ -157,6 +157,16 @@ class _Tracker:
         self.auto_enable: dict[int, list[tuple[int, bool]]] = {}
         self.dir_delay: dict[int, list[tuple[int, int, int]]] = {}
         self.detached: dict[int, bool] = {}
+        self.since = 0  # the last restart of the chip (ESP32 `r`): pins count from here
+
+    def restarted(self) -> None:
+        """The chip rebooted: new steppers, a new frame of reference for the pins."""
+        self.since = self.backend.now()
+        self.offset.clear()
+        self.auto_enable.clear()
+        self.dir_delay.clear()
+        self.detached.clear()
+        self.attach()
 
     def attach(self) -> None:
         app = self.app
@@ -193,7 +203,7 @@ class _Tracker:
             orig_force(new_pos)
             pins = tracker.app.demo_steppers[i]
             physical = position_from_pins(backend, pins.step, s.get_direction_pin(),
-                                     s.direction_pin_high_counts_up())
+                                          s.direction_pin_high_counts_up(), tracker.since)
             tracker.offset[i] = s.get_current_position() - physical
 
         def set_auto_enable(value):
@@ -227,6 +237,13 @@ def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 
     tracker = _Tracker(app, backend)
     app.setup()
     tracker.attach()
+    orig_restart = app.restart
+
+    def restart() -> None:
+        orig_restart()
+        tracker.restarted()
+
+    app.restart = restart
     errors_seen: list[tuple[bytes, bool, int]] = []
     orig_dispatch = commands.dispatch
 
@@ -277,7 +294,7 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
             continue  # the wiring drives this step pin from another stepper, too
         # position: library == pins + declared renumberings
         physical = position_from_pins(backend, pins.step, s.get_direction_pin(),
-                                 s.direction_pin_high_counts_up())
+                                      s.direction_pin_high_counts_up(), tracker.since)
         pos = s.get_current_position()
         # a changed direction pin, or pins driven directly (T), count in another frame
         if (not _dir_frame_changed(app, tracker, i) and not s.is_running()
@@ -287,9 +304,9 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
         if s.queue.max_fill > prof.queue_len:
             res.violations.append(f"{name}: queue held {s.queue.max_fill} > {prof.queue_len}")
         times, levels = rec.pin_edges(pins.step)
-        rises = [t for t, lv in zip(times, levels) if lv]
-        falls = [t for t, lv in zip(times, levels) if not lv]
-        if not backend.channels[i].detached:
+        rises = [t for t, lv in zip(times, levels) if lv and t >= tracker.since]
+        falls = [t for t, lv in zip(times, levels) if not lv and t >= tracker.since]
+        if not s.queue.channel.detached:
             for a, b in zip(rises, rises[1:]):
                 if b - a < min_period:
                     res.violations.append(f"{name}: step period {b - a} ticks < {min_period}")
@@ -312,7 +329,7 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
         dpin = pins.direction
         if dpin != PIN_UNDEFINED and not _dir_frame_changed(app, tracker, i):
             dtimes, _ = rec.pin_edges(dpin)
-            for t in dtimes:
+            for t in (t for t in dtimes if t > tracker.since):
                 k = bisect.bisect_right(rises, t) - 1
                 if k >= 0 and k < len(falls) and falls[k] > t and rises[k] < t:
                     res.violations.append(f"{name}: direction changed during a pulse at {t}")
