@@ -2,10 +2,13 @@
 
 Sequenced messages (queue entries, pins, starts, stops) are packed into frames of at
 most ``max_payload`` bytes, numbered mod 128 and kept until the device acknowledges
-them.  Every frame from the device carries its acknowledgement in the SEQ byte; a
-frame not acknowledged within the retransmission timeout - or announced missing by
-a NAK - is sent again together with everything after it (go-back-N).  The device
-drops repeated frames, so a message takes effect exactly once.
+them.  Every frame from the device carries its acknowledgement in the SEQ byte.  The
+device holds up to ``rx_slots`` frames that arrive after a gap and says which in a
+NAK; only the missing frames are sent again (selective repeat): a frame the NAK
+shows missing although a later one arrived, or one not acknowledged within its
+retransmission timeout.  At most ``rx_slots + 1`` frames are in flight, so every
+frame lands in a slot.  The device drops repeated frames, so a message takes effect
+exactly once.
 
 Unsequenced messages (hello, clock sync, status request, emergency stop) travel in
 frames of their own, are never repeated by the link and may overtake the rest.
@@ -25,6 +28,7 @@ from dataclasses import dataclass, fields
 from .protocol import (
     MAX_FRAME,
     MAX_PAYLOAD,
+    MAX_RX_SLOTS,
     SEQ_MASK,
     SEQ_MOD,
     UNSEQUENCED,
@@ -57,6 +61,7 @@ class LinkStats:
     discarded_bytes: int = 0
     bad_payloads: int = 0
     stale_acks: int = 0
+    frames_held: int = 0  # frames a NAK showed held by the device (not resent)
     sync_samples: int = 0
     rtt_us: int = 0  # smoothed round trip of acknowledged frames
 
@@ -65,14 +70,18 @@ class LinkStats:
 
 
 class _Frame:
-    __slots__ = ("data", "last_mid", "resent", "sent_ns", "seq")
+    __slots__ = ("data", "held", "last_mid", "resent", "sent_ns", "seq")
 
     def __init__(self, seq: int, data: bytes, last_mid: int, sent_ns: int) -> None:
         self.seq = seq
         self.data = data
         self.last_mid = last_mid
-        self.sent_ns = sent_ns
+        self.sent_ns = sent_ns  # the last time it went out
         self.resent = False
+        self.held = False  # the device holds it (a NAK said so): never resent
+
+
+LOSS_AVERAGE = 32  # frames over which the share of frames sent again is averaged
 
 
 Handler = Callable[[list[Message], int], None]
@@ -81,8 +90,8 @@ Handler = Callable[[list[Message], int], None]
 class HostLink:
     """Framing, acknowledgement, retransmission and clock samples over one stream."""
 
-    def __init__(self, stream: ByteStream, clock, *, window: int = 16,
-                 max_payload: int = 40, min_payload: int = 12, min_rto_ms: float = 10.0,
+    def __init__(self, stream: ByteStream, clock, *, window: int = 9,
+                 max_payload: int = 32, min_payload: int = 12, min_rto_ms: float = 10.0,
                  initial_rto_ms: float = 100.0, max_rto_ms: float = 250.0,
                  silence_ms: float = 1500.0, baud: int = 115200) -> None:
         self.stream = stream
@@ -100,6 +109,10 @@ class HostLink:
         self.byte_ns = 10 * 1_000_000_000 // baud if baud else 0  # wire time of one byte
         self.srtt_ns: int | None = None
         self.rttvar_ns = 0
+        # line quality, as moving averages: the share of our frames that had to be sent
+        # again, and the share of the device's frames that arrived damaged
+        self.loss_tx = 0.0
+        self.loss_rx = 0.0
         self.decoder = FrameDecoder()
         self.next_seq = 0
         self.unacked: deque[_Frame] = deque()
@@ -112,7 +125,6 @@ class HostLink:
         self.last_rx_ns = now
         self.last_tx_ns = now
         self.closed: str | None = None
-        self._last_nak_ns = -(1 << 62)
 
     # ----------------------------------------------------------------- sending
     def send(self, msg: Message) -> int:
@@ -139,15 +151,30 @@ class HostLink:
     def idle(self) -> bool:
         return not self.unacked and not self.pending
 
+    @property
+    def loss(self) -> float:
+        """The share of frames lost on this line (the worse direction)."""
+        return max(self.loss_tx, self.loss_rx)
+
+    def set_limits(self, window: int, max_payload: int) -> None:
+        """The device's receive figures: frames in flight and the largest payload."""
+        self.window = max(1, window)
+        self.max_payload = max(1, min(max_payload, MAX_PAYLOAD))
+        self.min_payload = min(self.min_payload, self.max_payload)
+        self.payload = min(self.payload, self.max_payload)
+
     def flush(self) -> None:
         """Frame queued messages while the window has room; retransmit when due."""
         if self.closed:
             return
         now = self.clock.now_ns()
-        if self.unacked and now >= self.unacked[0].sent_ns + self._timeout_ns():
-            self.stats.retransmit_timeouts += 1
-            self._backoff = min(self._backoff + 1, 4)
-            self._retransmit(now)
+        if self.unacked:
+            timeout = self._timeout_ns()
+            due = [f for f in self.unacked if not f.held and now >= f.sent_ns + timeout]
+            if due:
+                self.stats.retransmit_timeouts += 1
+                self._backoff = min(self._backoff + 1, 1)
+                self._retransmit(due, now)
         while self.pending and len(self.unacked) < self.window:
             payload = bytearray()
             last_mid = 0
@@ -165,16 +192,16 @@ class HostLink:
             self._write(data)
 
     def _timeout_ns(self) -> int:
-        """Retransmission timeout of the oldest open frame: the round trip plus the wire
-        time of everything sent with it (a busy 115200-baud line queues frames)."""
+        """Retransmission timeout of an open frame: the round trip plus the wire time of
+        everything sent with it (a busy 115200-baud line queues frames)."""
         wire = self.byte_ns * (sum(len(f.data) for f in self.unacked) + MAX_FRAME)
         return min(self.rto_ns << self._backoff, self.max_rto_ns) + wire
 
-    def _retransmit(self, now: int) -> None:
-        # a lossy line: smaller frames get through more often
+    def _retransmit(self, frames: list[_Frame], now: int) -> None:
+        """Send ``frames`` again (in sequence order); a lossy line gets smaller frames."""
         self.payload = max(self.min_payload, self.payload * 2 // 3)
         self._clean_acks = 0
-        for f in self.unacked:
+        for f in frames:
             f.sent_ns = now
             f.resent = True
             self.stats.retransmissions += 1
@@ -206,10 +233,15 @@ class HostLink:
             for seq, payload in self.decoder.feed(data):
                 self.last_rx_ns = now
                 self.stats.frames_received += 1
+                self.loss_rx -= self.loss_rx / LOSS_AVERAGE
                 self._on_frame(seq, payload, now)
                 if self.closed:
                     return
             d = self.decoder
+            bad = d.crc_errors + d.framing_errors - self.stats.crc_errors \
+                - self.stats.framing_errors
+            for _ in range(bad):
+                self.loss_rx += (1.0 - self.loss_rx) / LOSS_AVERAGE
             self.stats.crc_errors = d.crc_errors
             self.stats.framing_errors = d.framing_errors
             self.stats.discarded_bytes = d.discarded_bytes
@@ -227,7 +259,7 @@ class HostLink:
             return
         for m in msgs:
             if isinstance(m, Nak):
-                self._on_nak(m.expected, now)
+                self._on_nak(m.expected, m.held, now)
         if self.handler is not None and msgs:
             self.handler(msgs, self.acked_mid)
 
@@ -238,25 +270,49 @@ class HostLink:
         if n > len(self.unacked):
             self.stats.stale_acks += 1
             return
-        if n:
-            self._backoff = 0
-        for _ in range(n):
-            f = self.unacked.popleft()
+        if not n:
+            return
+        self._backoff = 0
+        done = [self.unacked.popleft() for _ in range(n)]
+        # a round trip only from acknowledgements no repeated or held frame delayed
+        clean = not any(f.resent or f.held for f in done)
+        for f in done:
             self.acked_mid = max(self.acked_mid, f.last_mid)
-            if not f.resent:
+            self.loss_tx += ((1.0 if f.resent else 0.0) - self.loss_tx) / LOSS_AVERAGE
+            if clean:
                 self.rtt_sample(now - f.sent_ns)
                 self._clean_acks += 1
                 if self._clean_acks >= 8 and self.payload < self.max_payload:
                     self.payload += 1
 
-    def _on_nak(self, expected: int, now: int) -> None:
+    def _on_nak(self, expected: int, held: int, now: int) -> None:
+        """The device holds the frames in ``held`` after ``expected``: the frames it
+        misses although a later one arrived are lost (a serial line keeps the order) -
+        unless they were sent again after that later one."""
         self.stats.naks += 1
-        if not self.unacked or self.unacked[0].seq != expected & SEQ_MASK:
-            return
-        guard = self.srtt_ns or 0
-        if now - self.unacked[0].sent_ns >= guard and now - self._last_nak_ns >= guard:
-            self._last_nak_ns = now
-            self._retransmit(now)
+        frames = list(self.unacked)
+        last = -1  # the newest frame the device holds
+        for k, f in enumerate(frames):
+            i = (f.seq - expected - 1) % SEQ_MOD
+            if i < MAX_RX_SLOTS and held >> i & 1:
+                if not f.held:
+                    f.held = True
+                    self.stats.frames_held += 1
+                last = k
+        # a missing frame is lost if a later one arrived (the line keeps the order), or
+        # if it went out a round trip ago (this NAK would have seen it)
+        newest = frames[last].sent_ns if last >= 0 else -1
+        guard = now - self._nak_guard_ns()
+        lost = [f for f in frames[:max(last, 1)]
+                if not f.held and (f.sent_ns <= newest or f.sent_ns <= guard)]
+        if lost:
+            self._retransmit(lost, now)
+
+    def _nak_guard_ns(self) -> int:
+        """How long after sending a frame a NAK that still misses it means it is lost."""
+        if self.srtt_ns is None:
+            return self.rto_ns
+        return self.srtt_ns + 2 * self.rttvar_ns
 
     def rtt_sample(self, rtt: int) -> None:
         """A measured round trip (acknowledged frame or clock sample), in ns."""
