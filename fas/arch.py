@@ -99,6 +99,9 @@ class Profile:
     serial_reserved_bytes: int = 0  # firmware RAM besides queue rings and frame slots
     serial_rx_slots: int = 0  # out-of-order frames the device holds (selective repeat)
     serial_slot_payload: int = 0  # payload bytes of one such slot = largest host frame
+    # the library's own queue length where it differs from queue_len (a serial device's
+    # deeper ring): the API's limits (the enable delay) stay those of the chip
+    api_queue_len: int = 0
     # Arduino pin -> I/O port register (AVR); pins of one port are written together
     pin_ports: dict[int, str] = field(default_factory=dict, compare=False)
     notes: str = field(default="", compare=False)
@@ -114,7 +117,7 @@ class Profile:
 
     @property
     def max_on_delay_ticks(self) -> int:
-        return 65535 * (self.queue_len - 1)
+        return 65535 * ((self.api_queue_len or self.queue_len) - 1)
 
     @property
     def log2_ticks_per_s(self) -> int:
@@ -169,7 +172,8 @@ class Profile:
     def with_queue_len(self, queue_len: int) -> Profile:
         """This profile with a command queue of ``queue_len`` entries (a serial device's
         ring: the host's mirror and the device's queue are that deep)."""
-        return replace(self, queue_len=queue_len)
+        return replace(self, queue_len=queue_len,
+                       api_queue_len=self.api_queue_len or self.queue_len)
 
     def queue_for_step_pin(self, pin: int) -> int | None:
         for idx, group in enumerate(self.step_pin_groups):

@@ -30,6 +30,7 @@ from .protocol import (
     D_ESTOP,
     D_SESSION,
     D_WATCHDOG,
+    MAX_FRAME,
     MAX_PAYLOAD,
     MAX_RX_SLOTS,
     PROTOCOL_VERSION,
@@ -56,6 +57,8 @@ SYNC_SAMPLES = 8
 HOST_MARGIN_MS = 50  # planned beyond the link's delays: host stalls (scheduling, GC)
 LOSS_TARGET = 0.001  # retransmission rounds allowed for: more are needed this rarely
 MAX_ROUNDS = 8
+REPORT_BYTES = 17  # a report frame: two Progress messages and a Nak
+CUT_BYTES = 48  # a Truncate (3) and a frame of entries after it (up to 40 + 5)
 
 
 class SerialError(ConnectionError):
@@ -69,7 +72,8 @@ class SerialBackend(Backend):
     """Drives a device that speaks docs/serial-protocol.md (see module text)."""
 
     def __init__(self, port: str | ByteStream, *, baud: int = 115200, clock=None,
-                 watchdog_ms: int = 500, report_ms: int = 2, connect_timeout_ms: int = 3000,
+                 watchdog_ms: int = 500, report_ms: int | None = None,
+                 connect_timeout_ms: int = 3000,
                  start_lead_us: int = 1000, window: int = 16, max_payload: int = MAX_PAYLOAD,
                  sync_interval_ms: int = 1000, link_planning_ms: int | None = None,
                  host_margin_ms: int = HOST_MARGIN_MS,
@@ -79,7 +83,9 @@ class SerialBackend(Backend):
         self.port = port if isinstance(port, str) else None
         self.baud = baud
         self.watchdog_ms = watchdog_ms
-        self.report_ms = report_ms
+        # the device's report period: reports of two running queues (17 bytes) take at
+        # most a quarter of the line back, and come at least every 2 ms
+        self.report_ms = report_ms or max(2, -(-REPORT_BYTES * 10 * 4 * 1000 // baud))
         self.connect_timeout_ns = connect_timeout_ms * MS
         self.start_lead_us = start_lead_us
         self.window = window
@@ -180,6 +186,7 @@ class SerialBackend(Backend):
         link = HostLink(stream, self.clock, window=self.window, max_payload=self.max_payload,
                         min_rto_ms=10.0, baud=self.baud)
         link.handler = self._on_messages
+        link.probe = lambda: link.sync_request(self.now())
         self.link = link
         self.connected = False
         self._nonce = (self._nonce + 1 + random.getrandbits(15)) & 0xFFFF or 1
@@ -365,13 +372,15 @@ class SerialBackend(Backend):
         return ns * self.clock_hz // NS_PER_S
 
     def round_trip_ticks(self) -> int:
-        """A high estimate of the round trip: the longest of the recent clock samples or
-        the smoothed round trip of acknowledged frames plus four deviations."""
-        hi = max((rtt for rtt, _ in self._sync_samples), default=0)
+        """A high estimate of the line's round trip: the longest of the recent clock
+        samples (the device answers them at once), or - before there are any - the
+        smoothed round trip of acknowledged frames plus four deviations."""
+        if self._sync_samples:
+            return max(rtt for rtt, _ in self._sync_samples)
         link = self.link
         if link is not None and link.srtt_ns is not None:
-            hi = max(hi, self._ns_ticks(link.srtt_ns + 4 * link.rttvar_ns))
-        return hi
+            return self._ns_ticks(link.srtt_ns + 4 * link.rttvar_ns)
+        return 0
 
     def retry_rounds(self) -> int:
         """Retransmission rounds to allow for: so many that a frame needs more only once
@@ -382,9 +391,12 @@ class SerialBackend(Backend):
         return min(MAX_ROUNDS, math.ceil(math.log(LOSS_TARGET) / math.log(loss)))
 
     def retry_round_ticks(self) -> int:
-        """One retransmission round: the retransmission timeout (a NAK is faster)."""
-        link = self.link
-        return self._ns_ticks(link.rto_ns + link.byte_ns * 64) if link is not None else 0
+        """One retransmission round: a lost frame shows a round trip after it went out
+        (a NAK, or the clock sample sent after it as a probe); its repeat follows."""
+        return self.round_trip_ticks() + self.wire_ticks(2 * MAX_FRAME)
+
+    def lossy(self) -> bool:
+        return self.link is not None and self.link.loss > LOSS_TARGET
 
     def wire_ticks(self, n_bytes: int) -> int:
         return n_bytes * 10 * self.clock_hz // self.baud if self.baud else 0
@@ -407,17 +419,17 @@ class SerialBackend(Backend):
         """How far ahead of the last report (received at ``report_ns``) a cut must lie so
         that the device has not begun it when the Truncate and the entries that follow
         it arrive: the report's way here and the Truncate's way there (a round trip),
-        the next ramp task, a report period, the bytes queued before, and - on a line
-        that loses frames - its retransmission rounds."""
+        the next ramp task, the bytes queued before, and - on a line that loses
+        frames - its retransmission rounds."""
         link = self.link
         age = self._ns_ticks(max(0, self.clock.now_ns() - report_ns))
         # before the first entries after the cut: what is queued, the Truncate's frame,
         # a frame of entries
-        backlog = (link.backlog_bytes() if link is not None else 0) + 16 + 64
+        backlog = (link.backlog_bytes() if link is not None else 0) + CUT_BYTES
         margin = (age + self.round_trip_ticks() + self.profile.fill_period_ticks
-                  + self.report_ms * self.clock_hz // 1000 + self.wire_ticks(backlog))
-        if link is not None and link.loss > LOSS_TARGET:
-            margin += self.retry_rounds() * self.retry_round_ticks()
+                  + self.wire_ticks(backlog))
+        if self.lossy():  # one repeat of the Truncate; a refused cut is safe, only later
+            margin += self.retry_round_ticks()
         return margin
 
     # ------------------------------------------------------------ the loop
@@ -529,22 +541,30 @@ class SerialBackend(Backend):
 
     def send_start(self, index: int) -> int:
         base = self._task_tick if self._task_tick is not None else self.now()
-        return self.send(Start(1 << index, self.device_tick32(base + self.start_lead_ticks())))
+        mid = self.send(Start(1 << index, self.device_tick32(base + self.start_lead_ticks())))
+        if self.link is not None:
+            self.link.probe_after(mid)  # a lost Start shows a round trip later
+        return mid
 
     def start_lead_ticks(self) -> int:
-        """How far ahead a start is scheduled: the way there, the bytes queued before it
-        (more than the window holds wait a round trip each), the retransmission rounds."""
+        """How far ahead a start is scheduled: the way there and the time the bytes
+        queued before it take - on the wire, or a round trip and a report period per
+        window when more frames are queued than the window holds, more when frames are
+        lost - and its retransmission rounds (one on a clean line)."""
         hz = self.clock_hz
         lead = self.start_lead_us * hz // 1_000_000
         link = self.link
-        backlog = 16 + (link.backlog_bytes() if link is not None else 0)
+        if link is None:
+            return lead
+        backlog = 16 + link.backlog_bytes()
         rtt = self.round_trip_ticks()
-        windows = 0
-        if link is not None:
-            frame = link.payload + 5
-            windows = max(0, -(-backlog // (frame * link.window)) - 1)
-        return (lead + rtt * (1 + windows) + self.wire_ticks(backlog)
-                + self.retry_rounds() * self.retry_round_ticks())
+        frame = link.payload + 5
+        windows = -(-backlog // (frame * link.window))
+        turn = rtt + self.report_ms * hz // 1000
+        deliver = max(self.wire_ticks(backlog), (windows - 1) * turn)
+        # a clean line may lose a frame too, before any loss has been seen: one round
+        lead += rtt + int(deliver / (1.0 - min(link.loss, 0.5)))
+        return lead + self.retry_rounds() * self.retry_round_ticks()
 
     # --------------------------------------------------------------- pins
     def write_pin(self, pin: int, level: int) -> None:

@@ -151,6 +151,7 @@ class Device:
         self.watchdog_tripped = False
         self.estopped = False
         self.halt_tick: int | None = None
+        self.estop_tick: int | None = None  # when the last emergency stop was taken
         self.last_rx_tick = 0
         self.out: list[bytes] = []
         self.ack_due = False  # an acknowledgement is owed; it rides the next report ...
@@ -222,23 +223,21 @@ class Device:
         """Send what is queued (and a bare acknowledgement if one is due).
 
         While frames are missing (a Nak is owed, or out-of-order frames are held),
-        the first frame sent carries a Nak with the held frames' bitmap."""
+        every frame sent begins with a Nak with the held frames' bitmap."""
         if not self.out and not (self.ack_due and self._ack_now) and not self._nak_owed:
             return False
         if self.ack_due:
             self._changed_progress(only_changed=True)
-        out = self.out
-        if self._nak_owed or self.held:
-            out = [self._nak().encode(), *out]
+        nak = self._nak().encode() if self._nak_owed or self.held else b""
         payloads = []
         group: list[bytes] = []
-        for m in [*out, FRAME_BREAK]:
+        for m in [*self.out, FRAME_BREAK]:
             if not m:  # FRAME_BREAK (every message has at least its type byte)
-                payloads += pack_messages(group, MAX_PAYLOAD)
+                payloads += pack_messages(group, MAX_PAYLOAD - len(nak))
                 group = []
             else:
                 group.append(m)
-        payloads = payloads or [b""]
+        payloads = [nak + p for p in payloads] or [nak]
         self.out = []
         self.ack_due = self._ack_now = self._nak_owed = False
         if self.stream is None:
@@ -360,9 +359,11 @@ class Device:
             self._nak_owed = bool(self.held)
             return
         if d > 0:
-            # a gap: hold the frame if it is within the slots, and say what is missing
+            # a gap: hold the frame if it is within the slots, and say what is missing -
+            # at once for a new gap, else with the next report
             self.counters["frames_out_of_order"] += 1
-            self._nak_owed = True
+            if not self.held:
+                self._nak_owed = True
             if d <= self.rx_slots and len(payload) <= self.slot_payload:
                 self.held[seq] = payload
                 self.counters["frames_held"] += 1
@@ -409,6 +410,7 @@ class Device:
                 return
             if not self.estopped:
                 self.estopped = True
+                self.estop_tick = self.machine.now
                 self._halt()
                 self._notify("emergency stop")
             self._queue_status()
@@ -644,6 +646,7 @@ class Device:
         st.halted = True
         st.refused = False
         self.counters["halts"] += 1
+        self.stop_ticks[m.stepper] = self.machine.now
         self._stop_queue(m.stepper, q)
         q.read_idx = q.next_write_idx
         q.queue_end_pos = q.channel.pulse_pos
@@ -680,10 +683,6 @@ class Device:
                                                      else -e.total_steps))
             i = (i + 1) & 0xFF
         q.next_write_idx = m.index & 0xFF
-        if d == 0:  # nothing left: a start waiting for this queue has nothing to start
-            ev = self.start_events.pop(m.stepper, None)
-            if ev is not None:
-                self.machine.cancel(ev)
 
     def _set_end_pos(self, m: SetEndPos) -> None:
         q = self._queue(m.stepper)

@@ -21,11 +21,13 @@ start it sent.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 
 from .protocol import (
+    FRAME_OVERHEAD,
     MAX_FRAME,
     MAX_PAYLOAD,
     MAX_RX_SLOTS,
@@ -35,10 +37,9 @@ from .protocol import (
     FrameDecoder,
     Message,
     Nak,
-    ProtocolError,
     SyncReply,
     SyncRequest,
-    decode_messages,
+    decode_prefix,
     encode_frame,
 )
 from .stream import ByteStream, LinkClosed
@@ -82,6 +83,8 @@ class _Frame:
 
 
 LOSS_AVERAGE = 32  # frames over which the share of frames sent again is averaged
+LOSSY = 0.05  # above this share of lost frames, the frame holding up the window goes twice
+PROBES = 8  # clock samples remembered as loss probes
 
 
 Handler = Callable[[list[Message], int], None]
@@ -99,8 +102,8 @@ class HostLink:
         self.window = window
         self.max_payload = min(max_payload, MAX_PAYLOAD)
         self.min_payload = min(min_payload, self.max_payload)
-        self.payload = self.max_payload  # current frame size limit, shrinks on losses
-        self._clean_acks = 0
+        self.payload = self.max_payload  # current frame size limit (see _fit_payload)
+        self.frame_len = float(FRAME_OVERHEAD + self.max_payload)  # average sent, moving
         self._backoff = 0
         self.min_rto_ns = int(min_rto_ms * MS)
         self.max_rto_ns = int(max_rto_ms * MS)
@@ -120,6 +123,9 @@ class HostLink:
         self.next_mid = 1
         self.acked_mid = 0
         self.handler: Handler | None = None
+        self.probe: Callable[[], None] | None = None  # sends a clock sample (backend)
+        self._probes: dict[int, int] = {}  # stamp of a clock sample -> when it went out
+        self._probe_mid = 0  # send a probe right after the frame with this message
         self.stats = LinkStats()
         now = clock.now_ns()
         self.last_rx_ns = now
@@ -161,7 +167,7 @@ class HostLink:
         self.window = max(1, window)
         self.max_payload = max(1, min(max_payload, MAX_PAYLOAD))
         self.min_payload = min(self.min_payload, self.max_payload)
-        self.payload = min(self.payload, self.max_payload)
+        self._fit_payload()
 
     def flush(self) -> None:
         """Frame queued messages while the window has room; retransmit when due."""
@@ -188,8 +194,13 @@ class HostLink:
             seq = self.next_seq
             self.next_seq = (seq + 1) % SEQ_MOD
             data = encode_frame(seq, bytes(payload))
+            self.frame_len += (len(data) - self.frame_len) / LOSS_AVERAGE
             self.unacked.append(_Frame(seq, data, last_mid, now))
             self._write(data)
+            if self._probe_mid and last_mid >= self._probe_mid:
+                self._probe_mid = 0
+                if self.probe is not None:
+                    self.probe()
 
     def _timeout_ns(self) -> int:
         """Retransmission timeout of an open frame: the round trip plus the wire time of
@@ -198,14 +209,20 @@ class HostLink:
         return min(self.rto_ns << self._backoff, self.max_rto_ns) + wire
 
     def _retransmit(self, frames: list[_Frame], now: int) -> None:
-        """Send ``frames`` again (in sequence order); a lossy line gets smaller frames."""
-        self.payload = max(self.min_payload, self.payload * 2 // 3)
-        self._clean_acks = 0
+        """Send ``frames`` again (in sequence order), then a clock sample as a probe:
+        the device answers it at once, with a Nak if frames are still missing, so a
+        repeat that is lost again shows one round trip later.  On a lossy line the
+        oldest frame - it holds up the window - goes twice (the device drops the
+        second copy)."""
         for f in frames:
             f.sent_ns = now
             f.resent = True
-            self.stats.retransmissions += 1
-            self._write(f.data)
+            copies = 2 if f is self.unacked[0] and self.loss > LOSSY else 1
+            for _ in range(copies):
+                self.stats.retransmissions += 1
+                self._write(f.data)
+        if self.probe is not None:
+            self.probe()
 
     def _write(self, data: bytes) -> None:
         try:
@@ -252,14 +269,14 @@ class HostLink:
 
     def _on_frame(self, seq: int, payload: bytes, now: int) -> None:
         self._ack(seq & SEQ_MASK, now)
-        try:
-            msgs = decode_messages(payload)
-        except ProtocolError:
+        msgs, error = decode_prefix(payload)
+        if error:  # a message this host does not know: the rest of the frame is lost
             self.stats.bad_payloads += 1
-            return
         for m in msgs:
             if isinstance(m, Nak):
                 self._on_nak(m.expected, m.held, now)
+            elif isinstance(m, SyncReply):
+                self._on_probe(m.stamp, now)
         if self.handler is not None and msgs:
             self.handler(msgs, self.acked_mid)
 
@@ -281,9 +298,30 @@ class HostLink:
             self.loss_tx += ((1.0 if f.resent else 0.0) - self.loss_tx) / LOSS_AVERAGE
             if clean:
                 self.rtt_sample(now - f.sent_ns)
-                self._clean_acks += 1
-                if self._clean_acks >= 8 and self.payload < self.max_payload:
-                    self.payload += 1
+        self._fit_payload()
+
+    def _fit_payload(self) -> None:
+        """Frames as long as pays on this line.  A frame of L bytes carries L-5 and
+        gets through with s = (1-p)^L for a byte error rate p (from the loss and the
+        average frame length).  The bytes that arrive per second are bounded by the
+        wire, rate * (L-5)/L * s, and by the window, window * (L-5) * s per round trip
+        of which a lost frame costs more (s again); the payload is the L that gives the
+        most under both bounds."""
+        loss = min(self.loss, 0.9)
+        if loss <= 0.0:
+            self.payload = self.max_payload
+            return
+        per_byte = -math.log1p(-loss) / self.frame_len  # -ln(1-p)
+        wire = 1e9 / self.byte_ns if self.byte_ns else math.inf  # bytes/s
+        rtt_s = (self.srtt_ns or self.rto_ns) / 1e9
+        best_payload, best = self.max_payload, -1.0
+        for payload in range(self.min_payload, self.max_payload + 1):
+            length = payload + FRAME_OVERHEAD
+            ok = math.exp(-per_byte * length)
+            rate = min(wire * payload / length, self.window * payload * ok / rtt_s) * ok
+            if rate > best:
+                best_payload, best = payload, rate
+        self.payload = best_payload
 
     def _on_nak(self, expected: int, held: int, now: int) -> None:
         """The device holds the frames in ``held`` after ``expected``: the frames it
@@ -305,6 +343,23 @@ class HostLink:
         guard = now - self._nak_guard_ns()
         lost = [f for f in frames[:max(last, 1)]
                 if not f.held and (f.sent_ns <= newest or f.sent_ns <= guard)]
+        if lost:
+            self._retransmit(lost, now)
+
+    def probe_after(self, mid: int) -> None:
+        """Send a clock sample as a probe right after message ``mid`` goes out: if its
+        frame is lost, the answer shows it one round trip later (a Start at the end
+        of a burst has no later frame whose arrival would tell)."""
+        self._probe_mid = max(self._probe_mid, mid)
+
+    def _on_probe(self, stamp: int, now: int) -> None:
+        """A clock sample came back.  Its frame tells what the device had when it took
+        the sample (acknowledgement and, while it holds frames, a Nak): every frame sent
+        before the sample and neither acknowledged nor held was lost."""
+        sent = self._probes.pop(stamp, None)
+        if sent is None:
+            return
+        lost = [f for f in self.unacked if not f.held and f.sent_ns <= sent]
         if lost:
             self._retransmit(lost, now)
 
@@ -345,7 +400,11 @@ class HostLink:
         self.clock.wait(deadline_ns, None if self.closed else self.stream)
 
     def sync_request(self, stamp: int) -> None:
-        self.send_unsequenced(SyncRequest(stamp & 0xFFFFFFFF))
+        stamp &= 0xFFFFFFFF
+        self._probes[stamp] = self.clock.now_ns()
+        while len(self._probes) > PROBES:
+            del self._probes[next(iter(self._probes))]
+        self.send_unsequenced(SyncRequest(stamp))
 
     def _close(self, reason: str) -> None:
         if self.closed is None:
