@@ -71,18 +71,20 @@ class LinkStats:
 
 
 class _Frame:
-    __slots__ = ("data", "held", "last_mid", "resent", "sent_ns", "seq")
+    __slots__ = ("data", "held", "last_mid", "order", "resent", "sent_ns", "seq")
 
     def __init__(self, seq: int, data: bytes, last_mid: int, sent_ns: int) -> None:
         self.seq = seq
         self.data = data
         self.last_mid = last_mid
         self.sent_ns = sent_ns  # the last time it went out
+        self.order = 0  # ... and its place among everything written (the line's order)
         self.resent = False
         self.held = False  # the device holds it (a NAK said so): never resent
 
 
 LOSS_AVERAGE = 32  # frames over which the share of frames sent again is averaged
+MAX_LOSS = 0.9  # a loss estimate is capped here (a few bad frames at first read high)
 LOSSY = 0.05  # above this share of lost frames, the frame holding up the window goes twice
 PROBES = 8  # clock samples remembered as loss probes
 
@@ -116,6 +118,8 @@ class HostLink:
         # again, and the share of the device's frames that arrived damaged
         self.loss_tx = 0.0
         self.loss_rx = 0.0
+        self._weight_tx = 0.0  # how much of each average is samples (bias correction:
+        self._weight_rx = 0.0  # an average that starts at 0 reads low at first)
         self.decoder = FrameDecoder()
         self.next_seq = 0
         self.unacked: deque[_Frame] = deque()
@@ -124,7 +128,8 @@ class HostLink:
         self.acked_mid = 0
         self.handler: Handler | None = None
         self.probe: Callable[[], None] | None = None  # sends a clock sample (backend)
-        self._probes: dict[int, int] = {}  # stamp of a clock sample -> when it went out
+        self._probes: dict[int, int] = {}  # stamp of a clock sample -> its write order
+        self._order = 0  # writes so far: a serial line delivers in this order
         self._probe_mid = 0  # send a probe right after the frame with this message
         self.stats = LinkStats()
         now = clock.now_ns()
@@ -160,7 +165,9 @@ class HostLink:
     @property
     def loss(self) -> float:
         """The share of frames lost on this line (the worse direction)."""
-        return max(self.loss_tx, self.loss_rx)
+        tx = self.loss_tx / self._weight_tx if self._weight_tx else 0.0
+        rx = self.loss_rx / self._weight_rx if self._weight_rx else 0.0
+        return min(max(tx, rx), MAX_LOSS)
 
     def set_limits(self, window: int, max_payload: int) -> None:
         """The device's receive figures: frames in flight and the largest payload."""
@@ -195,8 +202,10 @@ class HostLink:
             self.next_seq = (seq + 1) % SEQ_MOD
             data = encode_frame(seq, bytes(payload))
             self.frame_len += (len(data) - self.frame_len) / LOSS_AVERAGE
-            self.unacked.append(_Frame(seq, data, last_mid, now))
+            frame = _Frame(seq, data, last_mid, now)
+            self.unacked.append(frame)
             self._write(data)
+            frame.order = self._order
             if self._probe_mid and last_mid >= self._probe_mid:
                 self._probe_mid = 0
                 if self.probe is not None:
@@ -221,6 +230,7 @@ class HostLink:
             for _ in range(copies):
                 self.stats.retransmissions += 1
                 self._write(f.data)
+                f.order = self._order
         if self.probe is not None:
             self.probe()
 
@@ -230,6 +240,7 @@ class HostLink:
         except LinkClosed as exc:
             self._close(str(exc))
             return
+        self._order += 1
         self.stats.frames_sent += 1
         self.stats.bytes_sent += len(data)
         self.last_tx_ns = self.clock.now_ns()
@@ -251,6 +262,7 @@ class HostLink:
                 self.last_rx_ns = now
                 self.stats.frames_received += 1
                 self.loss_rx -= self.loss_rx / LOSS_AVERAGE
+                self._weight_rx += (1.0 - self._weight_rx) / LOSS_AVERAGE
                 self._on_frame(seq, payload, now)
                 if self.closed:
                     return
@@ -259,6 +271,7 @@ class HostLink:
                 - self.stats.framing_errors
             for _ in range(bad):
                 self.loss_rx += (1.0 - self.loss_rx) / LOSS_AVERAGE
+                self._weight_rx += (1.0 - self._weight_rx) / LOSS_AVERAGE
             self.stats.crc_errors = d.crc_errors
             self.stats.framing_errors = d.framing_errors
             self.stats.discarded_bytes = d.discarded_bytes
@@ -296,6 +309,7 @@ class HostLink:
         for f in done:
             self.acked_mid = max(self.acked_mid, f.last_mid)
             self.loss_tx += ((1.0 if f.resent else 0.0) - self.loss_tx) / LOSS_AVERAGE
+            self._weight_tx += (1.0 - self._weight_tx) / LOSS_AVERAGE
             if clean:
                 self.rtt_sample(now - f.sent_ns)
         self._fit_payload()
@@ -339,10 +353,10 @@ class HostLink:
                 last = k
         # a missing frame is lost if a later one arrived (the line keeps the order), or
         # if it went out a round trip ago (this NAK would have seen it)
-        newest = frames[last].sent_ns if last >= 0 else -1
+        newest = frames[last].order if last >= 0 else -1
         guard = now - self._nak_guard_ns()
         lost = [f for f in frames[:max(last, 1)]
-                if not f.held and (f.sent_ns <= newest or f.sent_ns <= guard)]
+                if not f.held and (f.order < newest or f.sent_ns <= guard)]
         if lost:
             self._retransmit(lost, now)
 
@@ -356,10 +370,10 @@ class HostLink:
         """A clock sample came back.  Its frame tells what the device had when it took
         the sample (acknowledgement and, while it holds frames, a Nak): every frame sent
         before the sample and neither acknowledged nor held was lost."""
-        sent = self._probes.pop(stamp, None)
-        if sent is None:
+        order = self._probes.pop(stamp, None)
+        if order is None:
             return
-        lost = [f for f in self.unacked if not f.held and f.sent_ns <= sent]
+        lost = [f for f in self.unacked if not f.held and f.order < order]
         if lost:
             self._retransmit(lost, now)
 
@@ -401,10 +415,10 @@ class HostLink:
 
     def sync_request(self, stamp: int) -> None:
         stamp &= 0xFFFFFFFF
-        self._probes[stamp] = self.clock.now_ns()
+        self.send_unsequenced(SyncRequest(stamp))
+        self._probes[stamp] = self._order
         while len(self._probes) > PROBES:
             del self._probes[next(iter(self._probes))]
-        self.send_unsequenced(SyncRequest(stamp))
 
     def _close(self, reason: str) -> None:
         if self.closed is None:
