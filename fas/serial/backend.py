@@ -371,12 +371,14 @@ class SerialBackend(Backend):
     def _ns_ticks(self, ns: int) -> int:
         return ns * self.clock_hz // NS_PER_S
 
-    def round_trip_ticks(self) -> int:
+    def round_trip_ticks(self, rank: int = 1) -> int:
         """A high estimate of the line's round trip: the longest of the recent clock
-        samples (the device answers them at once), or - before there are any - the
-        smoothed round trip of acknowledged frames plus four deviations."""
+        samples (the device answers them at once) - ``rank=2``: the second longest, so
+        that one sample that waited behind a burst does not count - or, before there
+        are any, the smoothed round trip of acknowledged frames plus four deviations."""
         if self._sync_samples:
-            return max(rtt for rtt, _ in self._sync_samples)
+            rtts = sorted(rtt for rtt, _ in self._sync_samples)
+            return rtts[-min(rank, len(rtts))]
         link = self.link
         if link is not None and link.srtt_ns is not None:
             return self._ns_ticks(link.srtt_ns + 4 * link.rttvar_ns)
@@ -393,7 +395,7 @@ class SerialBackend(Backend):
     def retry_round_ticks(self) -> int:
         """One retransmission round: a lost frame shows a round trip after it went out
         (a NAK, or the clock sample sent after it as a probe); its repeat follows."""
-        return self.round_trip_ticks() + self.wire_ticks(2 * MAX_FRAME)
+        return self.round_trip_ticks() + self.wire_ticks(MAX_FRAME)
 
     def lossy(self) -> bool:
         return self.link is not None and self.link.loss > LOSS_TARGET
@@ -420,16 +422,17 @@ class SerialBackend(Backend):
         that the device has not begun it when the Truncate and the entries that follow
         it arrive: the report's way here and the Truncate's way there (a round trip),
         the next ramp task, the bytes queued before, and - on a line that loses
-        frames - its retransmission rounds."""
+        frames - its retransmission rounds: the entries after the cut must be there
+        before the motor reaches it."""
         link = self.link
         age = self._ns_ticks(max(0, self.clock.now_ns() - report_ns))
         # before the first entries after the cut: what is queued, the Truncate's frame,
         # a frame of entries
         backlog = (link.backlog_bytes() if link is not None else 0) + CUT_BYTES
-        margin = (age + self.round_trip_ticks() + self.profile.fill_period_ticks
-                  + self.wire_ticks(backlog))
-        if self.lossy():  # one repeat of the Truncate; a refused cut is safe, only later
-            margin += self.retry_round_ticks()
+        rtt = self.round_trip_ticks(rank=2)  # a refused cut is safe, only later
+        margin = age + rtt + self.profile.fill_period_ticks + self.wire_ticks(backlog)
+        if self.lossy():  # the Truncate and the entries after it may need repeats
+            margin += self.retry_rounds() * (rtt + self.wire_ticks(MAX_FRAME))
         return margin
 
     # ------------------------------------------------------------ the loop
