@@ -25,7 +25,7 @@ from ..backend import Backend, PulseCounter
 from ..queue import StepperQueue
 from .channel import SerialChannel
 from .clock import RealClock
-from .link import HostLink, LinkStats
+from .link import LOSSY, HostLink, LinkStats
 from .protocol import (
     D_ESTOP,
     D_SESSION,
@@ -535,12 +535,18 @@ class SerialBackend(Backend):
     def send_halt(self, index: int, stop_id: int) -> None:
         """Stop one queue on the device now, ahead of everything queued (unsequenced)."""
         if self.connected and self.link is not None:
-            self.link.send_unsequenced(Halt(index, stop_id, self._nonce))
+            self._send_stop(Halt(index, stop_id, self._nonce))
+
+    def _send_stop(self, msg: Message) -> None:
+        """An unsequenced stop: on a line that loses frames, two copies back to back."""
+        for _ in range(2 if self.link.loss > LOSSY else 1):
+            self.link.send_unsequenced(msg)
 
     def repeat_ns(self) -> int:
-        """How often an unanswered unsequenced stop is sent again: a retransmission
-        timeout (at least 5 ms)."""
-        return max(5 * MS, self.link.rto_ns if self.link is not None else 50 * MS)
+        """How often an unanswered unsequenced stop is sent again: a round trip of the
+        line and the stop's wire time (at least 5 ms)."""
+        return max(5 * MS, (self.round_trip_ticks() + self.wire_ticks(16)) * NS_PER_S
+                   // self.clock_hz)
 
     def send_start(self, index: int) -> int:
         base = self._task_tick if self._task_tick is not None else self.now()
@@ -636,11 +642,11 @@ class SerialBackend(Backend):
         try:
             count = self._status_count
             self.estop_ns = self.clock.now_ns()
-            link.send_unsequenced(EmergencyStop(self._nonce))
+            self._send_stop(EmergencyStop(self._nonce))
             ok = self._await(lambda: self._status_count > count and self.device_status
                              is not None and bool(self.device_status.state & D_ESTOP),
                              self.connect_timeout_ns,
-                             lambda: link.send_unsequenced(EmergencyStop(self._nonce)),
+                             lambda: self._send_stop(EmergencyStop(self._nonce)),
                              self.repeat_ns())
             if not ok:
                 self._lose(link.closed or "no answer to the emergency stop")
