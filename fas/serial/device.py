@@ -16,8 +16,10 @@ from __future__ import annotations
 import random
 from collections.abc import Callable
 
-from ..arch import Profile, get_profile
+from ..arch import Profile, PwmTimer, get_profile
 from ..backend import PulseCounter
+from ..outputs import OutputChange
+from ..pwm import PwmSetting
 from ..queue import StepperQueue, i32
 from ..sim.backend import SimBackend
 from ..sim.channel import SimChannel
@@ -53,6 +55,9 @@ from .protocol import (
     Ident,
     Message,
     Nak,
+    OutputCancel,
+    OutputPwm,
+    OutputSet,
     PcntAttach,
     PcntClear,
     Pin,
@@ -78,6 +83,16 @@ DEFAULT_REPORT_MS = 2
 DEFAULT_STATUS_MS = 100
 FRAME_BREAK = b""  # in the output list: start a new frame (small frames survive noise)
 DEVICE_STATUS_EVERY = 5  # status periods between unrequested DeviceStatus messages
+
+
+def pwm_timer_for(profile: Profile, number: int, pin: int) -> PwmTimer | None:
+    """The timer that makes analog output ``number`` on ``pin`` on this chip."""
+    unit = profile.pwm_pin(pin)
+    if unit is not None:
+        return profile.pwm_timer(unit.timer)
+    if profile.pwm_any_pin and 0 <= number < len(profile.user_analog):
+        return profile.pwm_timer(profile.user_analog[number].timer)
+    return None
 
 
 class DeviceChannel(SimChannel):
@@ -472,7 +487,8 @@ class Device:
                 ForceStop: self._force_stop, SetEndPos: self._set_end_pos,
                 Config: self._config, DirPin: self._dir_pin, Detach: self._detach,
                 PcntAttach: self._pcnt_attach, PcntClear: self._pcnt_clear,
-                Truncate: self._truncate}
+                Truncate: self._truncate, OutputPwm: self._output, OutputSet: self._output,
+                OutputCancel: self._output}
 
     def _pin(self, m: Pin) -> None:
         self.machine.pins.set(m.pin, m.level, self.machine.now)
@@ -501,10 +517,36 @@ class Device:
             q.channel.sync()
             q.channel.pulse_counter.clear()
 
+    # -------------------------------------------------- user outputs (issue 12)
+    def _output(self, m: Message) -> None:
+        """PWM timers, output changes at once or after every queue ran dry, cancel."""
+        sim = self.sim
+        if isinstance(m, OutputCancel):
+            sim.cancel_sync_outputs()
+            return
+        if isinstance(m, OutputPwm):
+            timer = pwm_timer_for(self.profile, m.number, m.pin)
+            if timer is None or m.counts < 2 or m.clock_div < 1:
+                self.counters["rejected"] += 1
+                return
+            setting = PwmSetting(timer.name, timer.clock_hz, timer.divider_frac_bits,
+                                 m.clock_div, m.counts, 0.0)
+            sim.configure_pwm(m.number, m.pin, setting, min(m.count, m.counts))
+            return
+        change = OutputChange(m.analog, m.number, m.pin, m.value if m.analog else
+                              (1 if m.value else 0))
+        if m.synchronized and not (self.watchdog_tripped or self.estopped):
+            sim.sync_output(change)
+        elif m.synchronized:
+            self.counters["rejected"] += 1
+        else:
+            sim.set_output(change)
+
     # ------------------------------------------------------------ queues
     def allocate_channel(self, queue: StepperQueue) -> DeviceChannel:
         """(StepperQueue calls this while it is built: the device is its backend.)"""
         ch = DeviceChannel(self.machine, queue)
+        ch.on_idle = self.sim._queue_idle  # synchronized outputs wait for this (issue 12)
         self.sim.channels.append(ch)
         return ch
 
@@ -632,6 +674,7 @@ class Device:
         st = self.stops[m.stepper]
         st.halted = st.refused = False
         st.halt_id = m.stop_id
+        self.sim._queue_idle()  # synchronized outputs wait for idle queues (section 16)
 
     def _halt_stepper(self, m: Halt) -> None:
         """Halt (unsequenced): stop one queue now; drop its motion until the ForceStop."""
@@ -651,6 +694,7 @@ class Device:
         q.read_idx = q.next_write_idx
         q.queue_end_pos = q.channel.pulse_pos
         self._report(m.stepper)
+        self.sim._queue_idle()
 
     def _truncate(self, m: Truncate) -> None:
         """Drop the entries from ``m.index`` on, if none of them has begun (a cut)."""
@@ -694,8 +738,10 @@ class Device:
             q.channel.pulse_pos = i32(q.channel.pulse_pos + delta)
 
     def _halt(self) -> None:
-        """Stop every queue at once; positions stay exact (where the pulses stopped)."""
+        """Stop every queue at once; positions stay exact (where the pulses stopped).
+        Synchronized output changes not made yet are dropped; outputs stay as they are."""
         self.halt_tick = self.machine.now
+        self.sim.cancel_sync_outputs()
         for idx, q in self.queues.items():
             self._stop_queue(idx, q)
             q.read_idx = q.next_write_idx

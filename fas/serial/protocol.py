@@ -591,6 +591,59 @@ class Nak(Message):
     held: int = 0
 
 
+# --- user outputs (issue 12; docs/serial-protocol.md section 16) -----------------
+O_ANALOG = 0x01  # OutputSet flags: an analog (PWM) output, value = duty count
+O_SYNCHRONIZED = 0x02  # made when every queue has executed every entry received before
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class OutputPwm(Message):
+    """(Re)start the PWM timer of analog output ``number`` on ``pin`` at once: periods of
+    ``counts`` counts of ``clock_div`` timer clocks (the profile's rule), duty ``count``."""
+
+    CODE: ClassVar[int] = 0x20
+    FMT: ClassVar[struct.Struct] = _fmt("BBIII")
+    number: int
+    pin: int
+    clock_div: int
+    counts: int
+    count: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class OutputSet(Message):
+    """Set a user output: digital ``value`` 0/1, analog ``value`` = duty count; at once, or
+    (``O_SYNCHRONIZED``) after the motion of every entry received before it."""
+
+    CODE: ClassVar[int] = 0x21
+    FMT: ClassVar[struct.Struct] = _fmt("BBBI")
+    flags: int
+    number: int
+    pin: int
+    value: int
+
+    @property
+    def analog(self) -> bool:
+        return bool(self.flags & O_ANALOG)
+
+    @property
+    def synchronized(self) -> bool:
+        return bool(self.flags & O_SYNCHRONIZED)
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class OutputCancel(Message):
+    """Drop the synchronized output changes not made yet (an alarm on the host)."""
+
+    CODE: ClassVar[int] = 0x22
+    FMT: ClassVar[struct.Struct] = _fmt("")
+
+
+
+
 def decode_messages(payload: bytes) -> list[Message]:
     """All messages of a frame's payload (raises :class:`ProtocolError`)."""
     msgs, error = decode_prefix(payload)
