@@ -6,6 +6,7 @@ import select
 from fas.serial.clock import VirtualClock, Wire
 from fas.serial.device import Device
 from fas.serial.protocol import (
+    O_SYNCHRONIZED,
     P_CUT_REFUSED,
     PROTOCOL_VERSION,
     UNSEQUENCED,
@@ -18,6 +19,7 @@ from fas.serial.protocol import (
     Hello,
     Ident,
     Nak,
+    OutputSet,
     Progress,
     SetEndPos,
     Start,
@@ -280,5 +282,22 @@ def test_continuation_entry_restarts_a_dry_queue_as_underrun():
         assert h.device.counters["underruns"] == 1
         h.clock.run_until(2 * 10**8)
         assert h.device.pulses(0) == 20
+    finally:
+        h.close()
+
+
+def test_a_synchronized_output_waits_for_the_halted_queue():
+    h = Host()
+    try:
+        _open(h)
+        _running(h)
+        dev = h.device
+        h.send(8, OutputSet(O_SYNCHRONIZED, 0, 2, 1))  # after the motion before it
+        h.clock.run_until(h.clock.now_ns() + 20 * 10**6)
+        dev.machine.outputs.deliver_until(dev.machine.now)
+        assert dev.machine.pins.get(2) == 0  # still moving
+        h.send(UNSEQUENCED, Halt(0, 1, 5))  # X: the queue is idle now
+        dev.machine.outputs.deliver_until(dev.machine.now)
+        assert dev.machine.pins.get(2) == 1
     finally:
         h.close()
