@@ -497,6 +497,17 @@ QS_ERR_TIMER_PWM = "ERROR timer {timer} makes the PWM of a user output: no Quick
 # ----------------------------------------------------------- end of issue 12 texts
 
 # ---------------------------------------------------------------------------------------
+# serial link planning and stops (issue 18)
+SERIAL_PLANNING = ("planning: {extra_ms} ms beyond the library's ({how}: round trip "
+                   "{rtt_ms:.1f} ms, {rounds} retransmission round(s), {loss_pct:.1f} % "
+                   "frames lost); device queue {queue_len} entries, {window} frames of "
+                   "{payload} bytes in flight")
+SERIAL_BAD_PLANNING = "{ms} is not a time of 0 .. 10000 ms"
+SERIAL_DEVICE_REPAIRS = ("device: {frames_held} frames held after a gap, {cuts} queue cuts "
+                         "({cuts_refused} refused), {halts} halts, {discarded} discarded")
+# ------------------------------------------------------------ end of issue 18 texts
+
+# ---------------------------------------------------------------------------------------
 # issue 17: StepperDemo on the other platforms of FastAccelStepper 1.2.7
 # start-up prompt for a pin configuration (ESP32, Pico), byte-exact as the firmware
 SELECT_PIN_CONFIG = "Select pin configuration:"
