@@ -65,24 +65,51 @@ class QueueChannel(ABC):
         it will begin; None if it cannot (running, empty queue, no timed start)."""
         return None
 
+    def hold_cuts(self, hold: bool) -> None:
+        """While held, no cut drops queued entries (a follower derived steps from them)."""
+
+    # --- cuts: a stop that must not wait for a deep queue (serial backend) ----------
+    supports_cut = False  # the stepper keeps ramp snapshots and may ask for cuts
+    cut_pending = False  # a cut is not yet confirmed: hold back new ramp requests
+
+    def cut_index(self) -> int | None:
+        """The first queue index a cut sent now could drop (None: no cut possible)."""
+        return None
+
+    def cut(self, index: int, on_refused: Callable[[], None]) -> None:
+        """Drop the entries from ``index`` on, here and on the executor; if the executor
+        had already begun them, the entries come back and ``on_refused()`` is called."""
+        raise NotImplementedError
+
 
 class PulseCounter:
-    """An independent counter of step pulses (ESP32's pcnt unit, simulated everywhere).
+    """An independent counter of step pulses (ESP32's pcnt unit).
 
-    Counts rising step edges up or down by the direction pin level.  On reaching
-    ``high`` (or ``low``) it resets to 0; with both limits 0 it wraps like an int16.
+    Counts rising step edges up or down by the direction: the direction pin's level
+    (``follow_direction``), or the level of a read-back GPIO (``readback``), or - with
+    neither - always up.  On reaching ``high`` (or ``low``) it resets to 0; with both
+    limits 0 it wraps like an int16.
     """
 
-    def __init__(self, low: int, high: int, dir_high_counts_up: bool = True) -> None:
+    def __init__(self, low: int, high: int, dir_high_counts_up: bool = True, *,
+                 follow_direction: bool = True,
+                 readback: Callable[[], int] | None = None) -> None:
         self.low = low
         self.high = high
         self.dir_high_counts_up = dir_high_counts_up
+        self.follow_direction = follow_direction
+        self.readback = readback
         self.value = 0
 
     def count(self, steps: int, dir_level: bool) -> None:
         if steps <= 0:
             return
-        up = dir_level == self.dir_high_counts_up
+        if self.readback is not None:
+            up = (self.readback() == 1) == self.dir_high_counts_up
+        elif self.follow_direction:
+            up = dir_level == self.dir_high_counts_up
+        else:
+            up = True
         v = self.value + (steps if up else -steps)
         if self.high == 0 and self.low == 0:
             v = ((v + 0x8000) & 0xFFFF) - 0x8000
@@ -110,6 +137,9 @@ class Backend(ABC):
     input_listeners: list[InputListener]
     #: called with (queue index, pin, position, tick) for every queue a limit stopped
     limit_listeners: list[LimitListener]
+    # ticks a stepper plans ahead beyond its forward-planning time once its queue runs
+    # (a serial link's delays; 0 on a chip, where the queue is the timer's own)
+    planning_extra_ticks: int = 0
 
     @abstractmethod
     def now(self) -> int:
@@ -125,6 +155,15 @@ class Backend(ABC):
 
     def wake_task(self) -> None:
         """The engine has work again: do not skip the next periodic run."""
+
+    @property
+    def task_period_ticks(self) -> int:
+        """Period of the periodic ramp task (``engine.task_rate()`` may change it)."""
+        return getattr(self, "_task_period", None) or self.profile.fill_period_ticks
+
+    def set_task_period(self, ticks: int) -> None:
+        """From the next run on, run the periodic task every ``ticks``."""
+        self._task_period = max(1, ticks)
 
     @abstractmethod
     def allocate_channel(self, queue: StepperQueue) -> QueueChannel:
@@ -155,6 +194,12 @@ class Backend(ABC):
 
     def detach_step_pin(self, queue: StepperQueue, detached: bool) -> None:
         """Hand the step pin to the application (``detached``) or back to the library."""
+
+    def reset_chip(self) -> None:
+        """Reboot the microcontroller (ESP32's ``ESP.restart()``): every channel stops,
+        the periodic task ends, outputs fall back to LOW; the clock keeps running.
+        The caller builds a new :class:`~fas.engine.Engine` afterwards."""
+        raise NotImplementedError(f"{type(self).__name__} cannot reboot its chip")
 
     # --- user outputs (issue 12, fas.outputs) ---
     def configure_pwm(self, number: int, pin: int, setting: PwmSetting, count: int) -> None:

@@ -167,6 +167,7 @@ class Gear:
             base_ms = self._leader_planning // p.ticks_per_ms
             self.leader.set_forward_planning_time_in_ms(min(255, base_ms + LINK_PLANNING_MS))
         self.engaged = True
+        self.leader.queue.channel.hold_cuts(True)  # its queued steps must all be made
         self._ingest(initial=True)
         self._open_span(self._origin_tick)
         self.engine.add_task_hook(self)
@@ -196,6 +197,7 @@ class Gear:
         """Stop deriving follower steps; the steps already queued still run."""
         if self.engaged and self._leader_planning is not None:
             self.leader._forward_planning_in_ticks = self._leader_planning
+        self.leader.queue.channel.hold_cuts(False)
         self.engaged = False
         self.engine.remove_task_hook(self)
         self._events.clear()

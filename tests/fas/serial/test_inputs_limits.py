@@ -14,9 +14,9 @@ from fas.serial.protocol import (
     L_CLEAR,
     L_UP,
     W_ANALOG,
-    Halted,
     Input,
     Limit,
+    LimitHit,
     Started,
     WatchInput,
     decode_messages,
@@ -30,7 +30,7 @@ SWITCH, POT = 17, 14
 def test_input_and_limit_messages_round_trip():
     msgs = [WatchInput(14, W_ANALOG, 50), Input(17, 1023, 0xFFFFFFFF),
             Limit(1, 17, 0, L_UP, 0b01), Limit(1, 0, 0, L_CLEAR, 0),
-            Halted(1, 17, 200, -123456, 77), Started(0, 0x12345678)]
+            LimitHit(1, 17, 200, -123456, 77), Started(0, 0x12345678)]
     payload = b"".join(m.encode() for m in msgs)
     assert decode_messages(payload) == msgs
     assert [len(m.encode()) for m in msgs] == [4, 8, 6, 6, 12, 6]
@@ -130,7 +130,8 @@ def test_a_device_limit_stops_without_a_step_after_the_switch(faults):
             assert steps[-1] <= t_switch  # stopped by the device: no step after it
             assert position == len(steps) == engine.stepper(index).get_current_position()
             assert b.device_tick32(tick) == t_switch & 0xFFFFFFFF
-        assert not dev.halted  # the host's force stop let the queues in again
+        assert not any(st.halted for st in dev.stops.values())  # the host's force stop
+        # let the queues in again
         s2.move(-100)  # away from it
         assert b.wait_until(lambda: not s2.is_running(), TPS)
         assert b.settle()
@@ -148,13 +149,13 @@ def test_a_halted_queue_refuses_entries_until_the_host_knows():
         b.limit_listeners.append(lambda *a: hits.append(a))  # the host ignores it
         s2.move(500)  # towards the closed limit
         b.app_wait_until(b.now() + TPS // 5)
-        assert hits and dev.halted == {1}
+        assert hits and dev.stops[1].halted
         assert dev.recorder.rising(10) == []
-        assert dev.counters["rejected"] > 0  # the entries that followed
+        assert dev.counters["discarded"] > 0  # the entries that followed
         s2.force_stop_and_new_position(hits[0][2])
         b.clear_limit(1, True)
         assert b.settle()
-        assert dev.halted == set()
+        assert not dev.stops[1].halted
         s2.move(20)
         assert b.wait_until(lambda: not s2.is_running(), TPS)
         assert b.settle()
