@@ -673,4 +673,19 @@ device; the limits stop S2 on the device itself.
 
 exit codes: 0 ok, 2 bad arguments, 3 --max-time reached, 5 device lost"""
 DEVICE_INPUT_SET = "device: input {text}"
+WINDER_WAY = {True: "forward", False: "backward"}
+WINDER_SWITCH_STATE = {True: "closed", False: "open"}
+WINDER_ON_OFF = {True: "on", False: "off"}
+WINDER_MODE = {True: "fixture", False: "link"}
+WINDER_ROLES = ("spindle", "traverse")
+WINDER_STATUS_POT = "A{a} {value}"
+WINDER_STATUS_SWITCH = "A{a} {state}"
+WINDER_HELP_LINE = "  {text:<22} {hint}"
+WINDER_TOOLBAR_POT = "A{a}={value}"
+WINDER_TOOLBAR_SWITCH = "A{a}{mark}"  # mark: # closed, - open
+WINDER_TOOLBAR_AXIS = "{name}:{control}"
+WINDER_TOOLBAR_LOCK = "interlock {state} {n}:{m}{engaged}"
+WINDER_TOOLBAR_ENGAGED = " engaged"
+WINDER_TOOLBAR = "{pots} | {switches} | {axes} | {lock}"
+WINDER_VCD_SWITCH = "A{a}_{name}"
 # ------------------------------------------------------------- end of winder texts

@@ -600,7 +600,7 @@ class Winder(Program):
             else:
                 s.run_backward()
             self.say(msg.WINDER_MOVE_RUN.format(name=axis.name,
-                                                way="forward" if count > 0 else "backward",
+                                                way=msg.WINDER_WAY[count > 0],
                                                 counts=axis.period_counts, speed=speed))
         else:
             target = s.get_current_position() + count
@@ -734,7 +734,7 @@ class Winder(Program):
         if not cmd.active:
             return msg.WINDER_POT_OFF.format(name=axis.name)
         return msg.WINDER_POT_RULE.format(name=axis.name,
-                                          way="forward" if cmd.direction > 0 else "backward",
+                                          way=msg.WINDER_WAY[cmd.direction > 0],
                                           speed=cmd.speed, counts=cmd.period_counts,
                                           real=cmd.steps_per_s)
 
@@ -752,7 +752,7 @@ class Winder(Program):
             return msg.WINDER_INPUTS_ARE_PINS.format(what="switches")
         # what changed first, then what it caused
         self._later.insert(said, msg.WINDER_SWITCH.format(
-            a=a, state="closed" if value else "open", role=msg.WINDER_SWITCH_ROLES[a]))
+            a=a, state=msg.WINDER_SWITCH_STATE[bool(value)], role=msg.WINDER_SWITCH_ROLES[a]))
         return None
 
     def cmd_reset(self) -> str | None:
@@ -775,7 +775,7 @@ class Winder(Program):
     def cmd_help(self) -> str | None:
         self.say(msg.WINDER_HELP_HEAD)
         for text, hint in completions():
-            self.say(f"  {text:<22} {hint}")
+            self.say(msg.WINDER_HELP_LINE.format(text=text, hint=hint))
         return None
 
     # -------------------------------------------------------------- status
@@ -795,19 +795,21 @@ class Winder(Program):
         for axis in self.axes:
             s = axis.stepper
             lines.append(msg.WINDER_STATUS_AXIS.format(
-                name=axis.name, role=("spindle", "traverse")[axis.index],
+                name=axis.name, role=msg.WINDER_ROLES[axis.index],
                 position=s.get_current_position(),
                 speed=s.get_current_speed_in_milli_hz() / 1000,
                 control=self._control_text(axis), counts=axis.period_counts,
                 accel=axis.accel))
         lines.append(msg.WINDER_STATUS_INPUTS.format(
-            pots=" ".join(f"A{a} {self.read(a)}" for a in fig.POT_INPUTS),
-            switches=" ".join(f"A{a} {'closed' if self.closed(a) else 'open'}"
+            pots=" ".join(msg.WINDER_STATUS_POT.format(a=a, value=self.read(a))
+                          for a in fig.POT_INPUTS),
+            switches=" ".join(msg.WINDER_STATUS_SWITCH.format(
+                a=a, state=msg.WINDER_SWITCH_STATE[self.closed(a)])
                               for a in fig.SWITCHES)))
         n, m = self.ratio
         lines.append(msg.WINDER_STATUS_MODE.format(
-            mode="fixture" if self.fixture else "link",
-            interlock=("on" if self.interlock else "off"), n=n, m=m,
+            mode=msg.WINDER_MODE[self.fixture],
+            interlock=msg.WINDER_ON_OFF[self.interlock], n=n, m=m,
             engaged=msg.WINDER_ENGAGED if self.gear.engaged else ""))
         return lines
 
@@ -833,7 +835,7 @@ class Winder(Program):
         self.pause_until = None
 
     def mode_name(self) -> str:
-        return "fixture" if self.fixture else "link"
+        return msg.WINDER_MODE[self.fixture]
 
     def completions(self) -> list[tuple[str, str]]:
         return completions()
@@ -841,14 +843,17 @@ class Winder(Program):
     def toolbar_status(self) -> str:
         if not self._setup_done:
             return ""
-        pots = " ".join(f"A{a}={self.read(a)}" for a in fig.POT_INPUTS)
-        sw = "".join(("A2", "A3", "A4", "A5")[i] + ("#" if self.closed(a) else "-") + " "
-                     for i, a in enumerate(fig.SWITCHES)).strip()
-        axes = " ".join(f"{a.name}:{self._control_text(a)}" for a in self.axes)
+        pots = " ".join(msg.WINDER_TOOLBAR_POT.format(a=a, value=self.read(a))
+                        for a in fig.POT_INPUTS)
+        sw = " ".join(msg.WINDER_TOOLBAR_SWITCH.format(a=a, mark="#" if self.closed(a) else "-")
+                      for a in fig.SWITCHES)
+        axes = " ".join(msg.WINDER_TOOLBAR_AXIS.format(name=a.name, control=self._control_text(a))
+                        for a in self.axes)
         n, m = self.ratio
-        lock = f"interlock {'on' if self.interlock else 'off'} {n}:{m}" + (
-            " engaged" if self.gear.engaged else "")
-        return f"{pots} | {sw} | {axes} | {lock}"
+        lock = msg.WINDER_TOOLBAR_LOCK.format(
+            state=msg.WINDER_ON_OFF[self.interlock], n=n, m=m,
+            engaged=msg.WINDER_TOOLBAR_ENGAGED if self.gear.engaged else "")
+        return msg.WINDER_TOOLBAR.format(pots=pots, switches=sw, axes=axes, lock=lock)
 
     def watch(self, observers) -> None:
         from .watch import InterlockMeter
@@ -875,7 +880,8 @@ class Winder(Program):
 
     def trace_signals(self) -> dict[int, list[str]]:
         """The winder's inputs as VCD signals beside the steppers' pins."""
-        return {self.pin(a): [f"A{a}_{msg.WINDER_SWITCH_NAMES[a]}"] for a in fig.SWITCHES}
+        return {self.pin(a): [msg.WINDER_VCD_SWITCH.format(a=a, name=msg.WINDER_SWITCH_NAMES[a])]
+                for a in fig.SWITCHES}
 
 
 __all__ = ["Winder", "WinderError"]

@@ -200,8 +200,9 @@ def test_link_control_is_sticky_until_pots():
     assert "S1: link control (pots again with 'pots')" in text
     assert f"S1 stopped at {stopped_at}" in text
     assert not s1.is_running()  # the pot at 800 does not move it any more
-    app.run_script("w300 pots w300")
-    assert s1.is_running()
+    reason = app.run_script("w300 pots w300 pot 1 512 w1000")
+    assert reason == EndReason.IDLE
+    assert s1.get_current_position() > stopped_at + 100  # 'pots': the pot drives it again
 
 
 def test_link_mode_at_power_up_and_fixture_mode_with_a4_closed():
