@@ -317,6 +317,22 @@ class StepperDemo(Program):
         """One pass of StepperDemo's ``loop()``."""
         b = self.backend
         self.passes += 1
+        if self.waiting_interactive:
+            # interactive W: the firmware is still inside process_cmd() of the pass
+            # that took the W, spinning on isRunning(); that pass goes on once it stops
+            if self.selected_stepper.is_running():
+                return
+            self.waiting_interactive = False
+            self.println(msg.STOPPED)
+        else:
+            self._take_input()
+            if self.waiting_interactive:
+                return  # the W just began to spin
+        self._rest_of_pass()
+
+    def _take_input(self) -> None:
+        """The first part of a pass: one character in, a completed command executed."""
+        b = self.backend
         ch = 0
         if self.scripted:
             if self.script_pos < len(self.script):
@@ -324,7 +340,7 @@ class StepperDemo(Program):
                 self.script_pos += 1
             elif self.read_ptr == self.write_ptr and self.input_consumed_at is None:
                 self.input_consumed_at = b.now()
-        elif self.rx and not self.waiting_interactive:
+        elif self.rx:
             ch = self.rx.popleft()
         if ch:
             if ((self.write_ptr + 1) & 0xFF) == self.read_ptr:
@@ -336,11 +352,6 @@ class StepperDemo(Program):
             if ((b.millis() - self.pause_start) & 0xFFFFFFFF) >= self.pause_ms:
                 self.pause_ms = 0
                 self.print(msg.WAIT_COMPLETE)
-        elif self.waiting_interactive:
-            s = self.selected_stepper
-            if not s.is_running():
-                self.waiting_interactive = False
-                self.println(msg.STOPPED)
         elif self.read_ptr != self.write_ptr:
             c = self.in_buffer[self.read_ptr]
             self.read_ptr = (self.read_ptr + 1) & 0xFF
@@ -358,6 +369,9 @@ class StepperDemo(Program):
                         self.println(cmd)
                 self.out_buffer.clear()
 
+    def _rest_of_pass(self) -> None:
+        """The second part of a pass: error injections, tests, status lines."""
+        b = self.backend
         ms = b.millis()
         if self.simulate_digital_read_error:
             b.stray_read(tuple(s.get_step_pin() for s in self.steppers if s is not None))
@@ -442,7 +456,7 @@ class StepperDemo(Program):
     def _needs_machine_events(self) -> bool:
         """False when only the clock can end the current wait (test sequences that
         wait for time): then the loop need not look at every interrupt."""
-        if self.mode != Mode.TEST or not self.test_ongoing:
+        if self.waiting_interactive or self.mode != Mode.TEST or not self.test_ongoing:
             return True
         return any(slot.test is not None and slot.state != TEST_STATE_ERROR
                    and slot.wake_ms is None for slot in self.test_slots)
@@ -462,6 +476,9 @@ class StepperDemo(Program):
     def _wake_time(self) -> int | None:
         """Earliest tick at which an idle loop could have something to do."""
         b = self.backend
+        if self.waiting_interactive:  # only the stepper's stop ends the spin (a machine event)
+            nxt = b.next_event_time()
+            return None if nxt is None else max(nxt, b.now())
         candidates = []
         if self._needs_machine_events():
             nxt = b.next_event_time()

@@ -114,11 +114,10 @@ def cmd_wait_stop(app: StepperDemo, arg: bytes) -> bool:
         if s.is_running() or app.test_ongoing:
             app.read_ptr = (app.read_ptr - 2) & 0xFF
         return True
+    # the interactive firmware spins in process_cmd() until the selected stepper stops
+    # (in test mode too: the test sequences are not called meanwhile); a stepper that
+    # runs without end and is not stopping is not waited for
     app.print(msg.BLOCKING_WAIT)
-    if app.mode == Mode.TEST:
-        if app.test_ongoing:
-            app.waiting_interactive = True
-        return True
     if not s.is_running_continuously() or s.is_stopping():
         if s.is_running():
             app.waiting_interactive = True
