@@ -315,7 +315,6 @@ class StepperDemo(Program):
 
     def loop_pass(self) -> None:
         """One pass of StepperDemo's ``loop()``."""
-        b = self.backend
         self.passes += 1
         if self.waiting_interactive:
             # interactive W: the firmware is still inside process_cmd() of the pass
