@@ -7,7 +7,9 @@ arrives beyond the buffer is lost.  So the console sends one command at a time (
 command and the separator after it) and holds the next one:
 
 * after most commands until the board answered: a line came and then the board was
-  quiet for :data:`ANSWER_GAP_S` - or nothing at all came for :data:`NO_ANSWER_S`;
+  quiet for :data:`ANSWER_GAP_S` or printed a status line (which the firmware prints
+  at the end of a loop pass, so the answer is out) - or nothing at all came for
+  :data:`NO_ANSWER_S`;
 * after ``W`` until the wait is over: the board's ``Blocking wait ...`` and then
   ``STOPPED`` (or any other line: the wait returned at once because the stepper runs
   without end; or ``Unknown command: W`` in config mode); in test mode, also until
@@ -48,6 +50,7 @@ class InputPacer:
         self.hold: str | None = None  # "answer", "W", "W stop", "W test", "T"
         self._sent_s = 0.0
         self._lines = 0  # lines received since the last command went out
+        self._last_status = False  # the last of them was a status line
         self._until_s: float | None = None
 
     # ------------------------------------------------------------- queue
@@ -82,6 +85,9 @@ class InputPacer:
         """Has the current hold ended (clears it when it has)?"""
         if self.hold is None:
             return True
+        if self.hold == "answer" and self._lines and self._last_status:
+            self.hold = None
+            return True
         at = self._release_at(last_rx_s)
         if at is None or now_s < at:
             return False
@@ -96,8 +102,28 @@ class InputPacer:
         word = token.strip(SEPARATORS)
         self._sent_s = now_s
         self._lines = 0
+        self._last_status = False
         self.hold = ("W" if word == b"W" else "answer") if word else None
         return token
+
+    def unanswered(self, now_s: float) -> bool:
+        """The last command has had no answer at all yet (and may still get one)."""
+        return (self.hold == "answer" and not self._lines
+                and now_s < self._sent_s + NO_ANSWER_S)
+
+    def holding(self, now_s: float, last_rx_s: float) -> str | None:
+        """Why the board is not done with the input sent (None: it is)."""
+        if not self.released(now_s, last_rx_s) and self.hold != "answer":
+            return self.hold
+        return "answer" if self.unanswered(now_s) else None
+
+    def sent_directly(self, now_s: float) -> None:
+        """Something went out past the queue (Ctrl-C's stop): wait for its answer."""
+        self._sent_s = now_s
+        self._lines = 0
+        self._last_status = False
+        self._until_s = None
+        self.hold = "answer"
 
     def wake_in(self, now_s: float, last_rx_s: float) -> float | None:
         """Seconds until the next command may go (None: nothing waits for a timer)."""
@@ -111,6 +137,7 @@ class InputPacer:
     def on_line(self, kind: str | None, state: BoardState, now_s: float) -> None:
         """A line came from the board (``kind`` as :meth:`BoardState.feed` says)."""
         self._lines += 1
+        self._last_status = kind == "status"
         if kind == "reset":
             self.clear()  # a new start: nothing typed before it belongs to it
             return

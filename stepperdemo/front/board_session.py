@@ -170,8 +170,9 @@ class BoardSession:
         """Why the board is not idle yet (a key of ``messages.BOARD_BUSY_WHY``)."""
         if self.pacer.queue:
             return "input"
-        if not self.pacer.released(self.now(), self.last_rx_s):
-            return self.pacer.hold
+        held = self.pacer.holding(self.now(), self.last_rx_s)
+        if held is not None:
+            return held
         st = self.state
         if st.spinning:
             return "spinning"
@@ -263,7 +264,8 @@ class BoardSession:
         for n in numbers:
             words += [f"M{n}", "X"]
         words.append(f"M{st.selected}")
-        self._write((" ".join(words) + "\n").encode("ascii"))
+        if self._write((" ".join(words) + "\n").encode("ascii")):
+            self.pacer.sent_directly(self.now())
         return numbers, left
 
     def close(self) -> None:

@@ -123,6 +123,8 @@ class Console:
         self.history = self._make_history(history)
         self.lines: list[str] = []  # everything shown, for tests
         self.quit = False
+        self.prompt_session: PromptSession | None = None
+        self._history_mode: str | None = None
         self.trace = TraceCommands(lambda: self.app)  # /trace /vcd /plot /report (issue 6)
         self._start(arch)
 
@@ -267,10 +269,21 @@ class Console:
         self._wake.set()
 
     # ---------------------------------------------------------- main loop
+    def follow_mode(self) -> None:
+        """The history offers the lines of the program's input mode: reload it when the
+        mode changes (the line being typed stays)."""
+        mode = self.app.mode_name()
+        if mode != self._history_mode and self.prompt_session is not None:
+            buf = self.prompt_session.default_buffer
+            buf.reset(document=buf.document)
+            self.prompt_session.app.invalidate()
+        self._history_mode = mode
+
     async def ticker(self) -> None:
         while not self.quit:
             delay = self.driver.advance()
             self.flush()
+            self.follow_mode()
             if self.app.input_pending():
                 delay = 0.0 if delay is None else min(delay, 0.001)
             # sleep until the program next needs the CPU; typed input wakes us earlier
@@ -307,6 +320,7 @@ class Console:
         session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
                                 output=self._output, complete_while_typing=False)
+        self.prompt_session = session
         with patch_stdout(raw=True):
             tick = asyncio.ensure_future(self.ticker())
             try:

@@ -203,8 +203,8 @@ def print_twin(rows: list[TwinStepper], console) -> None:
     for r in rows:
         table.add_row(r.scenario, f"M{r.number}", _fmt(r.board_position), _fmt(r.sim_position),
                       _fmt(r.position_diff, "+d"), f"{r.board_lines}/{r.sim_lines}",
-                      _fmt(r.first_dt_s, "+.3f"), _fmt(r.last_dt_s, "+.3f"),
-                      _fmt(r.max_dt_s, ".3f"))
+                      _fmt(r.first_dt_s, "+.2f"), _fmt(r.last_dt_s, "+.2f"),
+                      _fmt(r.max_dt_s, ".2f"))
     console.print(table)
     diffs = [abs(r.position_diff) for r in rows if r.position_diff is not None]
     dts = [r.max_dt_s for r in rows if r.max_dt_s is not None]

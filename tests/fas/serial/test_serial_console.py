@@ -71,14 +71,20 @@ def test_console_driver_runs_the_program_while_the_device_clock_runs(tmp_path):
                           history=str(tmp_path / "history"))
         backend = console.backend
         console.handle_line("M1 A2000 V200 R2000")
-        console.handle_line("W")
         end = backend.now() + 4 * TPS
-        while backend.now() < end and "STOPPED" not in console.lines:
-            delay = console.driver.advance()
-            console.flush()
-            sleep_ticks = TPS // 20 if delay is None else int(delay * TPS)
-            backend.app_wait_until(backend.now() + max(sleep_ticks, 1))
-        assert "STOPPED" in console.lines
+
+        def serve_until(done) -> None:
+            while backend.now() < end and not done():
+                delay = console.driver.advance()
+                console.flush()
+                sleep_ticks = TPS // 20 if delay is None else int(delay * TPS)
+                backend.app_wait_until(backend.now() + max(sleep_ticks, 1))
+
+        # the stop prints the usage and the table (its M2 line ends it)
+        serve_until(lambda: any(ln.startswith(">> M1: @2000 ") for ln in console.lines))
         status = [line for line in console.lines if line.startswith("M1: @")]
         assert len(status) > 10  # status lines every 100 ms while it moved
         assert console.app.steppers[0].get_current_position() == 2000
+        console.handle_line("W")  # stands already: the firmware answers at once
+        serve_until(lambda: "STOPPED" in console.lines)
+        assert console.lines[-2:] == ["Blocking wait for running stepper to stop", "STOPPED"]
