@@ -161,12 +161,13 @@ def test_run_board_passes_the_examples_with_no_position_difference(board):
 
 
 # --------------------------------------------------------------------- REPL
-async def _until(pred, what: str) -> None:
+async def _until(pred, what: str, console=None) -> None:
     """Wait (reading the console's output) until ``pred()``; fail after LIMIT_S."""
     end = time.monotonic() + LIMIT_S
     while not pred():
         if time.monotonic() > end:
-            raise AssertionError(f"waited for {what}")
+            seen = "" if console is None else "; last lines: " + repr(console.lines[-12:])
+            raise AssertionError(f"waited for {what}{seen}")
         await asyncio.sleep(0.01)
 
 
@@ -198,7 +199,7 @@ def test_repl_history_and_completion_follow_the_boards_mode(board, tmp_path):
     async def line(inp, console, text: str, answer: str) -> None:
         n = len(console.lines)
         inp.send_text(text)
-        await _until(lambda: answer in console.lines[n:], answer)
+        await _until(lambda: answer in console.lines[n:], answer, console)
 
     async def script(inp, console):
         st = console.session.state
@@ -264,13 +265,14 @@ def test_repl_ctrl_c_stops_every_stepper_and_keeps_the_session(board, tmp_path):
 
     async def script(inp, console):
         inp.send_text("M2 A1000 V200 f M1 A1000 V100 f\r")
-        await _until(lambda: console.session.state.running() == [1, 2], "both running")
+        await _until(lambda: console.session.state.running() == [1, 2], "both running",
+                     console)
         inp.send_text("\x03")  # Ctrl-C
-        await _until(lambda: console.lines.count("immediate stop") == 2, "the stops")
+        await _until(lambda: console.lines.count("immediate stop") == 2, "the stops", console)
         await _until(lambda: any(ln.startswith(">> M1: @0 ") for ln in console.lines),
-                     "the table after the stop")
+                     "the table after the stop", console)
         inp.send_text("R100 W\r")  # the session goes on
-        await _until(lambda: "STOPPED" in console.lines, "the next move")
+        await _until(lambda: "STOPPED" in console.lines, "the next move", console)
 
     console, rc = _repl(link, tmp_path, script)
     assert rc == 0
@@ -292,12 +294,12 @@ def test_repl_lost_board_is_one_line_and_reconnect_restores_it(board, tmp_path):
         await _until(lambda: any(ln.startswith("no board") for ln in console.lines),
                      "the refusal")
         second.append(_start_device(link))
-        inp.send_text("/reconnect\r")
-        await _until(lambda: any(ln.startswith("board back on") for ln in console.lines),
-                     "the reconnect")
         n = len(console.lines)
+        inp.send_text("/reconnect\r")
+        await _until(lambda: any(ln.startswith("board back on") for ln in console.lines[n:]),
+                     "the reconnect", console)
         await _until(lambda: any(ln.startswith("   M2: @") for ln in console.lines[n:]),
-                     "the new start")
+                     "the new start", console)
         inp.send_text("M1 A1000 V100 R-50 W\r")  # a new start: speed and ramp again
         await _until(lambda: "STOPPED" in console.lines[n:], "a move after the reconnect")
 
