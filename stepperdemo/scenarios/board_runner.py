@@ -42,6 +42,7 @@ from .runner import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Check, ScenarioResult, pri
 from .scenario import Scenario, ScenarioError, load
 
 TABLE_WAIT_S = 10.0  # for the answer to the final "?"
+EXIT_INTERRUPTED = 130
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
@@ -254,6 +255,12 @@ def main(args: argparse.Namespace, files: list[Path], missing: bool) -> int:
             first = False
             if session.lost is not None:
                 break
+    except KeyboardInterrupt:
+        numbers, _ = session.stop_all()
+        session.settle(1.0)
+        print(msg.CLI_BOARD_INTERRUPTED.format(steppers=" ".join(f"M{n}" for n in numbers)),
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
     finally:
         session.close()
     failed = [r for r in results if not r.result.ok]

@@ -9,7 +9,6 @@ asserts on how long anything took; every wait reads output, with a generous limi
 from __future__ import annotations
 
 import asyncio
-import json
 import os
 import re
 import select
