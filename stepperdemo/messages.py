@@ -438,6 +438,10 @@ CLI_BOARD_MAX_TIME = ("stepperdemo: stopped waiting after {seconds:g} s (--max-t
 CLI_BOARD_NO_PINS = ("--vcd and --steps-csv record the simulated pins; a board shows only "
                      "its text (--plot and --report work from its status lines)")
 CLI_BOARD_NOT_DEMO = "--board: the board runs StepperDemo, not {program!r}"
+# printed by StepperDemo on ESP32/RP2040 boards before its banner: it waits 5 s for a
+# digit that selects the pin configuration (read, not printed, by this console)
+BOARD_CONFIG_PROMPT = "Press number to select, else 0"
+BOARD_CONFIG_PROMPT_WAIT_S = 6.0
 BOARD_BUSY_WHY = {
     "input": "input still waiting to be sent", "W": "a W waits for the board's answer",
     "W stop": "a W waits for the stepper to stop", "W test": "a W waits for the test",
