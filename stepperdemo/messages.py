@@ -441,7 +441,6 @@ CLI_BOARD_NOT_DEMO = "--board: the board runs StepperDemo, not {program!r}"
 # printed by StepperDemo on ESP32/RP2040 boards before its banner: it waits 5 s for a
 # digit that selects the pin configuration (read, not printed, by this console)
 BOARD_CONFIG_PROMPT = "Press number to select, else 0"
-BOARD_CONFIG_PROMPT_WAIT_S = 6.0
 BOARD_BUSY_WHY = {
     "input": "input still waiting to be sent", "W": "a W waits for the board's answer",
     "W stop": "a W waits for the stepper to stop", "W test": "a W waits for the test",

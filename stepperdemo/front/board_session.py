@@ -42,6 +42,7 @@ from .board_log import BoardLog
 QUIET_S = 0.5  # five status-line periods without a line: the board is quiet
 BOOT_WAIT_S = 2.5  # an Arduino's bootloader waits ~1.5 s after a reset before setup()
 POLL_S = 0.05
+CONFIG_PROMPT_WAIT_S = 6.0  # ESP32/RP2040 StepperDemo: 5 s for a pin-configuration digit
 
 
 class End(Enum):
@@ -106,7 +107,7 @@ class BoardSession:
             self.log.received(t_s, line)
         queued = len(self.pacer.queue)
         if line.startswith(msg.BOARD_CONFIG_PROMPT):  # ESP32: the banner comes 5 s later
-            self._banner_until = max(self._banner_until, t_s + msg.BOARD_CONFIG_PROMPT_WAIT_S)
+            self._banner_until = max(self._banner_until, t_s + CONFIG_PROMPT_WAIT_S)
         kind = self.state.feed(line, t_s)
         self.pacer.on_line(kind, self.state, t_s)
         if kind == "reset":
