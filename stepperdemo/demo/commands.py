@@ -23,13 +23,15 @@ class Mode(IntEnum):
     NORMAL = 0
     TEST = 1
     CONFIG = 2
+    GCODE = 3  # issue 12: a line is a G-code block (stepperdemo.gcode.demo_mode)
 
 
 Handler = Callable[["StepperDemo", bytes], bool]
 TABLE: dict[tuple[Mode, int], Handler] = {}
 
 # letters per mode, with a short description, for completion and help toolbars
-HELP: dict[Mode, list[tuple[str, str]]] = {Mode.NORMAL: [], Mode.TEST: [], Mode.CONFIG: []}
+HELP: dict[Mode, list[tuple[str, str]]] = {Mode.NORMAL: [], Mode.TEST: [], Mode.CONFIG: [],
+                                           Mode.GCODE: []}
 
 
 def command(letter: str, *modes: Mode, hint: str = "",
@@ -148,6 +150,15 @@ def cmd_test_mode(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
+@command("g", Mode.NORMAL, hint="G-code mode: a line is a block, x leaves")
+def cmd_gcode_mode(app: StepperDemo, arg: bytes) -> bool:
+    """Issue 12: not in the firmware (its usage text stays as it is)."""
+    if arg:
+        return False
+    app.enter_gcode()
+    return True
+
+
 @command("c", Mode.NORMAL, hint="configuration mode")
 def cmd_config_mode(app: StepperDemo, arg: bytes) -> bool:
     if arg:
@@ -217,7 +228,7 @@ HELP[Mode.NORMAL] += [
 ]
 
 
-def _mover(text: str, apply: Callable) -> Handler:
+def _mover(text: str, apply: Callable, letter: str = "") -> Handler:
     def handler(app: StepperDemo, arg: bytes) -> bool:
         value = _number(arg)
         if value is None:
@@ -226,14 +237,18 @@ def _mover(text: str, apply: Callable) -> Handler:
         app.println(_i32(value))
         res = int(apply(app.selected_stepper, value))
         app.print(msg.MOVE_RESULT[res])
+        if letter in "RP":
+            qs_console.after_move(app)
         return True
     return handler
 
 
 TABLE[(Mode.NORMAL, ord("a"))] = _mover(msg.SET_ACCELERATION_TO,
                                         lambda s, v: s.move_by_acceleration(v))
-TABLE[(Mode.NORMAL, ord("R"))] = _mover(msg.MOVE_STEPS, lambda s, v: s.move(v))
-TABLE[(Mode.NORMAL, ord("P"))] = _mover(msg.MOVE_TO_POSITION, lambda s, v: s.move_to(v))
+TABLE[(Mode.NORMAL, ord("R"))] = _mover(msg.MOVE_STEPS,
+                                        lambda s, v: qs_console.move(s, v, False), "R")
+TABLE[(Mode.NORMAL, ord("P"))] = _mover(msg.MOVE_TO_POSITION,
+                                        lambda s, v: qs_console.move(s, v, True), "P")
 HELP[Mode.NORMAL] += [
     ("a<accel>", "run by acceleration (+/-)"), ("R<n>", "move by n steps"),
     ("P<pos>", "move to position"),
@@ -409,3 +424,8 @@ def cmd_direction_pin(app: StepperDemo, arg: bytes) -> bool:
         app.println(_i32(values[2]))
         s.set_direction_pin(pin, values[1] != 0, values[2] & 0xFFFF)
     return True
+
+
+# QuickStep (issue 14): config commands l/q/p/b and the move hold; imported last so
+# that it can register its commands in the table above
+from . import quickstep as qs_console  # noqa: E402

@@ -215,7 +215,6 @@ class Banner:
     steppers: int | None = None
 
 
-MODES = ("normal", "test", "config")
 
 
 @dataclass
@@ -331,6 +330,8 @@ class BoardState:
             self.mode = "test"
         elif line == _text(msg.ENTER_CONFIG_MODE):
             self.mode = "config"
+        elif line == _text(msg.ENTER_GCODE_MODE):  # the simulation's `g` (issue 12)
+            self.mode = "gcode"
         elif line == _text(msg.EXIT_TO_MAIN_MENU):
             self.mode = "normal"
             self.test_running = False
