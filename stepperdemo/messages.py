@@ -450,7 +450,8 @@ BOARD_BUSY_WHY = {
     "W stop": "a W waits for the stepper to stop", "W test": "a W waits for the test",
     "T": "the direct-drive test runs", "answer": "a command waits for its answer",
     "spinning": "the board spins in W", "pausing": "a w<ms> pause", "test": "a test runs",
-    "motion": "a motion runs (status lines are off)", "output": "the board is printing",
+    "motion": "a stepper runs: the table after its stop has not come",
+    "output": "the board is printing",
 }
 
 # status-line plots and report (/plot, /report, --plot, --report on a board)

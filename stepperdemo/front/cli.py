@@ -87,7 +87,7 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
 
     if args.port:  # issue 7: a device behind a serial port executes the queue commands
         return serial_cli.run_scripted(args, write)
-    if args.board:  # issue 15: a board running the original StepperDemo
+    if getattr(args, "board", None):  # issue 15: a board running the original StepperDemo
         return board.run_scripted(args, write)
     backend = SimBackend(args.arch)
     try:  # watching the run (issue 6): --vcd, --plot, --report, --steps-csv
@@ -135,7 +135,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USAGE
     if args.command is not None:
         return run_scripted(args)
-    if args.board:  # issue 15
+    if getattr(args, "board", None):  # issue 15
         return board.run_console(args)
     from .console import run_console
     return run_console(args)

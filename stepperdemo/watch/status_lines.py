@@ -199,8 +199,8 @@ class StepperView:
 
     number: int
     position: int | None = None
-    running: bool = False
-    continuous: bool = False  # runs without end (f, b, K, a, nonstop)
+    running: bool = False  # a status line (or the table) showed it running
+    continuous: bool = False  # told to run without end (f, b, K, a; "nonstop")
     stopping: bool = False  # S was given
     acceleration: int | None = None
     speed_us: int | None = None
@@ -255,16 +255,19 @@ class BoardState:
         return sorted(n for n, v in self.steppers.items() if v.running)
 
     def busy(self) -> bool:
-        """The board says it is still at work (a wait, a test, a motion it will end)."""
+        """The board says it is still at work: a wait, a test, or a motion whose end it
+        will announce (the usage and table printed when the last stepper stops)."""
         if self.spinning or self.pausing or self.test_running:
             return True
-        # with status lines off only the table after the stop tells that motion ended
-        return self.motion_expected and not self.verbose and self.usage_info
+        if not self.usage_info:
+            return False  # Q: the stop is not announced, only the quiet tells
+        # a stepper seen running; or, with status lines off, a move acknowledged
+        return bool(self.running()) or (self.motion_expected and not self.verbose)
 
     def selected_runs_for_ever(self) -> bool:
         """A W now would return at once: the selected stepper runs without end."""
         v = self.steppers.get(self.selected)
-        return v is not None and v.running and v.continuous and not v.stopping
+        return v is not None and v.continuous and not v.stopping
 
     def positions(self) -> dict[int, int]:
         return {n: v.position for n, v in sorted(self.steppers.items())
@@ -365,12 +368,11 @@ class BoardState:
         elif line == _text(msg.MOVE_RESULT[0]):
             if prev.startswith((msg.MOVE_STEPS, msg.MOVE_TO_POSITION, msg.SET_ACCELERATION_TO)):
                 self.motion_expected = True
-                sel.running = True
                 sel.stopping = False
                 sel.continuous = prev.startswith(msg.SET_ACCELERATION_TO)  # `a`
         elif line in (_text(msg.RUN_FORWARD), _text(msg.RUN_BACKWARD), _text(msg.KEEP_RUNNING)):
             self.motion_expected = True
-            sel.running = sel.continuous = True
+            sel.continuous = True
             sel.stopping = False
         elif line == _text(msg.STOP):
             sel.stopping = True

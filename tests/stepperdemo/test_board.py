@@ -178,7 +178,7 @@ def test_test_mode_run_ends_after_the_test_and_reports_failure():
 def test_max_time_ends_a_run_that_never_gets_quiet():
     s = session()
     assert s.run_script("M1 A1000 V100 f", 2.0) == End.MAX_TIME
-    assert s.busy_reason() == "output"
+    assert s.busy_reason() == "motion" and s.state.running() == [1]
     numbers, left = s.stop_all()
     assert (numbers, left) == ([1, 2], None)
     assert s.settle(5.0) == End.IDLE
