@@ -15,15 +15,16 @@ original StepperDemo"):
   until the test completed);
 * the board spins in ``W``, pauses in ``w<ms>``, or runs a test (``run test`` until
   ``test completed``);
-* with status lines off (``I``) and the usage after a stop on (``Q``), a move was
-  acknowledged and the stepper table that follows its stop has not come yet;
-* the board printed something less than ``quiet_s`` ago: a running stepper prints a
-  status line every 100 ms (unless ``I`` turned them off), and the stop prints the
-  usage and the stepper table.
+* a stepper was seen running (a status line, or the table) and the usage and table
+  the firmware prints when the last stepper stops have not come yet - unless ``Q``
+  turned that printout off; with status lines off (``I``) an acknowledged move
+  (``OK`` after ``Move steps``, ``run forward`` ...) counts as seen running;
+* the board printed something less than ``quiet_s`` ago (a command's answer, the
+  usage and table after a stop, a move that never started: ``R0``).
 
 So a run ends ``quiet_s`` after the last thing the board printed once nothing above
-holds.  With both ``I`` and ``Q`` off a motion without ``W`` is invisible: the run
-then ends when the board falls quiet, which may be before the stepper stops.
+holds.  With ``Q`` off the end of a motion without ``W`` is seen only as the status
+lines stopping (the quiet period); with ``I`` and ``Q`` both off not at all.
 """
 
 from __future__ import annotations
