@@ -172,10 +172,10 @@ class BoardProgram:
     """The board, where the console has its program: what the REPL asks of it."""
 
     title = "board"
-    steppers: list = []
 
     def __init__(self, session: BoardSession) -> None:
         self.session = session
+        self.steppers: list = []  # the library's steppers: none here, they are on the board
 
     def feed(self, text: str | bytes) -> None:
         self.session.send(text)
