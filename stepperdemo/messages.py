@@ -610,3 +610,14 @@ GCODE_ERR_QUICKSTEP_AXIS = ("axis {letter} runs the QuickStep planner: G-code mo
 ENTER_GCODE_MODE = "Enter G-code mode (a line is a block, x alone leaves)" + NL
 QS_ERR_TIMER_PWM = "ERROR timer {timer} makes the PWM of a user output: no QuickStep on it" + NL
 # ----------------------------------------------------------- end of issue 12 texts
+
+# ---------------------------------------------------------------------------------------
+# serial link planning and stops (issue 18)
+SERIAL_PLANNING = ("planning: {extra_ms} ms beyond the library's ({how}: round trip "
+                   "{rtt_ms:.1f} ms, {rounds} retransmission round(s), {loss_pct:.1f} % "
+                   "frames lost); device queue {queue_len} entries, {window} frames of "
+                   "{payload} bytes in flight")
+SERIAL_BAD_PLANNING = "{ms} is not a time of 0 .. 10000 ms"
+SERIAL_DEVICE_REPAIRS = ("device: {frames_held} frames held after a gap, {cuts} queue cuts "
+                         "({cuts_refused} refused), {halts} halts, {discarded} discarded")
+# ------------------------------------------------------------ end of issue 18 texts

@@ -23,7 +23,7 @@ from .stream import ByteStream, Pty, open_serial, set_link
 class Loopback:
     def __init__(self, arch: str = "atmega328p", *, faults: Faults | None = None,
                  watchdog_ms: int = 500, record: bool = False, connect: bool = True,
-                 **backend_options) -> None:
+                 device_options: dict | None = None, **backend_options) -> None:
         self.clock = VirtualClock()
         self._dir = tempfile.mkdtemp(prefix="fas-loopback-")
         self.port_path = os.path.join(self._dir, "device")
@@ -31,7 +31,8 @@ class Loopback:
         self.relay: Relay | None = None
         self._relay_pty: Pty | None = None
         self._device_pty = Pty("device")
-        self.device = Device(None, arch, self.clock, watchdog_ms=watchdog_ms, record=record)
+        self.device = Device(None, arch, self.clock, watchdog_ms=watchdog_ms, record=record,
+                             **(device_options or {}))
         self.clock.add_peer(self.device)
         self._plug_device()
         self.backend: SerialBackend | None = None
