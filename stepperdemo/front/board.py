@@ -79,13 +79,13 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 
 def check_arguments(args: argparse.Namespace) -> str | None:
     if getattr(args, "port", None):
-        return "--board and --port exclude each other"
+        return msg.CLI_BOARD_AND_PORT
     if getattr(args, "vcd", None) or getattr(args, "steps_csv", None):
         return msg.CLI_BOARD_NO_PINS
     if args.program != "demo":
         return msg.CLI_BOARD_NOT_DEMO.format(program=args.program)
     if args.quiet_ms < 50 or args.boot_wait < 0:
-        return "--quiet-ms must be at least 50, --boot-wait not negative"
+        return msg.CLI_BOARD_TIMES
     return None
 
 

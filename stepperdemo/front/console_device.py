@@ -133,8 +133,7 @@ def run(args: argparse.Namespace) -> int:
     from .serial_cli import _Stop
 
     if args.port:
-        print(msg.CLI_ERROR.format(problem="--console serves a new pty: leave out --port"),
-              file=sys.stderr)
+        print(msg.CLI_ERROR.format(problem=msg.CLI_CONSOLE_NO_PORT), file=sys.stderr)
         return 2
     profile = get_profile(args.arch)
     pty = HangupPty()
