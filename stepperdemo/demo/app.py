@@ -447,6 +447,8 @@ class StepperDemo(Program):
         event or when ``millis()`` reaches a deadline, and :meth:`_wake_time` wakes
         the loop at the earliest of those.
         """
+        if self.waiting_interactive:
+            return True  # spinning in W: no stray reads, no interrupt blocks, nothing
         if self.simulate_digital_read_error:
             return False  # every pass makes a stray read that we count
         if self.simulate_blocked_isr and (self.backend.millis() & 0xFF) < 0x40:

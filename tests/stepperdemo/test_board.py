@@ -141,6 +141,14 @@ def test_interactive_w_prints_no_status_lines_while_it_spins():
     assert s.link.board.rx_dropped == 0
 
 
+def test_w_spins_with_the_error_injections_on():
+    """While W spins, neither the stray reads (r) nor the interrupt blocks (e) run."""
+    s = session()
+    assert s.run_script("r e M1 A1000 V100 R3200 W", 60) == End.IDLE
+    assert s.state.positions()[1] == 3200
+    assert lines_of(s).count("STOPPED") == 1
+
+
 # ----------------------------------------------------------------- session
 def test_scripted_run_ends_when_the_board_is_idle_and_positions_are_read():
     s = session()
