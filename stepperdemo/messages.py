@@ -445,9 +445,6 @@ CLI_BOARD_NOT_DEMO = "--board: the board runs StepperDemo, not {program!r}"
 CLI_BOARD_AND_PORT = "--board and --port exclude each other"
 CLI_BOARD_TIMES = "--quiet-ms must be at least 50, --boot-wait not negative"
 CLI_CONSOLE_NO_PORT = "--console serves a new pty: leave out --port"
-# printed by StepperDemo on ESP32/RP2040 boards before its banner: it waits 5 s for a
-# digit that selects the pin configuration (read, not printed, by this console)
-BOARD_CONFIG_PROMPT = "Press number to select, else 0"
 BOARD_BUSY_WHY = {
     "input": "input still waiting to be sent", "W": "a W waits for the board's answer",
     "W stop": "a W waits for the stepper to stop", "W test": "a W waits for the test",

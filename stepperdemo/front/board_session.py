@@ -107,7 +107,7 @@ class BoardSession:
         if self.log is not None:
             self.log.received(t_s, line)
         queued = len(self.pacer.queue)
-        if line.startswith(msg.BOARD_CONFIG_PROMPT):  # ESP32: the banner comes 5 s later
+        if line.startswith(msg.PRESS_NUMBER_TO_SELECT):  # ESP32: the banner comes 5 s later
             self._banner_until = max(self._banner_until, t_s + CONFIG_PROMPT_WAIT_S)
         kind = self.state.feed(line, t_s)
         self.pacer.on_line(kind, self.state, t_s)
