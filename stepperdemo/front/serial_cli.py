@@ -37,7 +37,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="run on a device behind this serial port or pty (see "
                          "'stepperdemo device'); the device decides the profile")
     ap.add_argument("--baud", type=int, default=115200, metavar="N",
-                    help="serial line speed for --port (default 115200)")
+                    help="serial line speed for --port and --board (default 115200)")
     ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
                     help="--port: the device stops all motion after MS of host silence")
     ap.add_argument("--link-planning-ms", type=_planning_ms, default=None, metavar="MS",
@@ -276,6 +276,10 @@ def device_parser() -> argparse.ArgumentParser:
     ap.add_argument("--inputs-from-stdin", action="store_true",
                     help="read PIN=VALUE lines from standard input while serving: turn pots "
                          "and press switches of the simulated board (e.g. A0=900, A3=0)")
+    ap.add_argument("--console", action="store_true",  # issue 15
+                    help="instead of the protocol: the simulated StepperDemo firmware with "
+                         "its text console (as a board flashed with the original sketch; "
+                         "for stepperdemo --board); it restarts when a host opens the pty")
     return ap
 
 
@@ -309,6 +313,9 @@ def run_device(argv: Sequence[str]) -> int:
         print(msg.CLI_ERROR.format(problem="--speed must be positive, --watchdog-ms >= 0"),
               file=sys.stderr)
         return EXIT_USAGE
+    if args.console:  # issue 15: the StepperDemo text console, not the protocol
+        from .console_device import run
+        return run(args)
     profile = get_profile(args.arch)
     pty = None
     if args.port:
