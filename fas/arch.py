@@ -193,6 +193,8 @@ class Profile:
     qs_start_ticks: int = 0  # order pushed to an idle motor -> its first step
     # Arduino pin -> I/O port register (AVR); pins of one port are written together
     pin_ports: dict[int, str] = field(default_factory=dict, compare=False)
+    # Arduino A0, A1, ... as pin numbers (analog inputs; the helix winder, issue 13)
+    analog_pins: tuple[int, ...] = ()
     notes: str = field(default="", compare=False)
     # --- user outputs (issue 12, fas.outputs): Dout0..3 and Aout0..3 -----------------
     # pins of the four digital outputs (PIN_UNDEFINED: this chip has none free)
@@ -429,6 +431,7 @@ ATMEGA328P = Profile(
     debug_led_pin=13,
     pin_ports={**{p: "D" for p in range(0, 8)}, **{p: "B" for p in range(8, 14)},
                **{p: "C" for p in range(14, 20)}},
+    analog_pins=tuple(range(14, 22)),  # A0..A7 (A6, A7: analog only)
     ram_bytes=2048,
     serial_reserved_bytes=1024,
     serial_rx_slots=8,
@@ -522,6 +525,7 @@ def _mega(timer: int) -> Profile:
                         off_delay_ms=10),
         ),
         debug_led_pin=PIN_UNDEFINED,
+        analog_pins=tuple(range(54, 70)),  # A0..A15
         ram_bytes=8192,
         serial_reserved_bytes=1024,
         serial_rx_slots=16,
@@ -568,6 +572,7 @@ ATMEGA32U4 = Profile(
                     off_delay_ms=10),
     ),
     debug_led_pin=PIN_UNDEFINED,
+    analog_pins=tuple(range(18, 24)),  # A0..A5 of the Leonardo
     ram_bytes=2560,  # 2.5 KB: the Uno's serial-firmware budget plus 512 bytes
     serial_reserved_bytes=1024,
     serial_rx_slots=8,
@@ -808,6 +813,8 @@ def _esp32(chip: str, idf: int, name: str) -> Profile:
         serial_rx_slots=16,
         serial_slot_payload=59,
         notes="pulses come from the MCPWM/RMT/I2S peripherals; `e` does not delay them",
+        # the ADC1 channels 0, 3, 6, 7, 4, 5 as A0..A5 (the ESP32 core's A-names)
+        analog_pins=(36, 39, 34, 35, 32, 33) if chip == "esp32" else (),
         **(_ESP32_OUTPUTS if chip == "esp32" else {}),
         **_ESP32_TIMING,
     )
@@ -857,6 +864,7 @@ SAM_DUE = Profile(
                     off_delay_ms=10),
     ),
     debug_led_pin=PIN_UNDEFINED,
+    analog_pins=tuple(range(54, 66)),  # A0..A11
     sim_timer_wrap_ticks=0,
     sim_queue_start_ticks=21,
     sim_isr_latency_ticks=(21 * 2,),

@@ -47,6 +47,27 @@ class QueueChannel(ABC):
     def positions_shifted(self, delta: int) -> None:
         """All queued positions were renumbered by ``delta``."""
 
+    # --- timing of the queue (electronic gearing, :mod:`fas.gear`) ---
+    def end_tick(self) -> int | None:
+        """While the channel works through its queue without a gap: the tick at which
+        the last queued entry ends - where an entry appended now begins.  None when
+        the channel is idle, ran dry, or this backend cannot tell."""
+        return None
+
+    def earliest_start_tick(self) -> int | None:
+        """The earliest tick at which :meth:`start_at` called now could begin the entry
+        at ``read_idx`` (None: this backend has no timed start)."""
+        return None
+
+    def start_at(self, tick: int) -> int | None:
+        """Start the idle channel so that the entry at ``read_idx`` begins at ``tick``
+        (an absolute tick), or as soon after as possible.  Returns the tick at which
+        it will begin; None if it cannot (running, empty queue, no timed start)."""
+        return None
+
+    def hold_cuts(self, hold: bool) -> None:
+        """While held, no cut drops queued entries (a follower derived steps from them)."""
+
     # --- cuts: a stop that must not wait for a deep queue (serial backend) ----------
     supports_cut = False  # the stepper keeps ramp snapshots and may ask for cuts
     cut_pending = False  # a cut is not yet confirmed: hold back new ramp requests
@@ -106,8 +127,16 @@ class PulseCounter:
         self.value = 0
 
 
+InputListener = Callable[[int, int, int], None]  # (pin, value, tick)
+LimitListener = Callable[[int, int, int, int], None]  # (queue index, pin, position, tick)
+
+
 class Backend(ABC):
     profile: Profile
+    #: called with (pin, value, tick) when a watched input changes (see watch_input)
+    input_listeners: list[InputListener]
+    #: called with (queue index, pin, position, tick) for every queue a limit stopped
+    limit_listeners: list[LimitListener]
     # ticks a stepper plans ahead beyond its forward-planning time once its queue runs
     # (a serial link's delays; 0 on a chip, where the queue is the timer's own)
     planning_extra_ticks: int = 0
@@ -228,3 +257,43 @@ class Backend(ABC):
 
     def stray_read(self, pins: tuple[int, ...]) -> None:
         """The main loop reads step pins with a stray ``digitalRead()``."""
+
+    # --- inputs of the application: switches and potentiometers ---
+    def watch_input(self, pin: int, analog: bool = False, pullup: bool = True,
+                    period_ms: int = 0) -> bool:
+        """Read ``pin`` as an input from now on: digital (0/1, with the pull-up
+        resistor if ``pullup``) or analog (0..1023, sampled every ``period_ms``).
+        Changes go to :attr:`input_listeners`.  False if this backend has no inputs."""
+        return False
+
+    def read_input(self, pin: int) -> int | None:
+        """The last known value of a watched input (None: not known yet)."""
+        return None
+
+    def drive_input(self, pin: int, value: int) -> bool:
+        """The simulated world sets what an input reads (a switch closes, a pot turns).
+        False where the inputs are real pins (a device)."""
+        return False
+
+    def _notify_input(self, pin: int, value: int, tick: int) -> None:
+        for fn in list(getattr(self, "input_listeners", ())):
+            fn(pin, value, tick)
+
+    # --- limit switches: stops where the pulses are made ---
+    def set_limit(self, index: int, pin: int, level: int, up: bool,
+                  stop: tuple[int, ...] = ()) -> bool:
+        """A limit switch for queue ``index``: whenever it steps ``up`` (or down) while
+        ``pin`` reads ``level`` - the switch closes during a move, or a move starts
+        towards a closed one - the backend stops it and the queues in ``stop`` at once,
+        without a further pulse, where the pulses are made (the chip, the device), and
+        reports each stopped queue to :attr:`limit_listeners` with the position where
+        its pulses stopped.  The application must then force-stop those steppers at
+        that position.  Setting a limit again replaces it.  False: not supported."""
+        return False
+
+    def clear_limit(self, index: int, up: bool) -> None:
+        """Remove queue ``index``'s limit in that direction."""
+
+    def _notify_limit(self, index: int, pin: int, position: int, tick: int) -> None:
+        for fn in list(getattr(self, "limit_listeners", ())):
+            fn(index, pin, position, tick)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Protocol
 
 from .allocate import QueueAllocator
 from .arch import Profile
@@ -15,6 +15,17 @@ from .stepper import Stepper
 from .sync import SyncQueue
 
 ExternalPinCall = Callable[[int, int], int]
+
+
+class TaskHook(Protocol):
+    """Work that runs in the periodic ramp task right after the steppers' own planning
+    (:mod:`fas.gear` derives a follower's commands from its leader's there)."""
+
+    def run_task(self) -> None:
+        """One run of the ramp task."""
+
+    def needs_task(self) -> bool:
+        """True while the next runs of the task must not be skipped."""
 
 
 class Engine:
@@ -32,6 +43,7 @@ class Engine:
         self._initialised = False
         self.ramp_abort_listener: Callable[[Stepper, AqeResult, object], None] | None = None
         self.task_runs = 0
+        self.task_hooks: list[TaskHook] = []
         self._allocator = QueueAllocator(self.profile)
         self._task_rate_ms = self.profile.fill_period_ticks // self.profile.ticks_per_ms
         self.cpu_core = 255
@@ -138,6 +150,9 @@ class Engine:
         for s in self._steppers:
             if s is not None and s._needs_task():
                 return 0
+        for hook in self.task_hooks:
+            if hook.needs_task():
+                return 0
         if self.sync.active():
             return 0
         if self._debug_led_pin == PIN_UNDEFINED:
@@ -150,6 +165,16 @@ class Engine:
         if n > 0:
             self._debug_led_cnt += n
             self.task_runs += n
+
+    def add_task_hook(self, hook: TaskHook) -> None:
+        """Run ``hook`` in every periodic task, after the steppers have planned."""
+        if hook not in self.task_hooks:
+            self.task_hooks.append(hook)
+        self.kick()
+
+    def remove_task_hook(self, hook: TaskHook) -> None:
+        if hook in self.task_hooks:
+            self.task_hooks.remove(hook)
 
     def kick(self) -> None:
         """A stepper got work: the periodic task must run again from its next slot."""
@@ -242,6 +267,8 @@ class Engine:
         for s in steppers:
             if s is not None:
                 generated += s.fill_queue()
+        for hook in self.task_hooks:
+            hook.run_task()
         for i, s in enumerate(steppers):
             if s is None or not s._need_auto_disable():
                 continue

@@ -246,7 +246,7 @@ TABLE_SCAN: dict[str, tuple[int, int, int, int]] = {
 
 # console (REPL) texts, not part of the firmware
 REPL_WELCOME = ("stepperdemo {version} on a simulated {profile} ({mode}). "
-                "Type StepperDemo commands, /help for console commands, Ctrl-D to quit.")
+                "Type {title} commands, /help for console commands, Ctrl-D to quit.")
 REPL_HELP = """Console commands (everything else goes to StepperDemo):
   /help              this text
   /quit              leave (Ctrl-D does the same)
@@ -345,7 +345,7 @@ REPL_VCD_WROTE = "wrote {path}: {edges} edges, t={start:.3f} .. {end:.3f} s"
 # ---------------------------------------------------------------------------------------
 # serial backend (issue 7): stepperdemo --port, stepperdemo device, stepperdemo relay
 REPL_WELCOME_SERIAL = ("stepperdemo {version} on a {profile} device at {port}. "
-                       "Type StepperDemo commands, /help for console commands, Ctrl-D to quit.")
+                       "Type {title} commands, /help for console commands, Ctrl-D to quit.")
 REPL_HELP_SERIAL = """On a device (--port):
   /reconnect [port]  open the device again (after it was lost), or another port
   /link              link statistics (retransmissions, CRC errors) and device counters
@@ -669,3 +669,138 @@ def usage_normal(*, esp32: bool, avr: bool, small: bool) -> str:
             lines.extend(_USAGE_ESP32_LINES)
         lines.append(line)
     return NL.join(lines) + NL + NL
+
+# issue 13: the helix winder (stepperdemo winder), seed 002.  Its own texts, not the
+# firmware's: plain lines, errors begin with "ERROR".
+WINDER_BANNER = ("Helix winder {version} on {profile}: S1 spindle step {s1_step} dir {s1_dir}, "
+                 "S2 traverse step {s2_step} dir {s2_dir}")
+WINDER_INPUTS = ("inputs: pots A0 (pin {a0}) -> S1, A1 (pin {a1}) -> S2; limits of S2: "
+                 "A2 (pin {a2}) lower, A3 (pin {a3}) upper; A4 (pin {a4}) fixture; "
+                 "A5 (pin {a5}) spare")
+WINDER_FIXTURE_MODE = "A4 closed at power-up: fixture mode, the pots drive S1 and S2"
+WINDER_LINK_MODE = "A4 open at power-up: link mode, the pots rest until 'pots'"
+WINDER_BAD_PROFILE = "the winder needs {why}; profile {profile} does not have them"
+WINDER_UNKNOWN = "ERROR unknown command '{text}' (help: ?)"
+WINDER_NEEDS = "ERROR {usage}: missing value"
+WINDER_ERROR = "ERROR {cmd}: {problem}"
+WINDER_BAD_STEPPER = "stepper '{word}' is not 1 or 2"
+WINDER_BAD_COUNT = "count '{word}' is not a whole number -{max}..{max}"
+WINDER_BAD_PERIOD = "period '{word}' is not {lo}..{hi} counts of 4 us"
+WINDER_BAD_ACCEL = "acceleration '{word}' is not 1..{hi} steps/s^2"
+WINDER_BAD_BOOL = "'{word}' is not 0 or 1"
+WINDER_BAD_RATIO = "'{word}' is not n:m with 1 <= n <= m <= {hi}"
+WINDER_BAD_POT = "value '{word}' is not 0..{hi}"
+WINDER_BAD_SWITCH = "'{word}' is not a switch: A2, A3, A4 or A5"
+WINDER_BAD_POSITION = "'{words}' are not two positions"
+WINDER_TRAVERSE_SAME = "the two ends are the same position"
+WINDER_BLOCKED = "{name} is at its {which} limit (A{a} closed); it may only move away"
+WINDER_INPUTS_ARE_PINS = "on a device the {what} are its pins; turn or press the real ones"
+WINDER_UPPER = "upper"
+WINDER_LOWER = "lower"
+WINDER_MOVE = ("{name} move {count:+d} steps to {target} at period {counts} "
+               "({speed:.0f} steps/s), link control")
+WINDER_MOVE_RUN = ("{name} runs {way} until told at period {counts} ({speed:.0f} steps/s), "
+                   "link control")
+WINDER_MOVE_STOP = "{name} stops"
+WINDER_PERIOD = "{name} period {counts} counts = {us} us ({speed:.0f} steps/s)"
+WINDER_ACCEL = "{name} acceleration {accel} steps/s^2"
+WINDER_LINK_CONTROL = "{name}: link control (pots again with 'pots')"
+WINDER_POTS = "pots in control: A0 drives S1, A1 drives S2"
+WINDER_INTERLOCK_ON = "interlock on: S2 follows S1 at {n}:{m} while A1 is centred"
+WINDER_INTERLOCK_OFF = "interlock off"
+WINDER_INTERLOCK_OFF_BY_LINK = "interlock off: S2 is under link control"
+WINDER_INTERLOCK_ENGAGED = ("interlock engaged: S2 follows S1 at {n}:{m} "
+                            "(from S1 @{x0}, S2 @{s2})")
+WINDER_INTERLOCK_RELEASED = "interlock released: S2 moves on its own"
+WINDER_INTERLOCK_FAILED = "ERROR interlock: {why}; interlock off"
+WINDER_RATIO = "ratio {n}:{m} (S2 steps per S1 steps)"
+WINDER_POT = "A{a} = {value}: {what}"
+WINDER_POT_OFF = "{name} off (dead zone 462..562)"
+WINDER_POT_RULE = ("{name} {way} {speed:.1f} steps/s -> period {counts} counts "
+                   "({real:.1f} steps/s)")
+WINDER_SWITCH = "A{a} {state} ({role})"
+WINDER_SWITCH_ROLES = {2: "S2 lower limit", 3: "S2 upper limit", 4: "fixture switch",
+                       5: "spare input"}
+WINDER_SWITCH_NAMES = {2: "LimitLow", 3: "LimitHigh", 4: "Fixture", 5: "Spare"}
+WINDER_STOPPED = "{name} stopped at {position}"
+WINDER_HELD_AT_LIMIT = "{name} held: its limit A{a} is closed"
+WINDER_HOLD = "{name} waits for A{a} to be centred before its pot drives it again"
+WINDER_LIMIT_STOP = "A{a}: S2 stopped at its {which} limit, position {position}{then}"
+WINDER_LIMIT_TURN = "; the traverse turns round"
+WINDER_LIMIT_STOP_BOTH = ("A{a}: S2 stopped at its {which} limit, interlocked S1 with it "
+                          "(S1 @{s1}, S2 @{s2}); interlock off")
+WINDER_TRAVERSE = ("traverse: S2 between {a} and {b}, start {start:.0f} steps/s, "
+                   "acceleration {accel} steps/s^2, top {top:.0f} steps/s, replanned every 50 ms")
+WINDER_TRAVERSE_DONE = "traverse ended at {position}"
+WINDER_CTL_FOLLOW = "interlock {n}:{m}"
+WINDER_CTL_TRAVERSE = "traverse"
+WINDER_CTL_POT = "pot A{a}"
+WINDER_CTL_HOLD = " (held until centred)"
+WINDER_CTL_LINK = "link"
+WINDER_ENGAGED = " (engaged)"
+WINDER_STATUS_AXIS = ("{name} {role:<8} @{position:<10} {speed:>9.1f} steps/s  control {control}"
+                      "  period {counts}  accel {accel}")
+WINDER_STATUS_INPUTS = "inputs: {pots}  {switches}"
+WINDER_STATUS_MODE = "power-up mode {mode}; interlock {interlock}, ratio {n}:{m}{engaged}"
+WINDER_HELP_HEAD = "Helix winder commands (s = stepper 1 or 2; several per line):"
+WINDER_HELP_MOVE = "move s by count steps (+-65535: run until told, 0: stop)"
+WINDER_HELP_PERIOD = "link step period of s in 4 us counts, 9..65535"
+WINDER_HELP_ACCEL = "acceleration of s for all its speed changes"
+WINDER_HELP_INTERLOCK = "S2 follows S1 at the ratio while A1 is centred"
+WINDER_HELP_RATIO = "S2 steps per S1 steps, 1 <= n <= m"
+WINDER_HELP_POTS = "give both steppers back to the pots"
+WINDER_HELP_TRAVERSE = "S2 end to end continuously (stop: move 2 0)"
+WINDER_HELP_STATUS = "positions, speeds, control, inputs"
+WINDER_HELP_POT = "simulation: turn pot A0 (s=1) or A1 (s=2)"
+WINDER_HELP_SWITCH = "simulation: close (1) or open (0) a switch"
+WINDER_HELP_RESET = "power cycle (A4 read again, positions 0)"
+WINDER_HELP_HELP = "this list"
+WINDER_HELP_WAIT = "wait ms before the next command"
+WINDER_REPORT_INTERLOCK = ("interlock    {spans} stretch(es) at {ratios}: max |S2 - ratio x S1| = "
+                           "{error:.3f} steps by the pins ({instants} step instants, worst at "
+                           "{at}); {commands} S2 commands + {pauses} pauses, {late} step(s) "
+                           "outside their window")
+WINDER_REPORT_NO_INTERLOCK = "interlock    not engaged in this run"
+WINDER_CLI_DESCRIPTION = """\
+The helix winder of seed 002 on the fas library: S1 (spindle) and S2 (traverse),
+two pots, four switches and a link.
+
+Without -c: an interactive console (history, completion, a toolbar with the pots,
+switches, control and interlock).  With -c: one line of commands on virtual time,
+e.g.  stepperdemo winder -c "pots pot 1 1023 w2000 pot 1 512 w1000" --report
+
+Commands (s = stepper 1 or 2; several per line, separated by spaces):
+  move s count      link move, -65535..65535 (+-65535 until told, 0 stops)
+  period s counts   link step period in 4 us counts, 9..65535 (default 250)
+  accel s a         acceleration for all speed changes (default 50000 steps/s^2)
+  interlock 0|1     S2 follows S1 at the ratio while A1 is centred
+  ratio n:m         S2 steps per S1 steps, 1 <= n <= m
+  pots              the pots drive again (a link command makes link control sticky)
+  traverse from to  S2 end to end continuously (trapezoid replanned every 50 ms)
+  status, ?, reset, w<ms>
+  pot s 0..1023     simulation: turn A0 (S1) or A1 (S2); dead zone 462..562,
+                    log scale 10 .. 20 000 steps/s as a 4 us period
+  switch An 0|1     simulation: A2/A3 S2's lower/upper limit, A4 fixture (read at
+                    power-up / reset), A5 spare
+
+On a device (--port) the pots and switches are its pins A0..A5, reported by the
+device; the limits stop S2 on the device itself.
+
+exit codes: 0 ok, 2 bad arguments, 3 --max-time reached, 5 device lost"""
+DEVICE_INPUT_SET = "device: input {text}"
+WINDER_WAY = {True: "forward", False: "backward"}
+WINDER_SWITCH_STATE = {True: "closed", False: "open"}
+WINDER_ON_OFF = {True: "on", False: "off"}
+WINDER_MODE = {True: "fixture", False: "link"}
+WINDER_ROLES = ("spindle", "traverse")
+WINDER_STATUS_POT = "A{a} {value}"
+WINDER_STATUS_SWITCH = "A{a} {state}"
+WINDER_HELP_LINE = "  {text:<22} {hint}"
+WINDER_TOOLBAR_POT = "A{a}={value}"
+WINDER_TOOLBAR_SWITCH = "A{a}{mark}"  # mark: # closed, - open
+WINDER_TOOLBAR_AXIS = "{name}:{control}"
+WINDER_TOOLBAR_LOCK = "interlock {state} {n}:{m}{engaged}"
+WINDER_TOOLBAR_ENGAGED = " engaged"
+WINDER_TOOLBAR = "{pots} | {switches} | {axes} | {lock}"
+WINDER_VCD_SWITCH = "A{a}_{name}"
+# ------------------------------------------------------------- end of winder texts

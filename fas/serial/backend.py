@@ -30,18 +30,26 @@ from .protocol import (
     D_ESTOP,
     D_SESSION,
     D_WATCHDOG,
+    L_CLEAR,
+    L_UP,
     MAX_FRAME,
     MAX_PAYLOAD,
     MAX_RX_SLOTS,
     O_ANALOG,
     O_SYNCHRONIZED,
     PROTOCOL_VERSION,
+    W_ANALOG,
+    W_DIGITAL,
+    W_PULLUP,
     Bye,
     DeviceStatus,
     EmergencyStop,
     Halt,
     Hello,
     Ident,
+    Input,
+    Limit,
+    LimitHit,
     Message,
     OutputCancel,
     OutputPwm,
@@ -49,9 +57,12 @@ from .protocol import (
     Pin,
     Progress,
     Start,
+    Started,
     Status,
     StatusRequest,
     SyncReply,
+    WatchInput,
+    tick_diff32,
 )
 from .stream import ByteStream, LinkClosed, open_serial
 
@@ -108,6 +119,14 @@ class SerialBackend(Backend):
         self.channels: list[SerialChannel] = []
         self._by_index: dict[int, SerialChannel] = {}
         self.pins: dict[int, int] = {}  # levels the host wrote (replayed on reconnect)
+        # inputs on the device's pins (issue 13): watched (replayed), last values
+        self.input_listeners = []
+        self.watches: dict[int, WatchInput] = {}
+        self.inputs: dict[int, int] = {}
+        self.input_ticks: dict[int, int] = {}  # host tick at which the device read it
+        self.limit_listeners = []
+        self.limits: dict[tuple[int, bool], Limit] = {}  # limit switches (replayed)
+        self.last_start_at = 0  # host tick of the last Start sent
         # user outputs (issue 12): PWM configurations and states, replayed on reconnect
         self._pwm: dict[int, OutputPwm] = {}
         self._outputs: dict[tuple[bool, int], OutputSet] = {}
@@ -237,6 +256,8 @@ class SerialBackend(Backend):
             link.send(message)
         for ch in self.channels:
             ch.configure()
+        for message in (*self.watches.values(), *self.limits.values()):  # issue 13
+            link.send(message)
         if adopt and self._engine is not None:
             for s in self._engine.steppers:
                 st = self.statuses.get(s.queue.index)
@@ -358,8 +379,34 @@ class SerialBackend(Backend):
                         self._problem = "device in emergency stop"
             elif isinstance(m, SyncReply):
                 self._sync_sample(m)
+            elif isinstance(m, Input):
+                self._input(m)
+            elif isinstance(m, Started):
+                ch = self._by_index.get(m.stepper)
+                if ch is not None:
+                    ch.started(self.host_tick(m.tick))
+            elif isinstance(m, LimitHit):
+                ch = self._by_index.get(m.stepper)
+                if ch is not None:
+                    ch.halted()
+                self._notify_limit(m.stepper, m.pin, m.position, self.host_tick(m.tick))
             elif isinstance(m, Ident) and m.nonce == self._ident_wanted:
                 self.ident = m
+
+    def _input(self, m: Input) -> None:
+        if m.pin not in self.watches:
+            return
+        tick = self.host_tick(m.tick)
+        old = self.inputs.get(m.pin)
+        self.inputs[m.pin] = m.value
+        if old != m.value:
+            self.input_ticks[m.pin] = tick
+            self._notify_input(m.pin, m.value, tick)
+
+    def host_tick(self, device_tick: int) -> int:
+        """The host tick at which the device's counter showed ``device_tick`` (recent)."""
+        now = self.now()
+        return now + tick_diff32(device_tick, self.device_tick32(now))
 
     def _sync_sample(self, m: SyncReply) -> None:
         t1 = self.now()
@@ -568,12 +615,25 @@ class SerialBackend(Backend):
         return max(5 * MS, (self.round_trip_ticks() + self.wire_ticks(16)) * NS_PER_S
                    // self.clock_hz)
 
-    def send_start(self, index: int) -> int:
-        base = self._task_tick if self._task_tick is not None else self.now()
-        mid = self.send(Start(1 << index, self.device_tick32(base + self.start_lead_ticks())))
+    def send_start(self, index: int, at: int | None = None) -> int:
+        """Start queue ``index`` at host tick ``at`` (default: as soon as it can)."""
+        if at is None:
+            at = self.earliest_start()
+        self.last_start_at = at
+        mid = self.send(Start(1 << index, self.device_tick32(at)))
         if self.link is not None:
             self.link.probe_after(mid)  # a lost Start shows a round trip later
+            if self.connected:
+                # the Start ends its frame: what is queued after it must not delay it
+                # (a frame counts only when its last byte is in)
+                self.link.flush()
         return mid
+
+    def earliest_start(self) -> int:
+        """The earliest host tick a Start sent now can name: the ramp task's time (or
+        now) plus the lead."""
+        base = self._task_tick if self._task_tick is not None else self.now()
+        return base + self.start_lead_ticks()
 
     def start_lead_ticks(self) -> int:
         """How far ahead a start is scheduled: the way there and the time the bytes
@@ -636,6 +696,36 @@ class SerialBackend(Backend):
 
     def cancel_sync_outputs(self) -> None:
         self.send(OutputCancel())
+
+    # ------------------------------------------------------- inputs (issue 13)
+    def watch_input(self, pin: int, analog: bool = False, pullup: bool = True,
+                    period_ms: int = 0) -> bool:
+        mode = W_ANALOG if analog else (W_PULLUP if pullup else W_DIGITAL)
+        watch = WatchInput(pin, mode, min(max(period_ms, 0), 255))
+        self.watches[pin] = watch
+        self.send(watch)
+        if self.link is not None and self.connected:
+            self.link.flush()
+        return True
+
+    def read_input(self, pin: int) -> int | None:
+        return self.inputs.get(pin)
+
+    def set_limit(self, index: int, pin: int, level: int, up: bool,
+                  stop: tuple[int, ...] = ()) -> bool:
+        mask = 0
+        for i in stop:
+            mask |= 1 << i
+        limit = Limit(index, pin, 1 if level else 0, L_UP if up else 0, mask)
+        self.limits[(index, bool(up))] = limit
+        self.send(limit)
+        if self.link is not None and self.connected:
+            self.link.flush()
+        return True
+
+    def clear_limit(self, index: int, up: bool) -> None:
+        if self.limits.pop((index, bool(up)), None) is not None:
+            self.send(Limit(index, 0, 0, (L_UP if up else 0) | L_CLEAR, 0))
 
     def attach_pulse_counter(self, queue: StepperQueue, counter: PulseCounter) -> bool:
         if not self.connected:

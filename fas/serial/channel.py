@@ -104,6 +104,12 @@ class SerialChannel(QueueChannel):
         self._stop_id = 0
         self.cuts = 0
         self.cuts_refused = 0
+        # timing of the device queue as the host planned it (fas.gear): the host tick at
+        # which the queued entries end, while the device runs them without a gap
+        self.start_ticks = backend.profile.sim_queue_start_ticks
+        self.t_end: int | None = None
+        self.t_begin: int | None = None  # planned begin of a start not yet confirmed
+        self.cuts_held = False  # a follower derives its steps from this queue: no cuts
         self.configure()
 
     # ------------------------------------------------------------ session
@@ -129,6 +135,7 @@ class SerialChannel(QueueChannel):
     def connection_lost(self) -> None:
         self.pending_start_mid = 0
         self.dev_running = False
+        self.t_end = None
         self.halt = None
         self.cut_state = None
 
@@ -141,12 +148,66 @@ class SerialChannel(QueueChannel):
         if self.is_running() or q.read_idx == q.next_write_idx or not self.b.connected:
             return
         self.pending_start_mid = self.b.send_start(self.index)
+        self._plan_from(self.b.last_start_at)
+
+    # --- queue timing: a Start at host tick `at` begins the first entry at
+    # `at + start_ticks`, the entries follow each other without a gap (section 18)
+    def _plan_from(self, at: int) -> None:
+        q = self.q
+        t = at + self.start_ticks
+        self.t_begin = t  # until the device's Started says when it really began
+        rp = q.read_idx
+        while rp != q.next_write_idx:
+            e = q.entries[rp % q.queue_len]
+            t += e.ticks * max(e.total_steps, 1)
+            rp = (rp + 1) & 0xFF
+        self.t_end = t
+
+    def started(self, tick: int) -> None:
+        """The device's Started: the queue's first entry began at host tick ``tick``."""
+        if self.t_begin is not None and self.t_end is not None:
+            self.t_end += tick - self.t_begin  # a late start shifts the whole timeline
+            self.t_begin = None
+        else:  # it restarted by itself after running dry: the timeline is lost
+            self.t_end = None
+
+    def end_tick(self) -> int | None:
+        q = self.q
+        if self.t_end is None or not self.is_running() or q.read_idx == q.next_write_idx:
+            return None  # (a start not yet confirmed counts as planned: see started())
+        if self.t_end <= self.b.now():
+            return None  # by now the device has run dry: the timing is lost
+        return self.t_end
+
+    def earliest_start_tick(self) -> int | None:
+        return self.b.earliest_start() + self.start_ticks
+
+    def start_at(self, tick: int) -> int | None:
+        q = self.q
+        if self.is_running() or q.read_idx == q.next_write_idx or not self.b.connected:
+            return None
+        at = max(tick - self.start_ticks, self.b.earliest_start())
+        self.pending_start_mid = self.b.send_start(self.index, at)
+        self._plan_from(at)
+        return at + self.start_ticks
+
+    def hold_cuts(self, hold: bool) -> None:
+        self.cuts_held = hold
+
+    def halted(self) -> None:
+        """The device stopped this queue at a limit (LimitHit): nothing runs there
+        until the library force-stops the stepper (its ForceStop lets entries in)."""
+        self.dev_running = False
+        self.pending_start_mid = 0
+        self.t_end = None
 
     def force_stop(self) -> None:
         was_running = self.is_running()
         self.pending_start_mid = 0
         self.dev_running = False
         self.cut_state = None
+        self.t_end = None
+        self.t_begin = None
         if self.b.connected:
             q = self.q
             moving = was_running or q.read_idx != q.next_write_idx
@@ -194,9 +255,15 @@ class SerialChannel(QueueChannel):
         before = i32(e.end_pos - e.total_steps if e.count_up else e.end_pos + e.total_steps)
         if before != self.dev_end_pos:
             self.b.send(SetEndPos(self.index, before))
+        running = self.is_running()
         self.b.send(Entry(self.index, w, e.total_steps, e.ticks, e.toggle_dir, e.dir_level,
-                          e.count_up, self.is_running()))
+                          e.count_up, running))
         self.dev_end_pos = e.end_pos
+        if self.t_end is not None:
+            if running and self.t_end > self.b.now():
+                self.t_end += e.ticks * max(e.total_steps, 1)
+            else:
+                self.t_end = None  # a continuation after the device ran dry: untimed
 
     def positions_shifted(self, delta: int) -> None:
         if self.cut_state is not None:
@@ -215,7 +282,7 @@ class SerialChannel(QueueChannel):
         arrives: the mirror's entries from the reported read point on, summed up to
         the backend's cut margin."""
         if (not self.b.connected or self.cut_state is not None or self.halt is not None
-                or not self.is_running()):
+                or not self.is_running() or self.cuts_held):
             return None
         q = self.q
         rp, wp = q.read_idx, q.next_write_idx
@@ -247,6 +314,7 @@ class SerialChannel(QueueChannel):
         state = CutState(index, w, saved,
                          (q.queue_end_pos, q.queue_end_count_up, q.queue_end_dir), on_refused)
         in_step = self.dev_end_pos == q.queue_end_pos
+        self.t_end = None  # the timeline is no longer what was planned
         q.truncate(index)
         state.mid = self.b.send(Truncate(self.index, index))
         self.dev_end_pos = q.queue_end_pos if in_step else None
@@ -327,6 +395,8 @@ class SerialChannel(QueueChannel):
         self.dev_running = rep.running
         if self.pending_start_mid and acked_mid >= self.pending_start_mid:
             self.pending_start_mid = 0
+        if not self.is_running():
+            self.t_end = None
         if (self.pulse_counter is not None and rep.flags & P_HAS_PCNT
                 and acked_mid >= self.pcnt_epoch_mid):
             self.pulse_counter.value = rep.pcnt

@@ -31,6 +31,8 @@ from .protocol import (
     D_SESSION,
     D_WATCHDOG,
     DEVICE_COUNTERS,
+    L_CLEAR,
+    L_UP,
     MAX_PAYLOAD,
     P_CUT_REFUSED,
     P_DETACHED,
@@ -41,6 +43,9 @@ from .protocol import (
     P_START_PENDING,
     PROTOCOL_VERSION,
     UNSEQUENCED,
+    W_ANALOG,
+    W_OFF,
+    W_PULLUP,
     Bye,
     Config,
     Detach,
@@ -53,6 +58,9 @@ from .protocol import (
     Halt,
     Hello,
     Ident,
+    Input,
+    Limit,
+    LimitHit,
     Message,
     Nak,
     OutputCancel,
@@ -64,11 +72,13 @@ from .protocol import (
     Progress,
     SetEndPos,
     Start,
+    Started,
     Status,
     StatusRequest,
     SyncReply,
     SyncRequest,
     Truncate,
+    WatchInput,
     decode_prefix,
     encode_frame,
     pack_messages,
@@ -83,6 +93,8 @@ DEFAULT_REPORT_MS = 2
 DEFAULT_STATUS_MS = 100
 FRAME_BREAK = b""  # in the output list: start a new frame (small frames survive noise)
 DEVICE_STATUS_EVERY = 5  # status periods between unrequested DeviceStatus messages
+DEFAULT_ANALOG_MS = 50  # WatchInput period 0: sample analog inputs every 50 ms
+ANALOG_DEFAULT = 512  # an analog input nobody has set reads mid-scale (a centred pot)
 
 
 def pwm_timer_for(profile: Profile, number: int, pin: int) -> PwmTimer | None:
@@ -178,6 +190,11 @@ class Device:
         self._nak_owed = False
         self.counters = dict.fromkeys(DEVICE_COUNTERS, 0)
         self.listeners: list[Callable[[str], None]] = []  # session events, for the CLI
+        # watched inputs: pin -> [mode, sample period (ticks), next sample, value reported]
+        self.watches: dict[int, list[int]] = {}
+        self.analog: dict[int, int] = {}  # the analog inputs' values (set_input)
+        # limit switches: (stepper, up) -> (pin, level, stop mask)
+        self.limits: dict[tuple[int, bool], tuple[int, int, int]] = {}
         self.features = 0  # optional message families (Ident): none in this version
         self.sequenced_handlers = self._default_handlers()
         self.stream: ByteStream | None = None
@@ -286,6 +303,8 @@ class Device:
             self._trip_watchdog()
         if t > m.now:
             m.run_until(t)
+        if self.session and self.watches:
+            self._sample_inputs()
         if self.session and t >= self.next_report_tick:
             self.next_report_tick = t - (t % self.report_ticks) + self.report_ticks
             self._changed_progress(only_changed=False)
@@ -300,6 +319,8 @@ class Device:
                 key = self._progress_key(idx, q)
                 self.last_progress[idx] = key
                 self.out.append(Progress(idx, *key).encode())
+            for pin, w in self.watches.items():  # a lost input report heals here
+                self.out.append(Input(pin, w[3], m.now & 0xFFFFFFFF).encode())
             if self._refresh_round % DEVICE_STATUS_EVERY == 0:
                 self.out.append(self._device_status().encode())
 
@@ -315,6 +336,9 @@ class Device:
             deadline = self._watchdog_deadline()
             if deadline is not None:
                 times.append(deadline)
+            for pin, w in self.watches.items():
+                if w[0] == W_ANALOG and self._input_value(pin, w[0]) != w[3]:
+                    times.append(w[2])  # a changed analog input is read at its sample
         if not times:
             return None
         return self.ns_at(max(min(times), self.machine.now + 1))
@@ -332,10 +356,14 @@ class Device:
                 return True
         return False
 
-    def serve(self, stop: Callable[[], bool] = lambda: False) -> None:
-        """Run in real time until ``stop()`` (the device's main loop on a pty)."""
+    def serve(self, stop: Callable[[], bool] = lambda: False,
+              each: Callable[[], None] | None = None) -> None:
+        """Run in real time until ``stop()`` (the device's main loop on a pty);
+        ``each()`` runs once per turn of the loop (e.g. inputs typed at the terminal)."""
         clock = self.clock
         while not stop():
+            if each is not None:
+                each()
             self.advance(clock.now_ns())
             self.flush()
             nxt = self.next_ns()
@@ -466,6 +494,8 @@ class Device:
             self.held.clear()
             self._nak_owed = False
             self.stops = {idx: StopState() for idx in self.queues}
+            self.watches.clear()  # the new host asks for the inputs it wants
+            self.limits.clear()
             self.watchdog_ticks = self._ms_ticks(m.watchdog_ms or self.default_watchdog_ms)
             if m.report_ms:
                 self.report_ticks = self._ms_ticks(m.report_ms)
@@ -488,7 +518,7 @@ class Device:
                 Config: self._config, DirPin: self._dir_pin, Detach: self._detach,
                 PcntAttach: self._pcnt_attach, PcntClear: self._pcnt_clear,
                 Truncate: self._truncate, OutputPwm: self._output, OutputSet: self._output,
-                OutputCancel: self._output}
+                OutputCancel: self._output, WatchInput: self._watch, Limit: self._limit}
 
     def _pin(self, m: Pin) -> None:
         self.machine.pins.set(m.pin, m.level, self.machine.now)
@@ -631,7 +661,7 @@ class Device:
             # the host meant this to follow a running queue, which already ran dry
             self.counters["underruns"] += 1
             ch.underruns += 1
-            ch.start()
+            self._start_queue(m.stepper, q)
 
     def _start(self, m: Start) -> None:
         delta = tick_diff32(m.at, self.machine.now & 0xFFFFFFFF)
@@ -652,7 +682,7 @@ class Device:
             if delta <= 0:
                 if delta < 0:
                     self.counters["late_starts"] += 1
-                q.channel.start()
+                self._start_queue(idx, q)
             else:
                 self.start_events[idx] = self.machine.schedule(
                     self.machine.now + delta, lambda i=idx: self._timed_start(i), PRIO_PLAIN)
@@ -661,7 +691,17 @@ class Device:
         self.start_events.pop(idx, None)
         q = self.queues.get(idx)
         if q is not None:
-            q.channel.start()
+            self._start_queue(idx, q)
+
+    def _start_queue(self, idx: int, q: StepperQueue) -> None:
+        """Start the step timer on the queue and tell the host when its first entry
+        begins (the host plans other queues on that timeline, section 18)."""
+        ch = q.channel
+        was = ch.is_running()
+        begin = ch.earliest_start_tick()
+        ch.start()
+        if not was and ch.is_running():
+            self.out.append(Started(idx, begin & 0xFFFFFFFF).encode())
 
     def _force_stop(self, m: ForceStop) -> None:
         q = self._queue(m.stepper)
@@ -757,6 +797,109 @@ class Device:
     def _notify(self, event: str) -> None:
         for fn in self.listeners:
             fn(event)
+
+    # ------------------------------------------------- inputs (section 18)
+    def _watch(self, m: WatchInput) -> None:
+        if m.mode == W_OFF:
+            self.watches.pop(m.pin, None)
+            return
+        if m.mode > W_ANALOG:
+            self.counters["rejected"] += 1
+            return
+        pins = self.machine.pins
+        if m.mode == W_PULLUP and m.pin not in pins.first_write:
+            pins.set(m.pin, 1, self.machine.now)  # the pull-up holds an open input high
+        period = self._ms_ticks(m.period_ms or DEFAULT_ANALOG_MS)
+        value = self._input_value(m.pin, m.mode)
+        self.watches[m.pin] = [m.mode, period, self.machine.now + period, value]
+        self.out.append(Input(m.pin, value, self.machine.now & 0xFFFFFFFF).encode())
+
+    def _input_value(self, pin: int, mode: int) -> int:
+        if mode == W_ANALOG:
+            return self.analog.get(pin, ANALOG_DEFAULT)
+        return self.machine.pins.get(pin)
+
+    def _sample_inputs(self) -> None:
+        """Digital inputs are reported as soon as they change, analog ones when their
+        sample is due and shows a new value."""
+        now = self.machine.now
+        for pin, w in self.watches.items():
+            mode = w[0]
+            if mode == W_ANALOG:
+                if now < w[2]:
+                    continue
+                w[2] += w[1] * ((now - w[2]) // w[1] + 1)
+            value = self._input_value(pin, mode)
+            if value != w[3]:
+                w[3] = value
+                self.out.append(Input(pin, value, now & 0xFFFFFFFF).encode())
+
+    def set_input(self, pin: int, value: int, analog: bool | None = None) -> None:
+        """The world outside the board: a switch pulls ``pin`` to ``value`` (0/1) or a
+        pot turns analog input ``pin`` to ``value`` (0..1023).  ``analog`` None: as the
+        host watches the pin (digital if it does not)."""
+        w = self.watches.get(pin)
+        if analog is None:
+            analog = (w is not None and w[0] == W_ANALOG) or (w is None and pin in self.analog)
+        if analog:
+            self.analog[pin] = min(max(int(value), 0), 1023)
+        else:
+            self.machine.pins.set(pin, 1 if value else 0, self.machine.now)
+        if self.session and w is not None:
+            self._sample_inputs()
+        if not analog:
+            self._limit_pin_changed(pin, 1 if value else 0)
+
+    def schedule_input(self, tick: int, pin: int, value: int,
+                       analog: bool | None = None) -> None:
+        """``set_input`` at device tick ``tick`` (a switch that closes at a known time)."""
+        self.machine.schedule(tick, lambda: self.set_input(pin, value, analog), PRIO_PLAIN)
+
+    # ------------------------------------------ limit switches (section 18)
+    def _limit(self, m: Limit) -> None:
+        q = self._queue(m.stepper)
+        if q is None:
+            return
+        key = (m.stepper, bool(m.flags & L_UP))
+        if m.flags & L_CLEAR:
+            self.limits.pop(key, None)
+            return
+        self.limits[key] = (m.pin, 1 if m.level else 0, m.stop_mask)
+        q.channel.entry_guard = lambda e, i=m.stepper: self._guard(i, e)
+
+    def _guard(self, idx: int, entry) -> bool:
+        lim = self.limits.get((idx, entry.count_up))
+        if lim is None or self.machine.pins.get(lim[0]) != lim[1]:
+            return False
+        self.queues[idx].channel.on_halt = lambda: self._limit_stop(idx, lim)
+        return True
+
+    def _limit_pin_changed(self, pin: int, level: int) -> None:
+        for (idx, up), lim in list(self.limits.items()):
+            if lim[0] != pin or lim[1] != level:
+                continue
+            q = self.queues.get(idx)
+            if q is not None and q.channel.is_running() and q.channel.moving_up() == up:
+                self._limit_stop(idx, lim)
+
+    def _limit_stop(self, idx: int, lim: tuple[int, int, int]) -> None:
+        """Stop the queue and those in the limit's mask where their pulses are; tell the
+        host; drop their entries and starts until the host's ForceStop (as a Halt)."""
+        now = self.machine.now
+        for i in sorted({idx} | {j for j in self.queues if lim[2] & (1 << j)}):
+            q = self.queues[i]
+            if i != idx and not q.channel.is_running():
+                continue
+            q.channel.on_halt = None
+            self._stop_queue(i, q)
+            q.read_idx = q.next_write_idx
+            q.queue_end_pos = q.channel.pulse_pos
+            st = self.stops[i]
+            st.halted = True
+            st.refused = False
+            self.out.append(LimitHit(i, lim[0], q.next_write_idx, q.channel.pulse_pos,
+                                     now & 0xFFFFFFFF).encode())
+        self.sim._queue_idle()
 
     # ------------------------------------------------------------ reports
     def _progress_key(self, idx: int, q: StepperQueue) -> tuple[int, int, int, int]:

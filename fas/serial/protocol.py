@@ -642,6 +642,84 @@ class OutputCancel(Message):
     FMT: ClassVar[struct.Struct] = _fmt("")
 
 
+# --- inputs and limit switches (issue 13; docs/serial-protocol.md section 18) -------
+W_OFF = 0  # WatchInput.mode: stop watching the pin
+W_DIGITAL = 1  # digital input, no pull-up
+W_PULLUP = 2  # digital input with the pull-up resistor
+W_ANALOG = 3  # analog input, 0..1023
+L_UP = 0x01  # Limit.flags: the limit stops steps that count up (else down)
+L_CLEAR = 0x80  # ... remove the limit of that direction
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class WatchInput(Message):
+    """Read ``pin`` as an input and report it (:class:`Input`): ``mode`` W_*;
+    analog inputs are sampled every ``period_ms`` (0: 50 ms)."""
+
+    CODE: ClassVar[int] = 0x30
+    FMT: ClassVar[struct.Struct] = _fmt("BBB")
+    pin: int
+    mode: int
+    period_ms: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class Limit(Message):
+    """A limit switch: while ``stepper`` steps in the direction of ``flags`` and ``pin``
+    reads ``level``, stop it and the queues in ``stop_mask`` at once (:class:`LimitHit`)."""
+
+    CODE: ClassVar[int] = 0x31
+    FMT: ClassVar[struct.Struct] = _fmt("BBBBB")
+    stepper: int
+    pin: int
+    level: int
+    flags: int
+    stop_mask: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class Input(Message):
+    """A watched input's value (0/1, or 0..1023 analog) and the device tick it was
+    read at: on every change, when the watch begins, and with the slow refresh."""
+
+    CODE: ClassVar[int] = 0xA0
+    FMT: ClassVar[struct.Struct] = _fmt("BHI")
+    pin: int
+    value: int
+    tick: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class LimitHit(Message):
+    """A limit on ``pin`` stopped queue ``stepper`` at device tick ``tick``: no entry is
+    left (read = write = ``index``), the pulses stopped at ``position``.  The queue
+    refuses entries and starts until the host's ForceStop for it."""
+
+    CODE: ClassVar[int] = 0xA1
+    FMT: ClassVar[struct.Struct] = _fmt("BBBiI")
+    stepper: int
+    pin: int
+    index: int
+    position: int
+    tick: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class Started(Message):
+    """Queue ``stepper`` began its first entry at device tick ``tick`` (a Start on time
+    or late, or an entry that restarted a queue that had run dry)."""
+
+    CODE: ClassVar[int] = 0xA2
+    FMT: ClassVar[struct.Struct] = _fmt("BI")
+    stepper: int
+    tick: int
+
+
 
 
 def decode_messages(payload: bytes) -> list[Message]:

@@ -36,6 +36,13 @@ class SimBackend(Backend):
         self.stray_reads = 0
         self.stray_reads_during_pulse = 0
         self.channel_listeners: list[Callable[[SimChannel], None]] = []  # observers
+        # inputs of the application (switches, pots): pin -> analog?; analog values
+        self.input_listeners = []
+        self._inputs: dict[int, bool] = {}
+        self._analog: dict[int, int] = {}
+        self.limit_listeners = []
+        # limit switches: (queue index, up) -> (pin, level, queues stopped with it)
+        self._limits: dict[tuple[int, bool], tuple[int, int, tuple[int, ...]]] = {}
         self._sync_outputs: list[tuple[object, OutputChange]] = []  # waiting for idle queues
         self.output_listeners: list[Callable[[OutputChange, int], None]] = []  # (change, tick)
         self._qs_load = None  # QuickStep's timer interrupt load (fas.sim.quickstep)
@@ -290,6 +297,91 @@ class SimBackend(Backend):
 
     def block_interrupts(self, ticks: int) -> None:
         self.machine.block_interrupts(ticks)
+
+    # ------------------------------------------------------------- inputs
+    def watch_input(self, pin: int, analog: bool = False, pullup: bool = True,
+                    period_ms: int = 0) -> bool:
+        self._inputs[pin] = analog
+        pins = self.machine.pins
+        if not analog and pullup and pin not in pins.first_write:
+            pins.set(pin, 1, self.machine.now)  # the pull-up holds an open input high
+        return True
+
+    def read_input(self, pin: int) -> int | None:
+        analog = self._inputs.get(pin)
+        if analog is None:
+            return None
+        if analog:
+            return self._analog.get(pin)
+        return self.machine.pins.get(pin)
+
+    def drive_input(self, pin: int, value: int) -> bool:
+        """The simulated world: a switch pulls ``pin`` to ``value`` (0/1), a pot turns
+        the analog input to ``value`` (0..1023).  Listeners hear of it at once."""
+        m = self.machine
+        if self._inputs.get(pin):
+            value = min(max(int(value), 0), 1023)
+            changed = self._analog.get(pin) != value
+            self._analog[pin] = value
+        else:
+            value = 1 if value else 0
+            changed = m.pins.get(pin) != value or pin not in m.pins.first_write
+            m.pins.set(pin, value, m.cpu_now())
+        if changed:
+            if not self._inputs.get(pin):
+                self._limit_pin_changed(pin, value)
+            self._notify_input(pin, value, m.cpu_now())
+        return True
+
+    # ------------------------------------------------------- limit switches
+    def set_limit(self, index: int, pin: int, level: int, up: bool,
+                  stop: tuple[int, ...] = ()) -> bool:
+        ch = self._channel_of(index)
+        if ch is None:
+            return False
+        self._limits[(index, bool(up))] = (pin, 1 if level else 0, tuple(stop))
+        ch.entry_guard = lambda e, i=index: self._guard(i, e)
+        return True
+
+    def clear_limit(self, index: int, up: bool) -> None:
+        self._limits.pop((index, bool(up)), None)
+
+    def _channel_of(self, index: int) -> SimChannel | None:
+        for ch in self.channels:
+            if ch.q.index == index:
+                return ch
+        return None
+
+    def _guard(self, index: int, entry) -> bool:
+        """A queue takes up an entry: towards a closed limit it must not step."""
+        lim = self._limits.get((index, entry.count_up))
+        if lim is None or self.machine.pins.get(lim[0]) != lim[1]:
+            return False
+        ch = self._channel_of(index)
+        ch.on_halt = lambda: self._limit_stop(index, lim, halted=True)
+        return True
+
+    def _limit_pin_changed(self, pin: int, value: int) -> None:
+        for (index, up), lim in list(self._limits.items()):
+            if lim[0] != pin or lim[1] != value:
+                continue
+            ch = self._channel_of(index)
+            if ch is not None and ch.is_running() and ch.moving_up() == up:
+                self._limit_stop(index, lim)
+
+    def _limit_stop(self, index: int, lim: tuple[int, int, tuple[int, ...]],
+                    halted: bool = False) -> None:
+        tick = self.machine.now
+        stopped = []
+        for i in (index, *lim[2]):
+            ch = self._channel_of(i)
+            if ch is None or (i != index and not ch.is_running()):
+                continue
+            if i == index and halted:
+                ch.on_halt = None
+            stopped.append((i, ch.stop_now()))
+        for i, pos in stopped:
+            self._notify_limit(i, lim[0], pos, tick)
 
     # -------------------------------------------------------- conveniences
     def run_for(self, ticks: int) -> None:

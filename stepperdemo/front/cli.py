@@ -19,6 +19,7 @@ EXIT_MAX_TIME = 3
 EXIT_SCENARIO_FAILED = 4
 
 SUBCOMMANDS = ("run", "device", "relay", "gcode")
+PROGRAM_SUBCOMMANDS = ("winder",)  # programs beside StepperDemo: stepperdemo winder ...
 
 DESCRIPTION = """\
 The StepperDemo console of FastAccelStepper on a simulated microcontroller.
@@ -35,6 +36,7 @@ StepperDemo sketch (its text console over the serial port); -c runs the line on
 the board and ends when the board is idle.
 
 Subcommands:
+  stepperdemo winder [options]        the helix winder (seed 002): --help
   stepperdemo run FILES|FOLDERS ...   run scenario files (sequences/*.toml);
                                       --board DEVICE: on a board, with the twin check
   stepperdemo device --pty            a simulated device on a new pty (--help);
@@ -48,8 +50,13 @@ exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
 
 
 def build_parser(program: str = "demo") -> argparse.ArgumentParser:
+    prog, description = "stepperdemo", DESCRIPTION
+    if program != "demo":  # a program's own subcommand and --help text
+        from ..program import program_factory
+        prog = f"stepperdemo {program}"
+        description = getattr(program_factory(program), "cli_description", DESCRIPTION)
     ap = argparse.ArgumentParser(
-        prog="stepperdemo", description=DESCRIPTION,
+        prog=prog, description=description,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("-c", "--command", metavar="LINE",
                     help="run LINE on virtual time, print the transcript, exit when the "
@@ -97,15 +104,21 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
     if getattr(args, "board", None):  # issue 15: a board running the original StepperDemo
         return board.run_scripted(args, write)
     backend = SimBackend(args.arch)
+    if getattr(args, "test_mode_wait", False) and args.program == "demo":  # the demo's w
+        args.program_options = {**getattr(args, "program_options", {}), "test_mode_wait": True}
+    try:
+        app = make_program(args.program, backend, scripted=True, output=write,
+                           **getattr(args, "program_options", {}))
+    except ValueError as exc:  # the profile cannot host the program
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        return EXIT_USAGE
     try:  # watching the run (issue 6): --vcd, --plot, --report, --steps-csv
-        observers = observe.from_arguments(backend, args)
+        observers = observe.from_arguments(backend, args, app.trace_signals())
     except OSError as exc:
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return EXIT_USAGE
-    if getattr(args, "test_mode_wait", False):  # the demo's extension: w in test mode
-        args.program_options = {**getattr(args, "program_options", {}), "test_mode_wait": True}
-    app = make_program(args.program, backend, scripted=True, output=write,
-                       **getattr(args, "program_options", {}))
+    if observers is not None:
+        app.watch(observers)
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
     reason = app.run_script(args.command, firmware_end=args.firmware_end, max_ticks=max_ticks)
     out.flush()
@@ -134,7 +147,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(msg.CLI_ERROR.format(problem=f"{argv[0]}: not available in this version"),
               file=sys.stderr)
         return EXIT_USAGE
-    args = build_parser().parse_args(argv)
+    if argv and argv[0] in PROGRAM_SUBCOMMANDS:
+        args = build_parser(argv[0]).parse_args(argv[1:])
+    else:
+        args = build_parser().parse_args(argv)
     if args.max_time <= 0:
         print(msg.CLI_ERROR.format(problem="--max-time must be positive"), file=sys.stderr)
         return EXIT_USAGE

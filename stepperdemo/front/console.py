@@ -244,7 +244,10 @@ class Console:
                                                    steppers=p.max_steppers, ticks=p.ticks_per_s))
                 return
             try:
-                get_profile(args[0])
+                profile = get_profile(args[0])
+                problem = getattr(type(self.app), "profile_problem", lambda _p: None)(profile)
+                if problem:  # the program cannot run there (the winder: two dir pins)
+                    raise ValueError(problem)
             except ValueError as exc:
                 self._note(msg.REPL_BAD_ARG.format(cmd=cmd, problem=exc))
                 return
@@ -310,9 +313,9 @@ class Console:
         p = self.backend.profile
         if self.port:  # issue 7
             return msg.REPL_WELCOME_SERIAL.format(version=msg.VERSION, profile=p.name,
-                                                  port=self.port)
+                                                  port=self.port, title=self.app.title)
         return msg.REPL_WELCOME.format(version=msg.VERSION, profile=p.name,
-                                       mode=f"x{self.scale:g} real time")
+                                       mode=f"x{self.scale:g} real time", title=self.app.title)
 
     def close_session(self) -> None:
         """The console ends: release what the session holds."""
@@ -359,6 +362,9 @@ def run_console(args) -> int:
                           link_planning_ms=getattr(args, "link_planning_ms", None))
     except ConnectionError as exc:  # issue 7: fas.serial.SerialError
         print(msg.CLI_SERIAL_CONNECT.format(port=port, error=exc), file=sys.stderr)
+        return serial_cli.EXIT_USAGE
+    except ValueError as exc:  # the profile cannot host the program
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return serial_cli.EXIT_USAGE
     return asyncio.run(console.run())
 

@@ -111,8 +111,13 @@ def run_scripted(args: argparse.Namespace, write) -> int:
     except SerialError as exc:
         print(msg.CLI_SERIAL_CONNECT.format(port=args.port, error=exc), file=sys.stderr)
         return EXIT_USAGE
-    app = make_program(args.program, backend, scripted=True, output=write,
-                       **getattr(args, "program_options", {}))
+    try:
+        app = make_program(args.program, backend, scripted=True, output=write,
+                           **getattr(args, "program_options", {}))
+    except ValueError as exc:  # the profile cannot host the program
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        backend.close()
+        return EXIT_USAGE
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
 
     def on_event(event: str, text: str) -> None:
@@ -264,11 +269,38 @@ def device_parser() -> argparse.ArgumentParser:
     ap.add_argument("--link", metavar="PATH",
                     help="also make PATH a symbolic link to the pty (a stable name)")
     ap.add_argument("--quiet", action="store_true", help="print only the pty path")
+    ap.add_argument("--input", action="append", default=[], metavar="PIN=VALUE",
+                    help="an input of the board at start: a switch (0/1) or a pot (0..1023); "
+                         "PIN is a pin number or A0, A1, ... (e.g. --input A4=0 closes the "
+                         "winder's fixture switch); repeatable")
+    ap.add_argument("--inputs-from-stdin", action="store_true",
+                    help="read PIN=VALUE lines from standard input while serving: turn pots "
+                         "and press switches of the simulated board (e.g. A0=900, A3=0)")
     ap.add_argument("--console", action="store_true",  # issue 15
                     help="instead of the protocol: the simulated StepperDemo firmware with "
                          "its text console (as a board flashed with the original sketch; "
                          "for stepperdemo --board); it restarts when a host opens the pty")
     return ap
+
+
+def parse_input(text: str, profile) -> tuple[int, int, bool | None]:
+    """``PIN=VALUE`` -> (pin, value, analog): a value above 1 is a pot; 0 and 1 go to
+    the pin as the host watches it (None: digital while nobody watches it)."""
+    pin_text, sep, value_text = text.strip().partition("=")
+    if not sep:
+        raise ValueError(f"{text!r} is not PIN=VALUE")
+    pin_text = pin_text.strip().upper()
+    try:
+        value = int(value_text)
+        if pin_text.startswith("A"):
+            pin = profile.analog_pins[int(pin_text[1:])]
+        else:
+            pin = int(pin_text)
+    except (ValueError, IndexError):
+        raise ValueError(f"{text!r} is not PIN=VALUE") from None
+    if not 0 <= value <= 1023 or not 0 <= pin <= 255:
+        raise ValueError(f"{text!r}: pin 0..255, value 0..1023")
+    return pin, value, (True if value > 1 else None)
 
 
 def run_device(argv: Sequence[str]) -> int:
@@ -298,6 +330,13 @@ def run_device(argv: Sequence[str]) -> int:
         stream, path = pty.stream, pty.path
         set_link(args.link, path)
     device = Device(stream, profile, RealClock(args.speed), watchdog_ms=args.watchdog_ms)
+    try:
+        for text in args.input:
+            device.set_input(*parse_input(text, profile))
+    except ValueError as exc:
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        return EXIT_USAGE
+    each = _stdin_inputs(device, profile) if args.inputs_from_stdin else None
     if args.quiet:
         print(path, flush=True)
     else:
@@ -308,7 +347,7 @@ def run_device(argv: Sequence[str]) -> int:
                                                     flush=True))
     stop = _Stop()
     try:
-        device.serve(stop)
+        device.serve(stop, each)
     finally:
         if pty is not None:
             remove_link(args.link, path)
@@ -322,6 +361,33 @@ def run_device(argv: Sequence[str]) -> int:
                                                   edges=device.step_edges(idx)))
         print(msg.DEVICE_COUNTERS.format(**device.counters))
     return 0
+
+
+def _stdin_inputs(device, profile):
+    """Lines typed at the device's terminal set its inputs (read by a thread)."""
+    import queue
+    import threading
+
+    typed: queue.Queue[str] = queue.Queue()
+
+    def reader() -> None:
+        for line in sys.stdin:
+            typed.put(line)
+
+    threading.Thread(target=reader, daemon=True).start()
+
+    def each() -> None:
+        while not typed.empty():
+            line = typed.get_nowait().strip()
+            if not line:
+                continue
+            try:
+                device.set_input(*parse_input(line, profile))
+                print(msg.DEVICE_INPUT_SET.format(text=line), flush=True)
+            except ValueError as exc:
+                print(msg.CLI_ERROR.format(problem=exc), flush=True)
+
+    return each
 
 
 def relay_parser() -> argparse.ArgumentParser:

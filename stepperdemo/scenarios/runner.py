@@ -76,6 +76,10 @@ class Watch:
 
 def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
     backend = SimBackend(sc.profile, record=True)
+    try:
+        app = make_program(sc.program, backend, scripted=True)
+    except ValueError as exc:  # the profile cannot host the program
+        return ScenarioResult(str(sc.path), sc.name, False, error=str(exc))
     obs = None
     if watch is not None and watch.wanted():
         from ..watch import observe
@@ -85,8 +89,9 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
         obs = observe.attach(backend, vcd=named(watch.vcd_dir, ".vcd"),
                              csv=named(watch.csv_dir, ".csv"),
                              analyse=bool(watch.csv_dir or watch.plot_dir
-                                          or watch.timing_report))
-    app = make_program(sc.program, backend, scripted=True)
+                                          or watch.timing_report),
+                             extra_signals=app.trace_signals())
+        app.watch(obs)
     t0 = time.perf_counter()
     reason = app.run_script(sc.input, firmware_end=(sc.end == "firmware"),
                             max_ticks=int(sc.max_time_s * backend.profile.ticks_per_s))
@@ -185,6 +190,7 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
             watch.report_lines.append(msg.RUN_TIMING_REPORT_HEAD.format(name=sc.name))
             watch.report_lines += report.report_lines(
                 obs, positions=report.library_positions(app))
+            watch.report_lines += app.watch_report()
     res.ok = all(c.ok for c in res.checks)
     return res
 

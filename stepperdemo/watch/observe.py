@@ -56,11 +56,14 @@ class Observers:
     def __init__(self, backend: SimBackend, *, vcd: str | None = None,
                  spool_vcd: bool = False, csv: str | None = None, analyse: bool = True,
                  positions: Sequence[int | None] | None = None,
-                 timescale: str | None = None) -> None:
+                 timescale: str | None = None,
+                 extra_signals: dict[int, list[str]] | None = None) -> None:
         self.backend = backend
         self.profile = backend.profile
         self.wiring = demo_wiring(self.profile)
         self.signals = vcd_signals(self.wiring, output_pins(self.profile))
+        for pin, names in (extra_signals or {}).items():  # a program's own pins
+            self.signals.setdefault(pin, []).extend(names)
         self.stream = EdgeStream(backend)
         self.vcd_path = vcd
         self._spool = spool_vcd and vcd is None
@@ -172,10 +175,11 @@ def _remove(path: str) -> None:
 
 def attach(backend: SimBackend, *, vcd: str | None = None, csv: str | None = None,
            analyse: bool = True, positions: Sequence[int | None] | None = None,
-           timescale: str | None = None) -> Observers:
+           timescale: str | None = None,
+           extra_signals: dict[int, list[str]] | None = None) -> Observers:
     """Start recording a simulated run (see :class:`Observers`); call ``finish()`` after."""
     return Observers(backend, vcd=vcd, csv=csv, analyse=analyse, positions=positions,
-                     timescale=timescale).start()
+                     timescale=timescale, extra_signals=extra_signals).start()
 
 
 # ----------------------------------------------------------- command line
@@ -226,13 +230,14 @@ def check_arguments(args: argparse.Namespace) -> str | None:
     return None
 
 
-def from_arguments(backend: SimBackend, args: argparse.Namespace) -> Observers | None:
+def from_arguments(backend: SimBackend, args: argparse.Namespace,
+                   extra_signals: dict[int, list[str]] | None = None) -> Observers | None:
     """Attach what the options ask for (None if nothing); OSError if a file can't be made."""
     if not wanted(args):
         return None
     return attach(backend, vcd=args.vcd, csv=args.steps_csv,
                   analyse=bool(args.report or args.plot or args.steps_csv),
-                  timescale=getattr(args, "vcd_timescale", None))
+                  timescale=getattr(args, "vcd_timescale", None), extra_signals=extra_signals)
 
 
 def finish_arguments(obs: Observers, args: argparse.Namespace, app=None,
@@ -248,4 +253,6 @@ def finish_arguments(obs: Observers, args: argparse.Namespace, app=None,
                         outputs=plots.outputs_of(obs))
     if args.report:
         out.extend(report.report_lines(obs, positions=report.library_positions(app)))
+        if app is not None:
+            out.extend(app.watch_report())  # the program's own figures
     return out
