@@ -381,3 +381,10 @@ RELAY_DEVICE_GONE = "relay: device side closed ({reason})"
 RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {dropped} dropped, "
                "{corrupted} corrupted, {duplicated} duplicated")
 # --------------------------------------------------------------- end of serial texts
+
+# ------------------------------------------------ issue 11: the firmware in simavr
+DEVICE_SIMAVR_TITLE = "firmware {elf} in simavr, {baud} baud"
+DEVICE_SIMAVR_SUMMARY = "{line}"
+DEVICE_SIMAVR_BUILD_FAILED = "stepperdemo device --simavr: {error}"
+DEVICE_SIMAVR_OPTION = "--{option} applies to the simulated device (--pty/--port), not --simavr"
+# ------------------------------------------------- end of issue 11 texts

@@ -1,0 +1,35 @@
+/* Build-time figures of the device firmware (ATmega328P, Arduino Uno/Nano).
+ *
+ * They must agree with the host's profile table (fas/arch.py, profile "atmega328p"):
+ * the host compares what Ident reports with its own table and refuses a mismatch.
+ */
+#ifndef FW_CONFIG_H
+#define FW_CONFIG_H
+
+#ifndef F_CPU
+#define F_CPU 16000000UL
+#endif
+
+/* Line speed: 115200 (default) or 1000000; `make BAUD=1000000`. Both use the UART's
+ * double-speed mode (U2X): 115200 is really 117647 baud (+2.1 %, as the Arduino core
+ * does it), 1000000 is exact at 16 MHz. */
+#ifndef BAUD
+#define BAUD 115200UL
+#endif
+
+#define FW_NAME "atmega328p"          /* the profile the host looks up */
+#define FW_TICKS_PER_S 16000000UL     /* timer 1 runs at the CPU clock */
+#define FW_MAX_STEPPERS 2             /* timer 1 channels A and B: pins 9 and 10 */
+#define FW_MIN_CMD_TICKS_DIV 25000U   /* ticks_per_s / min_cmd_ticks */
+
+/* One command queue per stepper: a ring of QUEUE_LEN entries (a power of two), as
+ * FastAccelStepper's AVR queue. */
+#ifndef QUEUE_LEN
+#define QUEUE_LEN 16
+#endif
+#define QUEUE_MASK (QUEUE_LEN - 1)
+
+#define STEP_PIN_A 9   /* OC1A, PB1 */
+#define STEP_PIN_B 10  /* OC1B, PB2 */
+
+#endif

@@ -1,0 +1,31 @@
+/* Interrupt-driven UART 0 (pins 0/1): 8N1 at BAUD, receive and transmit rings.
+ *
+ * The receive interrupt stores each byte; for every sync byte (0x7E) it also notes
+ * the tick it arrived at, so that a frame's arrival time is the time of its last
+ * byte (SyncReply, watchdog), however late the main loop gets to it. */
+#ifndef FW_UART_H
+#define FW_UART_H
+
+#include <stdint.h>
+
+#define UART_RX_SIZE 256  /* uint8_t indices wrap by themselves */
+#define UART_TX_SIZE 128
+#define UART_SYNC_BYTE 0x7E
+
+void uart_init(void);
+
+/* receiving: bytes are read in place, then released */
+uint8_t uart_rx_count(void);
+uint8_t uart_rx_peek(uint8_t offset);  /* offset from the oldest unread byte */
+void uart_rx_drop(uint8_t n);
+/* The tick at which the sync byte at `offset` arrived (or now, if unknown). */
+uint32_t uart_rx_sync_tick(uint8_t offset);
+extern volatile uint16_t uart_rx_overruns;  /* bytes lost: ring full or UART overrun */
+extern volatile uint16_t uart_rx_bad_bits;  /* stop bit missing (framing error) */
+
+/* transmitting */
+uint8_t uart_tx_free(void);
+void uart_tx_put(uint8_t b);  /* the caller checked uart_tx_free() */
+uint8_t uart_tx_idle(void);   /* everything sent */
+
+#endif
