@@ -1,8 +1,8 @@
 /* Arduino pin numbers to I/O registers (see board.h). */
 #include <avr/io.h>
-#include <util/atomic.h>
 
 #include "board.h"
+#include "irq.h"
 
 volatile uint8_t *board_pin_reg(uint8_t pin)
 {
@@ -38,11 +38,11 @@ void board_pin_write(uint8_t pin, uint8_t level)
     if (!reg)
         return;
     /* the step interrupt toggles direction pins on the same ports (a PINx write) */
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-        if (level)
-            reg[2] |= mask;
-        else
-            reg[2] &= (uint8_t)~mask;
-        reg[1] |= mask;
-    }
+    uint8_t sreg = irq_save();
+    if (level)
+        reg[2] |= mask;
+    else
+        reg[2] &= (uint8_t)~mask;
+    reg[1] |= mask;
+    irq_restore(sreg);
 }

@@ -12,6 +12,7 @@
 #include <avr/sleep.h>
 
 #include "frame.h"
+#include "irq.h"
 #include "session.h"
 #include "stepgen.h"
 #include "ticks.h"
@@ -37,7 +38,7 @@ int main(void)
     uart_init();
     wake_tick_init();
     set_sleep_mode(SLEEP_MODE_IDLE);
-    sei();
+    irq_on();
     session_init();
     for (;;) {
         while (frame_receive(&frame))
@@ -53,6 +54,6 @@ int main(void)
             sleep_cpu();
             sleep_disable();
         }
-        sei();
+        irq_on();
     }
 }

@@ -16,6 +16,7 @@
 #include <avr/io.h>
 
 #include "board.h"
+#include "irq.h"
 #include "stepgen.h"
 #include "ticks.h"
 
@@ -412,7 +413,7 @@ static void prepare(uint8_t ch)
     if (TIFR1 & flag) {
         q->state = SQ_FLUSH;
         TIMSK1 |= flag;  /* OCIE1x and OCF1x have the same bit */
-        sei();
+        irq_on();
         while (q->state == SQ_FLUSH)
             ;
         cli();
@@ -431,13 +432,12 @@ static void arm_at(uint8_t ch, uint16_t compare, uint8_t st, uint8_t from_now)
 void stepgen_start_now(uint8_t ch)
 {
     struct stepq *q = &stepq[ch];
-    uint8_t sreg = SREG;
-    cli();
+    uint8_t sreg = irq_save();
     if (!(q->state & (SQ_RUNNING | SQ_PENDING)) && q->rp != q->wp) {
         prepare(ch);
         arm_at(ch, 0, first_state(q), 1);
     }
-    SREG = sreg;
+    irq_restore(sreg);
 }
 
 uint8_t stepgen_start_at(uint8_t ch, uint32_t at)
@@ -478,17 +478,16 @@ uint8_t stepgen_start_at(uint8_t ch, uint32_t at)
         }
         /* the first match would come too close to now: wait a few microseconds with
          * interrupts on */
-        sei();
+        irq_on();
     }
-    SREG = sreg;
+    irq_restore(sreg);
     return late;
 }
 
 void stepgen_force_stop(uint8_t ch)
 {
     struct stepq *q = &stepq[ch];
-    uint8_t sreg = SREG;
-    cli();
+    uint8_t sreg = irq_save();
     uint8_t st = q->state;
     if (st & SQ_PENDING) {
         TIMSK1 &= (uint8_t)~(ch == 0 ? _BV(OCIE1A) : _BV(OCIE1B));
@@ -500,7 +499,7 @@ void stepgen_force_stop(uint8_t ch)
             /* a pulse is on the pin or about to be: the interrupts finish it, count
              * it and stop */
             q->state = st | SQ_STOPPING;
-            sei();
+            irq_on();
             while (q->state)
                 ;
             cli();
@@ -517,15 +516,18 @@ void stepgen_force_stop(uint8_t ch)
             q->state = 0;
         }
     }
-    SREG = sreg;
+    irq_restore(sreg);
 }
 
-/* Fold the interrupt's 16-bit pulse counts into the 32-bit figures (interrupts off). */
+/* Fold the interrupt's 16-bit pulse counts into the 32-bit figures: only taking
+ * them is done with interrupts off (short sections keep the step latency low). */
 static void fold(struct stepq *q)
 {
+    uint8_t sreg = irq_save();
     uint16_t up = q->pulses_up, down = q->pulses_down;
     q->pulses_up = 0;
     q->pulses_down = 0;
+    irq_restore(sreg);
     q->pulses += (uint32_t)up + down;
     q->pulse_pos += (int32_t)up - (int32_t)down;
 }
@@ -533,37 +535,29 @@ static void fold(struct stepq *q)
 void stepgen_snapshot(uint8_t ch, struct stepq_snapshot *s)
 {
     struct stepq *q = &stepq[ch];
-    uint8_t sreg = SREG;
-    cli();
     fold(q);
+    uint8_t sreg = irq_save();
     s->state = q->state;
     s->rp = q->rp;
     s->steps = q->entry[q->rp & QUEUE_MASK].steps;
     s->pulses = q->pulses;
     s->pulse_pos = q->pulse_pos;
     s->pcnt = q->pcnt;
-    SREG = sreg;
+    irq_restore(sreg);
 }
 
 void stepgen_poll(void)
 {
-    for (uint8_t ch = 0; ch < FW_MAX_STEPPERS; ch++) {
-        uint8_t sreg = SREG;
-        cli();
+    for (uint8_t ch = 0; ch < FW_MAX_STEPPERS; ch++)
         fold(&stepq[ch]);
-        SREG = sreg;
-    }
 }
 
 void stepgen_set_counts(uint8_t ch, uint32_t pulses, int32_t pulse_pos)
 {
     struct stepq *q = &stepq[ch];
-    uint8_t sreg = SREG;
-    cli();
     fold(q);
     q->pulses = pulses;
     q->pulse_pos = pulse_pos;
-    SREG = sreg;
 }
 
 void stepgen_set_dir_pin(uint8_t ch, uint8_t pin)
@@ -575,13 +569,12 @@ void stepgen_set_dir_pin(uint8_t ch, uint8_t pin)
         reg = board_pin_reg(pin);
         mask = board_pin_mask(pin);
     }
-    uint8_t sreg = SREG;
-    cli();
+    uint8_t sreg = irq_save();
     q->dir_reg = reg;
     q->dir_mask = mask;
     if (reg)
         reg[1] |= mask;  /* an output (its level stays as written) */
-    SREG = sreg;
+    irq_restore(sreg);
 }
 
 void stepgen_commit_entry(uint8_t ch)

@@ -6,6 +6,8 @@
 #include <avr/io.h>
 #include <stdint.h>
 
+#include "irq.h"
+
 extern volatile uint16_t ticks_high;
 
 void ticks_init(void);
@@ -14,14 +16,13 @@ void ticks_init(void);
  * so that an interrupt using it needs no call. */
 static inline __attribute__((always_inline)) uint32_t ticks_now(void)
 {
-    uint8_t sreg = SREG;
-    __asm__ __volatile__("cli" ::: "memory");
+    uint8_t sreg = irq_save();
     uint16_t high = ticks_high;
     uint16_t low = TCNT1;
     /* an overflow whose interrupt has not run yet belongs to a low value read after it */
     if ((TIFR1 & _BV(TOV1)) && low < 0x8000u)
         high++;
-    SREG = sreg;
+    irq_restore(sreg);
     return ((uint32_t)high << 16) | low;
 }
 

@@ -3,6 +3,7 @@
 #include <avr/io.h>
 
 #include "config.h"
+#include "irq.h"
 #include "ticks.h"
 #include "uart.h"
 
@@ -80,11 +81,10 @@ uint32_t uart_rx_sync_tick(uint8_t offset)
         s = (s - 1) & (SYNC_STAMPS - 1);
         uint8_t p;
         uint32_t t;
-        uint8_t sreg = SREG;
-        cli();
+        uint8_t sreg = irq_save();
         p = stamp_pos[s];
         t = stamp_tick[s];
-        SREG = sreg;
+        irq_restore(sreg);
         if (p == pos)
             return t;
     }
@@ -112,10 +112,9 @@ void uart_tx_put(uint8_t b)
     uint8_t head = tx_head;
     tx_buf[head % UART_TX_SIZE] = b;
     tx_head = head + 1;
-    uint8_t sreg = SREG;
-    cli();  /* UCSR0B is out of reach of sbi: a read-modify-write the interrupt shares */
-    UCSR0B |= _BV(UDRIE0);
-    SREG = sreg;
+    uint8_t sreg = irq_save();  /* UCSR0B is out of reach of sbi: a read-modify-write */
+    UCSR0B |= _BV(UDRIE0);      /* the transmit interrupt shares */
+    irq_restore(sreg);
 }
 
 uint8_t uart_tx_idle(void)

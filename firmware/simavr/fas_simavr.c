@@ -20,6 +20,8 @@
  *   'I'                                    answer: u64 cycle, u64 timer-1 start
  *                                          cycle, u32 frequency, u32 cycles per
  *                                          byte, u32 bytes dropped, u32 rx overruns
+ *   'W' u16 address, u16 n, n bytes        write the chip's data memory (answer: 'W')
+ *   'M' u16 address, u16 n                 read it (answer: n bytes)
  *   'Q'                                    flush the trace and end (answer: 'Q')
  *
  * The pins.  simavr 1.6 models the ports well, but not the timers' output-compare
@@ -428,6 +430,20 @@ static int lockstep(void)
             memcpy(buf + 28, &rx_overruns, 4);
             if (write_full(1, buf, 32))
                 return 1;
+        } else if (cmd == 'W' || cmd == 'M') {
+            uint16_t addr, n;
+            if (read_full(0, &addr, 2) || read_full(0, &n, 2))
+                return 1;
+            if ((uint32_t)addr + n > (uint32_t)avr->ramend + 1) {
+                fprintf(stderr, "fas-simavr: memory access beyond RAMEND\n");
+                return 1;
+            }
+            if (cmd == 'W') {
+                if (read_full(0, avr->data + addr, n) || write_full(1, "W", 1))
+                    return 1;
+            } else if (write_full(1, avr->data + addr, n)) {
+                return 1;
+            }
         } else if (cmd == 'Q') {
             if (trace)
                 fflush(trace);
