@@ -60,6 +60,10 @@ static inline __attribute__((always_inline)) void pcnt_count(struct stepq *q, ui
  * begun by waiting in the main loop instead */
 #define START_ARM_MIN 160
 
+/* a C constant in the assembly text */
+#define K_(x) #x
+#define K(x) K_(x)
+
 #define SET_COM(X, mode) TCCR1A = (uint8_t)((TCCR1A & ~COM_MASK_##X) | (mode))
 
 static inline __attribute__((always_inline)) void count_pulse(struct stepq *q, uint8_t flags)
@@ -73,11 +77,13 @@ static inline __attribute__((always_inline)) void count_pulse(struct stepq *q, u
         pcnt_count(q, flags);
 }
 
+/* Where toggles of a stepper without a direction pin go (never a null pointer for
+ * the interrupt to check). */
+static volatile uint8_t no_dir_pin;
+
 static inline __attribute__((always_inline)) void toggle_dir(struct stepq *q)
 {
-    volatile uint8_t *reg = q->dir_reg;
-    if (reg)
-        *reg = q->dir_mask;  /* writing a one to PINx toggles the pin */
+    *q->dir_reg = q->dir_mask;  /* writing a one to PINx toggles the pin */
 }
 
 /* The state of a queue that begins; toggles the direction pin if its first entry
@@ -123,29 +129,19 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
     }
 
 /* The compare interrupt of channel X (queue CH), all of it: FastAccelStepper's step
- * interrupt split at the pulse's falling edge (see the top of this file).  The
- * frequent cases are handled first by the short dispatcher below; it enters here for
- * everything else, sometimes after it has already set up the falling edge
- * (SQ_CLEARING, compare of the step in q->base). */
+ * interrupt with the pulse's falling edge made by a second compare (see the top of
+ * this file).  A compare that raised the pin sets up the falling edge, does the
+ * queue's work and leaves the next compare to the falling edge's interrupt; a
+ * compare without a pulse programs the next one at once.  A direction toggle waits
+ * for the falling edge (never during a pulse).  The dispatcher below (assembly) does
+ * the frequent cases itself and comes here for the others: a timed start that
+ * waits, a stop, a detached step pin, a pulse counter, an idle channel. */
 #define STEP_ISR_FULL(X, CH)                                                     \
     void stepgen_full_##X(void) __attribute__((signal, used, externally_visible)); \
     void stepgen_full_##X(void)                                                  \
     {                                                                            \
         struct stepq *q = &stepq[CH];                                            \
         uint8_t st = q->state;                                                   \
-        if (st & SQ_FALLING) {                                                   \
-            /* the pin went low: on to the next compare */                       \
-            if (st & SQ_STOPPING) {                                              \
-                TIMSK1 &= (uint8_t)~_BV(OCIE1##X);                               \
-                SET_COM(X, 0);                                                   \
-                q->state = 0;                                                    \
-                return;                                                          \
-            }                                                                    \
-            SET_COM(X, q->next_com);                                             \
-            OCR1##X = q->next_compare;                                           \
-            q->state = (uint8_t)(st & ~SQ_FALLING);                              \
-            return;                                                              \
-        }                                                                        \
         if (st & SQ_PENDING) {                                                   \
             pending_compare_##X(q);                                              \
             return;                                                              \
@@ -156,29 +152,35 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
             q->state = 0;                                                        \
             return;                                                              \
         }                                                                        \
-        uint8_t pulse = 0;                                                       \
-        uint16_t base;                                                           \
-        if (st & SQ_CLEARING) {                                                  \
-            st &= (uint8_t)~SQ_CLEARING;                                         \
-            base = q->base;                                                      \
-            pulse = 1;                                                           \
-        } else {                                                                 \
-            base = OCR1##X;                                                      \
-            if ((TCCR1A & COM_MASK_##X) == COM_SET_##X) {                        \
-                /* the pin went high: take it low with a compare a few ticks on */ \
-                SET_COM(X, COM_CLEAR_##X);                                       \
-                OCR1##X = TCNT1 + CLEAR_LEAD;                                    \
-                pulse = 1;                                                       \
+        if (st & SQ_FALLING) {                                                   \
+            /* the pin went low: the next compare */                             \
+            if (st & SQ_STOPPING) {                                              \
+                TIMSK1 &= (uint8_t)~_BV(OCIE1##X);                               \
+                SET_COM(X, 0);                                                   \
+                q->state = 0;                                                    \
+                return;                                                          \
             }                                                                    \
+            if (st & SQ_TOGGLE)                                                  \
+                toggle_dir(q);                                                   \
+            SET_COM(X, q->next_com);                                             \
+            OCR1##X = q->next_compare;                                           \
+            q->state = (uint8_t)(st & ~(SQ_FALLING | SQ_TOGGLE));                \
+            return;                                                              \
+        }                                                                        \
+        uint16_t base = OCR1##X;                                                 \
+        uint8_t pulse = 0;                                                       \
+        if ((TCCR1A & COM_MASK_##X) == COM_SET_##X) {                            \
+            /* the pin went high: take it low with a compare a few ticks on */   \
+            SET_COM(X, COM_CLEAR_##X);                                           \
+            OCR1##X = TCNT1 + CLEAR_LEAD;                                        \
+            pulse = 1;                                                           \
         }                                                                        \
         uint8_t rp = q->rp;                                                      \
         struct qentry *e = &q->entry[rp & QUEUE_MASK];                           \
         if (st & SQ_ARMED)                                                       \
             count_pulse(q, e->flags);                                            \
         uint8_t wp = q->wp;                                                      \
-        uint16_t ticks;                                                          \
         if ((st & SQ_STOPPING) || rp == wp) {                                    \
-            /* stop (after the falling edge of a pulse in flight) */             \
             if (pulse) {                                                         \
                 q->state = SQ_RUNNING | SQ_FALLING | SQ_STOPPING;                \
             } else {                                                             \
@@ -188,7 +190,7 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
             }                                                                    \
             return;                                                              \
         }                                                                        \
-        ticks = e->ticks;                                                        \
+        uint16_t ticks = e->ticks;                                               \
         if (e->steps > 1) {                                                      \
             e->steps--;                                                          \
             st |= SQ_ARMED;                                                      \
@@ -207,12 +209,16 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
                 }                                                                \
                 e = &q->entry[rp & QUEUE_MASK];                                  \
             }                                                                    \
-            if (e->flags & QE_TOGGLE_DIR)                                        \
-                toggle_dir(q);                                                   \
             if (e->steps != 0)                                                   \
                 st |= SQ_ARMED;                                                  \
             else                                                                 \
                 st &= (uint8_t)~SQ_ARMED;                                        \
+            if (e->flags & QE_TOGGLE_DIR) {                                      \
+                if (pulse)                                                       \
+                    st |= SQ_TOGGLE;                                             \
+                else                                                             \
+                    toggle_dir(q);                                               \
+            }                                                                    \
         }                                                                        \
     program:;                                                                    \
         uint8_t com = ((st & SQ_ARMED) && !q->detached) ? COM_SET_##X : 0;       \
@@ -227,10 +233,23 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
         }                                                                        \
     }
 
-/* The dispatcher: the vector itself, in assembly, for the two cases of every step -
- * the falling edge (program the next step's compare) and a step in the middle of an
- * entry (set up the falling edge, count, next compare one period on).  Everything
- * else goes to stepgen_full_X with the registers as they were. */
+/* Z = &entry[r19 & QUEUE_MASK] of queue CH (4 bytes an entry) */
+#define ENTRY_Z                                                                  \
+    "mov r30, r19\n\t"                                                           \
+    "andi r30, " K(QUEUE_MASK) "\n\t"                                            \
+    "ldi r31, 0\n\t"                                                             \
+    "lsl r30\n\t"                                                                \
+    "rol r31\n\t"                                                                \
+    "lsl r30\n\t"                                                                \
+    "rol r31\n\t"                                                                \
+    "subi r30, lo8(-(%[entry]))\n\t"                                             \
+    "sbci r31, hi8(-(%[entry]))\n\t"
+
+/* The dispatcher, the vector itself, in assembly: what stepgen_full_X does for a
+ * running channel without pulse counter or detached pin and without a stop - the
+ * rising edge with the queue's work, a compare without a pulse, the falling edge.
+ * Everything else goes to stepgen_full_X with the registers as they were.  The T
+ * flag says whether this compare put a pulse on the pin. */
 #define STEP_ISR(X, CH)                                                          \
     ISR(TIMER1_COMP##X##_vect, ISR_NAKED)                                        \
     {                                                                            \
@@ -240,15 +259,41 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
             "push r24\n\t"                                                       \
             "push r25\n\t"                                                       \
             "lds r24, %[state]\n\t"                                              \
-            "sbrs r24, %[b_falling]\n\t"                                         \
-            "rjmp 2f\n\t"                                                        \
-            /* the falling edge is done: the next step's compare */              \
-            "sbrc r24, %[b_stopping]\n\t"                                        \
-            "rjmp 9f\n\t"                                                        \
-            "andi r24, %[not_falling]\n\t"                                       \
+            "sbrc r24, " K(SQ_FALLING_BIT) "\n\t"                                \
+            "rjmp 3f\n\t"                                                        \
+            "mov r25, r24\n\t"                                                   \
+            "andi r25, lo8(~(" K(SQ_RUNNING | SQ_ARMED | SQ_NO_MORE) "))\n\t"      \
+            "brne 8f\n\t"                                                        \
+            "sbrs r24, " K(SQ_RUNNING_BIT) "\n\t"                                \
+            "rjmp 8f\n\t"                                                        \
+            "lds r25, %[slow]\n\t"                                               \
+            "tst r25\n\t"                                                        \
+            "breq 1f\n"                                                          \
+            "8:\n\t"                                                             \
+            "pop r25\n\t"                                                        \
+            "pop r24\n\t"                                                        \
+            "out __SREG__, r24\n\t"                                              \
+            "pop r24\n\t"                                                        \
+            "jmp stepgen_full_" #X "\n"                                          \
+            "3:\n\t"                                                             \
+            /* the falling edge: toggle if asked, then the next compare */       \
+            "sbrc r24, " K(SQ_STOPPING_BIT) "\n\t"                               \
+            "rjmp 8b\n\t"                                                        \
+            "sbrs r24, " K(SQ_TOGGLE_BIT) "\n\t"                                 \
+            "rjmp 4f\n\t"                                                        \
+            "push r30\n\t"                                                       \
+            "push r31\n\t"                                                       \
+            "lds r30, %[dir_reg]\n\t"                                            \
+            "lds r31, %[dir_reg]+1\n\t"                                          \
+            "lds r25, %[dir_mask]\n\t"                                           \
+            "st Z, r25\n\t"                                                      \
+            "pop r31\n\t"                                                        \
+            "pop r30\n"                                                          \
+            "4:\n\t"                                                             \
+            "andi r24, lo8(~(" K(SQ_FALLING | SQ_TOGGLE) "))\n\t"                  \
             "sts %[state], r24\n\t"                                              \
             "lds r24, %[tccr1a]\n\t"                                             \
-            "andi r24, %[not_com]\n\t"                                           \
+            "andi r24, lo8(~(" K(COM_MASK_##X) "))\n\t"                            \
             "lds r25, %[next_com]\n\t"                                           \
             "or r24, r25\n\t"                                                    \
             "sts %[tccr1a], r24\n\t"                                             \
@@ -256,129 +301,177 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
             "lds r25, %[next_compare]+1\n\t"                                     \
             "sts %[ocr]+1, r25\n\t"                                              \
             "sts %[ocr], r24\n\t"                                                \
-            "rjmp 8f\n"                                                          \
-            "2:\n\t"                                                             \
-            /* a step compare: a plain one (armed, the pin high)? */             \
-            "cpi r24, %[running_armed]\n\t"                                      \
-            "breq 1f\n\t"                                                        \
             "rjmp 9f\n"                                                          \
-            "1:\n\t"                                                        \
-            "lds r24, %[tccr1a]\n\t"                                             \
-            "mov r25, r24\n\t"                                                   \
-            "andi r25, %[com_mask]\n\t"                                          \
-            "cpi r25, %[com_set]\n\t"                                            \
-            "breq 1f\n\t"                                                        \
-            "rjmp 9f\n"                                                          \
-            "1:\n\t"                                                        \
-            /* the pin is high: clear it with a compare CLEAR_LEAD ticks on */   \
-            "andi r24, %[not_com]\n\t"                                           \
-            "ori r24, %[com_clear]\n\t"                                          \
-            "sts %[tccr1a], r24\n\t"                                             \
-            "push r26\n\t"                                                       \
-            "push r27\n\t"                                                       \
-            "lds r26, %[ocr]\n\t"                                                \
-            "lds r27, %[ocr]+1\n\t"                                              \
-            "lds r24, %[tcnt]\n\t"                                               \
-            "lds r25, %[tcnt]+1\n\t"                                             \
-            "adiw r24, %[lead]\n\t"                                              \
-            "sts %[ocr]+1, r25\n\t"                                              \
-            "sts %[ocr], r24\n\t"                                                \
-            /* the step's entry: more steps to go, nothing special? */           \
-            "lds r24, %[pcnt_flags]\n\t"                                         \
-            "lds r25, %[detached]\n\t"                                           \
-            "or r24, r25\n\t"                                                    \
-            "breq 1f\n\t"                                                        \
-            "rjmp 7f\n"                                                          \
-            "1:\n\t"                                                        \
+            "1:\n\t"                                                             \
+            /* a step compare: r18 state, r19 rp, r22:r23 base, then next */     \
+            "push r18\n\t"                                                       \
+            "push r19\n\t"                                                       \
+            "push r22\n\t"                                                       \
+            "push r23\n\t"                                                       \
             "push r30\n\t"                                                       \
             "push r31\n\t"                                                       \
-            "lds r30, %[rp]\n\t"                                                 \
-            "andi r30, %[qmask]\n\t"                                             \
-            "ldi r31, 0\n\t"                                                     \
-            "lsl r30\n\t"                                                        \
-            "rol r31\n\t"                                                        \
-            "lsl r30\n\t"                                                        \
-            "rol r31\n\t"                                                        \
-            "subi r30, lo8(-(%[entry]))\n\t"                                     \
-            "sbci r31, hi8(-(%[entry]))\n\t"                                     \
-            "ld r24, Z\n\t"                                                      \
-            "cpi r24, 2\n\t"                                                     \
-            "brsh 1f\n\t"                                                        \
-            "rjmp 6f\n"                                                          \
-            "1:\n\t"                                                        \
-            "dec r24\n\t"                                                        \
-            "st Z, r24\n\t"                                                      \
-            "ldd r24, Z+2\n\t"                                                   \
-            "ldd r25, Z+3\n\t"                                                   \
-            "add r24, r26\n\t"                                                   \
-            "adc r25, r27\n\t"                                                   \
-            "sts %[next_compare], r24\n\t"                                       \
-            "sts %[next_compare]+1, r25\n\t"                                     \
+            "mov r18, r24\n\t"                                                   \
+            "lds r22, %[ocr]\n\t"                                                \
+            "lds r23, %[ocr]+1\n\t"                                              \
+            "clt\n\t"                                                            \
+            "sbrs r18, " K(SQ_ARMED_BIT) "\n\t"                                  \
+            "rjmp 1f\n\t"                                                        \
+            /* the pin went high: clear it with a compare CLEAR_LEAD ticks on */ \
+            "set\n\t"                                                            \
+            "lds r24, %[tccr1a]\n\t"                                             \
+            "andi r24, lo8(~(" K(COM_MASK_##X) "))\n\t"                            \
+            "ori r24, " K(COM_CLEAR_##X) "\n\t"                                  \
+            "sts %[tccr1a], r24\n\t"                                             \
+            "lds r24, %[tcnt]\n\t"                                               \
+            "lds r25, %[tcnt]+1\n\t"                                             \
+            "adiw r24, " K(CLEAR_LEAD) "\n\t"                                    \
+            "sts %[ocr]+1, r25\n\t"                                              \
+            "sts %[ocr], r24\n"                                                  \
+            "1:\n\t"                                                             \
+            "lds r19, %[rp]\n\t"                                                 \
+            ENTRY_Z                                                              \
+            /* count the pulse made */                                           \
+            "sbrs r18, " K(SQ_ARMED_BIT) "\n\t"                                  \
+            "rjmp 1f\n\t"                                                        \
             "ldd r24, Z+1\n\t"                                                   \
-            "sbrs r24, %[b_count_up]\n\t"                                        \
-            "rjmp 3f\n\t"                                                        \
+            "sbrs r24, " K(QE_COUNT_UP_BIT) "\n\t"                               \
+            "rjmp 2f\n\t"                                                        \
             "lds r24, %[up]\n\t"                                                 \
             "lds r25, %[up]+1\n\t"                                               \
             "adiw r24, 1\n\t"                                                    \
             "sts %[up]+1, r25\n\t"                                               \
             "sts %[up], r24\n\t"                                                 \
-            "rjmp 4f\n"                                                          \
-            "3:\n\t"                                                             \
+            "rjmp 1f\n"                                                          \
+            "2:\n\t"                                                             \
             "lds r24, %[down]\n\t"                                               \
             "lds r25, %[down]+1\n\t"                                             \
             "adiw r24, 1\n\t"                                                    \
             "sts %[down]+1, r25\n\t"                                             \
             "sts %[down], r24\n"                                                 \
-            "4:\n\t"                                                             \
-            "ldi r24, %[com_set]\n\t"                                            \
-            "sts %[next_com], r24\n\t"                                           \
-            "ldi r24, %[running_armed_falling]\n\t"                              \
+            "1:\n\t"                                                             \
+            "lds r24, %[wp]\n\t"                                                 \
+            "cp r19, r24\n\t"                                                    \
+            "brne 1f\n\t"                                                        \
+            /* an empty queue: stop (after the falling edge of a pulse) */       \
+            "brts 2f\n\t"                                                        \
+            "lds r24, %[timsk1]\n\t"                                             \
+            "andi r24, lo8(~(" K(_BV(OCIE1##X)) "))\n\t"                           \
+            "sts %[timsk1], r24\n\t"                                             \
+            "lds r24, %[tccr1a]\n\t"                                             \
+            "andi r24, lo8(~(" K(COM_MASK_##X) "))\n\t"                            \
+            "sts %[tccr1a], r24\n\t"                                             \
+            "sts %[state], __zero_reg__\n\t"                                     \
+            "rjmp 7f\n"                                                          \
+            "2:\n\t"                                                             \
+            "ldi r24, " K(SQ_RUNNING | SQ_FALLING | SQ_STOPPING) "\n\t"          \
             "sts %[state], r24\n\t"                                              \
+            "rjmp 7f\n"                                                          \
+            "1:\n\t"                                                             \
+            "ld r24, Z\n\t"                                                      \
+            "cpi r24, 2\n\t"                                                     \
+            "brlo 1f\n\t"                                                        \
+            /* another step of this entry, one period on */                      \
+            "dec r24\n\t"                                                        \
+            "st Z, r24\n\t"                                                      \
+            "ori r18, " K(SQ_ARMED) "\n\t"                                       \
+            "ldd r24, Z+2\n\t"                                                   \
+            "ldd r25, Z+3\n\t"                                                   \
+            "add r22, r24\n\t"                                                   \
+            "adc r23, r25\n\t"                                                   \
+            "rjmp 6f\n"                                                          \
+            "1:\n\t"                                                             \
+            "sbrs r18, " K(SQ_NO_MORE_BIT) "\n\t"                                \
+            "rjmp 2f\n\t"                                                        \
+            /* an entry came after the queue ran dry: begins at once */          \
+            "andi r18, lo8(~(" K(SQ_NO_MORE) "))\n\t"                              \
+            "tst r24\n\t"                                                        \
+            "breq 1f\n\t"                                                        \
+            "subi r22, lo8(-(" K(RESTART_TICKS) "))\n\t"                         \
+            "sbci r23, hi8(-(" K(RESTART_TICKS) "))\n\t"                         \
+            "rjmp 4f\n"                                                          \
+            "1:\n\t"                                                             \
+            "ldd r24, Z+2\n\t"                                                   \
+            "ldd r25, Z+3\n\t"                                                   \
+            "add r22, r24\n\t"                                                   \
+            "adc r23, r25\n\t"                                                   \
+            "rjmp 4f\n"                                                          \
+            "2:\n\t"                                                             \
+            /* the entry is done: its last period, then the next entry */        \
+            "ldd r24, Z+2\n\t"                                                   \
+            "ldd r25, Z+3\n\t"                                                   \
+            "add r22, r24\n\t"                                                   \
+            "adc r23, r25\n\t"                                                   \
+            "inc r19\n\t"                                                        \
+            "sts %[rp], r19\n\t"                                                 \
+            "lds r24, %[wp]\n\t"                                                 \
+            "cp r19, r24\n\t"                                                    \
+            "brne 1f\n\t"                                                        \
+            "ori r18, " K(SQ_NO_MORE) "\n\t"                                     \
+            "andi r18, lo8(~(" K(SQ_ARMED) "))\n\t"                                \
+            "rjmp 6f\n"                                                          \
+            "1:\n\t"                                                             \
+            ENTRY_Z                                                              \
+            "4:\n\t"                                                             \
+            /* the entry begins: armed if it has steps; direction toggle */      \
+            "andi r18, lo8(~(" K(SQ_ARMED) "))\n\t"                                \
+            "ld r24, Z\n\t"                                                      \
+            "tst r24\n\t"                                                        \
+            "breq 1f\n\t"                                                        \
+            "ori r18, " K(SQ_ARMED) "\n"                                         \
+            "1:\n\t"                                                             \
+            "ldd r24, Z+1\n\t"                                                   \
+            "sbrs r24, " K(QE_TOGGLE_DIR_BIT) "\n\t"                             \
+            "rjmp 6f\n\t"                                                        \
+            "brtc 1f\n\t"                                                        \
+            "ori r18, " K(SQ_TOGGLE) "\n\t" /* after the falling edge */        \
+            "rjmp 6f\n"                                                          \
+            "1:\n\t"                                                             \
+            "lds r30, %[dir_reg]\n\t"                                            \
+            "lds r31, %[dir_reg]+1\n\t"                                          \
+            "lds r24, %[dir_mask]\n\t"                                           \
+            "st Z, r24\n"                                                        \
+            "6:\n\t"                                                             \
+            /* the next compare at r22:r23 */                                    \
+            "brtc 1f\n\t"                                                        \
+            "sts %[next_compare], r22\n\t"                                       \
+            "sts %[next_compare]+1, r23\n\t"                                     \
+            "ldi r24, 0\n\t"                                                     \
+            "sbrc r18, " K(SQ_ARMED_BIT) "\n\t"                                  \
+            "ldi r24, " K(COM_SET_##X) "\n\t"                                    \
+            "sts %[next_com], r24\n\t"                                           \
+            "ori r18, " K(SQ_FALLING) "\n\t"                                     \
+            "sts %[state], r18\n\t"                                              \
+            "rjmp 7f\n"                                                          \
+            "1:\n\t"                                                             \
+            "lds r24, %[tccr1a]\n\t"                                             \
+            "andi r24, lo8(~(" K(COM_MASK_##X) "))\n\t"                            \
+            "sbrc r18, " K(SQ_ARMED_BIT) "\n\t"                                  \
+            "ori r24, " K(COM_SET_##X) "\n\t"                                    \
+            "sts %[tccr1a], r24\n\t"                                             \
+            "sts %[ocr]+1, r23\n\t"                                              \
+            "sts %[ocr], r22\n\t"                                                \
+            "sts %[state], r18\n"                                                \
+            "7:\n\t"                                                             \
             "pop r31\n\t"                                                        \
             "pop r30\n\t"                                                        \
-            "pop r27\n\t"                                                        \
-            "pop r26\n"                                                          \
-            "8:\n\t"                                                             \
-            "pop r25\n\t"                                                        \
-            "pop r24\n\t"                                                        \
-            "out __SREG__, r24\n\t"                                              \
-            "pop r24\n\t"                                                        \
-            "reti\n"                                                             \
-            "6:\n\t"                                                             \
-            "pop r31\n\t"                                                        \
-            "pop r30\n"                                                          \
-            "7:\n\t"                                                             \
-            /* the rest in C, the falling edge already set up */                 \
-            "sts %[base], r26\n\t"                                               \
-            "sts %[base]+1, r27\n\t"                                             \
-            "ldi r24, %[running_armed_clearing]\n\t"                             \
-            "sts %[state], r24\n\t"                                              \
-            "pop r27\n\t"                                                        \
-            "pop r26\n"                                                          \
+            "pop r23\n\t"                                                        \
+            "pop r22\n\t"                                                        \
+            "pop r19\n\t"                                                        \
+            "pop r18\n"                                                          \
             "9:\n\t"                                                             \
             "pop r25\n\t"                                                        \
             "pop r24\n\t"                                                        \
             "out __SREG__, r24\n\t"                                              \
             "pop r24\n\t"                                                        \
-            "jmp stepgen_full_" #X "\n\t"                                        \
+            "reti\n\t"                                                           \
             ::[state] "i"(&stepq[CH].state), [rp] "i"(&stepq[CH].rp),           \
-              [entry] "i"(&stepq[CH].entry[0]), [up] "i"(&stepq[CH].pulses_up),  \
-              [down] "i"(&stepq[CH].pulses_down),                                \
+              [wp] "i"(&stepq[CH].wp), [entry] "i"(&stepq[CH].entry[0]),         \
+              [up] "i"(&stepq[CH].pulses_up), [down] "i"(&stepq[CH].pulses_down), \
               [next_compare] "i"(&stepq[CH].next_compare),                       \
-              [next_com] "i"(&stepq[CH].next_com), [base] "i"(&stepq[CH].base),  \
-              [pcnt_flags] "i"(&stepq[CH].pcnt_flags),                           \
-              [detached] "i"(&stepq[CH].detached),                               \
+              [next_com] "i"(&stepq[CH].next_com), [slow] "i"(&stepq[CH].slow), \
+              [dir_reg] "i"(&stepq[CH].dir_reg), [dir_mask] "i"(&stepq[CH].dir_mask), \
               [tccr1a] "i"(_SFR_MEM_ADDR(TCCR1A)), [tcnt] "i"(_SFR_MEM_ADDR(TCNT1)), \
-              [ocr] "i"(_SFR_MEM_ADDR(OCR1##X)),                                 \
-              [b_falling] "i"(SQ_FALLING_BIT), [b_stopping] "i"(SQ_STOPPING_BIT), \
-              [b_count_up] "i"(QE_COUNT_UP_BIT),                                 \
-              [not_falling] "i"((uint8_t)~SQ_FALLING),                           \
-              [not_com] "i"((uint8_t)~COM_MASK_##X), [com_mask] "i"(COM_MASK_##X), \
-              [com_set] "i"(COM_SET_##X), [com_clear] "i"(COM_CLEAR_##X),        \
-              [running_armed] "i"(SQ_RUNNING | SQ_ARMED),                        \
-              [running_armed_falling] "i"(SQ_RUNNING | SQ_ARMED | SQ_FALLING),   \
-              [running_armed_clearing] "i"(SQ_RUNNING | SQ_ARMED | SQ_CLEARING), \
-              [lead] "i"(CLEAR_LEAD), [qmask] "i"(QUEUE_MASK));                  \
+              [ocr] "i"(_SFR_MEM_ADDR(OCR1##X)), [timsk1] "i"(_SFR_MEM_ADDR(TIMSK1))); \
     }
 
 PENDING_COMPARE(A)
@@ -394,7 +487,7 @@ void stepgen_init(void)
     PORTB &= (uint8_t)~(_BV(PB1) | _BV(PB2));
     DDRB |= _BV(PB1) | _BV(PB2);
     for (uint8_t ch = 0; ch < FW_MAX_STEPPERS; ch++) {
-        stepq[ch].dir_reg = 0;
+        stepq[ch].dir_reg = &no_dir_pin;
         stepq[ch].state = 0;
     }
 }
@@ -563,17 +656,51 @@ void stepgen_set_counts(uint8_t ch, uint32_t pulses, int32_t pulse_pos)
 void stepgen_set_dir_pin(uint8_t ch, uint8_t pin)
 {
     struct stepq *q = &stepq[ch];
-    volatile uint8_t *reg = 0;
+    volatile uint8_t *reg = &no_dir_pin;
     uint8_t mask = 0;
-    if (pin != PIN_NONE && !(pin & PIN_EXTERNAL) && board_pin_usable(pin)) {
+    uint8_t real = pin != PIN_NONE && !(pin & PIN_EXTERNAL) && board_pin_usable(pin);
+    if (real) {
         reg = board_pin_reg(pin);
         mask = board_pin_mask(pin);
     }
     uint8_t sreg = irq_save();
     q->dir_reg = reg;
     q->dir_mask = mask;
-    if (reg)
+    if (real)
         reg[1] |= mask;  /* an output (its level stays as written) */
+    irq_restore(sreg);
+}
+
+static void update_slow(struct stepq *q)
+{
+    q->slow = q->detached | (q->pcnt_flags & PCNT_ON);
+}
+
+void stepgen_set_detached(uint8_t ch, uint8_t detached)
+{
+    struct stepq *q = &stepq[ch];
+    uint8_t sreg = irq_save();
+    q->detached = detached ? 1 : 0;
+    update_slow(q);
+    irq_restore(sreg);
+}
+
+void stepgen_set_pcnt(uint8_t ch, uint8_t flags, int16_t low, int16_t high, int16_t value)
+{
+    struct stepq *q = &stepq[ch];
+    uint8_t sreg = irq_save();
+    q->pcnt_low = low;
+    q->pcnt_high = high;
+    q->pcnt = value;
+    q->pcnt_flags = flags;
+    update_slow(q);
+    irq_restore(sreg);
+}
+
+void stepgen_pcnt_clear(uint8_t ch)
+{
+    uint8_t sreg = irq_save();
+    stepq[ch].pcnt = 0;
     irq_restore(sreg);
 }
 

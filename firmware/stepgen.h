@@ -22,7 +22,8 @@
 
 #include "config.h"
 
-#define QE_TOGGLE_DIR 0x10  /* toggle the direction pin when the entry begins */
+#define QE_TOGGLE_DIR_BIT 4
+#define QE_TOGGLE_DIR (1 << QE_TOGGLE_DIR_BIT)  /* toggle the direction pin at the start */
 #define QE_DIR_LEVEL 0x20   /* the direction pin level during the entry */
 #define QE_COUNT_UP_BIT 6
 #define QE_COUNT_UP (1 << QE_COUNT_UP_BIT)  /* the entry's steps count the position up */
@@ -34,16 +35,20 @@ struct qentry {
 };
 
 /* state bits */
-#define SQ_RUNNING 0x01   /* the compare interrupt works on the queue */
+#define SQ_RUNNING_BIT 0
+#define SQ_RUNNING (1 << SQ_RUNNING_BIT)    /* the compare interrupt works on the queue */
 #define SQ_PENDING 0x02   /* a timed start waits for its tick */
-#define SQ_NO_MORE 0x04   /* the queue ran dry; the interrupt waits out the last period */
-#define SQ_ARMED 0x08     /* the coming step compare makes a pulse */
+#define SQ_NO_MORE_BIT 2
+#define SQ_NO_MORE (1 << SQ_NO_MORE_BIT)    /* the queue ran dry: the last period runs */
+#define SQ_ARMED_BIT 3
+#define SQ_ARMED (1 << SQ_ARMED_BIT)        /* the coming step compare makes a pulse */
 #define SQ_FALLING_BIT 4
 #define SQ_FALLING (1 << SQ_FALLING_BIT)    /* the coming compare ends the pulse */
 #define SQ_STOPPING_BIT 5
 #define SQ_STOPPING (1 << SQ_STOPPING_BIT)  /* stop once the pulse in flight is done */
 #define SQ_FLUSH 0x40     /* the interrupt runs once to consume a stale flag */
-#define SQ_CLEARING 0x80  /* (interrupt only) the pulse's falling edge is set up */
+#define SQ_TOGGLE_BIT 7
+#define SQ_TOGGLE (1 << SQ_TOGGLE_BIT)      /* toggle the direction at the falling edge */
 
 /* pulse counter flags */
 #define PCNT_ON 0x01
@@ -55,7 +60,7 @@ struct stepq {
     volatile uint8_t wp;      /* write index (main loop) */
     volatile uint8_t state;   /* SQ_* */
     volatile uint8_t detached;        /* pulses are counted but not put on the pin */
-    volatile uint8_t *volatile dir_reg;  /* PINx of the direction pin (0: none) */
+    volatile uint8_t *volatile dir_reg;  /* PINx of the direction pin (or a dummy) */
     volatile uint8_t dir_mask;
     volatile uint16_t pulses_up;    /* pulses made with count_up, and without; the */
     volatile uint16_t pulses_down;  /* main loop folds them into pulses and pulse_pos */
@@ -64,7 +69,7 @@ struct stepq {
     volatile uint16_t start_wraps;  /* compare matches before a pending start */
     uint16_t next_compare;       /* the step compare after the falling edge ... */
     uint8_t next_com;            /* ... and the channel's output mode for it */
-    uint16_t base;               /* (interrupt only) the compare being handled */
+    volatile uint8_t slow;       /* detached or a pulse counter: the interrupt's C path */
     volatile uint8_t pcnt_flags;
     volatile int16_t pcnt;
     int16_t pcnt_low;
@@ -94,6 +99,11 @@ struct stepq_snapshot {
 void stepgen_snapshot(uint8_t ch, struct stepq_snapshot *s);
 /* The direction pin toggled by entries (PIN_NONE or an external pin: none). */
 void stepgen_set_dir_pin(uint8_t ch, uint8_t pin);
+/* Pulses counted but not put on the pin (the step pin given to the application). */
+void stepgen_set_detached(uint8_t ch, uint8_t detached);
+/* The pulse counter: PCNT_* flags (0: off), limits, value; and clearing it. */
+void stepgen_set_pcnt(uint8_t ch, uint8_t flags, int16_t low, int16_t high, int16_t value);
+void stepgen_pcnt_clear(uint8_t ch);
 /* Fold the interrupt's pulse counts into pulses/pulse_pos (call often: the 16-bit
  * counts must not wrap between calls). */
 void stepgen_poll(void);

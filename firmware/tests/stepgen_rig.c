@@ -52,15 +52,10 @@ static void execute(void)
         board_pin_write(rig.arg, rig.arg2);
         break;
     case RIG_DETACH:
-        q->detached = rig.arg;
+        stepgen_set_detached(ch, rig.arg);
         break;
     case RIG_PCNT:
-        cli();
-        q->pcnt_low = rig.pcnt_low;
-        q->pcnt_high = rig.pcnt_high;
-        q->pcnt = 0;
-        q->pcnt_flags = rig.arg;
-        sei();
+        stepgen_set_pcnt(ch, rig.arg, rig.pcnt_low, rig.pcnt_high, 0);
         break;
     case RIG_SNAPSHOT:
         stepgen_snapshot(ch, &rig.snap);
