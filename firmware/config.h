@@ -25,7 +25,7 @@
 /* One command queue per stepper: a ring of QUEUE_LEN entries (a power of two), as
  * FastAccelStepper's AVR queue. */
 #ifndef QUEUE_LEN
-#define QUEUE_LEN 16
+#define QUEUE_LEN 64
 #endif
 #define QUEUE_MASK (QUEUE_LEN - 1)
 

@@ -11,7 +11,7 @@
 #define UBRR_VALUE (((F_CPU) + 4UL * (BAUD)) / (8UL * (BAUD)) - 1UL)
 
 static volatile uint8_t rx_buf[UART_RX_SIZE];
-static volatile uint8_t rx_head;  /* written by the interrupt */
+static volatile uint8_t rx_head;  /* written by the interrupt; indices run mod 256 */
 static uint8_t rx_tail;           /* main loop */
 
 #define SYNC_STAMPS 16            /* a power of two */
@@ -44,11 +44,11 @@ ISR(USART_RX_vect)
     if (status & _BV(FE0))
         uart_rx_bad_bits++;
     uint8_t head = rx_head;
-    if ((uint8_t)(head + 1) == rx_tail) {
+    if ((uint8_t)(head - rx_tail) >= UART_RX_SIZE) {
         uart_rx_overruns++;
         return;
     }
-    rx_buf[head] = b;
+    rx_buf[head % UART_RX_SIZE] = b;
     rx_head = head + 1;
     if (b == UART_SYNC_BYTE) {
         uint8_t s = stamp_next;
@@ -65,7 +65,7 @@ uint8_t uart_rx_count(void)
 
 uint8_t uart_rx_peek(uint8_t offset)
 {
-    return rx_buf[(uint8_t)(rx_tail + offset)];
+    return rx_buf[(uint8_t)(rx_tail + offset) % UART_RX_SIZE];
 }
 
 void uart_rx_drop(uint8_t n)

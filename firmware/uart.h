@@ -8,7 +8,9 @@
 
 #include <stdint.h>
 
-#define UART_RX_SIZE 256  /* uint8_t indices wrap by themselves */
+/* Ring sizes (powers of two): the receive ring holds a whole frame (64) and what
+ * arrives while it is decoded in place; the transmit ring one frame and the next. */
+#define UART_RX_SIZE 128
 #define UART_TX_SIZE 128
 #define UART_SYNC_BYTE 0x7E
 

@@ -201,6 +201,7 @@ class HarnessInfo:
     cycles_per_byte: int
     tx_dropped: int
     rx_overruns: int
+    sleep_cycles: int  # the chip's idle time (sleep mode)
 
 
 # ---------------------------------------------------------------------- lockstep
@@ -237,6 +238,7 @@ class SimavrDevice:
         self.stream: ByteStream | None = None
         self.in_wires: list = []
         self.closed = False
+        self.rx_log: list[tuple[int, bytes]] | None = None  # (cycle, bytes) if recording
         self.attach(stream)
 
     # ---------------------------------------------------------- the harness
@@ -274,7 +276,7 @@ class SimavrDevice:
         return [PinCount(*struct.unpack_from("<BII", data, 9 * i)) for i in range(PINS)]
 
     def info(self) -> HarnessInfo:
-        return HarnessInfo(*struct.unpack("<QQIIII", self._ask(b"I", 32)))
+        return HarnessInfo(*struct.unpack("<QQIIIIQ", self._ask(b"I", 40)))
 
     def trace(self) -> Trace:
         """The pin changes so far (the harness flushes its trace file first)."""
@@ -306,6 +308,8 @@ class SimavrDevice:
         except LinkClosed:
             self.attach(None)
             return
+        if data and self.rx_log is not None:
+            self.rx_log.append((self.cycle, data))
         for i in range(0, len(data), 65535):  # the harness takes 65535 bytes a step
             self._out += self.run_to_cycle(self.cycle, data[i:i + 65535])
         if data:

@@ -19,7 +19,8 @@
  *                                          falling) for Arduino pins 0..19
  *   'I'                                    answer: u64 cycle, u64 timer-1 start
  *                                          cycle, u32 frequency, u32 cycles per
- *                                          byte, u32 bytes dropped, u32 rx overruns
+ *                                          byte, u32 bytes dropped, u32 rx overruns,
+ *                                          u64 cycles the chip slept (idle load)
  *   'W' u16 address, u16 n, n bytes        write the chip's data memory (answer: 'W')
  *   'M' u16 address, u16 n                 read it (answer: n bytes)
  *   'Q'                                    flush the trace and end (answer: 'Q')
@@ -306,9 +307,12 @@ static avr_cycle_count_t stop_timer(struct avr_t *a, avr_cycle_count_t when, voi
     return 0;  /* only ends a sleep at the right cycle */
 }
 
+static uint64_t sleep_cycles;  /* the chip's idle time: 1 - sleep/total is its load */
+
 static void sleep_hook(avr_t *a, avr_cycle_count_t how_long)
 {
-    (void)a; (void)how_long;  /* pacing is ours */
+    (void)a;
+    sleep_cycles += how_long + 1;  /* the core adds these; pacing is ours */
 }
 
 static int run_until(uint64_t until)
@@ -428,7 +432,8 @@ static int lockstep(void)
             memcpy(buf + 20, &cpb, 4);
             memcpy(buf + 24, &tx_dropped, 4);
             memcpy(buf + 28, &rx_overruns, 4);
-            if (write_full(1, buf, 32))
+            memcpy(buf + 32, &sleep_cycles, 8);
+            if (write_full(1, buf, 40))
                 return 1;
         } else if (cmd == 'W' || cmd == 'M') {
             uint16_t addr, n;
@@ -558,10 +563,12 @@ static int serve_pty(double speed, const char *link)
     double wall = wall_s() - t0;
     if (trace)
         fflush(trace);
-    fprintf(stdout, "simavr: %.3f s simulated in %.3f s wall (x%.2f), up to %.1f ms behind\n",
+    fprintf(stdout, "simavr: %.3f s simulated in %.3f s wall (x%.2f), up to %.1f ms behind, "
+            "chip busy %.1f %%\n",
             (double)(avr->cycle - c0) / avr->frequency, wall,
             wall > 0 ? (double)(avr->cycle - c0) / avr->frequency / wall : 0.0,
-            behind_max * 1000.0);
+            behind_max * 1000.0,
+            avr->cycle ? 100.0 * (1.0 - (double)sleep_cycles / (double)avr->cycle) : 0.0);
     for (int i = 0; i < PINS; i++)
         if (pins[i].rising || pins[i].falling)
             fprintf(stdout, "pin %d: %" PRIu32 " rising, %" PRIu32 " falling edges, now %d\n",
