@@ -35,6 +35,15 @@ class DemoStepper:
 
 
 @dataclass(frozen=True)
+class QsTimer:
+    """A hardware timer the QuickStep planner can run on (its periodic base time)."""
+
+    number: int  # timer 2, timer 3 ...
+    bits: int  # 8 or 16: the counter width, so the longest base time
+    prescalers: tuple[int, ...]  # clock dividers the timer offers
+
+
+@dataclass(frozen=True)
 class Profile:
     name: str
     title: str
@@ -81,6 +90,17 @@ class Profile:
     sim_uart_isr_ticks: int  # transmit interrupt, once per buffered character
     sim_millis_overflow_ticks: int  # Arduino timer0 overflow period (millis() source)
     sim_irq_block_ticks: int = 0  # StepperDemo's `e`: length of one blocked section
+    # --- QuickStep planner (issue 14): its timers and their interrupt costs ---
+    # timers QuickStep may use, the default first; empty: QuickStep is not available
+    qs_timers: tuple[QsTimer, ...] = ()
+    qs_ram_bytes: int = 0  # RAM left for the order FIFOs (4 bytes per order)
+    qs_order_bytes: int = 4  # one order: int16 steps (sign = direction), uint16 interval
+    qs_min_base_ticks: int = 0  # shortest base time (below it the ISR eats the CPU)
+    qs_period_isr_ticks: int = 0  # CPU of the base-period interrupt (entry, exit, timer)
+    qs_motor_isr_ticks: int = 0  # ... plus this per running QuickStep motor
+    qs_step_isr_ticks: int = 0  # CPU of the compare interrupt that makes one step
+    qs_pulse_ticks: int = 0  # step pin high time (the compare ISR writes it high, then low)
+    qs_start_ticks: int = 0  # order pushed to an idle motor -> its first step
     # Arduino pin -> I/O port register (AVR); pins of one port are written together
     pin_ports: dict[int, str] = field(default_factory=dict, compare=False)
     notes: str = field(default="", compare=False)
@@ -123,6 +143,13 @@ class Profile:
     def max_speed_ticks(self, stepper_count: int) -> int:
         table = self.max_speed_ticks_by_count
         return table[min(max(stepper_count, 1), len(table)) - 1]
+
+    def qs_timer(self, number: int | None = None) -> QsTimer | None:
+        """The QuickStep timer ``number`` (None: the default one), or None."""
+        for t in self.qs_timers:
+            if number is None or t.number == number:
+                return t
+        return None
 
     def queue_for_step_pin(self, pin: int) -> int | None:
         for idx, group in enumerate(self.step_pin_groups):
@@ -169,6 +196,22 @@ _AVR_TIMING = dict(
     sim_irq_block_ticks=100 * 16,
 )
 
+# QuickStep (seed 004) on AVR: timer 2 (8 bit, prescalers 1..1024) by default, so that
+# the 16-bit timers stay free; base time 12 us .. 16.384 ms there, up to 4.19 s on a
+# 16-bit timer.  No QuickStep build was available to measure the interrupt costs:
+# they are estimates from the instruction counts of such routines (register saves
+# ~40 cycles, a countdown per motor, a port write and the next compare per step),
+# chosen so that at the 12 us minimum five motors leave no CPU (the seed's limit).
+_TIMER2 = QsTimer(2, 8, (1, 8, 32, 64, 128, 256, 1024))
+_AVR_QUICKSTEP = dict(
+    qs_min_base_ticks=12 * 16,
+    qs_period_isr_ticks=72,
+    qs_motor_isr_ticks=24,
+    qs_step_isr_ticks=96,
+    qs_pulse_ticks=48,
+    qs_start_ticks=80,
+)
+
 ATMEGA328P = Profile(
     name="atmega328p",
     title="ATmega328P (Arduino Uno/Nano), timer 1",
@@ -195,7 +238,13 @@ ATMEGA328P = Profile(
     debug_led_pin=13,
     pin_ports={**{p: "D" for p in range(0, 8)}, **{p: "B" for p in range(8, 14)},
                **{p: "C" for p in range(14, 20)}},
+    # timer 1, the only 16-bit timer, belongs to FastAccelStepper (steps and ramp task)
+    qs_timers=(_TIMER2,),
+    # 2048 bytes of RAM; StepperDemo with FastAccelStepper keeps ~1 KB (input buffer 256,
+    # serial buffers 128, queues, steppers, stack): the FIFOs get the other half
+    qs_ram_bytes=1024,
     **_AVR_TIMING,
+    **_AVR_QUICKSTEP,
 )
 
 ATMEGA2560 = Profile(
@@ -224,7 +273,12 @@ ATMEGA2560 = Profile(
                     off_delay_ms=10),
     ),
     debug_led_pin=PIN_UNDEFINED,
+    # timer 4 drives FastAccelStepper; 1, 3 and 5 are free 16-bit timers
+    qs_timers=(_TIMER2, QsTimer(3, 16, (1, 8, 64, 256, 1024)),
+               QsTimer(5, 16, (1, 8, 64, 256, 1024))),
+    qs_ram_bytes=8192 - 1536,  # 8 KB, ~1.5 KB for the program
     **_AVR_TIMING,
+    **_AVR_QUICKSTEP,
 )
 
 _ESP32_GPIO_OUT = (0, 1, 2, 3, 4, 5, 12, 13, 14, 15, 16, 17, 18, 19, 21, 22, 23, 25, 26,

@@ -102,6 +102,13 @@ class Backend(ABC):
     def allocate_channel(self, queue: StepperQueue) -> QueueChannel:
         """Create the executor for ``queue`` (its ``step_pin`` and ``index`` are set)."""
 
+    def allocate_order_channel(self, queue, fas_queue, clock) -> QueueChannel:
+        """The executor of a QuickStep FIFO (``fas.quickstep``).  By default its orders
+        are relayed into the stepper's command queue ``fas_queue`` (a device behind a
+        serial link runs them so); the simulated chip runs them on QuickStep's timer."""
+        from .quickstep.relay import OrderRelay
+        return OrderRelay(queue, fas_queue, clock)
+
     @abstractmethod
     def write_pin(self, pin: int, level: int) -> None:
         """Drive an ordinary output pin (direction, enable, LED)."""

@@ -28,6 +28,7 @@ class Engine:
         self._initialised = False
         self.ramp_abort_listener: Callable[[Stepper, AqeResult, object], None] | None = None
         self.task_runs = 0
+        self.quickstep_clock = None  # fas.quickstep.clock.QuickStepClock, made on first use
 
     def init(self) -> None:
         """Start the periodic ramp task (call once, as ``engine.init()`` upstream)."""

@@ -23,10 +23,15 @@ from .codes import (
     MoveResult,
 )
 from .queue import StepperQueue, i32
+from .quickstep.clock import QsConfigResult
 from .ramp.generator import RampGenerator
 
 if TYPE_CHECKING:  # pragma: no cover
     from .engine import Engine
+    from .quickstep.planner import QuickStepPlanner
+
+PLANNER_FAS = 0  # FastAccelStepper's ramp generator (default)
+PLANNER_QUICKSTEP = 1  # QuickStep's plateau orders (fas.quickstep)
 
 
 class Stepper:
@@ -53,6 +58,8 @@ class Stepper:
                                  profile.log2_accel_factor)
         self.fill_calls = 0
         self.commands_generated = 0
+        self._fas_queue = queue  # FastAccelStepper's command queue (kept while QuickStep runs)
+        self._qs: QuickStepPlanner | None = None  # the QuickStep planner, when selected
 
     # ----------------------------------------------------------------- pins
     @property
@@ -195,6 +202,8 @@ class Stepper:
         return self._auto_disable_delay_counter == 1 and not self.is_running()
 
     def _needs_task(self) -> bool:
+        if self._qs is not None and self._qs.has_orders():
+            return True
         return (self._auto_disable_delay_counter > 0 or self._rg.is_ramp_generator_active()
                 or self._rg.force_immediate_stop or self._queue.is_running()
                 or not self._queue.is_queue_empty())
@@ -223,26 +232,40 @@ class Stepper:
             self._rg.advance_target_position(delta)
 
     def target_pos(self) -> int:
+        if self._qs is not None:
+            return self._qs.target_pos()
         return self._rg.target_pos
 
     # ---------------------------------------------------------------- state
     def is_running(self) -> bool:
+        if self._qs is not None:
+            return self._qs.has_orders()
         q = self._queue
         return q.is_running() or self._rg.is_ramp_generator_active() or not q.is_queue_empty()
 
     def is_running_continuously(self) -> bool:
+        if self._qs is not None:
+            return self._qs.is_running_continuously()
         return self._rg.is_running_continuously()
 
     def is_stopping(self) -> bool:
+        if self._qs is not None:
+            return False
         return self._rg.is_stopping()
 
     def is_ramp_generator_active(self) -> bool:
+        if self._qs is not None:
+            return self._qs.is_active()
         return self._rg.is_ramp_generator_active()
 
     def ramp_state(self) -> int:
+        if self._qs is not None:
+            return self._qs.ramp_state()
         return self._rg.ramp_state()
 
     def steps_to_stop(self) -> int:
+        if self._qs is not None:
+            return self._qs.steps_to_stop()
         return self._rg.steps_to_stop()
 
     # ---------------------------------------------------------------- speed
@@ -262,8 +285,11 @@ class Stepper:
         self._queue.max_speed_in_ticks = max_speed_in_ticks & 0xFFFF
 
     def set_speed_in_ticks(self, min_step_ticks: int) -> int:
-        if min_step_ticks < self.get_max_speed_in_ticks():
-            return -1
+        if self._qs is None:
+            if min_step_ticks < self.get_max_speed_in_ticks():
+                return -1
+        elif min_step_ticks <= 0:
+            return -1  # (QuickStep runs a speed beyond its timer at the nearest allowed)
         if min_step_ticks >= TICKS_FOR_STOPPED_MOTOR:
             return -1
         self._rg.set_speed_in_ticks(min_step_ticks)
@@ -299,6 +325,9 @@ class Stepper:
         return self._rg.speed_in_milli_hz()
 
     def _current_speed_ticks(self, realtime: bool) -> tuple[int, bool]:
+        if self._qs is not None:
+            ticks, _, up = self._qs.running_info()
+            return ticks, up
         valid = False
         ticks, count_up = 0, True
         if realtime:
@@ -324,11 +353,15 @@ class Stepper:
         return mhz if count_up else -mhz
 
     def get_period_in_ticks_after_commands_completed(self) -> int:
+        if self._qs is not None:
+            return self._qs.current_period_ticks()
         if self._rg.is_ramp_generator_active():
             return self._rg.current_period_in_ticks()
         return 0
 
     def get_period_in_us_after_commands_completed(self) -> int:
+        if self._qs is not None:
+            return self._qs.current_period_ticks() // self._profile.ticks_per_us
         if self._rg.is_ramp_generator_active():
             return self._rg.current_period_in_us()
         return 0
@@ -342,6 +375,8 @@ class Stepper:
         return self._rg.acceleration
 
     def get_current_acceleration(self) -> int:
+        if self._qs is not None:
+            return self._qs.current_acceleration()
         return self._rg.current_acceleration()
 
     def set_linear_acceleration(self, linear_acceleration_steps: int) -> None:
@@ -364,6 +399,11 @@ class Stepper:
 
     def move(self, move: int, blocking: bool = False) -> MoveResult:
         move = i32(move)
+        if self._qs is not None:
+            res = self._qs.move(move)
+            if res == MoveResult.OK:
+                self._block(blocking)
+            return res
         if move < 0 and self._dir_pin == PIN_UNDEFINED:
             return MoveResult.ERR_NO_DIRECTION_PIN
         res = self._rg.move(move)
@@ -373,6 +413,11 @@ class Stepper:
         return res
 
     def move_to(self, position: int, blocking: bool = False) -> MoveResult:
+        if self._qs is not None:
+            res = self._qs.move_to(i32(position))
+            if res == MoveResult.OK:
+                self._block(blocking)
+            return res
         res = self._rg.move_to(i32(position), self._queue.queue_end_pos)
         self._engine.kick()
         if res == MoveResult.OK:
@@ -380,15 +425,22 @@ class Stepper:
         return res
 
     def keep_running(self) -> None:
+        if self._qs is not None:
+            self._qs.keep_running()
+            return
         self._rg.set_keep_running()
         self._engine.kick()
 
     def run_forward(self) -> MoveResult:
+        if self._qs is not None:
+            return self._qs.run(True)
         res = self._rg.start_run(True)
         self._engine.kick()
         return res
 
     def run_backward(self) -> MoveResult:
+        if self._qs is not None:
+            return self._qs.run(False)
         res = self._rg.start_run(False)
         self._engine.kick()
         return res
@@ -405,6 +457,8 @@ class Stepper:
             else:
                 self.apply_speed_acceleration()
                 self.stop_move()
+        elif self._qs is not None:
+            self._qs.keep_running()
         else:
             max_speed = self._rg.speed_in_ticks()
             self._rg.set_speed_in_ticks(self.get_period_in_ticks_after_commands_completed())
@@ -414,10 +468,17 @@ class Stepper:
         return res
 
     def stop_move(self) -> None:
+        if self._qs is not None:
+            self._qs.stop()
+            return
         self._rg.initiate_stop()
         self._engine.kick()
 
     def force_stop(self) -> None:
+        if self._qs is not None:
+            self._qs.force_stop()
+            self._queue.force_stop()
+            return
         self._queue.ignore_commands = True
         self._rg.immediate_stop()
         self._engine.kick()
@@ -426,6 +487,9 @@ class Stepper:
         q = self._queue
         q.ignore_commands = True
         self._rg.stop_ramp()
+        if self._qs is not None:
+            self._qs.force_stop()
+            q.ignore_commands = False
         q.force_stop()
         q.queue_end_pos = i32(new_pos)
         self._rg.set_target_position(new_pos)
@@ -440,6 +504,10 @@ class Stepper:
         if self.is_running():
             return
         if count_up or self._dir_pin != PIN_UNDEFINED:
+            if self._qs is not None:
+                self._qs.single_step(count_up)
+                self._block(blocking)
+                return
             self._queue.ignore_commands = False
             self.add_queue_entry(self._profile.min_cmd_ticks, 1, count_up)
             self._block(blocking)
@@ -449,6 +517,8 @@ class Stepper:
                         start: bool = True) -> AqeResult:
         """Queue one raw command; ``ticks=None`` only starts a filled queue."""
         q = self._queue
+        if self._qs is not None:
+            return AqeResult.QUEUE_FULL  # the queue holds QuickStep's orders now
         if ticks is None:
             return q.add_queue_entry(None, start=start)
         if not (0 <= steps <= 255) or not (0 <= ticks <= 65535):
@@ -574,9 +644,54 @@ class Stepper:
             self._queue.channel.sync()
             self._pulse_counter.clear()
 
+    # ------------------------------------------------------ QuickStep planner
+    @property
+    def planner(self) -> int:
+        return PLANNER_FAS if self._qs is None else PLANNER_QUICKSTEP
+
+    @property
+    def quickstep(self) -> QuickStepPlanner | None:
+        """The QuickStep planner while it is selected (its FIFO, plateaus, moves)."""
+        return self._qs
+
+    def set_planner(self, planner: int, depth: int | None = None,
+                    plateaus: int | None = None) -> QsConfigResult:
+        """Select FastAccelStepper's ramp (PLANNER_FAS) or QuickStep (PLANNER_QUICKSTEP)
+        with a FIFO of ``depth`` orders and ``plateaus`` acceleration plateaus (None:
+        keep the current or default figures).  Only while the stepper is at rest."""
+        from .quickstep import setup
+        return setup.select(self, planner, depth, plateaus)
+
+    def engine_now(self) -> int:
+        return self._engine.backend.now()
+
+    def has_direction_pin(self) -> bool:
+        return self._dir_pin != PIN_UNDEFINED
+
+    def wait_backend(self, predicate) -> None:
+        self._engine.backend.wait_until(predicate, 0)
+
+    def prepare_order(self) -> int:
+        """Before an order goes into an idle QuickStep FIFO: auto enable switches the
+        driver on; returns the delay (ticks) the first step must wait for it."""
+        q = self._queue
+        if q.is_running() or not q.is_queue_empty():
+            return 0
+        if self._auto_enable and self._auto_disable_delay_counter == 0:
+            self.enable_outputs()
+            return self._on_delay_ticks
+        return 0
+
+    def order_added(self) -> None:
+        if self._auto_enable:
+            self._auto_disable_delay_counter = self._off_delay_count
+        self._engine.kick()
+
     # ----------------------------------------------------------- ramp task
     def fill_queue(self) -> int:
         """Plan commands until the queue holds the forward-planning time; returns count."""
+        if self._qs is not None:
+            return self._qs.pump()
         rg = self._rg
         if not rg.is_ramp_generator_active() or not rg.has_valid_config():
             return 0

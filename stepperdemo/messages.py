@@ -188,6 +188,10 @@ USAGE_CONFIG = NL.join([
     "    d<p,n,t>  ... as above, plus <t> us pause between a direction change and",
     "                  the next step (0 = none)",
     "    dc        ... no direction pin (unidirectional stepper)",
+    "    l0 / l1   ... planner: FastAccelStepper ramp / QuickStep (FIFO, plateaus)",
+    "    q<n>      ... QuickStep FIFO depth 1..255 orders (4 bytes each)",
+    "    p<n>      ... QuickStep plateaus 1..255 per acceleration/deceleration",
+    "    b<us>     ... QuickStep base time in us, 0 = automatic; b<us,t> on timer t",
     "    x         ... leave configuration mode",
     "    ?         ... print this help",
 ]) + NL + NL
@@ -381,6 +385,40 @@ RELAY_DEVICE_GONE = "relay: device side closed ({reason})"
 RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {dropped} dropped, "
                "{corrupted} corrupted, {duplicated} duplicated")
 # --------------------------------------------------------------- end of serial texts
+
+# ---------------------------------------------------------------------------------------
+# QuickStep planner (issue 14): config commands l/q/p/b, status and table additions,
+# the input hold of a move that waits for FIFO room, report lines.  Console texts, not
+# part of the firmware.
+QS_PLANNER_FAS = "planner M{n}: FastAccelStepper ramp" + NL
+QS_PLANNER_QS = ("planner M{n}: QuickStep, FIFO {depth} orders, {plateaus} plateaus, "
+                 "base time {base} on timer {timer}" + NL)
+QS_DEPTH = "FIFO depth M{n} = {depth} orders ({ram} of {avail} bytes of RAM in use)" + NL
+QS_PLATEAUS = "plateaus M{n} = {plateaus}" + NL
+QS_BASE_AUTO = "automatic"
+QS_BASE_US = "{us} us"
+QS_BASE_SET = "base time = {base} on timer {timer} ({bits} bit, {lo} .. {hi} us)" + NL
+QS_ERR_NOT_AVAILABLE = "ERROR QuickStep needs a timer of its own: profile {profile} has none" + NL
+QS_ERR_NO_TIMER = "ERROR timer {timer} cannot run QuickStep here (timers: {timers})" + NL
+QS_ERR_BASE = ("ERROR base time {us} us outside timer {timer}'s {lo} .. {hi} us"
+               " (0 = automatic)" + NL)
+QS_ERR_DEPTH = "ERROR FIFO depth {value} outside 1 .. 255" + NL
+QS_ERR_PLATEAUS = "ERROR plateaus {value} outside 1 .. 255" + NL
+QS_ERR_RAM = ("ERROR FIFOs of {need} bytes (4 bytes x orders, all QuickStep steppers) exceed"
+              " the {avail} bytes of RAM {profile} leaves for them" + NL)
+QS_ERR_RUNNING = "ERROR M{n} is running: stop it first" + NL
+QS_ERR_BUSY = "ERROR a QuickStep stepper is running: the base time changes at rest only" + NL
+QS_ERR_SYNTAX = "ERROR {cmd}: give {what}" + NL
+QS_HOLD = ("QuickStep FIFO of M{n} full: input held until the move is queued"
+           " ({pending} orders waiting)" + NL)
+QS_RELEASED = "QuickStep move queued" + NL
+QS_STATUS = " QS {label}"
+QS_TABLE = " planner=QuickStep fifo={used}/{depth} plateaus={plateaus} base={base}"
+REPORT_PLATEAUS = "  plateaus     {n} order(s) at {periods} distinct period(s): {list}"
+REPORT_PLATEAU_ITEM = "{steps}x{us}us"
+REPORT_QS_TIMER = ("  QuickStep    timer {timer}, base time {base} us, {lost} period interrupt(s)"
+                   " lost, {starts} start(s) from rest")
+# ------------------------------------------------------------- end of QuickStep texts
 
 # ------------------------------------------------ issue 11: the firmware in simavr
 DEVICE_SIMAVR_TITLE = "firmware {elf} in simavr, {baud} baud"

@@ -34,6 +34,7 @@ class SimBackend(Backend):
         self.stray_reads = 0
         self.stray_reads_during_pulse = 0
         self.channel_listeners: list[Callable[[SimChannel], None]] = []  # observers
+        self._qs_load = None  # QuickStep's timer interrupt load (fas.sim.quickstep)
 
     # ------------------------------------------------------------ Backend API
     def now(self) -> int:
@@ -98,14 +99,31 @@ class SimBackend(Backend):
             fn(ch)
         return ch
 
+    def allocate_order_channel(self, queue, fas_queue, clock) -> SimChannel:
+        """QuickStep's FIFO runs on the profile's QuickStep timer (timer 2 on AVR)."""
+        from .quickstep import QuickStepChannel, TimerLoad
+        load = self._qs_load
+        if load is None or load.clock is not clock:
+            load = self._qs_load = TimerLoad(self.machine, clock)
+            self.machine.block_sources.append(load)
+        ch = QuickStepChannel(self.machine, queue, clock, load)
+        self.channels.append(ch)
+        self.machine.block_sources.append(ch)
+        for fn in self.channel_listeners:
+            fn(ch)
+        return ch
+
     def write_pin(self, pin: int, level: int) -> None:
         self.machine.pins.set(pin, level, self.machine.cpu_now())
 
     def read_pin(self, pin: int) -> int:
-        for ch in self.channels:
+        found = False
+        for ch in self.channels:  # (a QuickStep stepper has two: its FIFO's and the idle one)
             if ch.step_pin == pin and not ch.detached:
-                return 1 if ch.step_pin_high() else 0
-        return self.machine.pins.get(pin)
+                if ch.step_pin_high():
+                    return 1
+                found = True
+        return 0 if found else self.machine.pins.get(pin)
 
     def wait_until(self, predicate: Callable[[], bool], timeout_ticks: int = 0) -> bool:
         m = self.machine

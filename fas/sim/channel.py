@@ -43,6 +43,7 @@ class SimChannel(QueueChannel):
         self.wrap = p.sim_timer_wrap_ticks
         self.start_ticks = p.sim_queue_start_ticks
         self.prio = PRIO_STEP_ISR + queue.index
+        self.isr_ticks = p.sim_isr_duration_ticks  # CPU of one step interrupt
         self.irq_sensitive = p.irq_block_delays_steps
         self.running = False
         self.no_more = False
@@ -201,7 +202,7 @@ class SimChannel(QueueChannel):
     def _batch_end(self) -> None:
         """The interrupt after the block's last pulse: switch to the next entry."""
         self.event = None
-        self.m.stolen_ticks += self.m.profile.sim_isr_duration_ticks
+        self.m.stolen_ticks += self.isr_ticks
         e = self.b_entry
         n, t, c0 = self.b_n, self.b_t, self.b_c0
         last_c = c0 + (n - 1) * t
@@ -213,6 +214,12 @@ class SimChannel(QueueChannel):
         self.batch = False
         e.steps = 1
         self._isr(last_c, now)
+
+    def block_cpu_between(self, begin: int, end: int) -> int:
+        """CPU time the interrupts of the running block take in ``(begin, end]``."""
+        if not self.isr_ticks:
+            return 0
+        return self.isr_ticks * self.block_isrs_between(begin, end)
 
     def block_isrs_between(self, begin: int, end: int) -> int:
         """Step interrupts of the running block in ``(begin, end]`` (its last one, which
@@ -229,7 +236,7 @@ class SimChannel(QueueChannel):
 
     def _single_isr(self) -> None:
         self.event = None
-        self.m.stolen_ticks += self.m.profile.sim_isr_duration_ticks
+        self.m.stolen_ticks += self.isr_ticks
         c = self.pending_compare
         now = self.m.now
         if self.pending_pulse:

@@ -131,16 +131,15 @@ class Machine:
     def consume(self, ticks: int) -> None:
         """The main loop spends ``ticks`` of CPU time; interrupts steal some on top.
 
-        Stolen are the periodic task's work and one ``sim_isr_duration_ticks`` per step
-        interrupt: those run as events add their time themselves, those of a run of
-        pulses simulated as one block are counted here for the window."""
-        cost = self.profile.sim_isr_duration_ticks
+        Stolen are the periodic task's work and the CPU time of step interrupts (and
+        of timers that tick without events, QuickStep's): those run as events add
+        their time themselves, the others are counted here for the window by their
+        ``block_cpu_between``."""
         while True:
             start = self.now
             self.run_until(start + ticks)
-            if cost:
-                for src in self.block_sources:
-                    self.stolen_ticks += cost * src.block_isrs_between(start, self.now)
+            for src in self.block_sources:
+                self.stolen_ticks += src.block_cpu_between(start, self.now)
             ticks = self.stolen_ticks
             if not ticks:
                 return

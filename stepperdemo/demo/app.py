@@ -24,6 +24,7 @@ from fas.codes import PIN_UNDEFINED, RAMP_STATE_MASK
 
 from .. import messages as msg
 from ..program import EndReason, Program
+from . import quickstep as qs_console
 from .commands import HELP, Mode, dispatch
 from .testseq import TEST_STATE_ERROR, SeqSlot
 
@@ -118,6 +119,7 @@ class StepperDemo(Program):
         self.rx: deque[int] = deque()
         self.input_consumed_at: int | None = None
         self.waiting_interactive = False  # interactive W holding the input
+        self.qs_hold = None  # a QuickStep stepper whose move waits for FIFO room
         self.test_failed_count = 0
         self.tests_completed = 0
         self.passes = 0
@@ -265,6 +267,8 @@ class StepperDemo(Program):
                 self.print(text if text is not None else str(s.ramp_state()))
             else:
                 self.print(msg.STATUS_MANUAL)
+            if s.quickstep is not None:
+                self.print(qs_console.status_suffix(s))
         elif long_info:
             self.print(msg.ACCELERATION_STATUS)
             self.print(str(s.get_acceleration()))
@@ -274,6 +278,8 @@ class StepperDemo(Program):
             else:
                 self.print(msg.SPEED_STATUS_TIME)
                 self.print(str(s.get_speed_in_us()))
+            if s.quickstep is not None:
+                self.print(qs_console.table_suffix(self, s))
         self.print(" ")
 
     def output_info(self, only_running: bool) -> None:
@@ -341,6 +347,8 @@ class StepperDemo(Program):
             if not s.is_running():
                 self.waiting_interactive = False
                 self.println(msg.STOPPED)
+        elif self.qs_hold is not None:
+            qs_console.service_hold(self)
         elif self.read_ptr != self.write_ptr:
             c = self.in_buffer[self.read_ptr]
             self.read_ptr = (self.read_ptr + 1) & 0xFF
@@ -431,7 +439,8 @@ class StepperDemo(Program):
 
     def _input_idle(self) -> bool:
         """No input character can be taken or processed in the next pass."""
-        if self.pause_ms > 0 or self.waiting_interactive or self._held_by_w():
+        if (self.pause_ms > 0 or self.waiting_interactive or self.qs_hold is not None
+                or self._held_by_w()):
             return True
         if self.read_ptr != self.write_ptr:
             return False
@@ -550,6 +559,7 @@ class StepperDemo(Program):
                 s.force_stop_and_new_position(s.get_current_position())
         self.pause_ms = 0
         self.waiting_interactive = False
+        self.qs_hold = None
         self.test_ongoing = False
         self.read_ptr = self.write_ptr
         self.out_buffer.clear()

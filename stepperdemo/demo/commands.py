@@ -218,7 +218,7 @@ HELP[Mode.NORMAL] += [
 ]
 
 
-def _mover(text: str, apply: Callable) -> Handler:
+def _mover(text: str, apply: Callable, letter: str = "") -> Handler:
     def handler(app: StepperDemo, arg: bytes) -> bool:
         value = _number(arg)
         if value is None:
@@ -227,14 +227,18 @@ def _mover(text: str, apply: Callable) -> Handler:
         app.println(_i32(value))
         res = int(apply(app.selected_stepper, value))
         app.print(msg.MOVE_RESULT[res])
+        if letter in "RP":
+            qs_console.after_move(app)
         return True
     return handler
 
 
 TABLE[(Mode.NORMAL, ord("a"))] = _mover(msg.SET_ACCELERATION_TO,
                                         lambda s, v: s.move_by_acceleration(v))
-TABLE[(Mode.NORMAL, ord("R"))] = _mover(msg.MOVE_STEPS, lambda s, v: s.move(v))
-TABLE[(Mode.NORMAL, ord("P"))] = _mover(msg.MOVE_TO_POSITION, lambda s, v: s.move_to(v))
+TABLE[(Mode.NORMAL, ord("R"))] = _mover(msg.MOVE_STEPS,
+                                        lambda s, v: qs_console.move(s, v, False), "R")
+TABLE[(Mode.NORMAL, ord("P"))] = _mover(msg.MOVE_TO_POSITION,
+                                        lambda s, v: qs_console.move(s, v, True), "P")
 HELP[Mode.NORMAL] += [
     ("a<accel>", "run by acceleration (+/-)"), ("R<n>", "move by n steps"),
     ("P<pos>", "move to position"),
@@ -410,3 +414,8 @@ def cmd_direction_pin(app: StepperDemo, arg: bytes) -> bool:
         app.println(_i32(values[2]))
         s.set_direction_pin(pin, values[1] != 0, values[2] & 0xFFFF)
     return True
+
+
+# QuickStep (issue 14): config commands l/q/p/b and the move hold; imported last so
+# that it can register its commands in the table above
+from . import quickstep as qs_console  # noqa: E402

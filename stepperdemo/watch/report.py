@@ -66,10 +66,35 @@ def _stepper_lines(m: StepperMotion, tps: int, library: int | None) -> list[str]
                                          restarts=m.restarts,
                                          missed=m.channel_count("missed_compares")))
     lines.append(msg.REPORT_DIR.format(changes=m.dir_changes, delay=us(m.dir_to_step_min)))
+    lines.extend(_quickstep_lines(m, tps))
     delays = m.enable_to_step
     lines.append(msg.REPORT_ENABLE.format(
         enables=m.enables, min=us(min(delays) if delays else None),
         max=us(max(delays) if delays else None), disabled=m.steps_disabled))
+    return lines
+
+
+PLATEAUS_LISTED = 16  # periods listed in the plateau line (the slowest first)
+
+
+def _quickstep_lines(m: StepperMotion, tps: int) -> list[str]:
+    """QuickStep steppers: the plateaus (orders by period) and the timer."""
+    ch = m.channel
+    if ch is None or not hasattr(ch, "lost_periods"):
+        return []
+    items = sorted(m.entry_steps.items(), reverse=True)
+    shown = [msg.REPORT_PLATEAU_ITEM.format(steps=steps, us=fmt_us(ticks, tps))
+             for ticks, steps in items[:PLATEAUS_LISTED]]
+    if len(items) > PLATEAUS_LISTED:
+        shown.append("...")
+    tb = ch.clock.current
+    lines = [msg.REPORT_PLATEAUS.format(n=m.entries_taken, periods=len(items),
+                                        list=" ".join(shown) or msg.REPORT_NONE)]
+    if tb is not None:
+        lines.append(msg.REPORT_QS_TIMER.format(timer=tb.timer.number,
+                                                base=fmt_us(tb.base_ticks, tps),
+                                                lost=ch.lost_periods,
+                                                starts=m.channel_count("starts")))
     return lines
 
 
