@@ -29,6 +29,21 @@
 #endif
 #define QUEUE_MASK (QUEUE_LEN - 1)
 
+/* Out-of-order frame slots (selective repeat) and the largest host frame payload */
+#define RX_SLOTS 8
+#define SLOT_PAYLOAD 32
+
+#define DEFAULT_WATCHDOG_MS 500
+#define DEFAULT_REPORT_MS 2
+#define STATUS_MS 100           /* every queue's Progress (a lost report heals) */
+#define DEVICE_STATUS_EVERY 5   /* ... and every 5th time a DeviceStatus */
+
+/* EEPROM: a boot counter (the boot id tells the host whether the device restarted)
+ * and the rate of the tick counter per second of the host's clock when it is not
+ * ticks_per_s (a simulated chip run faster than real time; 0xFFFFFFFF: not set). */
+#define EE_BOOT_COUNT 0         /* u16 */
+#define EE_CLOCK_HZ 2           /* u32 */
+
 #define STEP_PIN_A 9   /* OC1A, PB1 */
 #define STEP_PIN_B 10  /* OC1B, PB2 */
 

@@ -18,9 +18,16 @@
 #include "ticks.h"
 #include "uart.h"
 
-/* Timer 0: prescaler 64, overflow every 16384 cycles.  Its only job is to end the
- * idle sleep, so that the reports go out on time. */
-EMPTY_INTERRUPT(TIMER0_OVF_vect);
+/* Why the main loop should look around: set by the UART's interrupts and by timer 0
+ * (prescaler 64, an overflow every 16384 cycles, for the periodic reports).  The
+ * step interrupts wake the chip too, but leave this alone: the loop sleeps again at
+ * once. */
+volatile uint8_t main_wake;
+
+ISR(TIMER0_OVF_vect)
+{
+    main_wake |= WAKE_TICK;
+}
 
 static void wake_tick_init(void)
 {
@@ -41,19 +48,26 @@ int main(void)
     irq_on();
     session_init();
     for (;;) {
-        while (frame_receive(&frame))
-            session_frame(&frame);
-        uint8_t seen = uart_rx_count();
-        stepgen_poll();
-        session_poll();
-        /* sleep unless a byte came meanwhile; any interrupt wakes the loop */
         cli();
-        if (uart_rx_count() == seen && !session_busy()) {
+        uint8_t wake = main_wake;
+        if (!wake) {
             sleep_enable();
             sei();
             sleep_cpu();
             sleep_disable();
+            continue;
         }
+        main_wake = 0;
         irq_on();
+        uint8_t frames = 0;
+        if (wake & WAKE_RX)
+            while (frame_receive(&frame)) {
+                session_frame(&frame);
+                frames = 1;
+            }
+        if (wake & WAKE_TICK)
+            stepgen_poll();
+        if (frames || (wake & (WAKE_TICK | WAKE_TX)))
+            session_poll();
     }
 }

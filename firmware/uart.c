@@ -37,6 +37,7 @@ void uart_init(void)
 
 ISR(USART_RX_vect)
 {
+    main_wake |= WAKE_RX;
     uint8_t status = UCSR0A;
     uint8_t b = UDR0;
     if (status & _BV(DOR0))
@@ -91,8 +92,12 @@ uint32_t uart_rx_sync_tick(uint8_t offset)
     return ticks_now();
 }
 
+volatile uint8_t uart_tx_waiting;
+
 ISR(USART_UDRE_vect)
 {
+    if (uart_tx_waiting)
+        main_wake |= WAKE_TX;  /* room in the ring for the output that waits */
     uint8_t tail = tx_tail;
     if (tail == tx_head) {
         UCSR0B &= (uint8_t)~_BV(UDRIE0);

@@ -15,6 +15,13 @@
 #define UART_SYNC_BYTE 0x7E
 
 void uart_init(void);
+/* Why the main loop should look around (bits), set by interrupts. */
+extern volatile uint8_t main_wake;
+#define WAKE_RX 0x01    /* a byte arrived */
+#define WAKE_TICK 0x02  /* the 1.024 ms tick of timer 0 */
+#define WAKE_TX 0x04    /* a byte left while output waits for room */
+/* set by the sender while output waits for room in the transmit ring */
+extern volatile uint8_t uart_tx_waiting;
 
 /* receiving: bytes are read in place, then released */
 uint8_t uart_rx_count(void);

@@ -18,11 +18,12 @@ so :meth:`Trace.edges` gives edges in device ticks, as the Python device's recor
 
 from __future__ import annotations
 
+import ctypes
 import fcntl
 import os
+import random
 import re
 import shutil
-import struct
 import subprocess
 import tempfile
 from array import array
@@ -41,6 +42,7 @@ NS_PER_S = 1_000_000_000
 QUANTUM_NS = 50_000
 QUANTUM_MAX_NS = 1_000_000
 DEFAULT_WATCHDOG_MS = 500  # the firmware's own default (a Hello sets the session's)
+SYNC = 0x7E  # the byte that ends every frame
 
 
 class SimavrError(RuntimeError):
@@ -205,21 +207,90 @@ class HarnessInfo:
 
 
 # ---------------------------------------------------------------------- lockstep
+def library_path() -> Path:
+    return build_dir() / "libfassimavr.so"
+
+
+class _Chip:
+    """The harness library (libfassimavr.so) in this process: one chip at a time."""
+
+    _lib = None
+    _open = False
+
+    def __init__(self, lib_path: Path, elf: Path, trace: Path, boot_count: int) -> None:
+        if _Chip._open:
+            raise SimavrError("one simulated chip per process at a time")
+        lib = _Chip._lib
+        if lib is None or lib._name != str(lib_path):
+            lib = ctypes.CDLL(str(lib_path))
+            u8p, u32p, u64p = (ctypes.POINTER(ctypes.c_uint8), ctypes.POINTER(ctypes.c_uint32),
+                               ctypes.POINTER(ctypes.c_uint64))
+            lib.fs_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p,
+                                    ctypes.c_uint32, ctypes.c_uint16]
+            lib.fs_run.argtypes = [ctypes.c_uint64, ctypes.c_char_p, ctypes.c_uint32, u8p,
+                                   ctypes.c_uint32, u32p, u64p]
+            lib.fs_pins.argtypes = [u8p, u32p, u32p]
+            lib.fs_info.argtypes = [u64p]
+            lib.fs_mem.argtypes = [ctypes.c_uint16, ctypes.c_uint16, u8p, ctypes.c_int]
+            _Chip._lib = lib
+        self.lib = lib
+        if lib.fs_open(str(elf).encode(), str(trace).encode(), b"atmega328p", CPU_HZ,
+                       boot_count & 0xFFFF) != 0:
+            raise SimavrError(f"simavr cannot load {elf}")
+        _Chip._open = True
+        self._out = (ctypes.c_uint8 * 65536)()
+        self._out_n = ctypes.c_uint32()
+        self._state = (ctypes.c_uint64 * 2)()
+
+    def run(self, cycle: int, data: bytes) -> tuple[bytes, int, int]:
+        if self.lib.fs_run(cycle, data, len(data), self._out, len(self._out),
+                           ctypes.byref(self._out_n), self._state) != 0:
+            raise SimavrError("the simulated chip stopped (see the messages above)")
+        return bytes(self._out[:self._out_n.value]), self._state[0], self._state[1]
+
+    def pins(self) -> list[PinCount]:
+        level = (ctypes.c_uint8 * PINS)()
+        rising, falling = (ctypes.c_uint32 * PINS)(), (ctypes.c_uint32 * PINS)()
+        self.lib.fs_pins(level, rising, falling)
+        return [PinCount(level[i], rising[i], falling[i]) for i in range(PINS)]
+
+    def info(self) -> HarnessInfo:
+        v = (ctypes.c_uint64 * 7)()
+        self.lib.fs_info(v)
+        return HarnessInfo(*v)
+
+    def mem(self, addr: int, n: int, data: bytes | None = None) -> bytes:
+        buf = (ctypes.c_uint8 * max(n, 1))()
+        if data is not None:
+            buf[:n] = data
+        if self.lib.fs_mem(addr, n, buf, int(data is not None)) != 0:
+            raise SimavrError(f"memory access {addr:#x}+{n} outside the chip's RAM")
+        return bytes(buf[:n])
+
+    def flush_trace(self) -> None:
+        self.lib.fs_flush_trace()
+
+    def close(self) -> None:
+        if _Chip._open:
+            self.lib.fs_close()
+            _Chip._open = False
+
+
 class SimavrDevice:
     """The firmware in simavr as a virtual-clock peer (see the module text).
 
     Bytes the host wrote reach the chip's UART at the instant the clock has when they
     are read; bytes the chip sends are handed to the line once their last bit has
-    left (10 bits a character at the chip's baud setting).
+    left (10 bits a character at the chip's baud setting).  The chip runs in this
+    process (the harness as a library), one at a time.
     """
 
     def __init__(self, stream: ByteStream | None = None, clock=None, *,
                  elf: str | Path | None = None, baud: int = 115200,
-                 trace: str | Path | None = None, harness: str | Path | None = None) -> None:
-        if elf is None or harness is None:
+                 trace: str | Path | None = None, boot_count: int | None = None) -> None:
+        if elf is None or not library_path().exists():
             built = build(baud)
             elf = elf or built.elf
-            harness = harness or built.harness
         self.elf = Path(elf)
         self.clock = clock
         self.default_watchdog_ms = DEFAULT_WATCHDOG_MS
@@ -228,62 +299,59 @@ class SimavrDevice:
             self._tmpdir = tempfile.mkdtemp(prefix="fas-simavr-")
             trace = os.path.join(self._tmpdir, "trace.txt")
         self.trace_path = Path(trace)
-        self.proc = subprocess.Popen([str(harness), "--lockstep", "--trace", str(trace),
-                                      str(elf)], stdin=subprocess.PIPE,
-                                     stdout=subprocess.PIPE, bufsize=0)
+        if boot_count is None:
+            boot_count = random.getrandbits(16)
+        self.chip = _Chip(library_path(), self.elf, self.trace_path, boot_count)
         self.cycle = 0
         self._next_tx_cycle = 0
         self._quantum_ns = QUANTUM_NS
-        self._out = bytearray()
+        self._out = bytearray()  # bytes for the line ...
+        self._partial = bytearray()  # ... and the start of a frame not yet complete
         self.stream: ByteStream | None = None
         self.in_wires: list = []
         self.closed = False
         self.rx_log: list[tuple[int, bytes]] | None = None  # (cycle, bytes) if recording
         self.attach(stream)
 
-    # ---------------------------------------------------------- the harness
-    def _ask(self, request: bytes, answer: int) -> bytes:
-        if self.closed:
-            raise SimavrError("the simavr harness has ended")
-        try:
-            self.proc.stdin.write(request)
-            data = self._read(answer)
-        except (BrokenPipeError, OSError) as exc:
-            raise SimavrError(f"the simavr harness ended: {self._stderr()}") from exc
-        return data
-
-    def _read(self, n: int) -> bytes:
-        out = bytearray()
-        while len(out) < n:
-            chunk = self.proc.stdout.read(n - len(out))
-            if not chunk:
-                raise SimavrError(f"the simavr harness ended: {self._stderr()}")
-            out += chunk
-        return bytes(out)
-
-    def _stderr(self) -> str:
-        self.proc.poll()
-        return f"exit code {self.proc.returncode}"
-
+    # ------------------------------------------------------------ the chip
     def run_to_cycle(self, cycle: int, data: bytes = b"") -> bytes:
         """Hand ``data`` to the UART now, run to ``cycle``; the bytes sent meanwhile."""
-        head = self._ask(b"R" + struct.pack("<QH", cycle, len(data)) + data, 18)
-        self.cycle, self._next_tx_cycle, m = struct.unpack("<QQH", head)
-        return self._read(m) if m else b""
+        if self.closed:
+            raise SimavrError("the simulated chip is closed")
+        sent, self.cycle, self._next_tx_cycle = self.chip.run(max(cycle, self.cycle), data)
+        return sent
+
+    def _sent(self, data: bytes) -> None:
+        """Bytes the chip sent: the line gets them when a frame is complete (its sync
+        byte): a host acts on whole frames only, and fewer, larger writes cost less."""
+        if not data:
+            return
+        self._partial += data
+        end = self._partial.rfind(SYNC) + 1
+        if end:
+            self._out += self._partial[:end]
+            del self._partial[:end]
 
     def pins(self) -> list[PinCount]:
-        data = self._ask(b"P", 9 * PINS)
-        return [PinCount(*struct.unpack_from("<BII", data, 9 * i)) for i in range(PINS)]
+        return self.chip.pins()
 
     def info(self) -> HarnessInfo:
-        return HarnessInfo(*struct.unpack("<QQIIIIQ", self._ask(b"I", 40)))
+        return self.chip.info()
+
+    def read_memory(self, addr: int, n: int) -> bytes:
+        return self.chip.mem(addr, n)
+
+    def write_memory(self, addr: int, data: bytes) -> None:
+        self.chip.mem(addr, len(data), data)
 
     def trace(self) -> Trace:
-        """The pin changes so far (the harness flushes its trace file first)."""
+        """The pin changes so far."""
         if not self.closed:
-            self._ask(b"Q", 1)
-            self.closed = True
-            self.proc.wait(timeout=10)
+            self.chip.flush_trace()
+            tr = Trace.read(self.trace_path)
+            tr.timer1_start = self.info().timer1_start
+            tr.end_cycle = self.cycle
+            return tr
         return Trace.read(self.trace_path)
 
     # ------------------------------------------------------------- the line
@@ -310,8 +378,7 @@ class SimavrDevice:
             return
         if data and self.rx_log is not None:
             self.rx_log.append((self.cycle, data))
-        for i in range(0, len(data), 65535):  # the harness takes 65535 bytes a step
-            self._out += self.run_to_cycle(self.cycle, data[i:i + 65535])
+        self._sent(self.run_to_cycle(self.cycle, data))
         if data:
             self._quantum_ns = QUANTUM_NS
 
@@ -339,7 +406,7 @@ class SimavrDevice:
         if target <= self.cycle:
             return
         sent = self.run_to_cycle(target)
-        self._out += sent
+        self._sent(sent)
         if sent:
             self._quantum_ns = QUANTUM_NS
         else:  # quiet: look less often
@@ -354,19 +421,8 @@ class SimavrDevice:
 
     def close(self) -> None:
         if not self.closed:
-            try:
-                self._ask(b"Q", 1)
-            except SimavrError:
-                pass
+            self.chip.close()
             self.closed = True
-        try:
-            self.proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-        for f in (self.proc.stdin, self.proc.stdout):
-            if f is not None:
-                f.close()
         if self._tmpdir is not None:
             shutil.rmtree(self._tmpdir, ignore_errors=True)
             self._tmpdir = None

@@ -6,24 +6,12 @@
  *       serves a new pseudo-terminal (its path is the first line on stdout) and runs
  *       the simulated chip in real time (or F times faster); ends on SIGINT/SIGTERM
  *       and prints a summary.
- *   fas-simavr --lockstep [--trace FILE] FIRMWARE.elf
- *       co-simulation for tests: commands on stdin, answers on stdout (below); the
- *       chip runs only when told to, so runs are deterministic.
  *
- * Lockstep commands (little-endian):
- *   'R' u64 until_cycle, u16 n, n bytes   the bytes reach the UART now, then run to
- *                                          until_cycle; answer: u64 cycle, u64
- *                                          next_tx_cycle (0: none), u16 m, m bytes
- *                                          sent by the chip whose last bit has left
- *   'P'                                    answer: 20 x (u8 level, u32 rising, u32
- *                                          falling) for Arduino pins 0..19
- *   'I'                                    answer: u64 cycle, u64 timer-1 start
- *                                          cycle, u32 frequency, u32 cycles per
- *                                          byte, u32 bytes dropped, u32 rx overruns,
- *                                          u64 cycles the chip slept (idle load)
- *   'W' u16 address, u16 n, n bytes        write the chip's data memory (answer: 'W')
- *   'M' u16 address, u16 n                 read it (answer: n bytes)
- *   'Q'                                    flush the trace and end (answer: 'Q')
+ * The same file, built as a shared library (-DFAS_SIMAVR_LIB, libfassimavr.so), is the
+ * chip for co-simulation: fs_open(), then fs_run() hands it the bytes the host sent
+ * and runs it to a given cycle, returning the bytes it sent; the chip advances only
+ * when told to, so runs are deterministic (fas/serial/simavr.py, SimavrDevice).
+ * One chip per process at a time.
  *
  * The pins.  simavr 1.6 models the ports well, but not the timers' output-compare
  * pins: a PORTB write also drives OC1A/OC1B, and in normal mode an overflow (or an
@@ -58,6 +46,7 @@
 #include "avr_ioport.h"
 #include "avr_timer.h"
 #include "avr_uart.h"
+#include "avr_eeprom.h"
 
 #define PINS 20
 #define REG_PINB 0x23
@@ -72,7 +61,6 @@
 
 static avr_t *avr;
 static FILE *trace;
-static const char *trace_path;
 
 /* ------------------------------------------------------------------ pins */
 struct pin {
@@ -343,6 +331,9 @@ static void logger(avr_t *a, const int level, const char *format, va_list ap)
     }
 }
 
+
+#ifndef FAS_SIMAVR_LIB
+/* ------------------------------------------------------------------ pty */
 static double wall_s(void)
 {
     struct timespec ts;
@@ -350,118 +341,6 @@ static double wall_s(void)
     return ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
-/* ------------------------------------------------------------------ lockstep */
-static int read_full(int fd, void *buf, size_t n)
-{
-    uint8_t *p = buf;
-    while (n) {
-        ssize_t r = read(fd, p, n);
-        if (r <= 0) {
-            if (r < 0 && errno == EINTR)
-                continue;
-            return -1;
-        }
-        p += r;
-        n -= (size_t)r;
-    }
-    return 0;
-}
-
-static int write_full(int fd, const void *buf, size_t n)
-{
-    const uint8_t *p = buf;
-    while (n) {
-        ssize_t r = write(fd, p, n);
-        if (r <= 0) {
-            if (r < 0 && errno == EINTR)
-                continue;
-            return -1;
-        }
-        p += r;
-        n -= (size_t)r;
-    }
-    return 0;
-}
-
-static int lockstep(void)
-{
-    static uint8_t buf[65536 + 32];
-    for (;;) {
-        uint8_t cmd;
-        if (read_full(0, &cmd, 1))
-            return 0;
-        if (cmd == 'R') {
-            uint64_t until;
-            uint16_t n;
-            if (read_full(0, &until, 8) || read_full(0, &n, 2) || read_full(0, buf, n))
-                return 1;
-            rx_queue(buf, n);
-            rx_feed();
-            if (run_until(until))
-                return 1;
-            uint64_t now = avr->cycle;
-            uint16_t m = 0;
-            size_t pos = 18;
-            while (txq_tail != txq_head && txq_due[txq_tail % TXQ] <= now && m < 65000) {
-                buf[pos++] = txq_byte[txq_tail % TXQ];
-                txq_tail++;
-                m++;
-            }
-            uint64_t next = txq_tail != txq_head ? txq_due[txq_tail % TXQ] : 0;
-            memcpy(buf, &now, 8);
-            memcpy(buf + 8, &next, 8);
-            memcpy(buf + 16, &m, 2);
-            if (write_full(1, buf, pos))
-                return 1;
-        } else if (cmd == 'P') {
-            size_t pos = 0;
-            for (int i = 0; i < PINS; i++) {
-                buf[pos++] = pins[i].level;
-                memcpy(buf + pos, &pins[i].rising, 4);
-                memcpy(buf + pos + 4, &pins[i].falling, 4);
-                pos += 8;
-            }
-            if (write_full(1, buf, pos))
-                return 1;
-        } else if (cmd == 'I') {
-            uint32_t freq = avr->frequency, cpb = cycles_per_byte();
-            uint64_t now = avr->cycle;
-            memcpy(buf, &now, 8);
-            memcpy(buf + 8, &timer1_start, 8);
-            memcpy(buf + 16, &freq, 4);
-            memcpy(buf + 20, &cpb, 4);
-            memcpy(buf + 24, &tx_dropped, 4);
-            memcpy(buf + 28, &rx_overruns, 4);
-            memcpy(buf + 32, &sleep_cycles, 8);
-            if (write_full(1, buf, 40))
-                return 1;
-        } else if (cmd == 'W' || cmd == 'M') {
-            uint16_t addr, n;
-            if (read_full(0, &addr, 2) || read_full(0, &n, 2))
-                return 1;
-            if ((uint32_t)addr + n > (uint32_t)avr->ramend + 1) {
-                fprintf(stderr, "fas-simavr: memory access beyond RAMEND\n");
-                return 1;
-            }
-            if (cmd == 'W') {
-                if (read_full(0, avr->data + addr, n) || write_full(1, "W", 1))
-                    return 1;
-            } else if (write_full(1, avr->data + addr, n)) {
-                return 1;
-            }
-        } else if (cmd == 'Q') {
-            if (trace)
-                fflush(trace);
-            write_full(1, "Q", 1);
-            return 0;
-        } else {
-            fprintf(stderr, "fas-simavr: unknown lockstep command 0x%02x\n", cmd);
-            return 1;
-        }
-    }
-}
-
-/* ------------------------------------------------------------------ pty */
 static volatile sig_atomic_t stopping;
 
 static void on_signal(int sig)
@@ -591,37 +470,191 @@ static int serve_pty(double speed, const char *link)
     return rc;
 }
 
+#endif
+
+/* ------------------------------------------------------------------ the chip */
+/* Load the firmware into a fresh simulated chip.  EEPROM: the boot counter (so that
+ * every run is a new boot for the host) and the clock rate per host second for a
+ * chip run `speed` times faster than real time. */
+static int chip_open(const char *elf, const char *mcu, uint32_t freq, const char *trace_file,
+                     uint16_t boot_count, double speed)
+{
+    memset(pins, 0, sizeof pins);
+    memset(oc, 0, sizeof oc);
+    tccr1a = 0;
+    timer1_start = 0;
+    timer1_started = 0;
+    txq_head = txq_tail = 0;
+    tx_line_free = 0;
+    tx_dropped = 0;
+    rxq_head = rxq_tail = 0;
+    rx_overruns = 0;
+    uart_full = 0;
+    sleep_cycles = 0;
+    avr_global_logger_set(logger);
+    elf_firmware_t fw;
+    memset(&fw, 0, sizeof fw);
+    if (elf_read_firmware(elf, &fw)) {
+        fprintf(stderr, "fas-simavr: cannot read %s\n", elf);
+        return -1;
+    }
+    avr = avr_make_mcu_by_name(mcu);
+    if (!avr) {
+        fprintf(stderr, "fas-simavr: unknown MCU %s\n", mcu);
+        return -1;
+    }
+    avr_init(avr);
+    avr->log = LOG_ERROR;
+    avr->sleep = sleep_hook;
+    fw.frequency = freq;
+    strncpy(fw.mmcu, mcu, sizeof fw.mmcu - 1);
+    avr_load_firmware(avr, &fw);
+    avr->frequency = freq;
+    uint32_t clock_hz = speed == 1.0 ? 0xFFFFFFFFu : (uint32_t)(freq * speed + 0.5);
+    uint8_t ee[6] = {(uint8_t)boot_count, (uint8_t)(boot_count >> 8), (uint8_t)clock_hz,
+                     (uint8_t)(clock_hz >> 8), (uint8_t)(clock_hz >> 16),
+                     (uint8_t)(clock_hz >> 24)};
+    avr_eeprom_desc_t desc = {.ee = ee, .offset = 0, .size = sizeof ee};
+    avr_ioctl(avr, AVR_IOCTL_EEPROM_SET, &desc);
+    trace = NULL;
+    if (trace_file) {
+        trace = fopen(trace_file, "w");
+        if (!trace) {
+            perror(trace_file);
+            return -1;
+        }
+        setvbuf(trace, NULL, _IOFBF, 1 << 16);
+        fprintf(trace, "# fas-simavr trace of %s\n# mcu %s, %" PRIu32 " Hz\n"
+                "# columns: cycle pin level\n", elf, mcu, freq);
+    }
+    hook_pins();
+    hook_uart();
+    return 0;
+}
+
+static void chip_close(void)
+{
+    if (trace) {
+        fprintf(trace, "# end at cycle %" PRIu64 ", timer 1 started at cycle %" PRIu64 "\n",
+                avr->cycle, timer1_start);
+        fclose(trace);
+        trace = NULL;
+    }
+    avr_terminate(avr);
+    avr = NULL;
+}
+
+#ifdef FAS_SIMAVR_LIB
+/* ------------------------------------------------------------------ library */
+int fs_open(const char *elf, const char *trace_file, const char *mcu, uint32_t freq,
+            uint16_t boot_count)
+{
+    if (avr) {
+        fprintf(stderr, "fas-simavr: one chip at a time\n");
+        return -1;
+    }
+    return chip_open(elf, mcu, freq, trace_file, boot_count, 1.0);
+}
+
+/* The bytes in[0..n) reach the UART now; then run to `until`.  out: the bytes the chip
+ * sent whose last bit has left by then (at most out_cap); state: cycle, cycle at which
+ * the next queued byte will have left (0: none). */
+int fs_run(uint64_t until, const uint8_t *in, uint32_t n, uint8_t *out, uint32_t out_cap,
+           uint32_t *out_n, uint64_t *state)
+{
+    rx_queue(in, n);
+    rx_feed();
+    if (run_until(until))
+        return -1;
+    uint32_t m = 0;
+    while (txq_tail != txq_head && txq_due[txq_tail % TXQ] <= avr->cycle && m < out_cap) {
+        out[m++] = txq_byte[txq_tail % TXQ];
+        txq_tail++;
+    }
+    *out_n = m;
+    state[0] = avr->cycle;
+    state[1] = txq_tail != txq_head ? txq_due[txq_tail % TXQ] : 0;
+    return 0;
+}
+
+/* pins: per Arduino pin 0..19, level, rising and falling edges */
+void fs_pins(uint8_t *level, uint32_t *rising, uint32_t *falling)
+{
+    for (int i = 0; i < PINS; i++) {
+        level[i] = pins[i].level;
+        rising[i] = pins[i].rising;
+        falling[i] = pins[i].falling;
+    }
+}
+
+/* cycle, timer-1 start cycle, frequency, cycles per character, bytes dropped, bytes
+ * received in excess, cycles slept */
+void fs_info(uint64_t *v)
+{
+    v[0] = avr->cycle;
+    v[1] = timer1_start;
+    v[2] = avr->frequency;
+    v[3] = cycles_per_byte();
+    v[4] = tx_dropped;
+    v[5] = rx_overruns;
+    v[6] = sleep_cycles;
+}
+
+/* read (write = 0) or write the chip's data memory */
+int fs_mem(uint16_t addr, uint16_t n, uint8_t *buf, int write)
+{
+    if ((uint32_t)addr + n > (uint32_t)avr->ramend + 1)
+        return -1;
+    if (write)
+        memcpy(avr->data + addr, buf, n);
+    else
+        memcpy(buf, avr->data + addr, n);
+    return 0;
+}
+
+void fs_flush_trace(void)
+{
+    if (trace)
+        fflush(trace);
+}
+
+void fs_close(void)
+{
+    if (avr)
+        chip_close();
+}
+
+#else
 /* ------------------------------------------------------------------ main */
 static void usage(void)
 {
     fprintf(stderr,
             "usage: fas-simavr [--pty] [--link PATH] [--speed F] [--trace FILE] "
-            "[--mcu NAME] [--freq HZ] FIRMWARE.elf\n"
-            "       fas-simavr --lockstep [--trace FILE] FIRMWARE.elf\n");
+            "[--mcu NAME] [--freq HZ] [--boot N] FIRMWARE.elf\n");
 }
 
 int main(int argc, char **argv)
 {
-    const char *elf = NULL, *link = NULL, *mcu = "atmega328p";
+    const char *elf = NULL, *link = NULL, *mcu = "atmega328p", *trace_file = NULL;
     double speed = 1.0;
     uint32_t freq = 16000000;
-    int lock = 0;
+    long boot = -1;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "--pty"))
-            lock = 0;
-        else if (!strcmp(a, "--lockstep"))
-            lock = 1;
+            continue;
         else if (!strcmp(a, "--link") && i + 1 < argc)
             link = argv[++i];
         else if (!strcmp(a, "--speed") && i + 1 < argc)
             speed = atof(argv[++i]);
         else if (!strcmp(a, "--trace") && i + 1 < argc)
-            trace_path = argv[++i];
+            trace_file = argv[++i];
         else if (!strcmp(a, "--mcu") && i + 1 < argc)
             mcu = argv[++i];
         else if (!strcmp(a, "--freq") && i + 1 < argc)
             freq = (uint32_t)strtoul(argv[++i], NULL, 10);
+        else if (!strcmp(a, "--boot") && i + 1 < argc)
+            boot = strtol(argv[++i], NULL, 10);
         else if (a[0] == '-') {
             usage();
             return 2;
@@ -632,42 +665,15 @@ int main(int argc, char **argv)
         usage();
         return 2;
     }
-    avr_global_logger_set(logger);
-    elf_firmware_t fw;
-    memset(&fw, 0, sizeof fw);
-    if (elf_read_firmware(elf, &fw)) {
-        fprintf(stderr, "fas-simavr: cannot read %s\n", elf);
+    if (boot < 0) {  /* a new boot each run: the host sees a restarted device */
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        boot = (long)((ts.tv_nsec ^ ts.tv_sec ^ getpid()) & 0xFFFF);
+    }
+    if (chip_open(elf, mcu, freq, trace_file, (uint16_t)boot, speed))
         return 2;
-    }
-    avr = avr_make_mcu_by_name(mcu);
-    if (!avr) {
-        fprintf(stderr, "fas-simavr: unknown MCU %s\n", mcu);
-        return 2;
-    }
-    avr_init(avr);
-    avr->log = LOG_ERROR;
-    avr->sleep = sleep_hook;
-    fw.frequency = freq;
-    strncpy(fw.mmcu, mcu, sizeof fw.mmcu - 1);
-    avr_load_firmware(avr, &fw);
-    avr->frequency = freq;
-    if (trace_path) {
-        trace = fopen(trace_path, "w");
-        if (!trace) {
-            perror(trace_path);
-            return 2;
-        }
-        setvbuf(trace, NULL, _IOFBF, 1 << 16);
-        fprintf(trace, "# fas-simavr trace of %s\n# mcu %s, %" PRIu32 " Hz\n"
-                "# columns: cycle pin level\n", elf, mcu, freq);
-    }
-    hook_pins();
-    hook_uart();
-    int rc = lock ? lockstep() : serve_pty(speed, link);
-    if (trace) {
-        fprintf(trace, "# end at cycle %" PRIu64 ", timer 1 started at cycle %" PRIu64 "\n",
-                avr->cycle, timer1_start);
-        fclose(trace);
-    }
+    int rc = serve_pty(speed, link);
+    chip_close();
     return rc;
 }
+#endif

@@ -39,9 +39,9 @@ def need_toolchain() -> None:
                 "see README, 'Device firmware'")
 
 
-def build_rig() -> tuple[str, str]:
+def build_rig() -> str:
     simavr._make("rig", "sim")
-    return str(simavr.build_dir() / "stepgen_rig.elf"), str(simavr.harness_path())
+    return str(simavr.build_dir() / "stepgen_rig.elf")
 
 
 def symbol_address(elf: str, name: str) -> int:
@@ -66,19 +66,18 @@ class Snapshot:
 class Rig:
     """The rig firmware in simavr (lockstep)."""
 
-    def __init__(self, elf: str, harness: str, trace: str) -> None:
-        self.dev = simavr.SimavrDevice(elf=elf, harness=harness, trace=trace)
+    def __init__(self, elf: str, trace: str) -> None:
+        self.dev = simavr.SimavrDevice(elf=elf, trace=trace)
         self.addr = symbol_address(elf, "rig")
         self.seq = 0
         self.dev.run_to_cycle(20_000)  # boot
         self.t0 = self.dev.info().timer1_start
 
     def _write(self, offset: int, data: bytes) -> None:
-        addr = self.addr + offset
-        assert self.dev._ask(b"W" + struct.pack("<HH", addr, len(data)) + data, 1) == b"W"
+        self.dev.write_memory(self.addr + offset, data)
 
     def _read(self, offset: int, n: int) -> bytes:
-        return self.dev._ask(b"M" + struct.pack("<HH", self.addr + offset, n), n)
+        return self.dev.read_memory(self.addr + offset, n)
 
     def command(self, cmd: int, ch: int = 0, arg: int = 0, arg2: int = 0, at: int = 0,
                 entry: tuple[int, int, int] = (0, 0, 0), pcnt: tuple[int, int] = (0, 0)) -> None:

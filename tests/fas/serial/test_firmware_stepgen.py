@@ -35,8 +35,7 @@ def rig_files():
 
 @pytest.fixture
 def both(rig_files, tmp_path):
-    elf, harness = rig_files
-    rig = Rig(elf, harness, str(tmp_path / "trace.txt"))
+    rig = Rig(rig_files, str(tmp_path / "trace.txt"))
     yield Both(rig)
     rig.dev.close()
 
