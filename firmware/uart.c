@@ -28,9 +28,10 @@ volatile uint16_t uart_rx_bad_bits;
 
 void uart_init(void)
 {
+    /* U2X before the rate: simavr computes its character time when UBRR is written */
+    UCSR0A = _BV(U2X0);
     UBRR0H = (uint8_t)(UBRR_VALUE >> 8);
     UBRR0L = (uint8_t)UBRR_VALUE;
-    UCSR0A = _BV(U2X0);
     UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);  /* 8N1 */
     UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
 }

@@ -204,6 +204,7 @@ class HarnessInfo:
     tx_dropped: int
     rx_overruns: int
     sleep_cycles: int  # the chip's idle time (sleep mode)
+    rx_waiting: int  # bytes from the host not yet taken by the chip's UART
 
 
 # ---------------------------------------------------------------------- lockstep
@@ -255,7 +256,7 @@ class _Chip:
         return [PinCount(level[i], rising[i], falling[i]) for i in range(PINS)]
 
     def info(self) -> HarnessInfo:
-        v = (ctypes.c_uint64 * 7)()
+        v = (ctypes.c_uint64 * 8)()
         self.lib.fs_info(v)
         return HarnessInfo(*v)
 
@@ -310,7 +311,7 @@ class SimavrDevice:
         self.stream: ByteStream | None = None
         self.in_wires: list = []
         self.closed = False
-        self.rx_log: list[tuple[int, bytes]] | None = None  # (cycle, bytes) if recording
+        self.rx_log: list[tuple[int, bytes]] = []  # (cycle, bytes) the chip received
         self.attach(stream)
 
     # ------------------------------------------------------------ the chip
@@ -376,7 +377,7 @@ class SimavrDevice:
         except LinkClosed:
             self.attach(None)
             return
-        if data and self.rx_log is not None:
+        if data:
             self.rx_log.append((self.cycle, data))
         self._sent(self.run_to_cycle(self.cycle, data))
         if data:
@@ -457,3 +458,32 @@ class SimavrServer:
 
     def wait(self) -> int:
         return self.proc.wait()
+
+
+# ----------------------------------------------------------------------- replay
+def replay_on_python_device(rx_log: list[tuple[int, bytes]], timer1_start: int,
+                            cycles_per_byte: int, end_tick: int, arch: str = "atmega328p"):
+    """The bytes the firmware received, at the ticks they reached its UART, fed to the
+    Python device (:class:`fas.serial.device.Device`, recording its pins): the same
+    session on both, so their step edges can be compared.
+
+    simavr hands a received byte to the UART one character time after it was queued
+    (11 bit times in simavr 1.6, which counts a parity bit), and one character after
+    the byte before it; the Python device takes each byte at that tick.
+    """
+    from .clock import VirtualClock
+    from .device import Device
+
+    dev = Device(None, arch, VirtualClock(), record=True)
+    sim_cpb = cycles_per_byte * 11 // 10
+    ready = 0
+    for cycle, data in rx_log:
+        for b in data:
+            ready = max(cycle, ready) + sim_cpb
+            tick = ready - timer1_start
+            dev.advance(dev.ns_at(tick))
+            for seq, payload in dev.decoder.feed(bytes((b,))):
+                dev._on_frame(seq, payload)
+            dev.out.clear()
+    dev.advance(dev.ns_at(end_tick))
+    return dev

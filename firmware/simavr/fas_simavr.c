@@ -588,9 +588,10 @@ void fs_pins(uint8_t *level, uint32_t *rising, uint32_t *falling)
 }
 
 /* cycle, timer-1 start cycle, frequency, cycles per character, bytes dropped, bytes
- * received in excess, cycles slept */
+ * received in excess, cycles slept, bytes waiting for the UART */
 void fs_info(uint64_t *v)
 {
+    v[7] = rxq_head - rxq_tail;
     v[0] = avr->cycle;
     v[1] = timer1_start;
     v[2] = avr->frequency;
