@@ -76,6 +76,7 @@ class FirmwareOutcome(Outcome):
     status_pulses: list[int] = field(default_factory=list)  # the device's own count
     trace: object = None  # fas.serial.simavr.Trace
     rx_log: list = field(default_factory=list)  # (cycle, bytes) the chip received
+    busy: float = 0.0  # share of the chip's cycles not asleep
 
 
 def need_firmware() -> None:
@@ -127,6 +128,7 @@ def run_firmware(line: str, faults: Faults | None = None, baud: int = 115200,
         steppers = [s for s in app.steppers if s is not None]
         trace = dev.trace()
         pins = dev.pins()
+        info = dev.info()
         return FirmwareOutcome(
             [s.get_current_position() for s in steppers],
             [backend.statuses[i].pulses for i in sorted(backend.statuses)], reason,
@@ -138,4 +140,4 @@ def run_firmware(line: str, faults: Faults | None = None, baud: int = 115200,
                                         s.direction_pin_high_counts_up())
                            for i, s in enumerate(steppers)],
             status_pulses=[backend.statuses[i].pulses for i in sorted(backend.statuses)],
-            trace=trace, rx_log=dev.rx_log)
+            trace=trace, rx_log=dev.rx_log, busy=1 - info.sleep_cycles / info.cycle)

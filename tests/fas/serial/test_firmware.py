@@ -170,3 +170,35 @@ def test_s_decelerates_from_where_the_motor_is():
         assert 0 < pos < 200_000
         assert pos == backend.statuses[0].position == lb.device.pins()[9].rising
         assert backend.device_counters()["cuts"] >= 1
+
+
+# --------------------------------------------------- real processes, real time
+def test_device_simavr_serves_a_pty_for_port():
+    """``stepperdemo device --simavr`` (real time, sped up) and ``--port PTY -c LINE``
+    as a user runs them; waiting is done by reading what the processes print."""
+    import os
+    import re
+    import signal
+    import subprocess
+    import sys
+
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+    dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
+                            "--speed", "4"], cwd=root, stdout=subprocess.PIPE, text=True)
+    try:
+        first = dev.stdout.readline()
+        assert first.startswith("device atmega328p (firmware ")
+        path = re.search(r" on (/dev/pts/\d+)", first).group(1)
+        res = subprocess.run([sys.executable, "-m", "stepperdemo", "--port", path, "-c",
+                              "M1 A1000 V100 R3200 W M2 A2000 V200 R-1000 W", "--lf",
+                              "--watchdog-ms", "2000"], cwd=root, capture_output=True,
+                             text=True, timeout=120, check=False)
+        assert res.returncode == 0, res.stderr
+        assert "device M1: position 3200, 3200 pulses" in res.stderr
+        assert "device M2: position -1000, 1000 pulses" in res.stderr
+        assert re.search(r"device: \d+ commands, 0 lost, 0 duplicated", res.stderr)
+    finally:
+        dev.send_signal(signal.SIGINT)
+        out, _ = dev.communicate(timeout=30)
+    assert "pin 9: 3200 rising, 3200 falling edges" in out
+    assert "pin 10: 1000 rising, 1000 falling edges" in out
