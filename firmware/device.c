@@ -4,6 +4,7 @@
 #include "board.h"
 #include "device.h"
 #include "irq.h"
+#include "outputs.h"
 #include "proto.h"
 #include "stepgen.h"
 #include "ticks.h"
@@ -63,6 +64,7 @@ static void stop_at(uint8_t ch, uint8_t index)
 
 void device_halt_all(uint8_t reset_stops)
 {
+    outputs_cancel();  /* synchronized output changes not made yet go with the motion */
     for (uint8_t ch = 0; ch < FW_MAX_STEPPERS; ch++) {
         if (!devq[ch].configured)
             continue;
@@ -300,6 +302,15 @@ void device_sequenced(const uint8_t *m)
     case M_PCNT_CLEAR:
         if (queue(m[1]))
             stepgen_pcnt_clear(m[1]);
+        break;
+    case M_OUTPUT_PWM:
+        outputs_pwm(m);
+        break;
+    case M_OUTPUT_SET:
+        outputs_set(m);
+        break;
+    case M_OUTPUT_CANCEL:
+        outputs_cancel();
         break;
     default:
         counters.rejected++;  /* a known message that does not belong in the sequence */

@@ -13,6 +13,7 @@
 
 #include "frame.h"
 #include "irq.h"
+#include "outputs.h"
 #include "session.h"
 #include "stepgen.h"
 #include "ticks.h"
@@ -29,13 +30,6 @@ ISR(TIMER0_OVF_vect)
     main_wake |= WAKE_TICK;
 }
 
-static void wake_tick_init(void)
-{
-    TCCR0A = 0;
-    TCCR0B = _BV(CS01) | _BV(CS00);
-    TIMSK0 = _BV(TOIE0);
-}
-
 int main(void)
 {
     static struct frame_in frame;
@@ -43,7 +37,7 @@ int main(void)
     ticks_init();
     stepgen_init();
     uart_init();
-    wake_tick_init();
+    outputs_init();  /* timer 0: PWM and the 1 ms tick */
     set_sleep_mode(SLEEP_MODE_IDLE);
     irq_on();
     session_init();
@@ -67,6 +61,8 @@ int main(void)
             }
         if (wake & WAKE_TICK)
             stepgen_poll();
+        if (frames || (wake & (WAKE_TICK | WAKE_IDLE)))
+            outputs_poll();
         if (frames || (wake & (WAKE_TICK | WAKE_TX)))
             session_poll();
     }

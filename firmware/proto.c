@@ -22,6 +22,9 @@ uint8_t proto_host_message_size(uint8_t type)
     case M_ESTOP: return 3;
     case M_BYE: return 3;
     case M_HALT: return 5;
+    case M_OUTPUT_PWM: return 15;
+    case M_OUTPUT_SET: return 8;
+    case M_OUTPUT_CANCEL: return 1;
     }
     return 0;
 }

@@ -27,6 +27,9 @@
 #define M_BYE 0x0F             /* nonce u16 */
 #define M_HALT 0x10            /* stepper u8, stop_id u8, nonce u16 */
 #define M_ENTRY 0x40           /* 0x40 | stepper: flags u8, steps u8, ticks u16 */
+#define M_OUTPUT_PWM 0x20      /* number, pin u8; clock_div, counts, count u32 */
+#define M_OUTPUT_SET 0x21      /* flags, number, pin u8; value u32 */
+#define M_OUTPUT_CANCEL 0x22   /* - */
 
 #define E_INDEX_MASK 0x0F
 #define E_TOGGLE_DIR 0x10

@@ -19,6 +19,7 @@
 #include "irq.h"
 #include "stepgen.h"
 #include "ticks.h"
+#include "uart.h"
 
 struct stepq stepq[FW_MAX_STEPPERS];
 
@@ -158,6 +159,7 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
                 TIMSK1 &= (uint8_t)~_BV(OCIE1##X);                               \
                 SET_COM(X, 0);                                                   \
                 q->state = 0;                                                    \
+                main_wake |= WAKE_IDLE;                                          \
                 return;                                                          \
             }                                                                    \
             if (st & SQ_TOGGLE)                                                  \
@@ -187,6 +189,7 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
                 TIMSK1 &= (uint8_t)~_BV(OCIE1##X);                               \
                 SET_COM(X, 0);                                                   \
                 q->state = 0;                                                    \
+                main_wake |= WAKE_IDLE;                                          \
             }                                                                    \
             return;                                                              \
         }                                                                        \
@@ -361,6 +364,9 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
             "andi r24, lo8(~(" K(COM_MASK_##X) "))\n\t"                            \
             "sts %[tccr1a], r24\n\t"                                             \
             "sts %[state], __zero_reg__\n\t"                                     \
+            "lds r24, %[wake]\n\t"                                              \
+            "ori r24, " K(WAKE_IDLE) "\n\t"                                     \
+            "sts %[wake], r24\n\t"                                              \
             "rjmp 7f\n"                                                          \
             "2:\n\t"                                                             \
             "ldi r24, " K(SQ_RUNNING | SQ_FALLING | SQ_STOPPING) "\n\t"          \
@@ -471,7 +477,8 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
               [next_com] "i"(&stepq[CH].next_com), [slow] "i"(&stepq[CH].slow), \
               [dir_reg] "i"(&stepq[CH].dir_reg), [dir_mask] "i"(&stepq[CH].dir_mask), \
               [tccr1a] "i"(_SFR_MEM_ADDR(TCCR1A)), [tcnt] "i"(_SFR_MEM_ADDR(TCNT1)), \
-              [ocr] "i"(_SFR_MEM_ADDR(OCR1##X)), [timsk1] "i"(_SFR_MEM_ADDR(TIMSK1))); \
+              [ocr] "i"(_SFR_MEM_ADDR(OCR1##X)), [timsk1] "i"(_SFR_MEM_ADDR(TIMSK1)), \
+              [wake] "i"(&main_wake));                                           \
     }
 
 PENDING_COMPARE(A)

@@ -14,7 +14,7 @@ static volatile uint8_t rx_buf[UART_RX_SIZE];
 static volatile uint8_t rx_head;  /* written by the interrupt; indices run mod 256 */
 static uint8_t rx_tail;           /* main loop */
 
-#define SYNC_STAMPS 16            /* a power of two */
+#define SYNC_STAMPS 8             /* a power of two */
 static volatile uint8_t stamp_pos[SYNC_STAMPS];
 static volatile uint32_t stamp_tick[SYNC_STAMPS];
 static volatile uint8_t stamp_next;

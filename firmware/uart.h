@@ -20,6 +20,7 @@ extern volatile uint8_t main_wake;
 #define WAKE_RX 0x01    /* a byte arrived */
 #define WAKE_TICK 0x02  /* the 1.024 ms tick of timer 0 */
 #define WAKE_TX 0x04    /* a byte left while output waits for room */
+#define WAKE_IDLE 0x08  /* a queue ran dry (synchronized outputs wait for that) */
 /* set by the sender while output waits for room in the transmit ring */
 extern volatile uint8_t uart_tx_waiting;
 
