@@ -34,6 +34,45 @@ class DemoStepper:
     auto_enable: bool = True
 
 
+PWM_RULE_COUNTS = "counts"  # AVR / SAM timers: a prescaler and a TOP (period = N*(TOP+1))
+PWM_RULE_BITS = "bits"  # ESP32 LEDC: whole bits of resolution, fractional clock divider
+
+
+@dataclass(frozen=True)
+class PwmTimer:
+    """A hardware timer that makes the PWM of user analog outputs (issue 12).
+
+    ``rule`` says how a frequency becomes a timer setting (:mod:`fas.pwm`):
+
+    * :data:`PWM_RULE_COUNTS` - the timer counts ``clock_hz / N`` with N one of
+      ``prescalers`` up to TOP; a period is TOP+1 counts, at most ``2**width_bits``.
+      ``fixed_top`` > 0: TOP cannot move (both compare units of the timer make PWM,
+      or the timer also runs ``millis()``), only the prescaler is chosen.
+    * :data:`PWM_RULE_BITS` - ESP32 LEDC: the resolution is the largest whole number
+      of bits with ``2**bits <= clock_hz / f``, at most ``width_bits``; the clock
+      divider has ``divider_frac_bits`` fractional bits and at most ``divider_max``
+      as its integer part.
+    """
+
+    name: str
+    clock_hz: int
+    rule: str
+    width_bits: int
+    prescalers: tuple[int, ...] = (1,)
+    fixed_top: int = 0
+    divider_frac_bits: int = 0
+    divider_max: int = 0
+
+
+@dataclass(frozen=True)
+class PwmPin:
+    """A pin that a PWM timer drives (its compare unit, e.g. ``OC2B``)."""
+
+    pin: int
+    timer: str
+    unit: str
+
+
 @dataclass(frozen=True)
 class QsTimer:
     """A hardware timer the QuickStep planner can run on (its periodic base time)."""
@@ -104,6 +143,17 @@ class Profile:
     # Arduino pin -> I/O port register (AVR); pins of one port are written together
     pin_ports: dict[int, str] = field(default_factory=dict, compare=False)
     notes: str = field(default="", compare=False)
+    # --- user outputs (issue 12, fas.outputs): Dout0..3 and Aout0..3 -----------------
+    # pins of the four digital outputs (PIN_UNDEFINED: this chip has none free)
+    user_digital_pins: tuple[int, ...] = ()
+    # the four analog (PWM) outputs: pin and timer (pin PIN_UNDEFINED: none free)
+    user_analog: tuple[PwmPin, ...] = ()
+    # the PWM timers and every pin they can drive (overrides must pick one of these)
+    pwm_timers: tuple[PwmTimer, ...] = ()
+    pwm_pins: tuple[PwmPin, ...] = ()
+    # the output's timer can be routed to any pin (ESP32 GPIO matrix)
+    pwm_any_pin: bool = False
+    pwm_default_hz: int = 5000  # seed 003: frequency of an analog output unless set
 
     # ---- derived figures -------------------------------------------------
     @property
@@ -143,6 +193,19 @@ class Profile:
     def max_speed_ticks(self, stepper_count: int) -> int:
         table = self.max_speed_ticks_by_count
         return table[min(max(stepper_count, 1), len(table)) - 1]
+
+    def pwm_timer(self, name: str) -> PwmTimer | None:
+        for t in self.pwm_timers:
+            if t.name == name:
+                return t
+        return None
+
+    def pwm_pin(self, pin: int) -> PwmPin | None:
+        """The PWM unit that can drive ``pin`` (None: the pin has no PWM hardware)."""
+        for p in (*self.user_analog, *self.pwm_pins):
+            if p.pin == pin and pin != PIN_UNDEFINED:
+                return p
+        return None
 
     def qs_timer(self, number: int | None = None) -> QsTimer | None:
         """The QuickStep timer ``number`` (None: the default one), or None."""
@@ -196,6 +259,11 @@ _AVR_TIMING = dict(
     sim_irq_block_ticks=100 * 16,
 )
 
+_AVR_PRESCALERS_T0_T1 = (1, 8, 64, 256, 1024)  # timers 0, 1, 3, 4, 5 (CS bits)
+_AVR_PRESCALERS_T2 = (1, 8, 32, 64, 128, 256, 1024)  # timer 2 has two more
+# timer 0 runs millis(): Arduino's fast PWM, prescaler 64, TOP 255 (976.5625 Hz) only
+_AVR_TIMER0 = PwmTimer("timer 0", 16_000_000, PWM_RULE_COUNTS, 8, (64,), fixed_top=255)
+_NO_PWM = PwmPin(PIN_UNDEFINED, "", "")
 # QuickStep (seed 004) on AVR: timer 2 (8 bit, prescalers 1..1024) by default, so that
 # the 16-bit timers stay free; base time 12 us .. 16.384 ms there, up to 4.19 s on a
 # 16-bit timer.  No QuickStep build was available to measure the interrupt costs:
@@ -238,6 +306,15 @@ ATMEGA328P = Profile(
     debug_led_pin=13,
     pin_ports={**{p: "D" for p in range(0, 8)}, **{p: "B" for p in range(8, 14)},
                **{p: "C" for p in range(14, 20)}},
+    # free pins beside StepperDemo's wiring (5-10), the LED (13) and the UART (0, 1)
+    user_digital_pins=(2, 4, 12, 14),
+    # timer 1 steps the motors and timer 0 runs millis(): only timer 2 is left, and
+    # with both its compare units as PWM its TOP is fixed at 255 (one prescaler for both)
+    user_analog=(PwmPin(3, "timer 2", "OC2B"), PwmPin(11, "timer 2", "OC2A"),
+                 _NO_PWM, _NO_PWM),
+    pwm_timers=(PwmTimer("timer 2", 16_000_000, PWM_RULE_COUNTS, 8, _AVR_PRESCALERS_T2,
+                         fixed_top=255), _AVR_TIMER0),
+    pwm_pins=(PwmPin(5, "timer 0", "OC0B"), PwmPin(6, "timer 0", "OC0A")),
     # timer 1, the only 16-bit timer, belongs to FastAccelStepper (steps and ramp task)
     qs_timers=(_TIMER2,),
     # 2048 bytes of RAM; StepperDemo with FastAccelStepper keeps ~1 KB (input buffer 256,
@@ -273,6 +350,22 @@ ATMEGA2560 = Profile(
                     off_delay_ms=10),
     ),
     debug_led_pin=PIN_UNDEFINED,
+    user_digital_pins=(22, 23, 24, 25),
+    # one timer per output, so every output has its own frequency: the 16-bit timers
+    # 1, 3, 5 with TOP in ICRn, and timer 2 (8 bit) with TOP in OCR2A (OC2A is lost)
+    user_analog=(PwmPin(11, "timer 1", "OC1A"), PwmPin(5, "timer 3", "OC3A"),
+                 PwmPin(46, "timer 5", "OC5A"), PwmPin(9, "timer 2", "OC2B")),
+    pwm_timers=(
+        PwmTimer("timer 1", 16_000_000, PWM_RULE_COUNTS, 16, _AVR_PRESCALERS_T0_T1),
+        PwmTimer("timer 3", 16_000_000, PWM_RULE_COUNTS, 16, _AVR_PRESCALERS_T0_T1),
+        PwmTimer("timer 5", 16_000_000, PWM_RULE_COUNTS, 16, _AVR_PRESCALERS_T0_T1),
+        PwmTimer("timer 2", 16_000_000, PWM_RULE_COUNTS, 8, _AVR_PRESCALERS_T2),
+        _AVR_TIMER0,
+    ),
+    pwm_pins=(PwmPin(12, "timer 1", "OC1B"), PwmPin(2, "timer 3", "OC3B"),
+              PwmPin(3, "timer 3", "OC3C"), PwmPin(45, "timer 5", "OC5B"),
+              PwmPin(44, "timer 5", "OC5C"), PwmPin(4, "timer 0", "OC0B"),
+              PwmPin(13, "timer 0", "OC0A")),
     # timer 4 drives FastAccelStepper; 1, 3 and 5 are free 16-bit timers
     qs_timers=(_TIMER2, QsTimer(3, 16, (1, 8, 64, 256, 1024)),
                QsTimer(5, 16, (1, 8, 64, 256, 1024))),
@@ -339,6 +432,16 @@ ESP32 = Profile(
     sim_millis_overflow_ticks=16000,
     sim_irq_block_ticks=100 * 16,
     notes="pulses are generated by the mcpwm peripheral; `e` does not delay them",
+    # with StepperDemo's six steppers wired only 0, 23, 32 and 33 stay free: the
+    # outputs also use pins of steppers 4-6, and refuse them while those are connected
+    user_digital_pins=(32, 33, 23, 25),
+    user_analog=tuple(PwmPin(pin, f"LEDC timer {i}", f"LEDC channel {i}")
+                      for i, pin in enumerate((5, 16, 4, 14))),
+    # LEDC on the 80 MHz APB clock: whole bits of resolution, at most 13 (seed 003);
+    # divider 1.0 .. 1023.996 in 1/256 steps (10.8 fixed point)
+    pwm_timers=tuple(PwmTimer(f"LEDC timer {i}", 80_000_000, PWM_RULE_BITS, 13,
+                              divider_frac_bits=8, divider_max=1023) for i in range(4)),
+    pwm_any_pin=True,
 )
 
 SAM_DUE = Profile(
@@ -397,6 +500,15 @@ SAM_DUE = Profile(
     sim_millis_overflow_ticks=21000,
     sim_irq_block_ticks=100 * 21,
     notes="step pins: one pin of each PWM group; the demo wiring follows StepperPins_sam.h",
+    user_digital_pins=(50, 51, 52, 53),
+    # timer-counter channels (TIOA), 32-bit, clocked from MCK/2, /8, /32, /128;
+    # the PWM controller's pins 6-9 belong to the steppers
+    user_analog=(PwmPin(2, "TC0 ch0", "TIOA0"), PwmPin(3, "TC2 ch1", "TIOA7"),
+                 PwmPin(5, "TC2 ch0", "TIOA6"), PwmPin(11, "TC2 ch2", "TIOA8")),
+    pwm_timers=tuple(PwmTimer(name, 84_000_000, PWM_RULE_COUNTS, 32, (2, 8, 32, 128))
+                     for name in ("TC0 ch0", "TC2 ch1", "TC2 ch0", "TC2 ch2")),
+    pwm_pins=(PwmPin(13, "TC0 ch0", "TIOB0"), PwmPin(10, "TC2 ch1", "TIOB7"),
+              PwmPin(4, "TC2 ch0", "TIOB6"), PwmPin(12, "TC2 ch2", "TIOB8")),
 )
 
 PROFILES: dict[str, Profile] = {p.name: p for p in (ATMEGA328P, ATMEGA2560, ESP32, SAM_DUE)}

@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Callable
 
 if TYPE_CHECKING:  # pragma: no cover
     from .arch import Profile
+    from .outputs import OutputChange
+    from .pwm import PwmSetting
     from .queue import StepperQueue
 
 
@@ -127,6 +129,29 @@ class Backend(ABC):
 
     def detach_step_pin(self, queue: StepperQueue, detached: bool) -> None:
         """Hand the step pin to the application (``detached``) or back to the library."""
+
+    # --- user outputs (issue 12, fas.outputs) ---
+    def configure_pwm(self, number: int, pin: int, setting: PwmSetting, count: int) -> None:
+        """(Re)start the PWM timer of analog output ``number`` on ``pin`` at once, with
+        duty ``count`` (the period starts now)."""
+        raise NotImplementedError(f"{type(self).__name__} has no user outputs")
+
+    def set_output(self, change: OutputChange) -> None:
+        """Make an output change at once (immediate; a PWM duty from its next period)."""
+        raise NotImplementedError(f"{type(self).__name__} has no user outputs")
+
+    def sync_output(self, change: OutputChange) -> object:
+        """Make ``change`` once every queue has executed every command written so far
+        (in order with them); returns a token for :meth:`sync_output_done`.  The engine
+        calls this only when all motion commanded before is written (fas.sync)."""
+        raise NotImplementedError(f"{type(self).__name__} has no user outputs")
+
+    def sync_output_done(self, token: object) -> bool:
+        """Has the change of :meth:`sync_output` been made?"""
+        return True
+
+    def cancel_sync_outputs(self) -> None:
+        """Drop synchronized changes not made yet (alarm)."""
 
     # --- hosting an application main loop (StepperDemo) beside the library ---
     def app_started(self) -> None:

@@ -7,8 +7,10 @@ from typing import Callable
 from .arch import Profile
 from .backend import Backend
 from .codes import HIGH, LOW, PIN_UNDEFINED, AqeResult
+from .outputs import UserOutputs
 from .queue import StepperQueue
 from .stepper import Stepper
+from .sync import SyncQueue
 
 ExternalPinCall = Callable[[int, int], int]
 
@@ -28,6 +30,8 @@ class Engine:
         self._initialised = False
         self.ramp_abort_listener: Callable[[Stepper, AqeResult, object], None] | None = None
         self.task_runs = 0
+        self.sync = SyncQueue(self)  # synchronized outputs and the motion behind them
+        self.outputs = UserOutputs(self)  # Dout0..3, Aout0..3 (seed 003)
         self.quickstep_clock = None  # fas.quickstep.clock.QuickStepClock, made on first use
 
     def init(self) -> None:
@@ -47,6 +51,8 @@ class Engine:
         for s in self._steppers:
             if s is not None and s._needs_task():
                 return 0
+        if self.sync.active():
+            return 0
         if self._debug_led_pin == PIN_UNDEFINED:
             return None
         half = self._debug_led_half_period
@@ -61,6 +67,11 @@ class Engine:
     def kick(self) -> None:
         """A stepper got work: the periodic task must run again from its next slot."""
         self.backend.wake_task()
+
+    def queues_idle(self) -> None:
+        """The backend: a queue ran dry or a synchronized output was made (fas.sync)."""
+        if self.sync.active():
+            self.sync.progress()
 
     # ------------------------------------------------------------ steppers
     def stepper_connect_to_pin(self, step_pin: int) -> Stepper | None:
@@ -167,4 +178,6 @@ class Engine:
         for s in steppers:
             if s is not None:
                 s._update_auto_disable()
+        if self.sync.active():
+            self.sync.progress()
         return generated

@@ -137,6 +137,11 @@ class Stepper:
                 self._auto_disable_delay_counter = self._off_delay_count
                 self._engine.kick()
 
+    def get_auto_enable(self) -> bool:
+        """Is auto enable on (not in upstream's API; a front end that switches the
+        drivers itself for a while restores it afterwards)."""
+        return self._auto_enable
+
     def set_delay_to_enable(self, delay_us: int) -> DelayResult:
         delay_ticks = self._profile.us_to_ticks(delay_us & 0xFFFFFFFF)
         if 0 < delay_ticks < self._profile.min_cmd_ticks:
@@ -145,6 +150,15 @@ class Stepper:
             return DelayResult.TOO_HIGH
         self._on_delay_ticks = delay_ticks
         return DelayResult.OK
+
+    def get_delay_to_enable_ticks(self) -> int:
+        """The enable delay set with :meth:`set_delay_to_enable` (not in upstream's API:
+        a front end that enables drivers itself waits this long before a step)."""
+        return self._on_delay_ticks
+
+    def get_dir_change_delay_ticks(self) -> int:
+        """The direction-change delay of :meth:`set_direction_pin` (0: none)."""
+        return self._dir_change_delay_ticks
 
     def set_delay_to_disable(self, delay_ms: int) -> None:
         delay_ms &= 0xFFFF
@@ -397,15 +411,33 @@ class Stepper:
         if blocking:
             self._engine.backend.wait_until(lambda: not self.is_running(), 0)
 
+    def _hold(self, fn, blocking: bool = False, check: bool = True) -> MoveResult | None:
+        """Motion while a synchronized output waits (:mod:`fas.sync`): checked now, made
+        after the output has changed.  None: nothing waits, go ahead."""
+        sync = self._engine.sync
+        if not sync.holding():
+            return None
+        if check and self._qs is None:  # QuickStep checks its move when it is made
+            res = self._rg.check_valid_config()
+            if res != MoveResult.OK:
+                return res
+        call = sync.hold(fn, self.index)
+        if blocking:
+            self._engine.backend.wait_until(lambda: call.done and not self.is_running(), 0)
+        return MoveResult.OK
+
     def move(self, move: int, blocking: bool = False) -> MoveResult:
         move = i32(move)
+        if self._qs is None and move < 0 and self._dir_pin == PIN_UNDEFINED:
+            return MoveResult.ERR_NO_DIRECTION_PIN
+        held = self._hold(lambda: self.move(move), blocking)
+        if held is not None:
+            return held
         if self._qs is not None:
             res = self._qs.move(move)
             if res == MoveResult.OK:
                 self._block(blocking)
             return res
-        if move < 0 and self._dir_pin == PIN_UNDEFINED:
-            return MoveResult.ERR_NO_DIRECTION_PIN
         res = self._rg.move(move)
         self._engine.kick()
         if res == MoveResult.OK:
@@ -413,6 +445,9 @@ class Stepper:
         return res
 
     def move_to(self, position: int, blocking: bool = False) -> MoveResult:
+        held = self._hold(lambda: self.move_to(position), blocking)
+        if held is not None:
+            return held
         if self._qs is not None:
             res = self._qs.move_to(i32(position))
             if res == MoveResult.OK:
@@ -425,6 +460,8 @@ class Stepper:
         return res
 
     def keep_running(self) -> None:
+        if self._hold(self.keep_running, check=False) is not None:
+            return
         if self._qs is not None:
             self._qs.keep_running()
             return
@@ -432,6 +469,9 @@ class Stepper:
         self._engine.kick()
 
     def run_forward(self) -> MoveResult:
+        held = self._hold(self.run_forward)
+        if held is not None:
+            return held
         if self._qs is not None:
             return self._qs.run(True)
         res = self._rg.start_run(True)
@@ -439,6 +479,9 @@ class Stepper:
         return res
 
     def run_backward(self) -> MoveResult:
+        held = self._hold(self.run_backward)
+        if held is not None:
+            return held
         if self._qs is not None:
             return self._qs.run(False)
         res = self._rg.start_run(False)
@@ -446,6 +489,10 @@ class Stepper:
         return res
 
     def move_by_acceleration(self, acceleration: int, allow_reverse: bool = True) -> MoveResult:
+        held = self._hold(lambda: self.move_by_acceleration(acceleration, allow_reverse),
+                          check=False)
+        if held is not None:
+            return held
         res = MoveResult.OK
         if acceleration > 0:
             self.set_acceleration(acceleration)
@@ -501,6 +548,9 @@ class Stepper:
         self._perform_one_step(False, blocking)
 
     def _perform_one_step(self, count_up: bool, blocking: bool) -> None:
+        if self._hold(lambda: self._perform_one_step(count_up, False), blocking,
+                      check=False) is not None:
+            return
         if self.is_running():
             return
         if count_up or self._dir_pin != PIN_UNDEFINED:
@@ -509,13 +559,22 @@ class Stepper:
                 self._block(blocking)
                 return
             self._queue.ignore_commands = False
-            self.add_queue_entry(self._profile.min_cmd_ticks, 1, count_up)
+            self._add_queue_entry(self._profile.min_cmd_ticks, 1, count_up)
             self._block(blocking)
 
     # ------------------------------------------------------------- raw queue
     def add_queue_entry(self, ticks: int | None, steps: int = 0, count_up: bool = True,
                         start: bool = True) -> AqeResult:
-        """Queue one raw command; ``ticks=None`` only starts a filled queue."""
+        """Queue one raw command; ``ticks=None`` only starts a filled queue.
+
+        While a synchronized output waits (:mod:`fas.sync`) a new command is motion
+        commanded after it: ``QUEUE_FULL`` until the output has changed."""
+        if ticks is not None and self._engine.sync.holding():
+            return AqeResult.QUEUE_FULL
+        return self._add_queue_entry(ticks, steps, count_up, start)
+
+    def _add_queue_entry(self, ticks: int | None, steps: int = 0, count_up: bool = True,
+                         start: bool = True) -> AqeResult:
         q = self._queue
         if self._qs is not None:
             return AqeResult.QUEUE_FULL  # the queue holds QuickStep's orders now
@@ -708,8 +767,8 @@ class Stepper:
             res = AqeResult.OK
             cmd = rg.get_next_command(q.queue_end_pos, q.queue_end_count_up)
             if cmd.ticks != 0:
-                res = self.add_queue_entry(cmd.ticks, cmd.steps, cmd.count_up,
-                                           start=not delayed_start)
+                res = self._add_queue_entry(cmd.ticks, cmd.steps, cmd.count_up,
+                                            start=not delayed_start)
                 generated += 1
             if res == AqeResult.OK:
                 rg.after_command_enqueued(cmd)
@@ -724,6 +783,6 @@ class Stepper:
                 rg.stop_ramp()
                 delayed_start = False
         if need_delayed_start:
-            self.add_queue_entry(None, start=True)
+            self._add_queue_entry(None, start=True)
         self.commands_generated += generated
         return generated

@@ -420,6 +420,82 @@ REPORT_QS_TIMER = ("  QuickStep    timer {timer}, base time {base} us, {lost} pe
                    " lost, {starts} start(s) from rest")
 # ------------------------------------------------------------- end of QuickStep texts
 
+# ---------------------------------------------------------------------------------------
+# user outputs and G-code (issue 12): report and plot lines, the G-code program, its
+# console mode and its command line.  Console texts, not part of the firmware.
+REPORT_OUTPUT_DIGITAL = ("{name} (pin {pin})  {rises} rise(s), {falls} fall(s), high "
+                         "{high_ms:.3f} ms in total, first change at {first} s, ends {level}")
+REPORT_OUTPUT_PWM = ("{name} (pin {pin})  {periods} PWM periods: period {period} us "
+                     "({hz:.6g} Hz, {pmin} .. {pmax} us), duty mean {duty:.4f} % "
+                     "({dmin:.4f} .. {dmax:.4f} %), last {last:.4f} %")
+REPORT_OUTPUT_PWM_FEW = ("{name} (pin {pin})  {rises} rise(s), {falls} fall(s), no complete "
+                         "PWM period; ends {level}")
+REPORT_LEVEL_HIGH = "high"
+REPORT_LEVEL_LOW = "low"
+PLOT_TITLE_OUTPUTS = "outputs [Dout level, Aout duty %]"
+PLOT_TERMINAL_OUTPUT = "{name} {what}"
+PLOT_OUTPUT_LEVEL = "level"
+PLOT_OUTPUT_DUTY = "duty [%]"
+# the G-code program (Grbl conventions: "ok", "error: <reason>", [MSG:...], <status>)
+GCODE_BANNER = "Grbl 1.1h [stepperdemo G-code " + VERSION + ", '$' for help]"
+GCODE_OK = "ok"
+GCODE_ERROR = "error: {reason}"
+GCODE_DUTY = "[MSG:Aout{number} {duty:.4f}% ({count}/{counts} at {hz:.6g} Hz)]"
+GCODE_STATUS = "<{state}|MPos:{pos}|FS:{feed},0{wco}|Dout:{dout}|Aout:{aout}>"
+GCODE_ALARM_ABORT = "ALARM: aborted - motion stopped, queue dropped; $X to unlock"
+GCODE_UNLOCKED = "[MSG:Caution: Unlocked]"
+GCODE_MOTION_FAILED = "[MSG:the library refused a queue command ({code}); aborting]"
+GCODE_HELP = ("[HLP:$$ settings, $N=value, $G modes, $X unlock, ? status, ctrl-x reset; "
+              "G0 G1 G4 G90 G91 G92 G92.1 M2 M30 M62-M65 P<n> M67 M68 E<n> Q<%>]")
+GCODE_MODES = "[GC:G{motion} G{distance} G94 G21 G17 G54 F{feed}]"
+GCODE_SETTING = "${n}={value} ({what})"
+GCODE_NOTHING = "nothing"
+GCODE_ERR_COMMENT = "comment not closed: ( without )"
+GCODE_ERR_LONG = "line longer than {n} characters"
+GCODE_ERR_EXPECTED_LETTER = "expected a letter at '{text}'"
+GCODE_ERR_BAD_NUMBER = "{letter} needs a number, got '{text}'"
+GCODE_ERR_UNKNOWN_WORD = "unknown word {word}"
+GCODE_ERR_LINE_NUMBER = "N (line number) must come first"
+GCODE_ERR_REPEATED = "word {letter} twice in one line"
+GCODE_ERR_INCHES = "G20 (inches) is not supported: units are set by $100-$105"
+GCODE_ERR_UNSUPPORTED = "unsupported command {code}"
+GCODE_ERR_MODAL = "{a} and {b} in one line (same modal group)"
+GCODE_ERR_NO_AXIS = "axis {letter}: no stepper {n} (axes here: {axes})"
+GCODE_ERR_AXIS_CONFLICT = "{a} and {b} both want the axis words"
+GCODE_ERR_UNUSED = "unused word(s): {words}"
+GCODE_ERR_P_CONFLICT = "P used by both {a} and {b}"
+GCODE_ERR_FEED_POSITIVE = "F must be positive"
+GCODE_ERR_DWELL_P = "G4 needs P (seconds)"
+GCODE_ERR_DWELL_NEGATIVE = "G4 P must not be negative"
+GCODE_ERR_G92_AXES = "G92 needs axis words"
+GCODE_ERR_NO_FEED = "undefined feed rate: G1 needs F"
+GCODE_ERR_RANGE = "{letter} target beyond the 32-bit step range"
+GCODE_ERR_NEEDS_P = "{code} needs P (digital output 0..3)"
+GCODE_ERR_NEEDS_EQ = "{code} needs {missing} (E: analog output 0..3, Q: duty in %)"
+GCODE_ERR_OUTPUT_RANGE = "output {letter}{value} out of range (0..{last})"
+GCODE_ERR_ALARM = "alarm lock: $X to unlock (or ctrl-x)"
+GCODE_ERR_NO_OUTPUT_PIN = "{name} has no pin on {profile} (set one with ${setting})"
+GCODE_ERR_OUTPUT_PIN_USED = "{name}: pin {pin} is used by {user}"
+GCODE_ERR_NOT_PWM_PIN = "pin {pin} has no PWM timer on {profile}"
+GCODE_ERR_FREQUENCY = "{timer} makes {low} .. {high} Hz, not {hz} Hz"
+GCODE_ERR_OUTPUT_BUSY = "a synchronized change of {name} still waits: set its frequency after it"
+GCODE_ERR_OUTPUT = "{name}: {code}"
+GCODE_ERR_NO_DIR_PIN = "axis {letter} has no direction pin: it cannot move backward"
+GCODE_ERR_SHARED_DIR = ("axes {a} and {b} share direction pin {pin}: they cannot move in "
+                        "opposite directions in one line")
+GCODE_ERR_DOLLAR = "unknown $ command '{text}' ($ for help)"
+GCODE_ERR_SETTING_VALUE = "setting value '{text}' is not a number"
+GCODE_ERR_NOT_IDLE = "settings change only when idle"
+GCODE_ERR_SETTING_RANGE = "${n} must be {range}"
+GCODE_ERR_NO_SETTING = "no setting ${n}"
+GCODE_CLI_BAD_SET = "--set {text!r}: expected '$N=VALUE'"
+GCODE_ERR_TIMER_QUICKSTEP = "{name}: {timer} runs the QuickStep planner (l0 frees it)"
+GCODE_ERR_QUICKSTEP_AXIS = ("axis {letter} runs the QuickStep planner: G-code moves need "
+                            "FastAccelStepper's queue (l0 in config mode)")
+ENTER_GCODE_MODE = "Enter G-code mode (a line is a block, x alone leaves)" + NL
+QS_ERR_TIMER_PWM = "ERROR timer {timer} makes the PWM of a user output: no QuickStep on it" + NL
+# ----------------------------------------------------------- end of issue 12 texts
+
 # ------------------------------------------------ issue 11: the firmware in simavr
 DEVICE_SIMAVR_TITLE = "firmware {elf} in simavr, {baud} baud"
 DEVICE_SIMAVR_SUMMARY = "{line}"

@@ -95,14 +95,16 @@ class Program(ABC):
         return 0
 
 
-#: program name -> "module:factory"; a factory takes (backend, *, scripted, output)
+#: program name -> "module:factory"; a factory takes (backend, *, scripted, output,
+#: **options) - options are the program's own (its command line gives them)
 PROGRAMS: dict[str, str] = {
     "demo": "stepperdemo.demo.app:StepperDemo",
+    "gcode": "stepperdemo.gcode.program:GcodeProgram",  # issue 12
 }
 
 
 def make_program(name: str, backend: Backend, *, scripted: bool,
-                 output: Output | None = None) -> Program:
+                 output: Output | None = None, **options) -> Program:
     module, _, attr = PROGRAMS[name].partition(":")
     factory = getattr(importlib.import_module(module), attr)
-    return factory(backend, scripted=scripted, output=output)
+    return factory(backend, scripted=scripted, output=output, **options)

@@ -32,6 +32,7 @@ class QsConfigResult(IntEnum):
     PLATEAUS_OUT_OF_RANGE = 5
     RAM = 6  # the FIFOs would not fit the RAM
     RUNNING = 7  # not while the motor(s) concerned run
+    TIMER_IN_USE = 8  # a user PWM output runs on the timer (issue 12, fas.outputs)
 
 
 class QuickStepClock:

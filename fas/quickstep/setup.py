@@ -27,6 +27,8 @@ def check(stepper: Stepper, depth: int | None, plateaus: int | None) -> QsConfig
     clock = clock_of(engine)
     if clock.timer is None:
         return QsConfigResult.NOT_AVAILABLE
+    if engine.outputs.pwm_uses_timer(f"timer {clock.timer.number}"):
+        return QsConfigResult.TIMER_IN_USE
     if depth is not None and not MIN_DEPTH <= depth <= MAX_DEPTH:
         return QsConfigResult.DEPTH_OUT_OF_RANGE
     if plateaus is not None and not 1 <= plateaus <= MAX_PLATEAUS:

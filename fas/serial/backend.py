@@ -29,6 +29,8 @@ from .protocol import (
     D_ESTOP,
     D_SESSION,
     D_WATCHDOG,
+    O_ANALOG,
+    O_SYNCHRONIZED,
     PROTOCOL_VERSION,
     Bye,
     DeviceStatus,
@@ -36,6 +38,9 @@ from .protocol import (
     Hello,
     Ident,
     Message,
+    OutputCancel,
+    OutputPwm,
+    OutputSet,
     Pin,
     Progress,
     Start,
@@ -86,6 +91,9 @@ class SerialBackend(Backend):
         self.channels: list[SerialChannel] = []
         self._by_index: dict[int, SerialChannel] = {}
         self.pins: dict[int, int] = {}  # levels the host wrote (replayed on reconnect)
+        # user outputs (issue 12): PWM configurations and states, replayed on reconnect
+        self._pwm: dict[int, OutputPwm] = {}
+        self._outputs: dict[tuple[bool, int], OutputSet] = {}
         self.device_status: DeviceStatus | None = None
         self.statuses: dict[int, Status] = {}
         self._status_seen: set[int] = set()
@@ -204,6 +212,8 @@ class SerialBackend(Backend):
         self._next_sync_ns = self.clock.now_ns() + self._sync_interval()
         for pin, level in self.pins.items():
             link.send(Pin(pin, level))
+        for message in (*self._pwm.values(), *self._outputs.values()):  # issue 12
+            link.send(message)
         for ch in self.channels:
             ch.configure()
         if adopt and self._engine is not None:
@@ -450,6 +460,35 @@ class SerialBackend(Backend):
             if ch.step_pin == pin and not ch.detached:
                 return 0  # pulses are the device's; between them the pin is low
         return self.pins.get(pin, 0)
+
+    # ---------------------------------------------------- user outputs (issue 12)
+    def configure_pwm(self, number: int, pin: int, setting, count: int) -> None:
+        message = OutputPwm(number, pin, setting.clock_div, setting.counts, count)
+        self._pwm[number] = message
+        self._outputs.pop((True, number), None)
+        self.send(message)
+
+    def _output_message(self, change, flags: int) -> OutputSet:
+        return OutputSet(flags | (O_ANALOG if change.analog else 0), change.number, change.pin,
+                         change.value)
+
+    def set_output(self, change) -> None:
+        self._outputs[(change.analog, change.number)] = self._output_message(change, 0)
+        self.send(self._output_message(change, 0))
+
+    def sync_output(self, change) -> object:
+        """In order after the entries sent so far; the device makes it when its queues
+        have run dry (docs/serial-protocol.md, section 16)."""
+        self._outputs[(change.analog, change.number)] = self._output_message(change, 0)
+        return self.send(self._output_message(change, O_SYNCHRONIZED))
+
+    def sync_output_done(self, token: object) -> bool:
+        # the device makes it before it reports its queues idle; the engine passes the
+        # barrier only once it has seen that report
+        return True
+
+    def cancel_sync_outputs(self) -> None:
+        self.send(OutputCancel())
 
     def attach_pulse_counter(self, queue: StepperQueue, counter: PulseCounter) -> bool:
         if not self.connected:

@@ -16,8 +16,10 @@ from __future__ import annotations
 import random
 from collections.abc import Callable
 
-from ..arch import Profile, get_profile
+from ..arch import Profile, PwmTimer, get_profile
 from ..backend import PulseCounter
+from ..outputs import OutputChange
+from ..pwm import PwmSetting
 from ..queue import StepperQueue, i32
 from ..sim.backend import SimBackend
 from ..sim.channel import SimChannel
@@ -50,6 +52,9 @@ from .protocol import (
     Ident,
     Message,
     Nak,
+    OutputCancel,
+    OutputPwm,
+    OutputSet,
     PcntAttach,
     PcntClear,
     Pin,
@@ -76,6 +81,16 @@ DEFAULT_STATUS_MS = 100
 RX_WINDOW = 16
 FRAME_BREAK = b""  # in the output list: start a new frame (small frames survive noise)
 DEVICE_STATUS_EVERY = 5  # status periods between unrequested DeviceStatus messages
+
+
+def pwm_timer_for(profile: Profile, number: int, pin: int) -> PwmTimer | None:
+    """The timer that makes analog output ``number`` on ``pin`` on this chip."""
+    unit = profile.pwm_pin(pin)
+    if unit is not None:
+        return profile.pwm_timer(unit.timer)
+    if profile.pwm_any_pin and 0 <= number < len(profile.user_analog):
+        return profile.pwm_timer(profile.user_analog[number].timer)
+    return None
 
 
 class DeviceChannel(SimChannel):
@@ -434,13 +449,41 @@ class Device:
             if q is not None and q.channel.pulse_counter is not None:
                 q.channel.sync()
                 q.channel.pulse_counter.clear()
+        elif isinstance(m, (OutputPwm, OutputSet, OutputCancel)):
+            self._output(m)
         else:
             self.counters["rejected"] += 1
+
+    # -------------------------------------------------- user outputs (issue 12)
+    def _output(self, m: Message) -> None:
+        """PWM timers, output changes at once or after every queue ran dry, cancel."""
+        sim = self.sim
+        if isinstance(m, OutputCancel):
+            sim.cancel_sync_outputs()
+            return
+        if isinstance(m, OutputPwm):
+            timer = pwm_timer_for(self.profile, m.number, m.pin)
+            if timer is None or m.counts < 2 or m.clock_div < 1:
+                self.counters["rejected"] += 1
+                return
+            setting = PwmSetting(timer.name, timer.clock_hz, timer.divider_frac_bits,
+                                 m.clock_div, m.counts, 0.0)
+            sim.configure_pwm(m.number, m.pin, setting, min(m.count, m.counts))
+            return
+        change = OutputChange(m.analog, m.number, m.pin, m.value if m.analog else
+                              (1 if m.value else 0))
+        if m.synchronized and not (self.watchdog_tripped or self.estopped):
+            sim.sync_output(change)
+        elif m.synchronized:
+            self.counters["rejected"] += 1
+        else:
+            sim.set_output(change)
 
     # ------------------------------------------------------------ queues
     def allocate_channel(self, queue: StepperQueue) -> DeviceChannel:
         """(StepperQueue calls this while it is built: the device is its backend.)"""
         ch = DeviceChannel(self.machine, queue)
+        ch.on_idle = self.sim._queue_idle  # synchronized outputs wait for this (issue 12)
         self.sim.channels.append(ch)
         return ch
 
@@ -562,8 +605,10 @@ class Device:
             q.channel.pulse_pos = i32(q.channel.pulse_pos + delta)
 
     def _halt(self) -> None:
-        """Stop every queue at once; positions stay exact (where the pulses stopped)."""
+        """Stop every queue at once; positions stay exact (where the pulses stopped).
+        Synchronized output changes not made yet are dropped; outputs stay as they are."""
         self.halt_tick = self.machine.now
+        self.sim.cancel_sync_outputs()
         for idx, q in self.queues.items():
             self._stop_queue(idx, q)
             q.read_idx = q.next_write_idx

@@ -494,10 +494,58 @@ class Bye(Message):
     nonce: int
 
 
+# --- user outputs (issue 12; docs/serial-protocol.md section 16) -----------------
+O_ANALOG = 0x01  # OutputSet flags: an analog (PWM) output, value = duty count
+O_SYNCHRONIZED = 0x02  # made when every queue has executed every entry received before
+
+
+@dataclass(frozen=True, slots=True)
+class OutputPwm(Message):
+    """(Re)start the PWM timer of analog output ``number`` on ``pin`` at once: periods of
+    ``counts`` counts of ``clock_div`` timer clocks (the profile's rule), duty ``count``."""
+
+    CODE: ClassVar[int] = 0x20
+    FMT: ClassVar[struct.Struct] = _fmt("BBIII")
+    number: int
+    pin: int
+    clock_div: int
+    counts: int
+    count: int
+
+
+@dataclass(frozen=True, slots=True)
+class OutputSet(Message):
+    """Set a user output: digital ``value`` 0/1, analog ``value`` = duty count; at once, or
+    (``O_SYNCHRONIZED``) after the motion of every entry received before it."""
+
+    CODE: ClassVar[int] = 0x21
+    FMT: ClassVar[struct.Struct] = _fmt("BBBI")
+    flags: int
+    number: int
+    pin: int
+    value: int
+
+    @property
+    def analog(self) -> bool:
+        return bool(self.flags & O_ANALOG)
+
+    @property
+    def synchronized(self) -> bool:
+        return bool(self.flags & O_SYNCHRONIZED)
+
+
+@dataclass(frozen=True, slots=True)
+class OutputCancel(Message):
+    """Drop the synchronized output changes not made yet (an alarm on the host)."""
+
+    CODE: ClassVar[int] = 0x22
+    FMT: ClassVar[struct.Struct] = _fmt("")
+
+
 _BY_CODE: dict[int, type[Message]] = {}
 for _cls in (Hello, SyncRequest, Config, DirPin, Start, ForceStop, SetEndPos, Pin, Detach,
              PcntAttach, PcntClear, StatusRequest, EmergencyStop, Bye, Ident, SyncReply, Status,
-             DeviceStatus, Nak):
+             DeviceStatus, Nak, OutputPwm, OutputSet, OutputCancel):
     _BY_CODE[_cls.CODE] = _cls
 for _s in range(MAX_STEPPERS):
     _BY_CODE[ENTRY_BASE | _s] = Entry

@@ -6,6 +6,8 @@ from typing import Callable
 
 from ..arch import Profile, get_profile
 from ..backend import Backend, PulseCounter
+from ..outputs import OutputChange
+from ..pwm import PwmSetting
 from ..queue import StepperQueue
 from .channel import SimChannel
 from .machine import PRIO_TASK, Machine
@@ -34,6 +36,8 @@ class SimBackend(Backend):
         self.stray_reads = 0
         self.stray_reads_during_pulse = 0
         self.channel_listeners: list[Callable[[SimChannel], None]] = []  # observers
+        self._sync_outputs: list[tuple[object, OutputChange]] = []  # waiting for idle queues
+        self.output_listeners: list[Callable[[OutputChange, int], None]] = []  # (change, tick)
         self._qs_load = None  # QuickStep's timer interrupt load (fas.sim.quickstep)
 
     # ------------------------------------------------------------ Backend API
@@ -70,6 +74,8 @@ class SimBackend(Backend):
             m.in_task = False
         m.stolen_ticks += cost
         self.task_runs += 1
+        if self._sync_outputs and self._make_sync_outputs():
+            engine.queues_idle()
         skip = engine.quiescent_tasks()
         if skip is None:
             self._task_event = None  # suspended until wake_task()
@@ -93,6 +99,7 @@ class SimBackend(Backend):
 
     def allocate_channel(self, queue: StepperQueue) -> SimChannel:
         ch = SimChannel(self.machine, queue)
+        ch.on_idle = self._queue_idle
         self.channels.append(ch)
         self.machine.block_sources.append(ch)
         for fn in self.channel_listeners:
@@ -107,6 +114,7 @@ class SimBackend(Backend):
             load = self._qs_load = TimerLoad(self.machine, clock)
             self.machine.block_sources.append(load)
         ch = QuickStepChannel(self.machine, queue, clock, load)
+        ch.on_idle = self._queue_idle
         self.channels.append(ch)
         self.machine.block_sources.append(ch)
         for fn in self.channel_listeners:
@@ -123,7 +131,62 @@ class SimBackend(Backend):
                 if ch.step_pin_high():
                     return 1
                 found = True
-        return 0 if found else self.machine.pins.get(pin)
+        return 0 if found else self.machine.outputs.level(pin, self.machine.now)
+
+    # ------------------------------------------------------- user outputs
+    def configure_pwm(self, number: int, pin: int, setting: PwmSetting, count: int) -> None:
+        m = self.machine
+        m.outputs.configure(pin, setting.period_ticks(self.profile.ticks_per_s), setting.counts,
+                            count, m.cpu_now())
+
+    def set_output(self, change: OutputChange) -> None:
+        self._make(change, self.machine.cpu_now())
+
+    def _make(self, change: OutputChange, t: int) -> None:
+        outputs = self.machine.outputs
+        if change.analog:
+            outputs.set_count(change.pin, change.value, t)
+        else:
+            outputs.set_digital(change.pin, change.value, t)
+        for fn in self.output_listeners:
+            fn(change, t)
+
+    def sync_output(self, change: OutputChange) -> object:
+        token = object()
+        self._sync_outputs.append((token, change))
+        self._make_sync_outputs()
+        return token
+
+    def sync_output_done(self, token: object) -> bool:
+        return all(t is not token for t, _ in self._sync_outputs)
+
+    def cancel_sync_outputs(self) -> None:
+        self._sync_outputs.clear()
+
+    def queues_idle(self) -> bool:
+        """Every queue has executed all its commands and its timer stopped."""
+        for ch in self.channels:
+            q = ch.q
+            if ch.running or q.read_idx != q.next_write_idx:
+                return False
+        return True
+
+    def _make_sync_outputs(self) -> bool:
+        """Make the waiting synchronized changes if every queue is done; True if made."""
+        if not self._sync_outputs or not self.queues_idle():
+            return False
+        t = self.machine.cpu_now()
+        waiting, self._sync_outputs = self._sync_outputs, []
+        for _, change in waiting:
+            self._make(change, t)
+        return True
+
+    def _queue_idle(self) -> None:
+        """A queue ran dry (in its step interrupt): the moment synchronized outputs wait for."""
+        engine = self._engine
+        made = self._make_sync_outputs()
+        if engine is not None and (made or engine.sync.active()):
+            engine.queues_idle()
 
     def wait_until(self, predicate: Callable[[], bool], timeout_ticks: int = 0) -> bool:
         m = self.machine

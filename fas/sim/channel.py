@@ -70,6 +70,7 @@ class SimChannel(QueueChannel):
         # channel takes up an entry; pulse_index is the number of its first pulse
         self.entry_listeners: list[Callable[[int, int, int, int], None]] = []
         self._noted: QueueEntry | None = None
+        self.on_idle: Callable[[], None] | None = None  # the queue ran dry (fas.sync)
         if self.irq_sensitive:
             machine.block_listeners.append(self._on_block)
 
@@ -257,6 +258,8 @@ class SimChannel(QueueChannel):
             self.running = False
             self.no_more = False
             self.mode_one = False
+            if self.on_idle is not None:
+                self.on_idle()
             return
         e = q.entries[rp % q.queue_len]
         ticks = e.ticks

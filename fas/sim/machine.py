@@ -16,6 +16,7 @@ import heapq
 from typing import Callable
 
 from ..arch import Profile
+from .outputs import SimOutputs
 from .pins import PinBank
 from .uart import Uart
 
@@ -42,6 +43,7 @@ class Machine:
         self._heap: list[tuple[int, int, int, Event]] = []
         self._seq = 0
         self.pins = PinBank()
+        self.outputs = SimOutputs(self.pins)  # user outputs: digital pins, PWM waves
         self.uart = Uart(profile.sim_uart_byte_ticks, profile.sim_uart_tx_buffer)
         self.irq_blocked_until = 0
         self.irq_block_windows = 0

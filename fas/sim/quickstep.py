@@ -143,6 +143,8 @@ class QuickStepChannel(SimChannel):
         self.no_more = False
         self.mode_one = False
         self.trailing = False
+        if self.on_idle is not None:  # synchronized user outputs wait for this (issue 12)
+            self.on_idle()
 
     def _isr(self, c: int, now: int) -> None:
         q = self.q

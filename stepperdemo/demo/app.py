@@ -129,6 +129,7 @@ class StepperDemo(Program):
         self.listeners: list[Callable[[str, bytes], None]] = []
         self.engine.ramp_abort_listener = self._ramp_abort
         self._setup_done = False
+        self.gcode = None  # issue 12: the G-code machine of the g mode
 
     # ------------------------------------------------------------- output
     def print(self, text: str | bytes) -> None:
@@ -349,6 +350,11 @@ class StepperDemo(Program):
                 self.println(msg.STOPPED)
         elif self.qs_hold is not None:
             qs_console.service_hold(self)
+        elif self.mode == Mode.GCODE and self.read_ptr != self.write_ptr:
+            if self.gcode.can_take():  # issue 12: lines are G-code blocks
+                c = self.in_buffer[self.read_ptr]
+                self.read_ptr = (self.read_ptr + 1) & 0xFF
+                self.gcode.char(c)
         elif self.read_ptr != self.write_ptr:
             c = self.in_buffer[self.read_ptr]
             self.read_ptr = (self.read_ptr + 1) & 0xFF
@@ -375,6 +381,8 @@ class StepperDemo(Program):
         if self.mode == Mode.TEST:
             if self.test_ongoing:
                 self._run_tests(ms)
+        elif self.mode == Mode.GCODE:  # issue 12: G-code answers, it prints no status
+            self.gcode.poll()
         else:
             running = self.any_running()
             if running and ((ms - self.last_time) & 0xFFFFFFFF) >= 100:
@@ -435,6 +443,9 @@ class StepperDemo(Program):
         if self.mode == Mode.TEST and self.test_ongoing:
             return all(slot.test is None or slot.state == TEST_STATE_ERROR or slot.idle
                        for slot in self.test_slots)
+        if self.mode == Mode.GCODE:
+            wake = self.gcode.wake_tick()
+            return wake is None or wake > self.backend.now()
         return True
 
     def _input_idle(self) -> bool:
@@ -443,7 +454,7 @@ class StepperDemo(Program):
                 or self._held_by_w()):
             return True
         if self.read_ptr != self.write_ptr:
-            return False
+            return self.mode == Mode.GCODE and not self.gcode.can_take()
         if self.scripted:
             return self.script_pos >= len(self.script) and self.input_consumed_at is not None
         return not self.rx
@@ -485,6 +496,10 @@ class StepperDemo(Program):
         for slot in self.test_slots:
             if slot.test is not None and slot.wake_ms is not None:
                 candidates.append(b.tick_at_millis(slot.wake_ms))
+        if self.mode == Mode.GCODE:
+            wake = self.gcode.wake_tick()
+            if wake is not None:
+                candidates.append(wake)
         if not candidates:
             return None
         return max(min(candidates), b.now())
@@ -517,7 +532,8 @@ class StepperDemo(Program):
     def finished(self) -> bool:
         """Input consumed and everything at rest (the end of a scripted run)."""
         return (self.input_consumed_at is not None and self.stopped and not self.test_ongoing
-                and self.pause_ms == 0 and not self.any_running())
+                and self.pause_ms == 0 and not self.any_running()
+                and (self.mode != Mode.GCODE or not self.gcode.busy()))
 
     def run_script(self, line: str | bytes, *, firmware_end: bool = False,
                    max_ticks: int | None = None) -> EndReason:
@@ -554,6 +570,8 @@ class StepperDemo(Program):
 
     def force_stop_all(self) -> None:
         """Console Ctrl-C: stop every stepper at once, keep positions; release holds."""
+        if self.mode == Mode.GCODE:  # issue 12: an alarm of the G-code machine
+            self.gcode.machine.abort()
         for s in self.steppers:
             if s is not None and s.is_running():
                 s.force_stop_and_new_position(s.get_current_position())
@@ -566,9 +584,29 @@ class StepperDemo(Program):
 
     # --------------------------------------------------- hosted by the console
     def mode_name(self) -> str:
-        return {Mode.NORMAL: "normal", Mode.TEST: "test", Mode.CONFIG: "config"}[self.mode]
+        return {Mode.NORMAL: "normal", Mode.TEST: "test", Mode.CONFIG: "config",
+                Mode.GCODE: "gcode"}[self.mode]
+
+    # ------------------------------------------------------ g mode (issue 12)
+    def enter_gcode(self) -> None:
+        from ..gcode.demo_mode import DemoGcode
+
+        self.print(msg.ENTER_GCODE_MODE)
+        self.mode = Mode.GCODE
+        self.gcode = DemoGcode(self)
+        self.println(msg.GCODE_BANNER)
+
+    def leave_gcode(self) -> None:
+        self.print(msg.EXIT_TO_MAIN_MENU)
+        self.mode = Mode.NORMAL
+        self.gcode = None
+        self.stopped = not self.any_running()
+        self.usage()
 
     def completions(self) -> list[tuple[str, str]]:
+        if self.mode == Mode.GCODE:  # issue 12
+            from ..gcode.program import COMPLETIONS
+            return COMPLETIONS + [("x", "back to the main menu")]
         return HELP[self.mode]
 
     def toolbar_status(self) -> str:

@@ -23,13 +23,15 @@ class Mode(IntEnum):
     NORMAL = 0
     TEST = 1
     CONFIG = 2
+    GCODE = 3  # issue 12: a line is a G-code block (stepperdemo.gcode.demo_mode)
 
 
 Handler = Callable[["StepperDemo", bytes], bool]
 TABLE: dict[tuple[Mode, int], Handler] = {}
 
 # letters per mode, with a short description, for completion and help toolbars
-HELP: dict[Mode, list[tuple[str, str]]] = {Mode.NORMAL: [], Mode.TEST: [], Mode.CONFIG: []}
+HELP: dict[Mode, list[tuple[str, str]]] = {Mode.NORMAL: [], Mode.TEST: [], Mode.CONFIG: [],
+                                           Mode.GCODE: []}
 
 
 def command(letter: str, *modes: Mode, hint: str = "",
@@ -146,6 +148,15 @@ def cmd_test_mode(app: StepperDemo, arg: bytes) -> bool:
     app.print(msg.ENTER_TEST_MODE)
     app.mode = Mode.TEST
     app.usage()
+    return True
+
+
+@command("g", Mode.NORMAL, hint="G-code mode: a line is a block, x leaves")
+def cmd_gcode_mode(app: StepperDemo, arg: bytes) -> bool:
+    """Issue 12: not in the firmware (its usage text stays as it is)."""
+    if arg:
+        return False
+    app.enter_gcode()
     return True
 
 

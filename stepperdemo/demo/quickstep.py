@@ -67,6 +67,8 @@ def _error(app: StepperDemo, res: QsConfigResult, *, value: int = 0, need_depth:
         app.print(msg.QS_ERR_RAM.format(need=need, avail=p.qs_ram_bytes, profile=p.name))
     elif res == QsConfigResult.RUNNING:
         app.print(msg.QS_ERR_RUNNING.format(n=app.selected + 1))
+    elif res == QsConfigResult.TIMER_IN_USE:  # issue 12: a user PWM output has it
+        app.print(msg.QS_ERR_TIMER_PWM.format(timer=clock.timer.number))
 
 
 def _value(arg: bytes) -> int | None:

@@ -18,7 +18,7 @@ EXIT_USAGE = 2
 EXIT_MAX_TIME = 3
 EXIT_SCENARIO_FAILED = 4
 
-SUBCOMMANDS = ("run", "device", "relay")
+SUBCOMMANDS = ("run", "device", "relay", "gcode")
 
 DESCRIPTION = """\
 The StepperDemo console of FastAccelStepper on a simulated microcontroller.
@@ -34,6 +34,7 @@ Subcommands:
   stepperdemo run FILES|FOLDERS ...   run scenario files (sequences/*.toml)
   stepperdemo device --pty            a simulated device on a new pty (--help)
   stepperdemo relay DEVICE            a fault-injecting relay to a device (--help)
+  stepperdemo gcode FILE|-            run G-code (user outputs M62-M68; --help)
 
 exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
             3 --max-time reached, 4 a scenario failed (run), 5 device lost"""
@@ -66,7 +67,7 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
     return ap
 
 
-def run_scripted(args: argparse.Namespace) -> int:
+def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
     from fas.sim import SimBackend
 
     from ..program import EndReason, make_program
@@ -84,12 +85,14 @@ def run_scripted(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return EXIT_USAGE
-    app = make_program(args.program, backend, scripted=True, output=write)
+    app = make_program(args.program, backend, scripted=True, output=write,
+                       **getattr(args, "program_options", {}))
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
     reason = app.run_script(args.command, firmware_end=args.firmware_end, max_ticks=max_ticks)
     out.flush()
     if observers is not None:  # issue 6: close the files, write the plot, print the report
-        for line in observe.finish_arguments(observers, args, app, title=args.command[:100]):
+        for line in observe.finish_arguments(observers, args, app,
+                                             title=(title or args.command)[:100]):
             print(line)
         sys.stdout.flush()
     if reason == EndReason.MAX_TIME:
@@ -106,6 +109,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             return run_main(argv[1:])
         if argv[0] in ("device", "relay"):  # issue 7
             return serial_cli.main(argv)
+        if argv[0] == "gcode":  # issue 12
+            from ..gcode.cli import main as gcode_main
+            return gcode_main(argv[1:])
         print(msg.CLI_ERROR.format(problem=f"{argv[0]}: not available in this version"),
               file=sys.stderr)
         return EXIT_USAGE

@@ -106,8 +106,10 @@ class Console:
                  history: str | None = None, clock: Clock = time.monotonic,
                  sleep: Sleep | None = None, input=None, output=None,
                  port: str | None = None, baud: int = 115200, watchdog_ms: int = 500,
-                 backend=None, program: str = "demo") -> None:
+                 backend=None, program: str = "demo",
+                 program_options: dict | None = None) -> None:
         self.program = program  # which program the console hosts (stepperdemo.program)
+        self.program_options = program_options or {}
         self.port, self.baud, self.watchdog_ms = port, baud, watchdog_ms  # issue 7
         self._given_backend = backend  # issue 7: a connected serial backend (tests)
         self.clock = clock
@@ -134,7 +136,7 @@ class Console:
         else:
             self.backend = SimBackend(arch)
         self.app = make_program(self.program, self.backend, scripted=False,
-                                output=self._collect)
+                                output=self._collect, **self.program_options)
         self.driver = RealTimeDriver(self.app, self.scale, self.clock)
         if self.port:  # issue 7: the device's clock runs by itself
             self.driver = serial_cli.DeviceDriver(self.app, self.scale)
@@ -169,7 +171,7 @@ class Console:
     def _show(self, line: str) -> None:
         self.lines.append(line)
         style = ""
-        if line.startswith(("ERROR", "Unknown command", "Failed status")):
+        if line.startswith(("ERROR", "Unknown command", "Failed status", "error:", "ALARM")):
             style = "ansired bold"
         elif line.startswith("test passed"):
             style = "ansigreen bold"
@@ -327,7 +329,8 @@ def run_console(args) -> int:
         console = Console(args.arch, scale=args.speed, history=args.history, port=port,
                           baud=getattr(args, "baud", 115200),
                           watchdog_ms=getattr(args, "watchdog_ms", 500),
-                          program=getattr(args, "program", "demo"))
+                          program=getattr(args, "program", "demo"),
+                          program_options=getattr(args, "program_options", None))
     except ConnectionError as exc:  # issue 7: fas.serial.SerialError
         print(msg.CLI_SERIAL_CONNECT.format(port=port, error=exc), file=sys.stderr)
         return serial_cli.EXIT_USAGE

@@ -78,7 +78,8 @@ def run_scripted(args: argparse.Namespace, write) -> int:
     except SerialError as exc:
         print(msg.CLI_SERIAL_CONNECT.format(port=args.port, error=exc), file=sys.stderr)
         return EXIT_USAGE
-    app = make_program(args.program, backend, scripted=True, output=write)
+    app = make_program(args.program, backend, scripted=True, output=write,
+                       **getattr(args, "program_options", {}))
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
 
     def on_event(event: str, text: str) -> None:

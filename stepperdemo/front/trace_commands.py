@@ -88,13 +88,14 @@ class TraceCommands:
         from ..watch import plots
 
         series = plots.series_of(self.observers)
+        outputs = plots.outputs_of(self.observers)
         if not args:
             width = max(20, min(shutil.get_terminal_size((80, 24)).columns - 14, 120))
-            return plots.terminal_plot(series, width=width)
+            return plots.terminal_plot(series, width=width, outputs=outputs)
         if not plots.png_available():
             return [msg.PLOT_EXTRA_MISSING]
         try:
-            plots.write_png(series, args[0])
+            plots.write_png(series, args[0], outputs=outputs)
         except OSError as exc:
             return [msg.OBSERVE_FILE_ERROR.format(path=args[0], error=exc)]
         return [msg.OBSERVE_WROTE.format(path=args[0])]

@@ -383,8 +383,11 @@ class MotionAnalysis:
     # ----------------------------------------------------- OrderedEdgeSink
     def edge_run(self, pin: int, times: Sequence[int], levels: bytes) -> None:
         m = self._by_step.get(pin)
-        if m is not None:
+        if m is not None and m.channel is not None:
             m.step_run(times, levels)
+            return
+        if m is not None:  # no stepper on this pin: something else drives it (an output)
+            self.levels[pin] = levels[-1] if levels else self.levels.get(pin, 0)
             return
         if pin == IRQ_BLOCKED:
             self._irq(times, levels)

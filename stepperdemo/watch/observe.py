@@ -30,16 +30,22 @@ from fas.sim.trace import (
 
 from .. import messages as msg
 from .motion import MotionAnalysis, Wiring, demo_wiring
+from .outputs import OutputAnalysis, OutputPin, output_pins
 
 
-def vcd_signals(wiring: Sequence[Wiring]) -> dict[int, list[str]]:
-    """Pin -> VCD names; a pin shared by several steppers gets every name (aliases)."""
+def vcd_signals(wiring: Sequence[Wiring],
+                outputs: Sequence[OutputPin] = ()) -> dict[int, list[str]]:
+    """Pin -> VCD names; a pin shared by several steppers gets every name (aliases).
+
+    ``outputs``: the user outputs (issue 12), ``Dout0..3`` and ``Aout0..3``."""
     signals: dict[int, list[str]] = {}
     for w in wiring:
         for pin, name in ((w.step, "Step"), (w.direction, "Dir"), (w.enable_low, "Enable"),
                           (w.enable_high, "EnableHigh")):
             if pin is not None:
                 signals.setdefault(pin, []).append(name + w.label)
+    for out in outputs:
+        signals.setdefault(out.pin, []).append(out.name)
     signals[IRQ_BLOCKED] = [IRQ_BLOCKED_NAME]
     return signals
 
@@ -54,7 +60,7 @@ class Observers:
         self.backend = backend
         self.profile = backend.profile
         self.wiring = demo_wiring(self.profile)
-        self.signals = vcd_signals(self.wiring)
+        self.signals = vcd_signals(self.wiring, output_pins(self.profile))
         self.stream = EdgeStream(backend)
         self.vcd_path = vcd
         self._spool = spool_vcd and vcd is None
@@ -63,6 +69,7 @@ class Observers:
         self.csv_path = csv
         self.vcd: VcdWriter | None = None
         self.analysis: MotionAnalysis | None = None
+        self.outputs: OutputAnalysis | None = None  # user outputs (issue 12)
         self._analyse = analyse or csv is not None
         self._positions = positions
         self._timescale = timescale
@@ -95,6 +102,9 @@ class Observers:
             self.analysis = MotionAnalysis(self.backend, self.wiring, positions=self._positions,
                                            csv=self._csv_file, initial=levels)
             self.stream.add(self.analysis)
+            self.outputs = OutputAnalysis(self.profile, initial=pin_levels(
+                self.backend, [o.pin for o in output_pins(self.profile)]))
+            self.stream.add(self.outputs)
         return self
 
     def _abort(self) -> None:
@@ -121,6 +131,8 @@ class Observers:
         self.end_tick = end = self.stream.stop()
         if self.analysis is not None:
             self.analysis.finish(end)
+        if self.outputs is not None:
+            self.outputs.finish(end)
         if self.vcd is not None:
             self.vcd.close(end)
             self._vcd_file.close()
@@ -171,8 +183,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The observer options of ``stepperdemo -c`` (and ``stepperdemo run``)."""
     g = ap.add_argument_group("watching the run (simulated backend)")
     g.add_argument("--vcd", metavar="FILE",
-                   help="write the step/dir/enable pins of every stepper and the "
-                        "interrupt-blocked windows as a VCD file (GTKWave, PulseView)")
+                   help="write the step/dir/enable pins of every stepper, the user outputs "
+                        "(Dout0-3, Aout0-3 as PWM waveforms) and the interrupt-blocked "
+                        "windows as a VCD file (GTKWave, PulseView)")
     g.add_argument("--vcd-timescale", metavar="UNIT",
                    help="VCD time unit, e.g. '1 us' (default: the coarsest standard unit "
                         "in which every tick is exact, 100 ps at 16 MHz; a coarser unit "
@@ -231,7 +244,8 @@ def finish_arguments(obs: Observers, args: argparse.Namespace, app=None,
     out: list[str] = []
     if args.plot:
         size = plots.parse_size(args.plot_size)
-        plots.write_png(plots.series_of(obs), args.plot, size, title=title)
+        plots.write_png(plots.series_of(obs), args.plot, size, title=title,
+                        outputs=plots.outputs_of(obs))
     if args.report:
         out.extend(report.report_lines(obs, positions=report.library_positions(app)))
     return out
