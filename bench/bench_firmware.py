@@ -44,8 +44,9 @@ def sizes() -> None:
     print("firmware size (ATmega328P: 32768 bytes flash, 2048 bytes RAM)")
     for baud in BAUDS:
         b = simavr.build(baud)
-        print(f"  {baud:>7} baud: flash {b.flash_bytes} bytes ({100 * b.flash_bytes / 32768:.1f} %), "
-              f"RAM {b.ram_bytes} bytes static ({100 * b.ram_bytes / 2048:.1f} %), "
+        flash_pct, ram_pct = 100 * b.flash_bytes / 32768, 100 * b.ram_bytes / 2048
+        print(f"  {baud:>7} baud: flash {b.flash_bytes} bytes ({flash_pct:.1f} %), "
+              f"RAM {b.ram_bytes} bytes static ({ram_pct:.1f} %), "
               f"{2048 - b.ram_bytes} bytes left for the stack")
     print()
 
@@ -58,7 +59,7 @@ def timing(lines: list[str]) -> None:
     print("step timing, firmware in simavr vs Python device on the same session "
           "(rising edges; 1 tick = 62.5 ns)")
     print(f"{'line':52s} {'pin':>3s} {'steps':>6s} {'median':>6s} {'max':>4s} "
-          f"{'width fw/py':>11s} {'sim s':>6s} {'wall s':>6s} {'busy':>5s}")
+          f"{'width fw/py':>11s} {'sim s':>6s} {'wall s':>6s} {'busy':>5s} {'stack':>5s}")
     for line in lines:
         t0 = time.monotonic()
         fw = run_firmware(line)
@@ -81,7 +82,8 @@ def timing(lines: list[str]) -> None:
             fw_w = statistics.median(_widths(*tr.edges(pin)))
             py_w = statistics.median(_widths(*py.recorder.pin_edges(pin)))
             print(f"{line:52s} {pin:3d} {len(f):6d} {statistics.median(d):6.0f} {max(d):4d} "
-                  f"{fw_w:5.0f}/{py_w:<5.0f} {sim_s:6.2f} {wall:6.2f} {100 * busy:4.0f}%")
+                  f"{fw_w:5.0f}/{py_w:<5.0f} {sim_s:6.2f} {wall:6.2f} {100 * busy:4.0f}% "
+                  f"{fw.stack_bytes:5d}")
     print()
 
 

@@ -30,6 +30,28 @@ ISR(TIMER0_OVF_vect)
     main_wake |= WAKE_TICK;
 }
 
+/* The RAM between the static data and the stack is painted at reset, so that the
+ * deepest the stack went can be read from the chip (bench/bench_firmware.py). */
+#define STACK_PAINT 0xC5
+extern uint8_t _end;
+extern uint8_t __stack;
+void paint_stack(void) __attribute__((naked, used, section(".init1")));
+void paint_stack(void)
+{
+    __asm__ __volatile__(
+        "ldi r30, lo8(_end)\n\t"
+        "ldi r31, hi8(_end)\n\t"
+        "ldi r24, %[paint]\n\t"
+        "ldi r25, hi8(__stack)\n\t"
+        "1:\n\t"
+        "st Z+, r24\n\t"
+        "cpi r30, lo8(__stack)\n\t"
+        "cpc r31, r25\n\t"
+        "brlo 1b\n\t"
+        "breq 1b\n\t"
+        :: [paint] "i"(STACK_PAINT));
+}
+
 int main(void)
 {
     static struct frame_in frame;

@@ -43,6 +43,8 @@ QUANTUM_NS = 50_000
 QUANTUM_MAX_NS = 1_000_000
 DEFAULT_WATCHDOG_MS = 500  # the firmware's own default (a Hello sets the session's)
 SYNC = 0x7E  # the byte that ends every frame
+RAMEND_328P = 0x8FF
+STACK_PAINT = 0xC5  # firmware/main.c paints the free RAM with it at reset
 
 
 class SimavrError(RuntimeError):
@@ -124,6 +126,17 @@ def build_harness() -> Path:
     """``make -C firmware sim``: the harness alone (for a firmware ELF built elsewhere)."""
     _make("sim")
     return harness_path()
+
+
+def symbol_address(elf: str | Path, name: str) -> int:
+    """A symbol's address in the chip's data (or program) space (avr-nm)."""
+    out = subprocess.run(["avr-nm", str(elf)], capture_output=True, text=True,
+                         check=True).stdout
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) == 3 and parts[2] == name:
+            return int(parts[0], 16) & 0xFFFF
+    raise SimavrError(f"{elf} has no symbol {name}")
 
 
 def firmware_size(elf: Path) -> tuple[int, int]:
@@ -344,6 +357,17 @@ class SimavrDevice:
 
     def write_memory(self, addr: int, data: bytes) -> None:
         self.chip.mem(addr, len(data), data)
+
+    def stack_used(self) -> int:
+        """The deepest the chip's stack went so far, in bytes: the firmware paints the
+        RAM between its static data (``_end``) and the top (RAMEND) at reset."""
+        end = symbol_address(self.elf, "_end")
+        top = RAMEND_328P
+        ram = self.read_memory(end, top + 1 - end)
+        untouched = 0
+        while untouched < len(ram) and ram[untouched] == STACK_PAINT:
+            untouched += 1
+        return len(ram) - untouched
 
     def trace(self) -> Trace:
         """The pin changes so far."""

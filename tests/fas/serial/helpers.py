@@ -77,6 +77,7 @@ class FirmwareOutcome(Outcome):
     trace: object = None  # fas.serial.simavr.Trace
     rx_log: list = field(default_factory=list)  # (cycle, bytes) the chip received
     busy: float = 0.0  # share of the chip's cycles not asleep
+    stack_bytes: int = 0  # the deepest the chip's stack went
 
 
 def need_firmware() -> None:
@@ -140,4 +141,5 @@ def run_firmware(line: str, faults: Faults | None = None, baud: int = 115200,
                                         s.direction_pin_high_counts_up())
                            for i, s in enumerate(steppers)],
             status_pulses=[backend.statuses[i].pulses for i in sorted(backend.statuses)],
-            trace=trace, rx_log=dev.rx_log, busy=1 - info.sleep_cycles / info.cycle)
+            trace=trace, rx_log=dev.rx_log, busy=1 - info.sleep_cycles / info.cycle,
+            stack_bytes=dev.stack_used())

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 import struct
-import subprocess
 from dataclasses import dataclass, field
 
 import pytest
@@ -44,15 +43,6 @@ def build_rig() -> str:
     return str(simavr.build_dir() / "stepgen_rig.elf")
 
 
-def symbol_address(elf: str, name: str) -> int:
-    out = subprocess.run(["avr-nm", elf], capture_output=True, text=True, check=True).stdout
-    for line in out.splitlines():
-        parts = line.split()
-        if len(parts) == 3 and parts[2] == name:
-            return int(parts[0], 16) & 0xFFFF
-    raise KeyError(name)
-
-
 @dataclass
 class Snapshot:
     state: int
@@ -68,7 +58,7 @@ class Rig:
 
     def __init__(self, elf: str, trace: str) -> None:
         self.dev = simavr.SimavrDevice(elf=elf, trace=trace)
-        self.addr = symbol_address(elf, "rig")
+        self.addr = simavr.symbol_address(elf, "rig")
         self.seq = 0
         self.dev.run_to_cycle(20_000)  # boot
         self.t0 = self.dev.info().timer1_start
