@@ -8,7 +8,10 @@
    difference of each rising edge (firmware minus Python device, ticks of 62.5 ns),
    median and maximum, and the pulse widths; plus the wall time of the simavr run,
    the simulated time and how busy the chip was (1 - sleep / total cycles).
-3. Link margin: the shortest legal commands (one step each) streamed into both
+3. Step rate limits: the step generator alone (the rig firmware, no protocol): the
+   shortest period at which every step of 500 comes on its tick, one channel, and two
+   channels whose every edge coincides (the worst case for the interrupts).
+4. Link margin: the shortest legal commands (one step each) streamed into both
    queues through the chip's own UART (simavr times a character as 11 bits, so its
    line is 10 % slower than a real one): commands/s sustained, against what the
    two-stepper 25 kHz line needs (peak commands/s over 20 ms on the simulated chip);
@@ -84,6 +87,41 @@ def timing(lines: list[str]) -> None:
             print(f"{line:52s} {pin:3d} {len(f):6d} {statistics.median(d):6.0f} {max(d):4d} "
                   f"{fw_w:5.0f}/{py_w:<5.0f} {sim_s:6.2f} {wall:6.2f} {100 * busy:4.0f}% "
                   f"{fw.stack_bytes:5d}")
+    print()
+
+
+def limits() -> None:
+    from tests.fas.serial.stepgen_rig import Both, Rig, build_rig
+
+    elf = build_rig()
+
+    def on_time(period: int, channels: tuple[int, ...]) -> bool:
+        rig = Rig(elf, os.devnull)
+        both = Both(rig)
+        for ch in channels:
+            both.entry(ch, 250, period)
+            both.entry(ch, 250, period)
+        at = rig.tick() + 30_000
+        for ch in channels:
+            both.start_at(ch, at)
+        both.run_to_tick(at + 520 * period + 50_000)
+        trace = rig.dev.trace()
+        rig.dev.close()
+        for ch in channels:
+            fw, py = trace.rising(9 + ch), both.model.rising(9 + ch)
+            if len(fw) != 500 or any(a - b > 1 for a, b in zip(fw, py)):
+                return False
+        return True
+
+    print("step rate limits of the step generator (500 steps, every one on its tick)")
+    for channels, what in (((0,), "one channel"),
+                           ((0, 1), "two channels, every edge coinciding")):
+        lo, hi = 100, 1000
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            lo, hi = (lo, mid) if on_time(mid, channels) else (mid, hi)
+        print(f"  {what}: {hi} ticks ({TPS / hi / 1000:.1f} kHz)")
+    print("  (FastAccelStepper on the ATmega328P: 320 ticks for one stepper, 426 for two)")
     print()
 
 
@@ -176,6 +214,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     sizes()
     timing(([ISSUE_LINE] + LINES)[:args.lines])
+    limits()
     margin(args.seconds)
     return 0
 
