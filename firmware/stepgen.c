@@ -138,8 +138,8 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
  * the frequent cases itself and comes here for the others: a timed start that
  * waits, a stop, a detached step pin, a pulse counter, an idle channel. */
 #define STEP_ISR_FULL(X, CH)                                                     \
-    void stepgen_full_##X(void) __attribute__((signal, used, externally_visible)); \
-    void stepgen_full_##X(void)                                                  \
+    void __vector_stepgen_full_##X(void) __attribute__((signal, used, externally_visible)); \
+    void __vector_stepgen_full_##X(void)                                                  \
     {                                                                            \
         struct stepq *q = &stepq[CH];                                            \
         uint8_t st = q->state;                                                   \
@@ -248,10 +248,10 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
     "subi r30, lo8(-(%[entry]))\n\t"                                             \
     "sbci r31, hi8(-(%[entry]))\n\t"
 
-/* The dispatcher, the vector itself, in assembly: what stepgen_full_X does for a
+/* The dispatcher, the vector itself, in assembly: what __vector_stepgen_full_X does for a
  * running channel without pulse counter or detached pin and without a stop - the
  * rising edge with the queue's work, a compare without a pulse, the falling edge.
- * Everything else goes to stepgen_full_X with the registers as they were.  The T
+ * Everything else goes to __vector_stepgen_full_X with the registers as they were.  The T
  * flag says whether this compare put a pulse on the pin. */
 #define STEP_ISR(X, CH)                                                          \
     ISR(TIMER1_COMP##X##_vect, ISR_NAKED)                                        \
@@ -277,7 +277,7 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
             "pop r24\n\t"                                                        \
             "out __SREG__, r24\n\t"                                              \
             "pop r24\n\t"                                                        \
-            "jmp stepgen_full_" #X "\n"                                          \
+            "jmp __vector_stepgen_full_" #X "\n"                                          \
             "3:\n\t"                                                             \
             /* the falling edge: toggle if asked, then the next compare */       \
             "sbrc r24, " K(SQ_STOPPING_BIT) "\n\t"                               \
