@@ -228,3 +228,34 @@ def test_step_edges_agree_with_the_python_device(line):
         assert all(dt >= 40 for _, dt in phases)
         assert max(dt for high, dt in phases if high) < min(dt for high, dt in phases
                                                              if not high)
+
+
+def test_user_outputs_of_a_gcode_program_on_the_device():
+    """Issue 12's acceptance program on the Uno: Dout0 (pin 2) synchronized between the
+    moves, Dout1 (pin 4) at once, Aout1 (pin 11, timer 2) at 23.87 % - the nearest
+    count, 61 of 256 at 7812.5 Hz (timer 2's TOP is fixed, prescaler 8)."""
+    from stepperdemo.program import make_program
+
+    program = ("G1 X2000 F600000\nM62 P0\nG1 X0\nM63 P0\nM64 P1\nM67 E1 Q23.87\nG4 P0.05\n"
+               "M2\n")
+    with Loopback(device="simavr") as lb:
+        app = make_program("gcode", lb.backend, scripted=True)
+        app.run_script(program, max_ticks=60 * TPS)
+        assert lb.backend.settle()
+        assert "error" not in app.transcript.decode()
+        assert lb.backend.device_counters()["rejected"] == 0
+        tr = lb.device.trace()
+    steps = tr.rising(9)
+    assert len(steps) == 4000
+    d0 = list(zip(*tr.edges(2)))
+    assert [lv for _, lv in d0] == [1, 0]
+    assert steps[1999] < d0[0][0] < steps[2000] and d0[1][0] > steps[-1]
+    assert tr.rising(4)[0] < steps[0]  # M64: at once
+    times, levels = tr.edges(11)
+    assert times[0] > d0[1][0]  # M67 E1 (immediate) comes after the motion before it
+    # 61 of 256 counts of 8 cycles high in a period of 2048 (the timer's own edges are
+    # time-stamped at simavr's instruction boundaries: a few cycles of play)
+    periods = [(times[i + 1] - times[i], times[i + 2] - times[i])
+               for i in range(0, len(times) - 2) if levels[i]]
+    assert len(periods) > 50
+    assert all(abs(high - 488) <= 4 and abs(period - 2048) <= 4 for high, period in periods)
