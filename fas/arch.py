@@ -13,10 +13,23 @@ ATmega328P they are calibrated against the AVR-simulator runs in
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from . import log2
 from .codes import PIN_UNDEFINED
+
+# --- the serial firmware's queue ring (docs/serial-protocol.md, section 9) ---
+SERIAL_ENTRY_BYTES = 4  # steps u8, flags u8, ticks u16 per ring entry on the device
+SERIAL_SLOT_HEADER_BYTES = 2  # an out-of-order frame slot: length and sequence number
+SERIAL_QUEUE_MIN = 16  # a ring below this cannot hold the library's ramp planning
+SERIAL_QUEUE_MAX = 128  # the ring is indexed by the 8-bit write index: a divisor of 256
+# How the Uno (2048 bytes) spends its RAM on the serial firmware:
+#   serial_reserved_bytes 1024 = UART receive and transmit rings 2 x 64, the frame
+#     being received 64, the frame being sent 64, two steppers' state 2 x 32, session,
+#     clock and counters 96, user outputs (section 16) 32, Arduino core 64, stack 512;
+#   out-of-order frame slots 8 x (32 + 2) = 272;
+#   queue rings 2 x 64 entries x 4 bytes = 512          -> 1808 bytes, 240 spare.
+# The other profiles have RAM to spare: their rings are SERIAL_QUEUE_MAX deep.
 
 
 @dataclass(frozen=True)
@@ -129,6 +142,14 @@ class Profile:
     sim_uart_isr_ticks: int  # transmit interrupt, once per buffered character
     sim_millis_overflow_ticks: int  # Arduino timer0 overflow period (millis() source)
     sim_irq_block_ticks: int = 0  # StepperDemo's `e`: length of one blocked section
+    # --- serial firmware (docs/serial-protocol.md): RAM budget of the device ---
+    ram_bytes: int = 0  # the chip's data RAM
+    serial_reserved_bytes: int = 0  # firmware RAM besides queue rings and frame slots
+    serial_rx_slots: int = 0  # out-of-order frames the device holds (selective repeat)
+    serial_slot_payload: int = 0  # payload bytes of one such slot = largest host frame
+    # the library's own queue length where it differs from queue_len (a serial device's
+    # deeper ring): the API's limits (the enable delay) stay those of the chip
+    api_queue_len: int = 0
     # --- QuickStep planner (issue 14): its timers and their interrupt costs ---
     # timers QuickStep may use, the default first; empty: QuickStep is not available
     qs_timers: tuple[QsTimer, ...] = ()
@@ -166,7 +187,7 @@ class Profile:
 
     @property
     def max_on_delay_ticks(self) -> int:
-        return 65535 * (self.queue_len - 1)
+        return 65535 * ((self.api_queue_len or self.queue_len) - 1)
 
     @property
     def log2_ticks_per_s(self) -> int:
@@ -194,6 +215,35 @@ class Profile:
         table = self.max_speed_ticks_by_count
         return table[min(max(stepper_count, 1), len(table)) - 1]
 
+    # ---- the serial firmware's RAM budget (one table: SERIAL_RAM_TABLE) ----
+    @property
+    def serial_slot_bytes(self) -> int:
+        """RAM of the out-of-order frame slots: payload plus length and sequence bytes."""
+        return self.serial_rx_slots * (self.serial_slot_payload + SERIAL_SLOT_HEADER_BYTES)
+
+    @property
+    def serial_queue_len(self) -> int:
+        """Entries per queue ring on a serial device: what its RAM holds after everything
+        else, for every stepper, as the largest power of two (the ring is indexed by the
+        8-bit write index) between SERIAL_QUEUE_MIN and SERIAL_QUEUE_MAX."""
+        free = self.ram_bytes - self.serial_reserved_bytes - self.serial_slot_bytes
+        per_queue = free // (self.max_steppers * SERIAL_ENTRY_BYTES)
+        n = SERIAL_QUEUE_MIN
+        while n * 2 <= min(per_queue, SERIAL_QUEUE_MAX):
+            n *= 2
+        return n
+
+    @property
+    def serial_ram_used(self) -> int:
+        """RAM the serial firmware uses in all (reserved + rings + frame slots)."""
+        return (self.serial_reserved_bytes + self.serial_slot_bytes
+                + self.max_steppers * self.serial_queue_len * SERIAL_ENTRY_BYTES)
+
+    def with_queue_len(self, queue_len: int) -> Profile:
+        """This profile with a command queue of ``queue_len`` entries (a serial device's
+        ring: the host's mirror and the device's queue are that deep)."""
+        return replace(self, queue_len=queue_len,
+                       api_queue_len=self.api_queue_len or self.queue_len)
     def pwm_timer(self, name: str) -> PwmTimer | None:
         for t in self.pwm_timers:
             if t.name == name:
@@ -306,6 +356,10 @@ ATMEGA328P = Profile(
     debug_led_pin=13,
     pin_ports={**{p: "D" for p in range(0, 8)}, **{p: "B" for p in range(8, 14)},
                **{p: "C" for p in range(14, 20)}},
+    ram_bytes=2048,
+    serial_reserved_bytes=1024,
+    serial_rx_slots=8,
+    serial_slot_payload=32,
     # free pins beside StepperDemo's wiring (5-10), the LED (13) and the UART (0, 1)
     user_digital_pins=(2, 4, 12, 14),
     # timer 1 steps the motors and timer 0 runs millis(): only timer 2 is left, and
@@ -350,6 +404,10 @@ ATMEGA2560 = Profile(
                     off_delay_ms=10),
     ),
     debug_led_pin=PIN_UNDEFINED,
+    ram_bytes=8192,
+    serial_reserved_bytes=1024,
+    serial_rx_slots=16,
+    serial_slot_payload=59,
     user_digital_pins=(22, 23, 24, 25),
     # one timer per output, so every output has its own frequency: the 16-bit timers
     # 1, 3, 5 with TOP in ICRn, and timer 2 (8 bit) with TOP in OCR2A (OC2A is lost)
@@ -431,6 +489,10 @@ ESP32 = Profile(
     sim_uart_isr_ticks=0,
     sim_millis_overflow_ticks=16000,
     sim_irq_block_ticks=100 * 16,
+    ram_bytes=327680,
+    serial_reserved_bytes=131072,
+    serial_rx_slots=16,
+    serial_slot_payload=59,
     notes="pulses are generated by the mcpwm peripheral; `e` does not delay them",
     # with StepperDemo's six steppers wired only 0, 23, 32 and 33 stay free: the
     # outputs also use pins of steppers 4-6, and refuse them while those are connected
@@ -499,6 +561,10 @@ SAM_DUE = Profile(
     sim_uart_isr_ticks=0,
     sim_millis_overflow_ticks=21000,
     sim_irq_block_ticks=100 * 21,
+    ram_bytes=98304,
+    serial_reserved_bytes=16384,
+    serial_rx_slots=16,
+    serial_slot_payload=59,
     notes="step pins: one pin of each PWM group; the demo wiring follows StepperPins_sam.h",
     user_digital_pins=(50, 51, 52, 53),
     # timer-counter channels (TIOA), 32-bit, clocked from MCK/2, /8, /32, /128;

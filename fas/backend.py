@@ -47,6 +47,19 @@ class QueueChannel(ABC):
     def positions_shifted(self, delta: int) -> None:
         """All queued positions were renumbered by ``delta``."""
 
+    # --- cuts: a stop that must not wait for a deep queue (serial backend) ----------
+    supports_cut = False  # the stepper keeps ramp snapshots and may ask for cuts
+    cut_pending = False  # a cut is not yet confirmed: hold back new ramp requests
+
+    def cut_index(self) -> int | None:
+        """The first queue index a cut sent now could drop (None: no cut possible)."""
+        return None
+
+    def cut(self, index: int, on_refused: Callable[[], None]) -> None:
+        """Drop the entries from ``index`` on, here and on the executor; if the executor
+        had already begun them, the entries come back and ``on_refused()`` is called."""
+        raise NotImplementedError
+
 
 class PulseCounter:
     """An independent counter of step pulses (ESP32's pcnt unit, simulated everywhere).
@@ -84,6 +97,9 @@ class PulseCounter:
 
 class Backend(ABC):
     profile: Profile
+    # ticks a stepper plans ahead beyond its forward-planning time once its queue runs
+    # (a serial link's delays; 0 on a chip, where the queue is the timer's own)
+    planning_extra_ticks: int = 0
 
     @abstractmethod
     def now(self) -> int:

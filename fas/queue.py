@@ -206,6 +206,16 @@ class StepperQueue:
         self.channel.force_stop()
         self.read_idx = self.next_write_idx
 
+    def truncate(self, index: int) -> None:
+        """Drop the entries from write index ``index`` on (a cut, see
+        :meth:`fas.backend.QueueChannel.cut`): the queue ends where entry ``index - 1``
+        ends.  ``index`` lies after the read index."""
+        last = self.entries[(index - 1) % self.queue_len]
+        self.next_write_idx = index & 0xFF
+        self.queue_end_pos = last.end_pos
+        self.queue_end_count_up = last.count_up
+        self.queue_end_dir = last.dir_level
+
     def shift_positions(self, delta: int) -> None:
         """Renumber every queued position by ``delta`` (set position while moving)."""
         self.channel.sync()

@@ -58,6 +58,9 @@ class Stepper:
                                  profile.log2_accel_factor)
         self.fill_calls = 0
         self.commands_generated = 0
+        # ramp state after each planned command, by the write index that follows it:
+        # the points a deep queue (serial backend) can be cut back to
+        self._snapshots: list | None = [None] * 256 if queue.channel.supports_cut else None
         self._fas_queue = queue  # FastAccelStepper's command queue (kept while QuickStep runs)
         self._qs: QuickStepPlanner | None = None  # the QuickStep planner, when selected
 
@@ -519,6 +522,7 @@ class Stepper:
             self._qs.stop()
             return
         self._rg.initiate_stop()
+        self._cut_queue(immediate=False)
         self._engine.kick()
 
     def force_stop(self) -> None:
@@ -528,7 +532,43 @@ class Stepper:
             return
         self._queue.ignore_commands = True
         self._rg.immediate_stop()
+        self._cut_queue(immediate=True)
         self._engine.kick()
+
+    def _cut_queue(self, immediate: bool) -> None:
+        """On a backend with a deep queue: drop the planned commands the motor has not
+        reached yet, back to the first point the backend can still cut at, and plan the
+        stop from there (see :meth:`fas.backend.QueueChannel.cut`)."""
+        snaps = self._snapshots
+        if snaps is None:
+            return
+        q = self._queue
+        ch = q.channel
+        first = ch.cut_index()
+        if first is None:
+            return
+        w = q.next_write_idx
+        added = q.entries_added
+        c = first
+        while c != w:
+            snap = snaps[c]
+            if snap is not None and added - snap[0] == (w - c) & 0xFF:
+                break
+            c = (c + 1) & 0xFF
+        else:
+            return  # no command boundary before the end: the queue ends soon enough
+        rg = self._rg
+        before = rg.snapshot()
+
+        def refused() -> None:  # the cut came too late: stop from the queue's end
+            rg.restore(before)
+            if immediate:
+                q.ignore_commands = True
+                rg.immediate_stop()
+            self._engine.kick()
+
+        ch.cut(c, refused)
+        rg.restore(snap[1])
 
     def force_stop_and_new_position(self, new_pos: int) -> None:
         q = self._queue
@@ -760,10 +800,16 @@ class Stepper:
         delayed_start = not q.is_running()
         need_delayed_start = False
         ticks_prepared = q.ticks_in_queue()
+        planning = self._forward_planning_in_ticks
+        if not delayed_start:  # a running queue: what the backend's link needs, too
+            planning += self._engine.backend.planning_extra_ticks
+        snaps = self._snapshots
         generated = 0
         while (not q.is_queue_full()
-               and (ticks_prepared < self._forward_planning_in_ticks or q.queue_entries() <= 1)
+               and (ticks_prepared < planning or q.queue_entries() <= 1)
                and rg.is_ramp_generator_active()):
+            if snaps is not None and q.channel.cut_pending and rg.apply_pending():
+                break  # a new request waits until the cut is confirmed or undone
             res = AqeResult.OK
             cmd = rg.get_next_command(q.queue_end_pos, q.queue_end_count_up)
             if cmd.ticks != 0:
@@ -772,6 +818,8 @@ class Stepper:
                 generated += 1
             if res == AqeResult.OK:
                 rg.after_command_enqueued(cmd)
+                if snaps is not None:
+                    snaps[q.next_write_idx] = (q.entries_added, rg.snapshot())
                 need_delayed_start = delayed_start
                 ticks_prepared += cmd.ticks * cmd.steps if cmd.steps > 1 else cmd.ticks
             if cmd.ticks == 0:

@@ -502,3 +502,13 @@ DEVICE_SIMAVR_SUMMARY = "{line}"
 DEVICE_SIMAVR_BUILD_FAILED = "stepperdemo device --simavr: {error}"
 DEVICE_SIMAVR_OPTION = "--{option} applies to the simulated device (--pty/--port), not --simavr"
 # ------------------------------------------------- end of issue 11 texts
+# ---------------------------------------------------------------------------------------
+# serial link planning and stops (issue 18)
+SERIAL_PLANNING = ("planning: {extra_ms} ms beyond the library's ({how}: round trip "
+                   "{rtt_ms:.1f} ms, {rounds} retransmission round(s), {loss_pct:.1f} % "
+                   "frames lost); device queue {queue_len} entries, {window} frames of "
+                   "{payload} bytes in flight")
+SERIAL_BAD_PLANNING = "{ms} is not a time of 0 .. 10000 ms"
+SERIAL_DEVICE_REPAIRS = ("device: {frames_held} frames held after a gap, {cuts} queue cuts "
+                         "({cuts_refused} refused), {halts} halts, {discarded} discarded")
+# ------------------------------------------------------------ end of issue 18 texts

@@ -7,15 +7,29 @@ once the device has said so, and a started queue counts as running until a repor
 that already reflects the start says it stopped.  So the host never believes the
 device queue emptier or idler than it is - the free slots it sees are the device's
 flow control, and a direction pin is never set while steps are still pending.
+
+Stops do not wait for a deep queue (docs/serial-protocol.md, section 10):
+
+* a force stop (StepperDemo's ``X``) goes out twice: as a :class:`Halt` that
+  overtakes everything queued (repeated until the device confirms it) and as the
+  sequenced :class:`ForceStop` that keeps the queue's order;
+* a stop with deceleration (``S``) or a ``force_stop`` *cuts* the queue: the entries
+  the device cannot have begun when the :class:`Truncate` arrives are dropped here
+  and there, and the ramp is planned again from the cut.  A cut that arrives too
+  late is refused by the device; the dropped entries then come back (they are still
+  on the device) and the stop is planned from the end of the queue.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..backend import PulseCounter, QueueChannel
 from ..queue import i32
 from .protocol import (
+    P_CUT_REFUSED,
+    P_HALTED,
     P_HAS_PCNT,
     Config,
     Detach,
@@ -26,6 +40,7 @@ from .protocol import (
     PcntClear,
     Progress,
     SetEndPos,
+    Truncate,
 )
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -33,7 +48,41 @@ if TYPE_CHECKING:  # pragma: no cover
     from .backend import SerialBackend
 
 
+class HaltState:
+    """A Halt on its way: repeated until the device confirms it."""
+
+    __slots__ = ("mid", "next_ns", "sent_ns", "stop_id")
+
+    def __init__(self, stop_id: int, mid: int, sent_ns: int, next_ns: int) -> None:
+        self.stop_id = stop_id
+        self.mid = mid  # the ForceStop that follows it in sequence
+        self.sent_ns = sent_ns
+        self.next_ns = next_ns
+
+
+class CutState:
+    """A cut the device has not confirmed yet, with what it dropped (to restore)."""
+
+    __slots__ = ("end", "entries", "index", "mid", "old_write", "on_refused", "shift")
+
+    def __init__(self, index: int, old_write: int, entries: list[tuple],
+                 end: tuple[int, bool, bool], on_refused: Callable[[], None]) -> None:
+        self.index = index
+        self.old_write = old_write
+        self.entries = entries
+        self.end = end
+        self.on_refused = on_refused
+        self.mid = 0
+        self.shift = 0  # positions renamed meanwhile (set_current_position)
+
+
+_ENTRY_FIELDS = ("steps", "total_steps", "ticks", "count_up", "toggle_dir", "dir_level",
+                 "end_pos")
+
+
 class SerialChannel(QueueChannel):
+    supports_cut = True
+
     def __init__(self, backend: SerialBackend, queue: StepperQueue) -> None:
         self.b = backend
         self.q = queue
@@ -49,6 +98,12 @@ class SerialChannel(QueueChannel):
         self.pcnt_epoch_mid = 0
         self.bad_reports = 0
         self.last_status = None  # the last Status message (position, pulses, underruns)
+        self.report_ns = backend.clock.now_ns()  # when the last report was taken
+        self.halt: HaltState | None = None
+        self.cut_state: CutState | None = None
+        self._stop_id = 0
+        self.cuts = 0
+        self.cuts_refused = 0
         self.configure()
 
     # ------------------------------------------------------------ session
@@ -59,6 +114,8 @@ class SerialChannel(QueueChannel):
         self.dev_running = False
         self.sent_dir_pin = q.dir_pin
         self.dev_end_pos = q.queue_end_pos
+        self.halt = None
+        self.cut_state = None
         mid = self.b.send(Config(self.index, self.step_pin, q.dir_pin & 0xFF,
                                  q.next_write_idx, q.queue_end_pos))
         self.epoch_mid = mid
@@ -72,6 +129,8 @@ class SerialChannel(QueueChannel):
     def connection_lost(self) -> None:
         self.pending_start_mid = 0
         self.dev_running = False
+        self.halt = None
+        self.cut_state = None
 
     # ---------------------------------------------------------- interface
     def is_running(self) -> bool:
@@ -84,12 +143,34 @@ class SerialChannel(QueueChannel):
         self.pending_start_mid = self.b.send_start(self.index)
 
     def force_stop(self) -> None:
+        was_running = self.is_running()
         self.pending_start_mid = 0
         self.dev_running = False
+        self.cut_state = None
         if self.b.connected:
-            self.epoch_mid = self.b.send(ForceStop(self.index, self.q.next_write_idx))
+            q = self.q
+            moving = was_running or q.read_idx != q.next_write_idx
+            self._stop_id = self._stop_id % 255 + 1  # never 0: a fresh queue's id
+            now = self.b.clock.now_ns()
+            if moving:
+                self.b.send_halt(self.index, self._stop_id)  # overtakes the queue ...
+            self.epoch_mid = self.b.send(ForceStop(self.index, q.next_write_idx,
+                                                   self._stop_id))  # ... keeps its order
+            if moving:
+                self.halt = HaltState(self._stop_id, self.epoch_mid, now,
+                                      now + self.b.repeat_ns())
         # the device calls its stop point by the pulses made; the host names it next
         self.dev_end_pos = None
+
+    def resend_halt(self, now_ns: int) -> None:
+        h = self.halt
+        if h is None:
+            return
+        if self.b.link is None or self.b.link.acked_mid >= h.mid:
+            self.halt = None  # the ForceStop is through: the queue is stopped anyway
+            return
+        self.b.send_halt(self.index, h.stop_id)
+        h.next_ns = now_ns + self.b.repeat_ns()
 
     def sync(self) -> None:
         q = self.q
@@ -118,9 +199,80 @@ class SerialChannel(QueueChannel):
         self.dev_end_pos = e.end_pos
 
     def positions_shifted(self, delta: int) -> None:
+        if self.cut_state is not None:
+            self.cut_state.shift = i32(self.cut_state.shift + delta)
         if self.b.connected:
             self.b.send(SetEndPos(self.index, self.q.queue_end_pos))
             self.dev_end_pos = self.q.queue_end_pos
+
+    # --------------------------------------------------------------- cuts
+    @property
+    def cut_pending(self) -> bool:
+        return self.cut_state is not None
+
+    def cut_index(self) -> int | None:
+        """The first entry the device will not have begun when a Truncate sent now
+        arrives: the mirror's entries from the reported read point on, summed up to
+        the backend's cut margin."""
+        if (not self.b.connected or self.cut_state is not None or self.halt is not None
+                or not self.is_running()):
+            return None
+        q = self.q
+        rp, wp = q.read_idx, q.next_write_idx
+        if rp == wp:
+            return None
+        margin = self.b.cut_margin_ticks(self.report_ns)
+        n = q.queue_len
+        e = q.entries[rp % n]
+        ahead = e.ticks * max(e.steps, 1)  # what is left of the entry being executed
+        i = (rp + 1) & 0xFF
+        while i != wp:
+            if ahead >= margin:
+                return i
+            e = q.entries[i % n]
+            ahead += e.ticks * max(e.total_steps, 1)
+            i = (i + 1) & 0xFF
+        return None
+
+    def cut(self, index: int, on_refused: Callable[[], None]) -> None:
+        q = self.q
+        n = q.queue_len
+        w = q.next_write_idx
+        saved = []
+        i = index
+        while i != w:
+            e = q.entries[i % n]
+            saved.append(tuple(getattr(e, f) for f in _ENTRY_FIELDS))
+            i = (i + 1) & 0xFF
+        state = CutState(index, w, saved,
+                         (q.queue_end_pos, q.queue_end_count_up, q.queue_end_dir), on_refused)
+        in_step = self.dev_end_pos == q.queue_end_pos
+        q.truncate(index)
+        state.mid = self.b.send(Truncate(self.index, index))
+        self.dev_end_pos = q.queue_end_pos if in_step else None
+        self.cut_state = state
+        self.cuts += 1
+
+    def _cut_refused(self, c: CutState) -> None:
+        """The device ran past the cut: it executes the queue as it was - so does the
+        mirror again; a cut at the old end clears the device's refusal."""
+        q = self.q
+        n = q.queue_len
+        for k, values in enumerate(c.entries):
+            e = q.entries[(c.index + k) % n]
+            for f, v in zip(_ENTRY_FIELDS, values, strict=True):
+                setattr(e, f, v)
+            if c.shift:
+                e.end_pos = i32(e.end_pos + c.shift)
+        q.next_write_idx = c.old_write
+        q.queue_end_pos, q.queue_end_count_up, q.queue_end_dir = c.end
+        q.queue_end_pos = i32(q.queue_end_pos + c.shift)
+        self.cut_state = None
+        self.cuts_refused += 1
+        self.b.send(Truncate(self.index, c.old_write))
+        self.b.send(SetEndPos(self.index, q.queue_end_pos))
+        self.dev_end_pos = q.queue_end_pos
+        c.on_refused()
 
     # --------------------------------------------------------- extras
     def set_detached(self, detached: bool) -> None:
@@ -146,9 +298,22 @@ class SerialChannel(QueueChannel):
     # --------------------------------------------------------- reports
     def apply(self, rep: Progress, acked_mid: int) -> None:
         """A progress report that reflects every message up to ``acked_mid``."""
+        if self.halt is not None and rep.flags & P_HALTED:
+            self.halt = None  # the Halt arrived: no need to repeat it
         if acked_mid < self.epoch_mid:
             return  # from before a stop or a new configuration
         q = self.q
+        c = self.cut_state
+        if c is not None:
+            if acked_mid < c.mid:
+                # from before the cut: only entries ahead of the cut are the same here
+                if ((rep.index - q.read_idx) & 0xFF) >= ((c.index - q.read_idx) & 0xFF):
+                    return
+            elif rep.flags & P_CUT_REFUSED:
+                self._cut_refused(c)
+            else:
+                self.cut_state = None  # the cut is done
+        self.report_ns = self.b.clock.now_ns()
         fill = (q.next_write_idx - q.read_idx) & 0xFF
         advance = (rep.index - q.read_idx) & 0xFF
         if advance > fill:

@@ -32,7 +32,9 @@ from .protocol import (
     D_WATCHDOG,
     DEVICE_COUNTERS,
     MAX_PAYLOAD,
+    P_CUT_REFUSED,
     P_DETACHED,
+    P_HALTED,
     P_HAS_ENTRY,
     P_HAS_PCNT,
     P_RUNNING,
@@ -48,6 +50,7 @@ from .protocol import (
     Entry,
     ForceStop,
     FrameDecoder,
+    Halt,
     Hello,
     Ident,
     Message,
@@ -59,14 +62,14 @@ from .protocol import (
     PcntClear,
     Pin,
     Progress,
-    ProtocolError,
     SetEndPos,
     Start,
     Status,
     StatusRequest,
     SyncReply,
     SyncRequest,
-    decode_messages,
+    Truncate,
+    decode_prefix,
     encode_frame,
     pack_messages,
     seq_diff,
@@ -78,7 +81,6 @@ NS_PER_S = 1_000_000_000
 DEFAULT_WATCHDOG_MS = 500
 DEFAULT_REPORT_MS = 2
 DEFAULT_STATUS_MS = 100
-RX_WINDOW = 16
 FRAME_BREAK = b""  # in the output list: start a new frame (small frames survive noise)
 DEVICE_STATUS_EVERY = 5  # status periods between unrequested DeviceStatus messages
 
@@ -108,15 +110,35 @@ class DeviceChannel(SimChannel):
         super()._emit(first, width, count, period)
 
 
+class StopState:
+    """Per stepper: the stop and cut state of docs/serial-protocol.md, section 10."""
+
+    __slots__ = ("halt_id", "halted", "refused")
+
+    def __init__(self) -> None:
+        self.halt_id = 0  # the id of the last Halt acted on or ForceStop processed
+        self.halted = False  # a Halt stopped the queue; its ForceStop has not come yet
+        self.refused = False  # a Truncate came too late; the next cut clears it
+
+    @property
+    def discarding(self) -> bool:
+        return self.halted or self.refused
+
+
 class Device:
     """The protocol's device side on a :class:`SimBackend` machine (see module text)."""
 
     def __init__(self, stream: ByteStream | None, profile: Profile | str | None = None,
                  clock=None, *, watchdog_ms: int = DEFAULT_WATCHDOG_MS,
                  status_ms: int = DEFAULT_STATUS_MS, record: bool = False,
-                 boot_id: int | None = None) -> None:
+                 boot_id: int | None = None, queue_len: int | None = None,
+                 rx_slots: int | None = None) -> None:
         self.profile = get_profile(profile)
         p = self.profile
+        # the queue rings as deep as the firmware's RAM allows (or as a test asks)
+        self.ring_profile = p.with_queue_len(queue_len or p.serial_queue_len)
+        self.rx_slots = p.serial_rx_slots if rx_slots is None else rx_slots
+        self.slot_payload = p.serial_slot_payload
         self.clock = clock or RealClock()
         self.sim = SimBackend(p)  # the machine and its pins; no engine runs here
         self.machine = self.sim.machine
@@ -132,7 +154,10 @@ class Device:
         self.report_ticks = self._ms_ticks(DEFAULT_REPORT_MS)
         self.status_ticks = self._ms_ticks(status_ms)
         self.queues: dict[int, StepperQueue] = {}
+        self.stops: dict[int, StopState] = {}
+        self.stop_ticks: dict[int, int] = {}  # when a stop last ended a queue's motion
         self.start_events: dict[int, Event] = {}
+        self.held: dict[int, bytes] = {}  # out-of-order frames by sequence number
         self.decoder = FrameDecoder()
         self.expected = 0
         self.nonce: int | None = None
@@ -141,6 +166,7 @@ class Device:
         self.watchdog_tripped = False
         self.estopped = False
         self.halt_tick: int | None = None
+        self.estop_tick: int | None = None  # when the last emergency stop was taken
         self.last_rx_tick = 0
         self.out: list[bytes] = []
         self.ack_due = False  # an acknowledgement is owed; it rides the next report ...
@@ -149,10 +175,11 @@ class Device:
         self.next_report_tick = 0
         self.next_status_tick = 0
         self._refresh_round = 0
-        self._nak_expected: int | None = None
-        self._nak_high = 0
+        self._nak_owed = False
         self.counters = dict.fromkeys(DEVICE_COUNTERS, 0)
         self.listeners: list[Callable[[str], None]] = []  # session events, for the CLI
+        self.features = 0  # optional message families (Ident): none in this version
+        self.sequenced_handlers = self._default_handlers()
         self.stream: ByteStream | None = None
         self.in_wires: list = []
         self.attach(stream)
@@ -208,22 +235,26 @@ class Device:
         return frames
 
     def flush(self) -> bool:
-        """Send what is queued (and a bare acknowledgement if one is due)."""
-        if not self.out and not (self.ack_due and self._ack_now):
+        """Send what is queued (and a bare acknowledgement if one is due).
+
+        While frames are missing (a Nak is owed, or out-of-order frames are held),
+        every frame sent begins with a Nak with the held frames' bitmap."""
+        if not self.out and not (self.ack_due and self._ack_now) and not self._nak_owed:
             return False
         if self.ack_due:
             self._changed_progress(only_changed=True)
+        nak = self._nak().encode() if self._nak_owed or self.held else b""
         payloads = []
         group: list[bytes] = []
         for m in [*self.out, FRAME_BREAK]:
             if not m:  # FRAME_BREAK (every message has at least its type byte)
-                payloads += pack_messages(group, MAX_PAYLOAD)
+                payloads += pack_messages(group, MAX_PAYLOAD - len(nak))
                 group = []
             else:
                 group.append(m)
-        payloads = payloads or [b""]
+        payloads = [nak + p for p in payloads] or [nak]
         self.out = []
-        self.ack_due = self._ack_now = False
+        self.ack_due = self._ack_now = self._nak_owed = False
         if self.stream is None:
             return False
         wrote = False
@@ -236,6 +267,12 @@ class Device:
             wrote = wrote or n > 0
         self.counters["tx_dropped"] = getattr(self.stream, "tx_dropped", 0)
         return wrote
+
+    def _nak(self) -> Nak:
+        held = 0
+        for seq in self.held:
+            held |= 1 << ((seq - self.expected - 1) & 0x7F)
+        return Nak(self.expected, held)
 
     # --------------------------------------------------------------- time
     def advance(self, now_ns: int) -> None:
@@ -319,15 +356,10 @@ class Device:
 
     # ------------------------------------------------------------- frames
     def _on_frame(self, seq: int, payload: bytes) -> None:
-        try:
-            msgs = decode_messages(payload)
-        except ProtocolError:
-            self.counters["framing_errors"] += 1
-            return
         if self.session:
             self.last_rx_tick = self.machine.now
         if seq & UNSEQUENCED:
-            for m in msgs:
+            for m in self._decode(payload):
                 self._unsequenced(m)
             return
         if not self.session:
@@ -336,28 +368,48 @@ class Device:
             return
         d = seq_diff(seq, self.expected)
         self.ack_due = True
-        if d < 0:
+        if d < 0 or seq in self.held:
             self.counters["frames_duplicate"] += 1
             self._ack_now = True  # the host repeats itself: it waits for this
+            self._nak_owed = bool(self.held)
             return
         if d > 0:
+            # a gap: hold the frame if it is within the slots, and say what is missing -
+            # at once for a new gap, else with the next report
             self.counters["frames_out_of_order"] += 1
-            # one NAK per gap and round: again only once the host has begun resending
-            if self._nak_expected != self.expected or seq_diff(seq, self._nak_high) <= 0:
-                self._nak_expected = self.expected
-                self.out.append(Nak(self.expected).encode())
-            self._nak_high = seq
+            if not self.held:
+                self._nak_owed = True
+            if d <= self.rx_slots and len(payload) <= self.slot_payload:
+                self.held[seq] = payload
+                self.counters["frames_held"] += 1
             return
+        self._take(payload)
+        if self.held:
+            while self.expected in self.held:  # the gap is filled: the held ones follow
+                self._take(self.held.pop(self.expected))
+            self._ack_now = True
+            self._nak_owed = bool(self.held)
+
+    def _take(self, payload: bytes) -> None:
+        """The next frame in sequence: act on its messages, in order."""
         self.expected = (self.expected + 1) & 0x7F
         self.counters["frames_ok"] += 1
-        for m in msgs:
+        for m in self._decode(payload):
             self._sequenced(m)
+
+    def _decode(self, payload: bytes) -> list[Message]:
+        msgs, error = decode_prefix(payload)
+        if error:  # a message the device does not know: the rest of the frame is lost
+            self.counters["rejected"] += 1
+        return msgs
 
     def _unsequenced(self, m: Message) -> None:
         if isinstance(m, Hello):
             self._hello(m)
         elif isinstance(m, SyncRequest):
             self.out.append(SyncReply(m.stamp, self.machine.now & 0xFFFFFFFF).encode())
+        elif isinstance(m, Halt):
+            self._halt_stepper(m)
         elif isinstance(m, StatusRequest):
             self._queue_status()
         elif isinstance(m, Bye):
@@ -373,6 +425,7 @@ class Device:
                 return
             if not self.estopped:
                 self.estopped = True
+                self.estop_tick = self.machine.now
                 self._halt()
                 self._notify("emergency stop")
             self._queue_status()
@@ -392,8 +445,10 @@ class Device:
         watchdog_ms = (m.watchdog_ms or self.default_watchdog_ms) if new_session \
             else self.watchdog_ticks * 1000 // self.tps
         self.out.append(Ident(PROTOCOL_VERSION, m.nonce, self.boot_id, p.ticks_per_s,
-                              self.clock_hz, p.max_steppers, p.queue_len, RX_WINDOW,
-                              watchdog_ms, p.ticks_per_s // p.min_cmd_ticks, p.name).encode())
+                              self.clock_hz, p.max_steppers, self.ring_profile.queue_len,
+                              self.rx_slots, self.slot_payload, watchdog_ms,
+                              p.ticks_per_s // p.min_cmd_ticks, self.features,
+                              p.name).encode())
         # the state as the new host finds it (positions, a watchdog stop, counters) ...
         self._queue_status()
         if new_session:
@@ -408,7 +463,9 @@ class Device:
             self.watchdog_tripped = False
             self.estopped = False
             self.expected = 0
-            self._nak_expected = None
+            self.held.clear()
+            self._nak_owed = False
+            self.stops = {idx: StopState() for idx in self.queues}
             self.watchdog_ticks = self._ms_ticks(m.watchdog_ms or self.default_watchdog_ms)
             if m.report_ms:
                 self.report_ticks = self._ms_ticks(m.report_ms)
@@ -417,42 +474,48 @@ class Device:
             self._notify("session opened")
 
     def _sequenced(self, m: Message) -> None:
-        if isinstance(m, Entry):
-            self._entry(m)
-        elif isinstance(m, Start):
-            self._start(m)
-        elif isinstance(m, Pin):
-            self.machine.pins.set(m.pin, m.level, self.machine.now)
-        elif isinstance(m, ForceStop):
-            self._force_stop(m)
-        elif isinstance(m, SetEndPos):
-            self._set_end_pos(m)
-        elif isinstance(m, Config):
-            self._config(m)
-        elif isinstance(m, DirPin):
-            q = self._queue(m.stepper)
-            if q is not None:
-                q.dir_pin = m.dir_pin
-        elif isinstance(m, Detach):
-            q = self._queue(m.stepper)
-            if q is not None:
-                q.channel.detached = bool(m.detached)
-        elif isinstance(m, PcntAttach):
-            q = self._queue(m.stepper)
-            if q is not None:
-                q.channel.sync()
-                counter = PulseCounter(m.low, m.high, bool(m.dir_high_counts_up))
-                counter.value = m.value
-                q.channel.pulse_counter = counter
-        elif isinstance(m, PcntClear):
-            q = self._queue(m.stepper)
-            if q is not None and q.channel.pulse_counter is not None:
-                q.channel.sync()
-                q.channel.pulse_counter.clear()
-        elif isinstance(m, (OutputPwm, OutputSet, OutputCancel)):
-            self._output(m)
-        else:
+        handler = self.sequenced_handlers.get(type(m))
+        if handler is None:
             self.counters["rejected"] += 1
+        else:
+            handler(m)
+
+    def _default_handlers(self) -> dict[type[Message], Callable[[Message], None]]:
+        """The sequenced messages this device acts on (a new message type adds its
+        handler here: docs/serial-protocol.md, section 5)."""
+        return {Entry: self._entry, Start: self._start, Pin: self._pin,
+                ForceStop: self._force_stop, SetEndPos: self._set_end_pos,
+                Config: self._config, DirPin: self._dir_pin, Detach: self._detach,
+                PcntAttach: self._pcnt_attach, PcntClear: self._pcnt_clear,
+                Truncate: self._truncate, OutputPwm: self._output, OutputSet: self._output,
+                OutputCancel: self._output}
+
+    def _pin(self, m: Pin) -> None:
+        self.machine.pins.set(m.pin, m.level, self.machine.now)
+
+    def _dir_pin(self, m: DirPin) -> None:
+        q = self._queue(m.stepper)
+        if q is not None:
+            q.dir_pin = m.dir_pin
+
+    def _detach(self, m: Detach) -> None:
+        q = self._queue(m.stepper)
+        if q is not None:
+            q.channel.detached = bool(m.detached)
+
+    def _pcnt_attach(self, m: PcntAttach) -> None:
+        q = self._queue(m.stepper)
+        if q is not None:
+            q.channel.sync()
+            counter = PulseCounter(m.low, m.high, bool(m.dir_high_counts_up))
+            counter.value = m.value
+            q.channel.pulse_counter = counter
+
+    def _pcnt_clear(self, m: PcntClear) -> None:
+        q = self._queue(m.stepper)
+        if q is not None and q.channel.pulse_counter is not None:
+            q.channel.sync()
+            q.channel.pulse_counter.clear()
 
     # -------------------------------------------------- user outputs (issue 12)
     def _output(self, m: Message) -> None:
@@ -503,10 +566,11 @@ class Device:
             self.sim.channels.remove(q.channel)
             q = None
         if q is None:
-            q = StepperQueue(m.stepper, self.profile, self, m.step_pin)
+            q = StepperQueue(m.stepper, self.ring_profile, self, m.step_pin)
             self.queues[m.stepper] = q
         else:
             self._stop_queue(m.stepper, q)
+        self.stops[m.stepper] = StopState()
         q.dir_pin = m.dir_pin
         q.channel.pulses = 0
         q.channel.underruns = 0
@@ -519,7 +583,16 @@ class Device:
         ev = self.start_events.pop(stepper, None)
         if ev is not None:
             self.machine.cancel(ev)
+        if q.channel.running or ev is not None:
+            self.stop_ticks[stepper] = self.machine.now
         q.channel.force_stop()
+
+    def _discarding(self, stepper: int) -> bool:
+        """Halted or after a refused cut: this message for ``stepper`` is dropped."""
+        if self.stops[stepper].discarding:
+            self.counters["discarded"] += 1
+            return True
+        return False
 
     def _entry(self, m: Entry) -> None:
         q = self._queue(m.stepper)
@@ -527,6 +600,8 @@ class Device:
             return
         if self.watchdog_tripped or self.estopped:
             self.counters["rejected"] += 1
+            return
+        if self._discarding(m.stepper):
             return
         wp = q.next_write_idx
         gap = (m.index - wp) & 0x0F
@@ -569,6 +644,8 @@ class Device:
             if self.watchdog_tripped or self.estopped:
                 self.counters["rejected"] += 1
                 continue
+            if self._discarding(idx):
+                continue
             old = self.start_events.pop(idx, None)
             if old is not None:
                 self.machine.cancel(old)
@@ -594,10 +671,66 @@ class Device:
         # the position is where the pulses stopped; the host may rename it (SetEndPos)
         q.read_idx = q.next_write_idx = m.index & 0xFF
         q.queue_end_pos = q.channel.pulse_pos
+        st = self.stops[m.stepper]
+        st.halted = st.refused = False
+        st.halt_id = m.stop_id
+        self.sim._queue_idle()  # synchronized outputs wait for idle queues (section 16)
+
+    def _halt_stepper(self, m: Halt) -> None:
+        """Halt (unsequenced): stop one queue now; drop its motion until the ForceStop."""
+        q = self.queues.get(m.stepper)
+        if not self.session or m.nonce != self.nonce or q is None:
+            self.counters["rejected"] += 1
+            return
+        st = self.stops[m.stepper]
+        if m.stop_id == st.halt_id:
+            return  # a copy of a Halt already acted on (or whose ForceStop came)
+        st.halt_id = m.stop_id
+        st.halted = True
+        st.refused = False
+        self.counters["halts"] += 1
+        self.stop_ticks[m.stepper] = self.machine.now
+        self._stop_queue(m.stepper, q)
+        q.read_idx = q.next_write_idx
+        q.queue_end_pos = q.channel.pulse_pos
+        self._report(m.stepper)
+        self.sim._queue_idle()
+
+    def _truncate(self, m: Truncate) -> None:
+        """Drop the entries from ``m.index`` on, if none of them has begun (a cut)."""
+        q = self._queue(m.stepper)
+        if q is None:
+            return
+        st = self.stops[m.stepper]
+        if st.halted:
+            self.counters["discarded"] += 1
+            return
+        ch = q.channel
+        ch.sync()
+        rp, wp = q.read_idx, q.next_write_idx
+        fill = (wp - rp) & 0xFF
+        d = (m.index - rp) & 0xFF
+        if d > fill or (d == 0 and fill and ch.running):
+            # too late: the cut point has begun or passed; the queue runs on as it is
+            st.refused = True
+            self.counters["cuts_refused"] += 1
+            self._report(m.stepper)
+            return
+        st.refused = False
+        if d == fill:
+            return  # a cut at the write index drops nothing
+        self.counters["cuts"] += 1
+        i = m.index
+        while i != wp:
+            e = q.entries[i % q.queue_len]
+            q.queue_end_pos = i32(q.queue_end_pos - (e.total_steps if e.count_up
+                                                     else -e.total_steps))
+            i = (i + 1) & 0xFF
+        q.next_write_idx = m.index & 0xFF
 
     def _set_end_pos(self, m: SetEndPos) -> None:
         q = self._queue(m.stepper)
-        if q is None:
+        if q is None or self._discarding(m.stepper):
             return
         delta = i32(m.pos - q.queue_end_pos)
         if delta:
@@ -641,11 +774,23 @@ class Device:
             flags |= P_START_PENDING
         if ch.detached:
             flags |= P_DETACHED
+        st = self.stops.get(idx)
+        if st is not None:
+            if st.halted:
+                flags |= P_HALTED
+            if st.refused:
+                flags |= P_CUT_REFUSED
         pcnt = 0
         if ch.pulse_counter is not None:
             flags |= P_HAS_PCNT
             pcnt = ch.pulse_counter.read()
         return flags, rp, steps, pcnt
+
+    def _report(self, idx: int) -> None:
+        """Progress of queue ``idx`` in the next frame (a stop or a refused cut)."""
+        key = self._progress_key(idx, self.queues[idx])
+        self.last_progress[idx] = key
+        self.out.append(Progress(idx, *key).encode())
 
     def _changed_progress(self, only_changed: bool) -> None:
         for idx, q in self.queues.items():

@@ -28,7 +28,8 @@ class Loopback:
     def __init__(self, arch: str = "atmega328p", *, faults: Faults | None = None,
                  watchdog_ms: int = 500, record: bool = False, connect: bool = True,
                  device: str = "python", firmware: str | None = None,
-                 trace: str | None = None, **backend_options) -> None:
+                 trace: str | None = None, device_options: dict | None = None,
+                 **backend_options) -> None:
         self.clock = VirtualClock()
         self._dir = tempfile.mkdtemp(prefix="fas-loopback-")
         self.port_path = os.path.join(self._dir, "device")
@@ -45,7 +46,7 @@ class Loopback:
                                        baud=backend_options.get("baud", 115200))
         elif device == "python":
             self.device = Device(None, arch, self.clock, watchdog_ms=watchdog_ms,
-                                 record=record)
+                                 record=record, **(device_options or {}))
         else:
             raise ValueError(f"unknown device kind {device!r}")
         self.clock.add_peer(self.device)

@@ -107,10 +107,12 @@ class Console:
                  sleep: Sleep | None = None, input=None, output=None,
                  port: str | None = None, baud: int = 115200, watchdog_ms: int = 500,
                  backend=None, program: str = "demo",
-                 program_options: dict | None = None) -> None:
+                 program_options: dict | None = None,
+                 link_planning_ms: int | None = None) -> None:
         self.program = program  # which program the console hosts (stepperdemo.program)
         self.program_options = program_options or {}
         self.port, self.baud, self.watchdog_ms = port, baud, watchdog_ms  # issue 7
+        self.link_planning_ms = link_planning_ms  # issue 18
         self._given_backend = backend  # issue 7: a connected serial backend (tests)
         self.clock = clock
         self.sleep = sleep or asyncio.sleep
@@ -129,7 +131,7 @@ class Console:
     def _start(self, arch: str) -> None:
         if self.port or self._given_backend is not None:  # issue 7: a device does the work
             self.backend = self._given_backend or serial_cli.open_backend(
-                self.port, self.baud, self.watchdog_ms)
+                self.port, self.baud, self.watchdog_ms, self.link_planning_ms)
             self.port = self.port or self.backend.port or "?"
             serial_cli.console_attach(self, self.backend)
             self.scale = self.backend.clock_hz / self.backend.profile.ticks_per_s
@@ -330,7 +332,8 @@ def run_console(args) -> int:
                           baud=getattr(args, "baud", 115200),
                           watchdog_ms=getattr(args, "watchdog_ms", 500),
                           program=getattr(args, "program", "demo"),
-                          program_options=getattr(args, "program_options", None))
+                          program_options=getattr(args, "program_options", None),
+                          link_planning_ms=getattr(args, "link_planning_ms", None))
     except ConnectionError as exc:  # issue 7: fas.serial.SerialError
         print(msg.CLI_SERIAL_CONNECT.format(port=port, error=exc), file=sys.stderr)
         return serial_cli.EXIT_USAGE

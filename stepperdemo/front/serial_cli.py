@@ -40,21 +40,53 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="serial line speed for --port (default 115200)")
     ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
                     help="--port: the device stops all motion after MS of host silence")
+    ap.add_argument("--link-planning-ms", type=_planning_ms, default=None, metavar="MS",
+                    help="--port: plan MS beyond the library's forward-planning time "
+                         "(default: derived from the measured round trip and losses "
+                         "plus 50 ms for host stalls)")
 
 
-def open_backend(port: str, baud: int = 115200, watchdog_ms: int = 500):
+def _planning_ms(text: str) -> int:
+    try:
+        ms = int(text)
+    except ValueError:
+        ms = -1
+    if not 0 <= ms <= 10_000:
+        raise argparse.ArgumentTypeError(msg.SERIAL_BAD_PLANNING.format(ms=text))
+    return ms
+
+
+def open_backend(port: str, baud: int = 115200, watchdog_ms: int = 500,
+                 link_planning_ms: int | None = None):
     """A connected :class:`fas.serial.SerialBackend` (raises ``SerialError``)."""
     from fas.serial import SerialBackend
 
-    return SerialBackend(port, baud=baud, watchdog_ms=watchdog_ms)
+    return SerialBackend(port, baud=baud, watchdog_ms=watchdog_ms,
+                         link_planning_ms=link_planning_ms)
+
+
+def planning_line(backend) -> str:
+    """How far ahead the host plans for this link, and why."""
+    hz = backend.clock_hz
+    link = backend.link
+    return msg.SERIAL_PLANNING.format(
+        extra_ms=backend.planning_extra_ticks * 1000 // hz,
+        how=("set" if backend.link_planning_ms is not None else "measured"),
+        rtt_ms=backend.round_trip_ticks() * 1000 / hz,
+        rounds=backend.retry_rounds(), loss_pct=100 * (link.loss if link else 0.0),
+        queue_len=backend.profile.queue_len,
+        window=link.window if link else 0, payload=link.max_payload if link else 0)
 
 
 def stats_lines(backend) -> list[str]:
     """Link statistics, device counters and per-stepper figures, one line each."""
     lines = [msg.SERIAL_LINK_STATS.format(**backend.link_stats())]
+    if backend.connected:
+        lines.append(planning_line(backend))
     counters = backend.device_counters()
     if counters:
         lines.append(msg.SERIAL_DEVICE_STATS.format(**counters))
+        lines.append(msg.SERIAL_DEVICE_REPAIRS.format(**counters))
     for idx in sorted(backend.statuses):
         st = backend.statuses[idx]
         lines.append(msg.SERIAL_STEPPER_STATS.format(n=idx + 1, position=st.position,
@@ -74,7 +106,8 @@ def run_scripted(args: argparse.Namespace, write) -> int:
         print(msg.CLI_ERROR.format(problem=msg.SERIAL_NO_OBSERVE), file=sys.stderr)
         return EXIT_USAGE
     try:
-        backend = open_backend(args.port, args.baud, args.watchdog_ms)
+        backend = open_backend(args.port, args.baud, args.watchdog_ms,
+                               getattr(args, "link_planning_ms", None))
     except SerialError as exc:
         print(msg.CLI_SERIAL_CONNECT.format(port=args.port, error=exc), file=sys.stderr)
         return EXIT_USAGE
@@ -354,6 +387,10 @@ def relay_parser() -> argparse.ArgumentParser:
                     help="pace each direction to N baud, 10 bits a byte (0: no pacing)")
     ap.add_argument("--chunk-ms", type=float, default=0.0, metavar="MS",
                     help="deliver in bursts every MS (a USB adapter's latency timer)")
+    ap.add_argument("--stall-ms", type=float, default=0.0, metavar="MS",
+                    help="stop the line for MS (both ways) at every --stall-every-ms")
+    ap.add_argument("--stall-every-ms", type=float, default=0.0, metavar="MS",
+                    help="the period of the stalls (default: no stalls)")
     ap.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
     ap.add_argument("--link", metavar="PATH",
                     help="also make PATH a symbolic link to the host-side pty")
@@ -368,7 +405,8 @@ def run_relay(argv: Sequence[str]) -> int:
     try:
         faults = Faults(drop=args.drop, corrupt=args.corrupt, dup=args.dup,
                         latency_ms=args.latency_ms, baud=args.baud, seed=args.seed,
-                        chunk_ms=args.chunk_ms)
+                        chunk_ms=args.chunk_ms, stall_ms=args.stall_ms,
+                        stall_every_ms=args.stall_every_ms)
         device_side = open_serial(args.device)
     except (ValueError, LinkClosed) as exc:
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)

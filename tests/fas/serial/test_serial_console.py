@@ -44,6 +44,9 @@ def test_lost_device_is_one_line_and_reconnect_restores_the_session(tmp_path):
         assert any(line.startswith("link: ") and "2 session(s)" in line
                    for line in console.lines)
         assert any(line.startswith("device: ") for line in console.lines)
+        # issue 18: how far ahead the host plans, the device's queue and window
+        assert any(line.startswith("planning: ") and "device queue 64 entries" in line
+                   and "9 frames of 32 bytes" in line for line in console.lines)
 
 
 def test_simulator_only_commands_are_refused_on_a_device(tmp_path):
