@@ -9,8 +9,9 @@
  *
  * TIFR1 is never written: simavr 1.6 clears every flag of TIFR1 on any write to it
  * (the ATmega clears only the bits written as one), which would lose the other
- * channel's compare or the overflow of the tick counter.  A stale compare flag (a
- * match while the channel was idle) is consumed by letting its interrupt run once.
+ * channel's compare or the overflow of the tick counter.  The compare interrupts stay
+ * enabled, so every match is taken by its interrupt (an idle channel's are ignored);
+ * simavr would not run an interrupt for a flag raised while it was disabled.
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
@@ -102,7 +103,6 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
 #define ARM(X, q, compare, st, from_now)                                         \
     do {                                                                         \
         SET_COM(X, (((st) & SQ_ARMED) && !(q)->detached) ? COM_SET_##X : 0);     \
-        TIMSK1 |= _BV(OCIE1##X);                                                 \
         if (from_now)                                                            \
             OCR1##X = TCNT1 + START_TICKS;                                       \
         else                                                                     \
@@ -148,15 +148,14 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
             return;                                                              \
         }                                                                        \
         if (!(st & SQ_RUNNING)) {                                                \
-            /* a stale match flag consumed (SQ_FLUSH), or an idle channel */     \
-            TIMSK1 &= (uint8_t)~_BV(OCIE1##X);                                   \
+            /* an idle channel's match (every counter wrap), or one that was     \
+             * pending while a start was set up (SQ_FLUSH) */                    \
             q->state = 0;                                                        \
             return;                                                              \
         }                                                                        \
         if (st & SQ_FALLING) {                                                   \
             /* the pin went low: the next compare */                             \
             if (st & SQ_STOPPING) {                                              \
-                TIMSK1 &= (uint8_t)~_BV(OCIE1##X);                               \
                 SET_COM(X, 0);                                                   \
                 q->state = 0;                                                    \
                 main_wake |= WAKE_IDLE;                                          \
@@ -186,7 +185,6 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
             if (pulse) {                                                         \
                 q->state = SQ_RUNNING | SQ_FALLING | SQ_STOPPING;                \
             } else {                                                             \
-                TIMSK1 &= (uint8_t)~_BV(OCIE1##X);                               \
                 SET_COM(X, 0);                                                   \
                 q->state = 0;                                                    \
                 main_wake |= WAKE_IDLE;                                          \
@@ -357,9 +355,6 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
             "brne 1f\n\t"                                                        \
             /* an empty queue: stop (after the falling edge of a pulse) */       \
             "brts 2f\n\t"                                                        \
-            "lds r24, %[timsk1]\n\t"                                             \
-            "andi r24, lo8(~(" K(_BV(OCIE1##X)) "))\n\t"                           \
-            "sts %[timsk1], r24\n\t"                                             \
             "lds r24, %[tccr1a]\n\t"                                             \
             "andi r24, lo8(~(" K(COM_MASK_##X) "))\n\t"                            \
             "sts %[tccr1a], r24\n\t"                                             \
@@ -477,7 +472,7 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
               [next_com] "i"(&stepq[CH].next_com), [slow] "i"(&stepq[CH].slow), \
               [dir_reg] "i"(&stepq[CH].dir_reg), [dir_mask] "i"(&stepq[CH].dir_mask), \
               [tccr1a] "i"(_SFR_MEM_ADDR(TCCR1A)), [tcnt] "i"(_SFR_MEM_ADDR(TCNT1)), \
-              [ocr] "i"(_SFR_MEM_ADDR(OCR1##X)), [timsk1] "i"(_SFR_MEM_ADDR(TIMSK1)), \
+              [ocr] "i"(_SFR_MEM_ADDR(OCR1##X)), \
               [wake] "i"(&main_wake));                                           \
     }
 
@@ -497,11 +492,15 @@ void stepgen_init(void)
         stepq[ch].dir_reg = &no_dir_pin;
         stepq[ch].state = 0;
     }
+    /* the compare interrupts stay enabled: an idle channel's match (once per counter
+     * wrap) finds state 0 and returns, so no match flag is ever left stale */
+    TIMSK1 |= _BV(OCIE1A) | _BV(OCIE1B);
 }
 
-/* With interrupts off: put the channel's compare far ahead and make sure no stale
- * compare flag (a match while the channel was idle) is left: it is consumed by
- * letting the interrupt run once, never by writing TIFR1 (see the top). */
+/* With interrupts off: put the channel's compare far ahead and let a match that
+ * came just before (its interrupt pending: the compare interrupts stay enabled, an
+ * idle channel's matches are taken and ignored) run first, never by writing TIFR1
+ * (see the top). */
 static void prepare(uint8_t ch)
 {
     struct stepq *q = &stepq[ch];
@@ -512,7 +511,6 @@ static void prepare(uint8_t ch)
         OCR1B = TCNT1 + 0x8000u;
     if (TIFR1 & flag) {
         q->state = SQ_FLUSH;
-        TIMSK1 |= flag;  /* OCIE1x and OCF1x have the same bit */
         irq_on();
         while (q->state == SQ_FLUSH)
             ;
@@ -548,11 +546,8 @@ uint8_t stepgen_start_at(uint8_t ch, uint32_t at)
     uint8_t late = 0;
     for (;;) {
         cli();
-        if (q->state & SQ_PENDING) {
-            /* a new start replaces the one that waits */
-            TIMSK1 &= (uint8_t)~(ch == 0 ? _BV(OCIE1A) : _BV(OCIE1B));
-            q->state = 0;
-        }
+        if (q->state & SQ_PENDING)
+            q->state = 0;  /* a new start replaces the one that waits */
         if ((q->state & SQ_RUNNING) || q->rp == q->wp)
             break;
         prepare(ch);
@@ -590,7 +585,6 @@ void stepgen_force_stop(uint8_t ch)
     uint8_t sreg = irq_save();
     uint8_t st = q->state;
     if (st & SQ_PENDING) {
-        TIMSK1 &= (uint8_t)~(ch == 0 ? _BV(OCIE1A) : _BV(OCIE1B));
         q->state = 0;
     } else if (st & SQ_RUNNING) {
         uint8_t flag = ch == 0 ? _BV(OCF1A) : _BV(OCF1B);
@@ -606,13 +600,10 @@ void stepgen_force_stop(uint8_t ch)
         } else {
             /* the coming compare is far enough (or makes no pulse): nothing happens
              * on the pin any more */
-            if (ch == 0) {
-                TIMSK1 &= (uint8_t)~_BV(OCIE1A);
+            if (ch == 0)
                 SET_COM(A, 0);
-            } else {
-                TIMSK1 &= (uint8_t)~_BV(OCIE1B);
+            else
                 SET_COM(B, 0);
-            }
             q->state = 0;
         }
     }

@@ -24,14 +24,31 @@ extern volatile uint8_t main_wake;
 /* set by the sender while output waits for room in the transmit ring */
 extern volatile uint8_t uart_tx_waiting;
 
-/* receiving: bytes are read in place, then released */
-uint8_t uart_rx_count(void);
-uint8_t uart_rx_peek(uint8_t offset);  /* offset from the oldest unread byte */
-void uart_rx_drop(uint8_t n);
+/* receiving: bytes are read in place, then released (inline: every byte is read
+ * once at 1 000 000 baud) */
+extern volatile uint8_t uart_rx_buf[UART_RX_SIZE];
+extern volatile uint8_t uart_rx_head;  /* written by the interrupt; indices run mod 256 */
+extern volatile uint8_t uart_rx_tail;  /* main loop */
+
+static inline uint8_t uart_rx_count(void)
+{
+    return (uint8_t)(uart_rx_head - uart_rx_tail);
+}
+
+/* the byte `offset` after the oldest unread one */
+static inline uint8_t uart_rx_peek(uint8_t offset)
+{
+    return uart_rx_buf[(uint8_t)(uart_rx_tail + offset) % UART_RX_SIZE];
+}
+
+static inline void uart_rx_drop(uint8_t n)
+{
+    uart_rx_tail += n;
+}
 /* The tick at which the sync byte at `offset` arrived (or now, if unknown). */
 uint32_t uart_rx_sync_tick(uint8_t offset);
-extern volatile uint16_t uart_rx_overruns;  /* bytes lost: ring full or UART overrun */
-extern volatile uint16_t uart_rx_bad_bits;  /* stop bit missing (framing error) */
+/* bytes lost or damaged: the ring was full, the UART overran, or a stop bit was missing */
+extern volatile uint16_t uart_rx_overruns;
 
 /* transmitting */
 uint8_t uart_tx_free(void);

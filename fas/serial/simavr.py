@@ -369,6 +369,11 @@ class SimavrDevice:
             untouched += 1
         return len(ram) - untouched
 
+    def rx_overruns(self) -> int:
+        """Bytes the firmware's receive path lost (its ring full, or the UART's)."""
+        addr = symbol_address(self.elf, "uart_rx_overruns")
+        return int.from_bytes(self.read_memory(addr, 2), "little")
+
     def trace(self) -> Trace:
         """The pin changes so far."""
         if not self.closed:

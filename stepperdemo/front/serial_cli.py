@@ -249,7 +249,9 @@ def device_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="stepperdemo device",
         description="A device that speaks the serial protocol (docs/serial-protocol.md) "
-                    "and executes on the simulated machine in real time.")
+                    "and executes on the simulated machine in real time - or, with "
+                    "--simavr, the device firmware (firmware/) in the simavr AVR "
+                    "simulator.")
     where = ap.add_mutually_exclusive_group()
     where.add_argument("--pty", action="store_true",
                        help="serve a new pseudo-terminal and print its path (default)")

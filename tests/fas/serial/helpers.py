@@ -78,6 +78,7 @@ class FirmwareOutcome(Outcome):
     rx_log: list = field(default_factory=list)  # (cycle, bytes) the chip received
     busy: float = 0.0  # share of the chip's cycles not asleep
     stack_bytes: int = 0  # the deepest the chip's stack went
+    rx_overruns: int = 0  # bytes the chip's UART receive path lost
 
 
 def need_firmware() -> None:
@@ -142,4 +143,4 @@ def run_firmware(line: str, faults: Faults | None = None, baud: int = 115200,
                            for i, s in enumerate(steppers)],
             status_pulses=[backend.statuses[i].pulses for i in sorted(backend.statuses)],
             trace=trace, rx_log=dev.rx_log, busy=1 - info.sleep_cycles / info.cycle,
-            stack_bytes=dev.stack_used())
+            stack_bytes=dev.stack_used(), rx_overruns=dev.rx_overruns())

@@ -8,11 +8,8 @@ simavr harness in lockstep, so no protocol is involved.
 
 from __future__ import annotations
 
-import os
 import struct
 from dataclasses import dataclass, field
-
-import pytest
 
 from fas.queue import StepperQueue, i32
 from fas.serial import simavr
@@ -24,18 +21,6 @@ ENTRY, START_AT, START_NOW, STOP, DIR_PIN, PIN, DETACH, PCNT, SNAPSHOT = range(1
 STEP_PINS = (9, 10)
 QE_TOGGLE_DIR, QE_DIR_LEVEL, QE_COUNT_UP = 0x10, 0x20, 0x40
 PCNT_ON, PCNT_DIR_HIGH_UP = 0x01, 0x02
-
-
-def need_toolchain() -> None:
-    """Skip (with the reason) without the AVR toolchain - except on CI, where the
-    firmware tests must run: there a missing toolchain fails them."""
-    problem = simavr.toolchain_problem()
-    if problem is None:
-        return
-    if os.environ.get("CI"):
-        pytest.fail(f"CI: the firmware tests need the AVR toolchain and simavr: {problem}")
-    pytest.skip(f"firmware tests need the AVR toolchain and simavr ({problem}); "
-                "see README, 'Device firmware'")
 
 
 def build_rig() -> str:

@@ -67,13 +67,21 @@ def test_noisy_line_loses_and_repeats_no_command(line):
     assert c["frames_duplicate"] + c["frames_out_of_order"] > 0
 
 
-def test_one_megabaud_build_runs_the_lines():
-    line = LINES[5]
-    sim = run_sim(line)
-    fw = run_firmware(line, baud=1_000_000)
-    assert fw.positions == fw.pin_positions == sim.positions
-    assert fw.pin_pulses == sim.pulses
+TWO_25KHZ = "M1 A100000 V40 R20000 M2 A100000 V40 R-20000 W M2 W"
+
+
+@pytest.mark.parametrize("baud", [115200, 1_000_000])
+def test_two_steppers_at_25_khz(baud):
+    """The link's hardest case at both line speeds: every byte taken (the receive path
+    keeps up with 1 000 000 baud while both steppers run), no frame sent again, no
+    underrun."""
+    fw = run_firmware(TWO_25KHZ, baud=baud)
+    assert fw.positions == fw.pin_positions == [20000, -20000]
+    assert fw.pin_pulses == [20000, 20000]
     _check_clean(fw)
+    assert fw.rx_overruns == 0
+    assert fw.counters["underruns"] == fw.counters["late_starts"] == 0
+    assert fw.link["retransmissions"] == 0
 
 
 def _moving(lb: Loopback, steps: int = 100_000, run_ms: int = 500):

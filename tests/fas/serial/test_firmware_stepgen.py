@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import pytest
 
+from .helpers import need_firmware
 from .stepgen_rig import (
     DETACH,
     PCNT,
@@ -21,7 +22,6 @@ from .stepgen_rig import (
     Both,
     Rig,
     build_rig,
-    need_toolchain,
 )
 
 SIM_COMPARE_OFFSET = 1  # simavr: the compare matches one cycle after the counter value
@@ -29,7 +29,7 @@ SIM_COMPARE_OFFSET = 1  # simavr: the compare matches one cycle after the counte
 
 @pytest.fixture(scope="module")
 def rig_files():
-    need_toolchain()
+    need_firmware()
     return build_rig()
 
 
