@@ -26,8 +26,10 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import statistics
 import sys
+import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -95,8 +97,10 @@ def limits() -> None:
 
     elf = build_rig()
 
+    tmp = tempfile.mkdtemp(prefix="bench-firmware-")
+
     def on_time(period: int, channels: tuple[int, ...]) -> bool:
-        rig = Rig(elf, os.devnull)
+        rig = Rig(elf, os.path.join(tmp, "trace.txt"))
         both = Both(rig)
         for ch in channels:
             both.entry(ch, 250, period)
@@ -123,6 +127,7 @@ def limits() -> None:
         print(f"  {what}: {hi} ticks ({TPS / hi / 1000:.1f} kHz)")
     print("  (FastAccelStepper on the ATmega328P: 320 ticks for one stepper, 426 for two)")
     print()
+    shutil.rmtree(tmp, ignore_errors=True)
 
 
 def sustained(baud: int, seconds: float) -> tuple[float, float]:
