@@ -62,22 +62,33 @@ class QueueChannel(ABC):
 
 
 class PulseCounter:
-    """An independent counter of step pulses (ESP32's pcnt unit, simulated everywhere).
+    """An independent counter of step pulses (ESP32's pcnt unit).
 
-    Counts rising step edges up or down by the direction pin level.  On reaching
-    ``high`` (or ``low``) it resets to 0; with both limits 0 it wraps like an int16.
+    Counts rising step edges up or down by the direction: the direction pin's level
+    (``follow_direction``), or the level of a read-back GPIO (``readback``), or - with
+    neither - always up.  On reaching ``high`` (or ``low``) it resets to 0; with both
+    limits 0 it wraps like an int16.
     """
 
-    def __init__(self, low: int, high: int, dir_high_counts_up: bool = True) -> None:
+    def __init__(self, low: int, high: int, dir_high_counts_up: bool = True, *,
+                 follow_direction: bool = True,
+                 readback: Callable[[], int] | None = None) -> None:
         self.low = low
         self.high = high
         self.dir_high_counts_up = dir_high_counts_up
+        self.follow_direction = follow_direction
+        self.readback = readback
         self.value = 0
 
     def count(self, steps: int, dir_level: bool) -> None:
         if steps <= 0:
             return
-        up = dir_level == self.dir_high_counts_up
+        if self.readback is not None:
+            up = (self.readback() == 1) == self.dir_high_counts_up
+        elif self.follow_direction:
+            up = dir_level == self.dir_high_counts_up
+        else:
+            up = True
         v = self.value + (steps if up else -steps)
         if self.high == 0 and self.low == 0:
             v = ((v + 0x8000) & 0xFFFF) - 0x8000
@@ -116,6 +127,15 @@ class Backend(ABC):
     def wake_task(self) -> None:
         """The engine has work again: do not skip the next periodic run."""
 
+    @property
+    def task_period_ticks(self) -> int:
+        """Period of the periodic ramp task (``engine.task_rate()`` may change it)."""
+        return getattr(self, "_task_period", None) or self.profile.fill_period_ticks
+
+    def set_task_period(self, ticks: int) -> None:
+        """From the next run on, run the periodic task every ``ticks``."""
+        self._task_period = max(1, ticks)
+
     @abstractmethod
     def allocate_channel(self, queue: StepperQueue) -> QueueChannel:
         """Create the executor for ``queue`` (its ``step_pin`` and ``index`` are set)."""
@@ -145,6 +165,12 @@ class Backend(ABC):
 
     def detach_step_pin(self, queue: StepperQueue, detached: bool) -> None:
         """Hand the step pin to the application (``detached``) or back to the library."""
+
+    def reset_chip(self) -> None:
+        """Reboot the microcontroller (ESP32's ``ESP.restart()``): every channel stops,
+        the periodic task ends, outputs fall back to LOW; the clock keeps running.
+        The caller builds a new :class:`~fas.engine.Engine` afterwards."""
+        raise NotImplementedError(f"{type(self).__name__} cannot reboot its chip")
 
     # --- user outputs (issue 12, fas.outputs) ---
     def configure_pwm(self, number: int, pin: int, setting: PwmSetting, count: int) -> None:

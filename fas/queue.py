@@ -45,6 +45,10 @@ class QueueEntry:
 class StepperQueue:
     """Ring buffer of commands shared by the library (writer) and a channel (reader)."""
 
+    # False: the driver cannot tell how far the running command got (ESP32 RMT, I2S);
+    # get_current_position() then reports the command's start position
+    position_in_command = True
+
     def __init__(self, index: int, profile: Profile, backend: Backend, step_pin: int):
         self.index = index
         self.profile = profile
@@ -142,7 +146,8 @@ class StepperQueue:
         e = self.entries[rp % self.queue_len]
         if e.steps == 0:
             return e.end_pos
-        return i32(e.end_pos - e.steps if e.count_up else e.end_pos + e.steps)
+        left = e.steps if self.position_in_command else e.total_steps
+        return i32(e.end_pos - left if e.count_up else e.end_pos + left)
 
     # ------------------------------------------------------------- writing
     def add_queue_entry(self, ticks: int | None, steps: int = 0, count_up: bool = True,

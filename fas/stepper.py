@@ -15,31 +15,41 @@ from .codes import (
     HIGH,
     LOW,
     PIN_EXTERNAL_FLAG,
+    PIN_I2S_FLAG,
     PIN_UNDEFINED,
     RAMP_DIRECTION_COUNT_UP,
     TICKS_FOR_STOPPED_MOTOR,
     AqeResult,
     DelayResult,
+    FasDriver,
     MoveResult,
 )
+from .errors import UnsupportedError
 from .queue import StepperQueue, i32
 from .quickstep.clock import QsConfigResult
 from .ramp.generator import RampGenerator
+from .timed import TimedMove, move_timed
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .arch import DriverPool
     from .engine import Engine
     from .quickstep.planner import QuickStepPlanner
 
 PLANNER_FAS = 0  # FastAccelStepper's ramp generator (default)
 PLANNER_QUICKSTEP = 1  # QuickStep's plateau orders (fas.quickstep)
 
+DRIVER_NAMES = {FasDriver.MCPWM_PCNT: "MCPWM_PCNT", FasDriver.RMT: "RMT",
+                FasDriver.I2S_DIRECT: "I2S_DIRECT", FasDriver.I2S_MUX: "I2S_MUX"}
+
 
 class Stepper:
-    def __init__(self, engine: Engine, queue: StepperQueue) -> None:
+    def __init__(self, engine: Engine, queue: StepperQueue,
+                 pool: DriverPool | None = None) -> None:
         profile = engine.profile
         self._engine = engine
         self._profile = profile
         self._queue = queue
+        self._pool = pool
         self._step_pin = queue.step_pin
         self._dir_pin = PIN_UNDEFINED
         self._dir_high_counts_up = True
@@ -78,6 +88,10 @@ class Stepper:
 
     def set_direction_pin(self, dir_pin: int, dir_high_counts_up: bool = True,
                           dir_change_delay_us: int = 0) -> None:
+        if (dir_pin != PIN_UNDEFINED and dir_pin & PIN_EXTERNAL_FLAG
+                and not self._profile.external_dir_pin):
+            raise UnsupportedError("an external direction pin (PIN_EXTERNAL_FLAG)",
+                                   self._profile.name, "on ESP32 and AVR except ATmega32U4")
         self._dir_pin = dir_pin
         self._dir_high_counts_up = bool(dir_high_counts_up)
         if dir_pin != PIN_UNDEFINED:
@@ -85,7 +99,10 @@ class Stepper:
             if dir_pin & PIN_EXTERNAL_FLAG:
                 self._engine.call_external_pin(dir_pin, level)
             else:
-                self._engine.backend.write_pin(dir_pin, level)
+                if (self._profile.has_i2s and dir_pin & PIN_I2S_FLAG
+                        and self.driver_kind() == FasDriver.I2S_MUX):
+                    self._engine.claim_mux_slot(dir_pin & 0x1F)
+                self._engine.write_output(dir_pin, level)
         self._queue.dir_pin = dir_pin
         self._queue.dir_high_counts_up = bool(dir_high_counts_up)
         p = self._profile
@@ -102,14 +119,13 @@ class Stepper:
         return self._dir_high_counts_up
 
     def set_enable_pin(self, enable_pin: int, low_active_enables_stepper: bool = True) -> None:
-        backend = self._engine.backend
         if low_active_enables_stepper:
             self._enable_pin_low_active = enable_pin
             if enable_pin != PIN_UNDEFINED:
                 if enable_pin & PIN_EXTERNAL_FLAG:
                     self._engine.call_external_pin(enable_pin, HIGH)
                 else:
-                    backend.write_pin(enable_pin, HIGH)
+                    self._engine.write_output(enable_pin, HIGH)
                     if self._enable_pin_high_active == enable_pin:
                         self._enable_pin_high_active = PIN_UNDEFINED
         else:
@@ -118,7 +134,7 @@ class Stepper:
                 if enable_pin & PIN_EXTERNAL_FLAG:
                     self._engine.call_external_pin(enable_pin, LOW)
                 else:
-                    backend.write_pin(enable_pin, LOW)
+                    self._engine.write_output(enable_pin, LOW)
                     if self._enable_pin_low_active == enable_pin:
                         self._enable_pin_low_active = PIN_UNDEFINED
 
@@ -175,7 +191,7 @@ class Stepper:
             return True
         if pin & PIN_EXTERNAL_FLAG:
             return self._engine.call_external_pin(pin, level) == level
-        self._engine.backend.write_pin(pin, level)
+        self._engine.write_output(pin, level)
         return True
 
     def enable_outputs(self) -> bool:
@@ -299,6 +315,9 @@ class Stepper:
         return (250 * self._profile.ticks_per_s) // self.get_max_speed_in_ticks() * 4
 
     def set_absolute_speed_limit(self, max_speed_in_ticks: int) -> None:
+        if not self._profile.abs_speed_limit:
+            raise UnsupportedError("set_absolute_speed_limit()", self._profile.name,
+                                   "on AVR, ESP32 and the Pico")
         self._queue.max_speed_in_ticks = max_speed_in_ticks & 0xFFFF
 
     def set_speed_in_ticks(self, min_step_ticks: int) -> int:
@@ -659,16 +678,22 @@ class Stepper:
                                         start=start)
                 return AqeResult.DIR_PIN_2MS_PAUSE_ADDED if res == AqeResult.OK else res
         elif dir_change_needed and steps != 0:
+            pool = self._pool
+            before_delay = pool.before_dir_change_ticks if pool is not None else 0
             after_delay = self._dir_change_delay_ticks
-            if after_delay > 0:
-                if q.queue_entries() >= q.queue_len - 2:
-                    return AqeResult.DIR_PIN_IS_BUSY
-                res = q.add_queue_entry(max(after_delay, self._profile.min_cmd_ticks), 0,
-                                        count_up, start=start)
-                if res != AqeResult.OK:
-                    return res
-            elif q.queue_entries() >= q.queue_len - 1:
+            if pool is not None:
+                after_delay = max(after_delay, pool.after_dir_change_ticks)
+            if q.last_command_ticks >= before_delay:
+                before_delay = 0  # the last command already lasts long enough
+            needed = 1 + (before_delay > 0) + (after_delay > 0)
+            if q.queue_entries() >= q.queue_len - needed:
                 return AqeResult.DIR_PIN_IS_BUSY
+            for delay in (before_delay, after_delay):
+                if delay > 0:
+                    res = q.add_queue_entry(max(delay, self._profile.min_cmd_ticks), 0,
+                                            count_up, start=start)
+                    if res != AqeResult.OK:
+                        return res
 
         res = q.add_queue_entry(ticks, steps, count_up, start=start)
         if res == AqeResult.OK and self._auto_enable:
@@ -711,6 +736,13 @@ class Stepper:
     def has_ticks_in_queue(self, min_ticks: int) -> bool:
         return self._queue.has_ticks_in_queue(min_ticks)
 
+    def move_timed(self, steps: int, duration: int, start: bool = True) -> TimedMove:
+        """``steps`` (signed) within ``duration`` ticks, past the ramp generator.
+
+        Returns ``(result, actual_duration)``: a :class:`~fas.codes.MoveTimedResult`
+        and the ticks the queued commands really last (see :mod:`fas.timed`)."""
+        return move_timed(self, steps, duration, start)
+
     # ------------------------------------------------------------ pin control
     def detach_from_pin(self) -> None:
         self._engine.backend.detach_step_pin(self._queue, True)
@@ -718,12 +750,54 @@ class Stepper:
     def reattach_to_pin(self) -> None:
         self._engine.backend.detach_step_pin(self._queue, False)
 
+    # ------------------------------------------------------- driver type (ESP32)
+    def driver_kind(self) -> int | None:
+        """The step generator's FasDriver value (None where the chip has no pools)."""
+        return None if self._pool is None else FasDriver(self._pool.driver)
+
+    def driver_type(self) -> FasDriver:
+        if not self._profile.driver_select:
+            raise UnsupportedError("driver_type()", self._profile.name,
+                                   "on ESP32 builds with two or more driver types")
+        return FasDriver(self._pool.driver) if self._pool is not None else FasDriver.DONT_CARE
+
+    def driver_type_string(self) -> str:
+        if not self._profile.driver_select:
+            raise UnsupportedError("driver_type_string()", self._profile.name,
+                                   "on ESP32 builds with two or more driver types")
+        return DRIVER_NAMES.get(self.driver_type(), "UNSPECIFIED")
+
     # ---------------------------------------------------------- pulse counter
     def attach_to_pulse_counter(self, pcnt_unit: int = 0, low_value: int = -16384,
-                                high_value: int = 16384) -> bool:
+                                high_value: int = 16384,
+                                dir_pin_readback: int = PIN_UNDEFINED) -> bool:
+        """Count this stepper's pulses in a free pcnt unit (ESP32 only).
+
+        Counts up towards ``high_value`` and down (direction pin at its counting-down
+        level) towards ``low_value``, resetting to 0 there; 0/0 wraps like an int16.
+        The direction comes from the direction pin, or from ``dir_pin_readback`` - a
+        GPIO that shows the level of an external direction pin; without either, every
+        pulse counts up.  ESP-IDF 4: ``pcnt_unit`` is the unit (units of MCPWM/PCNT
+        steppers are taken); ESP-IDF 5 picks a free unit itself."""
+        p = self._profile
+        if not p.has_pulse_counter:
+            raise UnsupportedError("attach_to_pulse_counter()", p.name,
+                                   "on ESP32 builds with a pulse counter (ESP-IDF < 5.5)")
         if not (-32768 <= low_value <= 0 <= high_value <= 32767):
             return False
-        counter = PulseCounter(low_value, high_value, self._dir_high_counts_up)
+        if not self._engine.claim_pulse_counter(pcnt_unit, self):
+            return False
+        readback = None
+        dir_pin = dir_pin_readback if dir_pin_readback != PIN_UNDEFINED else self._dir_pin
+        if dir_pin == PIN_UNDEFINED or dir_pin & PIN_EXTERNAL_FLAG:
+            follow = False
+        else:
+            follow = True
+            if dir_pin != self._dir_pin:
+                backend = self._engine.backend
+                readback = lambda: backend.read_pin(dir_pin)  # noqa: E731
+        counter = PulseCounter(low_value, high_value, self._dir_high_counts_up,
+                               follow_direction=follow, readback=readback)
         if not self._engine.backend.attach_pulse_counter(self._queue, counter):
             return False
         self._pulse_counter = counter

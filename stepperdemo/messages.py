@@ -512,3 +512,51 @@ SERIAL_BAD_PLANNING = "{ms} is not a time of 0 .. 10000 ms"
 SERIAL_DEVICE_REPAIRS = ("device: {frames_held} frames held after a gap, {cuts} queue cuts "
                          "({cuts_refused} refused), {halts} halts, {discarded} discarded")
 # ------------------------------------------------------------ end of issue 18 texts
+
+# ---------------------------------------------------------------------------------------
+# issue 17: StepperDemo on the other platforms of FastAccelStepper 1.2.7
+# start-up prompt for a pin configuration (ESP32, Pico), byte-exact as the firmware
+SELECT_PIN_CONFIG = "Select pin configuration:"
+CONFIG_ENTRY_INDENT = "  "
+CONFIG_ENTRY_SEP = ": "
+PRESS_NUMBER_TO_SELECT = "Press number to select, else 0"
+USING_CONFIG = "Using config "
+ESP32_LOG_START = "LOG start\r\n"  # printf() through the ESP-IDF console (CR LF)
+ESP_IDF = "ESP-IDF: "
+ESP_RESTART = "ESP restart"
+ESP_RESET = "ESP reset"
+# status line and stepper table (ESP32)
+PCNT_OPEN = " ["
+PCNT_CLOSE = "]"
+DRIVER_TYPE_SEP = " "
+# the console could not do what the firmware does (e.g. restart a device behind --port)
+RESTART_UNSUPPORTED = "(restart is not possible on this backend: {reason})"
+
+# usage lines of the other builds, our words (the AVR text above keeps its length)
+_USAGE_ESP32_LINES = [
+    "    r         ... restart the chip (ESP.restart())",
+    "    reset     ... reset the chip by its watchdog",
+    "    p<n>      ... attach pulse counter n (n<=7)",
+    "    p<n>,l,h  ... attach pulse counter n (n<=7), limits low,high",
+    "    pc        ... clear the pulse counter",
+]
+_SMALL_BUILD_DROPS = ("    W ", "    w<ms>", "    + ", "    - ", "    T ", "    t ", "    u ")
+_AVR_ONLY = ("    r         ... stray",)
+
+
+def usage_normal(*, esp32: bool, avr: bool, small: bool) -> str:
+    """The normal-mode usage of one build of the firmware (the AVR text is
+    :data:`USAGE_NORMAL`).  As in the firmware, ESP32 builds list the pulse-counter
+    commands even where the chip has none."""
+    if avr and not small:
+        return USAGE_NORMAL
+    lines = []
+    for line in _USAGE_NORMAL_LINES:
+        if small and line.startswith(_SMALL_BUILD_DROPS):
+            continue
+        if not avr and line.startswith(_AVR_ONLY):
+            continue
+        if esp32 and line.startswith("    t "):
+            lines.extend(_USAGE_ESP32_LINES)
+        lines.append(line)
+    return NL.join(lines) + NL + NL

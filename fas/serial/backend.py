@@ -494,10 +494,20 @@ class SerialBackend(Backend):
         self._task_next = 0
 
     def _task_time(self, index: int) -> int:
-        return self._task_origin + index * self.profile.fill_period_ticks
+        return self._task_origin + index * self.task_period_ticks
+
+    def set_task_period(self, ticks: int) -> None:
+        """``engine.task_rate()``: runs after the last one follow the new period."""
+        if self._engine is None:
+            super().set_task_period(ticks)
+            return
+        last_time = self._task_time(self._task_index)
+        super().set_task_period(ticks)
+        self._task_origin = last_time - self._task_index * self.task_period_ticks
+        self._task_next = self._task_index + 1
 
     def _run_task(self) -> None:
-        period = self.profile.fill_period_ticks
+        period = self.task_period_ticks
         idx = self._task_next
         late = (self.now() - self._task_time(idx)) // period
         if late > 0:
@@ -520,7 +530,7 @@ class SerialBackend(Backend):
     def wake_task(self) -> None:
         if self._engine is None:
             return
-        period = self.profile.fill_period_ticks
+        period = self.task_period_ticks
         due = self._task_index + 1
         now = self.now()
         if now > self._task_time(due):

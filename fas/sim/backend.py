@@ -51,7 +51,21 @@ class SimBackend(Backend):
         self._schedule_task(0)
 
     def _task_time(self, index: int) -> int:
-        return self._task_origin + index * self.profile.fill_period_ticks
+        return self._task_origin + index * self.task_period_ticks
+
+    def set_task_period(self, ticks: int) -> None:
+        """``engine.task_rate()``: runs after the last one follow the new period."""
+        if self._engine is None:
+            super().set_task_period(ticks)
+            return
+        last = self._task_index
+        last_time = self._task_time(last)
+        super().set_task_period(ticks)
+        self._task_origin = last_time - last * self.task_period_ticks
+        self.machine.cancel(self._task_event)
+        self._task_event = None
+        self._task_next = None
+        self.wake_task()
 
     def _schedule_task(self, index: int) -> None:
         self._task_event = self.machine.schedule(self._task_time(index),
@@ -87,7 +101,7 @@ class SimBackend(Backend):
         if getattr(self, "_engine", None) is None:
             return
         m = self.machine
-        period = self.profile.fill_period_ticks
+        period = self.task_period_ticks
         due = self._task_index + 1
         if m.now > self._task_time(due):
             due = self._task_index + 1 + -(-(m.now - self._task_time(self._task_index + 1))
@@ -97,7 +111,35 @@ class SimBackend(Backend):
         m.cancel(self._task_event)
         self._schedule_task(due)
 
+    def reset_chip(self) -> None:
+        m = self.machine
+        for ch in self.channels:
+            ch.force_stop()
+            on_block = getattr(ch, "_on_block", None)
+            if on_block in m.block_listeners:
+                m.block_listeners.remove(on_block)
+            if ch in m.block_sources:
+                m.block_sources.remove(ch)
+        if self._qs_load is not None and self._qs_load in m.block_sources:
+            m.block_sources.remove(self._qs_load)
+        self._qs_load = None
+        self.channels = []
+        self._sync_outputs.clear()
+        m.cancel(self._task_event)
+        self._task_event = None
+        self._task_next = None
+        self._engine = None
+        self._task_period = None
+        t = m.cpu_now()
+        for pin in list(m.outputs.waves):  # PWM timers stop: the pins go LOW
+            m.outputs.set_digital(pin, 0, t)
+        for pin, level in list(m.pins.level.items()):
+            if level:
+                m.pins.set(pin, 0, t)
+
     def allocate_channel(self, queue: StepperQueue) -> SimChannel:
+        # the platform drivers' init: the step pin becomes an output driven LOW
+        self.machine.pins.set(queue.step_pin, 0, self.machine.cpu_now())
         ch = SimChannel(self.machine, queue)
         ch.on_idle = self._queue_idle
         self.channels.append(ch)

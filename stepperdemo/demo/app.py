@@ -19,6 +19,7 @@ from collections import deque
 from typing import Callable
 
 from fas import Engine
+from fas.arch import DemoConfig
 from fas.backend import Backend
 from fas.codes import PIN_UNDEFINED, RAMP_STATE_MASK
 
@@ -89,12 +90,34 @@ class StepperDemo(Program):
     title = "StepperDemo"
 
     def __init__(self, backend: Backend, *, scripted: bool = True,
-                 output: Callable[[bytes], None] | None = None) -> None:
+                 output: Callable[[bytes], None] | None = None,
+                 test_mode_wait: bool = False) -> None:
         self.backend = backend
-        self.engine = Engine(backend)
         self.scripted = scripted
         self.output = output
         self.transcript = bytearray()
+        # extension, off by default: `w<ms>` also in test mode (the firmware answers
+        # "Unknown command" there)
+        self.test_mode_wait = test_mode_wait
+        self.restarts = 0
+        self._reset_state()
+        self.rx: deque[int] = deque()
+        self.script = b""
+        self.script_pos = 0
+        self.script_loaded = False
+        self.input_consumed_at: int | None = None
+        self.test_failed_count = 0
+        self.tests_completed = 0
+        self.passes = 0
+        self.commands = 0
+        self.rejected = 0
+        self.ramp_aborts = 0
+        self.listeners: list[Callable[[str, bytes], None]] = []
+
+    def _reset_state(self) -> None:
+        """Power-on state of the firmware's globals (also after an ESP32 restart)."""
+        self.engine = Engine(self.backend)
+        self.engine.ramp_abort_listener = self._ramp_abort
         self.steppers: list = [None] * self.profile.max_steppers
         self.mode = Mode.NORMAL
         self.test_ongoing = False
@@ -113,22 +136,14 @@ class StepperDemo(Program):
         self.pause_start = 0
         self.simulate_digital_read_error = False
         self.simulate_blocked_isr = False
-        self.script = b""
-        self.script_pos = 0
-        self.script_loaded = False
-        self.rx: deque[int] = deque()
-        self.input_consumed_at: int | None = None
         self.waiting_interactive = False  # interactive W holding the input
-        self.qs_hold = None  # a QuickStep stepper whose move waits for FIFO room
-        self.test_failed_count = 0
-        self.tests_completed = 0
-        self.passes = 0
-        self.commands = 0
-        self.rejected = 0
-        self.ramp_aborts = 0
-        self.listeners: list[Callable[[str, bytes], None]] = []
-        self.engine.ramp_abort_listener = self._ramp_abort
+        self.restart_pending = False
         self._setup_done = False
+        self._setup_started = False
+        self._select_start_ms = 0  # the start-up prompt for a pin configuration
+        self.config_index = 0
+        self.demo_config: DemoConfig = DemoConfig("", self.profile.demo_steppers)
+        self.qs_hold = None  # a QuickStep stepper whose move waits for FIFO room
         self.gcode = None  # issue 12: the G-code machine of the g mode
 
     # ------------------------------------------------------------- output
@@ -183,10 +198,22 @@ class StepperDemo(Program):
             self.print(bytes(text) + b"\r\n")
 
     # -------------------------------------------------------------- setup
+    @property
+    def demo_steppers(self):
+        """The pin configuration in use (chosen at start-up on ESP32 and the Pico)."""
+        return self.demo_config.steppers
+
     def setup(self) -> None:
-        if self._setup_done:
+        """The firmware's ``setup()``.
+
+        Where the firmware first offers its pin configurations (ESP32, Pico), it then
+        waits up to 5 s for a digit on the serial line; that wait runs in the
+        following loop passes (:meth:`loop_pass`) so that an interactive user can
+        answer.  A scripted run has no serial input in that phase: it waits the 5 s.
+        """
+        if self._setup_started:
             return
-        self._setup_done = True
+        self._setup_started = True
         b = self.backend
         boot = self.profile.sim_boot_ticks
         if self.script_loaded:  # the built-in line is start-up data copied at reset
@@ -194,16 +221,72 @@ class StepperDemo(Program):
         b.app_spend(boot)
         b.app_started()
         b.app_spend(self.profile.sim_setup_head_ticks)
+        configs = self.profile.demo_configs
+        if not configs:
+            self._finish_setup()
+            return
+        self.println(msg.SELECT_PIN_CONFIG)
+        for i, cfg in enumerate(configs):
+            self.print(msg.CONFIG_ENTRY_INDENT)
+            self.print(str(i))
+            self.print(msg.CONFIG_ENTRY_SEP)
+            self.println(cfg.name)
+        self.println(msg.PRESS_NUMBER_TO_SELECT)
+        self._select_start_ms = b.millis()
+        if self.scripted:
+            while not self._setup_done:
+                self._select_pass()
+
+    def _select_pass(self) -> None:
+        """One turn of the start-up prompt's wait: poll a character, else 10 ms delay."""
+        b = self.backend
+        if self.rx and not self.scripted:
+            ch = self.rx.popleft()
+            if 0x30 <= ch <= 0x39:
+                n = ch - 0x30
+                if n < len(self.profile.demo_configs):
+                    self.config_index = n
+                self._finish_setup()
+                return
+        if ((b.millis() - self._select_start_ms) & 0xFFFFFFFF) >= self.profile.demo_config_wait_ms:
+            self._finish_setup()
+            return
+        b.app_wait_until(b.now() + 10 * self.profile.ticks_per_ms)
+
+    def _finish_setup(self) -> None:
+        b = self.backend
+        p = self.profile
+        configs = p.demo_configs
+        if configs:
+            self.demo_config = configs[self.config_index]
+            self.print(msg.USING_CONFIG)
+            self.print(str(self.config_index))
+            self.print(msg.CONFIG_ENTRY_SEP)
+            self.println(self.demo_config.name)
+        if p.family == "esp32":
+            self.print(msg.ESP32_LOG_START)
+            self.println()
+            self.print(msg.ESP_IDF)
+            self.print(str(p.idf_version[0]))
+            self.print(".")
+            self.print(str(p.idf_version[1]))
+            self.println()
+        self._setup_done = True
         self.print(msg.BANNER_VERSION)
-        self.println(msg.BANNER_F_CPU + str(self.profile.f_cpu))
-        self.println(msg.BANNER_TICKS + str(self.profile.ticks_per_s))
-        self.println(msg.BANNER_STEPPERS + str(self.profile.max_steppers))
+        self.println(msg.BANNER_F_CPU + str(p.f_cpu))
+        self.println(msg.BANNER_TICKS + str(p.ticks_per_s))
+        self.println(msg.BANNER_STEPPERS + str(p.max_steppers))
         self.engine.init()
-        if self.profile.debug_led_pin != PIN_UNDEFINED:
-            self.engine.set_debug_led(self.profile.debug_led_pin)
-        b.app_spend(self.profile.sim_setup_steppers_ticks)
-        for i, cfg in enumerate(self.profile.demo_steppers):
-            s = self.engine.stepper_connect_to_pin(cfg.step)
+        if p.debug_led_pin != PIN_UNDEFINED:
+            self.engine.set_debug_led(p.debug_led_pin)
+        b.app_spend(p.sim_setup_steppers_ticks)
+        for i, cfg in enumerate(self.demo_steppers[:p.max_steppers]):
+            if cfg.step == PIN_UNDEFINED:
+                break
+            if p.driver_select:
+                s = self.engine.stepper_connect_to_pin(cfg.step, cfg.driver)
+            else:
+                s = self.engine.stepper_connect_to_pin(cfg.step)
             if s is None:
                 break
             s.set_direction_pin(cfg.direction, cfg.direction_high_counts_up,
@@ -215,6 +298,17 @@ class StepperDemo(Program):
             s.set_delay_to_disable(cfg.off_delay_ms)
             self.steppers[i] = s
         self.usage()
+
+    def restart(self) -> None:
+        """ESP32's ``ESP.restart()`` / watchdog reset: the chip reboots, the firmware
+        starts again from ``setup()``.  Motion stops, the library starts empty; the
+        input that follows is taken after the new start-up."""
+        self.backend.reset_chip()
+        self.restarts += 1
+        self._reset_state()
+        self.restart_pending = True
+        self.read_ptr = self.write_ptr = 0
+        self.setup()
 
     # --------------------------------------------------------------- input
     def load_script(self, line: str | bytes) -> None:
@@ -244,7 +338,16 @@ class StepperDemo(Program):
 
     def _info(self, s, long_info: bool) -> None:
         self.print("@")
-        self.print(str(s.get_current_position()))
+        if self.profile.has_pulse_counter and s.pulse_counter_attached():
+            pcnt_1 = s.read_pulse_counter()
+            pos = s.get_current_position()
+            pcnt_2 = s.read_pulse_counter()
+            self.print(str(pos))
+            self.print(msg.PCNT_OPEN + str(pcnt_1) + msg.PCNT_CLOSE)
+            if pcnt_1 != pcnt_2:
+                self.print(msg.PCNT_OPEN + str(pcnt_2) + msg.PCNT_CLOSE)
+        else:
+            self.print(str(s.get_current_position()))
         if s.is_running():
             if s.is_running_continuously():
                 self.print(msg.STATUS_NONSTOP)
@@ -293,6 +396,8 @@ class StepperDemo(Program):
             if not only_running or s.is_running():
                 self.print("M" + str(i + 1) + ": ")
                 self._info(s, not only_running)
+                if self.profile.driver_select and not s.is_running():
+                    self.print(msg.DRIVER_TYPE_SEP + s.driver_type_string())
                 if not only_running:
                     self.println()
                 else:
@@ -308,8 +413,12 @@ class StepperDemo(Program):
             self.print(msg.STRAY_DIGITAL_READ_ENABLED)
 
     def usage(self) -> None:
+        p = self.profile
         if self.mode == Mode.NORMAL:
-            self.print(msg.USAGE_NORMAL)
+            self.print(msg.usage_normal(esp32=p.family == "esp32", avr=p.family == "avr",
+                                        small=p.demo_small_build))
+        elif p.demo_small_build:
+            pass  # the ATmega32U4 build has no test and config usage texts
         elif not self.scripted:
             self.print(msg.USAGE_TEST if self.mode == Mode.TEST else msg.USAGE_CONFIG)
         else:  # built-in-input firmware: the text is empty, the table is still scanned
@@ -324,14 +433,27 @@ class StepperDemo(Program):
         """One pass of StepperDemo's ``loop()``."""
         b = self.backend
         self.passes += 1
+        if not self._setup_done:
+            self._select_pass()
+            return
+        take_input = True
+        if self.waiting_interactive:  # interactive W: the firmware busy-waits in it
+            if self.selected_stepper.is_running():
+                b.app_spend(self.profile.sim_loop_pass_ticks)
+                return
+            self.waiting_interactive = False
+            self.println(msg.STOPPED)
+            take_input = False  # the rest of the pass that took the W
         ch = 0
-        if self.scripted:
+        if not take_input:
+            pass
+        elif self.scripted:
             if self.script_pos < len(self.script):
                 ch = self.script[self.script_pos]
                 self.script_pos += 1
             elif self.read_ptr == self.write_ptr and self.input_consumed_at is None:
                 self.input_consumed_at = b.now()
-        elif self.rx and not self.waiting_interactive:
+        elif self.rx:
             ch = self.rx.popleft()
         if ch:
             if ((self.write_ptr + 1) & 0xFF) == self.read_ptr:
@@ -339,15 +461,12 @@ class StepperDemo(Program):
             self.in_buffer[self.write_ptr] = ch
             self.write_ptr = (self.write_ptr + 1) & 0xFF
 
-        if self.pause_ms > 0:
+        if not take_input:
+            pass
+        elif self.pause_ms > 0:
             if ((b.millis() - self.pause_start) & 0xFFFFFFFF) >= self.pause_ms:
                 self.pause_ms = 0
                 self.print(msg.WAIT_COMPLETE)
-        elif self.waiting_interactive:
-            s = self.selected_stepper
-            if not s.is_running():
-                self.waiting_interactive = False
-                self.println(msg.STOPPED)
         elif self.qs_hold is not None:
             qs_console.service_hold(self)
         elif self.mode == Mode.GCODE and self.read_ptr != self.write_ptr:
@@ -370,6 +489,12 @@ class StepperDemo(Program):
                         self.rejected += 1
                         self.print(msg.UNKNOWN_COMMAND)
                         self.println(cmd)
+                    if self.waiting_interactive or self.restart_pending:
+                        # W blocks inside the command; a restart ends the old program
+                        self.restart_pending = False
+                        self.out_buffer.clear()
+                        b.app_spend(self.profile.sim_loop_pass_ticks)
+                        return
                 self.out_buffer.clear()
 
         ms = b.millis()
@@ -434,6 +559,10 @@ class StepperDemo(Program):
         event or when ``millis()`` reaches a deadline, and :meth:`_wake_time` wakes
         the loop at the earliest of those.
         """
+        if not self._setup_done:
+            return False  # the start-up prompt polls the serial line every 10 ms
+        if self.waiting_interactive:
+            return True  # only the selected stepper's stop can end W
         if self.simulate_digital_read_error:
             return False  # every pass makes a stray read that we count
         if self.simulate_blocked_isr and (self.backend.millis() & 0xFF) < 0x40:
@@ -462,7 +591,7 @@ class StepperDemo(Program):
     def _needs_machine_events(self) -> bool:
         """False when only the clock can end the current wait (test sequences that
         wait for time): then the loop need not look at every interrupt."""
-        if self.mode != Mode.TEST or not self.test_ongoing:
+        if self.mode != Mode.TEST or not self.test_ongoing or self.waiting_interactive:
             return True
         return any(slot.test is not None and slot.state != TEST_STATE_ERROR
                    and slot.wake_ms is None for slot in self.test_slots)

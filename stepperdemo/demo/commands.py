@@ -116,11 +116,9 @@ def cmd_wait_stop(app: StepperDemo, arg: bytes) -> bool:
         if s.is_running() or app.test_ongoing:
             app.read_ptr = (app.read_ptr - 2) & 0xFF
         return True
+    # interactive, in both modes as the firmware: block on the selected stepper (the
+    # loop, test sequences included, stands still meanwhile), then "STOPPED"
     app.print(msg.BLOCKING_WAIT)
-    if app.mode == Mode.TEST:
-        if app.test_ongoing:
-            app.waiting_interactive = True
-        return True
     if not s.is_running_continuously() or s.is_stopping():
         if s.is_running():
             app.waiting_interactive = True
@@ -170,12 +168,57 @@ def cmd_config_mode(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
-@command("r", Mode.NORMAL, hint="stray digitalRead() on/off (AVR)")
+@command("r", Mode.NORMAL, hint="AVR: stray digitalRead() on/off; ESP32: restart/reset")
 def cmd_stray_read(app: StepperDemo, arg: bytes) -> bool:
+    if app.profile.family == "esp32":
+        if arg == b"eset":
+            app.println(msg.ESP_RESET)
+            return _restart(app)
+        if not arg:
+            app.println(msg.ESP_RESTART)
+            return _restart(app)
+        return False
     if arg or not app.profile.has_stray_digital_read:
         return False
     app.print(msg.STRAY_DIGITAL_READ_TOGGLE)
     app.simulate_digital_read_error = not app.simulate_digital_read_error
+    return True
+
+
+def _restart(app: StepperDemo) -> bool:
+    try:
+        app.restart()
+    except NotImplementedError as exc:
+        app.println(msg.RESTART_UNSUPPORTED.format(reason=exc))
+    return True
+
+
+def _i16(v: int) -> int:
+    v &= 0xFFFF
+    return v - 0x10000 if v & 0x8000 else v
+
+
+@command("p", Mode.NORMAL, hint="ESP32: attach pulse counter n[,low,high] / pc clear",
+         arg="<n>")
+def cmd_pulse_counter(app: StepperDemo, arg: bytes) -> bool:
+    if not app.profile.has_pulse_counter:
+        return False
+    s = app.selected_stepper
+    if arg == b"c":
+        app.print(msg.CLEAR_PULSE_COUNTER)
+        s.clear_pulse_counter()
+        return True
+    values = _values(arg)
+    if values is None or len(values) == 2:
+        return False
+    app.print(msg.ATTACH_PULSE_COUNTER)
+    app.println(_i32(values[0]))
+    if len(values) == 3:
+        ok = s.attach_to_pulse_counter(values[0] & 0xFF, _i16(values[1]), _i16(values[2]))
+    else:
+        ok = s.attach_to_pulse_counter(values[0] & 0xFF)
+    if not ok:
+        app.print(msg.PULSE_COUNTER_ERROR)
     return True
 
 
@@ -269,8 +312,10 @@ def cmd_enable_delay(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
-@command("w", Mode.NORMAL, Mode.TEST, hint="hold input for ms", arg="<ms>")
+@command("w", Mode.NORMAL, hint="hold input for ms", arg="<ms>")
 def cmd_wait_ms(app: StepperDemo, arg: bytes) -> bool:
+    if app.mode == Mode.TEST and not app.test_mode_wait:
+        return False  # the firmware knows `w` in normal mode only
     value = _number(arg)
     if value is None:
         return False
@@ -279,6 +324,9 @@ def cmd_wait_ms(app: StepperDemo, arg: bytes) -> bool:
     app.pause_ms = value & 0xFFFFFFFF
     app.pause_start = app.backend.millis()
     return True
+
+
+TABLE[(Mode.TEST, ord("w"))] = cmd_wait_ms  # answers only with app.test_mode_wait
 
 
 def _simple(letter: str, text: str, action: Callable, hint: str) -> None:
@@ -355,14 +403,14 @@ _one_step("-", msg.STEPPED_BACKWARD, False, "one step backward")
 
 @command("T", Mode.NORMAL, hint="direct-drive self test")
 def cmd_direct_drive(app: StepperDemo, arg: bytes) -> bool:
-    if arg:
+    if arg or app.profile.demo_small_build:
         return False
     s = app.selected_stepper
     if not s.is_running():
         app.print(msg.TEST_DIRECT_DRIVE)
         s.detach_from_pin()
         from .direct_drive import test_direct_drive
-        test_direct_drive(app, app.profile.demo_steppers[app.selected])
+        test_direct_drive(app, app.demo_steppers[app.selected])
         s.reattach_to_pin()
     return True
 
@@ -379,9 +427,9 @@ def cmd_run_tests(app: StepperDemo, arg: bytes) -> bool:
 
 def _select_sequence(first: str) -> Handler:
     def handler(app: StepperDemo, arg: bytes) -> bool:
-        from .testseq import SEQUENCES
+        from .testseq import sequences_for
         code = first + arg.decode("latin-1")
-        seq = SEQUENCES.get(code)
+        seq = sequences_for(app.profile).get(code)
         if seq is None:
             return False
         app.print(msg.SELECT_TEST_SEQUENCE)
@@ -399,6 +447,8 @@ HELP[Mode.TEST].append(("01..13", "assign a test sequence"))
 # ---------------------------------------------------------------- config mode
 @command("d", Mode.CONFIG, hint="direction pin p[,n[,t]] or dc", arg="<p,n,t>")
 def cmd_direction_pin(app: StepperDemo, arg: bytes) -> bool:
+    if app.profile.demo_small_build:
+        return False  # not in the ATmega32U4 build
     s = app.selected_stepper
     if arg == b"c":
         app.print(msg.DISABLED)

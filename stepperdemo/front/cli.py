@@ -48,7 +48,10 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
                     help="run LINE on virtual time, print the transcript, exit when the "
                          "input is consumed and every stepper is idle")
     ap.add_argument("--arch", default="atmega328p", choices=sorted(PROFILES),
-                    help="architecture profile (default: atmega328p)")
+                    metavar="ARCH",
+                    help="architecture profile (default: atmega328p): " + ", ".join(PROFILES)
+                    + " (ESP32 chips without a suffix: the oldest ESP-IDF upstream builds "
+                    "them with; _idf5/_idf6: ESP-IDF 5.3 / 6)")
     ap.add_argument("--max-time", type=float, default=3600.0, metavar="SECONDS",
                     help="give up a scripted run after this much simulated time "
                          "(default 3600 s; a W on a stepper that never stops ends here)")
@@ -57,6 +60,10 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
                          "the last input character was taken")
     ap.add_argument("--lf", action="store_true",
                     help="print LF line ends instead of the firmware's CR LF")
+    ap.add_argument("--test-mode-wait", action="store_true",
+                    help="extension: accept w<ms> in test mode too (the firmware answers "
+                         "'Unknown command' there), to let endless test sequences run "
+                         "for a while in a -c line")
     ap.add_argument("--speed", type=float, default=1.0, metavar="FACTOR",
                     help="interactive: run the simulated clock FACTOR times real time")
     ap.add_argument("--history", metavar="FILE",
@@ -85,6 +92,8 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
     except OSError as exc:
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return EXIT_USAGE
+    if getattr(args, "test_mode_wait", False):  # the demo's extension: w in test mode
+        args.program_options = {**getattr(args, "program_options", {}), "test_mode_wait": True}
     app = make_program(args.program, backend, scripted=True, output=write,
                        **getattr(args, "program_options", {}))
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)

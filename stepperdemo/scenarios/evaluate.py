@@ -22,7 +22,7 @@ from fas.arch import Profile
 from fas.codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
 from fas.sim import SimBackend
 
-LETTERS = "ABCDEF"
+LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"  # stepper 1 = A ... (ESP32 has up to 14 in the demo)
 
 
 @dataclass
@@ -88,17 +88,18 @@ def pin_activity(backend: SimBackend, pin: int) -> PinActivity:
 
 
 def position_from_pins(backend: SimBackend, step_pin: int, dir_pin: int,
-                       high_counts_up: bool = True) -> int:
+                       high_counts_up: bool = True, since: int = 0) -> int:
     """Step edges counted up while the direction pin is at its counting-up level
     (HIGH unless ``high_counts_up`` is False), down otherwise.  Without a direction
-    pin on the chip (none, or an external one) every step counts up."""
+    pin on the chip (none, or an external one) every step counts up.  ``since``:
+    only edges from this tick on (the chip was restarted then)."""
     times, levels = backend.recorder.pin_edges(step_pin)
     if dir_pin == PIN_UNDEFINED or dir_pin & PIN_EXTERNAL_FLAG:
-        return sum(1 for lv in levels if lv)
+        return sum(1 for t, lv in zip(times, levels) if lv and t >= since)
     dtimes, dlevels = backend.recorder.pin_edges(dir_pin)
     pos = 0
     for t, lv in zip(times, levels):
-        if not lv:
+        if not lv or t < since:
             continue
         i = bisect.bisect_right(dtimes, t) - 1
         level = dlevels[i] if i >= 0 else 0

@@ -239,7 +239,8 @@ class StepperMotion:
                 self.last_interval = interval
             if planned is not None:
                 self._deviation(interval - planned)
-            speed = self.tps / interval if up else -self.tps / interval
+            if interval:  # 0: two edges in one tick (a pin shared with another role)
+                speed = self.tps / interval if up else -self.tps / interval
         self.new_motion = False
         self.last_rise = t
         if self._dir_edge is not None:
@@ -300,6 +301,8 @@ class StepperMotion:
         if prev is None:
             return
         dt = (mid - prev[1]) / self.tps
+        if not dt:
+            return
         if speed * prev[0] < 0:  # a reversal counts as deceleration
             acc = -abs(speed - prev[0]) / dt
         else:
