@@ -169,6 +169,9 @@ class Profile:
     sim_uart_isr_ticks: int  # transmit interrupt, once per buffered character
     sim_millis_overflow_ticks: int  # Arduino timer0 overflow period (millis() source)
     sim_irq_block_ticks: int = 0  # StepperDemo's `e`: length of one blocked section
+    # characters the serial driver's receive buffer holds; more arriving while the
+    # program does not read are lost (the console device's line, issue 15)
+    sim_uart_rx_buffer: int = 63
     # --- serial firmware (docs/serial-protocol.md): RAM budget of the device ---
     ram_bytes: int = 0  # the chip's data RAM
     serial_reserved_bytes: int = 0  # firmware RAM besides queue rings and frame slots
@@ -376,6 +379,7 @@ _AVR_TIMING = dict(
     sim_uart_isr_ticks=114,
     sim_millis_overflow_ticks=64 * 256,
     sim_irq_block_ticks=100 * 16,
+    sim_uart_rx_buffer=63,  # HardwareSerial: a 64-byte ring keeps one slot free
 )
 
 _AVR_PRESCALERS_T0_T1 = (1, 8, 64, 256, 1024)  # timers 0, 1, 3, 4, 5 (CS bits)
@@ -708,6 +712,7 @@ _ESP32_TIMING = dict(
     sim_uart_isr_ticks=0,
     sim_millis_overflow_ticks=16000,
     sim_irq_block_ticks=100 * 16,
+    sim_uart_rx_buffer=256,  # the Arduino-ESP32 core's default receive buffer
 )
 
 
@@ -874,6 +879,7 @@ SAM_DUE = Profile(
     sim_uart_isr_ticks=0,
     sim_millis_overflow_ticks=21000,
     sim_irq_block_ticks=100 * 21,
+    sim_uart_rx_buffer=127,  # UARTClass: a 128-byte ring keeps one slot free
     family="sam",
     step_pin_channel_groups=True,
     abs_speed_limit=False,

@@ -387,6 +387,121 @@ RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {droppe
 # --------------------------------------------------------------- end of serial texts
 
 # ---------------------------------------------------------------------------------------
+# The board console (issue 15): stepperdemo --board DEVICE, -c on a board, run --board,
+# device --pty --console.  Console texts, not part of the firmware.
+BOARD_WELCOME = ("stepperdemo {version} in front of the board at {port} ({baud} baud). "
+                 "Type StepperDemo commands, /help for console commands, Ctrl-D to quit.")
+BOARD_HELP = """Console commands (everything else goes to the board):
+  /help              this text
+  /quit              leave (Ctrl-D does the same)
+  /stop              X to every stepper: stop at once (Ctrl-C does the same)
+  /reset             restart the board (DTR pulse; a pty is closed and opened again)
+  /reconnect [port]  open the board again after it was lost, or another port
+  /state             what the board's answers say: mode, stepper, toggles, positions
+  /time              session time and lines received
+  /plot [FILE.png]   position and speed from the status lines: terminal, or PNG
+  /report            report from the status lines per stepper
+Input is sent one command at a time; after W it waits until the board's wait is over
+(in test mode: until the test completed), as a W in a StepperDemo line means."""
+BOARD_LOST = "board lost: {reason} - /reconnect restores the session"
+BOARD_NOT_CONNECTED = "no board ({reason}) - /reconnect first; the line was not sent"
+BOARD_RESTARTED = "the board restarted (start banner): normal mode, M1 selected{dropped}"
+BOARD_RESTART_DROPPED = "; {n} waiting command(s) dropped"
+BOARD_RECONNECTED = "board back on {port}"
+BOARD_RECONNECT_FAILED = "reconnect failed: {error}"
+BOARD_RESET_SENT = "reset: {how}"
+BOARD_RESET_DTR = "DTR pulsed"
+BOARD_RESET_REOPEN = "port closed and opened again (no DTR line on it)"
+BOARD_STOP_SENT = "stop: X sent to {steppers}{left}"
+BOARD_STOP_LEFT_MODE = " (left {mode} mode first: X is a normal-mode command)"
+BOARD_STOP_SPINNING = ("the board spins in W and reads nothing until the stepper stops; "
+                       "/reset stops it now")
+BOARD_NOT_ON_BOARD = "{cmd}: not on a board (its chip and clock are its own)"
+BOARD_TIME = "session {t:.3f} s; {lines} lines received, {status} of them status lines"
+BOARD_STATE = ("board: {mode} mode, M{selected} selected, status lines {verbose}, usage after "
+               "stop {usage}; running: {running}; positions: {positions}")
+BOARD_STATE_HELD = "input waits for the board: {why} ({n} command(s) queued)"
+BOARD_ON = "on"
+BOARD_OFF = "off"
+BOARD_NONE = "-"
+BOARD_TOOLBAR = " board {port} "
+BOARD_TOOLBAR_STATUS = " {mode} mode | M{selected} | running {running} | {held}t={t:.1f}s | "
+BOARD_TOOLBAR_HELD = "waits: {why} | "
+BOARD_TOOLBAR_LOST = " LOST - /reconnect | "
+LOG_HEADER = ("# stepperdemo {version} board log: {port} at {baud} baud, started {start}; "
+              "seconds since the start, > sent, < received, # console")
+LOG_SENT = "{t:10.3f} > {text}"
+LOG_RECEIVED = "{t:10.3f} < {text}"
+LOG_NOTE = "{t:10.3f} # {text}"
+CLI_BOARD_CONNECT = "stepperdemo: cannot open the board at {port}: {error}"
+CLI_BOARD_LOST = "stepperdemo: board lost: {reason}"
+CLI_BOARD_RESTARTED = "stepperdemo: the board restarted during the run (start banner)"
+CLI_BOARD_INTERRUPTED = "stepperdemo: interrupted; stop sent (X to {steppers})"
+CLI_BOARD_MAX_TIME = ("stepperdemo: stopped waiting after {seconds:g} s (--max-time): "
+                      "the board was still busy ({why})")
+CLI_BOARD_NO_PINS = ("--vcd and --steps-csv record the simulated pins; a board shows only "
+                     "its text (--plot and --report work from its status lines)")
+CLI_BOARD_NOT_DEMO = "--board: the board runs StepperDemo, not {program!r}"
+CLI_BOARD_AND_PORT = "--board and --port exclude each other"
+CLI_BOARD_TIMES = "--quiet-ms must be at least 50, --boot-wait not negative"
+CLI_CONSOLE_NO_PORT = "--console serves a new pty: leave out --port"
+BOARD_BUSY_WHY = {
+    "input": "input still waiting to be sent", "W": "a W waits for the board's answer",
+    "W stop": "a W waits for the stepper to stop", "W test": "a W waits for the test",
+    "T": "the direct-drive test runs", "answer": "a command waits for its answer",
+    "spinning": "the board spins in W", "pausing": "a w<ms> pause", "test": "a test runs",
+    "motion": "a stepper runs: the table after its stop has not come",
+    "output": "the board is printing",
+}
+
+# status-line plots and report (/plot, /report, --plot, --report on a board)
+STATUS_REPORT_TITLE = ("status-line report: {source}, {start:.3f} .. {end:.3f} s, {lines} status "
+                       "lines (one per 100 ms while a stepper runs and I is on)")
+STATUS_REPORT_NONE = "  no status lines yet"
+STATUS_REPORT_STEPPER = "M{n}  {lines} status lines, first {first:.3f} s, last {last:.3f} s"
+STATUS_REPORT_POSITION = "  position     {start} -> {end} (net {net:+d}){final}"
+STATUS_REPORT_FINAL = "; {final} in the last stepper table"
+STATUS_REPORT_SPEED = ("  speed        peak {speed:.0f} steps/s planned (v=); from successive "
+                       "lines acceleration up to {acc:.0f}, deceleration up to {dec:.0f} "
+                       "steps/s^2")
+STATUS_REPORT_RAMP = "  ramp         {states} (status lines per ramp state)"
+STATUS_REPORT_RUNS = ("  runs         {runs}; {gaps} pause(s) of more than {gap_ms} ms between "
+                      "lines while running (the board was busy: W, T, long prints)")
+
+# stepperdemo run --board: scenario files on a board, and the twin check
+RUN_BOARD_HELP = ("run the scenario files on a board running StepperDemo (reset by DTR "
+                  "between files) and compare with the simulation (twin check)")
+RUN_BOARD_SKIPPED = "the board runs StepperDemo, not program {program!r}"
+RUN_BOARD_NO_BANNER = "no start banner within {seconds:g} s of the reset"
+RUN_BOARD_PROFILE = "board banner F_CPU={f_cpu} TICKS_PER_S={ticks} Steppers={steppers}"
+RUN_BOARD_NO_WATCH = ("--vcd, --steps-csv, --plot, --report and --timing-report read the "
+                      "simulated pins; with --board there are none")
+RUN_BOARD_PINS_NOTE = ("pulses, direction and enable counts, pulse and enable times are not "
+                       "checked: a board shows only its text")
+RUN_BOARD_MATCHES_NOTE = ("whole-transcript references are of the built-in-input firmware; "
+                          "on a board (interactive firmware) only contains/not_contains apply")
+RUN_TWIN_TITLE = "twin check: the board and the simulation for the same input"
+RUN_TWIN_COLUMNS = ("scenario", "M", "board", "sim", "diff", "lines", "first dt", "last dt",
+                    "max dt")
+RUN_TWIN_CAPTION = ("positions in steps; lines: status lines on the board/simulation; dt: "
+                    "status-line time board - simulation in s, from the first command sent "
+                    "(first line, last line, largest of the pairs)")
+RUN_TWIN_SUMMARY = ("twin check: {steppers} stepper(s), largest position difference {pos}, "
+                    "largest status-line time difference {dt:.3f} s")
+RUN_BOARD_END = {"idle": "idle", "max_time": "max time reached", "lost": "board lost",
+                 "reset": "board restarted"}
+
+# stepperdemo device --pty --console: the simulated StepperDemo firmware on a pty
+CONSOLE_DEVICE_LISTENING = ("console device {profile} ({title}) on {path}{link}, clock "
+                            "x{speed:g}: StepperDemo's text console, restarted whenever a host "
+                            "opens the port; Ctrl-C ends")
+CONSOLE_DEVICE_EVENT = "console: {event}"
+CONSOLE_DEVICE_OPENED = "host opened the port: firmware restarted"
+CONSOLE_DEVICE_CLOSED = "host closed the port"
+CONSOLE_DEVICE_STATS = ("console: {resets} start(s), {rx} characters received ({dropped} lost: "
+                        "receive buffer full), {tx} sent ({tx_lost} not taken by the host)")
+CONSOLE_DEVICE_POSITIONS = "console: positions {positions}"
+# ------------------------------------------------------------ end of board console texts
 # QuickStep planner (issue 14): config commands l/q/p/b, status and table additions,
 # the input hold of a move that waits for FIFO room, report lines.  Console texts, not
 # part of the firmware.

@@ -611,6 +611,9 @@ class StepperDemo(Program):
     def _wake_time(self) -> int | None:
         """Earliest tick at which an idle loop could have something to do."""
         b = self.backend
+        if self.waiting_interactive:  # only the stepper's stop ends the spin (a machine event)
+            nxt = b.next_event_time()
+            return None if nxt is None else max(nxt, b.now())
         candidates = []
         if self._needs_machine_events():
             nxt = b.next_event_time()

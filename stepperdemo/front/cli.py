@@ -10,7 +10,7 @@ from fas.arch import PROFILES
 
 from .. import messages as msg
 from ..watch import observe
-from . import serial_cli
+from . import board, serial_cli
 
 EXIT_OK = 0
 EXIT_TEST_FAILED = 1
@@ -30,14 +30,21 @@ and print the transcript as the firmware would.
 With --port DEVICE: the same, the queue commands executed by a device behind a
 serial port or pty (real time; see docs/serial-protocol.md).
 
+With --board DEVICE: the same console in front of a board running the original
+StepperDemo sketch (its text console over the serial port); -c runs the line on
+the board and ends when the board is idle.
+
 Subcommands:
-  stepperdemo run FILES|FOLDERS ...   run scenario files (sequences/*.toml)
-  stepperdemo device --pty            a simulated device on a new pty (--help)
+  stepperdemo run FILES|FOLDERS ...   run scenario files (sequences/*.toml);
+                                      --board DEVICE: on a board, with the twin check
+  stepperdemo device --pty            a simulated device on a new pty (--help);
+                                      --console: the simulated StepperDemo firmware
   stepperdemo relay DEVICE            a fault-injecting relay to a device (--help)
   stepperdemo gcode FILE|-            run G-code (user outputs M62-M68; --help)
 
 exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
-            3 --max-time reached, 4 a scenario failed (run), 5 device lost"""
+            3 --max-time reached, 4 a scenario failed (run), 5 device lost
+            (--board: the board was lost or restarted), 130 interrupted"""
 
 
 def build_parser(program: str = "demo") -> argparse.ArgumentParser:
@@ -70,6 +77,7 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
                     help="interactive: history file (default: in the user state directory)")
     observe.add_arguments(ap)  # --vcd --plot --plot-size --report --steps-csv (issue 6)
     serial_cli.add_arguments(ap)  # --port --baud --watchdog-ms (issue 7)
+    board.add_arguments(ap)  # --board --log --quiet-ms --boot-wait (issue 15)
     ap.set_defaults(program=program)
     return ap
 
@@ -86,6 +94,8 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
 
     if args.port:  # issue 7: a device behind a serial port executes the queue commands
         return serial_cli.run_scripted(args, write)
+    if getattr(args, "board", None):  # issue 15: a board running the original StepperDemo
+        return board.run_scripted(args, write)
     backend = SimBackend(args.arch)
     try:  # watching the run (issue 6): --vcd, --plot, --report, --steps-csv
         observers = observe.from_arguments(backend, args)
@@ -134,6 +144,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USAGE
     if args.command is not None:
         return run_scripted(args)
+    if getattr(args, "board", None):  # issue 15
+        return board.run_console(args)
     from .console import run_console
     return run_console(args)
 

@@ -19,7 +19,7 @@ from typing import Awaitable, Callable, Iterable
 from prompt_toolkit import PromptSession
 from prompt_toolkit.completion import Completer, Completion
 from prompt_toolkit.formatted_text import FormattedText
-from prompt_toolkit.history import FileHistory, InMemoryHistory
+from prompt_toolkit.history import InMemoryHistory
 from prompt_toolkit.patch_stdout import patch_stdout
 from prompt_toolkit.shortcuts import print_formatted_text
 
@@ -29,6 +29,7 @@ from fas.sim import SimBackend
 from .. import messages as msg
 from ..program import Program, make_program
 from . import serial_cli  # issue 7: --port, /reconnect /link /estop
+from .mode_history import ModeHistory
 from .trace_commands import META_COMMANDS as TRACE_META_COMMANDS
 from .trace_commands import TraceCommands
 
@@ -91,7 +92,7 @@ class ProgramCompleter(Completer):
     def get_completions(self, document, complete_event) -> Iterable[Completion]:
         word = document.get_word_before_cursor(WORD=True)
         if word.startswith("/"):
-            for name, hint in META_COMMANDS.items():
+            for name, hint in self.console.meta_commands.items():
                 if name.startswith(word):
                     yield Completion(name, -len(word), display_meta=hint)
             return
@@ -102,6 +103,8 @@ class ProgramCompleter(Completer):
 
 
 class Console:
+    meta_commands = META_COMMANDS  # what Tab offers after "/"
+
     def __init__(self, arch: str = "atmega328p", *, scale: float = 1.0,
                  history: str | None = None, clock: Clock = time.monotonic,
                  sleep: Sleep | None = None, input=None, output=None,
@@ -124,6 +127,8 @@ class Console:
         self.history = self._make_history(history)
         self.lines: list[str] = []  # everything shown, for tests
         self.quit = False
+        self.prompt_session: PromptSession | None = None
+        self._history_mode: str | None = None
         self.trace = TraceCommands(lambda: self.app)  # /trace /vcd /plot /report (issue 6)
         self._start(arch)
 
@@ -148,7 +153,7 @@ class Console:
         try:
             target.parent.mkdir(parents=True, exist_ok=True)
             target.touch(exist_ok=True)
-            return FileHistory(str(target))
+            return ModeHistory(str(target), lambda: self.app.mode_name())
         except OSError as exc:
             self._note(msg.REPL_HISTORY_FAILED.format(error=exc))
             return InMemoryHistory()
@@ -268,10 +273,21 @@ class Console:
         self._wake.set()
 
     # ---------------------------------------------------------- main loop
+    def follow_mode(self) -> None:
+        """The history offers the lines of the program's input mode: reload it when the
+        mode changes (the line being typed stays)."""
+        mode = self.app.mode_name()
+        if mode != self._history_mode and self.prompt_session is not None:
+            buf = self.prompt_session.default_buffer
+            buf.reset(document=buf.document)
+            self.prompt_session.app.invalidate()
+        self._history_mode = mode
+
     async def ticker(self) -> None:
         while not self.quit:
             delay = self.driver.advance()
             self.flush()
+            self.follow_mode()
             if self.app.input_pending():
                 delay = 0.0 if delay is None else min(delay, 0.001)
             # sleep until the program next needs the CPU; typed input wakes us earlier
@@ -290,17 +306,25 @@ class Console:
         for task in pending:
             task.cancel()
 
-    async def run(self) -> int:
+    def welcome(self) -> str:
         p = self.backend.profile
         if self.port:  # issue 7
-            self._note(msg.REPL_WELCOME_SERIAL.format(version=msg.VERSION, profile=p.name,
-                                                      port=self.port))
-        else:
-            self._note(msg.REPL_WELCOME.format(version=msg.VERSION, profile=p.name,
-                                               mode=f"x{self.scale:g} real time"))
+            return msg.REPL_WELCOME_SERIAL.format(version=msg.VERSION, profile=p.name,
+                                                  port=self.port)
+        return msg.REPL_WELCOME.format(version=msg.VERSION, profile=p.name,
+                                       mode=f"x{self.scale:g} real time")
+
+    def close_session(self) -> None:
+        """The console ends: release what the session holds."""
+        if self.port:  # issue 7: end the device session
+            self.backend.close()
+
+    async def run(self) -> int:
+        self._note(self.welcome())
         session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
                                 output=self._output, complete_while_typing=False)
+        self.prompt_session = session
         with patch_stdout(raw=True):
             tick = asyncio.ensure_future(self.ticker())
             try:
@@ -319,8 +343,7 @@ class Console:
                 await tick
                 self.flush(final=True)
                 self.trace.close()  # issue 6: stop recording, remove the spool file
-                if self.port:  # issue 7: end the device session
-                    self.backend.close()
+                self.close_session()
         self._note(msg.REPL_BYE)
         return 0
 

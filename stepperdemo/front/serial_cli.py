@@ -37,7 +37,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="run on a device behind this serial port or pty (see "
                          "'stepperdemo device'); the device decides the profile")
     ap.add_argument("--baud", type=int, default=115200, metavar="N",
-                    help="serial line speed for --port (default 115200)")
+                    help="serial line speed for --port and --board (default 115200)")
     ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
                     help="--port: the device stops all motion after MS of host silence")
     ap.add_argument("--link-planning-ms", type=_planning_ms, default=None, metavar="MS",
@@ -275,6 +275,10 @@ def device_parser() -> argparse.ArgumentParser:
     ap.add_argument("--link", metavar="PATH",
                     help="also make PATH a symbolic link to the pty (a stable name)")
     ap.add_argument("--quiet", action="store_true", help="print only the pty path")
+    ap.add_argument("--console", action="store_true",  # issue 15
+                    help="instead of the protocol: the simulated StepperDemo firmware with "
+                         "its text console (as a board flashed with the original sketch; "
+                         "for stepperdemo --board); it restarts when a host opens the pty")
     return ap
 
 
@@ -290,6 +294,9 @@ def run_device(argv: Sequence[str]) -> int:
         return EXIT_USAGE
     if args.simavr:
         return run_simavr(args)
+    if args.console:  # issue 15: the StepperDemo text console, not the protocol
+        from .console_device import run
+        return run(args)
     profile = get_profile(args.arch)
     pty = None
     if args.port:
@@ -337,8 +344,9 @@ def run_simavr(args: argparse.Namespace) -> int:
     from fas.arch import get_profile
     from fas.serial.simavr import SimavrError, SimavrServer, build, build_harness
 
-    if args.arch != "atmega328p" or args.watchdog_ms != 500:
-        option = "arch" if args.arch != "atmega328p" else "watchdog-ms"
+    if args.arch != "atmega328p" or args.watchdog_ms != 500 or args.console:
+        option = ("arch" if args.arch != "atmega328p" else
+                  "watchdog-ms" if args.watchdog_ms != 500 else "console")
         print(msg.CLI_ERROR.format(problem=msg.DEVICE_SIMAVR_OPTION.format(option=option)),
               file=sys.stderr)
         return EXIT_USAGE

@@ -318,6 +318,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(needs the 'plot' extra)")
     g.add_argument("--timing-report", action="store_true",
                    help="print the timing report of every scenario")
+    from .board_runner import add_arguments as add_board_arguments
+    add_board_arguments(ap)  # --board DEVICE ... (issue 15)
     return ap
 
 
@@ -335,6 +337,9 @@ def main(argv: Sequence[str]) -> int:
     if not files:
         print(msg.RUN_NOTHING, file=sys.stderr)
         return EXIT_USAGE
+    if args.board:  # issue 15: on a board running StepperDemo, with the twin check
+        from .board_runner import main as board_main
+        return board_main(args, files, bool(missing))
     watch = Watch(args.vcd, args.steps_csv, args.plot, args.timing_report)
     for folder in (args.vcd, args.steps_csv, args.plot):
         if folder:
