@@ -611,6 +611,12 @@ ENTER_GCODE_MODE = "Enter G-code mode (a line is a block, x alone leaves)" + NL
 QS_ERR_TIMER_PWM = "ERROR timer {timer} makes the PWM of a user output: no QuickStep on it" + NL
 # ----------------------------------------------------------- end of issue 12 texts
 
+# ------------------------------------------------ issue 11: the firmware in simavr
+DEVICE_SIMAVR_TITLE = "firmware {elf} in simavr, {baud} baud"
+DEVICE_SIMAVR_SUMMARY = "{line}"
+DEVICE_SIMAVR_BUILD_FAILED = "stepperdemo device --simavr: {error}"
+DEVICE_SIMAVR_OPTION = "--{option} applies to the simulated device (--pty/--port), not --simavr"
+# ------------------------------------------------- end of issue 11 texts
 # ---------------------------------------------------------------------------------------
 # serial link planning and stops (issue 18)
 SERIAL_PLANNING = ("planning: {extra_ms} ms beyond the library's ({how}: round trip "

@@ -254,11 +254,22 @@ def device_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="stepperdemo device",
         description="A device that speaks the serial protocol (docs/serial-protocol.md) "
-                    "and executes on the simulated machine in real time.")
+                    "and executes on the simulated machine in real time - or, with "
+                    "--simavr, the device firmware (firmware/) in the simavr AVR "
+                    "simulator.")
     where = ap.add_mutually_exclusive_group()
     where.add_argument("--pty", action="store_true",
                        help="serve a new pseudo-terminal and print its path (default)")
     where.add_argument("--port", metavar="PATH", help="serve an existing serial port")
+    where.add_argument("--simavr", action="store_true",
+                       help="run the device firmware (firmware/) in the simavr AVR "
+                            "simulator on a new pty instead; builds it if needed")
+    ap.add_argument("--firmware", metavar="ELF",
+                    help="--simavr: this firmware build instead of firmware/build/BAUD/")
+    ap.add_argument("--baud", type=int, default=115200, choices=(115200, 1_000_000),
+                    help="--simavr: the firmware's line speed (default 115200)")
+    ap.add_argument("--trace", metavar="FILE",
+                    help="--simavr: record every pin change (cycle, pin, level) in FILE")
     ap.add_argument("--arch", default="atmega328p", choices=sorted(PROFILES),
                     help="the device's profile (default atmega328p)")
     ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
@@ -313,6 +324,8 @@ def run_device(argv: Sequence[str]) -> int:
         print(msg.CLI_ERROR.format(problem="--speed must be positive, --watchdog-ms >= 0"),
               file=sys.stderr)
         return EXIT_USAGE
+    if args.simavr:
+        return run_simavr(args)
     if args.console:  # issue 15: the StepperDemo text console, not the protocol
         from .console_device import run
         return run(args)
@@ -388,6 +401,48 @@ def _stdin_inputs(device, profile):
                 print(msg.CLI_ERROR.format(problem=exc), flush=True)
 
     return each
+
+
+def run_simavr(args: argparse.Namespace) -> int:
+    """``stepperdemo device --simavr``: the firmware in simavr on a new pty, real time."""
+    import time
+
+    from fas.arch import get_profile
+    from fas.serial.simavr import SimavrError, SimavrServer, build, build_harness
+
+    if args.arch != "atmega328p" or args.watchdog_ms != 500 or args.console:
+        option = ("arch" if args.arch != "atmega328p" else
+                  "watchdog-ms" if args.watchdog_ms != 500 else "console")
+        print(msg.CLI_ERROR.format(problem=msg.DEVICE_SIMAVR_OPTION.format(option=option)),
+              file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        if args.firmware:
+            elf, harness = args.firmware, build_harness()
+        else:
+            built = build(args.baud)
+            elf, harness = built.elf, built.harness
+        server = SimavrServer(elf, harness, speed=args.speed, link=args.link,
+                              trace=args.trace)
+    except SimavrError as exc:
+        print(msg.DEVICE_SIMAVR_BUILD_FAILED.format(error=exc), file=sys.stderr)
+        return EXIT_USAGE
+    profile = get_profile("atmega328p")
+    if args.quiet:
+        print(server.path, flush=True)
+    else:
+        title = msg.DEVICE_SIMAVR_TITLE.format(elf=elf, baud=args.baud)
+        print(msg.DEVICE_LISTENING.format(profile=profile.name, title=title, path=server.path,
+                                          link=f" ({args.link})" if args.link else "",
+                                          speed=args.speed), flush=True)
+    stop = _Stop()
+    while not stop() and server.proc.poll() is None:
+        time.sleep(0.1)
+    lines = server.stop()
+    if not args.quiet:
+        for line in lines:
+            print(msg.DEVICE_SIMAVR_SUMMARY.format(line=line))
+    return 0 if server.proc.returncode in (0, -15) else 1
 
 
 def relay_parser() -> argparse.ArgumentParser:
