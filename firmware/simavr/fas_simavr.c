@@ -398,8 +398,11 @@ static void hook_uart(void)
 /* ------------------------------------------------------------------ running */
 static avr_cycle_count_t stop_timer(struct avr_t *a, avr_cycle_count_t when, void *param)
 {
-    (void)a; (void)when; (void)param;
-    return 0;  /* only ends a sleep at the right cycle */
+    (void)a; (void)param;
+    /* only ends a sleep at the right cycle.  It stays due every cycle after (the next
+     * run cancels it): simavr processes every expired timer and then sleeps until the
+     * next one, which would carry a sleeping chip past the cycle asked for. */
+    return when + 1;
 }
 
 static uint64_t sleep_cycles;  /* the chip's idle time: 1 - sleep/total is its load */
