@@ -23,9 +23,11 @@ from __future__ import annotations
 import argparse
 import os
 import random
+import shutil
 import sys
 import tempfile
 import time
+from bisect import bisect_right
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -62,8 +64,9 @@ def sizes() -> None:
     print("## 1. Size (ATmega328P: 32768 bytes flash, 2048 bytes RAM)")
     for baud in BAUDS:
         b = simavr.build(baud)
-        print(f"  {baud:>7} baud: flash {b.flash_bytes} bytes ({100 * b.flash_bytes / 32768:.1f} %), "
-              f"RAM {b.ram_bytes} bytes static ({100 * b.ram_bytes / 2048:.1f} %), "
+        flash_pct, ram_pct = 100 * b.flash_bytes / 32768, 100 * b.ram_bytes / 2048
+        print(f"  {baud:>7} baud: flash {b.flash_bytes} bytes ({flash_pct:.1f} %), "
+              f"RAM {b.ram_bytes} bytes static ({ram_pct:.1f} %), "
               f"{2048 - b.ram_bytes} bytes left for the stack")
 
 
@@ -130,17 +133,18 @@ def reaction(runs: int, ticks: int, both: bool, seed: int = 1) -> dict:
             h.run(1)
     finally:
         h.dev.close()
-        import shutil
         shutil.rmtree(tmp, ignore_errors=True)
     late = [a for a in after if a is not None]
-    return {"runs": runs, "with_step_after": len(late), "latest_after_us": max(late, default=0) / 16,
+    return {"runs": runs, "with_step_after": len(late),
+            "latest_after_us": max(late, default=0) / 16,
             "isr_max_us": max(i for i in isr if i is not None) / 16,
             "missed": sum(1 for i in isr if i is None)}
 
 
 def reactions(runs: int) -> None:
     print(f"\n## 2. Limit switch reaction on the chip ({runs} random moments per case)")
-    print("| case | runs with a step after the switch | latest such step | pin-change interrupt began |")
+    print("| case | runs with a step after the switch | latest such step "
+          "| pin-change interrupt began |")
     print("| --- | --- | --- | --- |")
     for name, ticks, both in (("S2 alone, 200 us steps", 3200, False),
                               ("S2 alone, 50 us steps", 800, False),
@@ -153,13 +157,10 @@ def reactions(runs: int) -> None:
 
 # ------------------------------------------------------------------------- 3
 def _by_pins(trace, pins):
-    from tests.fas.serial.helpers import pin_position  # noqa: F401 (same rule)
-
+    """(tick, +1/-1) of every step: up while the direction pin is high."""
     step, dirp = pins
     times, levels = trace.edges(step)
     dt, dl = trace.edges(dirp)
-    from bisect import bisect_right
-
     out = []
     for t, lv in zip(times, levels):
         if lv:
