@@ -116,8 +116,8 @@ def reaction(runs: int, ticks: int, both: bool, seed: int = 1) -> dict:
         for _ in range(runs):
             msgs = _entries(1, index, 2, ticks) + (_entries(0, index, 2, ticks) if both else [])
             h.send(seq, *msgs[:4], ms=0)
-            h.send(seq + 1, *msgs[4:], Start(3 if both else 2, 0), ms=2)
-            seq += 2
+            h.send((seq + 1) % 128, *msgs[4:], Start(3 if both else 2, 0), ms=2)
+            seq = (seq + 2) % 128
             at = h.dev.tick + rng.randrange(4 * ticks, 5 * ticks)
             h.dev.schedule_input(at, SWITCH, 0)
             got = h.run(at / 16_000 - h.dev.tick / 16_000 + 10)  # the report's line time
@@ -126,9 +126,9 @@ def reaction(runs: int, ticks: int, both: bool, seed: int = 1) -> dict:
             late = [t - at for t in steps if t >= at]
             after.append(max(late) if late else None)
             isr.append(hits[0].tick - at if hits else None)
-            index += 2
+            index = (index + 2) & 0xFF
             h.send(seq, ForceStop(1, index, 1), ForceStop(0, index, 1), ms=1)
-            seq += 1
+            seq = (seq + 1) % 128
             h.dev.set_input(SWITCH, 1)
             h.run(1)
     finally:
