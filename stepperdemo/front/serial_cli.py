@@ -434,12 +434,15 @@ def run_simavr(args: argparse.Namespace) -> int:
 
     def set_input(pin: int, value: int, analog: bool | None = None) -> None:
         # the harness sets a level for 0/1 unless the value is a pot's (section 18)
-        server.set_input(pin, value, value > 1 if analog is None else analog)
+        try:
+            server.set_input(pin, value, value > 1 if analog is None else analog)
+        except SimavrError as exc:  # the harness has ended: said once, as a bad line
+            raise ValueError(str(exc)) from None
 
     try:
         for text in args.input:
             set_input(*parse_input(text, profile))
-    except (ValueError, SimavrError) as exc:
+    except ValueError as exc:
         server.stop()
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return EXIT_USAGE
