@@ -611,10 +611,10 @@ uint8_t stepgen_start_at(uint8_t ch, uint32_t at)
             q->state = 0;  /* a new start replaces the one that waits */
         if ((q->state & SQ_RUNNING) || q->rp == q->wp || q->limit_hit)
             break;
+        prepare(ch);  /* (may let a pending interrupt run: a switch may close there) */
         if (check && start_blocked(ch))
             break;
         check = 0;
-        prepare(ch);
         uint32_t now = ticks_now();
         int32_t ahead = (int32_t)(compare - now);
         uint16_t first_match = (uint16_t)ahead;  /* ticks to the next match of compare */
