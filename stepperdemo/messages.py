@@ -499,7 +499,7 @@ CONSOLE_DEVICE_EVENT = "console: {event}"
 CONSOLE_DEVICE_OPENED = "host opened the port: firmware restarted"
 CONSOLE_DEVICE_CLOSED = "host closed the port"
 CONSOLE_DEVICE_STATS = ("console: {resets} start(s), {rx} characters received ({dropped} lost: "
-                        "receive buffer full), {tx} sent ({tx_lost} not taken by the host)")
+                        "receive buffer full), {tx} sent ({tx_unsent} not yet taken by the host)")
 CONSOLE_DEVICE_POSITIONS = "console: positions {positions}"
 # ------------------------------------------------------------ end of board console texts
 # QuickStep planner (issue 14): config commands l/q/p/b, status and table additions,

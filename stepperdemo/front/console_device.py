@@ -57,7 +57,7 @@ class HangupPty:
             raise
 
     def write(self, data: bytes) -> int:
-        """Best effort: what does not fit is lost, as on a line nobody reads."""
+        """What the pty took now (0 while its buffer is full or nobody has it open)."""
         try:
             return os.write(self.master, data)
         except (BlockingIOError, OSError):
@@ -79,7 +79,7 @@ class ConsoleDevice:
         self.events = events
         self.clock = clock
         self.open = False
-        self.tx_lost = 0
+        self._unsent = bytearray()  # printed, not yet taken by the pty (a slow host)
         self._wall0 = clock()
         self._tps = board.profile.ticks_per_s
 
@@ -90,8 +90,14 @@ class ConsoleDevice:
     def _target_tick(self) -> int:
         return int((self.clock() - self._wall0) * self.speed * self._tps)
 
+    @property
+    def tx_unsent(self) -> int:
+        """Characters printed that the host has not taken yet."""
+        return len(self._unsent)
+
     def _opened(self) -> None:
         self.open = True
+        self._unsent.clear()  # a new host: what the old one left is not its business
         self.board.reset()
         self._wall0 = self.clock()
         self._event(msg.CONSOLE_DEVICE_OPENED)
@@ -112,14 +118,15 @@ class ConsoleDevice:
             self.board.receive(data)
         now = self._target_tick()
         self.board.run_until(now)
-        out = self.board.take_output(now)
-        if out:
-            self.tx_lost += len(out) - self.pty.write(out)
+        self._unsent += self.board.take_output(now)
+        if self._unsent:  # a host that falls behind gets the output late, never loses it
+            del self._unsent[:self.pty.write(bytes(self._unsent))]
         wake = self.board.next_wake_tick()
         sleep = MAX_SLEEP_S
         if wake is not None:
             sleep = min(sleep, max(0.0, (wake - self._target_tick()) / self._tps / self.speed))
-        select.select([self.pty.master], [], [], sleep)
+        writable = [self.pty.master] if self._unsent else []
+        select.select([self.pty.master], writable, [], sleep)
 
     def serve(self, stop: Callable[[], bool]) -> None:
         while not stop():
@@ -157,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
         b = device.board
         print(msg.CONSOLE_DEVICE_STATS.format(resets=b.resets, rx=b.rx_bytes,
                                               dropped=b.rx_dropped, tx=b.tx_bytes,
-                                              tx_lost=device.tx_lost))
+                                              tx_unsent=device.tx_unsent))
         positions = ", ".join(f"M{i + 1} {p}" for i, p in enumerate(b.positions())
                               if p is not None)
         print(msg.CONSOLE_DEVICE_POSITIONS.format(positions=positions))

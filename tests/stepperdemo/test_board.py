@@ -9,6 +9,7 @@ import asyncio
 
 import pytest
 
+from fas.arch import get_profile
 from stepperdemo import messages as msg
 from stepperdemo.demo.serial_board import SimulatedBoard
 from stepperdemo.front.board_input import InputPacer, split_commands
@@ -276,3 +277,42 @@ def test_history_recalls_the_lines_of_the_current_mode(tmp_path):
     mode[0] = "test"
     assert loaded(ModeHistory(str(path), lambda: mode[0])) == ["x", "01 R", "old line"]
     assert path.read_text().count("mode=test") == 2
+
+
+class _SlowPty:
+    """A pty whose host reads little: each write takes at most ``per_write`` bytes."""
+
+    master = -1
+
+    def __init__(self, per_write: int) -> None:
+        self.per_write = per_write
+        self.taken = bytearray()
+        self.pending_input = [b"M1 A1000 V100 R3200\n"]
+
+    def read(self) -> bytes:
+        return self.pending_input.pop() if self.pending_input else b""
+
+    def write(self, data: bytes) -> int:
+        n = min(self.per_write, len(data))
+        self.taken += data[:n]
+        return n
+
+
+def test_console_device_delays_output_for_a_slow_host_but_loses_none(monkeypatch):
+    from stepperdemo.front import console_device
+
+    monkeypatch.setattr(console_device.select, "select", lambda *a: ([], [], []))
+    profile = get_profile("atmega328p")
+    now = [0.0]
+    slow = _SlowPty(per_write=4)
+    device = console_device.ConsoleDevice(SimulatedBoard(profile), slow,
+                                          clock=lambda: now[0])
+    for _ in range(2000):  # 5 s in 2.5 ms calls; the host takes 4 bytes a call
+        now[0] += 0.0025
+        device.step()
+    assert device.tx_unsent > 0  # the host fell behind ...
+    while device.tx_unsent:  # ... and catches up without a character lost
+        device.step()
+    text = slow.taken.decode()
+    assert text.count("Move steps 3200") == 1 and ">> M1: @3200 " in text
+    assert device.board.tx_bytes == len(slow.taken)
