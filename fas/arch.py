@@ -26,9 +26,9 @@ SERIAL_SLOT_HEADER_BYTES = 2  # an out-of-order frame slot: length and sequence 
 SERIAL_QUEUE_MIN = 16  # a ring below this cannot hold the library's ramp planning
 SERIAL_QUEUE_MAX = 128  # the ring is indexed by the 8-bit write index: a divisor of 256
 # How the Uno (2048 bytes) spends its RAM on the serial firmware:
-#   serial_reserved_bytes 1024 = UART receive and transmit rings 2 x 64, the frame
-#     being received 64, the frame being sent 64, two steppers' state 2 x 32, session,
-#     clock and counters 96, user outputs (section 16) 32, Arduino core 64, stack 512;
+#   serial_reserved_bytes 1024 = UART rings 2 x 64, the frame received 64 and sent 64,
+#     steppers' state 2 x 32, session, clock, counters 96, user outputs (section 16) 32,
+#     inputs and limit switches (section 18) 128, Arduino core 64, stack 384;
 #   out-of-order frame slots 8 x (32 + 2) = 272;
 #   queue rings 2 x 64 entries x 4 bytes = 512          -> 1808 bytes, 240 spare.
 # The other profiles have RAM to spare: their rings are SERIAL_QUEUE_MAX deep.

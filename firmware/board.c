@@ -46,3 +46,23 @@ void board_pin_write(uint8_t pin, uint8_t level)
     reg[1] |= mask;
     irq_restore(sreg);
 }
+
+void board_pin_input(uint8_t pin, uint8_t pullup)
+{
+    volatile uint8_t *reg = board_pin_reg(pin);
+    uint8_t mask = board_pin_mask(pin);
+    if (!reg)
+        return;
+    uint8_t sreg = irq_save();
+    reg[1] &= (uint8_t)~mask;
+    if (pullup)
+        reg[2] |= mask;
+    else
+        reg[2] &= (uint8_t)~mask;
+    irq_restore(sreg);
+}
+
+uint8_t board_pin_port(uint8_t pin)
+{
+    return pin < 8 ? 2 : pin < 14 ? 0 : 1;
+}

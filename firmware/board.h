@@ -16,5 +16,10 @@ uint8_t board_pin_mask(uint8_t pin);
 uint8_t board_pin_usable(uint8_t pin);
 /* Make the pin an output at `level` (interrupt-safe read-modify-write). */
 void board_pin_write(uint8_t pin, uint8_t level);
+/* Make the pin an input, with the pull-up resistor or without. */
+void board_pin_input(uint8_t pin, uint8_t pullup);
+/* The port of a usable pin: 0 = B, 1 = C, 2 = D - the index of its pin-change mask
+ * register (PCMSK0..2) and interrupt (PCINT0..2); its bit there is board_pin_mask(). */
+uint8_t board_pin_port(uint8_t pin);
 
 #endif

@@ -3,7 +3,9 @@
 
 #include "board.h"
 #include "device.h"
+#include "inputs.h"
 #include "irq.h"
+#include "limits.h"
 #include "outputs.h"
 #include "proto.h"
 #include "stepgen.h"
@@ -52,6 +54,7 @@ static int32_t signed_steps(const struct qentry *e)
 static void stop_at(uint8_t ch, uint8_t index)
 {
     stepgen_force_stop(ch);
+    stepgen_forget_start(ch);
     struct stepq *q = &stepq[ch];
     uint8_t sreg = irq_save();
     q->rp = index;
@@ -86,6 +89,7 @@ static void config(const uint8_t *m)
     }
     struct devq *d = &devq[ch];
     stepgen_force_stop(ch);
+    stepgen_forget_start(ch);
     uint8_t index = m[4];
     uint8_t sreg = irq_save();
     stepq[ch].rp = index;
@@ -312,6 +316,15 @@ void device_sequenced(const uint8_t *m)
     case M_OUTPUT_CANCEL:
         outputs_cancel();
         break;
+    case M_WATCH_INPUT:
+        inputs_watch(m);
+        break;
+    case M_LIMIT:
+        limits_message(m);
+        break;
+    case M_SET_INPUT:
+        inputs_world(m);
+        break;
     default:
         counters.rejected++;  /* a known message that does not belong in the sequence */
         break;
@@ -369,6 +382,59 @@ int32_t device_position(uint8_t ch)
             return pos;
         return (first.flags & QE_COUNT_UP) ? pos - first.steps : pos + first.steps;
     }
+}
+
+/* Started: a start is reported once its first compare is past (a queue stopped
+ * before it began has nothing to report). */
+static uint8_t started_due;  /* bit per queue */
+static uint8_t started_put;
+static uint32_t started_tick[FW_MAX_STEPPERS];
+
+void device_poll(void)
+{
+    uint32_t now = ticks_now();
+    for (uint8_t ch = 0; ch < FW_MAX_STEPPERS; ch++) {
+        struct stepq *q = &stepq[ch];
+        if (q->started && (int32_t)(now - q->start_tick) >= 0) {
+            q->started = 0;
+            started_tick[ch] = q->start_tick;
+            started_due |= 1u << ch;
+        }
+    }
+}
+
+void device_reset_reports(void)
+{
+    started_due = 0;
+    for (uint8_t ch = 0; ch < FW_MAX_STEPPERS; ch++)
+        stepq[ch].started = 0;
+}
+
+uint8_t device_started_due(void)
+{
+    return started_due;
+}
+
+uint8_t device_started_put(uint8_t *p, uint8_t room)
+{
+    uint8_t n = 0;
+    started_put = 0;
+    for (uint8_t ch = 0; ch < FW_MAX_STEPPERS; ch++) {
+        if (!(started_due & (1u << ch)) || n + SIZE_STARTED > room)
+            continue;
+        p[n] = M_STARTED;
+        p[n + 1] = ch;
+        put_u32(p + n + 2, started_tick[ch]);
+        n += SIZE_STARTED;
+        started_put |= 1u << ch;
+    }
+    return n;
+}
+
+void device_started_sent(void)
+{
+    started_due &= (uint8_t)~started_put;
+    started_put = 0;
 }
 
 uint32_t device_pulses(uint8_t ch)

@@ -70,4 +70,14 @@ void device_progress(uint8_t ch, struct progress *p);
 int32_t device_position(uint8_t ch);
 uint32_t device_pulses(uint8_t ch);
 
+/* Main loop: starts whose first compare is past become Started reports. */
+void device_poll(void);
+/* A new session: no Started to send. */
+void device_reset_reports(void);
+/* Started reports: anything to send; put what fits (a new frame each call); the
+ * frame with them went out. */
+uint8_t device_started_due(void);
+uint8_t device_started_put(uint8_t *p, uint8_t room);
+void device_started_sent(void);
+
 #endif

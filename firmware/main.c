@@ -4,15 +4,19 @@
  *
  * Interrupts: timer 1 compare A/B (steps, stepgen.c), timer 1 overflow (the tick
  * counter, ticks.c), UART receive and transmit (uart.c), timer 0 overflow (a wake-up
- * every 1.024 ms for the periodic reports).  The main loop decodes frames, acts on
+ * every 1.024 ms for the periodic reports), pin change (inputs and limit switches,
+ * inputs.c, limits.c).  The main loop decodes frames, acts on
  * them, sends reports, and sleeps (idle mode) when there is nothing to do.
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <avr/sleep.h>
 
+#include "device.h"
 #include "frame.h"
+#include "inputs.h"
 #include "irq.h"
+#include "limits.h"
 #include "outputs.h"
 #include "session.h"
 #include "stepgen.h"
@@ -81,11 +85,17 @@ int main(void)
                 session_frame(&frame);
                 frames = 1;
             }
-        if (wake & WAKE_TICK)
+        if (wake & WAKE_TICK) {
             stepgen_poll();
+            device_poll();
+        }
+        if (wake & WAKE_LIMIT)
+            limits_poll();
+        if (wake & (WAKE_TICK | WAKE_INPUT))
+            inputs_poll();
         if (frames || (wake & (WAKE_TICK | WAKE_IDLE)))
             outputs_poll();
-        if (frames || (wake & (WAKE_TICK | WAKE_TX)))
+        if (frames || (wake & (WAKE_TICK | WAKE_TX | WAKE_INPUT | WAKE_LIMIT)))
             session_poll();
     }
 }

@@ -1,5 +1,6 @@
 /* User outputs (see outputs.h). */
 #include <avr/io.h>
+#include <avr/pgmspace.h>
 
 #include "board.h"
 #include "device.h"
@@ -14,7 +15,8 @@
 
 /* the PWM pins: their timer's compare register and output mode bits */
 enum { PWM_OC2B, PWM_OC2A, PWM_OC0B, PWM_OC0A, PWM_UNITS };
-static const uint8_t pwm_pin[PWM_UNITS] = {3, 11, 5, 6};
+/* (tables in flash: the RAM is for the queues) */
+static const uint8_t pwm_pin[PWM_UNITS] PROGMEM = {3, 11, 5, 6};
 static uint8_t pwm_on;  /* bit per unit: configured by OutputPwm */
 
 #define SYNC_CHANGES 8
@@ -37,7 +39,7 @@ void outputs_init(void)
 static int8_t unit_of(uint8_t pin)
 {
     for (uint8_t u = 0; u < PWM_UNITS; u++)
-        if (pwm_pin[u] == pin)
+        if (pgm_read_byte(&pwm_pin[u]) == pin)
             return (int8_t)u;
     return -1;
 }
@@ -45,18 +47,24 @@ static int8_t unit_of(uint8_t pin)
 /* The duty: `count` of 256 timer counts high (0: low, 256 or more: high). */
 static void duty(uint8_t unit, uint32_t count)
 {
-    static volatile uint8_t *const ocr[PWM_UNITS] = {&OCR2B, &OCR2A, &OCR0B, &OCR0A};
-    static volatile uint8_t *const tccra[PWM_UNITS] = {&TCCR2A, &TCCR2A, &TCCR0A, &TCCR0A};
-    static const uint8_t com[PWM_UNITS] = {_BV(COM2B1), _BV(COM2A1), _BV(COM0B1), _BV(COM0A1)};
-    uint8_t pin = pwm_pin[unit];
+    static const uint16_t ocr_reg[PWM_UNITS] PROGMEM = {
+        (uint16_t)&OCR2B, (uint16_t)&OCR2A, (uint16_t)&OCR0B, (uint16_t)&OCR0A};
+    static const uint16_t tccra_reg[PWM_UNITS] PROGMEM = {
+        (uint16_t)&TCCR2A, (uint16_t)&TCCR2A, (uint16_t)&TCCR0A, (uint16_t)&TCCR0A};
+    static const uint8_t com_bits[PWM_UNITS] PROGMEM = {
+        _BV(COM2B1), _BV(COM2A1), _BV(COM0B1), _BV(COM0A1)};
+    volatile uint8_t *ocr = (volatile uint8_t *)pgm_read_word(&ocr_reg[unit]);
+    volatile uint8_t *tccra = (volatile uint8_t *)pgm_read_word(&tccra_reg[unit]);
+    uint8_t com = pgm_read_byte(&com_bits[unit]);
+    uint8_t pin = pgm_read_byte(&pwm_pin[unit]);
     uint8_t sreg = irq_save();
     if (count == 0) {
-        *tccra[unit] &= (uint8_t)~com[unit];  /* disconnected: the port holds it low */
+        *tccra &= (uint8_t)~com;  /* disconnected: the port holds it low */
         board_pin_write(pin, 0);
     } else {
-        *ocr[unit] = count >= PWM_COUNTS ? 255 : (uint8_t)(count - 1);  /* high for count */
+        *ocr = count >= PWM_COUNTS ? 255 : (uint8_t)(count - 1);  /* high for count */
         board_pin_write(pin, 0);
-        *tccra[unit] |= com[unit];  /* non-inverting: high from BOTTOM to the match */
+        *tccra |= com;  /* non-inverting: high from BOTTOM to the match */
     }
     irq_restore(sreg);
 }
@@ -71,10 +79,10 @@ void outputs_pwm(const uint8_t *m)
         return;
     }
     if (unit <= PWM_OC2A) {
-        static const uint16_t prescalers[7] = {1, 8, 32, 64, 128, 256, 1024};
+        static const uint16_t prescalers[7] PROGMEM = {1, 8, 32, 64, 128, 256, 1024};
         uint8_t cs = 0;
         for (uint8_t i = 0; i < 7; i++)
-            if (prescalers[i] == clock_div)
+            if (pgm_read_word(&prescalers[i]) == clock_div)
                 cs = i + 1;
         if (!cs) {
             counters.rejected++;

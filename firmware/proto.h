@@ -30,6 +30,9 @@
 #define M_OUTPUT_PWM 0x20      /* number, pin u8; clock_div, counts, count u32 */
 #define M_OUTPUT_SET 0x21      /* flags, number, pin u8; value u32 */
 #define M_OUTPUT_CANCEL 0x22   /* - */
+#define M_WATCH_INPUT 0x30     /* pin, mode, period_ms (section 18) */
+#define M_LIMIT 0x31           /* stepper, pin, level, flags, stop_mask */
+#define M_SET_INPUT 0x32       /* pin u8, value u16, flags u8: a simulated device's world */
 
 #define E_INDEX_MASK 0x0F
 #define E_TOGGLE_DIR 0x10
@@ -44,6 +47,9 @@
 #define M_DEVICE_STATUS 0x85   /* 48 bytes */
 #define M_NAK 0x86             /* expected u8, held u16 */
 #define M_PROGRESS 0x50        /* 0x50 | stepper: flags, index, steps_left, [pcnt i16] */
+#define M_INPUT 0xA0           /* pin u8, value u16, tick u32 */
+#define M_LIMIT_HIT 0xA1       /* stepper, pin, index u8, position i32, tick u32 */
+#define M_STARTED 0xA2         /* stepper u8, tick u32 */
 
 #define SIZE_IDENT_FIXED 25    /* before the name */
 #define SIZE_SYNC_REPLY 9
@@ -51,6 +57,22 @@
 #define SIZE_DEVICE_STATUS 48
 #define SIZE_NAK 4
 #define SIZE_PROGRESS_MAX 6
+#define SIZE_INPUT 8
+#define SIZE_LIMIT_HIT 12
+#define SIZE_STARTED 6
+
+/* Ident features: optional message families */
+#define F_INPUTS 0x0001        /* section 18: inputs, limit switches, Started */
+#define F_SIM_INPUTS 0x0002    /* SetInput: the inputs are a simulation's (simavr) */
+
+/* WatchInput modes, Limit flags, SetInput flags */
+#define W_OFF 0
+#define W_DIGITAL 1
+#define W_PULLUP 2
+#define W_ANALOG 3
+#define L_UP 0x01
+#define L_CLEAR 0x80
+#define S_ANALOG 0x01
 
 /* Progress / Status flags */
 #define P_RUNNING 0x01

@@ -2,12 +2,15 @@
  * fas/serial/device.py, on the chip. */
 #include <avr/eeprom.h>
 #include <avr/io.h>
+#include <avr/pgmspace.h>
 #include <string.h>
 
 #include "config.h"
 #include "device.h"
 #include "frame.h"
+#include "inputs.h"
 #include "irq.h"
+#include "limits.h"
 #include "proto.h"
 #include "session.h"
 #include "stepgen.h"
@@ -73,6 +76,27 @@ static uint8_t snap_due;        /* the group is to be sent */
 
 static uint8_t out[FRAME_MAX_PAYLOAD];
 static uint8_t out_len;
+
+/* ------------------------------------------------------------------ section 18 */
+/* Reports of inputs, limit stops and queue starts (issue 13). */
+static uint8_t reports_due(void)
+{
+    return inputs_due() || limits_due() || device_started_due();
+}
+
+static uint8_t reports_put(uint8_t *p, uint8_t room)
+{
+    uint8_t n = limits_put(p, room);
+    n += device_started_put(p + n, room - n);
+    return n + inputs_put(p + n, room - n);
+}
+
+static void reports_sent(void)
+{
+    limits_sent();
+    device_started_sent();
+    inputs_sent();
+}
 
 /* ------------------------------------------------------------------ helpers */
 static int8_t seq_diff(uint8_t a, uint8_t b)
@@ -172,6 +196,7 @@ static uint8_t late_copy(uint16_t n, uint32_t now)
 void session_init(void)
 {
     /* the boot id: a counter in EEPROM, one more at every start */
+    inputs_init();
     uint16_t boots = eeprom_read_word((uint16_t *)EE_BOOT_COUNT) + 1;
     eeprom_update_word((uint16_t *)EE_BOOT_COUNT, boots);
     boot_id = boots;
@@ -207,6 +232,9 @@ static void hello(const uint8_t *m, uint32_t now)
         remember_nonce(nonce, now);
     nonce = n;
     device_halt_all(1);
+    limits_reset();  /* watches and limits belong to the session */
+    inputs_reset();
+    device_reset_reports();
     open = 1;
     watchdog_tripped = 0;
     estopped = 0;
@@ -314,6 +342,7 @@ static int8_t slot_of(uint8_t seq)
 
 void session_frame(const struct frame_in *f)
 {
+    limits_poll();  /* a limit stop the interrupts made comes before any message */
     if (open)
         last_rx_tick = f->tick;
     if (f->seq & SEQ_UNSEQUENCED) {
@@ -408,10 +437,10 @@ static void ident(void)
     *p++ = SLOT_PAYLOAD;
     p = put_u16(p, ident_watchdog_ms);
     p = put_u16(p, FW_MIN_CMD_TICKS_DIV);
-    p = put_u16(p, 0);  /* features: none */
-    static const char name[] = FW_NAME;
+    p = put_u16(p, F_INPUTS | (inputs_simulated ? F_SIM_INPUTS : 0));
+    static const char name[] PROGMEM = FW_NAME;
     *p++ = sizeof name - 1;
-    memcpy(p, name, sizeof name - 1);
+    memcpy_P(p, name, sizeof name - 1);
     p += sizeof name - 1;
     out_len = p - out;
 }
@@ -458,11 +487,13 @@ static void flush(void)
             return;
         snap_due = 0;
     }
-    if (!(sync_count || progress_due || dstatus_due || (ack_due && ack_now) || nak_owed))
+    if (!(sync_count || progress_due || dstatus_due || (ack_due && ack_now) || nak_owed
+          || (open && reports_due())))
         return;
     if (ack_due)
         mark_progress(0);  /* a frame goes out: it tells what changed, too */
-    while (sync_count || progress_due || dstatus_due || (ack_due && ack_now) || nak_owed) {
+    while (sync_count || progress_due || dstatus_due || (ack_due && ack_now) || nak_owed
+           || (open && reports_due())) {
         begin();
         uint8_t syncs = 0, queues = 0, device = 0;
         while (syncs < sync_count && out_len + SIZE_SYNC_REPLY <= FRAME_MAX_PAYLOAD) {
@@ -486,8 +517,13 @@ static void flush(void)
             out_len += SIZE_DEVICE_STATUS;
             device = 1;
         }
+        uint8_t reports = open && reports_due();
+        if (reports)
+            out_len += reports_put(out + out_len, FRAME_MAX_PAYLOAD - out_len);
         if (!send())
             return;
+        if (reports)
+            reports_sent();
         /* what went out is done */
         if (syncs) {
             for (uint8_t i = syncs; i < sync_count; i++) {
@@ -535,6 +571,7 @@ void session_poll(void)
         for (uint8_t ch = 0; ch < FW_MAX_STEPPERS; ch++)
             if (devq[ch].configured)
                 progress_due |= 1u << ch;
+        inputs_refresh();  /* ... and every watched input */
         if (++refresh_round % DEVICE_STATUS_EVERY == 0)
             dstatus_due = 1;
     }
@@ -545,5 +582,5 @@ void session_poll(void)
 uint8_t session_busy(void)
 {
     return ident_due || snap_due || sync_count || progress_due || dstatus_due
-           || (ack_due && ack_now) || nak_owed;
+           || (ack_due && ack_now) || nak_owed || (open && reports_due());
 }

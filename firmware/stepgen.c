@@ -18,6 +18,7 @@
 
 #include "board.h"
 #include "irq.h"
+#include "limits.h"
 #include "stepgen.h"
 #include "ticks.h"
 #include "uart.h"
@@ -98,6 +99,13 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
     return (uint8_t)(SQ_RUNNING | (e->steps ? SQ_ARMED : 0));
 }
 
+/* The entry at the read index would step towards a closed limit switch: LB_* (0: no). */
+static inline __attribute__((always_inline)) uint8_t first_blocked(struct stepq *q)
+{
+    struct qentry *e = &q->entry[q->rp & QUEUE_MASK];
+    return e->steps ? (uint8_t)(q->limit_block & BLOCK_BIT(e->flags)) : 0;
+}
+
 /* Connect channel X for its first compare: at `compare`, or START_TICKS from now.
  * Interrupts are off and the channel's flag is clear. */
 #define ARM(X, q, compare, st, from_now)                                         \
@@ -114,7 +122,7 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
  * matches once per counter wrap; `start_wraps` counts the matches still to come
  * before the start.  At the last of them the channel is armed, so that the start
  * tick's compare makes the first pulse. */
-#define PENDING_COMPARE(X)                                                       \
+#define PENDING_COMPARE(X, CH)                                                   \
     static inline __attribute__((always_inline)) void                           \
     pending_compare_##X(struct stepq *q)                                         \
     {                                                                            \
@@ -125,6 +133,13 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
             return;                                                              \
         }                                                                        \
         uint8_t st = first_state(q);                                             \
+        uint8_t blocked = first_blocked(q);                                      \
+        if (blocked) {                                                           \
+            /* it would start towards a closed limit switch */                   \
+            q->state = 0;                                                        \
+            limits_hit(CH, blocked == LB_UP);                                    \
+            return;                                                              \
+        }                                                                        \
         SET_COM(X, ((st & SQ_ARMED) && !q->detached) ? COM_SET_##X : 0);         \
         q->state = st;                                                           \
     }
@@ -156,6 +171,8 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
         if (st & SQ_FALLING) {                                                   \
             /* the pin went low: the next compare */                             \
             if (st & SQ_STOPPING) {                                              \
+                if (st & SQ_TOGGLE) /* the entry that began says so (the model) */ \
+                    toggle_dir(q);                                               \
                 SET_COM(X, 0);                                                   \
                 q->state = 0;                                                    \
                 main_wake |= WAKE_IDLE;                                          \
@@ -219,6 +236,19 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
                     st |= SQ_TOGGLE;                                             \
                 else                                                             \
                     toggle_dir(q);                                               \
+            }                                                                    \
+            if (e->steps && (q->limit_block & BLOCK_BIT(e->flags))) {            \
+                /* the entry steps towards a closed limit switch: not one pulse */ \
+                limits_hit(CH, (e->flags & QE_COUNT_UP) != 0);                   \
+                if (pulse) {                                                     \
+                    q->state = (uint8_t)(SQ_RUNNING | SQ_FALLING | SQ_STOPPING   \
+                                         | (st & SQ_TOGGLE));                    \
+                } else {                                                         \
+                    SET_COM(X, 0);                                               \
+                    q->state = 0;                                                \
+                    main_wake |= WAKE_IDLE;                                      \
+                }                                                                \
+                return;                                                          \
             }                                                                    \
         }                                                                        \
     program:;                                                                    \
@@ -476,8 +506,8 @@ static inline __attribute__((always_inline)) uint8_t first_state(struct stepq *q
               [wake] "i"(&main_wake));                                           \
     }
 
-PENDING_COMPARE(A)
-PENDING_COMPARE(B)
+PENDING_COMPARE(A, 0)
+PENDING_COMPARE(B, 1)
 STEP_ISR_FULL(A, 0)
 STEP_ISR_FULL(B, 1)
 STEP_ISR(A, 0)
@@ -527,35 +557,70 @@ static void arm_at(uint8_t ch, uint16_t compare, uint8_t st, uint8_t from_now)
         ARM(B, q, compare, st, from_now);
 }
 
+/* A start towards a closed limit switch does not begin (the entry's direction
+ * toggle is made, as at any start); interrupts are off. */
+static inline __attribute__((always_inline)) uint8_t start_blocked(uint8_t ch)
+{
+    struct stepq *q = &stepq[ch];
+    if (!q->limit_block)
+        return 0;  /* no switch closed: the common case, at once */
+    uint8_t blocked = first_blocked(q);
+    if (blocked) {
+        first_state(q);
+        limits_hit(ch, blocked == LB_UP);
+    }
+    return blocked;
+}
+
+/* Note the tick of the first compare of a start for the Started report. */
+static void note_start(uint8_t ch, uint32_t tick)
+{
+    stepq[ch].start_tick = tick;
+    stepq[ch].started = 1;
+}
+
 void stepgen_start_now(uint8_t ch)
 {
     struct stepq *q = &stepq[ch];
     uint8_t sreg = irq_save();
-    if (!(q->state & (SQ_RUNNING | SQ_PENDING)) && q->rp != q->wp) {
+    if (!(q->state & (SQ_RUNNING | SQ_PENDING)) && q->rp != q->wp && !q->limit_hit) {
         prepare(ch);
-        arm_at(ch, 0, first_state(q), 1);
+        if (!start_blocked(ch)) {
+            arm_at(ch, 0, first_state(q), 1);
+            uint16_t compare = ch == 0 ? OCR1A : OCR1B;
+            uint32_t now = ticks_now();
+            note_start(ch, now + (int16_t)(compare - (uint16_t)now));
+        }
     }
     irq_restore(sreg);
 }
+
+/* How a start was armed: its first compare at the start tick, or "now". */
+#define ARMED_AT 1
+#define ARMED_NOW 2
 
 uint8_t stepgen_start_at(uint8_t ch, uint32_t at)
 {
     struct stepq *q = &stepq[ch];
     uint32_t compare = at + START_TICKS;
     uint8_t sreg = SREG;
-    uint8_t late = 0;
+    uint8_t late = 0, armed = 0, check = 1;
     for (;;) {
         cli();
         if (q->state & SQ_PENDING)
             q->state = 0;  /* a new start replaces the one that waits */
-        if ((q->state & SQ_RUNNING) || q->rp == q->wp)
+        if ((q->state & SQ_RUNNING) || q->rp == q->wp || q->limit_hit)
             break;
-        prepare(ch);
+        prepare(ch);  /* (may let a pending interrupt run: a switch may close there) */
+        if (check && start_blocked(ch))
+            break;
+        check = 0;
         uint32_t now = ticks_now();
         int32_t ahead = (int32_t)(compare - now);
         uint16_t first_match = (uint16_t)ahead;  /* ticks to the next match of compare */
         if (ahead >= START_ARM_MIN && ahead < 65536L - START_ARM_MIN) {
             arm_at(ch, (uint16_t)compare, first_state(q), 0);
+            armed = ARMED_AT;
             break;
         }
         if (ahead >= 65536L && first_match >= START_ARM_MIN
@@ -563,19 +628,29 @@ uint8_t stepgen_start_at(uint8_t ch, uint32_t at)
             /* it matches every wrap: `ahead >> 16` times before the start */
             q->start_wraps = (uint16_t)((uint32_t)ahead >> 16);
             arm_at(ch, (uint16_t)compare, SQ_PENDING, 0);
+            armed = ARMED_AT;
             break;
         }
         int32_t until = (int32_t)(at - now);
         if (until <= 0) {
             late = until < 0;
             arm_at(ch, 0, first_state(q), 1);
+            armed = ARMED_NOW;
             break;
         }
         /* the first match would come too close to now: wait a few microseconds with
-         * interrupts on */
+         * interrupts on (a limit switch may close meanwhile: checked again) */
         irq_on();
+        check = 1;
+    }
+    if (armed == ARMED_NOW) {
+        uint16_t ocr = ch == 0 ? OCR1A : OCR1B;
+        uint32_t now = ticks_now();
+        compare = now + (int16_t)(ocr - (uint16_t)now);
     }
     irq_restore(sreg);
+    if (armed)
+        note_start(ch, compare);
     return late;
 }
 
@@ -671,7 +746,14 @@ void stepgen_set_dir_pin(uint8_t ch, uint8_t pin)
 
 static void update_slow(struct stepq *q)
 {
-    q->slow = q->detached | (q->pcnt_flags & PCNT_ON);
+    q->slow = q->detached | (q->pcnt_flags & PCNT_ON) | q->limit_block;
+}
+
+void stepgen_forget_start(uint8_t ch)
+{
+    struct stepq *q = &stepq[ch];
+    if (q->started && (int32_t)(ticks_now() - q->start_tick) < 0)
+        q->started = 0;
 }
 
 void stepgen_set_detached(uint8_t ch, uint8_t detached)

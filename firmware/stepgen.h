@@ -21,6 +21,7 @@
 #include <stdint.h>
 
 #include "config.h"
+#include "uart.h"
 
 #define QE_TOGGLE_DIR_BIT 4
 #define QE_TOGGLE_DIR (1 << QE_TOGGLE_DIR_BIT)  /* toggle the direction pin at the start */
@@ -74,7 +75,17 @@ struct stepq {
     volatile int16_t pcnt;
     int16_t pcnt_low;
     int16_t pcnt_high;
+    volatile uint8_t limit_block;  /* LB_*: a closed limit switch forbids that direction */
+    volatile uint8_t limit_hit;    /* a limit stopped the queue; the main loop finishes it */
+    uint8_t started;               /* a start to report (Started) once start_tick is past */
+    uint32_t start_tick;           /* the tick of the first compare of that start */
 };
+
+/* limit_block bits: steps that count down (up) are forbidden */
+#define LB_DOWN 0x01
+#define LB_UP 0x02
+/* the LB_* bit of an entry's direction (its flags) */
+#define BLOCK_BIT(flags) ((uint8_t)(((flags) & QE_COUNT_UP) ? LB_UP : LB_DOWN))
 
 extern struct stepq stepq[FW_MAX_STEPPERS];
 
@@ -110,5 +121,57 @@ void stepgen_poll(void);
 void stepgen_set_counts(uint8_t ch, uint32_t pulses, int32_t pulse_pos);
 /* Publish the entry written at entry[wp & QUEUE_MASK]. */
 void stepgen_commit_entry(uint8_t ch);
+
+/* Limit switches (limits.c).  With interrupts off: the directions a closed switch
+ * forbids (LB_*; the compare interrupt then checks every entry that begins; the
+ * slow flag sends it there), and a stop before the channels' next pulse - a pulse
+ * already on the pin, or whose compare is too close to be taken back, is finished
+ * and counted by the interrupts. */
+static inline __attribute__((always_inline)) void stepgen_set_block(uint8_t ch, uint8_t block)
+{
+    struct stepq *q = &stepq[ch];
+    q->limit_block = block;
+    q->slow = q->detached | (q->pcnt_flags & PCNT_ON) | block;
+}
+/* (the channels of `mask`, a bit each, all at once; inline: the pin-change
+ * interrupt calls nothing, so that it begins at once) */
+#define HALT_LEAD 32  /* a compare this close to the counter read is not taken back */
+
+static inline __attribute__((always_inline)) uint8_t stepgen_halt_decide(
+    uint8_t ch, uint16_t ocr, uint16_t tcnt, uint8_t flag_set)
+{
+    struct stepq *q = &stepq[ch];
+    uint8_t st = q->state;
+    if (st & SQ_PENDING) {
+        q->state = 0;  /* a timed start that waits: nothing on the pin yet */
+        return 0;
+    }
+    if (!(st & SQ_RUNNING) || (st & SQ_STOPPING))
+        return 0;
+    if (!(st & SQ_FALLING)
+            && (!(st & SQ_ARMED) || (!flag_set && (uint16_t)(ocr - tcnt) >= HALT_LEAD))) {
+        q->state = 0;  /* no pulse on the pin and none before it is disconnected */
+        return 1;
+    }
+    q->state = st | SQ_STOPPING;  /* a pulse on the pin, or about to be: finished */
+    return 0;
+}
+
+static inline __attribute__((always_inline)) void stepgen_halt_isr(uint8_t mask)
+{
+    uint16_t tcnt = TCNT1;
+    uint8_t tifr = TIFR1;
+    uint8_t off = 0;
+    if ((mask & 1) && stepgen_halt_decide(0, OCR1A, tcnt, tifr & _BV(OCF1A)))
+        off |= _BV(COM1A1) | _BV(COM1A0);
+    if ((mask & 2) && stepgen_halt_decide(1, OCR1B, tcnt, tifr & _BV(OCF1B)))
+        off |= _BV(COM1B1) | _BV(COM1B0);
+    if (off) {
+        TCCR1A &= (uint8_t)~off;
+        main_wake |= WAKE_IDLE;
+    }
+}
+/* A start that has not begun yet is not reported (the queue was stopped before). */
+void stepgen_forget_start(uint8_t ch);
 
 #endif

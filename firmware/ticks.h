@@ -26,4 +26,14 @@ static inline __attribute__((always_inline)) uint32_t ticks_now(void)
     return ((uint32_t)high << 16) | low;
 }
 
+/* The tick at which TCNT1 read `low` (interrupts off since the read, less than a
+ * counter wrap ago). */
+static inline __attribute__((always_inline)) uint32_t ticks_at(uint16_t low)
+{
+    uint16_t high = ticks_high;
+    if ((TIFR1 & _BV(TOV1)) && low < 0x8000u)
+        high++;
+    return ((uint32_t)high << 16) | low;
+}
+
 #endif

@@ -21,6 +21,8 @@ extern volatile uint8_t main_wake;
 #define WAKE_TICK 0x02  /* the 1.024 ms tick of timer 0 */
 #define WAKE_TX 0x04    /* a byte left while output waits for room */
 #define WAKE_IDLE 0x08  /* a queue ran dry (synchronized outputs wait for that) */
+#define WAKE_INPUT 0x10 /* a watched or limit pin changed (pin-change interrupt) */
+#define WAKE_LIMIT 0x20 /* a limit switch stopped a queue */
 /* set by the sender while output waits for room in the transmit ring */
 extern volatile uint8_t uart_tx_waiting;
 

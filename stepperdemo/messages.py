@@ -790,7 +790,9 @@ Commands (s = stepper 1 or 2; several per line, separated by spaces):
                     power-up / reset), A5 spare
 
 On a device (--port) the pots and switches are its pins A0..A5, reported by the
-device; the limits stop S2 on the device itself.
+device; the limits stop S2 on the device itself.  A simulated device (stepperdemo
+device --pty or --simavr) takes pot and switch on its simulated pins; a board
+refuses them.
 
 exit codes: 0 ok, 2 bad arguments, 3 --max-time reached, 5 device lost"""
 DEVICE_INPUT_SET = "device: input {text}"

@@ -30,6 +30,8 @@ from .protocol import (
     D_ESTOP,
     D_SESSION,
     D_WATCHDOG,
+    F_INPUTS,
+    F_SIM_INPUTS,
     L_CLEAR,
     L_UP,
     MAX_FRAME,
@@ -38,6 +40,7 @@ from .protocol import (
     O_ANALOG,
     O_SYNCHRONIZED,
     PROTOCOL_VERSION,
+    S_ANALOG,
     W_ANALOG,
     W_DIGITAL,
     W_PULLUP,
@@ -56,6 +59,7 @@ from .protocol import (
     OutputSet,
     Pin,
     Progress,
+    SetInput,
     Start,
     Started,
     Status,
@@ -256,8 +260,9 @@ class SerialBackend(Backend):
             link.send(message)
         for ch in self.channels:
             ch.configure()
-        for message in (*self.watches.values(), *self.limits.values()):  # issue 13
-            link.send(message)
+        if ident.features & F_INPUTS:  # issue 13
+            for message in (*self.watches.values(), *self.limits.values()):
+                link.send(message)
         if adopt and self._engine is not None:
             for s in self._engine.steppers:
                 st = self.statuses.get(s.queue.index)
@@ -698,8 +703,14 @@ class SerialBackend(Backend):
         self.send(OutputCancel())
 
     # ------------------------------------------------------- inputs (issue 13)
+    def _features(self) -> int:
+        """Ident's optional message families of the device (section 5)."""
+        return self.ident.features if self.ident is not None else 0
+
     def watch_input(self, pin: int, analog: bool = False, pullup: bool = True,
                     period_ms: int = 0) -> bool:
+        if self.connected and not self._features() & F_INPUTS:
+            return False  # a device without inputs (section 18) would refuse the watch
         mode = W_ANALOG if analog else (W_PULLUP if pullup else W_DIGITAL)
         watch = WatchInput(pin, mode, min(max(period_ms, 0), 255))
         self.watches[pin] = watch
@@ -711,8 +722,25 @@ class SerialBackend(Backend):
     def read_input(self, pin: int) -> int | None:
         return self.inputs.get(pin)
 
+    def drive_input(self, pin: int, value: int) -> bool:
+        """A simulated device (Ident feature F_SIM_INPUTS: ``device --pty``, the firmware
+        in simavr) lets the host turn its pots and press its switches: SetInput.  The
+        device reads the pin as a board would and reports it (Input); a board's inputs
+        are its pins (False)."""
+        if not (self.connected and self._features() & F_SIM_INPUTS):
+            return False
+        w = self.watches.get(pin)
+        analog = w.mode == W_ANALOG if w is not None else value > 1
+        value = min(max(int(value), 0), 1023) if analog else (1 if value else 0)
+        self.send(SetInput(pin, value, S_ANALOG if analog else 0))
+        if self.link is not None:
+            self.link.flush()
+        return True
+
     def set_limit(self, index: int, pin: int, level: int, up: bool,
                   stop: tuple[int, ...] = ()) -> bool:
+        if self.connected and not self._features() & F_INPUTS:
+            return False  # a device without limit switches (section 18)
         mask = 0
         for i in stop:
             mask |= 1 << i

@@ -31,6 +31,8 @@ from .protocol import (
     D_SESSION,
     D_WATCHDOG,
     DEVICE_COUNTERS,
+    F_INPUTS,
+    F_SIM_INPUTS,
     L_CLEAR,
     L_UP,
     MAX_PAYLOAD,
@@ -42,6 +44,7 @@ from .protocol import (
     P_RUNNING,
     P_START_PENDING,
     PROTOCOL_VERSION,
+    S_ANALOG,
     UNSEQUENCED,
     W_ANALOG,
     W_OFF,
@@ -71,6 +74,7 @@ from .protocol import (
     Pin,
     Progress,
     SetEndPos,
+    SetInput,
     Start,
     Started,
     Status,
@@ -195,7 +199,9 @@ class Device:
         self.analog: dict[int, int] = {}  # the analog inputs' values (set_input)
         # limit switches: (stepper, up) -> (pin, level, stop mask)
         self.limits: dict[tuple[int, bool], tuple[int, int, int]] = {}
-        self.features = 0  # optional message families (Ident): none in this version
+        # optional message families (Ident): inputs, limits and Started (section 18);
+        # the inputs are this simulation's, so the host may set them (SetInput)
+        self.features = F_INPUTS | F_SIM_INPUTS
         self.sequenced_handlers = self._default_handlers()
         self.stream: ByteStream | None = None
         self.in_wires: list = []
@@ -518,7 +524,8 @@ class Device:
                 Config: self._config, DirPin: self._dir_pin, Detach: self._detach,
                 PcntAttach: self._pcnt_attach, PcntClear: self._pcnt_clear,
                 Truncate: self._truncate, OutputPwm: self._output, OutputSet: self._output,
-                OutputCancel: self._output, WatchInput: self._watch, Limit: self._limit}
+                OutputCancel: self._output, WatchInput: self._watch, Limit: self._limit,
+                SetInput: self._set_input}
 
     def _pin(self, m: Pin) -> None:
         self.machine.pins.set(m.pin, m.level, self.machine.now)
@@ -850,6 +857,13 @@ class Device:
         if not analog:
             self._limit_pin_changed(pin, 1 if value else 0)
 
+    def _set_input(self, m: SetInput) -> None:
+        """SetInput: the host turns a pot or presses a switch of this simulated board."""
+        if not self.features & F_SIM_INPUTS:
+            self.counters["rejected"] += 1
+            return
+        self.set_input(m.pin, m.value, analog=bool(m.flags & S_ANALOG))
+
     def schedule_input(self, tick: int, pin: int, value: int,
                        analog: bool | None = None) -> None:
         """``set_input`` at device tick ``tick`` (a switch that closes at a known time)."""
@@ -864,8 +878,13 @@ class Device:
         if m.flags & L_CLEAR:
             self.limits.pop(key, None)
             return
-        self.limits[key] = (m.pin, 1 if m.level else 0, m.stop_mask)
+        lim = (m.pin, 1 if m.level else 0, m.stop_mask)
+        self.limits[key] = lim
         q.channel.entry_guard = lambda e, i=m.stepper: self._guard(i, e)
+        # a switch already closed while the queue steps towards it stops it now
+        if self.machine.pins.get(lim[0]) == lim[1] and q.channel.is_running() \
+                and q.channel.moving_up() == key[1]:
+            self._limit_stop(m.stepper, lim)
 
     def _guard(self, idx: int, entry) -> bool:
         lim = self.limits.get((idx, entry.count_up))

@@ -649,6 +649,10 @@ W_PULLUP = 2  # digital input with the pull-up resistor
 W_ANALOG = 3  # analog input, 0..1023
 L_UP = 0x01  # Limit.flags: the limit stops steps that count up (else down)
 L_CLEAR = 0x80  # ... remove the limit of that direction
+S_ANALOG = 0x01  # SetInput.flags: a pot's value 0..1023 (else a level 0/1)
+# Ident.features: the optional message families a device understands (section 5)
+F_INPUTS = 0x0001  # section 18: WatchInput, Limit; Input, LimitHit, Started
+F_SIM_INPUTS = 0x0002  # SetInput: the device's inputs are a simulation's (section 18)
 
 
 @register
@@ -677,6 +681,21 @@ class Limit(Message):
     level: int
     flags: int
     stop_mask: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class SetInput(Message):
+    """The world outside a *simulated* device (Ident feature F_SIM_INPUTS): a switch
+    holds ``pin`` at level ``value`` (0/1), or with ``flags`` S_ANALOG a pot turns the
+    analog input ``pin`` to ``value`` (0..1023).  The device reads it from its pin as
+    a board would; other devices refuse it."""
+
+    CODE: ClassVar[int] = 0x32
+    FMT: ClassVar[struct.Struct] = _fmt("BHB")
+    pin: int
+    value: int
+    flags: int
 
 
 @register

@@ -14,10 +14,17 @@
 The harness records every pin change with its cycle (``--trace``); the firmware's
 tick counter is the CPU cycle counter minus the cycle at which timer 1 was started,
 so :meth:`Trace.edges` gives edges in device ticks, as the Python device's recorder.
+
+The harness is also the world outside the board: :meth:`SimavrDevice.set_input` (or
+``schedule_input`` at a given tick) closes a switch or turns a pot on the chip's pins
+- a level on a digital pin, a value 0..1023 on the A/D converter of A0-A7 (untouched
+ones read 512, centred pots) - and the firmware forwards the protocol's SetInput to
+it, so a host can turn the simulated pots itself (docs/serial-protocol.md, 18).
 """
 
 from __future__ import annotations
 
+import bisect
 import ctypes
 import fcntl
 import os
@@ -231,7 +238,8 @@ class _Chip:
     _lib = None
     _open = False
 
-    def __init__(self, lib_path: Path, elf: Path, trace: Path, boot_count: int) -> None:
+    def __init__(self, lib_path: Path, elf: Path, trace: Path, boot_count: int,
+                 world: bool = True) -> None:
         if _Chip._open:
             raise SimavrError("one simulated chip per process at a time")
         lib = _Chip._lib
@@ -240,7 +248,8 @@ class _Chip:
             u8p, u32p, u64p = (ctypes.POINTER(ctypes.c_uint8), ctypes.POINTER(ctypes.c_uint32),
                                ctypes.POINTER(ctypes.c_uint64))
             lib.fs_open.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p,
-                                    ctypes.c_uint32, ctypes.c_uint16]
+                                    ctypes.c_uint32, ctypes.c_uint16, ctypes.c_int]
+            lib.fs_input.argtypes = [ctypes.c_int, ctypes.c_uint32, ctypes.c_int]
             lib.fs_run.argtypes = [ctypes.c_uint64, ctypes.c_char_p, ctypes.c_uint32, u8p,
                                    ctypes.c_uint32, u32p, u64p]
             lib.fs_pins.argtypes = [u8p, u32p, u32p]
@@ -249,7 +258,7 @@ class _Chip:
             _Chip._lib = lib
         self.lib = lib
         if lib.fs_open(str(elf).encode(), str(trace).encode(), b"atmega328p", CPU_HZ,
-                       boot_count & 0xFFFF) != 0:
+                       boot_count & 0xFFFF, int(world)) != 0:
             raise SimavrError(f"simavr cannot load {elf}")
         _Chip._open = True
         self._out = (ctypes.c_uint8 * 65536)()
@@ -281,6 +290,10 @@ class _Chip:
             raise SimavrError(f"memory access {addr:#x}+{n} outside the chip's RAM")
         return bytes(buf[:n])
 
+    def input(self, pin: int, value: int, analog: bool) -> None:
+        if self.lib.fs_input(pin, value, int(analog)) != 0:
+            raise SimavrError(f"the board has no input {'A' if analog else 'pin '}{pin}")
+
     def flush_trace(self) -> None:
         self.lib.fs_flush_trace()
 
@@ -296,12 +309,14 @@ class SimavrDevice:
     Bytes the host wrote reach the chip's UART at the instant the clock has when they
     are read; bytes the chip sends are handed to the line once their last bit has
     left (10 bits a character at the chip's baud setting).  The chip runs in this
-    process (the harness as a library), one at a time.
+    process (the harness as a library), one at a time.  ``world=False``: the harness
+    does not mark the chip as simulated (a board: the firmware refuses SetInput).
     """
 
     def __init__(self, stream: ByteStream | None = None, clock=None, *,
                  elf: str | Path | None = None, baud: int = 115200,
-                 trace: str | Path | None = None, boot_count: int | None = None) -> None:
+                 trace: str | Path | None = None, boot_count: int | None = None,
+                 world: bool = True) -> None:
         if elf is None or not library_path().exists():
             built = build(baud)
             elf = elf or built.elf
@@ -315,8 +330,10 @@ class SimavrDevice:
         self.trace_path = Path(trace)
         if boot_count is None:
             boot_count = random.getrandbits(16)
-        self.chip = _Chip(library_path(), self.elf, self.trace_path, boot_count)
+        self.chip = _Chip(library_path(), self.elf, self.trace_path, boot_count, world)
         self.cycle = 0
+        self._inputs: list[tuple[int, int, int, int, bool]] = []  # (cycle, n, pin, value, analog)
+        self._input_count = 0
         self._next_tx_cycle = 0
         self._quantum_ns = QUANTUM_NS
         self._out = bytearray()  # bytes for the line ...
@@ -329,11 +346,43 @@ class SimavrDevice:
 
     # ------------------------------------------------------------ the chip
     def run_to_cycle(self, cycle: int, data: bytes = b"") -> bytes:
-        """Hand ``data`` to the UART now, run to ``cycle``; the bytes sent meanwhile."""
+        """Hand ``data`` to the UART now, run to ``cycle``; the bytes sent meanwhile.
+        Inputs scheduled meanwhile change at their cycles."""
         if self.closed:
             raise SimavrError("the simulated chip is closed")
-        sent, self.cycle, self._next_tx_cycle = self.chip.run(max(cycle, self.cycle), data)
-        return sent
+        sent = b""
+        while self._inputs and self._inputs[0][0] <= cycle:
+            at, _n, pin, value, analog = self._inputs.pop(0)
+            if at > self.cycle:
+                part, self.cycle, self._next_tx_cycle = self.chip.run(at, data)
+                sent += part
+                data = b""
+            self.chip.input(pin, value, analog)
+        part, self.cycle, self._next_tx_cycle = self.chip.run(max(cycle, self.cycle), data)
+        return sent + part
+
+    @property
+    def tick(self) -> int:
+        """The chip's tick counter now (cycles since timer 1 started)."""
+        return self.cycle - self.info().timer1_start
+
+    # ------------------------------------------------------------ the world
+    def set_input(self, pin: int, value: int, analog: bool | None = None) -> None:
+        """The world outside the board, now: a switch holds ``pin`` at level ``value``
+        (0/1) or a pot turns analog pin ``pin`` (A0-A7: 14-21) to ``value`` (0..1023).
+        ``analog`` None: a value above 1 is a pot."""
+        self.chip.input(pin, value, value > 1 if analog is None else analog)
+
+    def schedule_input(self, tick: int, pin: int, value: int,
+                       analog: bool | None = None) -> None:
+        """``set_input`` at device tick ``tick`` (a switch that closes at a known time)."""
+        cycle = tick + self.info().timer1_start
+        if cycle <= self.cycle:  # the chip is there already
+            self.set_input(pin, value, analog)
+            return
+        self._input_count += 1
+        bisect.insort(self._inputs, (cycle, self._input_count, pin, value,
+                                     value > 1 if analog is None else analog))
 
     def _sent(self, data: bytes) -> None:
         """Bytes the chip sent: the line gets them when a frame is complete (its sync
@@ -447,6 +496,8 @@ class SimavrDevice:
         nxt = now + self._quantum_ns
         if self._next_tx_cycle:
             nxt = min(nxt, self.ns_at(self._next_tx_cycle))
+        if self._inputs:  # the chip's answer to an input change is looked at soon after
+            nxt = min(nxt, self.ns_at(self._inputs[0][0]))
         return max(nxt, now + 1)
 
     def close(self) -> None:
@@ -470,7 +521,8 @@ class SimavrServer:
         if trace:
             args += ["--trace", trace]
         args.append(str(elf))
-        self.proc = subprocess.Popen(args, stdout=subprocess.PIPE, text=True, bufsize=1)
+        self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     text=True, bufsize=1)
         first = self.proc.stdout.readline().strip()
         if not first.startswith("/"):
             self.proc.wait(timeout=10)
@@ -478,8 +530,18 @@ class SimavrServer:
                               f"{self.proc.returncode})")
         self.path = first
 
+    def set_input(self, pin: int, value: int, analog: bool = False) -> None:
+        """The world sets an input of the simulated board (see :class:`SimavrDevice`)."""
+        if self.proc.stdin is None or self.proc.poll() is not None:
+            raise SimavrError("the simavr harness has ended")
+        self.proc.stdin.write(f"{pin} {value}{' a' if analog else ''}\n")
+        self.proc.stdin.flush()
+
     def stop(self) -> list[str]:
         """End the run; the harness's summary lines."""
+        if self.proc.stdin is not None:
+            self.proc.stdin.close()
+            self.proc.stdin = None
         if self.proc.poll() is None:
             self.proc.terminate()
         out, _ = self.proc.communicate(timeout=30)

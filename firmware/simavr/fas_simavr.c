@@ -5,7 +5,7 @@
  *   fas-simavr [--pty] [--link PATH] [--speed F] [--trace FILE] FIRMWARE.elf
  *       serves a new pseudo-terminal (its path is the first line on stdout) and runs
  *       the simulated chip in real time (or F times faster); ends on SIGINT/SIGTERM
- *       and prints a summary.
+ *       and prints a summary.  Lines "PIN VALUE [a]" on standard input set inputs.
  *
  * The same file, built as a shared library (-DFAS_SIMAVR_LIB, libfassimavr.so), is the
  * chip for co-simulation: fs_open(), then fs_run() hands it the bytes the host sent
@@ -22,8 +22,19 @@
  * and 10 from it while the compare output is connected, from PORTB otherwise.
  * Compare matches are time-stamped at their exact cycle.
  *
+ * The world outside the board.  Inputs are set from outside (fs_input(), or lines
+ * "PIN VALUE [a]" on standard input of the pty program): a digital level on a pin (a
+ * switch; it overrides the pull-up, as a switch to ground does), or an analog value
+ * 0..1023 on A0-A7 (a pot; AVcc is 5 V and the voltage is the one simavr's A/D
+ * converter reads back as that value; the pin then reads high from 512 up).  A level
+ * on an analog pin reads 0 or 1023 there.  Untouched analog inputs read 512 (centred
+ * pots).  The harness marks the chip as simulated at reset (GPIOR1 = 0xA5, GPIOR2 =
+ * 0x5A; a board has 0 there), and the firmware then forwards the protocol's SetInput:
+ * pin to GPIOR1, value bits 0-7 to GPIOR2, then GPIOR0 = 0x80 | analog 0x40 | value
+ * bits 8-9 - this harness's hook on GPIOR0 makes the change at that cycle.
+ *
  * The trace file has a header of '#' lines, then one line per pin change:
- * "cycle pin level".
+ * "cycle pin level"; an analog input's change is a comment "#A cycle pin value".
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -47,6 +58,7 @@
 #include "avr_timer.h"
 #include "avr_uart.h"
 #include "avr_eeprom.h"
+#include "avr_adc.h"
 
 #define PINS 20
 #define REG_PINB 0x23
@@ -58,6 +70,13 @@
 #define REG_OCR1BL 0x8A
 #define REG_UCSR0B 0xC1
 #define RXEN0_BIT 4
+#define REG_GPIOR0 0x3E
+#define REG_GPIOR1 0x4A
+#define REG_GPIOR2 0x4B
+#define SIM_MARK_1 0xA5
+#define SIM_MARK_2 0x5A
+#define SIM_GO 0x80
+#define SIM_ANALOG 0x40
 
 static avr_t *avr;
 static FILE *trace;
@@ -200,6 +219,94 @@ static void hook_pins(void)
     avr_register_io_write(avr, REG_TCCR1B, tccr1b_write, NULL);
 }
 
+/* ------------------------------------------------------------------ the world */
+#define ANALOG_FIRST 14   /* A0 */
+#define ANALOG_PINS 8     /* A0-A7 */
+#define AVCC_MV 5000
+#define ANALOG_DEFAULT 512
+static uint8_t ext_mask[3], ext_value[3];  /* levels the world holds, ports B, C, D */
+static uint32_t world_changes;
+
+static uint32_t analog_mv(uint32_t value)
+{
+    /* simavr reads mV * 1023 / AVcc (rounded down): this is the least voltage read
+     * back as `value` */
+    return (value * AVCC_MV + 1022) / 1023;
+}
+
+static void world_analog(int channel, uint32_t value)
+{
+    avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, channel), analog_mv(value));
+    if (trace)
+        fprintf(trace, "#A %" PRIu64 " %d %" PRIu32 "\n", avr->cycle, ANALOG_FIRST + channel,
+                value);
+}
+
+static void world_level(int pin, int level)
+{
+    char port = pin < 8 ? 'D' : pin < 14 ? 'B' : 'C';
+    int bit = pin < 8 ? pin : pin < 14 ? pin - 8 : pin - 14;
+    int i = port == 'B' ? 0 : port == 'C' ? 1 : 2;
+    ext_mask[i] |= (uint8_t)(1u << bit);
+    if (level)
+        ext_value[i] |= (uint8_t)(1u << bit);
+    else
+        ext_value[i] &= (uint8_t)~(1u << bit);
+    /* the level wins over the pull-up when the port is written again */
+    avr_ioport_external_t ext = {.name = (unsigned)port, .mask = ext_mask[i],
+                                 .value = ext_value[i]};
+    avr_ioctl(avr, AVR_IOCTL_IOPORT_SET_EXTERNAL(port), &ext);
+    avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port), bit), level ? 1 : 0);
+}
+
+/* The world sets input `pin`: an analog value (a pot) or a level (a switch). */
+static int world_input(int pin, uint32_t value, int analog)
+{
+    int is_analog_pin = pin >= ANALOG_FIRST && pin < ANALOG_FIRST + ANALOG_PINS;
+    if (pin < 2 || pin >= ANALOG_FIRST + ANALOG_PINS || (analog && !is_analog_pin))
+        return -1;  /* the UART's pins, or no such input */
+    int level;
+    if (analog) {
+        if (value > 1023)
+            value = 1023;
+        world_analog(pin - ANALOG_FIRST, value);
+        level = value >= 512;
+    } else {
+        level = value != 0;
+        if (is_analog_pin)
+            world_analog(pin - ANALOG_FIRST, level ? 1023 : 0);
+    }
+    if (pin < PINS)
+        world_level(pin, level);
+    world_changes++;
+    return 0;
+}
+
+/* The firmware forwards SetInput (see the top of this file). */
+static void gpior0_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *param)
+{
+    (void)addr; (void)param;
+    if (!(v & SIM_GO))
+        return;
+    uint32_t value = a->data[REG_GPIOR2] | ((uint32_t)(v & 0x03) << 8);
+    world_input(a->data[REG_GPIOR1], value, (v & SIM_ANALOG) != 0);
+}
+
+static void hook_world(int world)
+{
+    memset(ext_mask, 0, sizeof ext_mask);
+    memset(ext_value, 0, sizeof ext_value);
+    world_changes = 0;
+    avr->vcc = avr->avcc = AVCC_MV;
+    for (int ch = 0; ch < ANALOG_PINS; ch++)
+        avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ch), analog_mv(ANALOG_DEFAULT));
+    if (world) {
+        avr->data[REG_GPIOR1] = SIM_MARK_1;
+        avr->data[REG_GPIOR2] = SIM_MARK_2;
+        avr_register_io_write(avr, REG_GPIOR0, gpior0_write, NULL);
+    }
+}
+
 /* ------------------------------------------------------------------ UART */
 #define TXQ 65536
 static uint8_t txq_byte[TXQ];
@@ -291,8 +398,11 @@ static void hook_uart(void)
 /* ------------------------------------------------------------------ running */
 static avr_cycle_count_t stop_timer(struct avr_t *a, avr_cycle_count_t when, void *param)
 {
-    (void)a; (void)when; (void)param;
-    return 0;  /* only ends a sleep at the right cycle */
+    (void)a; (void)param;
+    /* only ends a sleep at the right cycle.  It stays due every cycle after (the next
+     * run cancels it): simavr processes every expired timer and then sleeps until the
+     * next one, which would carry a sleeping chip past the cycle asked for. */
+    return when + 1;
 }
 
 static uint64_t sleep_cycles;  /* the chip's idle time: 1 - sleep/total is its load */
@@ -369,6 +479,41 @@ static int open_pty(char *path, size_t size, int *keep_slave)
     return master;
 }
 
+/* Lines "PIN VALUE [a]" on standard input: the world sets an input. */
+static char cmd_buf[256];
+static size_t cmd_len;
+static int stdin_open = 1;
+
+static void read_commands(void)
+{
+    if (!stdin_open)
+        return;
+    struct pollfd pfd = {.fd = 0, .events = POLLIN};
+    while (poll(&pfd, 1, 0) > 0 && (pfd.revents & (POLLIN | POLLHUP))) {
+        ssize_t r = read(0, cmd_buf + cmd_len, sizeof cmd_buf - 1 - cmd_len);
+        if (r <= 0) {
+            stdin_open = 0;
+            return;
+        }
+        cmd_len += (size_t)r;
+        char *nl;
+        while ((nl = memchr(cmd_buf, '\n', cmd_len))) {
+            *nl = 0;
+            int pin;
+            unsigned value;
+            char kind = 'd';
+            int n = sscanf(cmd_buf, "%d %u %c", &pin, &value, &kind);
+            if ((n < 2 || world_input(pin, value, kind == 'a') != 0) && cmd_buf[0])
+                fprintf(stderr, "fas-simavr: not an input: %s\n", cmd_buf);
+            size_t used = (size_t)(nl - cmd_buf) + 1;
+            memmove(cmd_buf, nl + 1, cmd_len - used);
+            cmd_len -= used;
+        }
+        if (cmd_len == sizeof cmd_buf - 1)
+            cmd_len = 0;  /* a line too long: dropped */
+    }
+}
+
 static int serve_pty(double speed, const char *link)
 {
     char path[128];
@@ -401,6 +546,7 @@ static int serve_pty(double speed, const char *link)
         double now = wall_s();
         uint64_t target = c0 + (uint64_t)((now - t0) * hz);
         ssize_t r;
+        read_commands();
         while ((r = read(master, buf, sizeof buf)) > 0)
             rx_queue(buf, (size_t)r);
         rx_feed();
@@ -452,6 +598,8 @@ static int serve_pty(double speed, const char *link)
         if (pins[i].rising || pins[i].falling)
             fprintf(stdout, "pin %d: %" PRIu32 " rising, %" PRIu32 " falling edges, now %d\n",
                     i, pins[i].rising, pins[i].falling, pins[i].level);
+    if (world_changes)
+        fprintf(stdout, "inputs set: %" PRIu32 "\n", world_changes);
     if (tx_dropped || rx_overruns)
         fprintf(stdout, "bytes lost: %" PRIu32 " sent to nobody, %" PRIu32 " received in excess\n",
                 tx_dropped, rx_overruns);
@@ -477,7 +625,7 @@ static int serve_pty(double speed, const char *link)
  * every run is a new boot for the host) and the clock rate per host second for a
  * chip run `speed` times faster than real time. */
 static int chip_open(const char *elf, const char *mcu, uint32_t freq, const char *trace_file,
-                     uint16_t boot_count, double speed)
+                     uint16_t boot_count, double speed, int world)
 {
     memset(pins, 0, sizeof pins);
     memset(oc, 0, sizeof oc);
@@ -529,6 +677,7 @@ static int chip_open(const char *elf, const char *mcu, uint32_t freq, const char
     }
     hook_pins();
     hook_uart();
+    hook_world(world);
     return 0;
 }
 
@@ -547,13 +696,19 @@ static void chip_close(void)
 #ifdef FAS_SIMAVR_LIB
 /* ------------------------------------------------------------------ library */
 int fs_open(const char *elf, const char *trace_file, const char *mcu, uint32_t freq,
-            uint16_t boot_count)
+            uint16_t boot_count, int world)
 {
     if (avr) {
         fprintf(stderr, "fas-simavr: one chip at a time\n");
         return -1;
     }
-    return chip_open(elf, mcu, freq, trace_file, boot_count, 1.0);
+    return chip_open(elf, mcu, freq, trace_file, boot_count, 1.0, world);
+}
+
+/* The world sets input `pin` now (see the top of this file); -1: no such input. */
+int fs_input(int pin, uint32_t value, int analog)
+{
+    return world_input(pin, value, analog);
 }
 
 /* The bytes in[0..n) reach the UART now; then run to `until`.  out: the bytes the chip
@@ -631,7 +786,9 @@ static void usage(void)
 {
     fprintf(stderr,
             "usage: fas-simavr [--pty] [--link PATH] [--speed F] [--trace FILE] "
-            "[--mcu NAME] [--freq HZ] [--boot N] FIRMWARE.elf\n");
+            "[--mcu NAME] [--freq HZ] [--boot N] FIRMWARE.elf\n"
+            "  standard input: lines \"PIN VALUE\" (a level) or \"PIN VALUE a\" (an analog "
+            "value 0..1023) set the board's inputs\n");
 }
 
 int main(int argc, char **argv)
@@ -671,7 +828,7 @@ int main(int argc, char **argv)
         clock_gettime(CLOCK_REALTIME, &ts);
         boot = (long)((ts.tv_nsec ^ ts.tv_sec ^ getpid()) & 0xFFFF);
     }
-    if (chip_open(elf, mcu, freq, trace_file, (uint16_t)boot, speed))
+    if (chip_open(elf, mcu, freq, trace_file, (uint16_t)boot, speed, 1))
         return 2;
     int rc = serve_pty(speed, link);
     chip_close();

@@ -5,11 +5,12 @@
 #include <avr/io.h>
 
 #include "../board.h"
+#include "../limits.h"
 #include "../stepgen.h"
 #include "../ticks.h"
 
 enum { RIG_ENTRY = 1, RIG_START_AT, RIG_START_NOW, RIG_STOP, RIG_DIR_PIN, RIG_PIN,
-       RIG_DETACH, RIG_PCNT, RIG_SNAPSHOT };
+       RIG_DETACH, RIG_PCNT, RIG_SNAPSHOT, RIG_BLOCK, RIG_HALT };
 
 struct rig {
     volatile uint8_t seq;   /* the host writes the command, then bumps seq */
@@ -24,9 +25,23 @@ struct rig {
     int16_t pcnt_high;
     uint8_t late;           /* answer of RIG_START_AT */
     struct stepq_snapshot snap;  /* answer of RIG_SNAPSHOT */
+    uint8_t hits;           /* limit stops the step generator made ... */
+    uint8_t hit_ch;         /* ... the last one's queue and direction */
+    uint8_t hit_up;
+    uint32_t hit_tick;
 };
 struct rig rig __attribute__((used));
 volatile uint8_t main_wake;  /* the firmware's main loop is not here: nobody looks */
+
+/* The step generator stopped a queue at a closed limit (limits.c in the firmware):
+ * here it is only counted, for the test to see. */
+void limits_hit(uint8_t ch, uint8_t up)
+{
+    rig.hits++;
+    rig.hit_ch = ch;
+    rig.hit_up = up;
+    rig.hit_tick = ticks_now();
+}
 
 static void execute(void)
 {
@@ -61,6 +76,23 @@ static void execute(void)
     case RIG_SNAPSHOT:
         stepgen_snapshot(ch, &rig.snap);
         break;
+    case RIG_BLOCK: {
+        /* a limit switch closes (arg: LB_* bits), as the pin-change interrupt does */
+        cli();
+        stepgen_set_block(ch, rig.arg);
+        sei();
+        break;
+    }
+    case RIG_HALT: {
+        /* the limit stop of a running queue, as the pin-change interrupt makes it */
+        cli();
+        stepgen_halt_isr((uint8_t)(1u << ch));
+        limits_hit(ch, rig.arg);
+        sei();
+        while (q->state)
+            ;
+        break;
+    }
     }
 }
 

@@ -283,10 +283,12 @@ def device_parser() -> argparse.ArgumentParser:
     ap.add_argument("--input", action="append", default=[], metavar="PIN=VALUE",
                     help="an input of the board at start: a switch (0/1) or a pot (0..1023); "
                          "PIN is a pin number or A0, A1, ... (e.g. --input A4=0 closes the "
-                         "winder's fixture switch); repeatable")
+                         "winder's fixture switch); repeatable; also with --simavr (on the "
+                         "chip's pins)")
     ap.add_argument("--inputs-from-stdin", action="store_true",
                     help="read PIN=VALUE lines from standard input while serving: turn pots "
-                         "and press switches of the simulated board (e.g. A0=900, A3=0)")
+                         "and press switches of the simulated board (e.g. A0=900, A3=0); "
+                         "also with --simavr")
     ap.add_argument("--console", action="store_true",  # issue 15
                     help="instead of the protocol: the simulated StepperDemo firmware with "
                          "its text console (as a board flashed with the original sketch; "
@@ -349,7 +351,7 @@ def run_device(argv: Sequence[str]) -> int:
     except ValueError as exc:
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return EXIT_USAGE
-    each = _stdin_inputs(device, profile) if args.inputs_from_stdin else None
+    each = _stdin_inputs(device.set_input, profile) if args.inputs_from_stdin else None
     if args.quiet:
         print(path, flush=True)
     else:
@@ -376,8 +378,9 @@ def run_device(argv: Sequence[str]) -> int:
     return 0
 
 
-def _stdin_inputs(device, profile):
-    """Lines typed at the device's terminal set its inputs (read by a thread)."""
+def _stdin_inputs(set_input, profile):
+    """Lines typed at the device's terminal set its inputs (read by a thread), through
+    ``set_input(pin, value, analog)``."""
     import queue
     import threading
 
@@ -395,7 +398,7 @@ def _stdin_inputs(device, profile):
             if not line:
                 continue
             try:
-                device.set_input(*parse_input(line, profile))
+                set_input(*parse_input(line, profile))
                 print(msg.DEVICE_INPUT_SET.format(text=line), flush=True)
             except ValueError as exc:
                 print(msg.CLI_ERROR.format(problem=exc), flush=True)
@@ -428,6 +431,22 @@ def run_simavr(args: argparse.Namespace) -> int:
         print(msg.DEVICE_SIMAVR_BUILD_FAILED.format(error=exc), file=sys.stderr)
         return EXIT_USAGE
     profile = get_profile("atmega328p")
+
+    def set_input(pin: int, value: int, analog: bool | None = None) -> None:
+        # the harness sets a level for 0/1 unless the value is a pot's (section 18)
+        try:
+            server.set_input(pin, value, value > 1 if analog is None else analog)
+        except SimavrError as exc:  # the harness has ended: said once, as a bad line
+            raise ValueError(str(exc)) from None
+
+    try:
+        for text in args.input:
+            set_input(*parse_input(text, profile))
+    except ValueError as exc:
+        server.stop()
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        return EXIT_USAGE
+    each = _stdin_inputs(set_input, profile) if args.inputs_from_stdin else None
     if args.quiet:
         print(server.path, flush=True)
     else:
@@ -437,6 +456,8 @@ def run_simavr(args: argparse.Namespace) -> int:
                                           speed=args.speed), flush=True)
     stop = _Stop()
     while not stop() and server.proc.poll() is None:
+        if each is not None:
+            each()
         time.sleep(0.1)
     lines = server.stop()
     if not args.quiet:

@@ -171,13 +171,14 @@ class Winder(Program):
             b.watch_input(self.pin(a), analog=True, period_ms=fig.POT_SAMPLE_MS)
         for a in fig.SWITCHES:
             b.watch_input(self.pin(a), analog=False, pullup=True)
+        pins = [self.pin(a) for a in (*fig.POT_INPUTS, *fig.SWITCHES)]
+        if any(b.read_input(self.pin(a)) is None for a in fig.SWITCHES):
+            # a device reports its inputs once it watches them (its pots as they are)
+            b.wait_until(lambda: all(b.read_input(pin) is not None for pin in pins),
+                         self.profile.ticks_per_s // 2)
         for a in fig.POT_INPUTS:  # the simulated pots start centred
             if b.read_input(self.pin(a)) is None:
                 b.drive_input(self.pin(a), fig.POT_CENTRE)
-        pins = [self.pin(a) for a in (*fig.POT_INPUTS, *fig.SWITCHES)]
-        # a device reports its inputs once it watches them
-        b.wait_until(lambda: all(b.read_input(pin) is not None for pin in pins),
-                     self.profile.ticks_per_s // 2)
 
     def _power_up(self) -> None:
         p = self.profile

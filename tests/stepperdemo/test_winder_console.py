@@ -9,6 +9,7 @@ from prompt_toolkit.input import create_pipe_input
 from prompt_toolkit.output import DummyOutput
 
 from fas.serial.loopback import Loopback
+from fas.serial.protocol import F_INPUTS
 from stepperdemo.front.console import Console, ProgramCompleter
 from stepperdemo.program import make_program
 
@@ -65,9 +66,11 @@ def test_winder_repl_toolbar_completion_history_and_ctrl_c(tmp_path):
     assert "move " in words  # the command and a space for its arguments
 
 
-def test_on_a_device_the_pots_and_switches_are_its_pins():
-    with Loopback(record=True) as lb:
+def test_on_a_board_the_pots_and_switches_are_its_pins():
+    with Loopback(record=True, connect=False) as lb:
         dev = lb.device
+        dev.features = F_INPUTS  # a board: no simulated inputs
+        lb.backend = lb.open_backend()
         app = make_program("winder", lb.backend, scripted=True)
         base = dev.machine.now
         dev.schedule_input(base + TPS // 2, 14, 900, analog=True)  # A0
@@ -80,3 +83,21 @@ def test_on_a_device_the_pots_and_switches_are_its_pins():
         moved = dev.position(0)
         assert moved > 500 and moved == app.steppers[0].get_current_position()
         assert "S1 stopped at" in text
+
+
+def test_a_simulated_device_takes_pot_and_switch_from_the_line():
+    """The issue's lines through --port on the Python device: the host turns the
+    device's simulated pot, the winder reads it back from the device's report."""
+    with Loopback(record=True) as lb:
+        dev = lb.device
+        app = make_program("winder", lb.backend, scripted=True)
+        app.run_script("pots pot 1 900 w500 pot 1 512 w800 period 2 50 move 2 65535 w300 "
+                       "switch A3 1 w300", max_ticks=10 * TPS)
+        text = app.transcript.decode()
+        assert "ERROR" not in text
+        assert "A0 = 900: S1 forward" in text and "S1 stopped at" in text
+        assert "A3: S2 stopped at its upper limit" in text
+        assert lb.backend.settle()
+        switch = [t for t, lv in zip(*dev.recorder.pin_edges(17)) if lv == 0][-1]
+        assert dev.recorder.rising(10)[-1] < switch  # not one step after the switch
+        assert dev.position(1) == app.steppers[1].get_current_position() > 0

@@ -17,7 +17,8 @@ from fas.sim import SimBackend
 from fas.sim.machine import PRIO_PLAIN
 from fas.sim.pins import EdgeRecorder
 
-ENTRY, START_AT, START_NOW, STOP, DIR_PIN, PIN, DETACH, PCNT, SNAPSHOT = range(1, 10)
+ENTRY, START_AT, START_NOW, STOP, DIR_PIN, PIN, DETACH, PCNT, SNAPSHOT, BLOCK, HALT = range(1, 12)
+LB_DOWN, LB_UP = 0x01, 0x02  # limit_block: a closed switch forbids that direction
 STEP_PINS = (9, 10)
 QE_TOGGLE_DIR, QE_DIR_LEVEL, QE_COUNT_UP = 0x10, 0x20, 0x40
 PCNT_ON, PCNT_DIR_HIGH_UP = 0x01, 0x02
@@ -81,6 +82,12 @@ class Rig:
         self.command(SNAPSHOT, ch)
         return Snapshot(*struct.unpack("<BBBIih", self._read(19, 13)))
 
+    def hits(self) -> tuple[int, int, int, int]:
+        """The limit stops the step generator made: (count, queue, up, tick of the
+        last one)."""
+        count, ch, up, tick = struct.unpack("<BBBI", self._read(32, 7))
+        return count, ch, up, tick
+
 
 @dataclass
 class Model:
@@ -114,6 +121,15 @@ class Model:
         e.end_pos = i32(q.queue_end_pos + (steps if e.count_up else -steps))
         q.queue_end_pos = e.end_pos
         q.next_write_idx = (wp + 1) & 0xFF
+
+    def block(self, ch: int, bits: int) -> None:
+        """A closed limit switch forbids these directions (LB_*): the queue stops
+        before an entry towards it, as the Python device's entry guard does."""
+        ch_ = self.queues[ch].channel
+        if not bits:
+            ch_.entry_guard = None
+            return
+        ch_.entry_guard = lambda e: bool(bits & (LB_UP if e.count_up else LB_DOWN))
 
     def start_at(self, ch: int, at: int) -> None:
         ch_ = self.queues[ch].channel
@@ -157,6 +173,11 @@ class Both:
         self.rig.command(START_AT, ch, at=at)
         self.sync()
         self.model.start_at(ch, at)
+
+    def block(self, ch: int, bits: int) -> None:
+        self.rig.command(BLOCK, ch, bits)
+        self.sync()
+        self.model.block(ch, bits)
 
     def run_to_tick(self, tick: int) -> None:
         self.rig.run_to_tick(tick)

@@ -14,6 +14,8 @@ import pytest
 from .helpers import need_firmware
 from .stepgen_rig import (
     DETACH,
+    HALT,
+    LB_UP,
     PCNT,
     PCNT_DIR_HIGH_UP,
     PCNT_ON,
@@ -182,3 +184,57 @@ def test_pulse_counter_wraps_at_its_limits(both):
     both.rig.command(START_NOW, 0)
     both.rig.run_to_tick(both.rig.tick() + 5_000)
     assert both.rig.snapshot(0).pcnt == 0
+
+
+# ------------------------------------------------------- limit switches (issue 13)
+def test_an_entry_towards_a_closed_limit_makes_no_pulse_as_the_model(both):
+    """While a switch is closed the compare interrupt checks every entry as it
+    begins: the down entry runs, the up entry after it does not make one pulse."""
+    both.dir_pin(0, 5, 0)
+    both.block(0, LB_UP)
+    both.entry(0, 10, 900, up=False, level=False)
+    both.entry(0, 5, 900, up=True, toggle=True, level=True)
+    both.start_at(0, both.rig.tick() + 2000)
+    both.run_to_tick(both.rig.tick() + 40_000)
+    fw, py = _compare(both, 9)
+    assert len(fw) == len(py) == 10
+    assert {f - p for f, p in zip(fw, py)} == {SIM_COMPARE_OFFSET}
+    count, ch, up, tick = both.rig.hits()
+    assert (count, ch, up) == (1, 0, 1)
+    assert fw[-1] < tick < fw[-1] + 900  # at the last pulse's interrupt, not later
+    snap = both.rig.snapshot(0)
+    assert snap.state == 0 and snap.pulses == 10 and snap.pulse_pos == -10
+    # the entry that began toggled the direction pin (as the model's interrupt does)
+    assert both.rig.dev.pins()[5].level == both.model.machine.pins.get(5) == 1
+
+
+def test_a_start_towards_a_closed_limit_makes_no_pulse(both):
+    both.block(0, LB_UP)
+    both.entry(0, 5, 900, up=True)
+    both.rig.command(START_NOW, 0)
+    both.run_to_tick(both.rig.tick() + 20_000)
+    assert both.rig.dev.pins()[9].rising == 0
+    assert both.rig.hits()[:3] == (1, 0, 1)
+    both.block(0, 0)  # the switch opens: the same entry runs
+    both.rig.command(START_NOW, 0)
+    both.run_to_tick(both.rig.tick() + 20_000)
+    assert both.rig.dev.pins()[9].rising == 5
+
+
+@pytest.mark.parametrize("phase", [0, 5, 20, 33, 100, 320, 600])
+def test_a_limit_stop_takes_the_channel_off_before_its_next_pulse(both, phase):
+    """The pin-change interrupt's stop at any moment of a step period: every pulse
+    that began is finished and counted; none comes later than the stop's compare
+    lead (HALT_LEAD, 32 ticks) after it."""
+    both.entry(0, 255, 640)
+    both.rig.command(START_NOW, 0)
+    both.rig.run_to_tick(both.rig.tick() + 20 * 640 + phase)
+    both.rig.command(HALT, 0, 1)
+    count, _ch, _up, tick = both.rig.hits()
+    assert count == 1
+    snap = both.rig.snapshot(0)
+    pins = both.rig.dev.pins()[9]
+    assert snap.state == 0 and snap.pulses == pins.rising == pins.falling
+    both.rig.run_to_tick(both.rig.tick() + 20_000)
+    rising = both.rig.dev.trace().rising(9)
+    assert len(rising) == snap.pulses and rising[-1] <= tick + 32

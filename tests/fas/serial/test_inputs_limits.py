@@ -11,12 +11,16 @@ from fas import Engine
 from fas.gear import Gear, GearResult
 from fas.serial.loopback import Loopback
 from fas.serial.protocol import (
+    F_INPUTS,
+    F_SIM_INPUTS,
     L_CLEAR,
     L_UP,
+    S_ANALOG,
     W_ANALOG,
     Input,
     Limit,
     LimitHit,
+    SetInput,
     Started,
     WatchInput,
     decode_messages,
@@ -30,10 +34,11 @@ SWITCH, POT = 17, 14
 def test_input_and_limit_messages_round_trip():
     msgs = [WatchInput(14, W_ANALOG, 50), Input(17, 1023, 0xFFFFFFFF),
             Limit(1, 17, 0, L_UP, 0b01), Limit(1, 0, 0, L_CLEAR, 0),
-            LimitHit(1, 17, 200, -123456, 77), Started(0, 0x12345678)]
+            LimitHit(1, 17, 200, -123456, 77), Started(0, 0x12345678),
+            SetInput(14, 1023, S_ANALOG)]
     payload = b"".join(m.encode() for m in msgs)
     assert decode_messages(payload) == msgs
-    assert [len(m.encode()) for m in msgs] == [4, 8, 6, 6, 12, 6]
+    assert [len(m.encode()) for m in msgs] == [4, 8, 6, 6, 12, 6, 5]
 
 
 def test_the_device_reports_when_a_queue_really_started():
@@ -62,7 +67,6 @@ def test_the_host_reads_the_device_inputs_as_they_change():
         assert b.watch_input(POT, analog=True, period_ms=50)
         b.wait_until(lambda: b.read_input(POT) is not None, TPS // 10)
         assert b.read_input(SWITCH) == 1 and b.read_input(POT) == 700
-        assert b.drive_input(SWITCH, 0) is False  # real pins: only the world moves them
         t_switch = dev.machine.now + TPS // 20
         dev.schedule_input(t_switch, SWITCH, 0)
         t_pot = dev.machine.now + TPS // 10
@@ -75,6 +79,49 @@ def test_the_host_reads_the_device_inputs_as_they_change():
         # the device's tick of reading it
         assert b.device_tick32(switch[2]) == t_switch & 0xFFFFFFFF
         assert 0 <= b.device_tick32(pot[2]) - t_pot < 50 * TPS // 1000
+
+
+def test_a_simulated_device_takes_the_hosts_pots_and_switches():
+    """SetInput: the host turns the simulated board's pot and presses its switch; the
+    values come back from the device's pins (Input reports), not from the host."""
+    with Loopback() as lb:
+        b, dev = lb.backend, lb.device
+        assert b.ident.features == F_INPUTS | F_SIM_INPUTS
+        b.watch_input(SWITCH, pullup=True)
+        b.watch_input(POT, analog=True, period_ms=20)
+        b.wait_until(lambda: b.read_input(POT) is not None, TPS // 10)
+        assert b.read_input(POT) == 512  # nobody turned it: centred
+        assert b.drive_input(SWITCH, 0) and b.drive_input(POT, 1023)
+        assert b.read_input(SWITCH) == 1  # not yet: the device has not reported it
+        b.wait_until(lambda: b.read_input(POT) == 1023, TPS // 10)
+        assert b.read_input(SWITCH) == 0 and b.read_input(POT) == 1023
+        assert dev.machine.pins.get(SWITCH) == 0 and dev.analog[POT] == 1023
+        assert b.drive_input(21, 300)  # a pin nobody watches: a value above 1 is a pot
+        assert b.settle()
+        assert dev.analog[21] == 300
+
+
+def test_a_board_refuses_set_input_and_the_host_does_not_send_it():
+    with Loopback(connect=False) as lb:
+        dev = lb.device
+        dev.features = F_INPUTS  # a board: its inputs are its pins
+        b = lb.backend = lb.open_backend()
+        b.watch_input(SWITCH)
+        assert b.drive_input(SWITCH, 0) is False
+        assert b.send(SetInput(SWITCH, 0, 0))  # a host that misbehaves
+        assert b.settle() and b.request_status() is not None
+        assert b.device_counters()["rejected"] == 1
+        assert dev.machine.pins.get(SWITCH) == 1  # the pull-up still holds it
+
+
+def test_a_device_without_inputs_gets_no_watch_and_no_limit():
+    with Loopback(connect=False) as lb:
+        lb.device.features = 0  # before section 18
+        b = lb.backend = lb.open_backend()
+        assert b.watch_input(SWITCH) is False
+        assert b.set_limit(1, SWITCH, 0, True) is False
+        assert b.settle() and b.request_status() is not None
+        assert b.device_counters()["rejected"] == 0 and not lb.device.watches
 
 
 def test_watches_come_back_after_a_reconnect():
@@ -160,6 +207,26 @@ def test_a_halted_queue_refuses_entries_until_the_host_knows():
         assert b.wait_until(lambda: not s2.is_running(), TPS)
         assert b.settle()
         assert len(dev.recorder.rising(10)) == 20
+
+
+def test_a_limit_set_on_a_closed_switch_stops_a_queue_running_into_it():
+    with Loopback(record=True) as lb:
+        b, dev = lb.backend, lb.device
+        engine, s1, s2 = rig(lb)
+        b.watch_input(SWITCH)
+        hits = []
+        b.limit_listeners.append(lambda *a: hits.append(a))
+        s2.run_forward()
+        b.app_wait_until(b.now() + TPS // 10)
+        dev.set_input(SWITCH, 0)  # closed before anyone made it a limit
+        b.app_wait_until(b.now() + TPS // 100)
+        assert s2.is_running() and not hits
+        at = dev.machine.now
+        b.set_limit(1, SWITCH, 0, True)
+        b.app_wait_until(b.now() + TPS // 20)
+        assert [h[0] for h in hits] == [1]
+        steps = dev.recorder.rising(10)
+        assert steps[-1] < at + TPS // 100 and hits[0][2] == len(steps)
 
 
 def test_gear_over_the_device_keeps_the_ratio_by_the_device_pins():
