@@ -12,7 +12,8 @@
    late synchronized starts, retransmissions and the bytes/s actually used.
 
 Margin = sustained / needed commands per second; the worst scenario decides.  Runs on
-a virtual clock (deterministic; no wall time is measured).
+a virtual clock (deterministic; no wall time is measured).  Latency, faults and stops:
+bench/bench_serial_link.py.
 
     python bench/bench_serial.py [--arch atmega328p] [--seconds 2]
 """
@@ -134,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     p = get_profile(args.arch)
     wire = BAUD // 10
     print(f"serial link at {BAUD} baud ({wire} bytes/s each way), profile {p.name}, "
-          f"queue {p.queue_len}")
+          f"device queue {p.serial_queue_len}, {p.serial_rx_slots} frame slots")
     capacity = {}
     for n in range(1, min(p.max_steppers, 2) + 1):
         cmds, frames, rtx = sustained(args.arch, args.seconds, n)

@@ -2,15 +2,30 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Protocol
 
+from .allocate import QueueAllocator
 from .arch import Profile
 from .backend import Backend
-from .codes import HIGH, LOW, PIN_UNDEFINED, AqeResult
+from .codes import HIGH, LOW, PIN_I2S_FLAG, PIN_UNDEFINED, AqeResult, FasDriver
+from .errors import UnsupportedError
+from .outputs import UserOutputs
 from .queue import StepperQueue
 from .stepper import Stepper
+from .sync import SyncQueue
 
 ExternalPinCall = Callable[[int, int], int]
+
+
+class TaskHook(Protocol):
+    """Work that runs in the periodic ramp task right after the steppers' own planning
+    (:mod:`fas.gear` derives a follower's commands from its leader's there)."""
+
+    def run_task(self) -> None:
+        """One run of the ramp task."""
+
+    def needs_task(self) -> bool:
+        """True while the next runs of the task must not be skipped."""
 
 
 class Engine:
@@ -24,16 +39,105 @@ class Engine:
         self._external_call: ExternalPinCall | None = None
         self._debug_led_pin = PIN_UNDEFINED
         self._debug_led_cnt = 0
-        self._debug_led_half_period = max(1, self.profile.ticks_per_s // 65536 // 2)
+        self._debug_led_half_period = self.profile.led_half_period
         self._initialised = False
         self.ramp_abort_listener: Callable[[Stepper, AqeResult, object], None] | None = None
         self.task_runs = 0
+        self.task_hooks: list[TaskHook] = []
+        self._allocator = QueueAllocator(self.profile)
+        self._task_rate_ms = self.profile.fill_period_ticks // self.profile.ticks_per_ms
+        self.cpu_core = 255
+        self._pcnt_units: dict[int, object] = {}  # unit -> the stepper counting on it
+        self.i2s_mux_pins: tuple[int, int, int] | None = None
+        self.sync = SyncQueue(self)  # synchronized outputs and the motion behind them
+        self.outputs = UserOutputs(self)  # Dout0..3, Aout0..3 (seed 003)
+        self.quickstep_clock = None  # fas.quickstep.clock.QuickStepClock, made on first use
 
-    def init(self) -> None:
-        """Start the periodic ramp task (call once, as ``engine.init()`` upstream)."""
+    def init(self, cpu_core: int = 255) -> None:
+        """Start the periodic ramp task (call once, as ``engine.init()`` upstream).
+
+        ``cpu_core`` (ESP32): 0 or 1 pins the stepper task to that core; it changes no
+        timing in the simulation."""
+        if cpu_core != 255 and not self.profile.cpu_affinity:
+            raise UnsupportedError("init(cpu_core)", self.profile.name, "on ESP32")
         if not self._initialised:
             self._initialised = True
+            self.cpu_core = cpu_core
             self.backend.attach_engine(self)
+
+    # ------------------------------------------------------ task rate (ESP32, Pico)
+    def task_rate(self, delay_ms: int) -> None:
+        """The stepper task's pause between two runs, in ms (default 4)."""
+        if not self.profile.task_rate_change:
+            raise UnsupportedError("task_rate()", self.profile.name, "on ESP32 and the Pico")
+        self._task_rate_ms = delay_ms & 0xFF
+        # a pause of 0 lets the task run again at the next scheduler tick (1 ms)
+        self.backend.set_task_period(max(1, self._task_rate_ms) * self.profile.ticks_per_ms)
+
+    def get_task_rate(self) -> int:
+        """Upstream's ``_task_rate()``: the configured pause in ms."""
+        if not self.profile.task_rate_change:
+            raise UnsupportedError("_task_rate()", self.profile.name, "on ESP32 and the Pico")
+        return self._task_rate_ms
+
+    # -------------------------------------------------------- I2S multiplexer (ESP32)
+    def _need_i2s(self, call: str) -> None:
+        if not self.profile.has_i2s:
+            raise UnsupportedError(call, self.profile.name, "on ESP32 with ESP-IDF >= 5.3")
+
+    def init_i2s_mux(self, data_pin: int, bclk_pin: int, ws_pin: int) -> bool:
+        """Make one I2S controller a 32-slot output multiplexer (shift registers on
+        data/bclk/ws).  Slots are then pins ``PIN_I2S_FLAG | slot`` for steppers
+        (step) and for direction and enable signals."""
+        self._need_i2s("init_i2s_mux()")
+        if not self._allocator.claim_i2s_mux():
+            return False
+        self.i2s_mux_pins = (data_pin, bclk_pin, ws_pin)
+        return True
+
+    def i2s_mux_set_bit(self, slot: int, value: bool) -> None:
+        """Drive one slot of the multiplexer (the backend sees it as pin
+        ``PIN_I2S_FLAG | slot``; direction changes of mux steppers land there too)."""
+        self._need_i2s("i2s_mux_set_bit()")
+        if self.i2s_mux_pins is None or not 0 <= slot < 32:
+            return
+        self.backend.write_pin(PIN_I2S_FLAG | slot, 1 if value else 0)
+
+    def i2s_mux_get_bit(self, slot: int) -> bool:
+        self._need_i2s("i2s_mux_get_bit()")
+        if self.i2s_mux_pins is None or not 0 <= slot < 32:
+            return False
+        return bool(self.backend.read_pin(PIN_I2S_FLAG | slot))
+
+    def write_output(self, pin: int, level: int) -> None:
+        """Drive a direction/enable output: a GPIO, or a slot of the I2S multiplexer."""
+        if self.profile.has_i2s and pin & PIN_I2S_FLAG and pin != PIN_UNDEFINED:
+            self.i2s_mux_set_bit(pin & 0x1F, bool(level))
+        else:
+            self.backend.write_pin(pin, level)
+
+    def claim_mux_slot(self, slot: int) -> bool:
+        return self._allocator.claim_mux_slot(slot)
+
+    def claim_pulse_counter(self, unit: int, owner: object) -> bool:
+        """A pcnt unit for ``attach_to_pulse_counter`` of ``owner``.  MCPWM/PCNT
+        steppers use one each (ESP-IDF 4: unit n for the n-th of them); ESP-IDF 5
+        picks a free one itself (a stepper attached again keeps its unit)."""
+        p = self.profile
+        mcpwm = self._allocator.per_driver.get(FasDriver.MCPWM_PCNT, 0)
+        taken = {u for u, o in self._pcnt_units.items() if o is not owner}
+        if p.dynamic_allocation:
+            if any(o is owner for o in self._pcnt_units.values()):
+                return True
+            if mcpwm + len(taken) >= p.pulse_counter_units:
+                return False
+            unit = max(self._pcnt_units, default=mcpwm - 1) + 1
+        elif not 0 <= unit < p.pulse_counter_units or unit < mcpwm or unit in taken:
+            return False
+        for u in [u for u, o in self._pcnt_units.items() if o is owner]:
+            del self._pcnt_units[u]
+        self._pcnt_units[unit] = owner
+        return True
 
     # ------------------------------------------------- idle periodic task
     def quiescent_tasks(self) -> int | None:
@@ -46,6 +150,11 @@ class Engine:
         for s in self._steppers:
             if s is not None and s._needs_task():
                 return 0
+        for hook in self.task_hooks:
+            if hook.needs_task():
+                return 0
+        if self.sync.active():
+            return 0
         if self._debug_led_pin == PIN_UNDEFINED:
             return None
         half = self._debug_led_half_period
@@ -67,40 +176,53 @@ class Engine:
             self._debug_led_cnt += n
             self.task_runs += n
 
+    def add_task_hook(self, hook: TaskHook) -> None:
+        """Run ``hook`` in every periodic task, after the steppers have planned."""
+        if hook not in self.task_hooks:
+            self.task_hooks.append(hook)
+        self.kick()
+
+    def remove_task_hook(self, hook: TaskHook) -> None:
+        if hook in self.task_hooks:
+            self.task_hooks.remove(hook)
+
     def kick(self) -> None:
         """A stepper got work: the periodic task must run again from its next slot."""
         self.backend.wake_task()
 
+    def queues_idle(self) -> None:
+        """The backend: a queue ran dry or a synchronized output was made (fas.sync)."""
+        if self.sync.active():
+            self.sync.progress()
+
     # ------------------------------------------------------------ steppers
-    def stepper_connect_to_pin(self, step_pin: int) -> Stepper | None:
-        """A stepper on ``step_pin``, or None when the pin or the queues are unavailable."""
+    def stepper_connect_to_pin(self, step_pin: int,
+                               driver: int = FasDriver.DONT_CARE) -> Stepper | None:
+        """A stepper on ``step_pin``, or None when the pin or the queues are unavailable.
+
+        ``driver`` (ESP32 builds with several driver types): the step generator to use;
+        ``DRIVER_DONT_CARE`` takes the first that is free (see :mod:`fas.allocate`)."""
+        if driver != FasDriver.DONT_CARE and not self.profile.driver_select:
+            raise UnsupportedError("stepper_connect_to_pin(pin, driver)", self.profile.name,
+                                   "on ESP32 builds with two or more driver types")
         if not self._initialised:
             self.init()
-        idx = self.profile.queue_for_step_pin(step_pin)
-        if idx is None:
+        got = self._allocator.allocate(step_pin, driver)
+        if got is None:
             return None
-        if self.profile.fixed_queue_mapping:
-            if self._steppers[idx] is not None:
-                return None
-        else:
-            if self._stepper_cnt >= self.profile.max_steppers:
-                return None
-            if any(s is not None and s.get_step_pin() == step_pin for s in self._steppers):
-                return None
-            if len(set(self.profile.step_pin_groups)) > 1:
-                # one channel per pin group (SAM): the group must be free
-                if self._steppers[idx] is not None:
-                    return None
-            else:
-                idx = self._steppers.index(None)
+        idx = got.index
         queue = StepperQueue(idx, self.profile, self.backend, step_pin)
-        stepper = Stepper(self, queue)
+        stepper = Stepper(self, queue, got.pool)
         self._steppers[idx] = stepper
         self._stepper_cnt += 1
-        max_ticks = self.profile.max_speed_ticks(self._stepper_cnt)
-        for s in self._steppers:
-            if s is not None:
-                s.queue.max_speed_in_ticks = max_ticks
+        if got.pool is not None:
+            queue.max_speed_in_ticks = got.pool.max_speed_ticks
+            queue.position_in_command = got.pool.position_in_command
+        else:  # AVR: the step interrupts share the CPU, the limit follows the count
+            max_ticks = self.profile.max_speed_ticks(self._stepper_cnt)
+            for s in self._steppers:
+                if s is not None:
+                    s.queue.max_speed_in_ticks = max_ticks
         return stepper
 
     @property
@@ -155,6 +277,8 @@ class Engine:
         for s in steppers:
             if s is not None:
                 generated += s.fill_queue()
+        for hook in self.task_hooks:
+            hook.run_task()
         for i, s in enumerate(steppers):
             if s is None or not s._need_auto_disable():
                 continue
@@ -176,4 +300,6 @@ class Engine:
         for s in steppers:
             if s is not None:
                 s._update_auto_disable()
+        if self.sync.active():
+            self.sync.progress()
         return generated

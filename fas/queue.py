@@ -45,6 +45,10 @@ class QueueEntry:
 class StepperQueue:
     """Ring buffer of commands shared by the library (writer) and a channel (reader)."""
 
+    # False: the driver cannot tell how far the running command got (ESP32 RMT, I2S);
+    # get_current_position() then reports the command's start position
+    position_in_command = True
+
     def __init__(self, index: int, profile: Profile, backend: Backend, step_pin: int):
         self.index = index
         self.profile = profile
@@ -145,7 +149,8 @@ class StepperQueue:
         e = self.entries[rp % self.queue_len]
         if e.steps == 0:
             return e.end_pos
-        return i32(e.end_pos - e.steps if e.count_up else e.end_pos + e.steps)
+        left = e.steps if self.position_in_command else e.total_steps
+        return i32(e.end_pos - left if e.count_up else e.end_pos + left)
 
     # ------------------------------------------------------------- writing
     def add_queue_entry(self, ticks: int | None, steps: int = 0, count_up: bool = True,
@@ -209,6 +214,16 @@ class StepperQueue:
         """Stop the channel at once and drop every queued entry."""
         self.channel.force_stop()
         self.read_idx = self.next_write_idx
+
+    def truncate(self, index: int) -> None:
+        """Drop the entries from write index ``index`` on (a cut, see
+        :meth:`fas.backend.QueueChannel.cut`): the queue ends where entry ``index - 1``
+        ends.  ``index`` lies after the read index."""
+        last = self.entries[(index - 1) % self.queue_len]
+        self.next_write_idx = index & 0xFF
+        self.queue_end_pos = last.end_pos
+        self.queue_end_count_up = last.count_up
+        self.queue_end_dir = last.dir_level
 
     def shift_positions(self, delta: int) -> None:
         """Renumber every queued position by ``delta`` (set position while moving)."""

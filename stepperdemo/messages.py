@@ -188,6 +188,10 @@ USAGE_CONFIG = NL.join([
     "    d<p,n,t>  ... as above, plus <t> us pause between a direction change and",
     "                  the next step (0 = none)",
     "    dc        ... no direction pin (unidirectional stepper)",
+    "    l0 / l1   ... planner: FastAccelStepper ramp / QuickStep (FIFO, plateaus)",
+    "    q<n>      ... QuickStep FIFO depth 1..255 orders (4 bytes each)",
+    "    p<n>      ... QuickStep plateaus 1..255 per acceleration/deceleration",
+    "    b<us>     ... QuickStep base time in us, 0 = automatic; b<us,t> on timer t",
     "    x         ... leave configuration mode",
     "    ?         ... print this help",
 ]) + NL + NL
@@ -242,7 +246,7 @@ TABLE_SCAN: dict[str, tuple[int, int, int, int]] = {
 
 # console (REPL) texts, not part of the firmware
 REPL_WELCOME = ("stepperdemo {version} on a simulated {profile} ({mode}). "
-                "Type StepperDemo commands, /help for console commands, Ctrl-D to quit.")
+                "Type {title} commands, /help for console commands, Ctrl-D to quit.")
 REPL_HELP = """Console commands (everything else goes to StepperDemo):
   /help              this text
   /quit              leave (Ctrl-D does the same)
@@ -341,7 +345,7 @@ REPL_VCD_WROTE = "wrote {path}: {edges} edges, t={start:.3f} .. {end:.3f} s"
 # ---------------------------------------------------------------------------------------
 # serial backend (issue 7): stepperdemo --port, stepperdemo device, stepperdemo relay
 REPL_WELCOME_SERIAL = ("stepperdemo {version} on a {profile} device at {port}. "
-                       "Type StepperDemo commands, /help for console commands, Ctrl-D to quit.")
+                       "Type {title} commands, /help for console commands, Ctrl-D to quit.")
 REPL_HELP_SERIAL = """On a device (--port):
   /reconnect [port]  open the device again (after it was lost), or another port
   /link              link statistics (retransmissions, CRC errors) and device counters
@@ -384,3 +388,429 @@ RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {droppe
 
 # ------------------------------------------------- issue 16: the console as people use it
 RUN_FAILED_CHECKS = "FAIL ({n} failed)"
+# ---------------------------------------------------------------------------------------
+# The board console (issue 15): stepperdemo --board DEVICE, -c on a board, run --board,
+# device --pty --console.  Console texts, not part of the firmware.
+BOARD_WELCOME = ("stepperdemo {version} in front of the board at {port} ({baud} baud). "
+                 "Type StepperDemo commands, /help for console commands, Ctrl-D to quit.")
+BOARD_HELP = """Console commands (everything else goes to the board):
+  /help              this text
+  /quit              leave (Ctrl-D does the same)
+  /stop              X to every stepper: stop at once (Ctrl-C does the same)
+  /reset             restart the board (DTR pulse; a pty is closed and opened again)
+  /reconnect [port]  open the board again after it was lost, or another port
+  /state             what the board's answers say: mode, stepper, toggles, positions
+  /time              session time and lines received
+  /plot [FILE.png]   position and speed from the status lines: terminal, or PNG
+  /report            report from the status lines per stepper
+Input is sent one command at a time; after W it waits until the board's wait is over
+(in test mode: until the test completed), as a W in a StepperDemo line means."""
+BOARD_LOST = "board lost: {reason} - /reconnect restores the session"
+BOARD_NOT_CONNECTED = "no board ({reason}) - /reconnect first; the line was not sent"
+BOARD_RESTARTED = "the board restarted (start banner): normal mode, M1 selected{dropped}"
+BOARD_RESTART_DROPPED = "; {n} waiting command(s) dropped"
+BOARD_RECONNECTED = "board back on {port}"
+BOARD_RECONNECT_FAILED = "reconnect failed: {error}"
+BOARD_RESET_SENT = "reset: {how}"
+BOARD_RESET_DTR = "DTR pulsed"
+BOARD_RESET_REOPEN = "port closed and opened again (no DTR line on it)"
+BOARD_STOP_SENT = "stop: X sent to {steppers}{left}"
+BOARD_STOP_LEFT_MODE = " (left {mode} mode first: X is a normal-mode command)"
+BOARD_STOP_SPINNING = ("the board spins in W and reads nothing until the stepper stops; "
+                       "/reset stops it now")
+BOARD_NOT_ON_BOARD = "{cmd}: not on a board (its chip and clock are its own)"
+BOARD_TIME = "session {t:.3f} s; {lines} lines received, {status} of them status lines"
+BOARD_STATE = ("board: {mode} mode, M{selected} selected, status lines {verbose}, usage after "
+               "stop {usage}; running: {running}; positions: {positions}")
+BOARD_STATE_HELD = "input waits for the board: {why} ({n} command(s) queued)"
+BOARD_ON = "on"
+BOARD_OFF = "off"
+BOARD_NONE = "-"
+BOARD_TOOLBAR = " board {port} "
+BOARD_TOOLBAR_STATUS = " {mode} mode | M{selected} | running {running} | {held}t={t:.1f}s | "
+BOARD_TOOLBAR_HELD = "waits: {why} | "
+BOARD_TOOLBAR_LOST = " LOST - /reconnect | "
+LOG_HEADER = ("# stepperdemo {version} board log: {port} at {baud} baud, started {start}; "
+              "seconds since the start, > sent, < received, # console")
+LOG_SENT = "{t:10.3f} > {text}"
+LOG_RECEIVED = "{t:10.3f} < {text}"
+LOG_NOTE = "{t:10.3f} # {text}"
+CLI_BOARD_CONNECT = "stepperdemo: cannot open the board at {port}: {error}"
+CLI_BOARD_LOST = "stepperdemo: board lost: {reason}"
+CLI_BOARD_RESTARTED = "stepperdemo: the board restarted during the run (start banner)"
+CLI_BOARD_INTERRUPTED = "stepperdemo: interrupted; stop sent (X to {steppers})"
+CLI_BOARD_MAX_TIME = ("stepperdemo: stopped waiting after {seconds:g} s (--max-time): "
+                      "the board was still busy ({why})")
+CLI_BOARD_NO_PINS = ("--vcd and --steps-csv record the simulated pins; a board shows only "
+                     "its text (--plot and --report work from its status lines)")
+CLI_BOARD_NOT_DEMO = "--board: the board runs StepperDemo, not {program!r}"
+CLI_BOARD_AND_PORT = "--board and --port exclude each other"
+CLI_BOARD_TIMES = "--quiet-ms must be at least 50, --boot-wait not negative"
+CLI_CONSOLE_NO_PORT = "--console serves a new pty: leave out --port"
+BOARD_BUSY_WHY = {
+    "input": "input still waiting to be sent", "W": "a W waits for the board's answer",
+    "W stop": "a W waits for the stepper to stop", "W test": "a W waits for the test",
+    "T": "the direct-drive test runs", "answer": "a command waits for its answer",
+    "spinning": "the board spins in W", "pausing": "a w<ms> pause", "test": "a test runs",
+    "motion": "a stepper runs: the table after its stop has not come",
+    "output": "the board is printing",
+}
+
+# status-line plots and report (/plot, /report, --plot, --report on a board)
+STATUS_REPORT_TITLE = ("status-line report: {source}, {start:.3f} .. {end:.3f} s, {lines} status "
+                       "lines (one per 100 ms while a stepper runs and I is on)")
+STATUS_REPORT_NONE = "  no status lines yet"
+STATUS_REPORT_STEPPER = "M{n}  {lines} status lines, first {first:.3f} s, last {last:.3f} s"
+STATUS_REPORT_POSITION = "  position     {start} -> {end} (net {net:+d}){final}"
+STATUS_REPORT_FINAL = "; {final} in the last stepper table"
+STATUS_REPORT_SPEED = ("  speed        peak {speed:.0f} steps/s planned (v=); from successive "
+                       "lines acceleration up to {acc:.0f}, deceleration up to {dec:.0f} "
+                       "steps/s^2")
+STATUS_REPORT_RAMP = "  ramp         {states} (status lines per ramp state)"
+STATUS_REPORT_RUNS = ("  runs         {runs}; {gaps} pause(s) of more than {gap_ms} ms between "
+                      "lines while running (the board was busy: W, T, long prints)")
+
+# stepperdemo run --board: scenario files on a board, and the twin check
+RUN_BOARD_HELP = ("run the scenario files on a board running StepperDemo (reset by DTR "
+                  "between files) and compare with the simulation (twin check)")
+RUN_BOARD_SKIPPED = "the board runs StepperDemo, not program {program!r}"
+RUN_BOARD_NO_BANNER = "no start banner within {seconds:g} s of the reset"
+RUN_BOARD_PROFILE = "board banner F_CPU={f_cpu} TICKS_PER_S={ticks} Steppers={steppers}"
+RUN_BOARD_NO_WATCH = ("--vcd, --steps-csv, --plot, --report and --timing-report read the "
+                      "simulated pins; with --board there are none")
+RUN_BOARD_PINS_NOTE = ("pulses, direction and enable counts, pulse and enable times are not "
+                       "checked: a board shows only its text")
+RUN_BOARD_MATCHES_NOTE = ("whole-transcript references are of the built-in-input firmware; "
+                          "on a board (interactive firmware) only contains/not_contains apply")
+RUN_TWIN_TITLE = "twin check: the board and the simulation for the same input"
+RUN_TWIN_COLUMNS = ("scenario", "M", "board", "sim", "diff", "lines", "first dt", "last dt",
+                    "max dt")
+RUN_TWIN_CAPTION = ("positions in steps; lines: status lines on the board/simulation; dt: "
+                    "status-line time board - simulation in s, from the first command sent "
+                    "(first line, last line, largest of the pairs)")
+RUN_TWIN_SUMMARY = ("twin check: {steppers} stepper(s), largest position difference {pos}, "
+                    "largest status-line time difference {dt:.3f} s")
+RUN_BOARD_END = {"idle": "idle", "max_time": "max time reached", "lost": "board lost",
+                 "reset": "board restarted"}
+
+# stepperdemo device --pty --console: the simulated StepperDemo firmware on a pty
+CONSOLE_DEVICE_LISTENING = ("console device {profile} ({title}) on {path}{link}, clock "
+                            "x{speed:g}: StepperDemo's text console, restarted whenever a host "
+                            "opens the port; Ctrl-C ends")
+CONSOLE_DEVICE_EVENT = "console: {event}"
+CONSOLE_DEVICE_OPENED = "host opened the port: firmware restarted"
+CONSOLE_DEVICE_CLOSED = "host closed the port"
+CONSOLE_DEVICE_STATS = ("console: {resets} start(s), {rx} characters received ({dropped} lost: "
+                        "receive buffer full), {tx} sent ({tx_unsent} not yet taken by the host)")
+CONSOLE_DEVICE_POSITIONS = "console: positions {positions}"
+# ------------------------------------------------------------ end of board console texts
+# QuickStep planner (issue 14): config commands l/q/p/b, status and table additions,
+# the input hold of a move that waits for FIFO room, report lines.  Console texts, not
+# part of the firmware.
+QS_PLANNER_FAS = "planner M{n}: FastAccelStepper ramp" + NL
+QS_PLANNER_QS = ("planner M{n}: QuickStep, FIFO {depth} orders, {plateaus} plateaus, "
+                 "base time {base} on timer {timer}" + NL)
+QS_DEPTH = "FIFO depth M{n} = {depth} orders ({ram} of {avail} bytes of RAM in use)" + NL
+QS_PLATEAUS = "plateaus M{n} = {plateaus}" + NL
+QS_BASE_AUTO = "automatic"
+QS_BASE_US = "{us} us"
+QS_BASE_SET = "base time = {base} on timer {timer} ({bits} bit, {lo} .. {hi} us)" + NL
+QS_ERR_NOT_AVAILABLE = "ERROR QuickStep needs a timer of its own: profile {profile} has none" + NL
+QS_ERR_NO_TIMER = "ERROR timer {timer} cannot run QuickStep here (timers: {timers})" + NL
+QS_ERR_BASE = ("ERROR base time {us} us outside timer {timer}'s {lo} .. {hi} us"
+               " (0 = automatic)" + NL)
+QS_ERR_DEPTH = "ERROR FIFO depth {value} outside 1 .. 255" + NL
+QS_ERR_PLATEAUS = "ERROR plateaus {value} outside 1 .. 255" + NL
+QS_ERR_RAM = ("ERROR FIFOs of {need} bytes (4 bytes x orders, all QuickStep steppers) exceed"
+              " the {avail} bytes of RAM {profile} leaves for them" + NL)
+QS_ERR_RUNNING = "ERROR M{n} is running: stop it first" + NL
+QS_ERR_BUSY = "ERROR a QuickStep stepper is running: the base time changes at rest only" + NL
+QS_ERR_SYNTAX = "ERROR {cmd}: give {what}" + NL
+QS_HOLD = ("QuickStep FIFO of M{n} full: input held until the move is queued"
+           " ({pending} orders waiting)" + NL)
+QS_RELEASED = "QuickStep move queued" + NL
+QS_STATUS = " QS {label}"
+QS_TABLE = " planner=QuickStep fifo={used}/{depth} plateaus={plateaus} base={base}"
+REPORT_PLATEAUS = "  plateaus     {n} order(s) at {periods} distinct period(s): {list}"
+REPORT_PLATEAU_ITEM = "{steps}x{us}us"
+REPORT_QS_TIMER = ("  QuickStep    timer {timer}, base time {base} us, {lost} period interrupt(s)"
+                   " lost, {starts} start(s) from rest")
+# ------------------------------------------------------------- end of QuickStep texts
+
+# ---------------------------------------------------------------------------------------
+# user outputs and G-code (issue 12): report and plot lines, the G-code program, its
+# console mode and its command line.  Console texts, not part of the firmware.
+REPORT_OUTPUT_DIGITAL = ("{name} (pin {pin})  {rises} rise(s), {falls} fall(s), high "
+                         "{high_ms:.3f} ms in total, first change at {first} s, ends {level}")
+REPORT_OUTPUT_PWM = ("{name} (pin {pin})  {periods} PWM periods: period {period} us "
+                     "({hz:.6g} Hz, {pmin} .. {pmax} us), duty mean {duty:.4f} % "
+                     "({dmin:.4f} .. {dmax:.4f} %), last {last:.4f} %")
+REPORT_OUTPUT_PWM_FEW = ("{name} (pin {pin})  {rises} rise(s), {falls} fall(s), no complete "
+                         "PWM period; ends {level}")
+REPORT_LEVEL_HIGH = "high"
+REPORT_LEVEL_LOW = "low"
+PLOT_TITLE_OUTPUTS = "outputs [Dout level, Aout duty %]"
+PLOT_TERMINAL_OUTPUT = "{name} {what}"
+PLOT_OUTPUT_LEVEL = "level"
+PLOT_OUTPUT_DUTY = "duty [%]"
+# the G-code program (Grbl conventions: "ok", "error: <reason>", [MSG:...], <status>)
+GCODE_BANNER = "Grbl 1.1h [stepperdemo G-code " + VERSION + ", '$' for help]"
+GCODE_OK = "ok"
+GCODE_ERROR = "error: {reason}"
+GCODE_DUTY = "[MSG:Aout{number} {duty:.4f}% ({count}/{counts} at {hz:.6g} Hz)]"
+GCODE_STATUS = "<{state}|MPos:{pos}|FS:{feed},0{wco}|Dout:{dout}|Aout:{aout}>"
+GCODE_ALARM_ABORT = "ALARM: aborted - motion stopped, queue dropped; $X to unlock"
+GCODE_UNLOCKED = "[MSG:Caution: Unlocked]"
+GCODE_MOTION_FAILED = "[MSG:the library refused a queue command ({code}); aborting]"
+GCODE_HELP = ("[HLP:$$ settings, $N=value, $G modes, $X unlock, ? status, ctrl-x reset; "
+              "G0 G1 G4 G90 G91 G92 G92.1 M2 M30 M62-M65 P<n> M67 M68 E<n> Q<%>]")
+GCODE_MODES = "[GC:G{motion} G{distance} G94 G21 G17 G54 F{feed}]"
+GCODE_SETTING = "${n}={value} ({what})"
+GCODE_NOTHING = "nothing"
+GCODE_ERR_COMMENT = "comment not closed: ( without )"
+GCODE_ERR_LONG = "line longer than {n} characters"
+GCODE_ERR_EXPECTED_LETTER = "expected a letter at '{text}'"
+GCODE_ERR_BAD_NUMBER = "{letter} needs a number, got '{text}'"
+GCODE_ERR_UNKNOWN_WORD = "unknown word {word}"
+GCODE_ERR_LINE_NUMBER = "N (line number) must come first"
+GCODE_ERR_REPEATED = "word {letter} twice in one line"
+GCODE_ERR_INCHES = "G20 (inches) is not supported: units are set by $100-$105"
+GCODE_ERR_UNSUPPORTED = "unsupported command {code}"
+GCODE_ERR_MODAL = "{a} and {b} in one line (same modal group)"
+GCODE_ERR_NO_AXIS = "axis {letter}: no stepper {n} (axes here: {axes})"
+GCODE_ERR_AXIS_CONFLICT = "{a} and {b} both want the axis words"
+GCODE_ERR_UNUSED = "unused word(s): {words}"
+GCODE_ERR_P_CONFLICT = "P used by both {a} and {b}"
+GCODE_ERR_FEED_POSITIVE = "F must be positive"
+GCODE_ERR_DWELL_P = "G4 needs P (seconds)"
+GCODE_ERR_DWELL_NEGATIVE = "G4 P must not be negative"
+GCODE_ERR_G92_AXES = "G92 needs axis words"
+GCODE_ERR_NO_FEED = "undefined feed rate: G1 needs F"
+GCODE_ERR_RANGE = "{letter} target beyond the 32-bit step range"
+GCODE_ERR_NEEDS_P = "{code} needs P (digital output 0..3)"
+GCODE_ERR_NEEDS_EQ = "{code} needs {missing} (E: analog output 0..3, Q: duty in %)"
+GCODE_ERR_OUTPUT_RANGE = "output {letter}{value} out of range (0..{last})"
+GCODE_ERR_ALARM = "alarm lock: $X to unlock (or ctrl-x)"
+GCODE_ERR_NO_OUTPUT_PIN = "{name} has no pin on {profile} (set one with ${setting})"
+GCODE_ERR_OUTPUT_PIN_USED = "{name}: pin {pin} is used by {user}"
+GCODE_ERR_NOT_PWM_PIN = "pin {pin} has no PWM timer on {profile}"
+GCODE_ERR_FREQUENCY = "{timer} makes {low} .. {high} Hz, not {hz} Hz"
+GCODE_ERR_OUTPUT_BUSY = "a synchronized change of {name} still waits: set its frequency after it"
+GCODE_ERR_OUTPUT = "{name}: {code}"
+GCODE_ERR_NO_DIR_PIN = "axis {letter} has no direction pin: it cannot move backward"
+GCODE_ERR_SHARED_DIR = ("axes {a} and {b} share direction pin {pin}: they cannot move in "
+                        "opposite directions in one line")
+GCODE_ERR_DOLLAR = "unknown $ command '{text}' ($ for help)"
+GCODE_ERR_SETTING_VALUE = "setting value '{text}' is not a number"
+GCODE_ERR_NOT_IDLE = "settings change only when idle"
+GCODE_ERR_SETTING_RANGE = "${n} must be {range}"
+GCODE_ERR_NO_SETTING = "no setting ${n}"
+GCODE_CLI_BAD_SET = "--set {text!r}: expected '$N=VALUE'"
+GCODE_ERR_TIMER_QUICKSTEP = "{name}: {timer} runs the QuickStep planner (l0 frees it)"
+GCODE_ERR_QUICKSTEP_AXIS = ("axis {letter} runs the QuickStep planner: G-code moves need "
+                            "FastAccelStepper's queue (l0 in config mode)")
+ENTER_GCODE_MODE = "Enter G-code mode (a line is a block, x alone leaves)" + NL
+QS_ERR_TIMER_PWM = "ERROR timer {timer} makes the PWM of a user output: no QuickStep on it" + NL
+# ----------------------------------------------------------- end of issue 12 texts
+
+# ------------------------------------------------ issue 11: the firmware in simavr
+DEVICE_SIMAVR_TITLE = "firmware {elf} in simavr, {baud} baud"
+DEVICE_SIMAVR_SUMMARY = "{line}"
+DEVICE_SIMAVR_BUILD_FAILED = "stepperdemo device --simavr: {error}"
+DEVICE_SIMAVR_OPTION = "--{option} applies to the simulated device (--pty/--port), not --simavr"
+# ------------------------------------------------- end of issue 11 texts
+# ---------------------------------------------------------------------------------------
+# serial link planning and stops (issue 18)
+SERIAL_PLANNING = ("planning: {extra_ms} ms beyond the library's ({how}: round trip "
+                   "{rtt_ms:.1f} ms, {rounds} retransmission round(s), {loss_pct:.1f} % "
+                   "frames lost); device queue {queue_len} entries, {window} frames of "
+                   "{payload} bytes in flight")
+SERIAL_BAD_PLANNING = "{ms} is not a time of 0 .. 10000 ms"
+SERIAL_DEVICE_REPAIRS = ("device: {frames_held} frames held after a gap, {cuts} queue cuts "
+                         "({cuts_refused} refused), {halts} halts, {discarded} discarded")
+# ------------------------------------------------------------ end of issue 18 texts
+
+# ---------------------------------------------------------------------------------------
+# issue 17: StepperDemo on the other platforms of FastAccelStepper 1.2.7
+# start-up prompt for a pin configuration (ESP32, Pico), byte-exact as the firmware
+SELECT_PIN_CONFIG = "Select pin configuration:"
+CONFIG_ENTRY_INDENT = "  "
+CONFIG_ENTRY_SEP = ": "
+PRESS_NUMBER_TO_SELECT = "Press number to select, else 0"
+USING_CONFIG = "Using config "
+ESP32_LOG_START = "LOG start\r\n"  # printf() through the ESP-IDF console (CR LF)
+ESP_IDF = "ESP-IDF: "
+ESP_RESTART = "ESP restart"
+ESP_RESET = "ESP reset"
+# status line and stepper table (ESP32)
+PCNT_OPEN = " ["
+PCNT_CLOSE = "]"
+DRIVER_TYPE_SEP = " "
+# the console could not do what the firmware does (e.g. restart a device behind --port)
+RESTART_UNSUPPORTED = "(restart is not possible on this backend: {reason})"
+
+# usage lines of the other builds, our words (the AVR text above keeps its length)
+_USAGE_ESP32_LINES = [
+    "    r         ... restart the chip (ESP.restart())",
+    "    reset     ... reset the chip by its watchdog",
+    "    p<n>      ... attach pulse counter n (n<=7)",
+    "    p<n>,l,h  ... attach pulse counter n (n<=7), limits low,high",
+    "    pc        ... clear the pulse counter",
+]
+_SMALL_BUILD_DROPS = ("    W ", "    w<ms>", "    + ", "    - ", "    T ", "    t ", "    u ")
+_AVR_ONLY = ("    r         ... stray",)
+
+
+def usage_normal(*, esp32: bool, avr: bool, small: bool) -> str:
+    """The normal-mode usage of one build of the firmware (the AVR text is
+    :data:`USAGE_NORMAL`).  As in the firmware, ESP32 builds list the pulse-counter
+    commands even where the chip has none."""
+    if avr and not small:
+        return USAGE_NORMAL
+    lines = []
+    for line in _USAGE_NORMAL_LINES:
+        if small and line.startswith(_SMALL_BUILD_DROPS):
+            continue
+        if not avr and line.startswith(_AVR_ONLY):
+            continue
+        if esp32 and line.startswith("    t "):
+            lines.extend(_USAGE_ESP32_LINES)
+        lines.append(line)
+    return NL.join(lines) + NL + NL
+
+# issue 13: the helix winder (stepperdemo winder), seed 002.  Its own texts, not the
+# firmware's: plain lines, errors begin with "ERROR".
+WINDER_BANNER = ("Helix winder {version} on {profile}: S1 spindle step {s1_step} dir {s1_dir}, "
+                 "S2 traverse step {s2_step} dir {s2_dir}")
+WINDER_INPUTS = ("inputs: pots A0 (pin {a0}) -> S1, A1 (pin {a1}) -> S2; limits of S2: "
+                 "A2 (pin {a2}) lower, A3 (pin {a3}) upper; A4 (pin {a4}) fixture; "
+                 "A5 (pin {a5}) spare")
+WINDER_FIXTURE_MODE = "A4 closed at power-up: fixture mode, the pots drive S1 and S2"
+WINDER_LINK_MODE = "A4 open at power-up: link mode, the pots rest until 'pots'"
+WINDER_BAD_PROFILE = "the winder needs {why}; profile {profile} does not have them"
+WINDER_UNKNOWN = "ERROR unknown command '{text}' (help: ?)"
+WINDER_NEEDS = "ERROR {usage}: missing value"
+WINDER_ERROR = "ERROR {cmd}: {problem}"
+WINDER_BAD_STEPPER = "stepper '{word}' is not 1 or 2"
+WINDER_BAD_COUNT = "count '{word}' is not a whole number -{max}..{max}"
+WINDER_BAD_PERIOD = "period '{word}' is not {lo}..{hi} counts of 4 us"
+WINDER_BAD_ACCEL = "acceleration '{word}' is not 1..{hi} steps/s^2"
+WINDER_BAD_BOOL = "'{word}' is not 0 or 1"
+WINDER_BAD_RATIO = "'{word}' is not n:m with 1 <= n <= m <= {hi}"
+WINDER_BAD_POT = "value '{word}' is not 0..{hi}"
+WINDER_BAD_SWITCH = "'{word}' is not a switch: A2, A3, A4 or A5"
+WINDER_BAD_POSITION = "'{words}' are not two positions"
+WINDER_TRAVERSE_SAME = "the two ends are the same position"
+WINDER_BLOCKED = "{name} is at its {which} limit (A{a} closed); it may only move away"
+WINDER_INPUTS_ARE_PINS = "on a device the {what} are its pins; turn or press the real ones"
+WINDER_UPPER = "upper"
+WINDER_LOWER = "lower"
+WINDER_MOVE = ("{name} move {count:+d} steps to {target} at period {counts} "
+               "({speed:.0f} steps/s), link control")
+WINDER_MOVE_RUN = ("{name} runs {way} until told at period {counts} ({speed:.0f} steps/s), "
+                   "link control")
+WINDER_MOVE_STOP = "{name} stops"
+WINDER_PERIOD = "{name} period {counts} counts = {us} us ({speed:.0f} steps/s)"
+WINDER_ACCEL = "{name} acceleration {accel} steps/s^2"
+WINDER_LINK_CONTROL = "{name}: link control (pots again with 'pots')"
+WINDER_POTS = "pots in control: A0 drives S1, A1 drives S2"
+WINDER_INTERLOCK_ON = "interlock on: S2 follows S1 at {n}:{m} while A1 is centred"
+WINDER_INTERLOCK_OFF = "interlock off"
+WINDER_INTERLOCK_OFF_BY_LINK = "interlock off: S2 is under link control"
+WINDER_INTERLOCK_ENGAGED = ("interlock engaged: S2 follows S1 at {n}:{m} "
+                            "(from S1 @{x0}, S2 @{s2})")
+WINDER_INTERLOCK_RELEASED = "interlock released: S2 moves on its own"
+WINDER_INTERLOCK_FAILED = "ERROR interlock: {why}; interlock off"
+WINDER_RATIO = "ratio {n}:{m} (S2 steps per S1 steps)"
+WINDER_POT = "A{a} = {value}: {what}"
+WINDER_POT_OFF = "{name} off (dead zone 462..562)"
+WINDER_POT_RULE = ("{name} {way} {speed:.1f} steps/s -> period {counts} counts "
+                   "({real:.1f} steps/s)")
+WINDER_SWITCH = "A{a} {state} ({role})"
+WINDER_SWITCH_ROLES = {2: "S2 lower limit", 3: "S2 upper limit", 4: "fixture switch",
+                       5: "spare input"}
+WINDER_SWITCH_NAMES = {2: "LimitLow", 3: "LimitHigh", 4: "Fixture", 5: "Spare"}
+WINDER_STOPPED = "{name} stopped at {position}"
+WINDER_HELD_AT_LIMIT = "{name} held: its limit A{a} is closed"
+WINDER_HOLD = "{name} waits for A{a} to be centred before its pot drives it again"
+WINDER_LIMIT_STOP = "A{a}: S2 stopped at its {which} limit, position {position}{then}"
+WINDER_LIMIT_TURN = "; the traverse turns round"
+WINDER_LIMIT_STOP_BOTH = ("A{a}: S2 stopped at its {which} limit, interlocked S1 with it "
+                          "(S1 @{s1}, S2 @{s2}); interlock off")
+WINDER_TRAVERSE = ("traverse: S2 between {a} and {b}, start {start:.0f} steps/s, "
+                   "acceleration {accel} steps/s^2, top {top:.0f} steps/s, replanned every 50 ms")
+WINDER_TRAVERSE_DONE = "traverse ended at {position}"
+WINDER_CTL_FOLLOW = "interlock {n}:{m}"
+WINDER_CTL_TRAVERSE = "traverse"
+WINDER_CTL_POT = "pot A{a}"
+WINDER_CTL_HOLD = " (held until centred)"
+WINDER_CTL_LINK = "link"
+WINDER_ENGAGED = " (engaged)"
+WINDER_STATUS_AXIS = ("{name} {role:<8} @{position:<10} {speed:>9.1f} steps/s  control {control}"
+                      "  period {counts}  accel {accel}")
+WINDER_STATUS_INPUTS = "inputs: {pots}  {switches}"
+WINDER_STATUS_MODE = "power-up mode {mode}; interlock {interlock}, ratio {n}:{m}{engaged}"
+WINDER_HELP_HEAD = "Helix winder commands (s = stepper 1 or 2; several per line):"
+WINDER_HELP_MOVE = "move s by count steps (+-65535: run until told, 0: stop)"
+WINDER_HELP_PERIOD = "link step period of s in 4 us counts, 9..65535"
+WINDER_HELP_ACCEL = "acceleration of s for all its speed changes"
+WINDER_HELP_INTERLOCK = "S2 follows S1 at the ratio while A1 is centred"
+WINDER_HELP_RATIO = "S2 steps per S1 steps, 1 <= n <= m"
+WINDER_HELP_POTS = "give both steppers back to the pots"
+WINDER_HELP_TRAVERSE = "S2 end to end continuously (stop: move 2 0)"
+WINDER_HELP_STATUS = "positions, speeds, control, inputs"
+WINDER_HELP_POT = "simulation: turn pot A0 (s=1) or A1 (s=2)"
+WINDER_HELP_SWITCH = "simulation: close (1) or open (0) a switch"
+WINDER_HELP_RESET = "power cycle (A4 read again, positions 0)"
+WINDER_HELP_HELP = "this list"
+WINDER_HELP_WAIT = "wait ms before the next command"
+WINDER_REPORT_INTERLOCK = ("interlock    {spans} stretch(es) at {ratios}: max |S2 - ratio x S1| = "
+                           "{error:.3f} steps by the pins ({instants} step instants, worst at "
+                           "{at}); {commands} S2 commands + {pauses} pauses, {late} step(s) "
+                           "outside their window")
+WINDER_REPORT_NO_INTERLOCK = "interlock    not engaged in this run"
+WINDER_CLI_DESCRIPTION = """\
+The helix winder of seed 002 on the fas library: S1 (spindle) and S2 (traverse),
+two pots, four switches and a link.
+
+Without -c: an interactive console (history, completion, a toolbar with the pots,
+switches, control and interlock).  With -c: one line of commands on virtual time,
+e.g.  stepperdemo winder -c "pots pot 1 1023 w2000 pot 1 512 w1000" --report
+
+Commands (s = stepper 1 or 2; several per line, separated by spaces):
+  move s count      link move, -65535..65535 (+-65535 until told, 0 stops)
+  period s counts   link step period in 4 us counts, 9..65535 (default 250)
+  accel s a         acceleration for all speed changes (default 50000 steps/s^2)
+  interlock 0|1     S2 follows S1 at the ratio while A1 is centred
+  ratio n:m         S2 steps per S1 steps, 1 <= n <= m
+  pots              the pots drive again (a link command makes link control sticky)
+  traverse from to  S2 end to end continuously (trapezoid replanned every 50 ms)
+  status, ?, reset, w<ms>
+  pot s 0..1023     simulation: turn A0 (S1) or A1 (S2); dead zone 462..562,
+                    log scale 10 .. 20 000 steps/s as a 4 us period
+  switch An 0|1     simulation: A2/A3 S2's lower/upper limit, A4 fixture (read at
+                    power-up / reset), A5 spare
+
+On a device (--port) the pots and switches are its pins A0..A5, reported by the
+device; the limits stop S2 on the device itself.  A simulated device (stepperdemo
+device --pty or --simavr) takes pot and switch on its simulated pins; a board
+refuses them.
+
+exit codes: 0 ok, 2 bad arguments, 3 --max-time reached, 5 device lost"""
+DEVICE_INPUT_SET = "device: input {text}"
+WINDER_WAY = {True: "forward", False: "backward"}
+WINDER_SWITCH_STATE = {True: "closed", False: "open"}
+WINDER_ON_OFF = {True: "on", False: "off"}
+WINDER_MODE = {True: "fixture", False: "link"}
+WINDER_ROLES = ("spindle", "traverse")
+WINDER_STATUS_POT = "A{a} {value}"
+WINDER_STATUS_SWITCH = "A{a} {state}"
+WINDER_HELP_LINE = "  {text:<22} {hint}"
+WINDER_TOOLBAR_POT = "A{a}={value}"
+WINDER_TOOLBAR_SWITCH = "A{a}{mark}"  # mark: # closed, - open
+WINDER_TOOLBAR_AXIS = "{name}:{control}"
+WINDER_TOOLBAR_LOCK = "interlock {state} {n}:{m}{engaged}"
+WINDER_TOOLBAR_ENGAGED = " engaged"
+WINDER_TOOLBAR = "{pots} | {switches} | {axes} | {lock}"
+WINDER_VCD_SWITCH = "A{a}_{name}"
+# ------------------------------------------------------------- end of winder texts

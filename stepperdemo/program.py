@@ -94,15 +94,34 @@ class Program(ABC):
         """0 when a scripted run succeeded; non-zero (1) when it reported a failure."""
         return 0
 
+    # ----------------------------------------------------- watching a run
+    def trace_signals(self) -> dict[int, list[str]]:
+        """Pins of the program's own (inputs, outputs) to trace beside the steppers'."""
+        return {}
 
-#: program name -> "module:factory"; a factory takes (backend, *, scripted, output)
+    def watch(self, observers) -> None:
+        """Recording of the pins starts (``stepperdemo.watch.observe.Observers``): the
+        program may add consumers of its own to ``observers.stream``."""
+
+    def watch_report(self) -> list[str]:
+        """Lines the program adds to the timing report."""
+        return []
+
+
+#: program name -> "module:factory"; a factory takes (backend, *, scripted, output,
+#: **options) - options are the program's own (its command line gives them)
 PROGRAMS: dict[str, str] = {
     "demo": "stepperdemo.demo.app:StepperDemo",
+    "gcode": "stepperdemo.gcode.program:GcodeProgram",  # issue 12
+    "winder": "stepperdemo.winder.app:Winder",  # issue 13: the helix winder (seed 002)
 }
 
 
-def make_program(name: str, backend: Backend, *, scripted: bool,
-                 output: Output | None = None) -> Program:
+def program_factory(name: str):
     module, _, attr = PROGRAMS[name].partition(":")
-    factory = getattr(importlib.import_module(module), attr)
-    return factory(backend, scripted=scripted, output=output)
+    return getattr(importlib.import_module(module), attr)
+
+
+def make_program(name: str, backend: Backend, *, scripted: bool,
+                 output: Output | None = None, **options) -> Program:
+    return program_factory(name)(backend, scripted=scripted, output=output, **options)

@@ -243,3 +243,23 @@ class RampGenerator:
 
     def after_command_enqueued(self, cmd: NextCommand) -> None:
         self.rw = cmd.rw
+
+    # ------------------------------------------------------------------ cuts
+    def apply_pending(self) -> bool:
+        """A request (move, run, new parameters) waits for the ramp task."""
+        return self._parameters.apply
+
+    def snapshot(self) -> tuple[RampRw, int, RampParameters]:
+        """The planning state after the last command: ramp, target, parameters."""
+        return self.rw.copy(), self.target_pos, self.config.parameters
+
+    def restore(self, snapshot: tuple[RampRw, int, RampParameters]) -> None:
+        """Plan on from a :meth:`snapshot` (the queue was cut back to where it was
+        taken).  Parameters applied since stay; the ramp step is then recomputed."""
+        rw, target, parameters = snapshot
+        self.rw = rw.copy()
+        self.target_pos = target
+        if parameters is not self.config.parameters:
+            self.config.parameters.recalc_ramp_steps = True
+            if self._parameters.apply:  # about to replace the ramp task's parameters
+                self._parameters.recalc_ramp_steps = True

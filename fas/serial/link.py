@@ -2,10 +2,13 @@
 
 Sequenced messages (queue entries, pins, starts, stops) are packed into frames of at
 most ``max_payload`` bytes, numbered mod 128 and kept until the device acknowledges
-them.  Every frame from the device carries its acknowledgement in the SEQ byte; a
-frame not acknowledged within the retransmission timeout - or announced missing by
-a NAK - is sent again together with everything after it (go-back-N).  The device
-drops repeated frames, so a message takes effect exactly once.
+them.  Every frame from the device carries its acknowledgement in the SEQ byte.  The
+device holds up to ``rx_slots`` frames that arrive after a gap and says which in a
+NAK; only the missing frames are sent again (selective repeat): a frame the NAK
+shows missing although a later one arrived, or one not acknowledged within its
+retransmission timeout.  At most ``rx_slots + 1`` frames are in flight, so every
+frame lands in a slot.  The device drops repeated frames, so a message takes effect
+exactly once.
 
 Unsequenced messages (hello, clock sync, status request, emergency stop) travel in
 frames of their own, are never repeated by the link and may overtake the rest.
@@ -18,23 +21,25 @@ start it sent.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 
 from .protocol import (
+    FRAME_OVERHEAD,
     MAX_FRAME,
     MAX_PAYLOAD,
+    MAX_RX_SLOTS,
     SEQ_MASK,
     SEQ_MOD,
     UNSEQUENCED,
     FrameDecoder,
     Message,
     Nak,
-    ProtocolError,
     SyncReply,
     SyncRequest,
-    decode_messages,
+    decode_prefix,
     encode_frame,
 )
 from .stream import ByteStream, LinkClosed
@@ -57,6 +62,7 @@ class LinkStats:
     discarded_bytes: int = 0
     bad_payloads: int = 0
     stale_acks: int = 0
+    frames_held: int = 0  # frames a NAK showed held by the device (not resent)
     sync_samples: int = 0
     rtt_us: int = 0  # smoothed round trip of acknowledged frames
 
@@ -65,14 +71,22 @@ class LinkStats:
 
 
 class _Frame:
-    __slots__ = ("data", "last_mid", "resent", "sent_ns", "seq")
+    __slots__ = ("data", "held", "last_mid", "order", "resent", "sent_ns", "seq")
 
     def __init__(self, seq: int, data: bytes, last_mid: int, sent_ns: int) -> None:
         self.seq = seq
         self.data = data
         self.last_mid = last_mid
-        self.sent_ns = sent_ns
+        self.sent_ns = sent_ns  # the last time it went out
+        self.order = 0  # ... and its place among everything written (the line's order)
         self.resent = False
+        self.held = False  # the device holds it (a NAK said so): never resent
+
+
+LOSS_AVERAGE = 32  # frames over which the share of frames sent again is averaged
+MAX_LOSS = 0.9  # a loss estimate is capped here (a few bad frames at first read high)
+LOSSY = 0.05  # above this share of lost frames, the frame holding up the window goes twice
+PROBES = 8  # clock samples remembered as loss probes
 
 
 Handler = Callable[[list[Message], int], None]
@@ -81,8 +95,8 @@ Handler = Callable[[list[Message], int], None]
 class HostLink:
     """Framing, acknowledgement, retransmission and clock samples over one stream."""
 
-    def __init__(self, stream: ByteStream, clock, *, window: int = 16,
-                 max_payload: int = 40, min_payload: int = 12, min_rto_ms: float = 10.0,
+    def __init__(self, stream: ByteStream, clock, *, window: int = 9,
+                 max_payload: int = 32, min_payload: int = 12, min_rto_ms: float = 10.0,
                  initial_rto_ms: float = 100.0, max_rto_ms: float = 250.0,
                  silence_ms: float = 1500.0, baud: int = 115200) -> None:
         self.stream = stream
@@ -90,8 +104,8 @@ class HostLink:
         self.window = window
         self.max_payload = min(max_payload, MAX_PAYLOAD)
         self.min_payload = min(min_payload, self.max_payload)
-        self.payload = self.max_payload  # current frame size limit, shrinks on losses
-        self._clean_acks = 0
+        self.payload = self.max_payload  # current frame size limit (see _fit_payload)
+        self.frame_len = float(FRAME_OVERHEAD + self.max_payload)  # average sent, moving
         self._backoff = 0
         self.min_rto_ns = int(min_rto_ms * MS)
         self.max_rto_ns = int(max_rto_ms * MS)
@@ -100,6 +114,12 @@ class HostLink:
         self.byte_ns = 10 * 1_000_000_000 // baud if baud else 0  # wire time of one byte
         self.srtt_ns: int | None = None
         self.rttvar_ns = 0
+        # line quality, as moving averages: the share of our frames that had to be sent
+        # again, and the share of the device's frames that arrived damaged
+        self.loss_tx = 0.0
+        self.loss_rx = 0.0
+        self._weight_tx = 0.0  # how much of each average is samples (bias correction:
+        self._weight_rx = 0.0  # an average that starts at 0 reads low at first)
         self.decoder = FrameDecoder()
         self.next_seq = 0
         self.unacked: deque[_Frame] = deque()
@@ -107,12 +127,15 @@ class HostLink:
         self.next_mid = 1
         self.acked_mid = 0
         self.handler: Handler | None = None
+        self.probe: Callable[[], None] | None = None  # sends a clock sample (backend)
+        self._probes: dict[int, int] = {}  # stamp of a clock sample -> its write order
+        self._order = 0  # writes so far: a serial line delivers in this order
+        self._probe_mid = 0  # send a probe right after the frame with this message
         self.stats = LinkStats()
         now = clock.now_ns()
         self.last_rx_ns = now
         self.last_tx_ns = now
         self.closed: str | None = None
-        self._last_nak_ns = -(1 << 62)
 
     # ----------------------------------------------------------------- sending
     def send(self, msg: Message) -> int:
@@ -139,15 +162,32 @@ class HostLink:
     def idle(self) -> bool:
         return not self.unacked and not self.pending
 
+    @property
+    def loss(self) -> float:
+        """The share of frames lost on this line (the worse direction)."""
+        tx = self.loss_tx / self._weight_tx if self._weight_tx else 0.0
+        rx = self.loss_rx / self._weight_rx if self._weight_rx else 0.0
+        return min(max(tx, rx), MAX_LOSS)
+
+    def set_limits(self, window: int, max_payload: int) -> None:
+        """The device's receive figures: frames in flight and the largest payload."""
+        self.window = max(1, window)
+        self.max_payload = max(1, min(max_payload, MAX_PAYLOAD))
+        self.min_payload = min(self.min_payload, self.max_payload)
+        self._fit_payload()
+
     def flush(self) -> None:
         """Frame queued messages while the window has room; retransmit when due."""
         if self.closed:
             return
         now = self.clock.now_ns()
-        if self.unacked and now >= self.unacked[0].sent_ns + self._timeout_ns():
-            self.stats.retransmit_timeouts += 1
-            self._backoff = min(self._backoff + 1, 4)
-            self._retransmit(now)
+        if self.unacked:
+            timeout = self._timeout_ns()
+            due = [f for f in self.unacked if not f.held and now >= f.sent_ns + timeout]
+            if due:
+                self.stats.retransmit_timeouts += 1
+                self._backoff = min(self._backoff + 1, 1)
+                self._retransmit(due, now)
         while self.pending and len(self.unacked) < self.window:
             payload = bytearray()
             last_mid = 0
@@ -161,24 +201,38 @@ class HostLink:
             seq = self.next_seq
             self.next_seq = (seq + 1) % SEQ_MOD
             data = encode_frame(seq, bytes(payload))
-            self.unacked.append(_Frame(seq, data, last_mid, now))
+            self.frame_len += (len(data) - self.frame_len) / LOSS_AVERAGE
+            frame = _Frame(seq, data, last_mid, now)
+            self.unacked.append(frame)
             self._write(data)
+            frame.order = self._order
+            if self._probe_mid and last_mid >= self._probe_mid:
+                self._probe_mid = 0
+                if self.probe is not None:
+                    self.probe()
 
     def _timeout_ns(self) -> int:
-        """Retransmission timeout of the oldest open frame: the round trip plus the wire
-        time of everything sent with it (a busy 115200-baud line queues frames)."""
+        """Retransmission timeout of an open frame: the round trip plus the wire time of
+        everything sent with it (a busy 115200-baud line queues frames)."""
         wire = self.byte_ns * (sum(len(f.data) for f in self.unacked) + MAX_FRAME)
         return min(self.rto_ns << self._backoff, self.max_rto_ns) + wire
 
-    def _retransmit(self, now: int) -> None:
-        # a lossy line: smaller frames get through more often
-        self.payload = max(self.min_payload, self.payload * 2 // 3)
-        self._clean_acks = 0
-        for f in self.unacked:
+    def _retransmit(self, frames: list[_Frame], now: int) -> None:
+        """Send ``frames`` again (in sequence order), then a clock sample as a probe:
+        the device answers it at once, with a Nak if frames are still missing, so a
+        repeat that is lost again shows one round trip later.  On a lossy line the
+        oldest frame - it holds up the window - goes twice (the device drops the
+        second copy)."""
+        for f in frames:
             f.sent_ns = now
             f.resent = True
-            self.stats.retransmissions += 1
-            self._write(f.data)
+            copies = 2 if f is self.unacked[0] and self.loss > LOSSY else 1
+            for _ in range(copies):
+                self.stats.retransmissions += 1
+                self._write(f.data)
+                f.order = self._order
+        if self.probe is not None:
+            self.probe()
 
     def _write(self, data: bytes) -> None:
         try:
@@ -186,6 +240,7 @@ class HostLink:
         except LinkClosed as exc:
             self._close(str(exc))
             return
+        self._order += 1
         self.stats.frames_sent += 1
         self.stats.bytes_sent += len(data)
         self.last_tx_ns = self.clock.now_ns()
@@ -206,10 +261,17 @@ class HostLink:
             for seq, payload in self.decoder.feed(data):
                 self.last_rx_ns = now
                 self.stats.frames_received += 1
+                self.loss_rx -= self.loss_rx / LOSS_AVERAGE
+                self._weight_rx += (1.0 - self._weight_rx) / LOSS_AVERAGE
                 self._on_frame(seq, payload, now)
                 if self.closed:
                     return
             d = self.decoder
+            bad = d.crc_errors + d.framing_errors - self.stats.crc_errors \
+                - self.stats.framing_errors
+            for _ in range(bad):
+                self.loss_rx += (1.0 - self.loss_rx) / LOSS_AVERAGE
+                self._weight_rx += (1.0 - self._weight_rx) / LOSS_AVERAGE
             self.stats.crc_errors = d.crc_errors
             self.stats.framing_errors = d.framing_errors
             self.stats.discarded_bytes = d.discarded_bytes
@@ -220,14 +282,14 @@ class HostLink:
 
     def _on_frame(self, seq: int, payload: bytes, now: int) -> None:
         self._ack(seq & SEQ_MASK, now)
-        try:
-            msgs = decode_messages(payload)
-        except ProtocolError:
+        msgs, error = decode_prefix(payload)
+        if error:  # a message this host does not know: the rest of the frame is lost
             self.stats.bad_payloads += 1
-            return
         for m in msgs:
             if isinstance(m, Nak):
-                self._on_nak(m.expected, now)
+                self._on_nak(m.expected, m.held, now)
+            elif isinstance(m, SyncReply):
+                self._on_probe(m.stamp, now)
         if self.handler is not None and msgs:
             self.handler(msgs, self.acked_mid)
 
@@ -238,25 +300,88 @@ class HostLink:
         if n > len(self.unacked):
             self.stats.stale_acks += 1
             return
-        if n:
-            self._backoff = 0
-        for _ in range(n):
-            f = self.unacked.popleft()
-            self.acked_mid = max(self.acked_mid, f.last_mid)
-            if not f.resent:
-                self.rtt_sample(now - f.sent_ns)
-                self._clean_acks += 1
-                if self._clean_acks >= 8 and self.payload < self.max_payload:
-                    self.payload += 1
-
-    def _on_nak(self, expected: int, now: int) -> None:
-        self.stats.naks += 1
-        if not self.unacked or self.unacked[0].seq != expected & SEQ_MASK:
+        if not n:
             return
-        guard = self.srtt_ns or 0
-        if now - self.unacked[0].sent_ns >= guard and now - self._last_nak_ns >= guard:
-            self._last_nak_ns = now
-            self._retransmit(now)
+        self._backoff = 0
+        done = [self.unacked.popleft() for _ in range(n)]
+        # a round trip only from acknowledgements no repeated or held frame delayed
+        clean = not any(f.resent or f.held for f in done)
+        for f in done:
+            self.acked_mid = max(self.acked_mid, f.last_mid)
+            self.loss_tx += ((1.0 if f.resent else 0.0) - self.loss_tx) / LOSS_AVERAGE
+            self._weight_tx += (1.0 - self._weight_tx) / LOSS_AVERAGE
+            if clean:
+                self.rtt_sample(now - f.sent_ns)
+        self._fit_payload()
+
+    def _fit_payload(self) -> None:
+        """Frames as long as pays on this line.  A frame of L bytes carries L-5 and
+        gets through with s = (1-p)^L for a byte error rate p (from the loss and the
+        average frame length).  The bytes that arrive per second are bounded by the
+        wire, rate * (L-5)/L * s, and by the window, window * (L-5) * s per round trip
+        of which a lost frame costs more (s again); the payload is the L that gives the
+        most under both bounds."""
+        loss = min(self.loss, 0.9)
+        if loss <= 0.0:
+            self.payload = self.max_payload
+            return
+        per_byte = -math.log1p(-loss) / self.frame_len  # -ln(1-p)
+        wire = 1e9 / self.byte_ns if self.byte_ns else math.inf  # bytes/s
+        rtt_s = (self.srtt_ns or self.rto_ns) / 1e9
+        best_payload, best = self.max_payload, -1.0
+        for payload in range(self.min_payload, self.max_payload + 1):
+            length = payload + FRAME_OVERHEAD
+            ok = math.exp(-per_byte * length)
+            rate = min(wire * payload / length, self.window * payload * ok / rtt_s) * ok
+            if rate > best:
+                best_payload, best = payload, rate
+        self.payload = best_payload
+
+    def _on_nak(self, expected: int, held: int, now: int) -> None:
+        """The device holds the frames in ``held`` after ``expected``: the frames it
+        misses although a later one arrived are lost (a serial line keeps the order) -
+        unless they were sent again after that later one."""
+        self.stats.naks += 1
+        frames = list(self.unacked)
+        last = -1  # the newest frame the device holds
+        for k, f in enumerate(frames):
+            i = (f.seq - expected - 1) % SEQ_MOD
+            if i < MAX_RX_SLOTS and held >> i & 1:
+                if not f.held:
+                    f.held = True
+                    self.stats.frames_held += 1
+                last = k
+        # a missing frame is lost if a later one arrived (the line keeps the order), or
+        # if it went out a round trip ago (this NAK would have seen it)
+        newest = frames[last].order if last >= 0 else -1
+        guard = now - self._nak_guard_ns()
+        lost = [f for f in frames[:max(last, 1)]
+                if not f.held and (f.order < newest or f.sent_ns <= guard)]
+        if lost:
+            self._retransmit(lost, now)
+
+    def probe_after(self, mid: int) -> None:
+        """Send a clock sample as a probe right after message ``mid`` goes out: if its
+        frame is lost, the answer shows it one round trip later (a Start at the end
+        of a burst has no later frame whose arrival would tell)."""
+        self._probe_mid = max(self._probe_mid, mid)
+
+    def _on_probe(self, stamp: int, now: int) -> None:
+        """A clock sample came back.  Its frame tells what the device had when it took
+        the sample (acknowledgement and, while it holds frames, a Nak): every frame sent
+        before the sample and neither acknowledged nor held was lost."""
+        order = self._probes.pop(stamp, None)
+        if order is None:
+            return
+        lost = [f for f in self.unacked if not f.held and f.order < order]
+        if lost:
+            self._retransmit(lost, now)
+
+    def _nak_guard_ns(self) -> int:
+        """How long after sending a frame a NAK that still misses it means it is lost."""
+        if self.srtt_ns is None:
+            return self.rto_ns
+        return self.srtt_ns + 2 * self.rttvar_ns
 
     def rtt_sample(self, rtt: int) -> None:
         """A measured round trip (acknowledged frame or clock sample), in ns."""
@@ -289,7 +414,11 @@ class HostLink:
         self.clock.wait(deadline_ns, None if self.closed else self.stream)
 
     def sync_request(self, stamp: int) -> None:
-        self.send_unsequenced(SyncRequest(stamp & 0xFFFFFFFF))
+        stamp &= 0xFFFFFFFF
+        self.send_unsequenced(SyncRequest(stamp))
+        self._probes[stamp] = self._order
+        while len(self._probes) > PROBES:
+            del self._probes[next(iter(self._probes))]
 
     def _close(self, reason: str) -> None:
         if self.closed is None:

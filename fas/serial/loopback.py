@@ -21,8 +21,14 @@ from .stream import ByteStream, Pty, open_serial, set_link
 
 
 class Loopback:
+    """``device="python"``: the simulated device (:class:`Device`); ``"simavr"``: the
+    firmware in simavr (:class:`~fas.serial.simavr.SimavrDevice`, ATmega328P only;
+    ``firmware`` names its ELF, else it is built for the backend's baud rate)."""
+
     def __init__(self, arch: str = "atmega328p", *, faults: Faults | None = None,
                  watchdog_ms: int = 500, record: bool = False, connect: bool = True,
+                 device: str = "python", firmware: str | None = None,
+                 trace: str | None = None, device_options: dict | None = None,
                  **backend_options) -> None:
         self.clock = VirtualClock()
         self._dir = tempfile.mkdtemp(prefix="fas-loopback-")
@@ -31,7 +37,18 @@ class Loopback:
         self.relay: Relay | None = None
         self._relay_pty: Pty | None = None
         self._device_pty = Pty("device")
-        self.device = Device(None, arch, self.clock, watchdog_ms=watchdog_ms, record=record)
+        if device == "simavr":
+            from .simavr import SimavrDevice
+
+            if arch != "atmega328p":
+                raise ValueError("the firmware is for the atmega328p")
+            self.device = SimavrDevice(None, self.clock, elf=firmware, trace=trace,
+                                       baud=backend_options.get("baud", 115200))
+        elif device == "python":
+            self.device = Device(None, arch, self.clock, watchdog_ms=watchdog_ms,
+                                 record=record, **(device_options or {}))
+        else:
+            raise ValueError(f"unknown device kind {device!r}")
         self.clock.add_peer(self.device)
         self._plug_device()
         self.backend: SerialBackend | None = None
@@ -96,6 +113,8 @@ class Loopback:
         if self.backend is not None:
             self.backend.close()
         self.device.unplug()
+        if hasattr(self.device, "close"):
+            self.device.close()
         if self.relay is not None:
             self.relay.device.close()
         if self._relay_pty is not None:

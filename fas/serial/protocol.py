@@ -21,7 +21,7 @@ import struct
 from dataclasses import astuple, dataclass
 from typing import ClassVar
 
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
 SYNC = 0x7E
 FRAME_OVERHEAD = 5  # LEN, SEQ, CRC (2), SYNC
 MAX_FRAME = 64
@@ -30,6 +30,7 @@ SEQ_MOD = 128
 SEQ_MASK = 0x7F
 UNSEQUENCED = 0x80
 MAX_STEPPERS = 8
+MAX_RX_SLOTS = 16  # the Nak's bitmap of held frames has 16 bits
 
 
 class ProtocolError(ValueError):
@@ -135,20 +136,43 @@ def tick_diff32(a: int, b: int) -> int:
 
 # ---------------------------------------------------------------------- messages
 class Message:
-    """A message with fixed fields packed by ``FMT`` (little-endian) after its code."""
+    """A message with fixed fields packed by ``FMT`` (little-endian) after its code.
+
+    A new message type is one subclass with ``CODE`` (see the type table in
+    docs/serial-protocol.md, section 5) and ``FMT``, decorated with :func:`register`;
+    ``UNSEQUENCED`` marks host messages that travel outside the sequence (section 4).
+    """
 
     CODE: ClassVar[int]
     FMT: ClassVar[struct.Struct]
+    UNSEQUENCED: ClassVar[bool] = False
+    CODES: ClassVar[tuple[int, ...]] = ()  # every type byte it owns (default: CODE)
+    CODE_HAS_INDEX: ClassVar[bool] = False  # the type byte carries the stepper (0x40|s)
 
     def encode(self) -> bytes:
         return bytes((self.CODE,)) + self.FMT.pack(*astuple(self))
 
     @classmethod
     def decode(cls, data: bytes, pos: int) -> tuple[Message, int]:
+        """Decode the fields at ``pos`` (after the type byte, or at it when
+        ``CODE_HAS_INDEX``); returns the message and the position after it."""
         size = cls.FMT.size
         if pos + size > len(data):
             raise ProtocolError(f"{cls.__name__}: truncated")
         return cls(*cls.FMT.unpack_from(data, pos)), pos + size
+
+
+_BY_CODE: dict[int, type[Message]] = {}
+
+
+def register(cls: type[Message]) -> type[Message]:
+    """Class decorator: make ``cls`` known to :func:`decode_messages` under its codes."""
+    for code in cls.CODES or (cls.CODE,):
+        other = _BY_CODE.get(code)
+        if other is not None and other is not cls:
+            raise ValueError(f"message type 0x{code:02x} is taken by {other.__name__}")
+        _BY_CODE[code] = cls
+    return cls
 
 
 def _fmt(spec: str) -> struct.Struct:
@@ -156,27 +180,32 @@ def _fmt(spec: str) -> struct.Struct:
 
 
 # --- host -> device -------------------------------------------------------------
+@register
 @dataclass(frozen=True, slots=True)
 class Hello(Message):
     """Open a session (unsequenced).  A new nonce resets the device's session."""
 
     CODE: ClassVar[int] = 0x01
     FMT: ClassVar[struct.Struct] = _fmt("BHHB")
+    UNSEQUENCED: ClassVar[bool] = True
     version: int
     nonce: int
     watchdog_ms: int
     report_ms: int
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class SyncRequest(Message):
     """Clock sample and heartbeat (unsequenced): the device answers :class:`SyncReply`."""
 
     CODE: ClassVar[int] = 0x02
     FMT: ClassVar[struct.Struct] = _fmt("I")
+    UNSEQUENCED: ClassVar[bool] = True
     stamp: int
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class Config(Message):
     """(Re)initialise one stepper's queue: stopped, empty at ``index``, end at ``end_pos``."""
@@ -190,6 +219,7 @@ class Config(Message):
     end_pos: int
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class DirPin(Message):
     CODE: ClassVar[int] = 0x04
@@ -198,6 +228,18 @@ class DirPin(Message):
     dir_pin: int
 
 
+@register
+@dataclass(frozen=True, slots=True)
+class Truncate(Message):
+    """Drop the queue's entries from ``index`` on, if none of them has begun (a cut)."""
+
+    CODE: ClassVar[int] = 0x05
+    FMT: ClassVar[struct.Struct] = _fmt("BB")
+    stepper: int
+    index: int
+
+
+@register
 @dataclass(frozen=True, slots=True)
 class Start(Message):
     """Start the queues in ``mask`` at device tick ``at`` (32-bit; past: at once)."""
@@ -208,16 +250,22 @@ class Start(Message):
     at: int
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class ForceStop(Message):
-    """Stop at once and drop the queue; read and write index become ``index``."""
+    """Stop at once and drop the queue; read and write index become ``index``.
+
+    ``stop_id`` names the stop: the :class:`Halt` that went ahead of it with the same
+    id is done, a late copy of it is ignored."""
 
     CODE: ClassVar[int] = 0x07
-    FMT: ClassVar[struct.Struct] = _fmt("BB")
+    FMT: ClassVar[struct.Struct] = _fmt("BBB")
     stepper: int
     index: int
+    stop_id: int = 0
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class SetEndPos(Message):
     """Renumber the queue's positions so that the queue ends at ``pos``."""
@@ -228,6 +276,7 @@ class SetEndPos(Message):
     pos: int
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class Pin(Message):
     CODE: ClassVar[int] = 0x09
@@ -236,6 +285,7 @@ class Pin(Message):
     level: int
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class Detach(Message):
     CODE: ClassVar[int] = 0x0A
@@ -244,6 +294,7 @@ class Detach(Message):
     detached: int
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class PcntAttach(Message):
     CODE: ClassVar[int] = 0x0B
@@ -255,6 +306,7 @@ class PcntAttach(Message):
     value: int
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class PcntClear(Message):
     CODE: ClassVar[int] = 0x0C
@@ -262,14 +314,17 @@ class PcntClear(Message):
     stepper: int
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class StatusRequest(Message):
     """Ask for :class:`Status` of every stepper and :class:`DeviceStatus` (unsequenced)."""
 
     CODE: ClassVar[int] = 0x0D
     FMT: ClassVar[struct.Struct] = _fmt("")
+    UNSEQUENCED: ClassVar[bool] = True
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class EmergencyStop(Message):
     """Stop every queue at once and refuse motion until the next Hello (unsequenced).
@@ -279,7 +334,36 @@ class EmergencyStop(Message):
 
     CODE: ClassVar[int] = 0x0E
     FMT: ClassVar[struct.Struct] = _fmt("H")
+    UNSEQUENCED: ClassVar[bool] = True
     nonce: int = 0
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class Bye(Message):
+    """The host ends its session (unsequenced): motion stops, no watchdog trip counted."""
+
+    CODE: ClassVar[int] = 0x0F
+    FMT: ClassVar[struct.Struct] = _fmt("H")
+    UNSEQUENCED: ClassVar[bool] = True
+    nonce: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class Halt(Message):
+    """Stop one stepper at once, ahead of the queue (unsequenced; X and force stops).
+
+    The device discards that stepper's entries, starts and cuts until the sequenced
+    :class:`ForceStop` with the same ``stop_id`` arrives; a copy of a Halt whose id
+    the device has already seen does nothing.  ``nonce`` names the session."""
+
+    CODE: ClassVar[int] = 0x10
+    FMT: ClassVar[struct.Struct] = _fmt("BBH")
+    UNSEQUENCED: ClassVar[bool] = True
+    stepper: int
+    stop_id: int
+    nonce: int
 
 
 ENTRY_BASE = 0x40  # 0x40 | stepper
@@ -289,6 +373,7 @@ E_COUNT_UP = 0x40
 E_CONT = 0x80
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class Entry(Message):
     """One queue command: ``steps`` pulses ``ticks`` apart (5 bytes on the wire).
@@ -300,6 +385,8 @@ class Entry(Message):
     """
 
     CODE: ClassVar[int] = ENTRY_BASE
+    CODES: ClassVar[tuple[int, ...]] = tuple(ENTRY_BASE | s for s in range(MAX_STEPPERS))
+    CODE_HAS_INDEX: ClassVar[bool] = True
     stepper: int
     index: int
     steps: int
@@ -327,22 +414,25 @@ class Entry(Message):
 
 
 # --- device -> host -------------------------------------------------------------
+@register
 @dataclass(frozen=True, slots=True)
 class Ident(Message):
-    """The device's answer to Hello: its profile and clock."""
+    """The device's answer to Hello: its profile, clock, queue depth and receive slots."""
 
     CODE: ClassVar[int] = 0x81
-    FMT: ClassVar[struct.Struct] = _fmt("BHHIIBBBHH")
+    FMT: ClassVar[struct.Struct] = _fmt("BHHIIBBBBHHH")
     version: int
     nonce: int
     boot_id: int
     ticks_per_s: int
     clock_hz: int  # rate of the tick counter per host-clock second (differs when sped up)
     max_steppers: int
-    queue_len: int
-    rx_window: int  # sequenced frames the device accepts in flight
+    queue_len: int  # entries of each queue ring (a power of two, 16 .. 128)
+    rx_slots: int  # out-of-order frames the device holds (the host sends rx_slots + 1)
+    slot_payload: int  # the largest payload of a host frame
     watchdog_ms: int
     min_cmd_ticks_div: int  # ticks_per_s // min_cmd_ticks (a cross-check of the profile)
+    features: int = 0  # bit per optional message family the device understands
     name: str = ""
 
     def encode(self) -> bytes:
@@ -364,6 +454,7 @@ class Ident(Message):
         return cls(*fields, name=name), start + n
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class SyncReply(Message):
     CODE: ClassVar[int] = 0x82
@@ -378,13 +469,18 @@ P_HAS_ENTRY = 0x02
 P_HAS_PCNT = 0x04
 P_START_PENDING = 0x08
 P_DETACHED = 0x10
+P_CUT_REFUSED = 0x20  # a Truncate came too late: entries, starts, SetEndPos are dropped
+P_HALTED = 0x40  # a Halt stopped the queue; it waits for its ForceStop
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class Progress(Message):
     """A stepper's queue state: read index, steps left of the entry at it, flags."""
 
     CODE: ClassVar[int] = PROGRESS_BASE
+    CODES: ClassVar[tuple[int, ...]] = tuple(PROGRESS_BASE | s for s in range(MAX_STEPPERS))
+    CODE_HAS_INDEX: ClassVar[bool] = True
     stepper: int
     flags: int
     index: int
@@ -420,6 +516,7 @@ class Progress(Message):
         return bool(self.flags & P_HAS_ENTRY)
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class Status(Message):
     """A stepper in full: queue state as :class:`Progress` plus position and counters."""
@@ -446,9 +543,10 @@ D_SESSION = 0x04  # a host session is open
 DEVICE_COUNTERS = ("frames_ok", "entries", "frames_duplicate", "frames_out_of_order",
                    "crc_errors", "framing_errors", "entries_lost", "entries_duplicated",
                    "overflows", "underruns", "late_starts", "watchdog_trips", "rejected",
-                   "tx_dropped")
+                   "tx_dropped", "frames_held", "cuts", "cuts_refused", "halts", "discarded")
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class DeviceStatus(Message):
     """Device-wide state and counters (wrapping: 32 bits for the first two, else 16)."""
@@ -471,53 +569,202 @@ class DeviceStatus(Message):
     watchdog_trips: int
     rejected: int
     tx_dropped: int
+    frames_held: int
+    cuts: int
+    cuts_refused: int
+    halts: int
+    discarded: int
 
     def counters(self) -> dict[str, int]:
         return {name: getattr(self, name) for name in DEVICE_COUNTERS}
 
 
+@register
 @dataclass(frozen=True, slots=True)
 class Nak(Message):
-    """The device saw a frame after a gap: please resend from ``expected`` now."""
+    """Frames are missing: the device expects ``expected`` and holds the frames
+    ``expected + 1 + i`` for every bit ``i`` set in ``held`` - resend only the others."""
 
     CODE: ClassVar[int] = 0x86
-    FMT: ClassVar[struct.Struct] = _fmt("B")
+    FMT: ClassVar[struct.Struct] = _fmt("BH")
     expected: int
+    held: int = 0
 
 
+# --- user outputs (issue 12; docs/serial-protocol.md section 16) -----------------
+O_ANALOG = 0x01  # OutputSet flags: an analog (PWM) output, value = duty count
+O_SYNCHRONIZED = 0x02  # made when every queue has executed every entry received before
+
+
+@register
 @dataclass(frozen=True, slots=True)
-class Bye(Message):
-    """The host ends its session (unsequenced): motion stops, no watchdog trip counted."""
+class OutputPwm(Message):
+    """(Re)start the PWM timer of analog output ``number`` on ``pin`` at once: periods of
+    ``counts`` counts of ``clock_div`` timer clocks (the profile's rule), duty ``count``."""
 
-    CODE: ClassVar[int] = 0x0F
-    FMT: ClassVar[struct.Struct] = _fmt("H")
-    nonce: int
+    CODE: ClassVar[int] = 0x20
+    FMT: ClassVar[struct.Struct] = _fmt("BBIII")
+    number: int
+    pin: int
+    clock_div: int
+    counts: int
+    count: int
 
 
-_BY_CODE: dict[int, type[Message]] = {}
-for _cls in (Hello, SyncRequest, Config, DirPin, Start, ForceStop, SetEndPos, Pin, Detach,
-             PcntAttach, PcntClear, StatusRequest, EmergencyStop, Bye, Ident, SyncReply, Status,
-             DeviceStatus, Nak):
-    _BY_CODE[_cls.CODE] = _cls
-for _s in range(MAX_STEPPERS):
-    _BY_CODE[ENTRY_BASE | _s] = Entry
-    _BY_CODE[PROGRESS_BASE | _s] = Progress
+@register
+@dataclass(frozen=True, slots=True)
+class OutputSet(Message):
+    """Set a user output: digital ``value`` 0/1, analog ``value`` = duty count; at once, or
+    (``O_SYNCHRONIZED``) after the motion of every entry received before it."""
 
-UNSEQUENCED_TYPES = (Hello, SyncRequest, StatusRequest, EmergencyStop, Bye)
+    CODE: ClassVar[int] = 0x21
+    FMT: ClassVar[struct.Struct] = _fmt("BBBI")
+    flags: int
+    number: int
+    pin: int
+    value: int
+
+    @property
+    def analog(self) -> bool:
+        return bool(self.flags & O_ANALOG)
+
+    @property
+    def synchronized(self) -> bool:
+        return bool(self.flags & O_SYNCHRONIZED)
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class OutputCancel(Message):
+    """Drop the synchronized output changes not made yet (an alarm on the host)."""
+
+    CODE: ClassVar[int] = 0x22
+    FMT: ClassVar[struct.Struct] = _fmt("")
+
+
+# --- inputs and limit switches (issue 13; docs/serial-protocol.md section 18) -------
+W_OFF = 0  # WatchInput.mode: stop watching the pin
+W_DIGITAL = 1  # digital input, no pull-up
+W_PULLUP = 2  # digital input with the pull-up resistor
+W_ANALOG = 3  # analog input, 0..1023
+L_UP = 0x01  # Limit.flags: the limit stops steps that count up (else down)
+L_CLEAR = 0x80  # ... remove the limit of that direction
+S_ANALOG = 0x01  # SetInput.flags: a pot's value 0..1023 (else a level 0/1)
+# Ident.features: the optional message families a device understands (section 5)
+F_INPUTS = 0x0001  # section 18: WatchInput, Limit; Input, LimitHit, Started
+F_SIM_INPUTS = 0x0002  # SetInput: the device's inputs are a simulation's (section 18)
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class WatchInput(Message):
+    """Read ``pin`` as an input and report it (:class:`Input`): ``mode`` W_*;
+    analog inputs are sampled every ``period_ms`` (0: 50 ms)."""
+
+    CODE: ClassVar[int] = 0x30
+    FMT: ClassVar[struct.Struct] = _fmt("BBB")
+    pin: int
+    mode: int
+    period_ms: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class Limit(Message):
+    """A limit switch: while ``stepper`` steps in the direction of ``flags`` and ``pin``
+    reads ``level``, stop it and the queues in ``stop_mask`` at once (:class:`LimitHit`)."""
+
+    CODE: ClassVar[int] = 0x31
+    FMT: ClassVar[struct.Struct] = _fmt("BBBBB")
+    stepper: int
+    pin: int
+    level: int
+    flags: int
+    stop_mask: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class SetInput(Message):
+    """The world outside a *simulated* device (Ident feature F_SIM_INPUTS): a switch
+    holds ``pin`` at level ``value`` (0/1), or with ``flags`` S_ANALOG a pot turns the
+    analog input ``pin`` to ``value`` (0..1023).  The device reads it from its pin as
+    a board would; other devices refuse it."""
+
+    CODE: ClassVar[int] = 0x32
+    FMT: ClassVar[struct.Struct] = _fmt("BHB")
+    pin: int
+    value: int
+    flags: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class Input(Message):
+    """A watched input's value (0/1, or 0..1023 analog) and the device tick it was
+    read at: on every change, when the watch begins, and with the slow refresh."""
+
+    CODE: ClassVar[int] = 0xA0
+    FMT: ClassVar[struct.Struct] = _fmt("BHI")
+    pin: int
+    value: int
+    tick: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class LimitHit(Message):
+    """A limit on ``pin`` stopped queue ``stepper`` at device tick ``tick``: no entry is
+    left (read = write = ``index``), the pulses stopped at ``position``.  The queue
+    refuses entries and starts until the host's ForceStop for it."""
+
+    CODE: ClassVar[int] = 0xA1
+    FMT: ClassVar[struct.Struct] = _fmt("BBBiI")
+    stepper: int
+    pin: int
+    index: int
+    position: int
+    tick: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class Started(Message):
+    """Queue ``stepper`` began its first entry at device tick ``tick`` (a Start on time
+    or late, or an entry that restarted a queue that had run dry)."""
+
+    CODE: ClassVar[int] = 0xA2
+    FMT: ClassVar[struct.Struct] = _fmt("BI")
+    stepper: int
+    tick: int
+
+
 
 
 def decode_messages(payload: bytes) -> list[Message]:
     """All messages of a frame's payload (raises :class:`ProtocolError`)."""
+    msgs, error = decode_prefix(payload)
+    if error:
+        raise ProtocolError(error)
+    return msgs
+
+
+def decode_prefix(payload: bytes) -> tuple[list[Message], str]:
+    """The messages up to the first one that does not parse, and what stopped it
+    ('' when the whole payload parsed): a device acts on those and drops the rest."""
     out: list[Message] = []
     pos = 0
     n = len(payload)
     while pos < n:
         cls = _BY_CODE.get(payload[pos])
         if cls is None:
-            raise ProtocolError(f"unknown message type 0x{payload[pos]:02x}")
-        msg, pos = cls.decode(payload, pos + (0 if cls in (Entry, Progress) else 1))
+            return out, f"unknown message type 0x{payload[pos]:02x}"
+        try:
+            msg, pos = cls.decode(payload, pos if cls.CODE_HAS_INDEX else pos + 1)
+        except ProtocolError as exc:
+            return out, str(exc)
         out.append(msg)
-    return out
+    return out, ""
 
 
 def pack_messages(encoded: list[bytes], max_payload: int = MAX_PAYLOAD) -> list[bytes]:

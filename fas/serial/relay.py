@@ -3,9 +3,11 @@
 Each direction passes bytes through :class:`FaultyLine`: every byte is, with seeded
 probabilities, dropped, corrupted (one bit flipped) or duplicated, then delayed by a
 fixed latency; optionally the line is paced to a baud rate (10 bits per byte), so
-that a pty behaves like a real 115200-baud wire.  The relay serves ptys in real time
-(``stepperdemo relay``) or runs as a peer of a :class:`~fas.serial.clock.VirtualClock`
-in tests and benchmarks.
+that a pty behaves like a real 115200-baud wire, delivered in bursts (a USB
+adapter's latency timer), and stalled for ``stall_ms`` every ``stall_every_ms`` (a
+busy host or hub: nothing moves, then everything held comes at once).  The relay
+serves ptys in real time (``stepperdemo relay``) or runs as a peer of a
+:class:`~fas.serial.clock.VirtualClock` in tests and benchmarks.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ class Faults:
     baud: int = 0  # 0: no pacing
     seed: int = 1
     chunk_ms: float = 0.0  # deliver in bursts at this period (a USB adapter's latency timer)
+    stall_ms: float = 0.0  # the line stands still this long ...
+    stall_every_ms: float = 0.0  # ... at every multiple of this period (0: never)
 
     def __post_init__(self) -> None:
         for name in ("drop", "corrupt", "dup"):
@@ -38,8 +42,10 @@ class Faults:
                 raise ValueError(f"{name} must be a probability, not {v}")
         if self.drop + self.corrupt + self.dup > 1.0:
             raise ValueError("fault probabilities add up to more than 1")
-        if self.latency_ms < 0 or self.baud < 0 or self.chunk_ms < 0:
-            raise ValueError("latency and baud must not be negative")
+        if self.latency_ms < 0 or self.baud < 0 or self.chunk_ms < 0 or self.stall_ms < 0:
+            raise ValueError("latency, baud, chunk and stall times must not be negative")
+        if self.stall_ms and not self.stall_every_ms > self.stall_ms:
+            raise ValueError("stalls need a period (stall_every_ms) longer than they are")
 
 
 @dataclass
@@ -63,6 +69,8 @@ class FaultyLine:
         self.latency_ns = int(faults.latency_ms * 1_000_000)
         self.byte_ns = 10 * NS_PER_S // faults.baud if faults.baud else 0
         self.chunk_ns = int(faults.chunk_ms * 1_000_000)
+        self.stall_ns = int(faults.stall_ms * 1_000_000)
+        self.stall_every_ns = int(faults.stall_every_ms * 1_000_000)
         self.line_free_ns = 0
         self.queue: deque[tuple[int, int]] = deque()  # (release time, byte)
         self.stats = LineStats()
@@ -99,6 +107,12 @@ class FaultyLine:
             release = now_ns + self.latency_ns
         if self.chunk_ns:
             release = -(-release // self.chunk_ns) * self.chunk_ns
+        if self.stall_ns:
+            k, phase = divmod(release, self.stall_every_ns)
+            if k and phase < self.stall_ns:
+                release = k * self.stall_every_ns + self.stall_ns
+        if self.queue and release < self.queue[-1][0]:
+            release = self.queue[-1][0]  # a line keeps the order
         self.queue.append((release, b))
 
     def due(self, now_ns: int) -> bytes:

@@ -6,6 +6,8 @@ from typing import Callable, Sequence
 
 from ..arch import Profile, get_profile
 from ..backend import Backend, PulseCounter
+from ..outputs import OutputChange
+from ..pwm import PwmSetting
 from ..queue import StepperQueue
 from .channel import SimChannel
 from .machine import PRIO_TASK, Machine
@@ -34,6 +36,16 @@ class SimBackend(Backend):
         self.stray_reads = 0
         self.stray_reads_during_pulse = 0
         self.channel_listeners: list[Callable[[SimChannel], None]] = []  # observers
+        # inputs of the application (switches, pots): pin -> analog?; analog values
+        self.input_listeners = []
+        self._inputs: dict[int, bool] = {}
+        self._analog: dict[int, int] = {}
+        self.limit_listeners = []
+        # limit switches: (queue index, up) -> (pin, level, queues stopped with it)
+        self._limits: dict[tuple[int, bool], tuple[int, int, tuple[int, ...]]] = {}
+        self._sync_outputs: list[tuple[object, OutputChange]] = []  # waiting for idle queues
+        self.output_listeners: list[Callable[[OutputChange, int], None]] = []  # (change, tick)
+        self._qs_load = None  # QuickStep's timer interrupt load (fas.sim.quickstep)
 
     # ------------------------------------------------------------ Backend API
     def now(self) -> int:
@@ -46,7 +58,21 @@ class SimBackend(Backend):
         self._schedule_task(0)
 
     def _task_time(self, index: int) -> int:
-        return self._task_origin + index * self.profile.fill_period_ticks
+        return self._task_origin + index * self.task_period_ticks
+
+    def set_task_period(self, ticks: int) -> None:
+        """``engine.task_rate()``: runs after the last one follow the new period."""
+        if self._engine is None:
+            super().set_task_period(ticks)
+            return
+        last = self._task_index
+        last_time = self._task_time(last)
+        super().set_task_period(ticks)
+        self._task_origin = last_time - last * self.task_period_ticks
+        self.machine.cancel(self._task_event)
+        self._task_event = None
+        self._task_next = None
+        self.wake_task()
 
     def _schedule_task(self, index: int) -> None:
         self._task_event = self.machine.schedule(self._task_time(index),
@@ -74,6 +100,9 @@ class SimBackend(Backend):
         self.task_runs += 1
         if may_stop or engine.may_stop_without_channel():
             m.activity += 1  # a stepper whose channel stands may have started or stopped
+        if self._sync_outputs and self._make_sync_outputs():
+            engine.queues_idle()
+            m.activity += 1
         skip = engine.quiescent_tasks()
         if skip is None:
             self._task_event = None  # suspended until wake_task()
@@ -88,7 +117,7 @@ class SimBackend(Backend):
         if getattr(self, "_engine", None) is None:
             return
         m = self.machine
-        period = self.profile.fill_period_ticks
+        period = self.task_period_ticks
         due = self._task_index + 1
         if m.now > self._task_time(due):
             due = self._task_index + 1 + -(-(m.now - self._task_time(self._task_index + 1))
@@ -98,8 +127,52 @@ class SimBackend(Backend):
         m.cancel(self._task_event)
         self._schedule_task(due)
 
+    def reset_chip(self) -> None:
+        m = self.machine
+        for ch in self.channels:
+            ch.force_stop()
+            on_block = getattr(ch, "_on_block", None)
+            if on_block in m.block_listeners:
+                m.block_listeners.remove(on_block)
+            if ch in m.block_sources:
+                m.block_sources.remove(ch)
+        if self._qs_load is not None and self._qs_load in m.cpu_sources:
+            m.cpu_sources.remove(self._qs_load)
+        self._qs_load = None
+        self.channels = []
+        self._sync_outputs.clear()
+        m.cancel(self._task_event)
+        self._task_event = None
+        self._task_next = None
+        self._engine = None
+        self._task_period = None
+        t = m.cpu_now()
+        for pin in list(m.outputs.waves):  # PWM timers stop: the pins go LOW
+            m.outputs.set_digital(pin, 0, t)
+        for pin, level in list(m.pins.level.items()):
+            if level:
+                m.pins.set(pin, 0, t)
+
     def allocate_channel(self, queue: StepperQueue) -> SimChannel:
+        # the platform drivers' init: the step pin becomes an output driven LOW
+        self.machine.pins.set(queue.step_pin, 0, self.machine.cpu_now())
         ch = SimChannel(self.machine, queue)
+        ch.on_idle = self._queue_idle
+        self.channels.append(ch)
+        self.machine.block_sources.append(ch)
+        for fn in self.channel_listeners:
+            fn(ch)
+        return ch
+
+    def allocate_order_channel(self, queue, fas_queue, clock) -> SimChannel:
+        """QuickStep's FIFO runs on the profile's QuickStep timer (timer 2 on AVR)."""
+        from .quickstep import QuickStepChannel, TimerLoad
+        load = self._qs_load
+        if load is None or load.clock is not clock:
+            load = self._qs_load = TimerLoad(self.machine, clock)
+            self.machine.cpu_sources.append(load)
+        ch = QuickStepChannel(self.machine, queue, clock, load)
+        ch.on_idle = self._queue_idle
         self.channels.append(ch)
         self.machine.block_sources.append(ch)
         for fn in self.channel_listeners:
@@ -110,10 +183,68 @@ class SimBackend(Backend):
         self.machine.pins.set(pin, level, self.machine.cpu_now())
 
     def read_pin(self, pin: int) -> int:
-        for ch in self.channels:
+        found = False
+        for ch in self.channels:  # (a QuickStep stepper has two: its FIFO's and the idle one)
             if ch.step_pin == pin and not ch.detached:
-                return 1 if ch.step_pin_high() else 0
-        return self.machine.pins.get(pin)
+                if ch.step_pin_high():
+                    return 1
+                found = True
+        return 0 if found else self.machine.outputs.level(pin, self.machine.now)
+
+    # ------------------------------------------------------- user outputs
+    def configure_pwm(self, number: int, pin: int, setting: PwmSetting, count: int) -> None:
+        m = self.machine
+        m.outputs.configure(pin, setting.period_ticks(self.profile.ticks_per_s), setting.counts,
+                            count, m.cpu_now())
+
+    def set_output(self, change: OutputChange) -> None:
+        self._make(change, self.machine.cpu_now())
+
+    def _make(self, change: OutputChange, t: int) -> None:
+        outputs = self.machine.outputs
+        if change.analog:
+            outputs.set_count(change.pin, change.value, t)
+        else:
+            outputs.set_digital(change.pin, change.value, t)
+        for fn in self.output_listeners:
+            fn(change, t)
+
+    def sync_output(self, change: OutputChange) -> object:
+        token = object()
+        self._sync_outputs.append((token, change))
+        self._make_sync_outputs()
+        return token
+
+    def sync_output_done(self, token: object) -> bool:
+        return all(t is not token for t, _ in self._sync_outputs)
+
+    def cancel_sync_outputs(self) -> None:
+        self._sync_outputs.clear()
+
+    def queues_idle(self) -> bool:
+        """Every queue has executed all its commands and its timer stopped."""
+        for ch in self.channels:
+            q = ch.q
+            if ch.running or q.read_idx != q.next_write_idx:
+                return False
+        return True
+
+    def _make_sync_outputs(self) -> bool:
+        """Make the waiting synchronized changes if every queue is done; True if made."""
+        if not self._sync_outputs or not self.queues_idle():
+            return False
+        t = self.machine.cpu_now()
+        waiting, self._sync_outputs = self._sync_outputs, []
+        for _, change in waiting:
+            self._make(change, t)
+        return True
+
+    def _queue_idle(self) -> None:
+        """A queue ran dry (in its step interrupt): the moment synchronized outputs wait for."""
+        engine = self._engine
+        made = self._make_sync_outputs()
+        if engine is not None and (made or engine.sync.active()):
+            engine.queues_idle()
 
     def wait_until(self, predicate: Callable[[], bool], timeout_ticks: int = 0) -> bool:
         m = self.machine
@@ -211,6 +342,91 @@ class SimBackend(Backend):
 
     def block_interrupts(self, ticks: int) -> None:
         self.machine.block_interrupts(ticks)
+
+    # ------------------------------------------------------------- inputs
+    def watch_input(self, pin: int, analog: bool = False, pullup: bool = True,
+                    period_ms: int = 0) -> bool:
+        self._inputs[pin] = analog
+        pins = self.machine.pins
+        if not analog and pullup and pin not in pins.first_write:
+            pins.set(pin, 1, self.machine.now)  # the pull-up holds an open input high
+        return True
+
+    def read_input(self, pin: int) -> int | None:
+        analog = self._inputs.get(pin)
+        if analog is None:
+            return None
+        if analog:
+            return self._analog.get(pin)
+        return self.machine.pins.get(pin)
+
+    def drive_input(self, pin: int, value: int) -> bool:
+        """The simulated world: a switch pulls ``pin`` to ``value`` (0/1), a pot turns
+        the analog input to ``value`` (0..1023).  Listeners hear of it at once."""
+        m = self.machine
+        if self._inputs.get(pin):
+            value = min(max(int(value), 0), 1023)
+            changed = self._analog.get(pin) != value
+            self._analog[pin] = value
+        else:
+            value = 1 if value else 0
+            changed = m.pins.get(pin) != value or pin not in m.pins.first_write
+            m.pins.set(pin, value, m.cpu_now())
+        if changed:
+            if not self._inputs.get(pin):
+                self._limit_pin_changed(pin, value)
+            self._notify_input(pin, value, m.cpu_now())
+        return True
+
+    # ------------------------------------------------------- limit switches
+    def set_limit(self, index: int, pin: int, level: int, up: bool,
+                  stop: tuple[int, ...] = ()) -> bool:
+        ch = self._channel_of(index)
+        if ch is None:
+            return False
+        self._limits[(index, bool(up))] = (pin, 1 if level else 0, tuple(stop))
+        ch.entry_guard = lambda e, i=index: self._guard(i, e)
+        return True
+
+    def clear_limit(self, index: int, up: bool) -> None:
+        self._limits.pop((index, bool(up)), None)
+
+    def _channel_of(self, index: int) -> SimChannel | None:
+        for ch in self.channels:
+            if ch.q.index == index:
+                return ch
+        return None
+
+    def _guard(self, index: int, entry) -> bool:
+        """A queue takes up an entry: towards a closed limit it must not step."""
+        lim = self._limits.get((index, entry.count_up))
+        if lim is None or self.machine.pins.get(lim[0]) != lim[1]:
+            return False
+        ch = self._channel_of(index)
+        ch.on_halt = lambda: self._limit_stop(index, lim, halted=True)
+        return True
+
+    def _limit_pin_changed(self, pin: int, value: int) -> None:
+        for (index, up), lim in list(self._limits.items()):
+            if lim[0] != pin or lim[1] != value:
+                continue
+            ch = self._channel_of(index)
+            if ch is not None and ch.is_running() and ch.moving_up() == up:
+                self._limit_stop(index, lim)
+
+    def _limit_stop(self, index: int, lim: tuple[int, int, tuple[int, ...]],
+                    halted: bool = False) -> None:
+        tick = self.machine.now
+        stopped = []
+        for i in (index, *lim[2]):
+            ch = self._channel_of(i)
+            if ch is None or (i != index and not ch.is_running()):
+                continue
+            if i == index and halted:
+                ch.on_halt = None
+            stopped.append((i, ch.stop_now()))
+        for i, pos in stopped:
+            self._notify_limit(i, lim[0], pos, tick)
 
     # -------------------------------------------------------- conveniences
     def run_for(self, ticks: int) -> None:

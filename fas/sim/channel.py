@@ -19,7 +19,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..backend import PulseCounter, QueueChannel
-from .machine import PRIO_STEP_ISR, Event, Machine
+from .machine import PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..queue import QueueEntry, StepperQueue
@@ -43,6 +43,7 @@ class SimChannel(QueueChannel):
         self.wrap = p.sim_timer_wrap_ticks
         self.start_ticks = p.sim_queue_start_ticks
         self.prio = PRIO_STEP_ISR + queue.index
+        self.isr_ticks = p.sim_isr_duration_ticks  # CPU of one step interrupt
         self.irq_sensitive = p.irq_block_delays_steps
         self.running = False
         self.no_more = False
@@ -72,17 +73,27 @@ class SimChannel(QueueChannel):
         # channel takes up an entry; pulse_index is the number of its first pulse
         self.entry_listeners: list[Callable[[int, int, int, int], None]] = []
         self._noted: QueueEntry | None = None
+        self._start_event: Event | None = None  # a timed start (start_at) waiting
+        self._start_tick = 0  # ... and the tick of its first compare
+        # limit switches: entry_guard(entry) True stops the channel before the entry's
+        # first pulse; on_halt() is told afterwards (set by the backend)
+        self.entry_guard: Callable[[QueueEntry], bool] | None = None
+        self.on_halt: Callable[[], None] | None = None
+        self.on_idle: Callable[[], None] | None = None  # the queue ran dry (fas.sync)
         if self.irq_sensitive:
             machine.block_listeners.append(self._on_block)
 
     # ----------------------------------------------------------- interface
     def is_running(self) -> bool:
-        return self.running
+        return self.running or self._start_event is not None
 
     def start(self) -> None:
         q = self.q
         if self.running or q.read_idx == q.next_write_idx:
             return
+        if self._start_event is not None:  # started at once instead of at its time
+            self.m.cancel(self._start_event)
+            self._start_event = None
         self.running = True
         self.m.activity += 1
         self.no_more = False
@@ -91,12 +102,18 @@ class SimChannel(QueueChannel):
         t = self.m.cpu_now()
         if e.toggle_dir:
             self._toggle_dir(t)
+        if e.steps and self.entry_guard is not None and self.entry_guard(e):
+            self._halt()
+            return
         self.mode_one = e.steps != 0
         if self.entry_listeners:
             self._note_entry(ENTRY_START, e)
         self._program(t + self.start_ticks, e)
 
     def force_stop(self) -> None:
+        if self._start_event is not None:
+            self.m.cancel(self._start_event)
+            self._start_event = None
         if not self.running:
             return
         now = self.m.now
@@ -116,6 +133,97 @@ class SimChannel(QueueChannel):
         self.m.activity += 1
         self.no_more = False
         self.mode_one = False
+
+    def _halt(self) -> None:
+        """A limit stops the channel before the entry at read_idx makes a pulse."""
+        self.running = False
+        self.m.activity += 1
+        self.no_more = False
+        self.mode_one = False
+        self.pending_pulse = False
+        self.event = None
+        if self.on_halt is not None:
+            self.on_halt()
+
+    def stop_now(self) -> int:
+        """Stop at once (as :meth:`force_stop`); the position where the pulses stopped."""
+        q = self.q
+        rp = q.read_idx
+        if rp == q.next_write_idx:
+            self.force_stop()
+            return q.queue_end_pos
+        e = q.entries[rp % q.queue_len]
+        now = self.m.now
+        if not self.running:
+            remaining = e.steps
+        elif self.batch:
+            risen = 0 if now < self.b_c0 else min(self.b_n, (now - self.b_c0) // self.b_t + 1)
+            remaining = self.b_n - risen
+        elif self.pending_pulse and self.pending_compare <= now:
+            remaining = e.steps - 1
+        else:
+            remaining = e.steps
+        self.force_stop()
+        pos = e.end_pos - remaining if e.count_up else e.end_pos + remaining
+        return ((pos + 0x80000000) & 0xFFFFFFFF) - 0x80000000
+
+    def moving_up(self) -> bool | None:
+        """The direction of the pulses being made or next (None: none queued)."""
+        self.sync()
+        q = self.q
+        rp = q.read_idx
+        while rp != q.next_write_idx:
+            e = q.entries[rp % q.queue_len]
+            if e.steps:
+                return e.count_up
+            rp = (rp + 1) & 0xFF
+        return None
+
+    # ------------------------------------------------------- queue timing
+    def end_tick(self) -> int | None:
+        q = self.q
+        rp, wp = q.read_idx, q.next_write_idx
+        if rp == wp or self.no_more:
+            return None
+        if self._start_event is not None:
+            end = self._start_tick
+            first = rp
+        elif not self.running:
+            return None
+        elif self.batch:
+            end = self.b_c0 + self.b_n * self.b_t
+            first = (rp + 1) & 0xFF
+        else:  # the compare pending belongs to the entry at read_idx, steps left incl.
+            e = q.entries[rp % q.queue_len]
+            end = self.pending_compare + max(e.steps, 1) * e.ticks
+            first = (rp + 1) & 0xFF
+        while first != wp:
+            e = q.entries[first % q.queue_len]
+            end += e.ticks * max(e.total_steps, 1)
+            first = (first + 1) & 0xFF
+        return end
+
+    def earliest_start_tick(self) -> int:
+        return self.m.cpu_now() + self.start_ticks
+
+    def start_at(self, tick: int) -> int | None:
+        """A timed start: an event ``start_ticks`` before ``tick`` starts the channel,
+        whose first compare then falls on ``tick`` (as the device's timed Start)."""
+        q = self.q
+        if self.running or self._start_event is not None or q.read_idx == q.next_write_idx:
+            return None
+        fire = tick - self.start_ticks
+        if fire <= self.m.cpu_now():
+            begin = self.earliest_start_tick()
+            self.start()
+            return begin
+        self._start_tick = tick
+        self._start_event = self.m.schedule(fire, self._timed_start, PRIO_PLAIN)
+        return tick
+
+    def _timed_start(self) -> None:
+        self._start_event = None
+        self.start()
 
     def sync(self) -> None:
         if self.batch:
@@ -207,7 +315,7 @@ class SimChannel(QueueChannel):
     def _batch_end(self) -> None:
         """The interrupt after the block's last pulse: switch to the next entry."""
         self.event = None
-        self.m.stolen_ticks += self.m.profile.sim_isr_duration_ticks
+        self.m.stolen_ticks += self.isr_ticks
         e = self.b_entry
         n, t, c0 = self.b_n, self.b_t, self.b_c0
         last_c = c0 + (n - 1) * t
@@ -256,7 +364,7 @@ class SimChannel(QueueChannel):
 
     def _single_isr(self) -> None:
         self.event = None
-        self.m.stolen_ticks += self.m.profile.sim_isr_duration_ticks
+        self.m.stolen_ticks += self.isr_ticks
         c = self.pending_compare
         now = self.m.now
         if self.pending_pulse:
@@ -278,6 +386,8 @@ class SimChannel(QueueChannel):
             self.m.activity += 1
             self.no_more = False
             self.mode_one = False
+            if self.on_idle is not None:
+                self.on_idle()
             return
         e = q.entries[rp % q.queue_len]
         ticks = e.ticks
@@ -302,6 +412,9 @@ class SimChannel(QueueChannel):
                 e = q.entries[rp % q.queue_len]
             if e.toggle_dir:
                 self._toggle_dir(now)
+            if e.steps and self.entry_guard is not None and self.entry_guard(e):
+                self._halt()
+                return
             self.mode_one = e.steps != 0
         if self.entry_listeners and e is not self._noted:
             self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)

@@ -16,6 +16,7 @@ import heapq
 from typing import Callable
 
 from ..arch import Profile
+from .outputs import SimOutputs
 from .pins import PinBank
 from .uart import Uart
 
@@ -42,6 +43,7 @@ class Machine:
         self._heap: list[tuple[int, int, int, Event]] = []
         self._seq = 0
         self.pins = PinBank()
+        self.outputs = SimOutputs(self.pins)  # user outputs: digital pins, PWM waves
         self.uart = Uart(profile.sim_uart_byte_ticks, profile.sim_uart_tx_buffer)
         self.irq_blocked_until = 0
         self.irq_block_windows = 0
@@ -54,6 +56,7 @@ class Machine:
         # waiting for that need not look after every other event
         self.activity = 0
         self.block_sources: list = []  # step channels that simulate runs of pulses as one
+        self.cpu_sources: list = []  # timers without events: block_cpu_between(begin, end)
         self.task_offset = 0  # CPU time used so far by the running periodic task
         self.in_task = False
         self.events_run = 0
@@ -160,15 +163,16 @@ class Machine:
     def consume(self, ticks: int) -> None:
         """The main loop spends ``ticks`` of CPU time; interrupts steal some on top.
 
-        Stolen are the periodic task's work and one ``sim_isr_duration_ticks`` per step
-        interrupt: those run as events add their time themselves, those of runs of
-        pulses simulated as one block are counted here for the window (every one that
-        ran in it, also of a block that ended in it), as are the timer-0 overflow
-        interrupts of ``millis()`` and the UART's transmit interrupts.  So spending
-        ``a`` and then ``b`` ticks ends at the same tick as spending ``a + b``.
+        Stolen are the periodic task's work and the CPU time of step interrupts:
+        those run as events add their time themselves; those of runs of pulses
+        simulated as one block are counted here for the window (every one that ran
+        in it, also of a block that ended in it, at the channel's ``isr_ticks``), as
+        are the timer-0 overflow interrupts of ``millis()``, the UART's transmit
+        interrupts and timers that tick without events (``cpu_sources``: QuickStep's
+        period interrupt).  So spending ``a`` and then ``b`` ticks ends at the same
+        tick as spending ``a + b``.
         (Written out for speed: this runs for every character a program prints.)"""
         p = self.profile
-        cost = p.sim_isr_duration_ticks
         millis_cost = p.sim_millis_isr_ticks if self._millis_started else 0
         phase = self._millis_phase
         ov = p.sim_millis_overflow_ticks
@@ -177,38 +181,40 @@ class Machine:
         chars = uart._chars
         heap = self._heap
         sources = self.block_sources
+        cpu_sources = self.cpu_sources
         while True:
             start = self.now
             end = start + ticks
-            isrs = 0
+            stolen_isr = 0
             if heap and heap[0][0] <= end:  # events in the window: blocks may change
-                if cost:
-                    for src in sources:
-                        isrs -= src.block_isrs_until(start)
+                for src in sources:
+                    if src.isr_ticks:
+                        stolen_isr -= src.isr_ticks * src.block_isrs_until(start)
                 self.run_until(end)
                 stolen = self.stolen_ticks
-                if cost:
-                    for src in sources:
-                        isrs += src.block_isrs_until(end)
+                for src in sources:
+                    if src.isr_ticks:
+                        stolen_isr += src.isr_ticks * src.block_isrs_until(end)
             else:  # no event: the running blocks stay (SimChannel.block_isrs_until)
                 self.now = end
                 stolen = self.stolen_ticks
-                if cost:
-                    for src in sources:
-                        if src.batch:
-                            first = src.b_c0 + src.lat
-                            if end >= first:
-                                t = src.b_t
-                                last = src.b_n - 1
-                                k = (end - first) // t + 1
-                                if k > last:
-                                    k = last
-                                if start >= first:
-                                    k0 = (start - first) // t + 1
-                                    k -= k0 if k0 < last else last
-                                isrs += k
-            if isrs:
-                stolen += cost * isrs
+                for src in sources:
+                    if src.batch and src.isr_ticks:
+                        first = src.b_c0 + src.lat
+                        if end >= first:
+                            t = src.b_t
+                            last = src.b_n - 1
+                            k = (end - first) // t + 1
+                            if k > last:
+                                k = last
+                            if start >= first:
+                                k0 = (start - first) // t + 1
+                                k -= k0 if k0 < last else last
+                            stolen_isr += src.isr_ticks * k
+            if stolen_isr:
+                stolen += stolen_isr
+            for src in cpu_sources:
+                stolen += src.block_cpu_between(start, end)
             if millis_cost and end >= phase:
                 n = (end - phase) // ov
                 if start > phase:
@@ -236,17 +242,15 @@ class Machine:
         now = self.now
         wait = self.busy_until - now
         p = self.profile
-        cost = p.sim_isr_duration_ticks
-        if cost:  # a step interrupt inside a block of pulses (SimChannel.block_isr_running_at)
-            for src in self.block_sources:
-                if src.batch:
-                    first = src.b_c0 + src.lat
-                    if now >= first:
-                        j = (now - first) // src.b_t
-                        if j <= src.b_n - 2:
-                            end = first + j * src.b_t + cost
-                            if end - now > wait:
-                                wait = end - now
+        for src in self.block_sources:  # a step interrupt inside a block of pulses
+            if src.batch:  # (SimChannel.block_isr_running_at)
+                first = src.b_c0 + src.lat
+                if now >= first:
+                    j = (now - first) // src.b_t
+                    if j <= src.b_n - 2:
+                        end = first + j * src.b_t + src.isr_ticks
+                        if end - now > wait:
+                            wait = end - now
         cost = p.sim_uart_isr_ticks
         if cost:
             chars = self.uart._chars

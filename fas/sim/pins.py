@@ -111,6 +111,26 @@ class PinBank:
             for sink in self.sinks:
                 sink.edges(pin, times, levels)
 
+    def waveform(self, pin: int, times: list[int], levels: bytes) -> None:
+        """A run of edges of one pin (a PWM timer's), in time order, alternating levels."""
+        level = self.level.get(pin, 0)
+        for t, lv in zip(times, levels):
+            if lv == level:
+                continue
+            level = lv
+            if lv:
+                self.rise[pin] = self.rise.get(pin, 0) + 1
+                self.high_since[pin] = t
+            else:
+                self.fall[pin] = self.fall.get(pin, 0) + 1
+                self._close_high(pin, t - self.high_since.get(pin, t))
+        self.level[pin] = level
+        if pin not in self.first_write and times:
+            self.first_write[pin] = (self._writes, levels[0])
+            self._writes += 1
+        for sink in self.sinks:
+            sink.edges(pin, times, levels)
+
     def rising(self, pin: int) -> int:
         return self.rise.get(pin, 0)
 

@@ -61,6 +61,7 @@ class EdgeStream:
         self.peak_buffered = 0  # most edges held at once (memory stays flat in run length)
         self.late_edges = 0  # edges reported behind the watermark (clamped; should be 0)
         self.active = False
+        self._flushing = False
 
     def add(self, consumer: OrderedEdgeSink) -> None:
         self.consumers.append(consumer)
@@ -70,6 +71,8 @@ class EdgeStream:
         """Subscribe; returns the tick from which the stream is complete."""
         if not self.active:
             self.active = True
+            # PWM waves made so far are not part of the stream (nobody listened)
+            self.machine.outputs.deliver_until(self.machine.now)
             self.start_tick = self.last_tick = self.watermark()
             self.machine.pins.sinks.append(self)
             self.machine.block_listeners.append(self._on_block)
@@ -96,6 +99,9 @@ class EdgeStream:
             t = ch.undelivered_from()
             if t is not None and t < w:
                 w = t
+        t = self.machine.outputs.undelivered_from()
+        if t is not None and t < w:
+            w = t
         return w
 
     def edges(self, pin: int, times: Sequence[int], levels: bytes) -> None:
@@ -130,6 +136,20 @@ class EdgeStream:
         now = self.machine.now
         for ch in self.backend.channels:
             ch.deliver_until(now)
+        self._deliver_outputs()
+
+    def _deliver_outputs(self) -> None:
+        """PWM waves make their edges on demand: up to now, before the watermark passes."""
+        if not self._flushing:
+            self._flushing = True
+            try:
+                self.machine.outputs.deliver_until(self.machine.now, self._after_chunk)
+            finally:
+                self._flushing = False
+
+    def _after_chunk(self) -> None:
+        if self._buffered >= self.flush_edges:
+            self._flush(self.watermark())
 
     def flush(self, settle: bool = False) -> None:
         """Hand on every buffered edge before the watermark.
@@ -138,8 +158,12 @@ class EdgeStream:
         running (for a report in the middle of a move; not from inside a sink call).
         """
         if self.active:
+            if self._flushing:
+                return  # edges arriving while PWM edges are handed over: flushed after
             if settle:
                 self._settle()
+            else:
+                self._deliver_outputs()
             w = self.watermark()
             if self._irq_open is not None and self._irq_open[1] <= w:
                 self._push(IRQ_BLOCKED, [self._irq_open[1]], b"\x00")

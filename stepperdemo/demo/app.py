@@ -19,11 +19,13 @@ from collections import deque
 from typing import Callable
 
 from fas import Engine
+from fas.arch import DemoConfig
 from fas.backend import Backend
 from fas.codes import PIN_UNDEFINED, RAMP_STATE_MASK
 
 from .. import messages as msg
 from ..program import EndReason, Program
+from . import quickstep as qs_console
 from .commands import HELP, Mode, dispatch
 from .testseq import TEST_STATE_ERROR, SeqSlot
 
@@ -88,12 +90,34 @@ class StepperDemo(Program):
     title = "StepperDemo"
 
     def __init__(self, backend: Backend, *, scripted: bool = True,
-                 output: Callable[[bytes], None] | None = None) -> None:
+                 output: Callable[[bytes], None] | None = None,
+                 test_mode_wait: bool = False) -> None:
         self.backend = backend
-        self.engine = Engine(backend)
         self.scripted = scripted
         self.output = output
         self.transcript = bytearray()
+        # extension, off by default: `w<ms>` also in test mode (the firmware answers
+        # "Unknown command" there)
+        self.test_mode_wait = test_mode_wait
+        self.restarts = 0
+        self._reset_state()
+        self.rx: deque[int] = deque()
+        self.script = b""
+        self.script_pos = 0
+        self.script_loaded = False
+        self.input_consumed_at: int | None = None
+        self.test_failed_count = 0
+        self.tests_completed = 0
+        self.passes = 0
+        self.commands = 0
+        self.rejected = 0
+        self.ramp_aborts = 0
+        self.listeners: list[Callable[[str, bytes], None]] = []
+
+    def _reset_state(self) -> None:
+        """Power-on state of the firmware's globals (also after an ESP32 restart)."""
+        self.engine = Engine(self.backend)
+        self.engine.ramp_abort_listener = self._ramp_abort
         self.steppers: list = [None] * self.profile.max_steppers
         self.mode = Mode.NORMAL
         self.test_ongoing = False
@@ -112,21 +136,15 @@ class StepperDemo(Program):
         self.pause_start = 0
         self.simulate_digital_read_error = False
         self.simulate_blocked_isr = False
-        self.script = b""
-        self.script_pos = 0
-        self.script_loaded = False
-        self.rx: deque[int] = deque()
-        self.input_consumed_at: int | None = None
         self.waiting_interactive = False  # interactive W holding the input
-        self.test_failed_count = 0
-        self.tests_completed = 0
-        self.passes = 0
-        self.commands = 0
-        self.rejected = 0
-        self.ramp_aborts = 0
-        self.listeners: list[Callable[[str, bytes], None]] = []
-        self.engine.ramp_abort_listener = self._ramp_abort
+        self.restart_pending = False
         self._setup_done = False
+        self._setup_started = False
+        self._select_start_ms = 0  # the start-up prompt for a pin configuration
+        self.config_index = 0
+        self.demo_config: DemoConfig = DemoConfig("", self.profile.demo_steppers)
+        self.qs_hold = None  # a QuickStep stepper whose move waits for FIFO room
+        self.gcode = None  # issue 12: the G-code machine of the g mode
 
     # ------------------------------------------------------------- output
     def print(self, text: str | bytes) -> None:
@@ -195,10 +213,22 @@ class StepperDemo(Program):
             self.print(bytes(text) + b"\r\n")
 
     # -------------------------------------------------------------- setup
+    @property
+    def demo_steppers(self):
+        """The pin configuration in use (chosen at start-up on ESP32 and the Pico)."""
+        return self.demo_config.steppers
+
     def setup(self) -> None:
-        if self._setup_done:
+        """The firmware's ``setup()``.
+
+        Where the firmware first offers its pin configurations (ESP32, Pico), it then
+        waits up to 5 s for a digit on the serial line; that wait runs in the
+        following loop passes (:meth:`loop_pass`) so that an interactive user can
+        answer.  A scripted run has no serial input in that phase: it waits the 5 s.
+        """
+        if self._setup_started:
             return
-        self._setup_done = True
+        self._setup_started = True
         b = self.backend
         boot = self.profile.sim_boot_ticks
         if self.script_loaded:  # the built-in line is start-up data copied at reset
@@ -206,19 +236,75 @@ class StepperDemo(Program):
         b.app_spend(boot)
         b.app_started()
         b.app_spend(self.profile.sim_setup_head_ticks)
+        configs = self.profile.demo_configs
+        if not configs:
+            self._finish_setup()
+            return
+        self.println(msg.SELECT_PIN_CONFIG)
+        for i, cfg in enumerate(configs):
+            self.print(msg.CONFIG_ENTRY_INDENT)
+            self.print(str(i))
+            self.print(msg.CONFIG_ENTRY_SEP)
+            self.println(cfg.name)
+        self.println(msg.PRESS_NUMBER_TO_SELECT)
+        self._select_start_ms = b.millis()
+        if self.scripted:
+            while not self._setup_done:
+                self._select_pass()
+
+    def _select_pass(self) -> None:
+        """One turn of the start-up prompt's wait: poll a character, else 10 ms delay."""
+        b = self.backend
+        if self.rx and not self.scripted:
+            ch = self.rx.popleft()
+            if 0x30 <= ch <= 0x39:
+                n = ch - 0x30
+                if n < len(self.profile.demo_configs):
+                    self.config_index = n
+                self._finish_setup()
+                return
+        if ((b.millis() - self._select_start_ms) & 0xFFFFFFFF) >= self.profile.demo_config_wait_ms:
+            self._finish_setup()
+            return
+        b.app_wait_until(b.now() + 10 * self.profile.ticks_per_ms)
+
+    def _finish_setup(self) -> None:
+        b = self.backend
+        p = self.profile
+        configs = p.demo_configs
+        if configs:
+            self.demo_config = configs[self.config_index]
+            self.print(msg.USING_CONFIG)
+            self.print(str(self.config_index))
+            self.print(msg.CONFIG_ENTRY_SEP)
+            self.println(self.demo_config.name)
+        if p.family == "esp32":
+            self.print(msg.ESP32_LOG_START)
+            self.println()
+            self.print(msg.ESP_IDF)
+            self.print(str(p.idf_version[0]))
+            self.print(".")
+            self.print(str(p.idf_version[1]))
+            self.println()
+        self._setup_done = True
         self.print(msg.BANNER_VERSION)
         self.print(msg.BANNER_F_CPU)
-        self.println_number(self.profile.f_cpu)
+        self.println_number(p.f_cpu)
         self.print(msg.BANNER_TICKS)
-        self.println_number(self.profile.ticks_per_s)
+        self.println_number(p.ticks_per_s)
         self.print(msg.BANNER_STEPPERS)
-        self.println_number(self.profile.max_steppers)
+        self.println_number(p.max_steppers)
         self.engine.init()
-        if self.profile.debug_led_pin != PIN_UNDEFINED:
-            self.engine.set_debug_led(self.profile.debug_led_pin)
-        b.app_spend(self.profile.sim_setup_steppers_ticks)
-        for i, cfg in enumerate(self.profile.demo_steppers):
-            s = self.engine.stepper_connect_to_pin(cfg.step)
+        if p.debug_led_pin != PIN_UNDEFINED:
+            self.engine.set_debug_led(p.debug_led_pin)
+        b.app_spend(p.sim_setup_steppers_ticks)
+        for i, cfg in enumerate(self.demo_steppers[:p.max_steppers]):
+            if cfg.step == PIN_UNDEFINED:
+                break
+            if p.driver_select:
+                s = self.engine.stepper_connect_to_pin(cfg.step, cfg.driver)
+            else:
+                s = self.engine.stepper_connect_to_pin(cfg.step)
             if s is None:
                 break
             s.set_direction_pin(cfg.direction, cfg.direction_high_counts_up,
@@ -230,6 +316,17 @@ class StepperDemo(Program):
             s.set_delay_to_disable(cfg.off_delay_ms)
             self.steppers[i] = s
         self.usage()
+
+    def restart(self) -> None:
+        """ESP32's ``ESP.restart()`` / watchdog reset: the chip reboots, the firmware
+        starts again from ``setup()``.  Motion stops, the library starts empty; the
+        input that follows is taken after the new start-up."""
+        self.backend.reset_chip()
+        self.restarts += 1
+        self._reset_state()
+        self.restart_pending = True
+        self.read_ptr = self.write_ptr = 0
+        self.setup()
 
     # --------------------------------------------------------------- input
     def load_script(self, line: str | bytes) -> None:
@@ -260,7 +357,20 @@ class StepperDemo(Program):
     def _info(self, s, long_info: bool) -> None:
         self.backend.app_spend(self.profile.sim_info_ticks)
         self.print("@")
-        self.print_number(s.get_current_position())
+        if self.profile.has_pulse_counter and s.pulse_counter_attached():
+            pcnt_1 = s.read_pulse_counter()
+            pos = s.get_current_position()
+            pcnt_2 = s.read_pulse_counter()
+            self.print_number(pos)
+            self.print(msg.PCNT_OPEN)
+            self.print_number(pcnt_1)
+            self.print(msg.PCNT_CLOSE)
+            if pcnt_1 != pcnt_2:
+                self.print(msg.PCNT_OPEN)
+                self.print_number(pcnt_2)
+                self.print(msg.PCNT_CLOSE)
+        else:
+            self.print_number(s.get_current_position())
         if s.is_running():
             if s.is_running_continuously():
                 self.print(msg.STATUS_NONSTOP)
@@ -287,6 +397,8 @@ class StepperDemo(Program):
                     self.print_number(s.ramp_state())
             else:
                 self.print(msg.STATUS_MANUAL)
+            if s.quickstep is not None:
+                self.print(qs_console.status_suffix(s))
         elif long_info:
             self.print(msg.ACCELERATION_STATUS)
             self.print_number(s.get_acceleration())
@@ -296,6 +408,8 @@ class StepperDemo(Program):
             else:
                 self.print(msg.SPEED_STATUS_TIME)
                 self.print_number(s.get_speed_in_us())
+            if s.quickstep is not None:
+                self.print(qs_console.table_suffix(self, s))
         self.print(" ")
 
     def output_info(self, only_running: bool) -> None:
@@ -313,6 +427,8 @@ class StepperDemo(Program):
                 self.print_number(i + 1)
                 self.print(": ")
                 self._info(s, not only_running)
+                if self.profile.driver_select and not s.is_running():
+                    self.print(msg.DRIVER_TYPE_SEP + s.driver_type_string())
                 if not only_running:
                     self.println()
                 else:
@@ -328,8 +444,12 @@ class StepperDemo(Program):
             self.print(msg.STRAY_DIGITAL_READ_ENABLED)
 
     def usage(self) -> None:
+        p = self.profile
         if self.mode == Mode.NORMAL:
-            self.print(msg.USAGE_NORMAL)
+            self.print(msg.usage_normal(esp32=p.family == "esp32", avr=p.family == "avr",
+                                        small=p.demo_small_build))
+        elif p.demo_small_build:
+            pass  # the ATmega32U4 build has no test and config usage texts
         elif not self.scripted:
             self.print(msg.USAGE_TEST if self.mode == Mode.TEST else msg.USAGE_CONFIG)
         else:  # built-in-input firmware: the text is empty, the table is still scanned
@@ -344,14 +464,27 @@ class StepperDemo(Program):
         """One pass of StepperDemo's ``loop()``."""
         b = self.backend
         self.passes += 1
+        if not self._setup_done:
+            self._select_pass()
+            return
+        take_input = True
+        if self.waiting_interactive:  # interactive W: the firmware busy-waits in it
+            if self.selected_stepper.is_running():
+                b.app_spend(self.profile.sim_loop_pass_ticks)
+                return
+            self.waiting_interactive = False
+            self.println(msg.STOPPED)
+            take_input = False  # the rest of the pass that took the W
         ch = 0
-        if self.scripted:
+        if not take_input:
+            pass
+        elif self.scripted:
             if self.script_pos < len(self.script):
                 ch = self.script[self.script_pos]
                 self.script_pos += 1
             elif self.read_ptr == self.write_ptr and self.input_consumed_at is None:
                 self.input_consumed_at = b.now()
-        elif self.rx and not self.waiting_interactive:
+        elif self.rx:
             ch = self.rx.popleft()
         if ch:
             if ((self.write_ptr + 1) & 0xFF) == self.read_ptr:
@@ -359,15 +492,19 @@ class StepperDemo(Program):
             self.in_buffer[self.write_ptr] = ch
             self.write_ptr = (self.write_ptr + 1) & 0xFF
 
-        if self.pause_ms > 0:
+        if not take_input:
+            pass
+        elif self.pause_ms > 0:
             if ((b.millis() - self.pause_start) & 0xFFFFFFFF) >= self.pause_ms:
                 self.pause_ms = 0
                 self.print(msg.WAIT_COMPLETE)
-        elif self.waiting_interactive:
-            s = self.selected_stepper
-            if not s.is_running():
-                self.waiting_interactive = False
-                self.println(msg.STOPPED)
+        elif self.qs_hold is not None:
+            qs_console.service_hold(self)
+        elif self.mode == Mode.GCODE and self.read_ptr != self.write_ptr:
+            if self.gcode.can_take():  # issue 12: lines are G-code blocks
+                c = self.in_buffer[self.read_ptr]
+                self.read_ptr = (self.read_ptr + 1) & 0xFF
+                self.gcode.char(c)
         elif self.read_ptr != self.write_ptr:
             c = self.in_buffer[self.read_ptr]
             self.read_ptr = (self.read_ptr + 1) & 0xFF
@@ -384,6 +521,12 @@ class StepperDemo(Program):
                         self.rejected += 1
                         self.print(msg.UNKNOWN_COMMAND)
                         self.println(cmd)
+                    if self.waiting_interactive or self.restart_pending:
+                        # W blocks inside the command; a restart ends the old program
+                        self.restart_pending = False
+                        self.out_buffer.clear()
+                        b.app_spend(self.profile.sim_loop_pass_ticks)
+                        return
                 self.out_buffer.clear()
 
         ms = b.millis()
@@ -395,6 +538,8 @@ class StepperDemo(Program):
         if self.mode == Mode.TEST:
             if self.test_ongoing:
                 self._run_tests(ms)
+        elif self.mode == Mode.GCODE:  # issue 12: G-code answers, it prints no status
+            self.gcode.poll()
         else:
             running = self.any_running()
             if running and ((ms - self.last_time) & 0xFFFFFFFF) >= 100:
@@ -454,6 +599,10 @@ class StepperDemo(Program):
         event or when ``millis()`` reaches a deadline, and :meth:`_wake_time` wakes
         the loop at the earliest of those.
         """
+        if not self._setup_done:
+            return False  # the start-up prompt polls the serial line every 10 ms
+        if self.waiting_interactive:
+            return True  # only the selected stepper's stop can end W
         if self.simulate_digital_read_error:
             return False  # every pass makes a stray read that we count
         if self.simulate_blocked_isr and (self.backend.millis() & 0xFF) < 0x40:
@@ -463,23 +612,30 @@ class StepperDemo(Program):
         if self.mode == Mode.TEST and self.test_ongoing:
             return all(slot.test is None or slot.state == TEST_STATE_ERROR or slot.idle
                        for slot in self.test_slots)
+        if self.mode == Mode.GCODE:
+            wake = self.gcode.wake_tick()
+            return wake is None or wake > self.backend.now()
         return True
 
     def _input_idle(self) -> bool:
         """No input character can be taken or processed in the next pass."""
-        if self.pause_ms > 0 or self.waiting_interactive or self._held_by_w():
+        if (self.pause_ms > 0 or self.waiting_interactive or self.qs_hold is not None
+                or self._held_by_w()):
             return True
         if self.read_ptr != self.write_ptr:
-            return False
+            return self.mode == Mode.GCODE and not self.gcode.can_take()
         if self.scripted:
             return self.script_pos >= len(self.script) and self.input_consumed_at is not None
         return not self.rx
 
     def _needs_machine_events(self) -> bool:
-        """True when a test sequence waits for something in the machine (a stepper to
-        stop, ...): then the loop looks at every interrupt, as the firmware's passes
-        do.  Otherwise only a stepper starting or stopping can end an idle wait
+        """True when the loop must look at every interrupt, as the firmware's passes
+        do: a test sequence waits for something in the machine (a stepper to stop,
+        ...), an interactive W spins, or the G-code machine waits for queue room.
+        Otherwise only a stepper starting or stopping can end an idle wait
         (:meth:`_watch`), besides the clock."""
+        if self.waiting_interactive or self.mode == Mode.GCODE:
+            return True
         if self.mode != Mode.TEST or not self.test_ongoing:
             return False
         return any(slot.test is not None and slot.state != TEST_STATE_ERROR
@@ -508,6 +664,9 @@ class StepperDemo(Program):
     def _wake_time(self) -> int | None:
         """Earliest tick at which an idle loop could have something to do."""
         b = self.backend
+        if self.waiting_interactive:  # only the stepper's stop ends the spin (a machine event)
+            nxt = b.next_event_time()
+            return None if nxt is None else max(nxt, b.now())
         candidates = []
         if self._needs_machine_events():
             nxt = b.next_event_time()
@@ -522,6 +681,10 @@ class StepperDemo(Program):
         for slot in self.test_slots:
             if slot.test is not None and slot.wake_ms is not None:
                 candidates.append(b.tick_at_millis(slot.wake_ms))
+        if self.mode == Mode.GCODE:
+            wake = self.gcode.wake_tick()
+            if wake is not None:
+                candidates.append(wake)
         if not candidates:
             return None
         return max(min(candidates), b.now())
@@ -562,7 +725,8 @@ class StepperDemo(Program):
     def finished(self) -> bool:
         """Input consumed and everything at rest (the end of a scripted run)."""
         return (self.input_consumed_at is not None and self.stopped and not self.test_ongoing
-                and self.pause_ms == 0 and not self.any_running())
+                and self.pause_ms == 0 and not self.any_running()
+                and (self.mode != Mode.GCODE or not self.gcode.busy()))
 
     def run_script(self, line: str | bytes, *, firmware_end: bool = False,
                    max_ticks: int | None = None) -> EndReason:
@@ -603,20 +767,43 @@ class StepperDemo(Program):
 
     def force_stop_all(self) -> None:
         """Console Ctrl-C: stop every stepper at once, keep positions; release holds."""
+        if self.mode == Mode.GCODE:  # issue 12: an alarm of the G-code machine
+            self.gcode.machine.abort()
         for s in self.steppers:
             if s is not None and s.is_running():
                 s.force_stop_and_new_position(s.get_current_position())
         self.pause_ms = 0
         self.waiting_interactive = False
+        self.qs_hold = None
         self.test_ongoing = False
         self.read_ptr = self.write_ptr
         self.out_buffer.clear()
 
     # --------------------------------------------------- hosted by the console
     def mode_name(self) -> str:
-        return {Mode.NORMAL: "normal", Mode.TEST: "test", Mode.CONFIG: "config"}[self.mode]
+        return {Mode.NORMAL: "normal", Mode.TEST: "test", Mode.CONFIG: "config",
+                Mode.GCODE: "gcode"}[self.mode]
+
+    # ------------------------------------------------------ g mode (issue 12)
+    def enter_gcode(self) -> None:
+        from ..gcode.demo_mode import DemoGcode
+
+        self.print(msg.ENTER_GCODE_MODE)
+        self.mode = Mode.GCODE
+        self.gcode = DemoGcode(self)
+        self.println(msg.GCODE_BANNER)
+
+    def leave_gcode(self) -> None:
+        self.print(msg.EXIT_TO_MAIN_MENU)
+        self.mode = Mode.NORMAL
+        self.gcode = None
+        self.stopped = not self.any_running()
+        self.usage()
 
     def completions(self) -> list[tuple[str, str]]:
+        if self.mode == Mode.GCODE:  # issue 12
+            from ..gcode.program import COMPLETIONS
+            return COMPLETIONS + [("x", "back to the main menu")]
         return HELP[self.mode]
 
     def toolbar_status(self) -> str:

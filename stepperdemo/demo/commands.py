@@ -23,13 +23,15 @@ class Mode(IntEnum):
     NORMAL = 0
     TEST = 1
     CONFIG = 2
+    GCODE = 3  # issue 12: a line is a G-code block (stepperdemo.gcode.demo_mode)
 
 
 Handler = Callable[["StepperDemo", bytes], bool]
 TABLE: dict[tuple[Mode, int], Handler] = {}
 
 # letters per mode, with a short description, for completion and help toolbars
-HELP: dict[Mode, list[tuple[str, str]]] = {Mode.NORMAL: [], Mode.TEST: [], Mode.CONFIG: []}
+HELP: dict[Mode, list[tuple[str, str]]] = {Mode.NORMAL: [], Mode.TEST: [], Mode.CONFIG: [],
+                                           Mode.GCODE: []}
 
 
 def command(letter: str, *modes: Mode, hint: str = "",
@@ -110,11 +112,9 @@ def cmd_wait_stop(app: StepperDemo, arg: bytes) -> bool:
         if s.is_running() or app.test_ongoing:
             app.read_ptr = (app.read_ptr - 2) & 0xFF
         return True
+    # interactive, in both modes as the firmware: block on the selected stepper (the
+    # loop, test sequences included, stands still meanwhile), then "STOPPED"
     app.print(msg.BLOCKING_WAIT)
-    if app.mode == Mode.TEST:
-        if app.test_ongoing:
-            app.waiting_interactive = True
-        return True
     if not s.is_running_continuously() or s.is_stopping():
         if s.is_running():
             app.waiting_interactive = True
@@ -145,6 +145,15 @@ def cmd_test_mode(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
+@command("g", Mode.NORMAL, hint="G-code mode: a line is a block, x leaves")
+def cmd_gcode_mode(app: StepperDemo, arg: bytes) -> bool:
+    """Issue 12: not in the firmware (its usage text stays as it is)."""
+    if arg:
+        return False
+    app.enter_gcode()
+    return True
+
+
 @command("c", Mode.NORMAL, hint="configuration mode")
 def cmd_config_mode(app: StepperDemo, arg: bytes) -> bool:
     if arg:
@@ -155,12 +164,57 @@ def cmd_config_mode(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
-@command("r", Mode.NORMAL, hint="stray digitalRead() on/off (AVR)")
+@command("r", Mode.NORMAL, hint="AVR: stray digitalRead() on/off; ESP32: restart/reset")
 def cmd_stray_read(app: StepperDemo, arg: bytes) -> bool:
+    if app.profile.family == "esp32":
+        if arg == b"eset":
+            app.println(msg.ESP_RESET)
+            return _restart(app)
+        if not arg:
+            app.println(msg.ESP_RESTART)
+            return _restart(app)
+        return False
     if arg or not app.profile.has_stray_digital_read:
         return False
     app.print(msg.STRAY_DIGITAL_READ_TOGGLE)
     app.simulate_digital_read_error = not app.simulate_digital_read_error
+    return True
+
+
+def _restart(app: StepperDemo) -> bool:
+    try:
+        app.restart()
+    except NotImplementedError as exc:
+        app.println(msg.RESTART_UNSUPPORTED.format(reason=exc))
+    return True
+
+
+def _i16(v: int) -> int:
+    v &= 0xFFFF
+    return v - 0x10000 if v & 0x8000 else v
+
+
+@command("p", Mode.NORMAL, hint="ESP32: attach pulse counter n[,low,high] / pc clear",
+         arg="<n>")
+def cmd_pulse_counter(app: StepperDemo, arg: bytes) -> bool:
+    if not app.profile.has_pulse_counter:
+        return False
+    s = app.selected_stepper
+    if arg == b"c":
+        app.print(msg.CLEAR_PULSE_COUNTER)
+        s.clear_pulse_counter()
+        return True
+    values = _values(arg)
+    if values is None or len(values) == 2:
+        return False
+    app.print(msg.ATTACH_PULSE_COUNTER)
+    app.println_number(values[0])
+    if len(values) == 3:
+        ok = s.attach_to_pulse_counter(values[0] & 0xFF, _i16(values[1]), _i16(values[2]))
+    else:
+        ok = s.attach_to_pulse_counter(values[0] & 0xFF)
+    if not ok:
+        app.print(msg.PULSE_COUNTER_ERROR)
     return True
 
 
@@ -214,7 +268,7 @@ HELP[Mode.NORMAL] += [
 ]
 
 
-def _mover(text: str, apply: Callable) -> Handler:
+def _mover(text: str, apply: Callable, letter: str = "") -> Handler:
     def handler(app: StepperDemo, arg: bytes) -> bool:
         value = _number(arg)
         if value is None:
@@ -223,14 +277,18 @@ def _mover(text: str, apply: Callable) -> Handler:
         app.println_number(value)
         res = int(apply(app.selected_stepper, value))
         app.print(msg.MOVE_RESULT[res])
+        if letter in "RP":
+            qs_console.after_move(app)
         return True
     return handler
 
 
 TABLE[(Mode.NORMAL, ord("a"))] = _mover(msg.SET_ACCELERATION_TO,
                                         lambda s, v: s.move_by_acceleration(v))
-TABLE[(Mode.NORMAL, ord("R"))] = _mover(msg.MOVE_STEPS, lambda s, v: s.move(v))
-TABLE[(Mode.NORMAL, ord("P"))] = _mover(msg.MOVE_TO_POSITION, lambda s, v: s.move_to(v))
+TABLE[(Mode.NORMAL, ord("R"))] = _mover(msg.MOVE_STEPS,
+                                        lambda s, v: qs_console.move(s, v, False), "R")
+TABLE[(Mode.NORMAL, ord("P"))] = _mover(msg.MOVE_TO_POSITION,
+                                        lambda s, v: qs_console.move(s, v, True), "P")
 HELP[Mode.NORMAL] += [
     ("a<accel>", "run by acceleration (+/-)"), ("R<n>", "move by n steps"),
     ("P<pos>", "move to position"),
@@ -250,8 +308,10 @@ def cmd_enable_delay(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
-@command("w", Mode.NORMAL, Mode.TEST, hint="hold input for ms", arg="<ms>")
+@command("w", Mode.NORMAL, hint="hold input for ms", arg="<ms>")
 def cmd_wait_ms(app: StepperDemo, arg: bytes) -> bool:
+    if app.mode == Mode.TEST and not app.test_mode_wait:
+        return False  # the firmware knows `w` in normal mode only
     value = _number(arg)
     if value is None:
         return False
@@ -260,6 +320,9 @@ def cmd_wait_ms(app: StepperDemo, arg: bytes) -> bool:
     app.pause_ms = value & 0xFFFFFFFF
     app.pause_start = app.backend.millis()
     return True
+
+
+TABLE[(Mode.TEST, ord("w"))] = cmd_wait_ms  # answers only with app.test_mode_wait
 
 
 def _simple(letter: str, text: str, action: Callable, hint: str) -> None:
@@ -336,14 +399,14 @@ _one_step("-", msg.STEPPED_BACKWARD, False, "one step backward")
 
 @command("T", Mode.NORMAL, hint="direct-drive self test")
 def cmd_direct_drive(app: StepperDemo, arg: bytes) -> bool:
-    if arg:
+    if arg or app.profile.demo_small_build:
         return False
     s = app.selected_stepper
     if not s.is_running():
         app.print(msg.TEST_DIRECT_DRIVE)
         s.detach_from_pin()
         from .direct_drive import test_direct_drive
-        test_direct_drive(app, app.profile.demo_steppers[app.selected])
+        test_direct_drive(app, app.demo_steppers[app.selected])
         s.reattach_to_pin()
     return True
 
@@ -360,9 +423,9 @@ def cmd_run_tests(app: StepperDemo, arg: bytes) -> bool:
 
 def _select_sequence(first: str) -> Handler:
     def handler(app: StepperDemo, arg: bytes) -> bool:
-        from .testseq import SEQUENCES
+        from .testseq import sequences_for
         code = first + arg.decode("latin-1")
-        seq = SEQUENCES.get(code)
+        seq = sequences_for(app.profile).get(code)
         if seq is None:
             return False
         app.print(msg.SELECT_TEST_SEQUENCE)
@@ -380,6 +443,8 @@ HELP[Mode.TEST].append(("01..13", "assign a test sequence"))
 # ---------------------------------------------------------------- config mode
 @command("d", Mode.CONFIG, hint="direction pin p[,n[,t]] or dc", arg="<p,n,t>")
 def cmd_direction_pin(app: StepperDemo, arg: bytes) -> bool:
+    if app.profile.demo_small_build:
+        return False  # not in the ATmega32U4 build
     s = app.selected_stepper
     if arg == b"c":
         app.print(msg.DISABLED)
@@ -406,3 +471,8 @@ def cmd_direction_pin(app: StepperDemo, arg: bytes) -> bool:
         app.println_number(values[2])
         s.set_direction_pin(pin, values[1] != 0, values[2] & 0xFFFF)
     return True
+
+
+# QuickStep (issue 14): config commands l/q/p/b and the move hold; imported last so
+# that it can register its commands in the table above
+from . import quickstep as qs_console  # noqa: E402

@@ -20,7 +20,7 @@ from typing import Awaitable, Callable, Iterable
 from prompt_toolkit import PromptSession
 from prompt_toolkit.completion import Completer, Completion
 from prompt_toolkit.formatted_text import FormattedText
-from prompt_toolkit.history import FileHistory, InMemoryHistory
+from prompt_toolkit.history import InMemoryHistory
 from prompt_toolkit.patch_stdout import patch_stdout
 from prompt_toolkit.shortcuts import print_formatted_text
 
@@ -30,6 +30,7 @@ from fas.sim import SimBackend
 from .. import messages as msg
 from ..program import Program, make_program
 from . import serial_cli  # issue 7: --port, /reconnect /link /estop
+from .mode_history import ModeHistory
 from .trace_commands import META_COMMANDS as TRACE_META_COMMANDS
 from .trace_commands import TraceCommands
 
@@ -94,7 +95,7 @@ class ProgramCompleter(Completer):
     def get_completions(self, document, complete_event) -> Iterable[Completion]:
         word = document.get_word_before_cursor(WORD=True)
         if word.startswith("/"):
-            for name, hint in META_COMMANDS.items():
+            for name, hint in self.console.meta_commands.items():
                 if name.startswith(word):
                     yield Completion(name, -len(word), display_meta=hint)
             return
@@ -105,14 +106,20 @@ class ProgramCompleter(Completer):
 
 
 class Console:
+    meta_commands = META_COMMANDS  # what Tab offers after "/"
+
     def __init__(self, arch: str = "atmega328p", *, scale: float = 1.0,
                  history: str | None = None, clock: Clock = time.monotonic,
                  sleep: Sleep | None = None, input=None, output=None,
                  port: str | None = None, baud: int = 115200, watchdog_ms: int = 500,
                  backend=None, program: str = "demo",
+                 program_options: dict | None = None,
+                 link_planning_ms: int | None = None,
                  redraw_postpone_s: float | None = 0.01) -> None:
         self.program = program  # which program the console hosts (stepperdemo.program)
+        self.program_options = program_options or {}
         self.port, self.baud, self.watchdog_ms = port, baud, watchdog_ms  # issue 7
+        self.link_planning_ms = link_planning_ms  # issue 18
         self._given_backend = backend  # issue 7: a connected serial backend (tests)
         self.clock = clock
         self.sleep = sleep or asyncio.sleep
@@ -124,7 +131,8 @@ class Console:
         self.history = self._make_history(history)
         self.lines: list[str] = []  # everything shown, for tests
         self.quit = False
-        self.session: PromptSession | None = None
+        self.prompt_session: PromptSession | None = None
+        self._history_mode: str | None = None
         # prompt-toolkit postpones a redraw by up to this much *real* time while its loop
         # is busy (its default); on a virtual clock (tests) pass None: redraw at once
         self.redraw_postpone_s = redraw_postpone_s
@@ -137,14 +145,14 @@ class Console:
     def _start(self, arch: str) -> None:
         if self.port or self._given_backend is not None:  # issue 7: a device does the work
             self.backend = self._given_backend or serial_cli.open_backend(
-                self.port, self.baud, self.watchdog_ms)
+                self.port, self.baud, self.watchdog_ms, self.link_planning_ms)
             self.port = self.port or self.backend.port or "?"
             serial_cli.console_attach(self, self.backend)
             self.scale = self.backend.clock_hz / self.backend.profile.ticks_per_s
         else:
             self.backend = SimBackend(arch)
         self.app = make_program(self.program, self.backend, scripted=False,
-                                output=self._collect)
+                                output=self._collect, **self.program_options)
         self.driver = RealTimeDriver(self.app, self.scale, self.clock)
         if self.port:  # issue 7: the device's clock runs by itself
             self.driver = serial_cli.DeviceDriver(self.app, self.scale)
@@ -154,7 +162,7 @@ class Console:
         try:
             target.parent.mkdir(parents=True, exist_ok=True)
             target.touch(exist_ok=True)
-            return FileHistory(str(target))
+            return ModeHistory(str(target), lambda: self.app.mode_name())
         except OSError as exc:
             self._note(msg.REPL_HISTORY_FAILED.format(error=exc))
             return InMemoryHistory()
@@ -179,7 +187,7 @@ class Console:
     def _show(self, line: str) -> None:
         self.lines.append(line)
         style = ""
-        if line.startswith(("ERROR", "Unknown command", "Failed status")):
+        if line.startswith(("ERROR", "Unknown command", "Failed status", "error:", "ALARM")):
             style = "ansired bold"
         elif line.startswith("test passed"):
             style = "ansigreen bold"
@@ -214,7 +222,7 @@ class Console:
         if now - self._toolbar_at < TOOLBAR_REFRESH_S:
             return
         self._toolbar_at = now
-        session = self.session
+        session = self.prompt_session
         if session is not None and session.app.is_running:
             session.app.invalidate()
 
@@ -258,7 +266,10 @@ class Console:
                                                    steppers=p.max_steppers, ticks=p.ticks_per_s))
                 return
             try:
-                get_profile(args[0])
+                profile = get_profile(args[0])
+                problem = getattr(type(self.app), "profile_problem", lambda _p: None)(profile)
+                if problem:  # the program cannot run there (the winder: two dir pins)
+                    raise ValueError(problem)
             except ValueError as exc:
                 self._note(msg.REPL_BAD_ARG.format(cmd=cmd, problem=exc))
                 return
@@ -287,10 +298,21 @@ class Console:
         self._wake.set()
 
     # ---------------------------------------------------------- main loop
+    def follow_mode(self) -> None:
+        """The history offers the lines of the program's input mode: reload it when the
+        mode changes (the line being typed stays)."""
+        mode = self.app.mode_name()
+        if mode != self._history_mode and self.prompt_session is not None:
+            buf = self.prompt_session.default_buffer
+            buf.reset(document=buf.document)
+            self.prompt_session.app.invalidate()
+        self._history_mode = mode
+
     async def ticker(self) -> None:
         while not self.quit:
             delay = self.driver.advance()
             self.flush()
+            self.follow_mode()
             self.refresh_toolbar()
             if self.app.input_pending():
                 delay = 0.0 if delay is None else min(delay, 0.001)
@@ -312,19 +334,26 @@ class Console:
         for task in pending:
             task.cancel()
 
-    async def run(self) -> int:
+    def welcome(self) -> str:
         p = self.backend.profile
         if self.port:  # issue 7
-            self._note(msg.REPL_WELCOME_SERIAL.format(version=msg.VERSION, profile=p.name,
-                                                      port=self.port))
-        else:
-            self._note(msg.REPL_WELCOME.format(version=msg.VERSION, profile=p.name,
-                                               mode=f"x{self.scale:g} real time"))
+            return msg.REPL_WELCOME_SERIAL.format(version=msg.VERSION, profile=p.name,
+                                                  port=self.port, title=self.app.title)
+        return msg.REPL_WELCOME.format(version=msg.VERSION, profile=p.name,
+                                       mode=f"x{self.scale:g} real time", title=self.app.title)
+
+    def close_session(self) -> None:
+        """The console ends: release what the session holds."""
+        if self.port:  # issue 7: end the device session
+            self.backend.close()
+
+    async def run(self) -> int:
+        self._note(self.welcome())
         session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
                                 output=self._output, complete_while_typing=False)
         session.app.max_render_postpone_time = self.redraw_postpone_s
-        self.session = session
+        self.prompt_session = session
         with patch_stdout(raw=True):
             tick = asyncio.ensure_future(self.ticker())
             try:
@@ -343,8 +372,7 @@ class Console:
                 await tick
                 self.flush(final=True)
                 self.trace.close()  # issue 6: stop recording, remove the spool file
-                if self.port:  # issue 7: end the device session
-                    self.backend.close()
+                self.close_session()
         self._note(msg.REPL_BYE)
         return 0
 
@@ -355,9 +383,14 @@ def run_console(args) -> int:
         console = Console(args.arch, scale=args.speed, history=args.history, port=port,
                           baud=getattr(args, "baud", 115200),
                           watchdog_ms=getattr(args, "watchdog_ms", 500),
-                          program=getattr(args, "program", "demo"))
+                          program=getattr(args, "program", "demo"),
+                          program_options=getattr(args, "program_options", None),
+                          link_planning_ms=getattr(args, "link_planning_ms", None))
     except ConnectionError as exc:  # issue 7: fas.serial.SerialError
         print(msg.CLI_SERIAL_CONNECT.format(port=port, error=exc), file=sys.stderr)
+        return serial_cli.EXIT_USAGE
+    except ValueError as exc:  # the profile cannot host the program
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return serial_cli.EXIT_USAGE
     return asyncio.run(console.run())
 

@@ -37,24 +37,56 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="run on a device behind this serial port or pty (see "
                          "'stepperdemo device'); the device decides the profile")
     ap.add_argument("--baud", type=int, default=115200, metavar="N",
-                    help="serial line speed for --port (default 115200)")
+                    help="serial line speed for --port and --board (default 115200)")
     ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
                     help="--port: the device stops all motion after MS of host silence")
+    ap.add_argument("--link-planning-ms", type=_planning_ms, default=None, metavar="MS",
+                    help="--port: plan MS beyond the library's forward-planning time "
+                         "(default: derived from the measured round trip and losses "
+                         "plus 50 ms for host stalls)")
 
 
-def open_backend(port: str, baud: int = 115200, watchdog_ms: int = 500):
+def _planning_ms(text: str) -> int:
+    try:
+        ms = int(text)
+    except ValueError:
+        ms = -1
+    if not 0 <= ms <= 10_000:
+        raise argparse.ArgumentTypeError(msg.SERIAL_BAD_PLANNING.format(ms=text))
+    return ms
+
+
+def open_backend(port: str, baud: int = 115200, watchdog_ms: int = 500,
+                 link_planning_ms: int | None = None):
     """A connected :class:`fas.serial.SerialBackend` (raises ``SerialError``)."""
     from fas.serial import SerialBackend
 
-    return SerialBackend(port, baud=baud, watchdog_ms=watchdog_ms)
+    return SerialBackend(port, baud=baud, watchdog_ms=watchdog_ms,
+                         link_planning_ms=link_planning_ms)
+
+
+def planning_line(backend) -> str:
+    """How far ahead the host plans for this link, and why."""
+    hz = backend.clock_hz
+    link = backend.link
+    return msg.SERIAL_PLANNING.format(
+        extra_ms=backend.planning_extra_ticks * 1000 // hz,
+        how=("set" if backend.link_planning_ms is not None else "measured"),
+        rtt_ms=backend.round_trip_ticks() * 1000 / hz,
+        rounds=backend.retry_rounds(), loss_pct=100 * (link.loss if link else 0.0),
+        queue_len=backend.profile.queue_len,
+        window=link.window if link else 0, payload=link.max_payload if link else 0)
 
 
 def stats_lines(backend) -> list[str]:
     """Link statistics, device counters and per-stepper figures, one line each."""
     lines = [msg.SERIAL_LINK_STATS.format(**backend.link_stats())]
+    if backend.connected:
+        lines.append(planning_line(backend))
     counters = backend.device_counters()
     if counters:
         lines.append(msg.SERIAL_DEVICE_STATS.format(**counters))
+        lines.append(msg.SERIAL_DEVICE_REPAIRS.format(**counters))
     for idx in sorted(backend.statuses):
         st = backend.statuses[idx]
         lines.append(msg.SERIAL_STEPPER_STATS.format(n=idx + 1, position=st.position,
@@ -74,11 +106,18 @@ def run_scripted(args: argparse.Namespace, write) -> int:
         print(msg.CLI_ERROR.format(problem=msg.SERIAL_NO_OBSERVE), file=sys.stderr)
         return EXIT_USAGE
     try:
-        backend = open_backend(args.port, args.baud, args.watchdog_ms)
+        backend = open_backend(args.port, args.baud, args.watchdog_ms,
+                               getattr(args, "link_planning_ms", None))
     except SerialError as exc:
         print(msg.CLI_SERIAL_CONNECT.format(port=args.port, error=exc), file=sys.stderr)
         return EXIT_USAGE
-    app = make_program(args.program, backend, scripted=True, output=write)
+    try:
+        app = make_program(args.program, backend, scripted=True, output=write,
+                           **getattr(args, "program_options", {}))
+    except ValueError as exc:  # the profile cannot host the program
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        backend.close()
+        return EXIT_USAGE
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
 
     def on_event(event: str, text: str) -> None:
@@ -215,11 +254,22 @@ def device_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="stepperdemo device",
         description="A device that speaks the serial protocol (docs/serial-protocol.md) "
-                    "and executes on the simulated machine in real time.")
+                    "and executes on the simulated machine in real time - or, with "
+                    "--simavr, the device firmware (firmware/) in the simavr AVR "
+                    "simulator.")
     where = ap.add_mutually_exclusive_group()
     where.add_argument("--pty", action="store_true",
                        help="serve a new pseudo-terminal and print its path (default)")
     where.add_argument("--port", metavar="PATH", help="serve an existing serial port")
+    where.add_argument("--simavr", action="store_true",
+                       help="run the device firmware (firmware/) in the simavr AVR "
+                            "simulator on a new pty instead; builds it if needed")
+    ap.add_argument("--firmware", metavar="ELF",
+                    help="--simavr: this firmware build instead of firmware/build/BAUD/")
+    ap.add_argument("--baud", type=int, default=115200, choices=(115200, 1_000_000),
+                    help="--simavr: the firmware's line speed (default 115200)")
+    ap.add_argument("--trace", metavar="FILE",
+                    help="--simavr: record every pin change (cycle, pin, level) in FILE")
     ap.add_argument("--arch", default="atmega328p", choices=sorted(PROFILES),
                     help="the device's profile (default atmega328p)")
     ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
@@ -230,7 +280,40 @@ def device_parser() -> argparse.ArgumentParser:
     ap.add_argument("--link", metavar="PATH",
                     help="also make PATH a symbolic link to the pty (a stable name)")
     ap.add_argument("--quiet", action="store_true", help="print only the pty path")
+    ap.add_argument("--input", action="append", default=[], metavar="PIN=VALUE",
+                    help="an input of the board at start: a switch (0/1) or a pot (0..1023); "
+                         "PIN is a pin number or A0, A1, ... (e.g. --input A4=0 closes the "
+                         "winder's fixture switch); repeatable; also with --simavr (on the "
+                         "chip's pins)")
+    ap.add_argument("--inputs-from-stdin", action="store_true",
+                    help="read PIN=VALUE lines from standard input while serving: turn pots "
+                         "and press switches of the simulated board (e.g. A0=900, A3=0); "
+                         "also with --simavr")
+    ap.add_argument("--console", action="store_true",  # issue 15
+                    help="instead of the protocol: the simulated StepperDemo firmware with "
+                         "its text console (as a board flashed with the original sketch; "
+                         "for stepperdemo --board); it restarts when a host opens the pty")
     return ap
+
+
+def parse_input(text: str, profile) -> tuple[int, int, bool | None]:
+    """``PIN=VALUE`` -> (pin, value, analog): a value above 1 is a pot; 0 and 1 go to
+    the pin as the host watches it (None: digital while nobody watches it)."""
+    pin_text, sep, value_text = text.strip().partition("=")
+    if not sep:
+        raise ValueError(f"{text!r} is not PIN=VALUE")
+    pin_text = pin_text.strip().upper()
+    try:
+        value = int(value_text)
+        if pin_text.startswith("A"):
+            pin = profile.analog_pins[int(pin_text[1:])]
+        else:
+            pin = int(pin_text)
+    except (ValueError, IndexError):
+        raise ValueError(f"{text!r} is not PIN=VALUE") from None
+    if not 0 <= value <= 1023 or not 0 <= pin <= 255:
+        raise ValueError(f"{text!r}: pin 0..255, value 0..1023")
+    return pin, value, (True if value > 1 else None)
 
 
 def run_device(argv: Sequence[str]) -> int:
@@ -243,6 +326,11 @@ def run_device(argv: Sequence[str]) -> int:
         print(msg.CLI_ERROR.format(problem="--speed must be positive, --watchdog-ms >= 0"),
               file=sys.stderr)
         return EXIT_USAGE
+    if args.simavr:
+        return run_simavr(args)
+    if args.console:  # issue 15: the StepperDemo text console, not the protocol
+        from .console_device import run
+        return run(args)
     profile = get_profile(args.arch)
     pty = None
     if args.port:
@@ -257,6 +345,13 @@ def run_device(argv: Sequence[str]) -> int:
         stream, path = pty.stream, pty.path
         set_link(args.link, path)
     device = Device(stream, profile, RealClock(args.speed), watchdog_ms=args.watchdog_ms)
+    try:
+        for text in args.input:
+            device.set_input(*parse_input(text, profile))
+    except ValueError as exc:
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        return EXIT_USAGE
+    each = _stdin_inputs(device.set_input, profile) if args.inputs_from_stdin else None
     if args.quiet:
         print(path, flush=True)
     else:
@@ -267,7 +362,7 @@ def run_device(argv: Sequence[str]) -> int:
                                                     flush=True))
     stop = _Stop()
     try:
-        device.serve(stop)
+        device.serve(stop, each)
     finally:
         if pty is not None:
             remove_link(args.link, path)
@@ -281,6 +376,94 @@ def run_device(argv: Sequence[str]) -> int:
                                                   edges=device.step_edges(idx)))
         print(msg.DEVICE_COUNTERS.format(**device.counters))
     return 0
+
+
+def _stdin_inputs(set_input, profile):
+    """Lines typed at the device's terminal set its inputs (read by a thread), through
+    ``set_input(pin, value, analog)``."""
+    import queue
+    import threading
+
+    typed: queue.Queue[str] = queue.Queue()
+
+    def reader() -> None:
+        for line in sys.stdin:
+            typed.put(line)
+
+    threading.Thread(target=reader, daemon=True).start()
+
+    def each() -> None:
+        while not typed.empty():
+            line = typed.get_nowait().strip()
+            if not line:
+                continue
+            try:
+                set_input(*parse_input(line, profile))
+                print(msg.DEVICE_INPUT_SET.format(text=line), flush=True)
+            except ValueError as exc:
+                print(msg.CLI_ERROR.format(problem=exc), flush=True)
+
+    return each
+
+
+def run_simavr(args: argparse.Namespace) -> int:
+    """``stepperdemo device --simavr``: the firmware in simavr on a new pty, real time."""
+    import time
+
+    from fas.arch import get_profile
+    from fas.serial.simavr import SimavrError, SimavrServer, build, build_harness
+
+    if args.arch != "atmega328p" or args.watchdog_ms != 500 or args.console:
+        option = ("arch" if args.arch != "atmega328p" else
+                  "watchdog-ms" if args.watchdog_ms != 500 else "console")
+        print(msg.CLI_ERROR.format(problem=msg.DEVICE_SIMAVR_OPTION.format(option=option)),
+              file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        if args.firmware:
+            elf, harness = args.firmware, build_harness()
+        else:
+            built = build(args.baud)
+            elf, harness = built.elf, built.harness
+        server = SimavrServer(elf, harness, speed=args.speed, link=args.link,
+                              trace=args.trace)
+    except SimavrError as exc:
+        print(msg.DEVICE_SIMAVR_BUILD_FAILED.format(error=exc), file=sys.stderr)
+        return EXIT_USAGE
+    profile = get_profile("atmega328p")
+
+    def set_input(pin: int, value: int, analog: bool | None = None) -> None:
+        # the harness sets a level for 0/1 unless the value is a pot's (section 18)
+        try:
+            server.set_input(pin, value, value > 1 if analog is None else analog)
+        except SimavrError as exc:  # the harness has ended: said once, as a bad line
+            raise ValueError(str(exc)) from None
+
+    try:
+        for text in args.input:
+            set_input(*parse_input(text, profile))
+    except ValueError as exc:
+        server.stop()
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        return EXIT_USAGE
+    each = _stdin_inputs(set_input, profile) if args.inputs_from_stdin else None
+    if args.quiet:
+        print(server.path, flush=True)
+    else:
+        title = msg.DEVICE_SIMAVR_TITLE.format(elf=elf, baud=args.baud)
+        print(msg.DEVICE_LISTENING.format(profile=profile.name, title=title, path=server.path,
+                                          link=f" ({args.link})" if args.link else "",
+                                          speed=args.speed), flush=True)
+    stop = _Stop()
+    while not stop() and server.proc.poll() is None:
+        if each is not None:
+            each()
+        time.sleep(0.1)
+    lines = server.stop()
+    if not args.quiet:
+        for line in lines:
+            print(msg.DEVICE_SIMAVR_SUMMARY.format(line=line))
+    return 0 if server.proc.returncode in (0, -15) else 1
 
 
 def relay_parser() -> argparse.ArgumentParser:
@@ -301,6 +484,10 @@ def relay_parser() -> argparse.ArgumentParser:
                     help="pace each direction to N baud, 10 bits a byte (0: no pacing)")
     ap.add_argument("--chunk-ms", type=float, default=0.0, metavar="MS",
                     help="deliver in bursts every MS (a USB adapter's latency timer)")
+    ap.add_argument("--stall-ms", type=float, default=0.0, metavar="MS",
+                    help="stop the line for MS (both ways) at every --stall-every-ms")
+    ap.add_argument("--stall-every-ms", type=float, default=0.0, metavar="MS",
+                    help="the period of the stalls (default: no stalls)")
     ap.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
     ap.add_argument("--link", metavar="PATH",
                     help="also make PATH a symbolic link to the host-side pty")
@@ -315,7 +502,8 @@ def run_relay(argv: Sequence[str]) -> int:
     try:
         faults = Faults(drop=args.drop, corrupt=args.corrupt, dup=args.dup,
                         latency_ms=args.latency_ms, baud=args.baud, seed=args.seed,
-                        chunk_ms=args.chunk_ms)
+                        chunk_ms=args.chunk_ms, stall_ms=args.stall_ms,
+                        stall_every_ms=args.stall_every_ms)
         device_side = open_serial(args.device)
     except (ValueError, LinkClosed) as exc:
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)

@@ -53,8 +53,9 @@ class TraceCommands:
             self.close()
             app = self.get_app()
             positions = [None if s is None else s.get_current_position() for s in app.steppers]
-            self.observers = obs = Observers(app.backend, spool_vcd=True,
-                                             positions=positions).start()
+            self.observers = obs = Observers(app.backend, spool_vcd=True, positions=positions,
+                                             extra_signals=app.trace_signals()).start()
+            app.watch(obs)  # the program's own figures (the winder's interlock)
             return [msg.REPL_TRACE_ON.format(t=self._s(obs.stream.start_tick))]
         if what == "off":
             if obs is None or not obs.active:
@@ -88,13 +89,14 @@ class TraceCommands:
         from ..watch import plots
 
         series = plots.series_of(self.observers)
+        outputs = plots.outputs_of(self.observers)
         if not args:
             width = max(20, min(shutil.get_terminal_size((80, 24)).columns - 14, 120))
-            return plots.terminal_plot(series, width=width)
+            return plots.terminal_plot(series, width=width, outputs=outputs)
         if not plots.png_available():
             return [msg.PLOT_EXTRA_MISSING]
         try:
-            plots.write_png(series, args[0])
+            plots.write_png(series, args[0], outputs=outputs)
         except OSError as exc:
             return [msg.OBSERVE_FILE_ERROR.format(path=args[0], error=exc)]
         return [msg.OBSERVE_WROTE.format(path=args[0])]
@@ -102,8 +104,9 @@ class TraceCommands:
     def _report(self) -> list[str]:
         from ..watch import report
 
-        return report.report_lines(self.observers,
-                                   positions=report.library_positions(self._app_of_trace()))
+        app = self._app_of_trace()
+        lines = report.report_lines(self.observers, positions=report.library_positions(app))
+        return lines + (app.watch_report() if app is not None else [])
 
     # ------------------------------------------------------------ helpers
     def _app_of_trace(self):

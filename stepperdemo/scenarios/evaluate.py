@@ -23,7 +23,7 @@ from fas.arch import Profile
 from fas.codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
 from fas.sim import SimBackend
 
-LETTERS = "ABCDEF"
+LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"  # stepper 1 = A ... (ESP32 has up to 14 in the demo)
 
 
 @dataclass
@@ -98,13 +98,16 @@ def rising_edges(times: Sequence[int], levels: bytes) -> Sequence[int]:
 
 
 def position_from_pins(backend: SimBackend, step_pin: int, dir_pin: int,
-                       high_counts_up: bool = True) -> int:
+                       high_counts_up: bool = True, since: int = 0) -> int:
     """Step edges counted up while the direction pin is at its counting-up level
     (HIGH unless ``high_counts_up`` is False), down otherwise.  Without a direction
     pin on the chip (none, or an external one) every step counts up.  A direction
-    edge at the tick of a step counts before it."""
+    edge at the tick of a step counts before it.  ``since``: only steps from this
+    tick on (the chip was restarted then)."""
     times, levels = backend.recorder.pin_edges(step_pin)
     rises = rising_edges(times, bytes(levels))
+    if since:
+        rises = rises[bisect.bisect_left(rises, since):]
     if dir_pin == PIN_UNDEFINED or dir_pin & PIN_EXTERNAL_FLAG:
         return len(rises)
     dtimes, dlevels = backend.recorder.pin_edges(dir_pin)

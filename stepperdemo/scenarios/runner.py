@@ -76,6 +76,10 @@ class Watch:
 
 def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
     backend = SimBackend(sc.profile, record=True)
+    try:
+        app = make_program(sc.program, backend, scripted=True)
+    except ValueError as exc:  # the profile cannot host the program
+        return ScenarioResult(str(sc.path), sc.name, False, error=str(exc))
     obs = None
     if watch is not None and watch.wanted():
         from ..watch import observe
@@ -85,8 +89,9 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
         obs = observe.attach(backend, vcd=named(watch.vcd_dir, ".vcd"),
                              csv=named(watch.csv_dir, ".csv"),
                              analyse=bool(watch.csv_dir or watch.plot_dir
-                                          or watch.timing_report))
-    app = make_program(sc.program, backend, scripted=True)
+                                          or watch.timing_report),
+                             extra_signals=app.trace_signals())
+        app.watch(obs)
     t0 = time.perf_counter()
     reason = app.run_script(sc.input, firmware_end=(sc.end == "firmware"),
                             max_ticks=int(sc.max_time_s * backend.profile.ticks_per_s))
@@ -135,6 +140,8 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
             res.checks.append(_num_check(f"{exp.letter} enable off time us",
                                          v["enable_high_max_us"], int(en.high_max_us),
                                          tol.get("enable_high_us", 0)))
+    if sc.outputs:
+        res.checks.extend(_output_checks(sc, backend, app, pins))
     if sc.timing is not None and sc.reference is not None:
         for letter in sc.timing.steppers:
             ref, ref_dirs = read_reference_track(sc.reference / f"steps_{letter}.tsv.gz")
@@ -177,13 +184,63 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
         obs.finish()
         if watch.plot_dir and plots.png_available():
             plots.write_png(plots.series_of(obs), str(Path(watch.plot_dir) / f"{sc.name}.png"),
-                            (1200, 800), title=f"{sc.name}: {sc.input[:80]}")
+                            (1200, 800), title=f"{sc.name}: {sc.input[:80]}",
+                            outputs=plots.outputs_of(obs))
         if watch.timing_report:
             watch.report_lines.append(msg.RUN_TIMING_REPORT_HEAD.format(name=sc.name))
             watch.report_lines += report.report_lines(
                 obs, positions=report.library_positions(app))
+            watch.report_lines += app.watch_report()
     res.ok = all(c.ok for c in res.checks)
     return res
+
+
+def _output_checks(sc: Scenario, backend: SimBackend, app, pins) -> list[Check]:
+    """Expectations on the user outputs (issue 12), from the recorded pin edges."""
+    from ..watch.outputs import OutputPin, OutputTrace
+
+    tps = backend.profile.ticks_per_s
+    backend.machine.outputs.deliver_until(backend.now())  # PWM edges are made on demand
+    outputs = getattr(getattr(app, "engine", None), "outputs", None)
+    checks: list[Check] = []
+    for exp in sc.outputs:
+        analog, number = exp.name.startswith("Aout"), int(exp.name[-1])
+        if outputs is not None:
+            pin = (outputs.analog_pin if analog else outputs.digital_pin)(number)
+        else:
+            p = backend.profile
+            pin = p.user_analog[number].pin if analog else p.user_digital_pins[number]
+        times, levels = backend.recorder.pin_edges(pin)
+        tr = OutputTrace(OutputPin(exp.name, pin, analog), 0)
+        tr.edges(times, levels)
+        tr.finish(backend.now())
+        v, tol = exp.values, exp.tol
+        figures = {"rises": tr.rises, "falls": tr.falls, "level": tr.level,
+                   "periods": tr.periods,
+                   "first_change_s": None if tr.first_edge is None else tr.first_edge / tps,
+                   "frequency_hz": tps / tr.mean_period() if tr.periods else None,
+                   "duty_percent": tr.last_duty, "duty_mean_percent": tr.mean_duty()}
+        for key in ("rises", "falls", "level", "periods", "first_change_s", "frequency_hz",
+                    "duty_percent", "duty_mean_percent"):
+            if key not in v:
+                continue
+            measured = figures[key]
+            what = f"{exp.name} {key.replace('_', ' ')}"
+            if measured is None:
+                checks.append(Check(what, v[key], "none", None, None, False))
+            else:
+                checks.append(_num_check(what, v[key], round(measured, 6), tol.get(key, 0)))
+        if "first_change_after_step" in v:
+            letter, step = v["first_change_after_step"]
+            steps = backend.recorder.rising(pins[letter].step) if letter in pins else []
+            first = tr.first_edge
+            ok = (first is not None and (step == 0 or (step <= len(steps)
+                                                        and steps[step - 1] < first))
+                  and (step >= len(steps) or first < steps[step]))
+            checks.append(Check(f"{exp.name} first change between steps {step} and "
+                                f"{step + 1} of {letter}", "yes", "yes" if ok else "no",
+                                None, None, ok))
+    return checks
 
 
 def _timing_dict(cmp: TimingComparison) -> dict:
@@ -294,6 +351,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(needs the 'plot' extra)")
     g.add_argument("--timing-report", action="store_true",
                    help="print the timing report of every scenario")
+    from .board_runner import add_arguments as add_board_arguments
+    add_board_arguments(ap)  # --board DEVICE ... (issue 15)
     return ap
 
 
@@ -326,6 +385,9 @@ def main(argv: Sequence[str]) -> int:
     if not files:
         print(msg.RUN_NOTHING, file=sys.stderr)
         return EXIT_USAGE
+    if args.board:  # issue 15: on a board running StepperDemo, with the twin check
+        from .board_runner import main as board_main
+        return board_main(args, files, bool(missing))
     watch = Watch(args.vcd, args.steps_csv, args.plot, args.timing_report)
     for folder in (args.vcd, args.steps_csv, args.plot):
         if folder:

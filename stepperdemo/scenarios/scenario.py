@@ -30,8 +30,20 @@ TIMING_KEYS = {
 TOP_KEYS = {
     "name": str, "description": str, "program": str, "profile": str, "input": str, "end": str,
     "max_time_s": (int, float), "long": bool, "reference": str, "justification": str,
-    "steppers": dict, "timing": dict, "transcript": dict,
+    "steppers": dict, "timing": dict, "transcript": dict, "outputs": dict,
 }
+# user outputs (issue 12): [outputs.Dout0] ... [outputs.Aout3]
+OUTPUT_KEYS = {
+    "rises": int, "falls": int, "level": int, "first_change_s": (int, float),
+    "first_change_after_step": list, "periods": int, "frequency_hz": (int, float),
+    "duty_percent": (int, float), "duty_mean_percent": (int, float),
+}
+OUTPUT_TOLERANCE_KEYS = {
+    "rises": int, "falls": int, "first_change_s": (int, float), "periods": int,
+    "frequency_hz": (int, float), "duty_percent": (int, float),
+    "duty_mean_percent": (int, float),
+}
+OUTPUT_NAMES = tuple(f"Dout{i}" for i in range(4)) + tuple(f"Aout{i}" for i in range(4))
 
 
 class ScenarioError(Exception):
@@ -45,6 +57,15 @@ class ScenarioError(Exception):
 @dataclass
 class StepperExpectation:
     letter: str
+    values: dict[str, Any]
+    tol: dict[str, Any]
+
+
+@dataclass
+class OutputExpectation:
+    """What a user output (``Dout0`` .. ``Aout3``) must show (issue 12)."""
+
+    name: str
     values: dict[str, Any]
     tol: dict[str, Any]
 
@@ -73,6 +94,7 @@ class Scenario:
     reference: Path | None = None
     justification: str = ""
     steppers: list[StepperExpectation] = field(default_factory=list)
+    outputs: list[OutputExpectation] = field(default_factory=list)
     timing: TimingExpectation | None = None
     contains: list[str] = field(default_factory=list)
     not_contains: list[str] = field(default_factory=list)
@@ -144,6 +166,27 @@ def load(path: Path | str) -> Scenario:
                                   or not all(isinstance(x, int) for x in values[key])):
                 raise ScenarioError(path, prefix + key, "expected [rising, falling] integers")
         sc.steppers.append(StepperExpectation(letter, values, tol))
+    for name, table in data.get("outputs", {}).items():
+        prefix = f"outputs.{name}."
+        if name not in OUTPUT_NAMES:
+            raise ScenarioError(path, f"outputs.{name}", "outputs are Dout0..Dout3, Aout0..Aout3")
+        if not isinstance(table, dict):
+            raise ScenarioError(path, f"outputs.{name}", "expected a table")
+        tol = table.get("tol", {})
+        values = {k: v for k, v in table.items() if k != "tol"}
+        _check_types(path, prefix, values, OUTPUT_KEYS)
+        if not isinstance(tol, dict):
+            raise ScenarioError(path, prefix + "tol", "expected a table")
+        _check_types(path, prefix + "tol.", tol, OUTPUT_TOLERANCE_KEYS)
+        after = values.get("first_change_after_step")
+        if after is not None and (len(after) != 2 or not isinstance(after[0], str)
+                                  or after[0] not in "ABCDEF" or len(after[0]) != 1
+                                  or not isinstance(after[1], int) or after[1] < 0):
+            raise ScenarioError(path, prefix + "first_change_after_step",
+                                'expected ["A".."F", step number]')
+        if values.get("level", 0) not in (0, 1):
+            raise ScenarioError(path, prefix + "level", "expected 0 or 1")
+        sc.outputs.append(OutputExpectation(name, values, tol))
     if "timing" in data:
         t = data["timing"]
         _check_types(path, "timing.", t, TIMING_KEYS)

@@ -70,6 +70,8 @@ class StepperMotion:
         self.start_position = self.position = position
         self.channel: SimChannel | None = None
         self.base = {"pulses": 0, "dry": 0, "missed_compares": 0, "starts": 0}
+        # earlier channels of the same step pin (a planner switch): their counts so far
+        self.others: list[tuple[SimChannel, dict[str, int]]] = []
         # plan of the channel: (kind, first pulse index, ticks, steps), consumed in order
         self.plan: deque[tuple[int, int, int, int]] = deque()
         self.index = 0  # channel pulse index of the next rising edge
@@ -106,28 +108,41 @@ class StepperMotion:
         self._enable_edge: int | None = None
         self.steps_disabled = 0
         self.samples: list[tuple[int, int, float]] = []  # (tick, position, speed steps/s)
+        self.entry_steps: dict[int, int] = {}  # planned period -> steps (QuickStep plateaus)
+        self.entries_taken = 0
         self._stride = 1
         self._since_sample = 0
 
     # --------------------------------------------------------------- channel
     def bind(self, channel: SimChannel) -> None:
+        if self.channel is not None:  # another channel drives the pin from now on
+            self.others.append((self.channel, self.base))
+            self.index = channel.pulses + (self.index - self.channel.pulses)
+        else:
+            self.index = channel.pulses
         self.channel = channel
-        self.index = channel.pulses
         self.base = {"pulses": channel.pulses, "dry": channel.dry,
                      "missed_compares": channel.missed_compares, "starts": channel.starts}
         channel.entry_listeners.append(self.entry)
 
     def unbind(self) -> None:
-        if self.channel is not None and self.entry in self.channel.entry_listeners:
-            self.channel.entry_listeners.remove(self.entry)
+        for ch in [self.channel] + [c for c, _ in self.others]:
+            if ch is not None and self.entry in ch.entry_listeners:
+                ch.entry_listeners.remove(self.entry)
 
     def entry(self, kind: int, index: int, ticks: int, steps: int) -> None:
         self.plan.append((kind, index, ticks, steps))
+        if steps:
+            self.entry_steps[ticks] = self.entry_steps.get(ticks, 0) + steps
+            self.entries_taken += 1
 
     def channel_count(self, name: str) -> int:
         if self.channel is None:
             return 0
-        return getattr(self.channel, name) - self.base[name]
+        total = getattr(self.channel, name) - self.base[name]
+        for ch, base in self.others:
+            total += getattr(ch, name) - base[name]
+        return total
 
     # ----------------------------------------------------------------- pins
     def direction_up(self) -> bool:
@@ -224,7 +239,8 @@ class StepperMotion:
                 self.last_interval = interval
             if planned is not None:
                 self._deviation(interval - planned)
-            speed = self.tps / interval if up else -self.tps / interval
+            if interval:  # 0: two edges in one tick (a pin shared with another role)
+                speed = self.tps / interval if up else -self.tps / interval
         self.new_motion = False
         self.last_rise = t
         if self._dir_edge is not None:
@@ -285,6 +301,8 @@ class StepperMotion:
         if prev is None:
             return
         dt = (mid - prev[1]) / self.tps
+        if not dt:
+            return
         if speed * prev[0] < 0:  # a reversal counts as deceleration
             acc = -abs(speed - prev[0]) / dt
         else:
@@ -362,14 +380,17 @@ class MotionAnalysis:
 
     def _bind(self, channel: SimChannel) -> None:
         m = self._by_step.get(channel.step_pin)
-        if m is not None and m.channel is None:
+        if m is not None and channel is not m.channel:
             m.bind(channel)
 
     # ----------------------------------------------------- OrderedEdgeSink
     def edge_run(self, pin: int, times: Sequence[int], levels: bytes) -> None:
         m = self._by_step.get(pin)
-        if m is not None:
+        if m is not None and m.channel is not None:
             m.step_run(times, levels)
+            return
+        if m is not None:  # no stepper on this pin: something else drives it (an output)
+            self.levels[pin] = levels[-1] if levels else self.levels.get(pin, 0)
             return
         if pin == IRQ_BLOCKED:
             self._irq(times, levels)

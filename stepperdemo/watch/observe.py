@@ -29,16 +29,22 @@ from fas.sim.trace import (
 
 from .. import messages as msg
 from .motion import MotionAnalysis, Wiring, demo_wiring
+from .outputs import OutputAnalysis, OutputPin, output_pins
 
 
-def vcd_signals(wiring: Sequence[Wiring]) -> dict[int, list[str]]:
-    """Pin -> VCD names; a pin shared by several steppers gets every name (aliases)."""
+def vcd_signals(wiring: Sequence[Wiring],
+                outputs: Sequence[OutputPin] = ()) -> dict[int, list[str]]:
+    """Pin -> VCD names; a pin shared by several steppers gets every name (aliases).
+
+    ``outputs``: the user outputs (issue 12), ``Dout0..3`` and ``Aout0..3``."""
     signals: dict[int, list[str]] = {}
     for w in wiring:
         for pin, name in ((w.step, "Step"), (w.direction, "Dir"), (w.enable_low, "Enable"),
                           (w.enable_high, "EnableHigh")):
             if pin is not None:
                 signals.setdefault(pin, []).append(name + w.label)
+    for out in outputs:
+        signals.setdefault(out.pin, []).append(out.name)
     signals[IRQ_BLOCKED] = [IRQ_BLOCKED_NAME]
     return signals
 
@@ -49,11 +55,14 @@ class Observers:
     def __init__(self, backend: SimBackend, *, vcd: str | None = None,
                  spool_vcd: bool = False, csv: str | None = None, analyse: bool = True,
                  positions: Sequence[int | None] | None = None,
-                 timescale: str | None = None) -> None:
+                 timescale: str | None = None,
+                 extra_signals: dict[int, list[str]] | None = None) -> None:
         self.backend = backend
         self.profile = backend.profile
         self.wiring = demo_wiring(self.profile)
-        self.signals = vcd_signals(self.wiring)
+        self.signals = vcd_signals(self.wiring, output_pins(self.profile))
+        for pin, names in (extra_signals or {}).items():  # a program's own pins
+            self.signals.setdefault(pin, []).extend(names)
         self.stream = EdgeStream(backend)
         self.vcd_path = vcd
         self._spool = spool_vcd and vcd is None
@@ -62,6 +71,7 @@ class Observers:
         self.csv_path = csv
         self.vcd: VcdWriter | None = None
         self.analysis: MotionAnalysis | None = None
+        self.outputs: OutputAnalysis | None = None  # user outputs (issue 12)
         self._analyse = analyse or csv is not None
         self._positions = positions
         self._timescale = timescale
@@ -94,6 +104,9 @@ class Observers:
             self.analysis = MotionAnalysis(self.backend, self.wiring, positions=self._positions,
                                            csv=self._csv_file, initial=levels)
             self.stream.add(self.analysis)
+            self.outputs = OutputAnalysis(self.profile, initial=pin_levels(
+                self.backend, [o.pin for o in output_pins(self.profile)]))
+            self.stream.add(self.outputs)
         return self
 
     def _abort(self) -> None:
@@ -120,6 +133,8 @@ class Observers:
         self.end_tick = end = self.stream.stop()
         if self.analysis is not None:
             self.analysis.finish(end)
+        if self.outputs is not None:
+            self.outputs.finish(end)
         if self.vcd is not None:
             self.vcd.close(end)
             self._vcd_file.close()
@@ -159,10 +174,11 @@ def _remove(path: str) -> None:
 
 def attach(backend: SimBackend, *, vcd: str | None = None, csv: str | None = None,
            analyse: bool = True, positions: Sequence[int | None] | None = None,
-           timescale: str | None = None) -> Observers:
+           timescale: str | None = None,
+           extra_signals: dict[int, list[str]] | None = None) -> Observers:
     """Start recording a simulated run (see :class:`Observers`); call ``finish()`` after."""
     return Observers(backend, vcd=vcd, csv=csv, analyse=analyse, positions=positions,
-                     timescale=timescale).start()
+                     timescale=timescale, extra_signals=extra_signals).start()
 
 
 # ----------------------------------------------------------- command line
@@ -171,13 +187,14 @@ def attach(backend: SimBackend, *, vcd: str | None = None, csv: str | None = Non
 from .options import add_arguments, check_arguments, wanted  # noqa: E402,F401
 
 
-def from_arguments(backend: SimBackend, args: argparse.Namespace) -> Observers | None:
+def from_arguments(backend: SimBackend, args: argparse.Namespace,
+                   extra_signals: dict[int, list[str]] | None = None) -> Observers | None:
     """Attach what the options ask for (None if nothing); OSError if a file can't be made."""
     if not wanted(args):
         return None
     return attach(backend, vcd=args.vcd, csv=args.steps_csv,
                   analyse=bool(args.report or args.plot or args.steps_csv),
-                  timescale=getattr(args, "vcd_timescale", None))
+                  timescale=getattr(args, "vcd_timescale", None), extra_signals=extra_signals)
 
 
 def finish_arguments(obs: Observers, args: argparse.Namespace, app=None,
@@ -189,7 +206,10 @@ def finish_arguments(obs: Observers, args: argparse.Namespace, app=None,
     out: list[str] = []
     if args.plot:
         size = plots.parse_size(args.plot_size)
-        plots.write_png(plots.series_of(obs), args.plot, size, title=title)
+        plots.write_png(plots.series_of(obs), args.plot, size, title=title,
+                        outputs=plots.outputs_of(obs))
     if args.report:
         out.extend(report.report_lines(obs, positions=report.library_positions(app)))
+        if app is not None:
+            out.extend(app.watch_report())  # the program's own figures
     return out

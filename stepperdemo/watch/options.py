@@ -13,8 +13,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     """The observer options of ``stepperdemo -c`` (and ``stepperdemo run``)."""
     g = ap.add_argument_group("watching the run (simulated backend)")
     g.add_argument("--vcd", metavar="FILE",
-                   help="write the step/dir/enable pins of every stepper and the "
-                        "interrupt-blocked windows as a VCD file (GTKWave, PulseView)")
+                   help="write the step/dir/enable pins of every stepper, the user outputs "
+                        "(Dout0-3, Aout0-3 as PWM waveforms) and the interrupt-blocked "
+                        "windows as a VCD file (GTKWave, PulseView)")
     g.add_argument("--vcd-timescale", metavar="UNIT",
                    help="VCD time unit, e.g. '1 us' (default: the coarsest standard unit "
                         "in which every tick is exact, 100 ps at 16 MHz; a coarser unit "

@@ -47,6 +47,31 @@ def series_of(obs: Observers) -> list[Series]:
     return out
 
 
+@dataclass
+class OutputSeries:
+    """A user output over time: level 0/1 (Dout) or duty % per PWM period (Aout)."""
+
+    name: str
+    analog: bool
+    t_s: list[float]
+    value: list[float]
+
+
+def outputs_of(obs: Observers) -> list[OutputSeries]:
+    """The plot data of every user output that changed (issue 12)."""
+    obs.flush()
+    if obs.outputs is None:
+        return []
+    tps = obs.profile.ticks_per_s
+    out = []
+    for tr in obs.outputs.outputs:
+        if tr.samples:
+            out.append(OutputSeries(tr.out.name, tr.out.analog,
+                                    [t / tps for t, _ in tr.samples],
+                                    [v for _, v in tr.samples]))
+    return out
+
+
 def parse_size(text: str) -> tuple[int, int] | None:
     m = re.fullmatch(r"\s*(\d{2,5})\s*[xX]\s*(\d{2,5})\s*", text or "")
     if not m:
@@ -88,25 +113,45 @@ def _num(v: float) -> str:
     return f"{v:.0f}" if abs(v) >= 100 or v == int(v) else f"{v:.3g}"
 
 
-def terminal_plot(series: Sequence[Series], width: int = 64, height: int = 8) -> list[str]:
-    """Text lines: per stepper a position chart and a speed chart (braille dots)."""
-    if not series:
+def terminal_plot(series: Sequence[Series], width: int = 64, height: int = 8,
+                  outputs: Sequence[OutputSeries] = ()) -> list[str]:
+    """Text lines: per stepper a position chart and a speed chart (braille dots);
+    per user output its level or duty (issue 12)."""
+    if not series and not outputs:
         return [msg.PLOT_NO_DATA]
-    t0 = min(s.t_s[0] for s in series)
-    t1 = max(s.t_s[-1] for s in series)
-    lines: list[str] = []
+    t0 = min([s.t_s[0] for s in series] + [o.t_s[0] for o in outputs])
+    t1 = max([s.t_s[-1] for s in series] + [o.t_s[-1] for o in outputs])
+    charts: list[tuple[str, Sequence[float], Sequence[float], int]] = []
     for s in series:
         for what, ys in ((msg.PLOT_TITLE_POSITION, s.position), (msg.PLOT_TITLE_SPEED, s.speed)):
-            rows, lo, hi = _braille_chart(s.t_s, ys, width, height, (t0, t1))
-            lines.append(msg.PLOT_TERMINAL_HEADER.format(n=s.number, what=what))
-            label_w = max(len(_num(hi)), len(_num(lo)))
-            for i, row in enumerate(rows):
-                label = _num(hi) if i == 0 else _num(lo) if i == len(rows) - 1 else ""
-                lines.append(f"{label:>{label_w}} |{row}")
-            left, right = f"{t0:.3f} s", f"{t1:.3f} s"
-            lines.append(" " * label_w + " +" + "-" * width)
-            lines.append(" " * (label_w + 2) + left + right.rjust(width - len(left)))
+            charts.append((msg.PLOT_TERMINAL_HEADER.format(n=s.number, what=what), s.t_s, ys,
+                           height))
+    for o in outputs:
+        what = msg.PLOT_OUTPUT_DUTY if o.analog else msg.PLOT_OUTPUT_LEVEL
+        ts, ys = _steps(o.t_s, o.value) if not o.analog else (o.t_s, o.value)
+        charts.append((msg.PLOT_TERMINAL_OUTPUT.format(name=o.name, what=what), ts, ys,
+                       max(2, height // 2)))
+    lines: list[str] = []
+    for header, ts, ys, h in charts:
+        rows, lo, hi = _braille_chart(ts, ys, width, h, (t0, t1))
+        lines.append(header)
+        label_w = max(len(_num(hi)), len(_num(lo)))
+        for i, row in enumerate(rows):
+            label = _num(hi) if i == 0 else _num(lo) if i == len(rows) - 1 else ""
+            lines.append(f"{label:>{label_w}} |{row}")
+        left, right = f"{t0:.3f} s", f"{t1:.3f} s"
+        lines.append(" " * label_w + " +" + "-" * width)
+        lines.append(" " * (label_w + 2) + left + right.rjust(width - len(left)))
     return lines
+
+
+def _steps(ts: Sequence[float], ys: Sequence[float]) -> tuple[list[float], list[float]]:
+    """A level held until the next change: a staircase of points."""
+    out_t, out_y = [ts[0]], [ys[0]]
+    for t, y in zip(ts[1:], ys[1:]):
+        out_t += [t, t]
+        out_y += [out_y[-1], y]
+    return out_t, out_y
 
 
 # -------------------------------------------------------------------- PNG
@@ -119,8 +164,9 @@ class PlotExtraMissing(RuntimeError):
 
 
 def write_png(series: Sequence[Series], path: str, size: tuple[int, int] = (1200, 800),
-              title: str = "") -> None:
-    """Position and speed over time, one line per stepper, as a PNG of ``size`` pixels."""
+              title: str = "", outputs: Sequence[OutputSeries] = ()) -> None:
+    """Position and speed over time, one line per stepper, as a PNG of ``size`` pixels;
+    with ``outputs`` a third panel: Dout levels (offset per output) and Aout duty."""
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
@@ -129,13 +175,26 @@ def write_png(series: Sequence[Series], path: str, size: tuple[int, int] = (1200
     dpi = 100
     fig = Figure(figsize=(size[0] / dpi, size[1] / dpi), dpi=dpi, layout="constrained")
     FigureCanvasAgg(fig)
-    ax_pos, ax_speed = fig.subplots(2, 1, sharex=True)
+    axes = fig.subplots(3 if outputs else 2, 1, sharex=True)
+    ax_pos, ax_speed = axes[0], axes[1]
     for s in series:
         ax_pos.plot(s.t_s, s.position, label=s.label, linewidth=1.2)
         ax_speed.plot(s.t_s, s.speed, label=s.label, linewidth=1.2)
     ax_pos.set_ylabel(msg.PLOT_TITLE_POSITION)
     ax_speed.set_ylabel(msg.PLOT_TITLE_SPEED)
-    ax_speed.set_xlabel(msg.PLOT_AXIS_TIME)
+    axes[-1].set_xlabel(msg.PLOT_AXIS_TIME)
+    if outputs:
+        ax_out = axes[2]
+        digital = [o for o in outputs if not o.analog]
+        for i, o in enumerate(digital):  # 0/1 levels stacked above the duty range
+            ax_out.step(o.t_s, [110 + 15 * i + 10 * v for v in o.value], where="post",
+                        label=o.name, linewidth=1.2)
+        for o in outputs:
+            if o.analog:
+                ax_out.step(o.t_s, o.value, where="post", label=o.name, linewidth=1.2)
+        ax_out.set_ylabel(msg.PLOT_TITLE_OUTPUTS)
+        ax_out.grid(True, alpha=0.3)
+        ax_out.legend(loc="best")
     for ax in (ax_pos, ax_speed):
         ax.grid(True, alpha=0.3)
         if series:

@@ -1,5 +1,8 @@
 """The timing report: what a logic analyser on the step/dir/enable pins would tell.
 
+(And on the user outputs, issue 12: per digital output its changes, per PWM output
+its measured period and duty.)
+
 Per stepper: pulses, step period (min/median/max), peak speed and acceleration, the
 deviation of each step interval from the planned command timing, pulse high time,
 gaps, queue underruns and missed compares, direction changes with the shortest
@@ -66,10 +69,62 @@ def _stepper_lines(m: StepperMotion, tps: int, library: int | None) -> list[str]
                                          restarts=m.restarts,
                                          missed=m.channel_count("missed_compares")))
     lines.append(msg.REPORT_DIR.format(changes=m.dir_changes, delay=us(m.dir_to_step_min)))
+    lines.extend(_quickstep_lines(m, tps))
     delays = m.enable_to_step
     lines.append(msg.REPORT_ENABLE.format(
         enables=m.enables, min=us(min(delays) if delays else None),
         max=us(max(delays) if delays else None), disabled=m.steps_disabled))
+    return lines
+
+
+def _output_lines(obs: Observers, tps: int) -> list[str]:
+    """One line per user output that changed (issue 12)."""
+    if obs.outputs is None:
+        return []
+    lines = []
+    for tr in obs.outputs.outputs:
+        if not tr.used:
+            continue
+        o = tr.out
+        level = msg.REPORT_LEVEL_HIGH if tr.level else msg.REPORT_LEVEL_LOW
+        if o.analog and tr.periods:
+            period = tr.mean_period()
+            lines.append(msg.REPORT_OUTPUT_PWM.format(
+                name=o.name, pin=o.pin, periods=tr.periods, period=fmt_us(period, tps),
+                hz=tps / period, pmin=fmt_us(tr.period_min, tps), pmax=fmt_us(tr.period_max, tps),
+                duty=tr.mean_duty(), dmin=tr.duty_min, dmax=tr.duty_max, last=tr.last_duty))
+        elif o.analog:
+            lines.append(msg.REPORT_OUTPUT_PWM_FEW.format(name=o.name, pin=o.pin, rises=tr.rises,
+                                                          falls=tr.falls, level=level))
+        else:
+            lines.append(msg.REPORT_OUTPUT_DIGITAL.format(
+                name=o.name, pin=o.pin, rises=tr.rises, falls=tr.falls,
+                high_ms=tr.high_total * 1000 / tps, first=f"{tr.first_edge / tps:.6f}",
+                level=level))
+    return lines
+
+
+PLATEAUS_LISTED = 16  # periods listed in the plateau line (the slowest first)
+
+
+def _quickstep_lines(m: StepperMotion, tps: int) -> list[str]:
+    """QuickStep steppers: the plateaus (orders by period) and the timer."""
+    ch = m.channel
+    if ch is None or not hasattr(ch, "lost_periods"):
+        return []
+    items = sorted(m.entry_steps.items(), reverse=True)
+    shown = [msg.REPORT_PLATEAU_ITEM.format(steps=steps, us=fmt_us(ticks, tps))
+             for ticks, steps in items[:PLATEAUS_LISTED]]
+    if len(items) > PLATEAUS_LISTED:
+        shown.append("...")
+    tb = ch.clock.current
+    lines = [msg.REPORT_PLATEAUS.format(n=m.entries_taken, periods=len(items),
+                                        list=" ".join(shown) or msg.REPORT_NONE)]
+    if tb is not None:
+        lines.append(msg.REPORT_QS_TIMER.format(timer=tb.timer.number,
+                                                base=fmt_us(tb.base_ticks, tps),
+                                                lost=ch.lost_periods,
+                                                starts=m.channel_count("starts")))
     return lines
 
 
@@ -90,8 +145,10 @@ def report_lines(obs: Observers, positions: list[int | None] | None = None) -> l
         shown += 1
         library = positions[i] if positions is not None and i < len(positions) else None
         lines.extend(_stepper_lines(m, tps, library))
-    if not shown:
+    outputs = _output_lines(obs, tps)
+    if not shown and not outputs:
         lines.append(msg.REPORT_NO_STEPS)
+    lines.extend(outputs)
     lines.append(msg.REPORT_IRQ.format(windows=an.irq_windows, ms=an.irq_ticks * 1000 / tps))
     reads, during = an.stray_reads
     lines.append(msg.REPORT_STRAY.format(reads=reads, during=during))

@@ -60,8 +60,10 @@ def test_max_speed_depends_on_the_number_of_avr_steppers():
 def test_profiles_connect_their_pins():
     assert Engine(SimBackend("atmega2560")).stepper_connect_to_pin(8) is not None
     esp = Engine(SimBackend("esp32"))
-    steppers = [esp.stepper_connect_to_pin(p) for p in (17, 15, 2, 5, 16, 4)]
-    assert all(steppers) and esp.stepper_connect_to_pin(18) is None  # six queues
+    pins = (17, 15, 2, 5, 16, 4, 14, 23, 32, 33, 25, 26, 22, 21)
+    steppers = [esp.stepper_connect_to_pin(p) for p in pins]
+    assert all(steppers) and esp.stepper_connect_to_pin(18) is None  # 6 + 8 queues
+    assert esp.stepper_connect_to_pin(34) is None  # input-only GPIO
     assert steppers[0].get_max_speed_in_hz() == 200_000
     sam = Engine(SimBackend("sam_due"))
     assert sam.stepper_connect_to_pin(34) is not None
@@ -385,8 +387,8 @@ def test_external_direction_pin_via_callback():
 
 # ----------------------------------------------------------- pulse counter
 def test_pulse_counter_counts_independently_and_wraps():
-    backend, _, s = make()
-    assert s.attach_to_pulse_counter(0, -100, 100)
+    backend, _, s = make("esp32", dir_pin=18, enable_pin=26)
+    assert s.attach_to_pulse_counter(7, -100, 100)
     s.set_speed_in_us(100)
     s.set_acceleration(50_000)
     s.move(250)
@@ -397,7 +399,7 @@ def test_pulse_counter_counts_independently_and_wraps():
     assert s.read_pulse_counter() == -20
     s.clear_pulse_counter()
     assert s.read_pulse_counter() == 0
-    assert not s.attach_to_pulse_counter(0, 5, 10)  # low must not be positive
+    assert not s.attach_to_pulse_counter(7, 5, 10)  # low must not be positive
 
 
 def test_switching_auto_enable_on_while_steps_are_queued_enables_the_driver_at_once():

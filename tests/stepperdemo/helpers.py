@@ -7,9 +7,9 @@ from stepperdemo.demo.app import EndReason, StepperDemo
 
 
 def run(line: str, arch: str = "atmega328p", *, firmware_end: bool = False,
-        max_s: float = 600, record: bool = False):
+        max_s: float = 600, record: bool = False, test_mode_wait: bool = False):
     backend = SimBackend(arch, record=record)
-    app = StepperDemo(backend, scripted=True)
+    app = StepperDemo(backend, scripted=True, test_mode_wait=test_mode_wait)
     reason = app.run_script(line, firmware_end=firmware_end,
                             max_ticks=int(max_s * backend.profile.ticks_per_s))
     return app, reason

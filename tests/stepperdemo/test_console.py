@@ -88,8 +88,9 @@ def test_ctrl_c_force_stops_a_running_move(tmp_path):
 
 def test_meta_commands_and_errors_keep_the_session(tmp_path):
     async def script(inp, clock, console):
+        # the ESP32 firmware first asks for a pin configuration: "0" answers it
         for line in ("/help", "/nonsense", "/speed 0", "/speed 10", "/time", "/arch",
-                     "V0", "Zzz", "/arch esp32", "M3 A1000 V100 R20"):
+                     "V0", "Zzz", "/arch esp32", "0", "M3 A1000 V100 R20"):
             inp.send_text(line + "\r")
             await settle()
         await wait(clock, 1.0)
@@ -113,6 +114,7 @@ def test_real_time_driver_follows_the_clock_and_sleeps_when_idle():
     clock = FakeClock()
     app = StepperDemo(SimBackend("esp32"), scripted=False)
     driver = RealTimeDriver(app, scale=2.0, clock=clock)
+    app.feed("0")  # the answer to the firmware's start-up prompt
     clock.t = 0.5
     driver.advance()
     assert app.backend.now() == 16_000_000  # 0.5 s at x2

@@ -12,7 +12,8 @@ from stepperdemo.fuzz import check_line, fuzz, grammar_line, raw_line
 LINES = int(os.environ.get("FUZZ_LINES", "300" if os.environ.get("CI") else "60"))
 
 
-@pytest.mark.parametrize("arch", ["atmega328p", "atmega2560", "esp32", "sam_due"])
+@pytest.mark.parametrize("arch", ["atmega328p", "atmega2560", "esp32", "sam_due", "atmega32u4",
+                                  "atmega2560_timer5", "esp32_idf5", "esp32c3", "rp2040"])
 def test_seeded_fuzz_lines_keep_the_invariants(arch):
     failures = [r for r in fuzz(LINES // 4, seed=7, arch_choice=(arch,)) if not r.ok]
     assert not failures, "\n".join(f"{r.line!r}: {r.violations}" for r in failures[:5])
@@ -61,10 +62,10 @@ def test_direct_drive_steps_are_outside_the_auto_enable_rule():
 
 
 def test_direct_drive_of_a_stepper_sharing_a_direction_pin_changes_the_frame():
-    # SAM demo wiring: steppers 1 and 2 share direction pin 18; `T` on stepper 2
+    # ESP32 demo wiring: steppers 1 and 2 share direction pin 18; `T` on stepper 2
     # toggles it while stepper 1 runs (firmware too) - not a library fault
     line = b"H2\ra7702\rU\rH32388\rN\rb\ra37067e3\rM2\rQ\rb\rT\rD1077130787361"
-    res = check_line(line, "sam_due", max_time_s=20)
+    res = check_line(line, "esp32", max_time_s=20)
     assert res.ok, res.violations
 
 
@@ -79,4 +80,12 @@ def test_auto_enable_switched_on_during_a_run_covers_the_queued_steps():
     # queued steps running with the driver off
     line = b"j2147483647 J F a0 E25337 H33408 M9 ? b O P1050215827290 W"
     res = check_line(line, "esp32", max_time_s=10)
+    assert res.ok, res.violations
+
+
+def test_the_checker_follows_an_esp32_restart():
+    # found by fuzzing: after `r` the chip reboots with new steppers at position 0,
+    # while the pins recorded before still hold the old steps
+    res = check_line("M1 A1000 V100 R300 W @5000 r", arch="esp32c6",
+                     max_time_s=20)
     assert res.ok, res.violations

@@ -64,8 +64,10 @@ def test_a_failed_sequence_sets_the_exit_code(capsysbinary):
     assert main(["-c", "t M1 13 R W"]) == 0
 
 
+# `w` in test mode is our extension (switched on with test_mode_wait): the firmware has
+# no way to let an endless sequence run for a while in a built-in line
 def test_sequence_08_pulse_counter_agrees_for_50_moves():
-    app, reason, t = run_test("t M1 08 R w150000 x")
+    app, reason, t = run_test("t M1 08 R w150000 x", arch="esp32", test_mode_wait=True)
     log = app.test_slots[0].log
     assert len(log) >= 50
     assert all((e["counter"] & 0x3FFF) == (e["position"] & 0x3FFF) for e in log)
@@ -73,11 +75,34 @@ def test_sequence_08_pulse_counter_agrees_for_50_moves():
 
 
 def test_sequence_09_forced_stops_never_step_afterwards_for_50_runs():
-    app, reason, t = run_test("t M1 09 R w70000 x X")
+    app, reason, t = run_test("t M1 09 R w70000 x X", arch="esp32", test_mode_wait=True)
     log = app.test_slots[0].log
     assert len(log) >= 50
-    assert "Step AFTER stop" not in t
+    assert "Step AFTER stop" not in t and t.count("Steps needed for stop=") >= 50
     assert all(entry["after_stop"] == 0 for entry in log)
+
+
+def test_sequence_08_without_a_pulse_counter_passes_at_once():
+    # the AVR build compiles 08 as "finished": the table and the verdict right away
+    app, reason, t = run_test("t M1 08 R W")
+    assert reason == EndReason.IDLE
+    body = after_setup(app)
+    assert body.endswith("run test \n>> M1: @0 acceleration  [steps/s^2]=0 speed "
+                         "[us/step]=0 \r\n   M2: @0 acceleration  [steps/s^2]=0 speed "
+                         "[us/step]=0 \r\ntest passed\ntest completed\n")
+    assert app.backend.machine.pins.rising(9) == 0
+
+
+def test_sequence_09_without_a_pulse_counter_prints_no_counter_lines():
+    app, reason, t = run_test("t M1 09 R w3500 x X", test_mode_wait=True)
+    assert t.count("speed=") >= 3 and "Steps needed" not in t and "Step AFTER" not in t
+
+
+def test_w_in_test_mode_is_unknown_as_in_the_firmware():
+    app, reason, t = run_test("t w100 x w100")
+    body = after_setup(app)
+    assert "Unknown command: w100\r\n" in body
+    assert body.count("100 ms wait\n") == 1 and body.endswith("Wait complete\n")
 
 
 def test_x_leaves_test_mode_and_unknown_letters_there():

@@ -129,8 +129,9 @@ def test_toggles_and_modes():
 
 
 def test_r_is_unknown_where_the_firmware_has_no_stray_read():
-    app, _ = run("r", arch="esp32")
-    assert "Unknown command: r\r\n" in text(app)
+    for arch in ("sam_due", "rp2040"):
+        app, _ = run("r", arch=arch)
+        assert "Unknown command: r\r\n" in text(app)
 
 
 def test_single_steps_and_direct_drive():
@@ -166,11 +167,24 @@ def test_firmware_end_stops_one_second_after_the_input():
 
 
 def test_other_profiles_run_the_demo():
-    for arch, steppers in (("atmega2560", 3), ("esp32", 6), ("sam_due", 6)):
+    for arch, steppers in (("atmega2560", 3), ("atmega32u4", 3), ("esp32", 14),
+                           ("esp32_idf5", 49), ("esp32_idf6", 8), ("rp2040", 8),
+                           ("rp2350", 12)):
         app, reason = run("M2 A10000 V200 R1000 W", arch=arch)
         assert reason == EndReason.IDLE
         assert f"    Steppers={steppers}\r\n" in text(app)
         assert app.steppers[1].get_current_position() == 1000
+
+
+def test_the_sam_build_connects_only_its_first_stepper():
+    # StepperPins_sam.h: GPIO 17 is a PWM pin, GPIO 15 (the second entry) is not, so
+    # setup() stops there; M2 does not exist
+    app, reason = run("M2 A10000 V200 R1000 M1 A10000 V200 R1000 W", arch="sam_due")
+    t = text(app)
+    assert "    Steppers=6\r\n" in t and "Unknown command: M2\r\n" in t
+    assert [s is not None for s in app.steppers] == [True] + [False] * 5
+    assert app.steppers[0].get_step_pin() == 17
+    assert app.steppers[0].get_current_position() == 2000
 
 
 def test_boot_time_grows_with_the_built_in_line_as_in_the_firmware():

@@ -73,10 +73,10 @@ def elapsed(now_ms: int, since_ms: int) -> int:
 def start_with_pulse_counter(app: StepperDemo, stepper: Stepper, slot: SeqSlot,
                              time_ms: int) -> bool:
     """First state of sequences 08 and 09: seed the random numbers, attach pulse
-    counter 7 and note the time.  True when the counter cannot be attached: the
-    error is printed and the test has failed."""
+    counter 7 (where the chip has one) and note the time.  True when the counter
+    cannot be attached: the error is printed and the test has failed."""
     slot.rng = make_rand(app.profile.name, PULSE_COUNTER_RAND_SEED)
-    if not stepper.attach_to_pulse_counter(7):
+    if app.profile.has_pulse_counter and not stepper.attach_to_pulse_counter(7):
         app.println(msg.SEQ_PULSE_COUNTER_ERROR)
         slot.state = TEST_STATE_ERROR
         return True
@@ -119,5 +119,28 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["SEQUENCES", "SeqSlot", "TEST_STATE_ERROR", "elapsed"]
+def _finished_at_once(app, stepper, slot, time_ms: int) -> bool:
+    """08 where the chip has no pulse counter: the firmware compiles it as "done"."""
+    return True
+
+
+def _endless_nothing(app, stepper, slot, time_ms: int) -> bool:
+    """12 in the ATmega32U4 build: compiled empty, it never finishes."""
+    slot.wait_machine()
+    return False
+
+
+def sequences_for(profile) -> dict[str, Sequence]:
+    """The sequences as the firmware is compiled for ``profile``."""
+    table = dict(__getattr__("SEQUENCES") if "SEQUENCES" not in globals()
+                 else globals()["SEQUENCES"])
+    if not profile.has_pulse_counter:
+        table["08"] = _finished_at_once
+    if profile.demo_small_build:
+        table["12"] = _endless_nothing
+        del table["13"]
+    return table
+
+
+__all__ = ["SEQUENCES", "SeqSlot", "TEST_STATE_ERROR", "elapsed", "sequences_for"]
 

@@ -3,7 +3,9 @@
 Moves of random speed (40 us .. ~16 ms/step) and acceleration meant to take about a
 second, alternating direction by the move's bit 1.  Whenever the stepper stands
 still, the pulse counter (attached with limits -16384/16384) must agree with the
-position modulo 2^14; a mismatch prints both and fails.  Runs until `x`.
+position modulo 2^14; a mismatch prints both and fails.  Runs until `x`.  On a chip
+without a pulse counter the firmware compiles it empty: it ends at once
+(:func:`stepperdemo.demo.testseq.sequences_for`).
 """
 
 from __future__ import annotations

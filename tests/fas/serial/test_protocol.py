@@ -10,13 +10,17 @@ from fas.serial.protocol import (
     Config,
     DeviceStatus,
     Entry,
+    ForceStop,
     FrameDecoder,
+    Halt,
     Hello,
     Ident,
+    Nak,
     Progress,
     ProtocolError,
     Start,
     Status,
+    Truncate,
     crc16,
     decode_messages,
     encode_frame,
@@ -77,8 +81,9 @@ def test_messages_round_trip():
             Entry(0, 3, 0, 640, False, True, False, False),
             Progress(1, 0x03, 17, 200), Progress(2, 0x07, 0, 0, -1234),
             Status(1, 3, 4, 5, -7, 123456, 2, 99),
-            DeviceStatus(1, 4, *range(2, 16)),
-            Ident(1, 2, 3, 16_000_000, 64_000_000, 2, 16, 16, 500, 25000, "atmega328p")]
+            DeviceStatus(1, 4, *range(2, 21)),
+            Ident(2, 2, 3, 16_000_000, 64_000_000, 2, 64, 8, 32, 500, 25000, 0, "atmega328p"),
+            Truncate(1, 200), Halt(1, 7, 0xBEEF), ForceStop(0, 9, 255), Nak(5, 0xA001)]
     payload = b"".join(m.encode() for m in msgs)
     back = decode_messages(payload)
     # the entry carries 4 bits of its index

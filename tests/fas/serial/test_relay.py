@@ -50,3 +50,30 @@ def test_bad_probabilities_are_refused():
         Faults(drop=1.5)
     with pytest.raises(ValueError):
         Faults(drop=0.6, corrupt=0.6)
+
+
+def test_stall_holds_every_byte_until_it_ends():
+    line = FaultyLine(Faults(stall_ms=50, stall_every_ms=300), 1)
+    ms = 1_000_000
+    line.take(b"a", 100 * ms)  # outside a stall: at once
+    line.take(b"b", 310 * ms)  # inside the stall 300..350 ms
+    line.take(b"c", 349 * ms)
+    line.take(b"d", 351 * ms)
+    assert line.due(100 * ms) == b"a"
+    assert line.due(349 * ms) == b""
+    assert line.due(350 * ms) == b"bc"  # all at once when the line moves again
+    assert line.due(351 * ms) == b"d"
+
+
+def test_stalls_need_a_longer_period():
+    with pytest.raises(ValueError):
+        Faults(stall_ms=50)
+    with pytest.raises(ValueError):
+        Faults(stall_ms=50, stall_every_ms=40)
+
+
+def test_bursts_deliver_at_the_latency_timer():
+    line = FaultyLine(Faults(chunk_ms=16), 1)
+    line.take(b"xy", 1_000_000)
+    assert line.due(15_999_999) == b""
+    assert line.due(16_000_000) == b"xy"

@@ -44,6 +44,9 @@ def test_lost_device_is_one_line_and_reconnect_restores_the_session(tmp_path):
         assert any(line.startswith("link: ") and "2 session(s)" in line
                    for line in console.lines)
         assert any(line.startswith("device: ") for line in console.lines)
+        # issue 18: how far ahead the host plans, the device's queue and window
+        assert any(line.startswith("planning: ") and "device queue 64 entries" in line
+                   and "9 frames of 32 bytes" in line for line in console.lines)
 
 
 def test_simulator_only_commands_are_refused_on_a_device(tmp_path):
@@ -70,15 +73,23 @@ def test_console_driver_runs_the_program_while_the_device_clock_runs(tmp_path):
         console = Console(backend=lb.backend, output=DummyOutput(),
                           history=str(tmp_path / "history"))
         backend = console.backend
+
+        def drive(until_tick: int) -> None:
+            while backend.now() < until_tick and "STOPPED" not in console.lines:
+                delay = console.driver.advance()
+                console.flush()
+                sleep_ticks = TPS // 20 if delay is None else int(delay * TPS)
+                backend.app_wait_until(backend.now() + max(sleep_ticks, 1))
+
         console.handle_line("M1 A2000 V200 R2000")
+        drive(backend.now() + TPS)
         console.handle_line("W")
-        end = backend.now() + 4 * TPS
-        while backend.now() < end and "STOPPED" not in console.lines:
-            delay = console.driver.advance()
-            console.flush()
-            sleep_ticks = TPS // 20 if delay is None else int(delay * TPS)
-            backend.app_wait_until(backend.now() + max(sleep_ticks, 1))
+        drive(backend.now() + 4 * TPS)
         assert "STOPPED" in console.lines
         status = [line for line in console.lines if line.startswith("M1: @")]
-        assert len(status) > 10  # status lines every 100 ms while it moved
+        assert len(status) > 5  # status lines every 100 ms while it moved
+        # as in the firmware, W blocks the loop: no status line until STOPPED
+        waited = console.lines[console.lines.index("Blocking wait for running stepper "
+                                                   "to stop"):]
+        assert not any(line.startswith("M1: @") for line in waited[:waited.index("STOPPED")])
         assert console.app.steppers[0].get_current_position() == 2000

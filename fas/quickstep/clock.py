@@ -1,0 +1,124 @@
+"""The QuickStep timer of an engine: which timer, which base time, shared by all
+QuickStep motors (one periodic interrupt serves them all, as in the seed).
+
+The base time is fixed while any QuickStep motor has orders; a new setting or new
+top speeds take effect when all of them are at rest.  Automatic (``base_us == 0``):
+the shortest step period any QuickStep motor needs at its top speed (its V/H speed),
+so that the fastest motor runs at interval 1.00.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+from typing import TYPE_CHECKING
+
+from ..arch import Profile, QsTimer
+from .timebase import TimeBase, base_range_ticks, choose
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .planner import QuickStepPlanner
+
+DEFAULT_BASE_TICKS_US = 1000  # automatic base time before any speed is known
+
+
+class QsConfigResult(IntEnum):
+    """Why a QuickStep setting was refused (0: accepted)."""
+
+    OK = 0
+    NOT_AVAILABLE = 1  # the profile has no QuickStep timer
+    NO_SUCH_TIMER = 2
+    BASE_OUT_OF_RANGE = 3
+    DEPTH_OUT_OF_RANGE = 4
+    PLATEAUS_OUT_OF_RANGE = 5
+    RAM = 6  # the FIFOs would not fit the RAM
+    RUNNING = 7  # not while the motor(s) concerned run
+    TIMER_IN_USE = 8  # a user PWM output runs on the timer (issue 12, fas.outputs)
+
+
+class QuickStepClock:
+    def __init__(self, profile: Profile) -> None:
+        self.profile = profile
+        self.timer: QsTimer | None = profile.qs_timer()
+        self.base_us = 0  # 0: automatic
+        self.planners: list[QuickStepPlanner] = []
+        self._current: TimeBase | None = None
+        self.origin_tick = 0  # the timer's period boundaries are origin + k * base
+
+    # ------------------------------------------------------------- settings
+    def range_us(self, timer: QsTimer | None = None) -> tuple[int, int]:
+        timer = timer or self.timer
+        lo, hi = base_range_ticks(self.profile, timer)
+        tpu = self.profile.ticks_per_us
+        return -(-lo // tpu), hi // tpu
+
+    def check_base(self, base_us: int, timer_number: int | None = None) -> QsConfigResult:
+        if self.timer is None:
+            return QsConfigResult.NOT_AVAILABLE
+        timer = self.profile.qs_timer(timer_number) if timer_number is not None else self.timer
+        if timer is None:
+            return QsConfigResult.NO_SUCH_TIMER
+        lo, hi = self.range_us(timer)
+        if base_us != 0 and not lo <= base_us <= hi:
+            return QsConfigResult.BASE_OUT_OF_RANGE
+        if self.busy():
+            return QsConfigResult.RUNNING
+        return QsConfigResult.OK
+
+    def set_base(self, base_us: int, timer_number: int | None = None) -> QsConfigResult:
+        res = self.check_base(base_us, timer_number)
+        if res == QsConfigResult.OK:
+            if timer_number is not None:
+                self.timer = self.profile.qs_timer(timer_number)
+            self.base_us = base_us
+            self._current = None
+        return res
+
+    def ram_used(self, extra_depth: int = 0, without: QuickStepPlanner | None = None) -> int:
+        depth = sum(p.depth for p in self.planners if p is not without) + extra_depth
+        return depth * self.profile.qs_order_bytes
+
+    def fits(self, extra_depth: int, without: QuickStepPlanner | None = None) -> bool:
+        return self.ram_used(extra_depth, without) <= self.profile.qs_ram_bytes
+
+    # ---------------------------------------------------------------- state
+    def busy(self) -> bool:
+        return any(p.has_orders() for p in self.planners)
+
+    def wanted_base_ticks(self) -> int:
+        if self.base_us:
+            return self.base_us * self.profile.ticks_per_us
+        speeds = [p.speed_period_ticks() for p in self.planners]
+        speeds = [s for s in speeds if s > 0]
+        if not speeds:
+            return DEFAULT_BASE_TICKS_US * self.profile.ticks_per_us
+        return min(speeds)
+
+    def timebase(self, now: int) -> TimeBase:
+        """The base time in force; re-chosen when every QuickStep motor is at rest."""
+        if self._current is None or not self.busy():
+            tb = choose(self.profile, self.timer, self.wanted_base_ticks())
+            if tb != self._current:
+                self._current = tb
+                self.origin_tick = now  # the timer restarts with its new period
+        return self._current
+
+    @property
+    def current(self) -> TimeBase | None:
+        return self._current
+
+    def next_boundary(self, tick: int) -> int:
+        """First period boundary of the timer at or after ``tick``."""
+        tb = self._current
+        if tb is None:
+            return tick
+        base = tb.base_ticks
+        k = -(-(tick - self.origin_tick) // base)
+        return self.origin_tick + max(k, 0) * base
+
+    def boundaries_between(self, begin: int, end: int) -> int:
+        """Period boundaries in (begin, end]."""
+        tb = self._current
+        if tb is None or end <= begin:
+            return 0
+        base, o = tb.base_ticks, self.origin_tick
+        return (end - o) // base - (begin - o) // base

@@ -1,0 +1,159 @@
+"""QuickStep's FIFO of orders: one per motor, 1 .. 255 orders deep.
+
+An order is ``steps`` steps (up to 32767; the sign of QuickStep's int16 is our
+``count_up``) ``period_ticks`` apart, the period being the order's interval of
+1.00 .. 255.00 base times.  The FIFO is a :class:`fas.queue.StepperQueue` with a
+capacity of ``depth`` orders, so the library's position bookkeeping (current
+position inside an order, position after all orders, direction changes) is the
+same as for FastAccelStepper's command queue.  Unlike FastAccelStepper's queue an
+order keeps its slot until its last interval has elapsed: with a FIFO of one order
+the next order can only be pushed once the motor has come to rest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable
+
+from ..codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED, AqeResult
+from ..queue import QueueEntry, StepperQueue, i32
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..arch import Profile
+    from ..backend import Backend, QueueChannel
+
+RING = 256  # slots of the ring; ``depth`` of them may be in use
+MIN_DEPTH = 1
+MAX_DEPTH = 255
+
+
+@dataclass(frozen=True)
+class OrderInfo:
+    """What the planner knows about an order beyond its steps and period."""
+
+    interval_256: int  # the interval in 1/256 base times
+    phase: str  # plateaus.ACCELERATE / COAST / DECELERATE, or "" (pause, single step)
+    level: int  # plateau k
+    plateaus: int  # of N
+    top_period_ticks: int  # VTOP of the move the order belongs to
+    accel: int  # acceleration of that move
+
+
+class OrderQueue(StepperQueue):
+    """The FIFO of one QuickStep motor (see the module text)."""
+
+    def __init__(self, index: int, profile: Profile, backend: Backend, step_pin: int,
+                 depth: int, make_channel: Callable[[OrderQueue], QueueChannel]) -> None:
+        # the fields of StepperQueue, with a ring of 256 slots (``depth`` usable)
+        self.index = index
+        self.profile = profile
+        self.backend = backend
+        self.step_pin = step_pin
+        self.depth = depth
+        self.queue_len = RING
+        self.entries = [QueueEntry() for _ in range(RING)]
+        self.info: list[OrderInfo | None] = [None] * RING
+        self.read_idx = 0
+        self.next_write_idx = 0
+        self.queue_end_pos = 0
+        self.queue_end_count_up = True
+        self.queue_end_dir = True
+        self.ignore_commands = False
+        self.dir_pin = PIN_UNDEFINED
+        self.dir_high_counts_up = True
+        self.max_speed_in_ticks = 1
+        self.last_command_ticks = 0
+        self.entries_added = 0
+        self.max_fill = 0
+        self.channel = make_channel(self)
+
+    def is_queue_full(self) -> bool:
+        return self.queue_entries() >= self.depth
+
+    def free_slots(self) -> int:
+        return self.depth - self.queue_entries()
+
+    def add_order(self, period_ticks: int, steps: int, count_up: bool, info: OrderInfo,
+                  start: bool = True) -> AqeResult:
+        """Append one order (``steps == 0``: a pause of one period)."""
+        if not self.channel.ready_for_commands():
+            return AqeResult.DEVICE_NOT_READY
+        if self.is_queue_full():
+            return AqeResult.QUEUE_FULL
+        wp = self.next_write_idx
+        e = self.entries[wp % RING]
+        dir_level = count_up == self.dir_high_counts_up
+        toggle_dir = False
+        if self.dir_pin != PIN_UNDEFINED:
+            if (self.is_queue_empty() and not self.is_running()
+                    and (self.dir_pin & PIN_EXTERNAL_FLAG) == 0):
+                self.backend.write_pin(self.dir_pin, 1 if dir_level else 0)
+                self.queue_end_dir = dir_level
+            else:
+                toggle_dir = dir_level != self.queue_end_dir
+        e.steps = steps
+        e.total_steps = steps
+        e.ticks = period_ticks
+        e.count_up = count_up
+        e.toggle_dir = toggle_dir
+        e.dir_level = dir_level
+        e.end_pos = i32(self.queue_end_pos + (steps if count_up else -steps))
+        self.info[wp % RING] = info
+        self.next_write_idx = (wp + 1) & 0xFF
+        self.queue_end_pos = e.end_pos
+        self.queue_end_dir = dir_level
+        self.queue_end_count_up = count_up
+        self.entries_added += 1
+        fill = (self.next_write_idx - self.read_idx) & 0xFF
+        if fill > self.max_fill:
+            self.max_fill = fill
+        self.channel.entry_added()
+        if start and not self.is_running():
+            self.channel.start()
+        self.last_command_ticks = period_ticks
+        return AqeResult.OK
+
+    def running_order(self) -> tuple[QueueEntry, OrderInfo] | None:
+        """The order being executed (the FIFO's head), if any."""
+        self.channel.sync()
+        rp = self.read_idx
+        if rp == self.next_write_idx:
+            return None
+        info = self.info[rp % RING]
+        return self.entries[rp % RING], info
+
+    def last_order(self) -> tuple[QueueEntry, OrderInfo] | None:
+        if self.read_idx == self.next_write_idx:
+            return None
+        w = (self.next_write_idx - 1) & 0xFF
+        return self.entries[w % RING], self.info[w % RING]
+
+    def drop_pending(self) -> None:
+        """Forget the orders that have not started (a stop or a new plan); a channel
+        may keep some that are already on their way (see ``keep_until``)."""
+        self.channel.sync()
+        rp, wp = self.read_idx, self.next_write_idx
+        if rp == wp:
+            return
+        keep = self.channel.keep_until()
+        if keep == wp:
+            return
+        last = self.entries[(keep - 1) % RING]
+        self.next_write_idx = keep
+        self.queue_end_pos = last.end_pos
+        self.queue_end_count_up = last.count_up
+        self.queue_end_dir = last.dir_level
+        self.channel.orders_dropped()
+
+    def shorten_last(self, keep_steps: int) -> None:
+        """Let the last order in the FIFO make at most ``keep_steps`` more steps."""
+        self.channel.sync()
+        if self.read_idx == self.next_write_idx:
+            return
+        w = (self.next_write_idx - 1) & 0xFF
+        e = self.entries[w % RING]
+        removed = self.channel.shorten(e, keep_steps)
+        if removed > 0:
+            e.total_steps -= removed
+            e.end_pos = i32(e.end_pos - removed if e.count_up else e.end_pos + removed)
+            self.queue_end_pos = e.end_pos

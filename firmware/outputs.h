@@ -1,0 +1,23 @@
+/* User outputs (docs/serial-protocol.md, user outputs): four digital and four PWM
+ * outputs, changed at once or after the motion commanded before them.
+ *
+ * PWM on the Uno: timer 2 (pins 3 = OC2B and 11 = OC2A; fast PWM, TOP 255, one
+ * prescaler for both) and timer 0 (pins 5 = OC0B and 6 = OC0A; fast PWM, TOP 255,
+ * prescaler 64 fixed, because timer 0's overflow is also the main loop's 1 ms tick).
+ * Timer 1 makes the steps. */
+#ifndef FW_OUTPUTS_H
+#define FW_OUTPUTS_H
+
+#include <stdint.h>
+
+void outputs_init(void);
+/* OutputPwm: number u8, pin u8, clock_div u32, counts u32, count u32 (msg[0]: type) */
+void outputs_pwm(const uint8_t *msg);
+/* OutputSet: flags u8, number u8, pin u8, value u32 */
+void outputs_set(const uint8_t *msg);
+/* OutputCancel: drop the synchronized changes not made yet */
+void outputs_cancel(void);
+/* Make the synchronized changes that wait, if every queue is idle. */
+void outputs_poll(void);
+
+#endif
