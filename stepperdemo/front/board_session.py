@@ -39,9 +39,8 @@ from ..watch.status_lines import BoardState
 from .board_input import InputPacer
 from .board_link import BoardLink
 from .board_log import BoardLog
+from .board_options import BOOT_WAIT_S, QUIET_S  # noqa: F401 (re-exported)
 
-QUIET_S = 0.5  # five status-line periods without a line: the board is quiet
-BOOT_WAIT_S = 2.5  # an Arduino's bootloader waits ~1.5 s after a reset before setup()
 POLL_S = 0.05
 CONFIG_PROMPT_WAIT_S = 6.0  # ESP32/RP2040 StepperDemo: 5 s for a pin-configuration digit
 

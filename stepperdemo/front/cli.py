@@ -11,7 +11,7 @@ from fas.arch import PROFILES
 
 from .. import messages as msg
 from ..watch import options as observe_options
-from . import board, serial_cli
+from . import board_options, serial_cli
 
 EXIT_OK = 0
 EXIT_TEST_FAILED = 1
@@ -87,7 +87,7 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
                     help="interactive: history file (default: in the user state directory)")
     observe_options.add_arguments(ap)  # --vcd --plot --plot-size --report --steps-csv (issue 6)
     serial_cli.add_arguments(ap)  # --port --baud --watchdog-ms (issue 7)
-    board.add_arguments(ap)  # --board --log --quiet-ms --boot-wait (issue 15)
+    board_options.add_arguments(ap)  # --board --log --quiet-ms --boot-wait (issue 15)
     ap.set_defaults(program=program)
     return ap
 
@@ -105,6 +105,7 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
     if args.port:  # issue 7: a device behind a serial port executes the queue commands
         return serial_cli.run_scripted(args, write)
     if getattr(args, "board", None):  # issue 15: a board running the original StepperDemo
+        from . import board
         return board.run_scripted(args, write)
     backend = SimBackend(args.arch)
     if getattr(args, "test_mode_wait", False) and args.program == "demo":  # the demo's w
@@ -194,6 +195,7 @@ def _main(argv: Sequence[str] | None = None) -> int:
     if args.command is not None:
         return run_scripted(args)
     if getattr(args, "board", None):  # issue 15
+        from . import board
         return board.run_console(args)
     from .console import run_console
     return run_console(args)

@@ -38,19 +38,17 @@ def wanted(args: argparse.Namespace) -> bool:
 
 def check_arguments(args: argparse.Namespace) -> str | None:
     """A problem with the observer options (before anything runs), else None."""
-    from fas.sim.trace import timescale_factor
-
-    from . import plots
-
     if getattr(args, "command", "") is None and wanted(args):
         return msg.OBSERVE_NOT_INTERACTIVE
     timescale = getattr(args, "vcd_timescale", None)
     if timescale is not None:
+        from fas.sim.trace import timescale_factor
         try:
             timescale_factor(timescale, 1_000_000)
         except (ValueError, KeyError):
             return msg.OBSERVE_BAD_TIMESCALE.format(timescale=timescale)
     if getattr(args, "plot", None):
+        from . import plots
         if plots.parse_size(args.plot_size) is None:
             return msg.OBSERVE_BAD_SIZE.format(size=args.plot_size)
         if not plots.png_available():
