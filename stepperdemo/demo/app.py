@@ -638,8 +638,13 @@ class StepperDemo(Program):
             return True
         if self.mode != Mode.TEST or not self.test_ongoing:
             return False
-        return any(slot.test is not None and slot.state != TEST_STATE_ERROR
-                   and slot.wake_ms is None for slot in self.test_slots)
+        for slot, s in zip(self.test_slots, self.steppers):
+            if slot.test is None or slot.state == TEST_STATE_ERROR or slot.wake_ms is not None:
+                continue
+            # a wait for the stop of a running stepper ends with the stop (_watch)
+            if not (slot.stop_only and s is not None and s.is_running()):
+                return True
+        return False
 
     def _running_key(self) -> tuple[bool, ...]:
         return tuple(s is not None and s.is_running() for s in self.steppers)
@@ -678,9 +683,10 @@ class StepperDemo(Program):
             candidates.append(b.tick_at_millis(self.last_time + 100))
         if self.simulate_blocked_isr:
             candidates.append(b.tick_at_millis((b.millis() | 0xFF) + 1))
-        for slot in self.test_slots:
-            if slot.test is not None and slot.wake_ms is not None:
-                candidates.append(b.tick_at_millis(slot.wake_ms))
+        if self.mode == Mode.TEST and self.test_ongoing:  # tests run in test mode only
+            for slot in self.test_slots:
+                if slot.test is not None and slot.wake_ms is not None:
+                    candidates.append(b.tick_at_millis(slot.wake_ms))
         if self.mode == Mode.GCODE:
             wake = self.gcode.wake_tick()
             if wake is not None:
