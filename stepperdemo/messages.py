@@ -333,7 +333,7 @@ OBSERVE_WROTE = "wrote {path}"
 REPL_HELP_OBSERVE = """Watching the run - the console records the recent motion from the start: the
 last {bound} pin edges (about {seconds:.1f} s of one stepper at 25 kHz), older ones dropped:
   /trace             what is being recorded
-  /trace on          record everything from now on, unbounded (replaces the recent recording)
+  /trace on          record everything from now on, without a bound
   /trace off         stop recording; the last recording stays for /vcd, /plot, /report
   /trace recent      record the recent motion again (the bounded recording)
   /vcd FILE          save the recorded pins as a VCD file (GTKWave, PulseView)
