@@ -249,3 +249,23 @@ def test_plot_and_report_through_the_prompt(tmp_path):
     assert "  pulses       300 (the channel counted 300), net +300 steps, position 300 by " \
            "the pins" in console.lines
     assert "M1 position [steps]" in console.lines
+
+
+def test_the_gcode_console_records_too(tmp_path):
+    c = make_console(tmp_path, program="gcode")
+    advance(c, 0.2)
+    c.handle_line("G1 X10 F600")
+    advance(c, 2.0)
+    report = run(c, "/report")
+    assert report[0].startswith("timing report: atmega328p, 0.000 s")
+    assert pins_position(report) == c.app.steppers[0].get_current_position() > 0
+    c.trace.close()
+
+
+def test_nothing_is_recorded_on_a_device(tmp_path):
+    from fas.serial.loopback import Loopback
+
+    with Loopback() as lb:
+        c = Console(backend=lb.backend, output=DummyOutput(), history=str(tmp_path / "h"))
+        assert c.trace.recording is None  # the pins are on the device
+        assert run(c, "/plot") == ["/plot: not on a device (its profile and clock are its own)"]
