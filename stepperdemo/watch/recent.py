@@ -195,14 +195,8 @@ class RecordedWindow:
         self.end_tick = end_tick
         self.start_positions = [t.position for t in trace.tracks]  # at the window start
         self.start_levels = dict(trace.head_levels)
-        self.edges_held = trace.held
-        self.dropped = trace.dropped
         self.analysis: MotionAnalysis | None = None
         self.outputs: OutputAnalysis | None = None
-
-    @property
-    def active(self) -> bool:
-        return False
 
     def flush(self) -> None:
         """Nothing to bring up to date: the replay is complete."""
