@@ -865,6 +865,12 @@ class Winder(Program):
                   if w.direction is not None and pins is not None}
         positions = [s.get_current_position() if s is not None else 0
                      for s in self.steppers[:2]]
+        # a replay of a bounded recording (issue 16) starts where its window starts
+        start_levels = getattr(observers, "start_levels", None)
+        if start_levels is not None:
+            levels = {w.direction: start_levels.get(w.direction, 0) for w in wiring
+                      if w.direction is not None}
+            positions = list(observers.start_positions[:2])
         self._meter = InterlockMeter(self, wiring, levels, positions)
         observers.stream.add(self._meter)
 
