@@ -29,10 +29,11 @@ from fas.sim import SimBackend
 
 from .. import messages as msg
 from ..program import Program, make_program
+from ..watch.recent import MAX_EDGES
 from . import serial_cli  # issue 7: --port, /reconnect /link /estop
 from .mode_history import ModeHistory
 from .trace_commands import META_COMMANDS as TRACE_META_COMMANDS
-from .trace_commands import TraceCommands
+from .trace_commands import TraceCommands, help_lines
 
 META_COMMANDS = {
     "/help": "console commands",
@@ -115,7 +116,8 @@ class Console:
                  backend=None, program: str = "demo",
                  program_options: dict | None = None,
                  link_planning_ms: int | None = None,
-                 redraw_postpone_s: float | None = 0.01) -> None:
+                 redraw_postpone_s: float | None = 0.01,
+                 recent_trace: bool = True, trace_edges: int = MAX_EDGES) -> None:
         self.program = program  # which program the console hosts (stepperdemo.program)
         self.program_options = program_options or {}
         self.port, self.baud, self.watchdog_ms = port, baud, watchdog_ms  # issue 7
@@ -138,8 +140,11 @@ class Console:
         self.redraw_postpone_s = redraw_postpone_s
         self._toolbar_at = -TOOLBAR_REFRESH_S  # wall time of the last toolbar redraw
         self.toolbar_shown: deque[str] = deque(maxlen=64)  # recent toolbar texts, for tests
-        self.trace = TraceCommands(lambda: self.app)  # /trace /vcd /plot /report (issue 6)
+        # /trace /vcd /plot /report (issue 6); the recent motion recorded from the start
+        # on a simulated chip (issue 16; recent_trace=False starts with the trace off)
+        self.trace = TraceCommands(lambda: self.app, recent=recent_trace, max_edges=trace_edges)
         self._start(arch)
+        self.trace.new_chip()
 
     # -------------------------------------------------------------- setup
     def _start(self, arch: str) -> None:
@@ -231,7 +236,7 @@ class Console:
         parts = line.split()
         cmd, args = parts[0], parts[1:]
         if cmd == "/help":
-            for text in msg.REPL_HELP.splitlines() + msg.REPL_HELP_OBSERVE.splitlines():
+            for text in msg.REPL_HELP.splitlines() + help_lines(self.trace.max_edges):
                 self._note(text)
             for text in msg.REPL_HELP_SERIAL.splitlines() if self.port else ():  # issue 7
                 self._note(text)
@@ -274,9 +279,12 @@ class Console:
                 self._note(msg.REPL_BAD_ARG.format(cmd=cmd, problem=exc))
                 return
             self.flush(final=True)
-            self.trace.stop()  # the recording belongs to the old chip (issue 6)
+            kept = self.trace.stop()  # the recording belongs to the old chip (issue 6)
             self._start(args[0].lower())
+            self.trace.new_chip()  # ... and the new one records as the mode says (issue 16)
             self._note(msg.REPL_SWITCHED.format(name=args[0].lower()))
+            for text in kept:
+                self._note(text)
         elif self.trace.handles(cmd):  # /trace /vcd /plot /report (issue 6)
             for text in self.trace.command(cmd, args):
                 self._note(text)

@@ -49,6 +49,16 @@ def vcd_signals(wiring: Sequence[Wiring],
     return signals
 
 
+def recorded_signals(wiring: Sequence[Wiring], profile,
+                     extra_signals: dict[int, list[str]] | None = None) -> dict[int, list[str]]:
+    """The pins a recording keeps, with their VCD names: the steppers', the user
+    outputs, the interrupt-blocked windows and a program's own pins (``extra_signals``)."""
+    signals = vcd_signals(wiring, output_pins(profile))
+    for pin, names in (extra_signals or {}).items():
+        signals.setdefault(pin, []).extend(names)
+    return signals
+
+
 class Observers:
     """Recorders on one simulated backend: an ordered edge stream and its consumers."""
 
@@ -60,9 +70,7 @@ class Observers:
         self.backend = backend
         self.profile = backend.profile
         self.wiring = demo_wiring(self.profile)
-        self.signals = vcd_signals(self.wiring, output_pins(self.profile))
-        for pin, names in (extra_signals or {}).items():  # a program's own pins
-            self.signals.setdefault(pin, []).extend(names)
+        self.signals = recorded_signals(self.wiring, self.profile, extra_signals)
         self.stream = EdgeStream(backend)
         self.vcd_path = vcd
         self._spool = spool_vcd and vcd is None
@@ -120,6 +128,10 @@ class Observers:
     @property
     def active(self) -> bool:
         return self.end_tick is None
+
+    @property
+    def start_tick(self) -> int:
+        return self.stream.start_tick
 
     def flush(self) -> None:
         """Hand on every edge that can no longer change (figures up to date)."""

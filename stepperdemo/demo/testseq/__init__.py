@@ -31,7 +31,7 @@ Sequence = Callable[["StepperDemo", "Stepper", "SeqSlot", int], bool]
 
 class SeqSlot:
     __slots__ = ("test", "state", "u32_1", "s32_1", "s16_1", "s16_2", "idle", "wake_ms",
-                 "rng", "log")
+                 "stop_only", "rng", "log")
 
     def __init__(self) -> None:
         self.test: Sequence | None = None
@@ -42,6 +42,7 @@ class SeqSlot:
         self.s16_2 = 0
         self.idle = False
         self.wake_ms: int | None = None
+        self.stop_only = False  # waiting only for the stepper to stop (wait_stop)
         self.rng: object | None = None
         self.log: list[dict] = []  # per-iteration records of the endless sequences
 
@@ -54,14 +55,26 @@ class SeqSlot:
 
     def wait_time(self, since_ms: int, duration_ms: int) -> None:
         self.idle = True
+        self.stop_only = False
         self.wake_ms = (since_ms + duration_ms) & 0xFFFFFFFF
 
     def wait_machine(self) -> None:
+        """Idle until something in the machine changes (a ramp state, a period): the
+        loop looks after every interrupt, as the firmware's passes do."""
         self.idle = True
         self.wake_ms = None
+        self.stop_only = False
+
+    def wait_stop(self) -> None:
+        """Idle until the stepper stops: only a stepper starting or stopping can end
+        the wait, so the loop need not look after every interrupt."""
+        self.idle = True
+        self.wake_ms = None
+        self.stop_only = True
 
     def busy(self) -> None:
         self.idle = False
+        self.stop_only = False
         self.wake_ms = None
 
 

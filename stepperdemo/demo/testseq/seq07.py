@@ -61,8 +61,10 @@ def step(app, stepper, slot, time_ms: int) -> bool:
         slot.wait_time(slot.u32_1, 3000)
     elif slot.state == 3:
         slot.wait_time(slot.u32_1, 1000)
-    elif slot.state in (1, 4):
-        slot.wait_machine()
+    elif slot.state == 1:
+        slot.wait_machine()  # the ramp reaching COAST
+    elif slot.state == 4:
+        slot.wait_stop()
     else:
         slot.busy()
     return False

@@ -51,5 +51,5 @@ def step(app, stepper, slot, time_ms: int) -> bool:
             stepper.set_acceleration(accel)
             stepper.move(move)
             slot.u32_1 = time_ms
-    slot.wait_machine()
+    slot.wait_stop()
     return False
