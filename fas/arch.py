@@ -169,6 +169,16 @@ class Profile:
     sim_uart_isr_ticks: int  # transmit interrupt, once per buffered character
     sim_millis_overflow_ticks: int  # Arduino timer0 overflow period (millis() source)
     sim_irq_block_ticks: int = 0  # StepperDemo's `e`: length of one blocked section
+    # StepperDemo's loop, per path (measured on the firmware, docs/timing-model.md):
+    sim_print_digit_ticks: int = 0  # printing a number: one 32-bit division per digit
+    sim_print_call_ticks: int = 0  # printing a number or an empty line: the call
+    sim_info_ticks: int = 0  # one stepper's status (the library getters), without prints
+    sim_info_scan_ticks: int = 0  # output_info(): per connected stepper (isRunning)
+    sim_cmd_arg_char_ticks: int = 0  # parsing a command: per character after the letter
+    sim_cmd_default_ticks: int = 0  # executing a command without its own figure
+    sim_millis_isr_ticks: int = 0  # Arduino's timer-0 overflow interrupt (millis())
+    # executing a command, by letter, without its prints and argument parsing
+    sim_cmd_ticks: dict[str, int] = field(default_factory=dict, compare=False)
     # characters the serial driver's receive buffer holds; more arriving while the
     # program does not read are lost (the console device's line, issue 15)
     sim_uart_rx_buffer: int = 63
@@ -362,25 +372,39 @@ _AVR_TIMING = dict(
     sim_timer_wrap_ticks=65536,
     sim_queue_start_ticks=10,
     sim_isr_latency_ticks=(61, 73, 73),
-    sim_isr_duration_ticks=130,
+    sim_isr_duration_ticks=120,
     sim_fill_entry_ticks=2436,
     sim_fill_cmd_ticks=2367,
     sim_fill_single_ticks=2102,
     sim_fill_pause_ticks=1455,
-    sim_task_phase_ticks=68084,
+    sim_task_phase_ticks=67989,
     sim_boot_ticks=11200,
     sim_boot_script_byte_ticks=9,
-    sim_setup_head_ticks=1768,
-    sim_setup_steppers_ticks=4081,
-    sim_loop_pass_ticks=400,
-    sim_char_ticks=140,
-    sim_msg_scan_byte_ticks=12,
-    sim_msg_lookup_ticks=75,
+    sim_setup_head_ticks=2700,
+    sim_setup_steppers_ticks=3758,
+    sim_loop_pass_ticks=342,
+    sim_char_ticks=121,
+    sim_msg_scan_byte_ticks=11,
+    sim_msg_lookup_ticks=56,
     sim_uart_byte_ticks=_avr_uart_byte_ticks(16_000_000, 115200, sim_bits=11),
     sim_uart_tx_buffer=64,
     sim_uart_isr_ticks=114,
     sim_millis_overflow_ticks=64 * 256,
     sim_irq_block_ticks=100 * 16,
+    sim_print_digit_ticks=603,
+    sim_print_call_ticks=180,
+    sim_info_ticks=450,
+    sim_info_scan_ticks=50,
+    sim_cmd_arg_char_ticks=113,
+    sim_cmd_default_ticks=150,
+    sim_millis_isr_ticks=96,
+    sim_cmd_ticks={
+        "M": 515, "A": 680, "V": 528, "H": 1110, "h": 1847, "R": 552, "P": 596, "a": 770,
+        "j": 433, "J": 456, "@": 638, "E": 515, "D": 435, "w": 461, "K": 128, "S": 145,
+        "U": 156, "X": 323, "f": 226, "b": 223, "e": 140, "r": 144, "u": 223, "F": 405,
+        "N": 319, "O": 319, "Q": 140, "I": 140, "W": 148, "+": 150, "-": 150, "?": 0,
+        "t": 0, "c": 0, "x": 0, "d": 1451,
+    },
     sim_uart_rx_buffer=63,  # HardwareSerial: a 64-byte ring keeps one slot free
 )
 

@@ -10,7 +10,7 @@ interface; :mod:`fas.sim` implements it on a simulated microcontroller and
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Callable, Sequence
 
 if TYPE_CHECKING:  # pragma: no cover
     from .arch import Profile
@@ -241,15 +241,23 @@ class Backend(ABC):
         """The main loop uses ``ticks`` of CPU time (interrupts keep running)."""
 
     @abstractmethod
-    def app_wait_until(self, tick: int) -> None:
-        """The main loop idles until ``tick`` (interrupts keep running)."""
+    def app_wait_until(self, tick: int, until: Callable[[], bool] | None = None) -> bool:
+        """The main loop idles until ``tick`` (interrupts keep running), or until
+        ``until()`` holds after something happened; True if it stopped for that."""
 
     @abstractmethod
     def next_event_time(self) -> int | None:
         """Tick of the next thing that may change the library's state, if known."""
 
-    def console_write(self, data: bytes) -> None:
-        """The main loop prints ``data`` on its console; may take time (a slow UART)."""
+    def console_write(self, data: bytes, cpu_after: Sequence[int] | None = None) -> None:
+        """The main loop prints ``data`` on its console; may take time (a slow UART).
+
+        ``cpu_after``: CPU time the loop spends after each character (e.g. looking up
+        the rest of a text), one figure per character."""
+        if cpu_after:
+            for ticks in cpu_after:
+                if ticks:
+                    self.app_spend(ticks)
 
     def block_interrupts(self, ticks: int) -> None:
         """The main loop busy-waits ``ticks`` with interrupts disabled."""

@@ -161,6 +161,16 @@ class Engine:
         to_toggle = half - (self._debug_led_cnt % half)
         return max(0, to_toggle - 1)
 
+    def may_stop_without_channel(self) -> bool:
+        """Is a stepper running whose queue is not being executed (its ramp generator is
+        active or its queue holds entries)?  Only such a stepper can stop in a run of
+        the periodic task; the others stop when their channel does."""
+        for s in self._steppers:
+            if s is not None and not s._queue.is_running():
+                if s._rg.is_ramp_generator_active() or not s._queue.is_queue_empty():
+                    return True
+        return False
+
     def credit_skipped_tasks(self, n: int) -> None:
         if n > 0:
             self._debug_led_cnt += n

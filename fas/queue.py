@@ -69,6 +69,7 @@ class StepperQueue:
         self.entries_added = 0  # statistics for invariants and reports
         self.max_fill = 0
         self.channel: QueueChannel = backend.allocate_channel(self)
+        self.is_running = self.channel.is_running  # asked very often: one call, not two
 
     # ------------------------------------------------------------- queries
     def queue_entries(self) -> int:
@@ -76,10 +77,12 @@ class StepperQueue:
         return (self.next_write_idx - self.read_idx) & 0xFF
 
     def is_queue_full(self) -> bool:
-        return self.queue_entries() >= self.queue_len
+        self.channel.sync()
+        return ((self.next_write_idx - self.read_idx) & 0xFF) >= self.queue_len
 
     def is_queue_empty(self) -> bool:
-        return self.queue_entries() == 0
+        self.channel.sync()
+        return self.next_write_idx == self.read_idx
 
     def is_running(self) -> bool:
         return self.channel.is_running()
@@ -161,7 +164,8 @@ class StepperQueue:
                     return AqeResult.ERROR_EMPTY_QUEUE_TO_START
                 self.channel.start()
             return AqeResult.OK
-        if self.is_queue_full():
+        self.channel.sync()  # once: nothing below moves the read index
+        if ((self.next_write_idx - self.read_idx) & 0xFF) >= self.queue_len:
             return AqeResult.QUEUE_FULL
         command_rate_ticks = ticks * steps if steps > 1 else ticks
         if command_rate_ticks < self.profile.min_cmd_ticks:
@@ -172,7 +176,7 @@ class StepperQueue:
         dir_level = count_up == self.dir_high_counts_up
         toggle_dir = False
         if self.dir_pin != PIN_UNDEFINED:
-            if (self.is_queue_empty() and not self.is_running()
+            if (wp == self.read_idx and not self.is_running()
                     and (self.dir_pin & PIN_EXTERNAL_FLAG) == 0):
                 # set the pin right here (needed for shared direction pins)
                 self.backend.write_pin(self.dir_pin, 1 if dir_level else 0)

@@ -879,9 +879,14 @@ class Stepper:
             planning += self._engine.backend.planning_extra_ticks
         snaps = self._snapshots
         generated = 0
-        while (not q.is_queue_full()
-               and (ticks_prepared < planning or q.queue_entries() <= 1)
-               and rg.is_ramp_generator_active()):
+        queue_len = q.queue_len
+        # ticks_in_queue() brought the channel's view up to date; the task runs at one
+        # instant and only appends, so the count follows from the indices
+        while True:
+            entries = (q.next_write_idx - q.read_idx) & 0xFF
+            if (entries >= queue_len or (ticks_prepared >= planning and entries > 1)
+                    or not rg.is_ramp_generator_active()):
+                break
             if snaps is not None and q.channel.cut_pending and rg.apply_pending():
                 break  # a new request waits until the cut is confirmed or undone
             res = AqeResult.OK

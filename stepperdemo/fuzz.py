@@ -27,7 +27,7 @@ from fas.sim import SimBackend
 
 from .demo import commands
 from .demo.app import StepperDemo
-from .scenarios.evaluate import position_from_pins
+from .scenarios.evaluate import position_from_pins, rising_edges
 
 NUMBERS = [0, 1, -1, 2, 7, 40, 100, 255, 256, 999, 1000, 4095, 4096, 32767, 32768, 65535,
            65536, 100000, 1000000, 2147483647, -2147483648, 2147483648, 99999999999,
@@ -304,8 +304,13 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
         if s.queue.max_fill > prof.queue_len:
             res.violations.append(f"{name}: queue held {s.queue.max_fill} > {prof.queue_len}")
         times, levels = rec.pin_edges(pins.step)
-        rises = [t for t, lv in zip(times, levels) if lv and t >= tracker.since]
-        falls = [t for t, lv in zip(times, levels) if not lv and t >= tracker.since]
+        k0 = bisect.bisect_left(times, tracker.since)
+        if k0:
+            times, levels = times[k0:], levels[k0:]
+        lv_bytes = bytes(levels)
+        rises = rising_edges(times, lv_bytes)
+        falls = (times[1::2] if len(rises) * 2 == len(times) and rises == times[0::2]
+                 else [t for t, lv in zip(times, lv_bytes) if not lv])
         if not s.queue.channel.detached:
             for a, b in zip(rises, rises[1:]):
                 if b - a < min_period:
@@ -316,10 +321,11 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
         if en_pin != PIN_UNDEFINED and rises and not tracker.detached[i]:
             etimes, elevels = rec.pin_edges(en_pin)
             history = tracker.auto_enable[i]
+            history_times = [x for x, _ in history]
             for t in rises:
                 k = bisect.bisect_right(etimes, t) - 1
                 enabled = k >= 0 and elevels[k] == 0
-                h = bisect.bisect_right([x for x, _ in history], t) - 1
+                h = bisect.bisect_right(history_times, t) - 1
                 auto = history[h][1]
                 if auto and not enabled and not _shared_enable(app, en_pin):
                     res.violations.append(f"{name}: step at tick {t} with the driver disabled")
@@ -329,12 +335,13 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
         dpin = pins.direction
         if dpin != PIN_UNDEFINED and not _dir_frame_changed(app, tracker, i):
             dtimes, _ = rec.pin_edges(dpin)
-            for t in (t for t in dtimes if t > tracker.since):
+            change_times = [x for x, _, _ in dir_changes]
+            for t in dtimes[bisect.bisect_right(dtimes, tracker.since):]:
                 k = bisect.bisect_right(rises, t) - 1
                 if k >= 0 and k < len(falls) and falls[k] > t and rises[k] < t:
                     res.violations.append(f"{name}: direction changed during a pulse at {t}")
                     break
-                h = bisect.bisect_right([x for x, _, _ in dir_changes], t) - 1
+                h = bisect.bisect_right(change_times, t) - 1
                 _, cfg_pin, delay = dir_changes[h]
                 j = bisect.bisect_left(rises, t)
                 if delay and cfg_pin == dpin and j < len(rises) and rises[j] - t < delay - 100:

@@ -324,13 +324,18 @@ PLOT_TERMINAL_HEADER = "M{n} {what}"
 PLOT_NO_DATA = "nothing to plot: no steps recorded"
 OBSERVE_BAD_SIZE = "--plot-size {size!r}: give WIDTHxHEIGHT in pixels, e.g. 1200x800"
 OBSERVE_NOT_INTERACTIVE = ("--vcd, --plot, --report and --steps-csv go with -c (or run); "
-                           "in the console use /trace on, /vcd, /plot and /report")
+                           "the console records the recent motion by itself: /vcd, /plot, "
+                           "/report (/trace on records all of it)")
 OBSERVE_BAD_TIMESCALE = ("--vcd-timescale {timescale!r}: give 1, 10 or 100 and a unit "
                          "s, ms, us, ns, ps or fs, e.g. '1 us'")
 OBSERVE_FILE_ERROR = "cannot write {path}: {error}"
 OBSERVE_WROTE = "wrote {path}"
-REPL_HELP_OBSERVE = """Watching the run:
-  /trace on|off      record the pins from now on (for /vcd, /plot, /report) or stop
+REPL_HELP_OBSERVE = """Watching the run - the console records the recent motion from the start: the
+last {bound} pin edges (about {seconds:.1f} s of one stepper at 25 kHz), older ones dropped:
+  /trace             what is being recorded
+  /trace on          record everything from now on, without a bound
+  /trace off         stop recording; the last recording stays for /vcd, /plot, /report
+  /trace recent      record the recent motion again (the bounded recording)
   /vcd FILE          save the recorded pins as a VCD file (GTKWave, PulseView)
   /plot [FILE.png]   position and speed over time: in the terminal, or as PNG
   /report            timing report per stepper (periods, deviations, gaps, ...)"""
@@ -339,7 +344,7 @@ REPL_TRACE_ALREADY = "trace is already on (since t={t:.3f} s)"
 REPL_TRACE_OFF = "trace off: {edges} edges recorded (t={start:.3f} .. {end:.3f} s)"
 REPL_TRACE_NOT_ON = "trace is off"
 REPL_TRACE_STATUS = "trace {state}: {edges} edges so far (from t={start:.3f} s)"
-REPL_TRACE_NOTHING = "nothing recorded yet: /trace on first"
+REPL_TRACE_NOTHING = "nothing recorded: /trace recent or /trace on records the pins"
 REPL_VCD_WROTE = "wrote {path}: {edges} edges, t={start:.3f} .. {end:.3f} s"
 
 # ---------------------------------------------------------------------------------------
@@ -386,6 +391,25 @@ RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {droppe
                "{corrupted} corrupted, {duplicated} duplicated")
 # --------------------------------------------------------------- end of serial texts
 
+# ------------------------------------------------- issue 16: the console as people use it
+RUN_FAILED_CHECKS = "FAIL ({n} failed)"
+# the console's recording of the recent motion (bounded, on by default; /trace recent)
+REPL_TRACE_RECENT_ON = ("trace recent: recording the last {bound} pin edges (about {seconds:.1f} s "
+                        "of one stepper at 25 kHz) from t={t:.3f} s")
+REPL_TRACE_RECENT_ALREADY = "trace recent is already on: the last {bound} pin edges are kept"
+REPL_TRACE_RECENT_STATUS = ("trace recent: {held} edges held, t={start:.3f} .. {end:.3f} s "
+                            "(keeps the last {bound}{dropped})")
+REPL_TRACE_RECENT_DROPPED = "; {dropped} older edges dropped"
+REPL_TRACE_RECENT_OFF = ("trace off: recording stopped; the recent {held} edges "
+                         "(t={start:.3f} .. {end:.3f} s) stay for /vcd, /plot and /report")
+REPL_TRACE_OFF_KEPT = ("trace off: the last recording ({edges} edges, t={start:.3f} .. "
+                       "{end:.3f} s) stays for /vcd, /plot and /report")
+REPL_TRACE_BAD = "on, off or recent"
+REPL_TRACE_ARCH_KEPT = ("trace off: the recording on the {profile} stays for /vcd, /plot and "
+                        "/report; /trace recent or /trace on records the new chip")
+REPL_VCD_START_DROPPED = " - the start was dropped: the recent recording keeps the last {bound}"
+REPORT_RECENT_WINDOW = ("  (the recent recording: {held} pin edges kept, {dropped} older ones "
+                        "dropped; positions carried forward)")
 # ---------------------------------------------------------------------------------------
 # The board console (issue 15): stepperdemo --board DEVICE, -c on a board, run --board,
 # device --pty --console.  Console texts, not part of the firmware.

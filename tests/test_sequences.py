@@ -33,3 +33,28 @@ def test_every_conformance_folder_has_a_scenario():
     names = {p.stem for p in (ROOT / "sequences" / "conformance").glob("*.toml")}
     folders = {p.name for p in conformance.iterdir() if p.is_dir()}
     assert folders <= names
+
+
+def _local_runs() -> list[Path]:
+    """Runs of a local build of the firmware (issue 16: commands during fast motion)."""
+    return sorted(p.parent for p in (ROOT / "sequences" / "reference").glob("*/run_info.json"))
+
+
+def test_during_motion_runs_land_within_the_promised_bound():
+    """Commands taken while a stepper runs fast (``w``, ``U``, ``S``/``X`` at 2-20 kHz):
+    final positions within max(10 steps, 0.5 %) of the firmware's, for a dozen runs."""
+    import json
+
+    runs = _local_runs()
+    assert len(runs) >= 12
+    for ref in runs:
+        info = json.loads((ref / "run_info.json").read_text())
+        sc = load(ROOT / "sequences" / "conformance" / f"{ref.name}.toml")
+        assert sc.input == info["input"].strip() and sc.reference == ref
+        for exp in sc.steppers:
+            if exp.letter not in info["position_from_pins"]:
+                continue
+            position = info["position_from_pins"][exp.letter]
+            assert exp.values["position"] == position
+            bound = max(10, abs(position) // 200)
+            assert exp.tol.get("position", 0) <= bound, (ref.name, exp.tol)

@@ -1,6 +1,13 @@
 """Turn the conformance data (runs of the original firmware) into scenario files.
 
-    python tools/import_conformance.py [CONFORMANCE_DIR] [--out sequences]
+    python tools/import_conformance.py [CONFORMANCE_DIR ...] [--out sequences]
+
+Sources: the shared conformance data (default), or any folder of runs in its layout.
+Runs made with a local build of the firmware name that build in ``run_info.json``
+(``"build"``); their description and justification say so.  Such a run keeps its
+``input.txt``, ``result.txt`` and ``run_info.json`` next to its reference data, so that
+``python tools/import_conformance.py sequences/reference -k dm`` imports it again (the
+transcript there is already marked).
 
 For every folder of the conformance data: write ``sequences/conformance/<name>.toml``
 with the reference figures as expectations, and copy its per-step timestamps and its
@@ -33,6 +40,14 @@ from stepperdemo.scenarios.transcript import mark_reference  # noqa: E402
 
 DESCRIPTION = ("Conformance: the original firmware (FastAccelStepper 1.2.6 StepperDemo, "
                "ATmega328P in an AVR simulator) for this input line")
+DESCRIPTION_BUILD = ("Conformance: the original firmware (FastAccelStepper 1.2.6 StepperDemo, "
+                     "ATmega328P) built and run locally ({build}) for this input line")
+REASON_BUILD = ("This run comes from a local build of the original firmware ({build}), not "
+                "from the shared conformance data.  That build reproduces every shared run "
+                "(same positions, pulse counts and transcripts); its first steps come 34 us "
+                "and its ramp task 9 us earlier than there (another compiler), which the "
+                "step-time tolerances absorb.")
+RUN_FILES = ("input.txt", "result.txt", "run_info.json")
 SLOT_US = 4096.0  # the ramp task period of the ATmega328P (65536 ticks)
 START_BOUND_US = 200.0  # start of a move inside the same ramp-task slot (fill CPU model)
 PULSE_PCT_BOUND = 10.0
@@ -148,17 +163,24 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
     result = parse_result(folder / "result.txt")
     run_info = json.loads((folder / "run_info.json").read_text())
     ref_dir = out_dir / "reference" / name
+    same = ref_dir.resolve() == folder.resolve()  # importing a local run again
+    build_note = run_info.get("build")
     letters = []
     for ch in "AB":
         src = folder / f"steps_{ch}.tsv.gz"
         if src.exists():
             ref_dir.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(src, ref_dir / src.name)
+            if not same:
+                shutil.copyfile(src, ref_dir / src.name)
             letters.append(ch)
     ref_dir.mkdir(parents=True, exist_ok=True)
-    marked = mark_reference((folder / "transcript.txt").read_bytes(), len(USAGE_NORMAL))
-    with gzip.open(ref_dir / "transcript.txt.gz", "wt", encoding="utf-8", newline="") as f:
-        f.write(marked)
+    if (folder / "transcript.txt").exists():
+        marked = mark_reference((folder / "transcript.txt").read_bytes(), len(USAGE_NORMAL))
+        with gzip.open(ref_dir / "transcript.txt.gz", "wt", encoding="utf-8", newline="") as f:
+            f.write(marked)
+    if build_note and not same:  # keep what a later import needs (no firmware text)
+        for fname in RUN_FILES:
+            shutil.copyfile(folder / fname, ref_dir / fname)
     timed = is_timed(line)
     n_timed = timed_commands(line)
     problems: list[str] = []
@@ -289,6 +311,8 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
         if mx > bound:
             problems.append(f"{name}: step times deviate by up to {mx:.0f} us (bound "
                             f"{bound:.0f})")
+    if build_note:
+        reasons.append(REASON_BUILD.format(build=build_note))
     if exact_counts:
         reasons.append(REASON_EXACT)
     else:
@@ -302,7 +326,8 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
     if letters and not counts_match:
         reasons.append("The step sequences differ in length after the timed command, so "
                        "step times are not compared one by one (see the counts above).")
-    text = render(name, line, run_info, steppers, timing, reasons, letters)
+    text = render(name, line, run_info, steppers, timing, reasons, letters,
+                  DESCRIPTION_BUILD.format(build=build_note) if build_note else DESCRIPTION)
     path = out_dir / "conformance" / f"{name}.toml"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
@@ -313,10 +338,11 @@ def toml_str(s: str) -> str:
     return json.dumps(s, ensure_ascii=False)
 
 
-def render(name, line, run_info, steppers, timing, reasons, letters) -> str:
+def render(name, line, run_info, steppers, timing, reasons, letters,
+           description: str = DESCRIPTION) -> str:
     long = run_info["simulated_us"] > 30e6
     out = [f"name = {toml_str(name)}",
-           f"description = {toml_str(DESCRIPTION)}",
+           f"description = {toml_str(description)}",
            'profile = "atmega328p"',
            f"input = {toml_str(line)}",
            'end = "firmware"  # the reference ends 1 s after the last input character',
@@ -354,14 +380,17 @@ def render(name, line, run_info, steppers, timing, reasons, letters) -> str:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("conformance", nargs="?", default=str(ROOT.parent / "shared" / "conformance"))
+    ap.add_argument("conformance", nargs="*",
+                    default=[str(ROOT.parent / "shared" / "conformance")],
+                    help="folders of firmware runs (default: the shared conformance data)")
     ap.add_argument("--out", default=str(ROOT / "sequences"))
     ap.add_argument("-k", help="only folders whose name contains this")
     args = ap.parse_args()
-    src = Path(args.conformance)
     out = Path(args.out)
     all_problems = []
-    for folder in sorted(p for p in src.iterdir() if p.is_dir()):
+    folders = sorted(p for src in map(Path, args.conformance) for p in src.iterdir()
+                     if p.is_dir() and (p / "result.txt").exists())
+    for folder in folders:
         if args.k and args.k not in folder.name:
             continue
         name, problems = build(folder, out)

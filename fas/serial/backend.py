@@ -772,8 +772,8 @@ class SerialBackend(Backend):
     def app_spend(self, ticks: int) -> None:
         self._run_until(self.now() + ticks)
 
-    def app_wait_until(self, tick: int) -> None:
-        self._run_until(tick)
+    def app_wait_until(self, tick: int, until: Callable[[], bool] | None = None) -> bool:
+        return self._run_until(tick, until)
 
     def next_event_time(self) -> int | None:
         """The next ramp task, or the next heartbeat: an idle application must still

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Sequence
 
 from ..arch import Profile, get_profile
 from ..backend import Backend, PulseCounter
@@ -85,18 +85,24 @@ class SimBackend(Backend):
         engine = self._engine
         engine.credit_skipped_tasks(index - self._task_index - 1)
         self._task_index = index
+        may_stop = engine.may_stop_without_channel()
         m.in_task = True
         m.task_offset = p.sim_fill_entry_ticks
         try:
             engine.manage_steppers()
         finally:
-            cost = m.stretched(m.task_offset)
+            # the task's own CPU time; the UART interrupts that run inside it are
+            # counted as such by the loop (Machine.consume)
+            cost = m.task_offset
             m.task_offset = 0
             m.in_task = False
         m.stolen_ticks += cost
         self.task_runs += 1
+        if may_stop or engine.may_stop_without_channel():
+            m.activity += 1  # a stepper whose channel stands may have started or stopped
         if self._sync_outputs and self._make_sync_outputs():
             engine.queues_idle()
+            m.activity += 1
         skip = engine.quiescent_tasks()
         if skip is None:
             self._task_event = None  # suspended until wake_task()
@@ -105,6 +111,9 @@ class SimBackend(Backend):
             self._schedule_task(index + 1 + skip)
 
     def wake_task(self) -> None:
+        nxt = self._task_next
+        if nxt is not None and nxt <= self._task_index + 1:
+            return  # the task of the next slot is planned already (the common case)
         if getattr(self, "_engine", None) is None:
             return
         m = self.machine
@@ -127,8 +136,8 @@ class SimBackend(Backend):
                 m.block_listeners.remove(on_block)
             if ch in m.block_sources:
                 m.block_sources.remove(ch)
-        if self._qs_load is not None and self._qs_load in m.block_sources:
-            m.block_sources.remove(self._qs_load)
+        if self._qs_load is not None and self._qs_load in m.cpu_sources:
+            m.cpu_sources.remove(self._qs_load)
         self._qs_load = None
         self.channels = []
         self._sync_outputs.clear()
@@ -161,7 +170,7 @@ class SimBackend(Backend):
         load = self._qs_load
         if load is None or load.clock is not clock:
             load = self._qs_load = TimerLoad(self.machine, clock)
-            self.machine.block_sources.append(load)
+            self.machine.cpu_sources.append(load)
         ch = QuickStepChannel(self.machine, queue, clock, load)
         ch.on_idle = self._queue_idle
         self.channels.append(ch)
@@ -273,27 +282,63 @@ class SimBackend(Backend):
     def app_spend(self, ticks: int) -> None:
         self.machine.consume(ticks)
 
-    def app_wait_until(self, tick: int) -> None:
+    def app_wait_until(self, tick: int, until: Callable[[], bool] | None = None) -> bool:
         m = self.machine
+        stopped = False
         if tick > m.now:
-            # while the loop waits, interrupts delay only the pass that wakes up
-            m.run_until(tick - 1)
-            m.forget_stolen()
-            m.run_until(tick)
+            if until is None:
+                m.run_until(tick)
+            else:
+                stopped = m.run_until_changed(tick, until)
+        # the loop polled while interrupts ran; it goes on once the CPU is free
+        m.resume()
+        return stopped
 
     def next_event_time(self) -> int | None:
         return self.machine.next_event_time()
 
-    def console_write(self, data: bytes) -> None:
+    def console_write(self, data: bytes, cpu_after: Sequence[int] | None = None) -> None:
         m = self.machine
         uart = m.uart
+        chars = uart._chars
+        capacity = uart.capacity
+        consume = m.consume
+        heap = m._heap
         char_ticks = self.profile.sim_char_ticks
-        for _ in range(len(data)):
-            room = uart.room_at()
-            if room > m.now:
-                m.run_until(room)
-            uart.put(m.now)
-            m.consume(char_ticks)
+        resume_wait = m.resume_wait
+        byte_ticks = uart.byte_ticks
+        loads = uart._loads
+        for i in range(len(data)):
+            ticks = char_ticks if cpu_after is None else char_ticks + cpu_after[i]
+            if len(chars) >= capacity:  # Uart.room_at()
+                room = chars[0][2]
+                if room > m.now:  # the print waits for a free place in the buffer
+                    if heap and heap[0][0] <= room:
+                        m.run_until(room)
+                    else:
+                        m.now = room
+                    # it goes on once the interrupts running now are done (Machine.resume)
+                    # and hands the character over: the buffer is full, so the character
+                    # goes onto the wire when the one before it is done, whatever the
+                    # exact moment of the hand-over; the CPU time adds up exactly
+                    wait = resume_wait()
+                    if wait > 0:
+                        ticks += wait
+            # Uart.put(now), written out
+            t = m.now
+            prev = uart.last_start
+            load = t if t > prev else prev
+            start = prev + byte_ticks
+            if load > start:
+                start = load
+            uart.last_start = start
+            chars.append([t, load, start, prev])
+            uart.chars += 1
+            if load > t:
+                loads.append(load)
+            # handing the character over, then what follows it: one span of loop time
+            # (Machine.consume counts every interrupt in it, so this is exact)
+            consume(ticks)
 
     def block_interrupts(self, ticks: int) -> None:
         self.machine.block_interrupts(ticks)

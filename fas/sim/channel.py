@@ -58,6 +58,9 @@ class SimChannel(QueueChannel):
         self.b_t = 0
         self.b_n = 0
         self.b_counted = 0  # pulses of the block already given to the pulse counter
+        # step interrupts of blocks that ran (each block's last one is an event of its
+        # own and not counted here): the loop loses their CPU time (Machine.consume)
+        self.block_isrs_done = 0
         self.precounted = 0  # the pending single pulse was already counted by sync()
         self.pulse_counter: PulseCounter | None = None
         self.detached = False
@@ -92,6 +95,7 @@ class SimChannel(QueueChannel):
             self.m.cancel(self._start_event)
             self._start_event = None
         self.running = True
+        self.m.activity += 1
         self.no_more = False
         self.starts += 1
         e = q.entries[q.read_idx % q.queue_len]
@@ -126,12 +130,14 @@ class SimChannel(QueueChannel):
         self.event = None
         self.pending_pulse = False
         self.running = False
+        self.m.activity += 1
         self.no_more = False
         self.mode_one = False
 
     def _halt(self) -> None:
         """A limit stops the channel before the entry at read_idx makes a pulse."""
         self.running = False
+        self.m.activity += 1
         self.no_more = False
         self.mode_one = False
         self.pending_pulse = False
@@ -303,6 +309,7 @@ class SimChannel(QueueChannel):
             if complete < risen:
                 self._emit(last_rise, max(now - last_rise, 1), 1)
             self._count(risen - self.b_counted, self.b_entry.dir_level)
+        self.block_isrs_done += self._block_isrs_by(now)
         self.batch = False
 
     def _batch_end(self) -> None:
@@ -313,32 +320,47 @@ class SimChannel(QueueChannel):
         n, t, c0 = self.b_n, self.b_t, self.b_c0
         last_c = c0 + (n - 1) * t
         now = self.m.now
-        if n > 1:
-            self._emit(c0, self.lat, n - 1, t)
-        self._emit(last_c, now - last_c, 1)
+        lat = self.lat
+        if now - last_c == lat:  # on time: all n pulses alike
+            self._emit(c0, lat, n, t)
+        else:  # held back: the last pulse stays high until the interrupt runs
+            if n > 1:
+                self._emit(c0, lat, n - 1, t)
+            self._emit(last_c, now - last_c, 1)
         self._count(n - self.b_counted, e.dir_level)
+        self.block_isrs_done += n - 1
         self.batch = False
         e.steps = 1
         self._isr(last_c, now)
 
-    def block_cpu_between(self, begin: int, end: int) -> int:
-        """CPU time the interrupts of the running block take in ``(begin, end]``."""
-        if not self.isr_ticks:
+    def _block_isrs_by(self, t: int) -> int:
+        """Step interrupts of the running block that ran by tick ``t`` (interrupt j runs
+        at ``b_c0 + lat + j * b_t``; its last one runs as an event of its own)."""
+        first = self.b_c0 + self.lat
+        if t < first:
             return 0
-        return self.isr_ticks * self.block_isrs_between(begin, end)
+        k = (t - first) // self.b_t + 1
+        return k if k < self.b_n else self.b_n - 1
 
-    def block_isrs_between(self, begin: int, end: int) -> int:
-        """Step interrupts of the running block in ``(begin, end]`` (its last one, which
-        switches to the next entry, runs as an event of its own)."""
+    def block_isrs_until(self, t: int) -> int:
+        """Step interrupts of blocks that ran by tick ``t``, since the start (``t`` not
+        before the last event: the running block is the one at ``t``)."""
+        if self.batch:
+            return self.block_isrs_done + self._block_isrs_by(t)
+        return self.block_isrs_done
+
+    def block_isr_running_at(self, t: int, cost: int) -> int | None:
+        """End of the block's step interrupt that runs at tick ``t`` (``cost`` long)."""
         if not self.batch:
-            return 0
-        first = self.b_c0 + self.lat  # interrupt j of the block runs at first + j * t
-        last = self.b_n - 2
-        if last < 0 or end < first:
-            return 0
-        hi = min(last, (end - first) // self.b_t)
-        lo = 0 if begin < first else (begin - first) // self.b_t + 1
-        return max(0, hi - lo + 1)
+            return None
+        first = self.b_c0 + self.lat
+        if t < first:
+            return None
+        j = (t - first) // self.b_t
+        if j > self.b_n - 2:
+            return None
+        end = first + j * self.b_t + cost
+        return end if t < end else None
 
     def _single_isr(self) -> None:
         self.event = None
@@ -361,6 +383,7 @@ class SimChannel(QueueChannel):
         rp, wp = q.read_idx, q.next_write_idx
         if rp == wp:
             self.running = False
+            self.m.activity += 1
             self.no_more = False
             self.mode_one = False
             if self.on_idle is not None:
@@ -417,6 +440,7 @@ class SimChannel(QueueChannel):
             self.b_counted = 0
         else:
             self.b_counted -= done
+        self.block_isrs_done += done
         self.b_c0 = c0 + done * t
         self.b_n = n - done
         self.b_entry.steps = self.b_n  # as sync() keeps it: steps not yet done
@@ -463,6 +487,7 @@ class SimChannel(QueueChannel):
         if done > self.b_counted:
             self._count(done - self.b_counted, e.dir_level)
         self.precounted = max(0, self.b_counted - done)
+        self.block_isrs_done += done
         self.batch = False
         e.steps = n - done
         compare = c0 + done * t

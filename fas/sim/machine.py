@@ -50,11 +50,18 @@ class Machine:
         self.irq_blocked_ticks = 0
         self.block_listeners: list[Callable[[int, int], None]] = []
         self.stolen_ticks = 0  # CPU time of interrupt routines not yet charged to the loop
+        self.busy_until = 0  # interrupt routines run as events keep the CPU until here
+        # counts events after which a stepper may have started or stopped (a channel
+        # started or stopped, or a ramp task ran while a channel stood): a program
+        # waiting for that need not look after every other event
+        self.activity = 0
         self.block_sources: list = []  # step channels that simulate runs of pulses as one
+        self.cpu_sources: list = []  # timers without events: block_cpu_between(begin, end)
         self.task_offset = 0  # CPU time used so far by the running periodic task
         self.in_task = False
         self.events_run = 0
         self._millis_phase = 0  # timer 0 starts counting (see start_millis)
+        self._millis_started = False
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
@@ -77,10 +84,14 @@ class Machine:
             heapq.heappop(heap)
         return heap[0][0] if heap else None
 
-    def run_until(self, t: int) -> None:
-        """Process every event at or before tick ``t``; afterwards ``now == t``."""
+    def run_until(self, t: int, stop_on_activity: bool = False) -> bool:
+        """Process every event at or before tick ``t``; afterwards ``now == t``.
+
+        ``stop_on_activity``: stop early, after the events of the first tick that
+        changed :attr:`activity` (then ``now`` is that tick); True if it did."""
         heap = self._heap
         pop = heapq.heappop
+        activity = self.activity
         while heap and heap[0][0] <= t:
             time, prio, _, ev = pop(heap)
             if ev.cancelled:
@@ -92,11 +103,30 @@ class Machine:
                 heapq.heappush(heap, (ev.time, prio, self._seq, ev))
                 continue
             if time > self.now:
+                if stop_on_activity and self.activity != activity:
+                    heapq.heappush(heap, (time, prio, _, ev))
+                    return True
                 self.now = time
             self.events_run += 1
+            stolen = self.stolen_ticks
             ev.fn()
+            if self.stolen_ticks != stolen:  # an interrupt routine: the CPU is busy
+                busy = self.busy_until
+                self.busy_until = (busy if busy > time else time) + self.stolen_ticks - stolen
+        if stop_on_activity and self.activity != activity:
+            return True
         if t > self.now:
             self.now = t
+        return False
+
+    def run_until_changed(self, t: int, changed: Callable[[], bool]) -> bool:
+        """Like :meth:`run_until`, but stop after the events of the first tick at which
+        ``changed()`` holds (then ``now`` is that tick); True if it stopped that way.
+        ``changed`` is asked only after ticks that changed :attr:`activity`."""
+        while self.run_until(t, stop_on_activity=True):
+            if changed():
+                return True
+        return False
 
     def run_one(self) -> bool:
         """Process the next event (advancing time to it); False if none is left."""
@@ -133,23 +163,107 @@ class Machine:
     def consume(self, ticks: int) -> None:
         """The main loop spends ``ticks`` of CPU time; interrupts steal some on top.
 
-        Stolen are the periodic task's work and the CPU time of step interrupts (and
-        of timers that tick without events, QuickStep's): those run as events add
-        their time themselves, the others are counted here for the window by their
-        ``block_cpu_between``."""
+        Stolen are the periodic task's work and the CPU time of step interrupts:
+        those run as events add their time themselves; those of runs of pulses
+        simulated as one block are counted here for the window (every one that ran
+        in it, also of a block that ended in it, at the channel's ``isr_ticks``), as
+        are the timer-0 overflow interrupts of ``millis()``, the UART's transmit
+        interrupts and timers that tick without events (``cpu_sources``: QuickStep's
+        period interrupt).  So spending ``a`` and then ``b`` ticks ends at the same
+        tick as spending ``a + b``.
+        (Written out for speed: this runs for every character a program prints.)"""
+        p = self.profile
+        millis_cost = p.sim_millis_isr_ticks if self._millis_started else 0
+        phase = self._millis_phase
+        ov = p.sim_millis_overflow_ticks
+        uart_cost = p.sim_uart_isr_ticks
+        uart = self.uart
+        chars = uart._chars
+        heap = self._heap
+        sources = self.block_sources
+        cpu_sources = self.cpu_sources
         while True:
             start = self.now
-            self.run_until(start + ticks)
-            for src in self.block_sources:
-                self.stolen_ticks += src.block_cpu_between(start, self.now)
-            ticks = self.stolen_ticks
-            if not ticks:
-                return
+            end = start + ticks
+            stolen_isr = 0
+            if heap and heap[0][0] <= end:  # events in the window: blocks may change
+                for src in sources:
+                    if src.isr_ticks:
+                        stolen_isr -= src.isr_ticks * src.block_isrs_until(start)
+                self.run_until(end)
+                stolen = self.stolen_ticks
+                for src in sources:
+                    if src.isr_ticks:
+                        stolen_isr += src.isr_ticks * src.block_isrs_until(end)
+            else:  # no event: the running blocks stay (SimChannel.block_isrs_until)
+                self.now = end
+                stolen = self.stolen_ticks
+                for src in sources:
+                    if src.batch and src.isr_ticks:
+                        first = src.b_c0 + src.lat
+                        if end >= first:
+                            t = src.b_t
+                            last = src.b_n - 1
+                            k = (end - first) // t + 1
+                            if k > last:
+                                k = last
+                            if start >= first:
+                                k0 = (start - first) // t + 1
+                                k -= k0 if k0 < last else last
+                            stolen_isr += src.isr_ticks * k
+            if stolen_isr:
+                stolen += stolen_isr
+            for src in cpu_sources:
+                stolen += src.block_cpu_between(start, end)
+            if millis_cost and end >= phase:
+                n = (end - phase) // ov
+                if start > phase:
+                    n -= (start - phase) // ov
+                stolen += millis_cost * n
+            if uart_cost and chars and chars[-1][1] > start:
+                stolen += uart_cost * uart.isr_loads_between(start, end)
             self.stolen_ticks = 0
+            if not stolen:
+                return
+            ticks = stolen
 
-    def forget_stolen(self) -> None:
-        """The loop only polled while interrupts ran: their time delayed nothing."""
+    def resume(self) -> None:
+        """The loop waited (polling) until now; it goes on once no interrupt routine
+        holds the CPU.  What the routines took while it waited delayed nothing."""
+        wait = self.resume_wait()
+        if wait > 0:
+            self.consume(wait)
+
+    def resume_wait(self) -> int:
+        """For :meth:`resume`: forget what interrupts took while the loop waited, and
+        return how long the routines running now still hold the CPU.
+        (Written out for speed: a print that waits for the UART comes here per character.)"""
         self.stolen_ticks = 0
+        now = self.now
+        wait = self.busy_until - now
+        p = self.profile
+        for src in self.block_sources:  # a step interrupt inside a block of pulses
+            if src.batch:  # (SimChannel.block_isr_running_at)
+                first = src.b_c0 + src.lat
+                if now >= first:
+                    j = (now - first) // src.b_t
+                    if j <= src.b_n - 2:
+                        end = first + j * src.b_t + src.isr_ticks
+                        if end - now > wait:
+                            wait = end - now
+        cost = p.sim_uart_isr_ticks
+        if cost:
+            chars = self.uart._chars
+            if chars and chars[-1][1] > now - cost:  # a load that may still run
+                end = self.uart.isr_running_at(now, cost)
+                if end is not None and end - now > wait:
+                    wait = end - now
+        cost = p.sim_millis_isr_ticks
+        if cost and self._millis_started and now >= self._millis_phase:
+            last = now - (now - self._millis_phase) % p.sim_millis_overflow_ticks
+            if last > self._millis_phase and now < last + cost and last + cost - now > wait:
+                wait = last + cost - now
+        return wait
 
     def block_interrupts(self, ticks: int) -> None:
         """The main loop runs ``ticks`` with interrupts disabled (busy wait)."""
@@ -166,6 +280,13 @@ class Machine:
     def start_millis(self) -> None:
         """Arduino's start-up has just started timer 0, the source of ``millis()``."""
         self._millis_phase = self.now
+        self._millis_started = True
+
+    def millis_isrs_between(self, begin: int, end: int) -> int:
+        """Timer-0 overflow interrupts in ``(begin, end]``."""
+        ov = self.profile.sim_millis_overflow_ticks
+        phase = self._millis_phase
+        return max(0, (end - phase) // ov) - max(0, (begin - phase) // ov)
 
     def millis(self) -> int:
         """Arduino ``millis()``: timer-0 overflows with the 1.024 ms fraction fix-up."""

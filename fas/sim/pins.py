@@ -92,11 +92,15 @@ class PinBank:
         """
         if count <= 0:
             return
-        self.rise[pin] = self.rise.get(pin, 0) + count
-        self.fall[pin] = self.fall.get(pin, 0) + count
-        self.high_total[pin] = self.high_total.get(pin, 0) + count * width
-        if width > self.high_max.get(pin, 0):
-            self.high_max[pin] = width
+        rise = self.rise
+        rise[pin] = rise.get(pin, 0) + count
+        fall = self.fall
+        fall[pin] = fall.get(pin, 0) + count
+        total = self.high_total
+        total[pin] = total.get(pin, 0) + count * width
+        high_max = self.high_max
+        if width > high_max.get(pin, 0):
+            high_max[pin] = width
         self.level[pin] = 0
         if self.sinks:
             times = [0] * (2 * count)

@@ -77,6 +77,7 @@ class QuickStepChannel(SimChannel):
         tb = self.clock.timebase(self.m.now)
         self.wrap = tb.base_ticks
         self.running = True
+        self.m.activity += 1
         self.no_more = False
         self.trailing = False
         self.starts += 1
@@ -140,6 +141,7 @@ class QuickStepChannel(SimChannel):
     # ------------------------------------------------------------ internals
     def _stop(self) -> None:
         self.running = False
+        self.m.activity += 1
         self.no_more = False
         self.mode_one = False
         self.trailing = False

@@ -16,11 +16,15 @@ such a window waits for its end; the line goes idle meanwhile.  A write of chara
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from collections import deque
+from operator import itemgetter
+
+_load = itemgetter(1)  # the load tick of a character record
 
 
 class Uart:
-    __slots__ = ("byte_ticks", "capacity", "_chars", "last_start", "chars")
+    __slots__ = ("byte_ticks", "capacity", "_chars", "last_start", "chars", "_loads", "_pos")
 
     def __init__(self, byte_ticks: int, capacity: int) -> None:
         self.byte_ticks = byte_ticks
@@ -30,6 +34,10 @@ class Uart:
         self._chars: deque[list[int]] = deque(maxlen=capacity)
         self.last_start = -(1 << 62)
         self.chars = 0
+        # load ticks of the characters the transmit interrupt loaded, in order, and the
+        # number of them at or before the last window asked about (windows move forward)
+        self._loads: list[int] = []
+        self._pos = 0
 
     def room_at(self) -> int:
         """Earliest tick at which one more character can be handed over."""
@@ -45,6 +53,8 @@ class Uart:
         self.last_start = start
         self._chars.append([t, load, start, prev])
         self.chars += 1
+        if load > t:
+            self._loads.append(load)
 
     def interrupts_blocked(self, begin: int, end: int) -> None:
         """Interrupts are off in ``[begin, end)``: loads due in it wait for its end.
@@ -68,6 +78,10 @@ class Uart:
             prev_start = start
         if prev_start is not None:
             self.last_start = prev_start
+            self._loads[:] = ([x for x in self._loads if x < begin]
+                              + [ch[1] for ch in self._chars
+                                 if ch[1] >= begin and ch[1] > ch[0]])
+            self._pos = min(self._pos, bisect_right(self._loads, begin))
 
     def isr_loads_between(self, begin: int, end: int) -> int:
         """Characters the transmit interrupt loads in ``(begin, end]``.
@@ -75,14 +89,30 @@ class Uart:
         A character written while the data register is free goes there directly;
         only the ones that waited in the buffer are loaded by the interrupt.
         """
-        n = 0
-        for ch in reversed(self._chars):
-            load = ch[1]
-            if load <= begin:
-                break
-            if load <= end and load > ch[0]:
-                n += 1
-        return n
+        loads = self._loads
+        n = len(loads)
+        i = self._pos
+        if i and loads[i - 1] > begin:  # a window before the last one
+            i = bisect_right(loads, begin)
+        while i < n and loads[i] <= begin:
+            i += 1
+        if i > 4096:  # forget what lies far behind
+            del loads[:i - 256]
+            n -= i - 256
+            i = 256
+        self._pos = i
+        j = i
+        while j < n and loads[j] <= end:
+            j += 1
+        return j - i
+
+    def isr_running_at(self, t: int, cost: int) -> int | None:
+        """End of the transmit interrupt (``cost`` long) that runs at tick ``t``."""
+        loads = self._loads
+        i = bisect_right(loads, t)
+        if i and loads[i - 1] > t - cost:
+            return loads[i - 1] + cost
+        return None
 
     def idle_at(self) -> int:
         """Tick at which the last character handed over has left the wire."""

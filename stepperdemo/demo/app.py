@@ -24,7 +24,7 @@ from fas.backend import Backend
 from fas.codes import PIN_UNDEFINED, RAMP_STATE_MASK
 
 from .. import messages as msg
-from ..program import EndReason, Program
+from ..program import LoopProgram
 from . import quickstep as qs_console
 from .commands import HELP, Mode, dispatch
 from .testseq import TEST_STATE_ERROR, SeqSlot
@@ -84,7 +84,7 @@ def parse_values(arg: bytes) -> list[int] | None:
     return None
 
 
-class StepperDemo(Program):
+class StepperDemo(LoopProgram):
     """The StepperDemo program on a backend; drive it with :meth:`run_until`."""
 
     title = "StepperDemo"
@@ -183,15 +183,30 @@ class StepperDemo(Program):
             b.app_spend(rest)
             return
         share, extra = divmod(rest, n)
-        for i in range(n):
-            b.console_write(data[i:i + 1])
-            b.app_spend(share + (1 if i < extra else 0))
+        b.console_write(data, [share + 1] * extra + [share] * (n - extra))
 
     def lookup(self, text: str) -> None:
         """CPU time the firmware spends on a text it looks up but does not print."""
         self._print_from_table(b"", msg.TABLE_SCAN[text])
 
+    def print_number(self, value: int) -> None:
+        """A number as the firmware prints it: a minus sign, then the digits, which
+        ``Print::printNumber`` computes first (one 32-bit division each)."""
+        p = self.profile
+        text = str(value)
+        if value < 0:
+            self.print("-")
+            text = text[1:]
+        self.backend.app_spend(p.sim_print_call_ticks + len(text) * p.sim_print_digit_ticks)
+        self.print(text)
+
+    def println_number(self, value: int) -> None:
+        self.print_number(value)
+        self.println()
+
     def println(self, text: str | bytes = "") -> None:
+        if not text and self.profile.sim_print_call_ticks:
+            self.backend.app_spend(self.profile.sim_print_call_ticks)  # println("")
         if isinstance(text, str):
             self.print(text + msg.CRLF)
         else:
@@ -273,9 +288,12 @@ class StepperDemo(Program):
             self.println()
         self._setup_done = True
         self.print(msg.BANNER_VERSION)
-        self.println(msg.BANNER_F_CPU + str(p.f_cpu))
-        self.println(msg.BANNER_TICKS + str(p.ticks_per_s))
-        self.println(msg.BANNER_STEPPERS + str(p.max_steppers))
+        self.print(msg.BANNER_F_CPU)
+        self.println_number(p.f_cpu)
+        self.print(msg.BANNER_TICKS)
+        self.println_number(p.ticks_per_s)
+        self.print(msg.BANNER_STEPPERS)
+        self.println_number(p.max_steppers)
         self.engine.init()
         if p.debug_led_pin != PIN_UNDEFINED:
             self.engine.set_debug_led(p.debug_led_pin)
@@ -337,64 +355,77 @@ class StepperDemo(Program):
         return self.steppers[self.selected]
 
     def _info(self, s, long_info: bool) -> None:
+        self.backend.app_spend(self.profile.sim_info_ticks)
         self.print("@")
         if self.profile.has_pulse_counter and s.pulse_counter_attached():
             pcnt_1 = s.read_pulse_counter()
             pos = s.get_current_position()
             pcnt_2 = s.read_pulse_counter()
-            self.print(str(pos))
-            self.print(msg.PCNT_OPEN + str(pcnt_1) + msg.PCNT_CLOSE)
+            self.print_number(pos)
+            self.print(msg.PCNT_OPEN)
+            self.print_number(pcnt_1)
+            self.print(msg.PCNT_CLOSE)
             if pcnt_1 != pcnt_2:
-                self.print(msg.PCNT_OPEN + str(pcnt_2) + msg.PCNT_CLOSE)
+                self.print(msg.PCNT_OPEN)
+                self.print_number(pcnt_2)
+                self.print(msg.PCNT_CLOSE)
         else:
-            self.print(str(s.get_current_position()))
+            self.print_number(s.get_current_position())
         if s.is_running():
             if s.is_running_continuously():
                 self.print(msg.STATUS_NONSTOP)
             else:
                 self.print(msg.STATUS_TARGET)
-                self.print(str(s.target_pos()))
+                self.print_number(s.target_pos())
             self.print(msg.STATUS_QUEUE_END)
-            self.print(str(s.get_position_after_commands_completed()))
+            self.print_number(s.get_position_after_commands_completed())
             self.print(msg.STATUS_V)
             if self.speed_in_milli_hz:
-                self.print(str(s.get_current_speed_in_milli_hz()))
+                self.print_number(s.get_current_speed_in_milli_hz())
                 self.print(msg.STATUS_MSTEPS)
             else:
-                self.print(str(s.get_period_in_us_after_commands_completed()))
+                self.print_number(s.get_period_in_us_after_commands_completed())
                 self.print(msg.STATUS_US)
-                self.print(str(s.get_period_in_ticks_after_commands_completed()))
+                self.print_number(s.get_period_in_ticks_after_commands_completed())
                 self.print(msg.STATUS_TICKS)
             if s.is_ramp_generator_active():
                 state = s.ramp_state() & RAMP_STATE_MASK
                 text = msg.RAMP_STATE_TEXT.get(state)
-                self.print(text if text is not None else str(s.ramp_state()))
+                if text is not None:
+                    self.print(text)
+                else:
+                    self.print_number(s.ramp_state())
             else:
                 self.print(msg.STATUS_MANUAL)
             if s.quickstep is not None:
                 self.print(qs_console.status_suffix(s))
         elif long_info:
             self.print(msg.ACCELERATION_STATUS)
-            self.print(str(s.get_acceleration()))
+            self.print_number(s.get_acceleration())
             if self.speed_in_milli_hz:
                 self.print(msg.SPEED_STATUS_FREQ)
-                self.print(str(s.get_speed_in_milli_hz()))
+                self.print_number(s.get_speed_in_milli_hz())
             else:
                 self.print(msg.SPEED_STATUS_TIME)
-                self.print(str(s.get_speed_in_us()))
+                self.print_number(s.get_speed_in_us())
             if s.quickstep is not None:
                 self.print(qs_console.table_suffix(self, s))
         self.print(" ")
 
     def output_info(self, only_running: bool) -> None:
         need_ln = False
+        scan = self.profile.sim_info_scan_ticks
         for i, s in enumerate(self.steppers):
             if s is None:
                 continue
+            if scan:
+                self.backend.app_spend(scan)
             if not only_running:
                 self.print(msg.TABLE_SELECTED if i == self.selected else msg.TABLE_OTHER)
             if not only_running or s.is_running():
-                self.print("M" + str(i + 1) + ": ")
+                self.print("M")
+                self.print_number(i + 1)
+                self.print(": ")
                 self._info(s, not only_running)
                 if self.profile.driver_select and not s.is_running():
                     self.print(msg.DRIVER_TYPE_SEP + s.driver_type_string())
@@ -485,6 +516,7 @@ class StepperDemo(Program):
                 if self.out_buffer:
                     cmd = bytes(self.out_buffer)
                     self.commands += 1
+                    self._spend_command(cmd)
                     if not dispatch(self, cmd):
                         self.rejected += 1
                         self.print(msg.UNKNOWN_COMMAND)
@@ -520,6 +552,14 @@ class StepperDemo(Program):
                     self.usage()
             self.stopped = not running
         b.app_spend(self.profile.sim_loop_pass_ticks)
+
+    def _spend_command(self, cmd: bytes) -> None:
+        """CPU time of parsing and executing a command, without its prints."""
+        p = self.profile
+        ticks = p.sim_cmd_ticks.get(chr(cmd[0]), p.sim_cmd_default_ticks)
+        ticks += (len(cmd) - 1) * p.sim_cmd_arg_char_ticks
+        if ticks:
+            self.backend.app_spend(ticks)
 
     def _run_tests(self, ms: int) -> None:
         finished = True
@@ -589,12 +629,30 @@ class StepperDemo(Program):
         return not self.rx
 
     def _needs_machine_events(self) -> bool:
-        """False when only the clock can end the current wait (test sequences that
-        wait for time): then the loop need not look at every interrupt."""
-        if self.mode != Mode.TEST or not self.test_ongoing or self.waiting_interactive:
+        """True when the loop must look at every interrupt, as the firmware's passes
+        do: a test sequence waits for something in the machine (a stepper to stop,
+        ...), an interactive W spins, or the G-code machine waits for queue room.
+        Otherwise only a stepper starting or stopping can end an idle wait
+        (:meth:`_watch`), besides the clock."""
+        if self.waiting_interactive or self.mode == Mode.GCODE:
             return True
-        return any(slot.test is not None and slot.state != TEST_STATE_ERROR
-                   and slot.wake_ms is None for slot in self.test_slots)
+        if self.mode != Mode.TEST or not self.test_ongoing:
+            return False
+        for slot, s in zip(self.test_slots, self.steppers):
+            if slot.test is None or slot.state == TEST_STATE_ERROR or slot.wake_ms is not None:
+                continue
+            # a wait for the stop of a running stepper ends with the stop (_watch)
+            if not (slot.stop_only and s is not None and s.is_running()):
+                return True
+        return False
+
+    def _running_key(self) -> tuple[bool, ...]:
+        return tuple(s is not None and s.is_running() for s in self.steppers)
+
+    def _watch(self) -> Callable[[], bool]:
+        """A predicate: has any stepper started or stopped since now?"""
+        key = self._running_key()
+        return lambda: self._running_key() != key
 
     def _held_by_w(self) -> bool:
         if self.out_buffer or self.pause_ms:
@@ -625,9 +683,10 @@ class StepperDemo(Program):
             candidates.append(b.tick_at_millis(self.last_time + 100))
         if self.simulate_blocked_isr:
             candidates.append(b.tick_at_millis((b.millis() | 0xFF) + 1))
-        for slot in self.test_slots:
-            if slot.test is not None and slot.wake_ms is not None:
-                candidates.append(b.tick_at_millis(slot.wake_ms))
+        if self.mode == Mode.TEST and self.test_ongoing:  # tests run in test mode only
+            for slot in self.test_slots:
+                if slot.test is not None and slot.wake_ms is not None:
+                    candidates.append(b.tick_at_millis(slot.wake_ms))
         if self.mode == Mode.GCODE:
             wake = self.gcode.wake_tick()
             if wake is not None:
@@ -637,29 +696,29 @@ class StepperDemo(Program):
         return max(min(candidates), b.now())
 
     def next_wake_tick(self) -> int | None:
-        """When the loop next has something to do (None: only new input can wake it)."""
+        """When the loop next has something to do (None: only new input can wake it).
+        A stepper may stop at any interrupt: the next machine event is a candidate."""
         if not self._setup_done or not self._idle():
             return self.backend.now()
-        return self._wake_time()
+        times = [t for t in (self._wake_time(), self.backend.next_event_time())
+                 if t is not None]
+        return max(min(times), self.backend.now()) if times else None
 
     def _advance(self, limit: int) -> None:
-        """One loop pass, after skipping idle time (never beyond ``limit``)."""
+        """One loop pass, after skipping idle time (never beyond ``limit``).
+
+        While idle the loop only polls: it takes up work at the next deadline of the
+        clock, or as soon as a stepper starts or stops, once no interrupt routine
+        holds the CPU (``app_wait_until``)."""
         b = self.backend
         if self._idle():
             wake = self._wake_time()
             if wake is None or wake > limit:
-                b.app_wait_until(limit)
-                return
-            b.app_wait_until(wake)
+                if not b.app_wait_until(limit, self._watch()):
+                    return
+            else:
+                b.app_wait_until(wake, self._watch())
         self.loop_pass()
-
-    def run_until(self, tick: int) -> None:
-        """Run loop passes until simulated time reaches ``tick``."""
-        if not self._setup_done:
-            self.setup()
-        b = self.backend
-        while b.now() < tick:
-            self._advance(tick)
 
     def finished(self) -> bool:
         """Input consumed and everything at rest (the end of a scripted run)."""
@@ -667,38 +726,18 @@ class StepperDemo(Program):
                 and self.pause_ms == 0 and not self.any_running()
                 and (self.mode != Mode.GCODE or not self.gcode.busy()))
 
-    def run_script(self, line: str | bytes, *, firmware_end: bool = False,
-                   max_ticks: int | None = None) -> EndReason:
-        """Run a scripted line to its end.
-
-        ``firmware_end``: stop one second after the input was consumed (as the
-        conformance runs did).  Otherwise stop once the input is consumed and every
-        stepper and test has come to rest.
-        """
-        self.load_script(line)
-        self.setup()
-        b = self.backend
-        limit = b.now() + (max_ticks if max_ticks is not None
-                           else 3600 * self.profile.ticks_per_s)
-        while True:
-            if self.input_consumed_at is not None:
-                if firmware_end:
-                    b.app_wait_until(self.input_consumed_at + self.profile.ticks_per_s)
-                    return EndReason.FIRMWARE_END
-                if self.finished():
-                    return EndReason.IDLE
-            if b.now() >= limit:
-                return EndReason.MAX_TIME
-            self._advance(limit)
-
     # ------------------------------------------------------------- helpers
     def _ramp_abort(self, stepper, res, cmd) -> None:
         self.ramp_aborts += 1
         if self.scripted:
             self.println(msg.ABORT_RAMP)
-            self.print(str(int(res)))
-            self.print(" Steps=" + str(cmd.steps) + " ticks=" + str(cmd.ticks))
-            self.println(" min_cmd_ticks=" + str(self.profile.min_cmd_ticks))
+            self.print_number(int(res))
+            self.print(" Steps=")
+            self.print_number(cmd.steps)
+            self.print(" ticks=")
+            self.print_number(cmd.ticks)
+            self.print(" min_cmd_ticks=")
+            self.println_number(self.profile.min_cmd_ticks)
 
     def force_stop_all(self) -> None:
         """Console Ctrl-C: stop every stepper at once, keep positions; release holds."""

@@ -62,10 +62,6 @@ def _values(arg: bytes) -> list[int] | None:
     return parse_values(arg)
 
 
-def _i32(v: int) -> str:
-    return str(v)
-
-
 # ------------------------------------------------------------------ all modes
 @command("M", Mode.NORMAL, Mode.TEST, Mode.CONFIG, hint="select stepper n", arg="<n>")
 def cmd_select(app: StepperDemo, arg: bytes) -> bool:
@@ -76,7 +72,7 @@ def cmd_select(app: StepperDemo, arg: bytes) -> bool:
     if 0 < n <= app.profile.max_steppers and app.steppers[n - 1] is not None:
         app.print(msg.SELECT_STEPPER)
         app.selected = n - 1
-        app.println(str(n))
+        app.println_number(n)
         return True
     return False
 
@@ -212,7 +208,7 @@ def cmd_pulse_counter(app: StepperDemo, arg: bytes) -> bool:
     if values is None or len(values) == 2:
         return False
     app.print(msg.ATTACH_PULSE_COUNTER)
-    app.println(_i32(values[0]))
+    app.println_number(values[0])
     if len(values) == 3:
         ok = s.attach_to_pulse_counter(values[0] & 0xFF, _i16(values[1]), _i16(values[2]))
     else:
@@ -240,7 +236,7 @@ def _setter(text: str, apply: Callable, *, milli_hz: bool | None = None,
         if milli_hz is not None:
             app.speed_in_milli_hz = milli_hz
         app.print(text)
-        app.println(_i32(value))
+        app.println_number(value)
         res = apply(app.selected_stepper, value)
         if check and res is not None and res < 0:
             app.print(msg.ERROR_INVALID_VALUE)
@@ -278,7 +274,7 @@ def _mover(text: str, apply: Callable, letter: str = "") -> Handler:
         if value is None:
             return False
         app.print(text)
-        app.println(_i32(value))
+        app.println_number(value)
         res = int(apply(app.selected_stepper, value))
         app.print(msg.MOVE_RESULT[res])
         if letter in "RP":
@@ -305,10 +301,10 @@ def cmd_enable_delay(app: StepperDemo, arg: bytes) -> bool:
     if value is None:
         return False
     app.print(msg.SET_ENABLE_TIME)
-    app.println(_i32(value))
+    app.println_number(value)
     res = int(app.selected_stepper.set_delay_to_enable(value))
     app.print(msg.RETURN_CODE)
-    app.println(str(res & 0xFF))
+    app.println_number(res & 0xFF)
     return True
 
 
@@ -319,7 +315,7 @@ def cmd_wait_ms(app: StepperDemo, arg: bytes) -> bool:
     value = _number(arg)
     if value is None:
         return False
-    app.print(_i32(value))
+    app.print_number(value)
     app.print(msg.WAIT_MS)
     app.pause_ms = value & 0xFFFFFFFF
     app.pause_start = app.backend.millis()
@@ -371,7 +367,7 @@ def _runner(letter: str, text: str, forward: bool, hint: str) -> None:
         s = app.selected_stepper
         res = int(s.run_forward() if forward else s.run_backward())
         app.print(msg.RETURN_CODE)
-        app.println(str(res & 0xFF))
+        app.println_number(res & 0xFF)
         return True
     TABLE[(Mode.NORMAL, ord(letter))] = handler
     HELP[Mode.NORMAL].append((letter, hint))
@@ -460,7 +456,7 @@ def cmd_direction_pin(app: StepperDemo, arg: bytes) -> bool:
     pin = values[0] & 0xFF
     app.print(msg.DIRECTION_PIN)
     app.print(msg.SET_TO_PIN)
-    app.println(_i32(values[0]))
+    app.println_number(values[0])
     if len(values) == 1:
         s.set_direction_pin(pin)
         return True
@@ -472,7 +468,7 @@ def cmd_direction_pin(app: StepperDemo, arg: bytes) -> bool:
         s.set_direction_pin(pin, values[1] != 0)
     else:
         app.print(msg.DELAY_IN_US)
-        app.println(_i32(values[2]))
+        app.println_number(values[2])
         s.set_direction_pin(pin, values[1] != 0, values[2] & 0xFFFF)
     return True
 

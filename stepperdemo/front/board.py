@@ -35,7 +35,8 @@ from ..demo.commands import HELP, Mode
 from ..watch import plots, status_report
 from .board_link import BoardLink, SerialBoardLink
 from .board_log import BoardLog
-from .board_session import BOOT_WAIT_S, POLL_S, QUIET_S, BoardSession, End
+from .board_options import add_arguments, check_arguments  # noqa: F401 (re-exported)
+from .board_session import BOOT_WAIT_S, POLL_S, BoardSession, End
 from .console import Console
 
 EXIT_OK = 0
@@ -58,35 +59,6 @@ META_COMMANDS = {
 }
 _SIMULATION_ONLY = ("/arch", "/speed", "/trace", "/vcd", "/link", "/estop")
 PARTIAL_LINE_S = 0.3  # a line the board left unfinished is shown after this long
-
-
-def add_arguments(ap: argparse.ArgumentParser) -> None:
-    g = ap.add_argument_group("a board running the original StepperDemo (issue 15)")
-    g.add_argument("--board", metavar="DEVICE",
-                   help="talk to a board running StepperDemo at this serial port or pty "
-                        "(--baud sets the speed); with -c: run the line on it")
-    g.add_argument("--log", metavar="FILE",
-                   help="--board: append the session to FILE, one line per command sent "
-                        "and line received, with timestamps")
-    g.add_argument("--quiet-ms", type=int, default=int(QUIET_S * 1000), metavar="MS",
-                   help="--board -c: the board counts as idle once nothing holds it and it "
-                        f"printed nothing for MS (default {int(QUIET_S * 1000)})")
-    g.add_argument("--boot-wait", type=float, default=BOOT_WAIT_S, metavar="SECONDS",
-                   help="--board: after opening the port, wait this long for the start "
-                        "banner of a board that restarts when opened (default "
-                        f"{BOOT_WAIT_S:g}; 0: do not wait)")
-
-
-def check_arguments(args: argparse.Namespace) -> str | None:
-    if getattr(args, "port", None):
-        return msg.CLI_BOARD_AND_PORT
-    if getattr(args, "vcd", None) or getattr(args, "steps_csv", None):
-        return msg.CLI_BOARD_NO_PINS
-    if args.program != "demo":
-        return msg.CLI_BOARD_NOT_DEMO.format(program=args.program)
-    if args.quiet_ms < 50 or args.boot_wait < 0:
-        return msg.CLI_BOARD_TIMES
-    return None
 
 
 def _open(args: argparse.Namespace) -> BoardLink:

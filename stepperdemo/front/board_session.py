@@ -39,9 +39,8 @@ from ..watch.status_lines import BoardState
 from .board_input import InputPacer
 from .board_link import BoardLink
 from .board_log import BoardLog
+from .board_options import BOOT_WAIT_S, QUIET_S  # noqa: F401 (re-exported)
 
-QUIET_S = 0.5  # five status-line periods without a line: the board is quiet
-BOOT_WAIT_S = 2.5  # an Arduino's bootloader waits ~1.5 s after a reset before setup()
 POLL_S = 0.05
 CONFIG_PROMPT_WAIT_S = 6.0  # ESP32/RP2040 StepperDemo: 5 s for a pin-configuration digit
 
@@ -75,6 +74,7 @@ class BoardSession:
         self.input_start_s: float | None = None  # first command sent since the reset
         self._partial = bytearray()
         self.last_rx_s = link.now()
+        self.last_tx_s = self.last_rx_s  # when the last input went out
         self._banner_until = link.now() + boot_wait_s  # opening a port may restart it
 
     def now(self) -> float:
@@ -132,6 +132,7 @@ class BoardSession:
             self._lose(str(exc))
             return False
         t = self.now()
+        self.last_tx_s = t
         if self.input_start_s is None:
             self.input_start_s = t
         if self.log is not None:
@@ -186,7 +187,9 @@ class BoardSession:
             return "test"
         if st.busy():
             return "motion"
-        if self.now() - self.last_rx_s < self.quiet_s:
+        # quiet: quiet_s without a byte either way (the answer to a command may come
+        # later than the pacer's no-answer window when the host or the board is slow)
+        if self.now() - max(self.last_rx_s, self.last_tx_s) < self.quiet_s:
             return "output"
         return None
 

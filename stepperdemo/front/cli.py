@@ -3,20 +3,22 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Sequence
 
 from fas.arch import PROFILES
 
 from .. import messages as msg
-from ..watch import observe
-from . import board, serial_cli
+from ..watch import options as observe_options
+from . import board_options, serial_cli
 
 EXIT_OK = 0
 EXIT_TEST_FAILED = 1
 EXIT_USAGE = 2
 EXIT_MAX_TIME = 3
 EXIT_SCENARIO_FAILED = 4
+EXIT_CLOSED_PIPE = 141  # 128 + SIGPIPE: what a shell reports for a tool whose reader left
 
 SUBCOMMANDS = ("run", "device", "relay", "gcode")
 PROGRAM_SUBCOMMANDS = ("winder",)  # programs beside StepperDemo: stepperdemo winder ...
@@ -46,7 +48,8 @@ Subcommands:
 
 exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
             3 --max-time reached, 4 a scenario failed (run), 5 device lost
-            (--board: the board was lost or restarted), 130 interrupted"""
+            (--board: the board was lost or restarted), 130 interrupted,
+            141 the reader of the output went away (e.g. `| head`), quietly"""
 
 
 def build_parser(program: str = "demo") -> argparse.ArgumentParser:
@@ -82,9 +85,9 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
                     help="interactive: run the simulated clock FACTOR times real time")
     ap.add_argument("--history", metavar="FILE",
                     help="interactive: history file (default: in the user state directory)")
-    observe.add_arguments(ap)  # --vcd --plot --plot-size --report --steps-csv (issue 6)
+    observe_options.add_arguments(ap)  # --vcd --plot --plot-size --report --steps-csv (issue 6)
     serial_cli.add_arguments(ap)  # --port --baud --watchdog-ms (issue 7)
-    board.add_arguments(ap)  # --board --log --quiet-ms --boot-wait (issue 15)
+    board_options.add_arguments(ap)  # --board --log --quiet-ms --boot-wait (issue 15)
     ap.set_defaults(program=program)
     return ap
 
@@ -102,6 +105,7 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
     if args.port:  # issue 7: a device behind a serial port executes the queue commands
         return serial_cli.run_scripted(args, write)
     if getattr(args, "board", None):  # issue 15: a board running the original StepperDemo
+        from . import board
         return board.run_scripted(args, write)
     backend = SimBackend(args.arch)
     if getattr(args, "test_mode_wait", False) and args.program == "demo":  # the demo's w
@@ -112,8 +116,11 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
     except ValueError as exc:  # the profile cannot host the program
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return EXIT_USAGE
+    observers = None
     try:  # watching the run (issue 6): --vcd, --plot, --report, --steps-csv
-        observers = observe.from_arguments(backend, args, app.trace_signals())
+        if observe_options.wanted(args):
+            from ..watch import observe
+            observers = observe.from_arguments(backend, args, app.trace_signals())
     except OSError as exc:
         print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
         return EXIT_USAGE
@@ -134,6 +141,33 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """The ``stepperdemo`` command; a closed output pipe ends it quietly (issue 16)."""
+    try:
+        return _main(argv)
+    except BrokenPipeError:
+        return closed_pipe()
+
+
+def closed_pipe() -> int:
+    """The reader of our output went away (``| head``): stop without a traceback, as
+    Unix tools do.  Standard output (and standard error, if it is the same pipe) is
+    pointed at /dev/null so that the interpreter's last flush finds nothing to fail."""
+    try:
+        same = os.path.samestat(os.fstat(sys.stdout.fileno()), os.fstat(sys.stderr.fileno()))
+    except (OSError, ValueError):
+        same = False
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    for stream, wanted in ((sys.stdout, True), (sys.stderr, same)):
+        if wanted:
+            try:
+                os.dup2(devnull, stream.fileno())
+            except (OSError, ValueError):
+                pass
+    os.close(devnull)
+    return EXIT_CLOSED_PIPE
+
+
+def _main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] in SUBCOMMANDS:
         if argv[0] == "run":
@@ -154,13 +188,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.max_time <= 0:
         print(msg.CLI_ERROR.format(problem="--max-time must be positive"), file=sys.stderr)
         return EXIT_USAGE
-    problem = observe.check_arguments(args)  # issue 6: e.g. --plot without matplotlib
+    problem = observe_options.check_arguments(args)  # issue 6: e.g. --plot without matplotlib
     if problem is not None:
         print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
     if args.command is not None:
         return run_scripted(args)
     if getattr(args, "board", None):  # issue 15
+        from . import board
         return board.run_console(args)
     from .console import run_console
     return run_console(args)

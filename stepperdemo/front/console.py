@@ -13,6 +13,7 @@ import asyncio
 import os
 import sys
 import time
+from collections import deque
 from pathlib import Path
 from typing import Awaitable, Callable, Iterable
 
@@ -28,10 +29,11 @@ from fas.sim import SimBackend
 
 from .. import messages as msg
 from ..program import Program, make_program
+from ..watch.recent import MAX_EDGES
 from . import serial_cli  # issue 7: --port, /reconnect /link /estop
 from .mode_history import ModeHistory
 from .trace_commands import META_COMMANDS as TRACE_META_COMMANDS
-from .trace_commands import TraceCommands
+from .trace_commands import TraceCommands, help_lines
 
 META_COMMANDS = {
     "/help": "console commands",
@@ -43,6 +45,8 @@ META_COMMANDS = {
     **TRACE_META_COMMANDS,  # /trace /vcd /plot /report (issue 6)
     **serial_cli.META_COMMANDS,  # /reconnect /link /estop (issue 7)
 }
+
+TOOLBAR_REFRESH_S = 0.25  # the toolbar (time, running steppers, mode) redraws this often
 
 Clock = Callable[[], float]
 Sleep = Callable[[float], Awaitable[None]]
@@ -111,7 +115,9 @@ class Console:
                  port: str | None = None, baud: int = 115200, watchdog_ms: int = 500,
                  backend=None, program: str = "demo",
                  program_options: dict | None = None,
-                 link_planning_ms: int | None = None) -> None:
+                 link_planning_ms: int | None = None,
+                 redraw_postpone_s: float | None = 0.01,
+                 recent_trace: bool = True, trace_edges: int = MAX_EDGES) -> None:
         self.program = program  # which program the console hosts (stepperdemo.program)
         self.program_options = program_options or {}
         self.port, self.baud, self.watchdog_ms = port, baud, watchdog_ms  # issue 7
@@ -129,8 +135,16 @@ class Console:
         self.quit = False
         self.prompt_session: PromptSession | None = None
         self._history_mode: str | None = None
-        self.trace = TraceCommands(lambda: self.app)  # /trace /vcd /plot /report (issue 6)
+        # prompt-toolkit postpones a redraw by up to this much *real* time while its loop
+        # is busy (its default); on a virtual clock (tests) pass None: redraw at once
+        self.redraw_postpone_s = redraw_postpone_s
+        self._toolbar_at = -TOOLBAR_REFRESH_S  # wall time of the last toolbar redraw
+        self.toolbar_shown: deque[str] = deque(maxlen=64)  # recent toolbar texts, for tests
+        # /trace /vcd /plot /report (issue 6); the recent motion recorded from the start
+        # on a simulated chip (issue 16; recent_trace=False starts with the trace off)
+        self.trace = TraceCommands(lambda: self.app, recent=recent_trace, max_edges=trace_edges)
         self._start(arch)
+        self.trace.new_chip()
 
     # -------------------------------------------------------------- setup
     def _start(self, arch: str) -> None:
@@ -197,19 +211,32 @@ class Console:
         t = self.backend.now() / self.backend.profile.ticks_per_s
         running = sum(1 for s in app.steppers if s is not None and s.is_running())
         status = app.toolbar_status()
+        state = (f" {app.mode_name()} mode | {status + ' | ' if status else ''}t={t:.3f}s"
+                 f" | running {running} | ")
+        self.toolbar_shown.append(state)
         return FormattedText([
             ("bold", f" {self.backend.profile.name} "),
-            ("", f" {app.mode_name()} mode | {status + ' | ' if status else ''}t={t:.3f}s"
-                 f" | running {running} | "),
+            ("", state),
             ("italic", f"{hints}  ? usage  /help"),
         ])
+
+    def refresh_toolbar(self) -> None:
+        """Redraw the prompt (and its toolbar) every TOOLBAR_REFRESH_S of wall time, so
+        that time, running steppers and mode move on while nobody types."""
+        now = self.clock()
+        if now - self._toolbar_at < TOOLBAR_REFRESH_S:
+            return
+        self._toolbar_at = now
+        session = self.prompt_session
+        if session is not None and session.app.is_running:
+            session.app.invalidate()
 
     # ------------------------------------------------------- meta commands
     def meta(self, line: str) -> None:
         parts = line.split()
         cmd, args = parts[0], parts[1:]
         if cmd == "/help":
-            for text in msg.REPL_HELP.splitlines() + msg.REPL_HELP_OBSERVE.splitlines():
+            for text in msg.REPL_HELP.splitlines() + help_lines(self.trace.max_edges):
                 self._note(text)
             for text in msg.REPL_HELP_SERIAL.splitlines() if self.port else ():  # issue 7
                 self._note(text)
@@ -252,9 +279,12 @@ class Console:
                 self._note(msg.REPL_BAD_ARG.format(cmd=cmd, problem=exc))
                 return
             self.flush(final=True)
-            self.trace.stop()  # the recording belongs to the old chip (issue 6)
+            kept = self.trace.stop()  # the recording belongs to the old chip (issue 6)
             self._start(args[0].lower())
+            self.trace.new_chip()  # ... and the new one records as the mode says (issue 16)
             self._note(msg.REPL_SWITCHED.format(name=args[0].lower()))
+            for text in kept:
+                self._note(text)
         elif self.trace.handles(cmd):  # /trace /vcd /plot /report (issue 6)
             for text in self.trace.command(cmd, args):
                 self._note(text)
@@ -291,10 +321,13 @@ class Console:
             delay = self.driver.advance()
             self.flush()
             self.follow_mode()
+            self.refresh_toolbar()
             if self.app.input_pending():
                 delay = 0.0 if delay is None else min(delay, 0.001)
-            # sleep until the program next needs the CPU; typed input wakes us earlier
-            timeout = 1.0 if delay is None else min(max(delay, 0.0), 1.0)
+            # sleep until the program next needs the CPU or the toolbar is due; typed
+            # input wakes us earlier
+            due = max(0.0, self._toolbar_at + TOOLBAR_REFRESH_S - self.clock())
+            timeout = min(due, 1.0 if delay is None else min(max(delay, 0.0), 1.0))
             self._wake.clear()
             try:
                 await asyncio.wait_for(self._wake_or_sleep(timeout), timeout + 1)
@@ -327,6 +360,7 @@ class Console:
         session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
                                 output=self._output, complete_while_typing=False)
+        session.app.max_render_postpone_time = self.redraw_postpone_s
         self.prompt_session = session
         with patch_stdout(raw=True):
             tick = asyncio.ensure_future(self.ticker())

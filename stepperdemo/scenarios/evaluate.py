@@ -15,6 +15,7 @@ from __future__ import annotations
 import bisect
 import gzip
 import statistics
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -87,23 +88,38 @@ def pin_activity(backend: SimBackend, pin: int) -> PinActivity:
     return PinActivity(rises, falls, high_max, high_total)
 
 
+def rising_edges(times: Sequence[int], levels: bytes) -> Sequence[int]:
+    """The times of the rising edges among a pin's edges (levels 0/1)."""
+    half = len(levels) // 2
+    if (len(levels) % 2 == 0 and levels[0::2] == b"\x01" * half
+            and levels[1::2] == b"\x00" * half):
+        return times[0::2]  # pulses, as a step pin has them
+    return [t for t, lv in zip(times, levels) if lv]
+
+
 def position_from_pins(backend: SimBackend, step_pin: int, dir_pin: int,
                        high_counts_up: bool = True, since: int = 0) -> int:
     """Step edges counted up while the direction pin is at its counting-up level
     (HIGH unless ``high_counts_up`` is False), down otherwise.  Without a direction
-    pin on the chip (none, or an external one) every step counts up.  ``since``:
-    only edges from this tick on (the chip was restarted then)."""
+    pin on the chip (none, or an external one) every step counts up.  A direction
+    edge at the tick of a step counts before it.  ``since``: only steps from this
+    tick on (the chip was restarted then)."""
     times, levels = backend.recorder.pin_edges(step_pin)
+    rises = rising_edges(times, bytes(levels))
+    if since:
+        rises = rises[bisect.bisect_left(rises, since):]
     if dir_pin == PIN_UNDEFINED or dir_pin & PIN_EXTERNAL_FLAG:
-        return sum(1 for t, lv in zip(times, levels) if lv and t >= since)
+        return len(rises)
     dtimes, dlevels = backend.recorder.pin_edges(dir_pin)
-    pos = 0
-    for t, lv in zip(times, levels):
-        if not lv or t < since:
-            continue
-        i = bisect.bisect_right(dtimes, t) - 1
-        level = dlevels[i] if i >= 0 else 0
-        pos += 1 if (level == 1) == high_counts_up else -1
+    up = 1 if high_counts_up else 0  # the direction level that counts up
+    # steps before the first direction edge see the pin LOW
+    before = bisect.bisect_left(rises, dtimes[0]) if len(dtimes) else len(rises)
+    pos = before if up == 0 else -before
+    for i in range(len(dtimes)):
+        lo = bisect.bisect_left(rises, dtimes[i])
+        hi = bisect.bisect_left(rises, dtimes[i + 1]) if i + 1 < len(dtimes) else len(rises)
+        if hi > lo:
+            pos += (hi - lo) if dlevels[i] == up else -(hi - lo)
     return pos
 
 

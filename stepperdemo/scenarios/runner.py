@@ -264,31 +264,58 @@ def _fmt(v: object) -> str:
     return str(v)
 
 
+DETAIL_COLUMNS = ("check", "expected", "measured", "dev", "tol", "")
+
+
+def detail_rows(r: ScenarioResult, *, verbose: bool) -> list[list]:
+    """One row per check shown: every check with ``verbose``, else the failed ones."""
+    from rich.text import Text
+
+    return [[Text(c.what), Text(_fmt(c.expected)), Text(_fmt(c.measured)),
+             "" if c.deviation is None else _fmt(c.deviation),
+             "" if c.tolerance is None else _fmt(c.tolerance),
+             Text("ok", "green") if c.ok else Text("FAIL", "bold red")]
+            for c in r.checks if verbose or not c.ok]
+
+
 def print_results(results: list[ScenarioResult], console, *, verbose: bool) -> None:
+    """The results, made for an 80-column terminal: a summary with whole scenario
+    names, then per scenario whose checks are shown (``-v``, or failed) a table of
+    its checks with only the columns that have something to say."""
+    from rich import box
     from rich.table import Table
     from rich.text import Text
 
-    table = Table(title=msg.RUN_TABLE_TITLE, show_lines=False)
-    for col in ("scenario", "check", "expected", "measured", "deviation", "tolerance", ""):
-        table.add_column(col)
+    summary = Table(title=msg.RUN_TABLE_TITLE, box=box.SIMPLE_HEAD, pad_edge=False)
+    summary.add_column("scenario", no_wrap=True)
+    summary.add_column("checks", justify="right", no_wrap=True)
+    summary.add_column("result", no_wrap=True)
     for r in results:
-        name = Text(r.name)
         if r.error:
-            table.add_row(name, msg.RUN_BROKEN, "", "", "", "", Text("ERROR", "red"))
+            summary.add_row(Text(r.name), "", Text(msg.RUN_BROKEN, "red"))
             continue
-        shown = r.checks if (verbose or not r.ok) else []
-        if not shown:
-            table.add_row(name, msg.RUN_CHECKS_PASSED.format(n=len(r.checks)), "", "", "",
-                          "", Text("ok", "green"))
-        for c in shown:
-            table.add_row(name, Text(c.what), Text(_fmt(c.expected)), Text(_fmt(c.measured)),
-                          "" if c.deviation is None else _fmt(c.deviation),
-                          "" if c.tolerance is None else _fmt(c.tolerance),
-                          Text("ok", "green") if c.ok else Text("FAIL", "bold red"))
-    console.print(table)
+        failed = sum(1 for c in r.checks if not c.ok)
+        result = (Text("ok", "green") if not failed else
+                  Text(msg.RUN_FAILED_CHECKS.format(n=failed), "bold red"))
+        summary.add_row(Text(r.name), str(len(r.checks)), result)
+    console.print(summary)
     for r in results:
         if r.error:
-            console.print(Text(r.error, "red"))
+            console.print(Text(f"{r.name}: {r.error}", "red"))
+            continue
+        rows = detail_rows(r, verbose=verbose)
+        if not rows:
+            continue
+        keep = [i for i in range(len(DETAIL_COLUMNS))
+                if i in (0, 5) or any(str(row[i]) for row in rows)]
+        table = Table(title=Text(r.name, "bold"), title_justify="left", box=box.SIMPLE_HEAD,
+                      pad_edge=False)
+        for i in keep:
+            table.add_column(DETAIL_COLUMNS[i], no_wrap=i == 5, overflow="fold",
+                             justify="right" if i in (3, 4) else "left")
+        for row in rows:
+            table.add_row(*(row[i] for i in keep))
+        console.print(table)
 
 
 def print_report(results: list[ScenarioResult], console) -> None:
@@ -329,12 +356,27 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+def _pipe_aware_console():
+    from rich.console import Console
+
+    class PipeAware(Console):
+        """A closed pipe (``| head``) ends the program the way the CLI handles it
+        (quietly, exit 141) instead of rich's own exit code 1."""
+
+        def on_broken_pipe(self) -> None:
+            self.quiet = True
+            raise BrokenPipeError
+
+    return PipeAware
+
+
 def main(argv: Sequence[str]) -> int:
     from rich.console import Console
     from rich.progress import Progress
     from rich.text import Text
 
     args = build_parser().parse_args(list(argv))
+    PipeAwareConsole = _pipe_aware_console()
     files = collect(args.paths)
     missing = [f for f in files if not f.exists()]
     for f in missing:
@@ -356,7 +398,7 @@ def main(argv: Sequence[str]) -> int:
             print(msg.PLOT_EXTRA_MISSING, file=sys.stderr)
             return EXIT_USAGE
     err = Console(stderr=True)
-    out = Console(soft_wrap=False) if not args.json else None
+    out = PipeAwareConsole(soft_wrap=False) if not args.json else None
     results: list[ScenarioResult] = []
     with Progress(console=err, transient=True, disable=args.json or not err.is_terminal) as bar:
         task = bar.add_task(msg.RUN_PROGRESS, total=len(files))

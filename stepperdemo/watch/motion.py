@@ -58,6 +58,22 @@ def demo_wiring(profile: Profile) -> list[Wiring]:
     return [Wiring.from_demo(i, cfg) for i, cfg in enumerate(profile.demo_steppers)]
 
 
+class ChannelCounts:
+    """A channel's counts at the moment a recording ended: the report of a finished
+    recording does not count what the channel did afterwards."""
+
+    entry_listeners = ()  # nothing listens any more
+
+    def __init__(self, channel) -> None:
+        self.pulses = channel.pulses
+        self.dry = channel.dry
+        self.missed_compares = channel.missed_compares
+        self.starts = channel.starts
+        if hasattr(channel, "lost_periods"):  # QuickStep
+            self.lost_periods = channel.lost_periods
+            self.clock = channel.clock
+
+
 class StepperMotion:
     """Figures of one stepper, fed edge by edge in global time order."""
 
@@ -124,6 +140,22 @@ class StepperMotion:
         self.base = {"pulses": channel.pulses, "dry": channel.dry,
                      "missed_compares": channel.missed_compares, "starts": channel.starts}
         channel.entry_listeners.append(self.entry)
+
+    def resume(self, channel: SimChannel | None, base: dict[str, int],
+               others: list[tuple[SimChannel, dict[str, int]]], index: int,
+               cur_ticks: int | None,
+               entries: Sequence[tuple[int, int, int, int]] = ()) -> None:
+        """Continue where an earlier part of the run left off (a replay from the head
+        of a bounded recording): the channel and its counts at that point, the pulse
+        index of the next rising edge, the period in force and the entries taken up
+        from there on - without listening to the channel."""
+        self.channel = channel
+        self.base = base
+        self.others = others
+        self.index = index
+        self.cur_ticks = cur_ticks
+        for e in entries:
+            self.entry(*e)
 
     def unbind(self) -> None:
         for ch in [self.channel] + [c for c, _ in self.others]:
@@ -259,6 +291,8 @@ class StepperMotion:
                            f"{1 if up else -1},{self.position},{t}\n")
 
     def _period(self, interval: int) -> None:
+        if not interval:  # two rises in one tick: a pin shared with another role
+            return
         self.periods[interval] = self.periods.get(interval, 0) + 1
         if self.period_min is None or interval < self.period_min:
             self.period_min = interval
@@ -328,6 +362,9 @@ class StepperMotion:
         if self.last_rise is not None and (not self.samples or self.samples[-1][2] != 0.0):
             self.samples.append((self.last_rise, self.position, 0.0))
         self.unbind()
+        if self.channel is not None and not isinstance(self.channel, ChannelCounts):
+            self.channel = ChannelCounts(self.channel)
+            self.others = [(ChannelCounts(c), base) for c, base in self.others]
 
     # -------------------------------------------------------------- figures
     def period_median(self) -> int | None:
@@ -348,7 +385,11 @@ class MotionAnalysis:
 
     def __init__(self, backend, wiring: Sequence[Wiring], *,
                  positions: Sequence[int] | None = None, csv: IO[str] | None = None,
-                 initial: dict[int, int] | None = None) -> None:
+                 initial: dict[int, int] | None = None, live: bool = True) -> None:
+        """``live``: bind to the backend's channels now and to those made later (a
+        recording as it happens); False for a replay of recorded edges, whose steppers
+        are then set up with :meth:`StepperMotion.resume` (``stepperdemo.watch.recent``).
+        """
         self.backend = backend
         self.tps = backend.profile.ticks_per_s
         self.levels: dict[int, int] = dict(initial or {})
@@ -374,9 +415,10 @@ class MotionAnalysis:
         self.irq_ticks = 0
         self._irq_rise: int | None = None
         self.stray_base = (backend.stray_reads, backend.stray_reads_during_pulse)
-        for ch in backend.channels:
-            self._bind(ch)
-        backend.channel_listeners.append(self._bind)
+        if live:
+            for ch in backend.channels:
+                self._bind(ch)
+            backend.channel_listeners.append(self._bind)
 
     def _bind(self, channel: SimChannel) -> None:
         m = self._by_step.get(channel.step_pin)

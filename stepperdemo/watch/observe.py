@@ -25,7 +25,6 @@ from fas.sim.trace import (
     EdgeStream,
     VcdWriter,
     pin_levels,
-    timescale_factor,
 )
 
 from .. import messages as msg
@@ -50,6 +49,16 @@ def vcd_signals(wiring: Sequence[Wiring],
     return signals
 
 
+def recorded_signals(wiring: Sequence[Wiring], profile,
+                     extra_signals: dict[int, list[str]] | None = None) -> dict[int, list[str]]:
+    """The pins a recording keeps, with their VCD names: the steppers', the user
+    outputs, the interrupt-blocked windows and a program's own pins (``extra_signals``)."""
+    signals = vcd_signals(wiring, output_pins(profile))
+    for pin, names in (extra_signals or {}).items():
+        signals.setdefault(pin, []).extend(names)
+    return signals
+
+
 class Observers:
     """Recorders on one simulated backend: an ordered edge stream and its consumers."""
 
@@ -61,9 +70,7 @@ class Observers:
         self.backend = backend
         self.profile = backend.profile
         self.wiring = demo_wiring(self.profile)
-        self.signals = vcd_signals(self.wiring, output_pins(self.profile))
-        for pin, names in (extra_signals or {}).items():  # a program's own pins
-            self.signals.setdefault(pin, []).extend(names)
+        self.signals = recorded_signals(self.wiring, self.profile, extra_signals)
         self.stream = EdgeStream(backend)
         self.vcd_path = vcd
         self._spool = spool_vcd and vcd is None
@@ -121,6 +128,10 @@ class Observers:
     @property
     def active(self) -> bool:
         return self.end_tick is None
+
+    @property
+    def start_tick(self) -> int:
+        return self.stream.start_tick
 
     def flush(self) -> None:
         """Hand on every edge that can no longer change (figures up to date)."""
@@ -183,51 +194,9 @@ def attach(backend: SimBackend, *, vcd: str | None = None, csv: str | None = Non
 
 
 # ----------------------------------------------------------- command line
-def add_arguments(ap: argparse.ArgumentParser) -> None:
-    """The observer options of ``stepperdemo -c`` (and ``stepperdemo run``)."""
-    g = ap.add_argument_group("watching the run (simulated backend)")
-    g.add_argument("--vcd", metavar="FILE",
-                   help="write the step/dir/enable pins of every stepper, the user outputs "
-                        "(Dout0-3, Aout0-3 as PWM waveforms) and the interrupt-blocked "
-                        "windows as a VCD file (GTKWave, PulseView)")
-    g.add_argument("--vcd-timescale", metavar="UNIT",
-                   help="VCD time unit, e.g. '1 us' (default: the coarsest standard unit "
-                        "in which every tick is exact, 100 ps at 16 MHz; a coarser unit "
-                        "rounds the times but keeps PulseView imports small)")
-    g.add_argument("--plot", metavar="FILE.png",
-                   help="plot position and speed over time per stepper as PNG "
-                        "(needs the 'plot' extra: matplotlib)")
-    g.add_argument("--plot-size", metavar="WxH", default="1200x800",
-                   help="pixel size of the --plot image (default 1200x800)")
-    g.add_argument("--report", action="store_true",
-                   help="print a timing report per stepper after the transcript")
-    g.add_argument("--steps-csv", metavar="FILE",
-                   help="write one row per step: time_us,stepper,direction,position,tick")
-
-
-def wanted(args: argparse.Namespace) -> bool:
-    return bool(getattr(args, "vcd", None) or getattr(args, "plot", None)
-                or getattr(args, "report", False) or getattr(args, "steps_csv", None))
-
-
-def check_arguments(args: argparse.Namespace) -> str | None:
-    """A problem with the observer options (before anything runs), else None."""
-    from . import plots
-
-    if getattr(args, "command", "") is None and wanted(args):
-        return msg.OBSERVE_NOT_INTERACTIVE
-    timescale = getattr(args, "vcd_timescale", None)
-    if timescale is not None:
-        try:
-            timescale_factor(timescale, 1_000_000)
-        except (ValueError, KeyError):
-            return msg.OBSERVE_BAD_TIMESCALE.format(timescale=timescale)
-    if getattr(args, "plot", None):
-        if plots.parse_size(args.plot_size) is None:
-            return msg.OBSERVE_BAD_SIZE.format(size=args.plot_size)
-        if not plots.png_available():
-            return msg.PLOT_EXTRA_MISSING
-    return None
+# the options themselves live in .options (the command line loads them without the
+# recorders); from_arguments/finish_arguments use them
+from .options import add_arguments, check_arguments, wanted  # noqa: E402,F401
 
 
 def from_arguments(backend: SimBackend, args: argparse.Namespace,

@@ -52,7 +52,7 @@ class Sketch:
     def busy_wait(self, condition) -> None:
         """``while (condition()) {}``: the loop polls; time passes event by event."""
         assert self.backend.wait_until(lambda: not condition(), 600 * self.tps)
-        self.backend.machine.forget_stolen()  # interrupts only delayed the polling
+        self.backend.machine.resume()  # the loop polled; it goes on once the CPU is free
 
     def print(self, text: str) -> None:
         self.backend.console_write(text.encode())

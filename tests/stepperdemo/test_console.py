@@ -41,7 +41,8 @@ def run_session(script, tmp_path):
         clock = FakeClock()
         with create_pipe_input() as inp:
             console = Console("atmega328p", clock=clock, sleep=clock.sleep, input=inp,
-                              output=DummyOutput(), history=str(tmp_path / "history"))
+                              output=DummyOutput(), history=str(tmp_path / "history"),
+                              redraw_postpone_s=None)
             task = asyncio.ensure_future(console.run())
             await settle()
             await script(inp, clock, console)
@@ -121,3 +122,32 @@ def test_real_time_driver_follows_the_clock_and_sleeps_when_idle():
     assert driver.advance() is None
     app.feed("M1 A1000 V100 R100\n")
     assert driver.advance() == 0.0
+
+
+def test_toolbar_moves_on_while_nobody_types(tmp_path):
+    """Time, running steppers and mode redraw several times a second with no key and
+    no output (status lines off, so nothing else makes the prompt redraw)."""
+    seen: dict[str, list[str]] = {}
+
+    async def script(inp, clock, console):
+        await wait(clock, 0.5)
+        console.toolbar_shown.clear()
+        await wait(clock, 2.0)  # idle: no key, no output
+        seen["idle"] = list(console.toolbar_shown)
+        inp.send_text("I M1 A1000 V1000 R1500\r")  # status lines off, then a 1.5 s move
+        await settle()
+        n = len(console.lines)
+        console.toolbar_shown.clear()
+        await wait(clock, 1.0)
+        assert len(console.lines) == n  # nothing printed while it moves
+        seen["moving"] = list(console.toolbar_shown)
+        await wait(clock, 2.0)
+        seen["after"] = list(console.toolbar_shown)
+
+    run_session(script, tmp_path)
+    idle = seen["idle"]
+    times = {s.split("t=")[1].split("s")[0] for s in idle}
+    assert len(times) >= 6  # >= 3 redraws per second of wall time, each with a new time
+    assert all("running 0" in s and " normal mode " in s for s in idle)
+    assert len(seen["moving"]) >= 3 and all("running 1" in s for s in seen["moving"])
+    assert "running 0" in seen["after"][-1]  # the move ended: the toolbar says so

@@ -47,11 +47,16 @@ def test_trace_commands_are_offered_for_completion():
         assert name in META_COMMANDS
 
 
-def test_nothing_to_show_before_trace_on(console):
-    n = len(console.lines)
-    console.handle_line("/report")
-    console.handle_line("/vcd x.vcd")
-    assert said(console, n) == ["nothing recorded yet: /trace on first"] * 2
+def test_nothing_to_show_when_started_without_the_recent_trace(tmp_path):
+    c = Console("atmega328p", history=str(tmp_path / "history"), clock=FakeClock(),
+                output=DummyOutput(), recent_trace=False)
+    n = len(c.lines)
+    c.handle_line("/report")
+    c.handle_line(f"/vcd {tmp_path / 'x.vcd'}")
+    c.handle_line("/trace")
+    assert said(c, n) == ["nothing recorded: /trace recent or /trace on records the pins"] * 2 \
+        + ["trace is off"]
+    assert not (tmp_path / "x.vcd").exists()
 
 
 def test_trace_on_records_from_now_and_off_unsubscribes(console, tmp_path):
@@ -123,7 +128,7 @@ def test_plot_in_the_terminal_and_as_png(console, tmp_path):
 
 def test_bad_arguments_and_arch_switch(console, tmp_path):
     console.handle_line("/trace maybe")
-    assert console.lines[-1] == "/trace: on or off"
+    assert console.lines[-1] == "/trace: on, off or recent"
     console.handle_line("/trace on")
     console.handle_line("/vcd")
     assert console.lines[-1] == "/vcd: give a file name"

@@ -31,7 +31,7 @@ Sequence = Callable[["StepperDemo", "Stepper", "SeqSlot", int], bool]
 
 class SeqSlot:
     __slots__ = ("test", "state", "u32_1", "s32_1", "s16_1", "s16_2", "idle", "wake_ms",
-                 "rng", "log")
+                 "stop_only", "rng", "log")
 
     def __init__(self) -> None:
         self.test: Sequence | None = None
@@ -42,6 +42,7 @@ class SeqSlot:
         self.s16_2 = 0
         self.idle = False
         self.wake_ms: int | None = None
+        self.stop_only = False  # waiting only for the stepper to stop (wait_stop)
         self.rng: object | None = None
         self.log: list[dict] = []  # per-iteration records of the endless sequences
 
@@ -54,14 +55,26 @@ class SeqSlot:
 
     def wait_time(self, since_ms: int, duration_ms: int) -> None:
         self.idle = True
+        self.stop_only = False
         self.wake_ms = (since_ms + duration_ms) & 0xFFFFFFFF
 
     def wait_machine(self) -> None:
+        """Idle until something in the machine changes (a ramp state, a period): the
+        loop looks after every interrupt, as the firmware's passes do."""
         self.idle = True
         self.wake_ms = None
+        self.stop_only = False
+
+    def wait_stop(self) -> None:
+        """Idle until the stepper stops: only a stepper starting or stopping can end
+        the wait, so the loop need not look after every interrupt."""
+        self.idle = True
+        self.wake_ms = None
+        self.stop_only = True
 
     def busy(self) -> None:
         self.idle = False
+        self.stop_only = False
         self.wake_ms = None
 
 
@@ -85,28 +98,38 @@ def start_with_pulse_counter(app: StepperDemo, stepper: Stepper, slot: SeqSlot,
     return False
 
 
-from . import (  # noqa: E402  (the registry needs the helpers above)
-    seq01,
-    seq02,
-    seq03,
-    seq04,
-    seq05,
-    seq06,
-    seq07,
-    seq08,
-    seq09,
-    seq10,
-    seq11,
-    seq12,
-    seq13,
-)
+def _registry() -> dict[str, Sequence]:
+    from . import (
+        seq01,
+        seq02,
+        seq03,
+        seq04,
+        seq05,
+        seq06,
+        seq07,
+        seq08,
+        seq09,
+        seq10,
+        seq11,
+        seq12,
+        seq13,
+    )
 
-SEQUENCES: dict[str, Sequence] = {
-    "01": seq01.step, "02": seq02.step, "03": seq03.step, "04": seq04.step,
-    "05": seq05.step, "06": seq06.step, "07": seq07.step, "08": seq08.step,
-    "09": seq09.step, "10": seq10.step, "11": seq11.step, "12": seq12.step,
-    "13": seq13.step,
-}
+    return {
+        "01": seq01.step, "02": seq02.step, "03": seq03.step, "04": seq04.step,
+        "05": seq05.step, "06": seq06.step, "07": seq07.step, "08": seq08.step,
+        "09": seq09.step, "10": seq10.step, "11": seq11.step, "12": seq12.step,
+        "13": seq13.step,
+    }
+
+
+def __getattr__(name: str):
+    """``SEQUENCES`` (code -> sequence) is made on first use: a console that never
+    enters test mode does not load the sequences (start-up time)."""
+    if name == "SEQUENCES":
+        table = globals()["SEQUENCES"] = _registry()
+        return table
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _finished_at_once(app, stepper, slot, time_ms: int) -> bool:
@@ -122,7 +145,8 @@ def _endless_nothing(app, stepper, slot, time_ms: int) -> bool:
 
 def sequences_for(profile) -> dict[str, Sequence]:
     """The sequences as the firmware is compiled for ``profile``."""
-    table = dict(SEQUENCES)
+    table = dict(__getattr__("SEQUENCES") if "SEQUENCES" not in globals()
+                 else globals()["SEQUENCES"])
     if not profile.has_pulse_counter:
         table["08"] = _finished_at_once
     if profile.demo_small_build:

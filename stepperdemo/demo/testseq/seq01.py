@@ -42,7 +42,7 @@ def step(app, stepper, slot, time_ms: int) -> bool:
     if phase in (1, 3, 5):
         slot.wait_time(slot.u32_1, 1000)
     elif phase == 8:
-        slot.wait_machine()
+        slot.wait_stop()
     else:
         slot.busy()
     return False

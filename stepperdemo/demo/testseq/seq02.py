@@ -36,7 +36,7 @@ def step(app, stepper, slot, time_ms: int) -> bool:
         slot.u32_1 += slot.u32_1 >> 2
         slot.state = 1
     if slot.state in (2, 4):
-        slot.wait_machine()
+        slot.wait_stop()
     else:
         slot.busy()
     return False

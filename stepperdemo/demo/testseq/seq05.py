@@ -37,7 +37,7 @@ def step(app, stepper, slot, time_ms: int) -> bool:
     if phase == 1:
         slot.wait_time(slot.u32_1, DT_MS)
     elif phase == 7:
-        slot.wait_machine()
+        slot.wait_stop()
     else:
         slot.busy()
     return False

@@ -49,7 +49,7 @@ def step(app, stepper, slot, time_ms: int) -> bool:
     if slot.state in (1, 2):
         slot.wait_time(slot.u32_1, 100)
     elif slot.state == 4:
-        slot.wait_machine()
+        slot.wait_stop()
     else:
         slot.busy()
     return False

@@ -29,7 +29,7 @@ def step(app, stepper, slot, time_ms: int) -> bool:
     elif state == 1:
         if (stepper.ramp_state() & RAMP_STATE_MASK) == RampState.COAST:
             dt = _signed(elapsed(time_ms, slot.u32_1))
-            app.println(str(dt))
+            app.println_number(dt)
             if abs(dt - COAST_MS) > COAST_TOL:
                 slot.state = TEST_STATE_ERROR
                 return True
@@ -49,11 +49,11 @@ def step(app, stepper, slot, time_ms: int) -> bool:
     elif state == 4:
         if not stepper.is_running():
             dt = _signed(elapsed(time_ms, slot.u32_1))
-            app.println(str(dt))
+            app.println_number(dt)
             if abs(dt - HOME_MS) > HOME_TOL:
                 slot.state = TEST_STATE_ERROR
             pos = stepper.get_position_after_commands_completed()
-            app.println(str(pos))
+            app.println_number(pos)
             if pos != 0:
                 slot.state = TEST_STATE_ERROR
             return True
@@ -61,8 +61,10 @@ def step(app, stepper, slot, time_ms: int) -> bool:
         slot.wait_time(slot.u32_1, 3000)
     elif slot.state == 3:
         slot.wait_time(slot.u32_1, 1000)
-    elif slot.state in (1, 4):
-        slot.wait_machine()
+    elif slot.state == 1:
+        slot.wait_machine()  # the ramp reaching COAST
+    elif slot.state == 4:
+        slot.wait_stop()
     else:
         slot.busy()
     return False

@@ -28,9 +28,9 @@ def step(app, stepper, slot, time_ms: int) -> bool:
             slot.log.append({"t_ms": time_ms, "position": spos, "counter": pcnt})
             if (pcnt & 0x3FFF) != (spos & 0x3FFF):
                 app.print(msg.STEPPER_POS)
-                app.print(str(spos))
+                app.print_number(spos)
                 app.print(msg.REAL_POS)
-                app.println(str(pcnt))
+                app.println_number(pcnt)
                 slot.state = TEST_STATE_ERROR
                 return True
             rand = slot.rng.rand
@@ -42,14 +42,14 @@ def step(app, stepper, slot, time_ms: int) -> bool:
             if move & 2:
                 move = -move
             app.print(msg.SEQ_SPEED)
-            app.print(str(speed))
+            app.print_number(speed)
             app.print(msg.SEQ_ACCEL)
-            app.print(str(accel))
+            app.print_number(accel)
             app.print(msg.SEQ_MOVE)
-            app.println(str(move))
+            app.println_number(move)
             stepper.set_speed_in_us(speed)
             stepper.set_acceleration(accel)
             stepper.move(move)
             slot.u32_1 = time_ms
-    slot.wait_machine()
+    slot.wait_stop()
     return False

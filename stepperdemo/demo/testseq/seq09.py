@@ -36,9 +36,9 @@ def step(app, stepper, slot, time_ms: int) -> bool:
             accel = rand() % (AMAX * 4)
             accel = (accel >> ((accel % 4) + 2)) + AMIN
             app.print(msg.SEQ_SPEED)
-            app.print(str(speed))
+            app.print_number(speed)
             app.print(msg.SEQ_ACCEL)
-            app.println(str(accel))
+            app.println_number(accel)
             stepper.set_speed_in_us(speed)
             stepper.set_acceleration(accel)
             if rand() & 1:
@@ -61,7 +61,7 @@ def step(app, stepper, slot, time_ms: int) -> bool:
                 slot.s16_1 = stepper.read_pulse_counter()
                 needed = _i16(old - slot.s16_1) & 0xFFFF
                 app.print(msg.STEPS_NEEDED_FOR_STOP)
-                app.println(str(needed))
+                app.println_number(needed)
                 slot.log.append({"t_ms": time_ms, "steps_for_stop": needed, "after_stop": 0})
             slot.state += 1
     elif state == 4:
@@ -77,7 +77,7 @@ def step(app, stepper, slot, time_ms: int) -> bool:
     elif slot.state == 4:
         slot.wait_time(slot.u32_1, 100)
     elif slot.state in (1, 3):
-        slot.wait_machine()
+        slot.wait_stop()
     else:
         slot.busy()
     return False

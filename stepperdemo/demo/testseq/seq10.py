@@ -56,7 +56,7 @@ def run(app, stepper, slot, time_ms: int, *, period_ms: int, move_to: int | None
                     stepper.stop_move()
                 else:
                     app.print(msg.SPEED_CHANGES)
-                    app.print(str((64 + slot.s16_1) & 0xFFFF))
+                    app.print_number((64 + slot.s16_1) & 0xFFFF)
                     app.println("us")
                     slot.state = 2
     elif state == 4:
@@ -64,8 +64,10 @@ def run(app, stepper, slot, time_ms: int, *, period_ms: int, move_to: int | None
             return True
     if slot.state in (2, 3):
         slot.wait_time(slot.u32_1, period_ms)
-    elif slot.state in (1, 4):
-        slot.wait_machine()
+    elif slot.state == 1:
+        slot.wait_machine()  # the planned period reaching 64 us
+    elif slot.state == 4:
+        slot.wait_stop()
     else:
         slot.busy()
     return False

@@ -29,14 +29,14 @@ def _check(app, stepper, slot, going_up: bool) -> bool:
         backwards = pos < slot.s32_1 if going_up else pos > slot.s32_1
         if backwards:
             app.print(msg.SEQ_I)
-            app.print(str(i))
+            app.print_number(i)
             if i != 0:
                 app.print(msg.SEQ_PREV_POS)
-                app.print(str(prev_pos))
+                app.print_number(prev_pos)
             app.print(msg.SEQ_OLD_POS)
-            app.print(str(slot.s32_1))
+            app.print_number(slot.s32_1)
             app.print(msg.SEQ_CURR_POS)
-            app.println(str(pos))
+            app.println_number(pos)
             stepper.stop_move()
             slot.state = TEST_STATE_ERROR
             return False

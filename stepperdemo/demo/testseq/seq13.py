@@ -21,7 +21,7 @@ def step(app, stepper, slot, time_ms: int) -> bool:
             stepper.enable_outputs()
         res = stepper.add_queue_entry(50000, 1, True)
         if res.retry if isinstance(res, AqeResult) else res > 0:
-            app.print(str(int(res) & 0xFF))
+            app.print_number(int(res) & 0xFF)
             app.print(" ")
         else:
             slot.u32_1 = time_ms
