@@ -108,6 +108,69 @@ class Program(ABC):
         return []
 
 
+class LoopProgram(Program):
+    """A program written as an Arduino sketch: ``setup()`` once, then passes of
+    ``loop()`` that read the serial input a character at a time.  It gives
+    :meth:`run_until` and :meth:`run_script` from its own :meth:`_advance` (one pass,
+    after skipping the time in which the pass would find nothing to do)."""
+
+    _setup_done: bool
+    #: tick at which the scripted input was consumed (None while some is left)
+    input_consumed_at: int | None
+
+    @abstractmethod
+    def setup(self) -> None:
+        """The sketch's ``setup()`` (at most once)."""
+
+    @abstractmethod
+    def load_script(self, line: str | bytes) -> None:
+        """The scripted line becomes the serial input."""
+
+    @abstractmethod
+    def _advance(self, limit: int) -> None:
+        """One loop pass, after skipping idle time (never beyond ``limit``)."""
+
+    @abstractmethod
+    def finished(self) -> bool:
+        """Input consumed and everything at rest: the end of a scripted run."""
+
+    def script_consumed(self) -> bool:
+        """The scripted input is all taken (the firmware-style end counts from then)."""
+        return self.input_consumed_at is not None
+
+    def run_until(self, tick: int) -> None:
+        """Run loop passes until the backend's clock reaches ``tick``."""
+        if not self._setup_done:
+            self.setup()
+        b = self.backend
+        while b.now() < tick:
+            self._advance(tick)
+
+    def run_script(self, line: str | bytes, *, firmware_end: bool = False,
+                   max_ticks: int | None = None) -> EndReason:
+        """Run a scripted line to its end.
+
+        ``firmware_end``: stop one second after the input was consumed (as the
+        conformance runs did).  Otherwise stop once the input is consumed and
+        everything has come to rest (:meth:`finished`).
+        """
+        self.load_script(line)
+        self.setup()
+        b = self.backend
+        limit = b.now() + (max_ticks if max_ticks is not None
+                           else 3600 * self.profile.ticks_per_s)
+        while True:
+            if self.script_consumed():
+                if firmware_end:
+                    b.app_wait_until(self.input_consumed_at + self.profile.ticks_per_s)
+                    return EndReason.FIRMWARE_END
+                if self.finished():
+                    return EndReason.IDLE
+            if b.now() >= limit:
+                return EndReason.MAX_TIME
+            self._advance(limit)
+
+
 #: program name -> "module:factory"; a factory takes (backend, *, scripted, output,
 #: **options) - options are the program's own (its command line gives them)
 PROGRAMS: dict[str, str] = {

@@ -24,7 +24,7 @@ from fas.backend import Backend
 from fas.codes import PIN_UNDEFINED, RAMP_STATE_MASK
 
 from .. import messages as msg
-from ..program import EndReason, Program
+from ..program import LoopProgram
 from . import quickstep as qs_console
 from .commands import HELP, Mode, dispatch
 from .testseq import TEST_STATE_ERROR, SeqSlot
@@ -84,7 +84,7 @@ def parse_values(arg: bytes) -> list[int] | None:
     return None
 
 
-class StepperDemo(Program):
+class StepperDemo(LoopProgram):
     """The StepperDemo program on a backend; drive it with :meth:`run_until`."""
 
     title = "StepperDemo"
@@ -720,43 +720,11 @@ class StepperDemo(Program):
                 b.app_wait_until(wake, self._watch())
         self.loop_pass()
 
-    def run_until(self, tick: int) -> None:
-        """Run loop passes until simulated time reaches ``tick``."""
-        if not self._setup_done:
-            self.setup()
-        b = self.backend
-        while b.now() < tick:
-            self._advance(tick)
-
     def finished(self) -> bool:
         """Input consumed and everything at rest (the end of a scripted run)."""
         return (self.input_consumed_at is not None and self.stopped and not self.test_ongoing
                 and self.pause_ms == 0 and not self.any_running()
                 and (self.mode != Mode.GCODE or not self.gcode.busy()))
-
-    def run_script(self, line: str | bytes, *, firmware_end: bool = False,
-                   max_ticks: int | None = None) -> EndReason:
-        """Run a scripted line to its end.
-
-        ``firmware_end``: stop one second after the input was consumed (as the
-        conformance runs did).  Otherwise stop once the input is consumed and every
-        stepper and test has come to rest.
-        """
-        self.load_script(line)
-        self.setup()
-        b = self.backend
-        limit = b.now() + (max_ticks if max_ticks is not None
-                           else 3600 * self.profile.ticks_per_s)
-        while True:
-            if self.input_consumed_at is not None:
-                if firmware_end:
-                    b.app_wait_until(self.input_consumed_at + self.profile.ticks_per_s)
-                    return EndReason.FIRMWARE_END
-                if self.finished():
-                    return EndReason.IDLE
-            if b.now() >= limit:
-                return EndReason.MAX_TIME
-            self._advance(limit)
 
     # ------------------------------------------------------------- helpers
     def _ramp_abort(self, stepper, res, cmd) -> None:

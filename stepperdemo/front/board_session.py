@@ -74,6 +74,7 @@ class BoardSession:
         self.input_start_s: float | None = None  # first command sent since the reset
         self._partial = bytearray()
         self.last_rx_s = link.now()
+        self.last_tx_s = self.last_rx_s  # when the last input went out
         self._banner_until = link.now() + boot_wait_s  # opening a port may restart it
 
     def now(self) -> float:
@@ -131,6 +132,7 @@ class BoardSession:
             self._lose(str(exc))
             return False
         t = self.now()
+        self.last_tx_s = t
         if self.input_start_s is None:
             self.input_start_s = t
         if self.log is not None:
@@ -185,7 +187,9 @@ class BoardSession:
             return "test"
         if st.busy():
             return "motion"
-        if self.now() - self.last_rx_s < self.quiet_s:
+        # quiet: quiet_s without a byte either way (the answer to a command may come
+        # later than the pacer's no-answer window when the host or the board is slow)
+        if self.now() - max(self.last_rx_s, self.last_tx_s) < self.quiet_s:
             return "output"
         return None
 

@@ -137,7 +137,7 @@ def run(args: argparse.Namespace) -> int:
     """``stepperdemo device --pty --console [--arch] [--speed] [--link] [--quiet]``."""
     from fas.serial.stream import remove_link, set_link
 
-    from .serial_cli import _Stop
+    from .serial_cli import StopOnSignal
 
     if args.port:
         print(msg.CLI_ERROR.format(problem=msg.CLI_CONSOLE_NO_PORT), file=sys.stderr)
@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
         print(msg.CONSOLE_DEVICE_LISTENING.format(
             profile=profile.name, title=profile.title, path=pty.path,
             link=f" ({args.link})" if args.link else "", speed=args.speed), flush=True)
-    stop = _Stop()
+    stop = StopOnSignal()
     try:
         device.serve(stop)
     finally:

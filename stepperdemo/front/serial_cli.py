@@ -237,7 +237,10 @@ def console_meta(console, cmd: str, args: list[str]) -> Iterable[str]:
 
 
 # ------------------------------------------------------------- subcommands
-class _Stop:
+class StopOnSignal:
+    """A stop flag for the serving loops of the subcommands: Ctrl-C and SIGTERM set it
+    (the loop ends cleanly, closing its pty and printing its summary)."""
+
     def __init__(self) -> None:
         self.flag = False
         for sig in (signal.SIGINT, signal.SIGTERM):
@@ -360,7 +363,7 @@ def run_device(argv: Sequence[str]) -> int:
                                           speed=args.speed), flush=True)
         device.listeners.append(lambda event: print(msg.DEVICE_EVENT.format(event=event),
                                                     flush=True))
-    stop = _Stop()
+    stop = StopOnSignal()
     try:
         device.serve(stop, each)
     finally:
@@ -454,7 +457,7 @@ def run_simavr(args: argparse.Namespace) -> int:
         print(msg.DEVICE_LISTENING.format(profile=profile.name, title=title, path=server.path,
                                           link=f" ({args.link})" if args.link else "",
                                           speed=args.speed), flush=True)
-    stop = _Stop()
+    stop = StopOnSignal()
     while not stop() and server.proc.poll() is None:
         if each is not None:
             each()
@@ -513,7 +516,7 @@ def run_relay(argv: Sequence[str]) -> int:
     relay = Relay(pty.stream, device_side, faults)
     print(msg.RELAY_LISTENING.format(path=pty.path, device=args.device,
                                      link=f" ({args.link})" if args.link else ""), flush=True)
-    stop = _Stop()
+    stop = StopOnSignal()
     try:
         relay.serve(stop)
     finally:

@@ -28,7 +28,7 @@ from fas.codes import PIN_UNDEFINED, RAMP_DIRECTION_COUNT_UP
 from fas.gear import Gear, GearResult
 
 from .. import messages as msg
-from ..program import EndReason, Program
+from ..program import LoopProgram
 from . import figures as fig
 from .commands import WAIT, Item, completions, parse_int, parse_line, parse_ratio
 from .potrule import PotCommand, pot_command
@@ -70,7 +70,7 @@ class Axis:
         self.note: str | None = None  # the last "held" note printed
 
 
-class Winder(Program):
+class Winder(LoopProgram):
     """The winder program on a backend (see module text)."""
 
     title = "helix winder"
@@ -304,12 +304,6 @@ class Winder(Program):
                 b.app_wait_until(wake)
         self.loop_pass()
 
-    def run_until(self, tick: int) -> None:
-        if not self._setup_done:
-            self.setup()
-        while self.backend.now() < tick:
-            self._advance(tick)
-
     def at_rest(self) -> bool:
         return (not any(s is not None and s.is_running() for s in self.steppers)
                 and (self.traverse is None or not self.traverse.active)
@@ -319,23 +313,8 @@ class Winder(Program):
         return (self.input_consumed_at is not None and not self.pending
                 and self.pause_until is None and self.at_rest())
 
-    def run_script(self, line: str | bytes, *, firmware_end: bool = False,
-                   max_ticks: int | None = None) -> EndReason:
-        self.load_script(line)
-        self.setup()
-        b = self.backend
-        limit = b.now() + (max_ticks if max_ticks is not None
-                           else 3600 * self.profile.ticks_per_s)
-        while True:
-            if self.input_consumed_at is not None and not self.pending:
-                if firmware_end:
-                    b.app_wait_until(self.input_consumed_at + self.profile.ticks_per_s)
-                    return EndReason.FIRMWARE_END
-                if self.finished():
-                    return EndReason.IDLE
-            if b.now() >= limit:
-                return EndReason.MAX_TIME
-            self._advance(limit)
+    def script_consumed(self) -> bool:
+        return self.input_consumed_at is not None and not self.pending
 
     # ------------------------------------------------------------- control
     def _sample(self) -> None:

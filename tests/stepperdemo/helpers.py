@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from fas.sim import SimBackend
-from stepperdemo.demo.app import EndReason, StepperDemo
+from stepperdemo.demo.app import StepperDemo
+from stepperdemo.program import EndReason
 
 
 def run(line: str, arch: str = "atmega328p", *, firmware_end: bool = False,

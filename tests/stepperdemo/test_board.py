@@ -318,3 +318,38 @@ def test_console_device_delays_output_for_a_slow_host_but_loses_none(monkeypatch
     text = slow.taken.decode()
     assert text.count("Move steps 3200") == 1 and ">> M1: @3200 " in text
     assert device.board.tx_bytes == len(slow.taken)
+
+
+class _LaggingLink(SimBoardLink):
+    """A simulated board behind a slow host: what the board prints after a command
+    reaches us only ``lag_s`` after the command went out."""
+
+    def __init__(self, lag_s: float) -> None:
+        super().__init__()
+        self.lag_s = lag_s
+        self._held = bytearray()
+        self._hold_until = 0.0
+
+    def write(self, data: bytes) -> None:
+        super().write(data)
+        self._hold_until = self.now() + self.lag_s
+
+    def read(self, timeout_s: float) -> bytes:
+        self._held += super().read(timeout_s)
+        if self.now() < self._hold_until:
+            return b""
+        out = bytes(self._held)
+        self._held.clear()
+        return out
+
+
+def test_run_side_waits_for_the_final_table_of_a_slow_board(tmp_path):
+    # with Q the board prints nothing after the stop: the positions come only from the
+    # table of the final "?", whose answer arrives later than the no-answer window
+    path = tmp_path / "q.toml"
+    path.write_text('name = "q"\nprofile = "atmega328p"\n'
+                    'input = "Q M1 A1000 V200 R500 W"\n[steppers.A]\nposition = 500\n')
+    s = BoardSession(_LaggingLink(0.3))
+    assert s.wait_ready()
+    side = board_runner.run_side(s, load(str(path)), reset=False)
+    assert side.end == "idle" and side.positions[1] == 500

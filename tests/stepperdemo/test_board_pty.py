@@ -145,7 +145,10 @@ def test_c_ends_with_code_5_when_the_board_goes_away(board):
 # -------------------------------------------------------------- run --board
 def test_run_board_passes_the_examples_with_no_position_difference(board):
     proc, link = board
-    res = _cli("run", "--board", link, "sequences/examples", "-v")
+    # three of the examples (the folder holds more, and some for other chips)
+    files = [f"sequences/examples/{name}.toml"
+             for name in ("move_3200", "test_sequence_13", "two_steppers")]
+    res = _cli("run", "--board", link, *files, "-v")
     text = res.stdout.decode()
     assert res.returncode == 0, text + res.stderr.decode()
     assert "3 scenarios, 0 failed" in text

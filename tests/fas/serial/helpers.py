@@ -7,7 +7,8 @@ from dataclasses import dataclass, field
 from fas.serial.loopback import Loopback
 from fas.serial.relay import Faults
 from fas.sim import SimBackend
-from stepperdemo.demo.app import EndReason, StepperDemo
+from stepperdemo.demo.app import StepperDemo
+from stepperdemo.program import EndReason
 
 TPS = 16_000_000
 
