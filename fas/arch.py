@@ -146,7 +146,7 @@ class Profile:
     demo_steppers: tuple[DemoStepper, ...]
     debug_led_pin: int
     # --- simulated machine timing model (ticks of this profile) ---
-    sim_timer_wrap_ticks: int  # compare timer width: a missed compare waits one wrap
+    sim_timer_wrap_ticks: int  # compare timer width: a missed compare waits one wrap (0: none)
     sim_queue_start_ticks: int  # startQueue(): first compare this far after the call
     # compare match -> ISR clears the step pin (the pulse width), per channel
     sim_isr_latency_ticks: tuple[int, ...]

@@ -455,9 +455,12 @@ class SimChannel(QueueChannel):
         return None
 
     def _next_compare(self, compare: int, now: int) -> int:
-        if self.wrap and compare <= now:
-            self.missed_compares += 1
-            compare += self.wrap * ((now - compare) // self.wrap + 1)
+        if compare <= now:
+            if self.wrap:  # the timer matches the passed value only after it wraps
+                self.missed_compares += 1
+                compare += self.wrap * ((now - compare) // self.wrap + 1)
+            else:  # no wrap modelled: it matches at once, when the interrupt writes it
+                compare = now
         return compare
 
     def _arm(self, compare: int, now: int, e: QueueEntry) -> None:

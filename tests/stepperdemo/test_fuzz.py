@@ -89,3 +89,12 @@ def test_the_checker_follows_an_esp32_restart():
     res = check_line("M1 A1000 V100 R300 W @5000 r", arch="esp32c6",
                      max_time_s=20)
     assert res.ok, res.violations
+
+
+def test_raw_commands_then_a_reversing_move_on_the_sam_due():
+    # found by fuzzing: sequence 13's raw steps, then 03's first move (back to 1, as
+    # upstream: relative to the ramp's old target 0) queued while the channel waited
+    # out the last raw step's period; the restart pulse was put before the interrupt
+    # that toggled the direction for it
+    res = check_line(b"t 05 13 R 03 05 00 09 x", "sam_due")
+    assert res.ok, res.violations
