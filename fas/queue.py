@@ -59,6 +59,10 @@ class StepperQueue:
         self.step_pin = step_pin
         self.queue_len = profile.queue_len
         self.entries = [QueueEntry() for _ in range(profile.queue_len)]
+        # per slot: the ticks its command lasts as written (steps x ticks, or ticks for
+        # one step or a pause) - what the ramp task sums over the queue every run
+        # (ticks_in_queue); the channel changes only the entry it executes
+        self.durations = [0] * profile.queue_len
         self.read_idx = 0
         self.next_write_idx = 0
         self.queue_end_pos = 0
@@ -105,15 +109,13 @@ class StepperQueue:
         rp, wp = self.read_idx, self.next_write_idx
         if rp == wp:
             return 0
-        ticks = 0
-        entries, n = self.entries, self.queue_len  # (every ramp task asks: locals)
-        rp = (rp + 1) & 0xFF
-        while rp != wp:
-            e = entries[rp % n]
-            steps = e.steps
-            ticks += e.ticks * steps if steps > 1 else e.ticks
-            rp = (rp + 1) & 0xFF
-        return ticks
+        n = self.queue_len
+        first = (rp + 1) % n
+        count = (wp - rp - 1) & 0xFF
+        durations = self.durations
+        if first + count <= n:
+            return sum(durations[first:first + count])
+        return sum(durations[first:]) + sum(durations[:first + count - n])
 
     def has_ticks_in_queue(self, min_ticks: int) -> bool:
         self.channel.sync()
@@ -192,6 +194,7 @@ class StepperQueue:
         e.steps = steps
         e.total_steps = steps
         e.ticks = ticks
+        self.durations[wp % self.queue_len] = command_rate_ticks
         e.count_up = count_up
         e.toggle_dir = toggle_dir
         e.dir_level = dir_level
