@@ -420,7 +420,7 @@ class SimChannel(QueueChannel):
         if self.entry_listeners and e is not self._noted:
             self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)
         compare = c + ticks  # (_arm, written out: this runs once per queue entry)
-        if self.wrap and compare <= now:
+        if compare <= now:
             compare = self._next_compare(compare, now)
         self._program(compare, e)
 
