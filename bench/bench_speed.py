@@ -12,6 +12,15 @@ instruction count of one run (valgrind, slow) as a figure that does not depend o
 
 ``--tree DIR`` benchmarks another checkout (e.g. ``git worktree add /tmp/before
 <commit>`` or ``git archive <commit> | tar x -C /tmp/before``) beside this one.
+
+As installed: ``pip install`` compiles the packages' bytecode, so every tree's ``fas``
+and ``stepperdemo`` are compiled first (``compileall``, into their ``__pycache__``,
+which git ignores) - otherwise, with ``PYTHONDONTWRITEBYTECODE`` set as on our build
+machines, every start would compile every module again (about 30 ms).  ``--no-compile``
+measures that cold start instead.  The interpreter is ``sys.executable`` itself (not a
+wrapper such as a pyenv shim); the bare start of that interpreter (``python -c pass``:
+interpreter, site-packages' ``.pth`` files) is measured alongside, so the share that is
+ours shows.
 """
 
 from __future__ import annotations
@@ -46,12 +55,24 @@ def sim_seconds(tree: Path, line: str) -> float:
     return float(out.strip())
 
 
-def one_run(tree: Path, line: str) -> tuple[float, float]:
-    """(wall, cpu) seconds of one fresh `python -m stepperdemo -c LINE` process."""
+def compile_tree(tree: Path) -> None:
+    """Byte-compile the tree's packages in place, as ``pip install`` does."""
+    subprocess.run([sys.executable, "-m", "compileall", "-q", "fas", "stepperdemo"], cwd=tree,
+                   check=True, env=dict(os.environ, PYTHONPATH=str(tree)),
+                   stdout=subprocess.DEVNULL)
+
+
+def one_run(tree: Path | None, line: str) -> tuple[float, float]:
+    """(wall, cpu) seconds of one fresh `python -m stepperdemo -c LINE` process
+    (``tree`` None: of a bare ``python -c pass``)."""
+    if tree is None:
+        cmd, cwd, env = [sys.executable, "-c", "pass"], None, None
+    else:
+        cmd = [sys.executable, "-m", "stepperdemo", "-c", line]
+        cwd, env = tree, dict(os.environ, PYTHONPATH=str(tree))
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "stepperdemo", "-c", line], cwd=tree, check=True,
-                   env=dict(os.environ, PYTHONPATH=str(tree)), stdout=subprocess.DEVNULL)
+    subprocess.run(cmd, cwd=cwd, check=True, env=env, stdout=subprocess.DEVNULL)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -78,15 +99,28 @@ def main() -> None:
     ap.add_argument("--tree", action="append", default=[], help="another source tree")
     ap.add_argument("--line", default=LINE)
     ap.add_argument("--callgrind", action="store_true", help="also count instructions")
+    ap.add_argument("--no-compile", action="store_true",
+                    help="do not byte-compile the trees first (a cold source checkout)")
     args = ap.parse_args()
     trees = [ROOT] + [Path(t).resolve() for t in args.tree]
-    sim = {t: sim_seconds(t, args.line) for t in trees}
-    times: dict[Path, list[tuple[float, float]]] = {t: [] for t in trees}
-    for _ in range(args.runs):  # interleaved: the trees share the machine's load
+    if not args.no_compile:
         for t in trees:
+            compile_tree(t)
+    sim = {t: sim_seconds(t, args.line) for t in trees}
+    times: dict[Path | None, list[tuple[float, float]]] = {t: [] for t in [None, *trees]}
+    load = os.getloadavg()[0]
+    for _ in range(args.runs):  # interleaved: the trees share the machine's load
+        for t in times:
             times[t].append(one_run(t, args.line))
+    load = max(load, os.getloadavg()[0])
     print(f"stepperdemo -c {args.line!r}, {args.runs} runs each, {os.cpu_count()} cores, "
-          f"load {os.getloadavg()[0]:.2f}")
+          f"load {load:.2f}, {sys.executable}, "
+          + ("source trees as checked out" if args.no_compile else "bytecode compiled first"))
+    walls = [w for w, _ in times[None]]
+    cpus = [c for _, c in times[None]]
+    print(f"python -c pass (the interpreter's own start): wall min {min(walls):.3f} s median "
+          f"{statistics.median(walls):.3f} s; cpu min {min(cpus):.3f} s median "
+          f"{statistics.median(cpus):.3f} s")
     for t in trees:
         walls = [w for w, _ in times[t]]
         cpus = [c for _, c in times[t]]

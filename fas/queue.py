@@ -19,6 +19,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from .backend import Backend, QueueChannel
 
 
+_AQE_OK = AqeResult.OK  # (an Enum member read as a class attribute costs a lookup)
+
+
 def i32(v: int) -> int:
     v &= 0xFFFFFFFF
     return v - 0x100000000 if v & 0x80000000 else v
@@ -56,6 +59,10 @@ class StepperQueue:
         self.step_pin = step_pin
         self.queue_len = profile.queue_len
         self.entries = [QueueEntry() for _ in range(profile.queue_len)]
+        # per slot: the ticks its command lasts as written (steps x ticks, or ticks for
+        # one step or a pause) - what the ramp task sums over the queue every run
+        # (ticks_in_queue); the channel changes only the entry it executes
+        self.durations = [0] * profile.queue_len
         self.read_idx = 0
         self.next_write_idx = 0
         self.queue_end_pos = 0
@@ -102,13 +109,13 @@ class StepperQueue:
         rp, wp = self.read_idx, self.next_write_idx
         if rp == wp:
             return 0
-        ticks = 0
-        rp = (rp + 1) & 0xFF
-        while rp != wp:
-            e = self.entries[rp % self.queue_len]
-            ticks += e.ticks * e.steps if e.steps > 1 else e.ticks
-            rp = (rp + 1) & 0xFF
-        return ticks
+        n = self.queue_len
+        first = (rp + 1) % n
+        count = (wp - rp - 1) & 0xFF
+        durations = self.durations
+        if first + count <= n:
+            return sum(durations[first:first + count])
+        return sum(durations[first:]) + sum(durations[:first + count - n])
 
     def has_ticks_in_queue(self, min_ticks: int) -> bool:
         self.channel.sync()
@@ -156,22 +163,23 @@ class StepperQueue:
     def add_queue_entry(self, ticks: int | None, steps: int = 0, count_up: bool = True,
                         start: bool = True) -> AqeResult:
         """Append one command (``ticks is None``: only start the queue)."""
-        if not self.channel.ready_for_commands():
+        channel = self.channel
+        if not channel.ready_for_commands():
             return AqeResult.DEVICE_NOT_READY
         if ticks is None:
             if start and not self.is_running():
                 if self.next_write_idx == self.read_idx:
                     return AqeResult.ERROR_EMPTY_QUEUE_TO_START
-                self.channel.start()
-            return AqeResult.OK
-        self.channel.sync()  # once: nothing below moves the read index
-        if ((self.next_write_idx - self.read_idx) & 0xFF) >= self.queue_len:
+                channel.start()
+            return _AQE_OK
+        channel.sync()  # once: nothing below moves the read index
+        wp = self.next_write_idx
+        if ((wp - self.read_idx) & 0xFF) >= self.queue_len:
             return AqeResult.QUEUE_FULL
         command_rate_ticks = ticks * steps if steps > 1 else ticks
         if command_rate_ticks < self.profile.min_cmd_ticks:
             return AqeResult.ERROR_TICKS_TOO_LOW
 
-        wp = self.next_write_idx
         e = self.entries[wp % self.queue_len]
         dir_level = count_up == self.dir_high_counts_up
         toggle_dir = False
@@ -186,26 +194,31 @@ class StepperQueue:
         e.steps = steps
         e.total_steps = steps
         e.ticks = ticks
+        self.durations[wp % self.queue_len] = command_rate_ticks
         e.count_up = count_up
         e.toggle_dir = toggle_dir
         e.dir_level = dir_level
-        e.end_pos = i32(self.queue_end_pos + (steps if count_up else -steps))
+        end_pos = self.queue_end_pos + (steps if count_up else -steps)
+        if not -0x80000000 <= end_pos <= 0x7FFFFFFF:  # (i32() only where it wraps: hot path)
+            end_pos = i32(end_pos)
+        e.end_pos = end_pos
 
         if not self.ignore_commands:
-            self.next_write_idx = (wp + 1) & 0xFF
-            self.queue_end_pos = e.end_pos
+            wp = (wp + 1) & 0xFF
+            self.next_write_idx = wp
+            self.queue_end_pos = end_pos
             self.queue_end_dir = dir_level
             self.queue_end_count_up = count_up
             self.entries_added += 1
-            fill = (self.next_write_idx - self.read_idx) & 0xFF
+            fill = (wp - self.read_idx) & 0xFF
             if fill > self.max_fill:
                 self.max_fill = fill
-            self.channel.entry_added()
+            channel.entry_added()
 
         if start and not self.is_running():
-            self.channel.start()
+            channel.start()
         self.last_command_ticks = ticks
-        return AqeResult.OK
+        return _AQE_OK
 
     def start_queue(self) -> None:
         self.channel.start()

@@ -70,6 +70,21 @@ class OrderQueue(StepperQueue):
     def is_queue_full(self) -> bool:
         return self.queue_entries() >= self.depth
 
+    def ticks_in_queue(self) -> int:
+        """Ticks of all orders after the one being executed (orders are shortened in
+        place, so they are summed as they stand, not as written)."""
+        self.channel.sync()
+        rp, wp = self.read_idx, self.next_write_idx
+        if rp == wp:
+            return 0
+        ticks = 0
+        rp = (rp + 1) & 0xFF
+        while rp != wp:
+            e = self.entries[rp % RING]
+            ticks += e.ticks * e.steps if e.steps > 1 else e.ticks
+            rp = (rp + 1) & 0xFF
+        return ticks
+
     def free_slots(self) -> int:
         return self.depth - self.queue_entries()
 

@@ -23,6 +23,8 @@ from ..codes import (
 from .calculator import RampConfig, RampParameters, _i32
 from .control import NextCommand, RampRw, next_command
 
+_IDLE = int(RampState.IDLE)  # (an Enum member read per call costs a metaclass lookup)
+
 
 class RampGenerator:
     __slots__ = ("_parameters", "config", "target_pos", "force_stop", "force_immediate_stop",
@@ -46,7 +48,7 @@ class RampGenerator:
         return self.rw.ramp_state
 
     def is_ramp_generator_active(self) -> bool:
-        return self.rw.ramp_state != RampState.IDLE
+        return self.rw.ramp_state != _IDLE
 
     def is_stopping(self) -> bool:
         return self.force_stop and self.is_ramp_generator_active()
@@ -58,7 +60,8 @@ class RampGenerator:
         return self.rw.performed_ramp_up_steps
 
     def has_valid_config(self) -> bool:
-        return self.check_valid_config() == MoveResult.OK
+        p = self._parameters  # (check_valid_config() == OK, asked by every ramp task)
+        return p.valid_speed and p.valid_acceleration
 
     def check_valid_config(self) -> MoveResult:
         if not self._parameters.valid_speed:

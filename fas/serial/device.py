@@ -653,6 +653,7 @@ class Device:
         e = q.entries[wp % q.queue_len]
         e.steps = e.total_steps = m.steps
         e.ticks = m.ticks
+        q.durations[wp % q.queue_len] = m.ticks * m.steps if m.steps > 1 else m.ticks
         e.count_up = m.count_up
         e.toggle_dir = m.toggle_dir
         e.dir_level = m.dir_level

@@ -308,6 +308,9 @@ class SimBackend(Backend):
         resume_wait = m.resume_wait
         byte_ticks = uart.byte_ticks
         loads = uart._loads
+        # up to this tick nothing happens besides the printing (Machine.quiet_until): a
+        # character's time that ends before it is a plain addition to the clock
+        quiet = m.quiet_until()
         for i in range(len(data)):
             ticks = char_ticks if cpu_after is None else char_ticks + cpu_after[i]
             if len(chars) >= capacity:  # Uart.room_at()
@@ -324,6 +327,7 @@ class SimBackend(Backend):
                     wait = resume_wait()
                     if wait > 0:
                         ticks += wait
+                    quiet = m.quiet_until()
             # Uart.put(now), written out
             t = m.now
             prev = uart.last_start
@@ -336,9 +340,16 @@ class SimBackend(Backend):
             uart.chars += 1
             if load > t:
                 loads.append(load)
+                if load < quiet:
+                    quiet = load
             # handing the character over, then what follows it: one span of loop time
             # (Machine.consume counts every interrupt in it, so this is exact)
-            consume(ticks)
+            end = t + ticks
+            if end < quiet and not m.stolen_ticks:
+                m.now = end  # no interrupt and no event in the span: consume() would add
+            else:            # nothing
+                consume(ticks)
+                quiet = m.quiet_until()
 
     def block_interrupts(self, ticks: int) -> None:
         self.machine.block_interrupts(ticks)

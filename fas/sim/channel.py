@@ -327,7 +327,8 @@ class SimChannel(QueueChannel):
             if n > 1:
                 self._emit(c0, lat, n - 1, t)
             self._emit(last_c, now - last_c, 1)
-        self._count(n - self.b_counted, e.dir_level)
+        if self.pulse_counter is not None:
+            self._count(n - self.b_counted, e.dir_level)
         self.block_isrs_done += n - 1
         self.batch = False
         e.steps = 1
@@ -418,7 +419,10 @@ class SimChannel(QueueChannel):
             self.mode_one = e.steps != 0
         if self.entry_listeners and e is not self._noted:
             self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)
-        self._arm(c + ticks, now, e)
+        compare = c + ticks  # (_arm, written out: this runs once per queue entry)
+        if compare <= now:
+            compare = self._next_compare(compare, now)
+        self._program(compare, e)
 
     def _note_entry(self, kind: int, e: QueueEntry) -> None:
         self._noted = e

@@ -106,6 +106,12 @@ class Uart:
             j += 1
         return j - i
 
+    def next_load_after(self, t: int) -> int | None:
+        """Tick of the transmit interrupt's first load after ``t`` (None: none due)."""
+        loads = self._loads
+        i = bisect_right(loads, t)
+        return loads[i] if i < len(loads) else None
+
     def isr_running_at(self, t: int, cost: int) -> int | None:
         """End of the transmit interrupt (``cost`` long) that runs at tick ``t``."""
         loads = self._loads
