@@ -679,7 +679,10 @@ class StepperDemo(LoopProgram):
                 candidates.append(nxt)
         if self.pause_ms > 0:
             candidates.append(b.tick_at_millis(self.pause_start + self.pause_ms))
-        if self.any_running() or (self.mode == Mode.TEST and self.test_ongoing):
+        # the 100 ms status line: printed in the normal and config modes while a stepper
+        # runs, and by the tests while they run (in test mode nothing else renews it)
+        if ((self.mode == Mode.TEST and self.test_ongoing)
+                or (self.mode not in (Mode.TEST, Mode.GCODE) and self.any_running())):
             candidates.append(b.tick_at_millis(self.last_time + 100))
         if self.simulate_blocked_isr:
             candidates.append(b.tick_at_millis((b.millis() | 0xFF) + 1))
