@@ -78,8 +78,9 @@ class QueueChannel(ABC):
 
     def cut(self, index: int, on_refused: Callable[[], None]) -> None:
         """Drop the entries from ``index`` on, here and on the executor; if the executor
-        had already begun them, the entries come back and ``on_refused()`` is called."""
-        raise NotImplementedError
+        had already begun them, the entries come back and ``on_refused()`` is called.
+        Only channels whose :meth:`cut_index` offers an index are asked."""
+        raise NotImplementedError(f"{type(self).__name__} cannot cut its queue")
 
 
 class PulseCounter:
