@@ -23,7 +23,6 @@ from .uart import Uart
 PRIO_STEP_ISR = 10  # + channel index: TIMER1_COMPA before COMPB ...
 PRIO_TASK = 30  # timer overflow: after the compare interrupts
 PRIO_PLAIN = 50  # not an interrupt (application timers, recorders)
-_NEVER = 1 << 62  # a tick later than any run
 
 
 class Event:
@@ -227,47 +226,6 @@ class Machine:
             if not stolen:
                 return
             ticks = stolen
-
-    def quiet_until(self) -> int:
-        """The first tick at which anything but the loop's own work may happen: an event
-        falls due, or an interrupt takes CPU time from the loop (a step interrupt inside
-        a block of pulses, the ``millis()`` timer, the UART's transmit interrupt).
-
-        Spending time that ends before it, :meth:`consume` finds nothing to count: the
-        loop's time is a plain addition to ``now``.  A caller that spends many small
-        spans (a print, character by character) checks against it instead of calling
-        :meth:`consume` for each; it holds until time reaches it or the machine's state
-        changes otherwise (a new character's load: :meth:`Uart.put`).  Timers without
-        events (``cpu_sources``: QuickStep's) are not looked ahead: then it is ``now``.
-        The counting rules are those of :meth:`consume`."""
-        now = self.now
-        if self.cpu_sources:
-            return now
-        heap = self._heap
-        quiet = heap[0][0] if heap else _NEVER
-        for src in self.block_sources:  # interrupt j of a block at first + j * b_t
-            if src.batch and src.isr_ticks:  # ... for j <= b_n - 2 (the last is an event)
-                first = src.b_c0 + src.lat
-                if now < first:
-                    nxt = first
-                else:
-                    j = (now - first) // src.b_t + 1
-                    if j > src.b_n - 2:
-                        continue
-                    nxt = first + j * src.b_t
-                if nxt < quiet:
-                    quiet = nxt
-        p = self.profile
-        if p.sim_millis_isr_ticks and self._millis_started:  # at phase + k * overflow, k >= 1
-            phase, ov = self._millis_phase, p.sim_millis_overflow_ticks
-            nxt = phase + ((now - phase) // ov + 1) * ov if now >= phase else phase + ov
-            if nxt < quiet:
-                quiet = nxt
-        if p.sim_uart_isr_ticks:
-            nxt = self.uart.next_load_after(now)
-            if nxt is not None and nxt < quiet:
-                quiet = nxt
-        return quiet
 
     def resume(self) -> None:
         """The loop waited (polling) until now; it goes on once no interrupt routine

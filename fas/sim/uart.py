@@ -94,8 +94,8 @@ class Uart:
         i = self._pos
         if i and loads[i - 1] > begin:  # a window before the last one
             i = bisect_right(loads, begin)
-        while i < n and loads[i] <= begin:
-            i += 1
+        elif i < n and loads[i] <= begin:  # further on (prints follow the loads
+            i = bisect_right(loads, begin, i + 1)  # themselves: fas.sim.isrclock)
         if i > 4096:  # forget what lies far behind
             del loads[:i - 256]
             n -= i - 256
@@ -105,12 +105,6 @@ class Uart:
         while j < n and loads[j] <= end:
             j += 1
         return j - i
-
-    def next_load_after(self, t: int) -> int | None:
-        """Tick of the transmit interrupt's first load after ``t`` (None: none due)."""
-        loads = self._loads
-        i = bisect_right(loads, t)
-        return loads[i] if i < len(loads) else None
 
     def isr_running_at(self, t: int, cost: int) -> int | None:
         """End of the transmit interrupt (``cost`` long) that runs at tick ``t``."""
