@@ -401,11 +401,10 @@ class SimBackend(Backend):
 
     def stray_read(self, pins: tuple[int, ...]) -> None:
         """The firmware's erroneous ``digitalRead()`` of step pins (StepperDemo `r`)."""
-        for pin in pins:
-            self.stray_reads += 1
-            for ch in self.channels:
-                if ch.step_pin == pin and ch.step_pin_high():
-                    self.stray_reads_during_pulse += 1
+        self.stray_reads += len(pins)
+        for ch in self.channels:  # (once per loop pass while `r` is on: one look per channel)
+            if ch.step_pin in pins and ch.step_pin_high():
+                self.stray_reads_during_pulse += pins.count(ch.step_pin)
 
     def channel_for_pin(self, step_pin: int) -> SimChannel | None:
         for ch in self.channels:

@@ -31,12 +31,17 @@ class IsrClock:
     the tick ``last``, each taking ``cost`` ticks; the list holds
     ``[next tick after the last span, period, first, last, cost]``.  The UART's loads
     are the machine's list, read from the cursor ``li`` on.
-    Not for machines with ``cpu_sources`` (their timers are not followed here)."""
+    Not for machines with ``cpu_sources`` (their timers are not followed here).
 
-    __slots__ = ("m", "trains", "loads", "li", "uart_cost", "quiet")
+    ``key`` is what the trains depend on besides time (:meth:`Machine.isr_clock`):
+    events run and scheduled, interrupt-blocked windows, and ``activity`` (a channel
+    started or stopped from the main loop)."""
+
+    __slots__ = ("m", "key", "trains", "loads", "li", "uart_cost", "quiet")
 
     def __init__(self, m: Machine) -> None:
         self.m = m
+        self.key = (m.events_run, m._seq, m.irq_block_windows, m.activity)
         now = m.now
         trains = []
         for src in m.block_sources:  # as Machine.consume: interrupts j <= b_n - 2 of a
@@ -64,6 +69,11 @@ class IsrClock:
         heap = m._heap
         loads = self.loads
         n_loads = len(loads)
+        end = m.now + ticks
+        if (end < self.quiet and not m.stolen_ticks and (not heap or heap[0][0] > end)
+                and (not self.uart_cost or self.li == n_loads or loads[self.li] > end)):
+            m.now = end  # the common case: no interrupt and no event in the span
+            return 0
         while True:
             start = m.now
             end = start + ticks
@@ -87,6 +97,8 @@ class IsrClock:
                 tr[0] = nxt
             if self.uart_cost:
                 li = self.li
+                if li and loads[li - 1] > start:  # the list was cut since (Uart)
+                    li = bisect_right(loads, start)
                 while li < n_loads and loads[li] <= start:
                     li += 1
                 begin = li
@@ -124,6 +136,8 @@ class IsrClock:
             loads = self.loads
             li = self.li
             n_loads = len(loads)
+            if li and loads[li - 1] > now:  # the list was cut since (Uart)
+                li = bisect_right(loads, now)
             while li < n_loads and loads[li] <= now:
                 li += 1
             self.li = li
@@ -153,8 +167,8 @@ def print_chars(m: Machine, data: bytes, cpu_after: Sequence[int] | None,
     heap = m._heap
     byte_ticks = uart.byte_ticks
     loads = uart._loads
-    # the interrupts that take time from the loop, followed between events by an
-    # IsrClock (made when needed, dropped when events ran); QuickStep's timers are not
+    # the interrupts that take time from the loop, followed between events by the
+    # machine's IsrClock (asked again after events ran); QuickStep's timers are not
     # followed there: then the machine answers every span
     clock = None
     plain = not m.cpu_sources
@@ -174,7 +188,7 @@ def print_chars(m: Machine, data: bytes, cpu_after: Sequence[int] | None,
                 # exact moment of the hand-over; the CPU time adds up exactly
                 if plain:
                     if clock is None:
-                        clock = IsrClock(m)
+                        clock = m.isr_clock()
                     wait = clock.resume_wait()
                 else:
                     wait = m.resume_wait()
@@ -196,7 +210,7 @@ def print_chars(m: Machine, data: bytes, cpu_after: Sequence[int] | None,
         # (Machine.consume counts every interrupt in it, so this is exact)
         if plain:
             if clock is None:
-                clock = IsrClock(m)
+                clock = m.isr_clock()
             end = t + ticks  # IsrClock.spend's common case, written out: no interrupt
             if (end < clock.quiet and not m.stolen_ticks  # and no event in the span
                     and (not heap or heap[0][0] > end)
@@ -208,4 +222,4 @@ def print_chars(m: Machine, data: bytes, cpu_after: Sequence[int] | None,
             if not ticks:
                 continue
             clock = None  # an event falls due in the span: the machine runs it
-        m.consume(ticks)
+        m.consume_counting(ticks)
