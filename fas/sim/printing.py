@@ -69,33 +69,35 @@ class IsrClock:
         heap = m._heap
         loads = self.loads
         n_loads = len(loads)
-        end = m.now + ticks
-        if (end < self.quiet and not m.stolen_ticks and (not heap or heap[0][0] > end)
-                and (not self.uart_cost or self.li == n_loads or loads[self.li] > end)):
-            m.now = end  # the common case: no interrupt and no event in the span
-            return 0
+        uart_cost = self.uart_cost
+        quiet = self.quiet
         while True:
             start = m.now
             end = start + ticks
             if heap and heap[0][0] <= end:
+                self.quiet = quiet
                 return ticks
             m.now = end
             stolen = m.stolen_ticks
-            for tr in self.trains:
-                nxt = tr[0]
-                if nxt <= start:  # time jumped ahead (a wait): find the next one again
-                    nxt = _next_after(start, tr[1], tr[2], tr[3])
-                if nxt <= end:
-                    period, last = tr[1], tr[3]
-                    k = (end - nxt) // period + 1
-                    if nxt + (k - 1) * period > last:
-                        k = (last - nxt) // period + 1
-                    stolen += k * tr[4]
-                    nxt += k * period
-                    if nxt > last:
-                        nxt = _NEVER
-                tr[0] = nxt
-            if self.uart_cost:
+            if end >= quiet:  # a train's interrupt may fall in the span: count them all
+                quiet = _NEVER
+                for tr in self.trains:
+                    nxt = tr[0]
+                    if nxt <= start:  # time jumped ahead (a wait): find the next one again
+                        nxt = _next_after(start, tr[1], tr[2], tr[3])
+                    if nxt <= end:
+                        period, last = tr[1], tr[3]
+                        k = (end - nxt) // period + 1
+                        if nxt + (k - 1) * period > last:
+                            k = (last - nxt) // period + 1
+                        stolen += k * tr[4]
+                        nxt += k * period
+                        if nxt > last:
+                            nxt = _NEVER
+                    tr[0] = nxt
+                    if nxt < quiet:
+                        quiet = nxt
+            if uart_cost:
                 li = self.li
                 if li and loads[li - 1] > start:  # the list was cut since (Uart)
                     li = bisect_right(loads, start)
@@ -106,17 +108,12 @@ class IsrClock:
                     li += 1
                 self.li = li
                 if li > begin:
-                    stolen += (li - begin) * self.uart_cost
+                    stolen += (li - begin) * uart_cost
             m.stolen_ticks = 0
             if not stolen:
-                break
+                self.quiet = quiet
+                return 0
             ticks = stolen
-        quiet = _NEVER
-        for tr in self.trains:  # (each cursor lies after now here)
-            if tr[0] < quiet:
-                quiet = tr[0]
-        self.quiet = quiet
-        return 0
 
     def resume_wait(self) -> int:
         """:meth:`Machine.resume_wait` as far as its callers look: a positive answer is
