@@ -13,7 +13,6 @@ Also the console's meta commands for a serial session (``/reconnect``, ``/link``
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 from collections.abc import Iterable, Sequence
 
@@ -239,6 +238,8 @@ def console_meta(console, cmd: str, args: list[str]) -> Iterable[str]:
 # ------------------------------------------------------------- subcommands
 class _Stop:
     def __init__(self) -> None:
+        import signal  # (only a device needs it: not imported at every start)
+
         self.flag = False
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, self._set)
