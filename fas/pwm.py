@@ -26,10 +26,16 @@ The two rules (``PwmTimer.rule``):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from fractions import Fraction
 from math import log2
+from typing import TYPE_CHECKING
 
 from .arch import PWM_RULE_BITS, PwmTimer
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fractions import Fraction
+
+# (fractions, with decimal, takes milliseconds to import: only the functions that
+# work out a PWM setting import it, not every start of the program)
 
 
 class PwmFrequencyError(ValueError):
@@ -67,6 +73,7 @@ class PwmSetting:
 
     @property
     def frequency(self) -> Fraction:
+        from fractions import Fraction
         return Fraction(self.clock_hz << self.frac_bits, self.clock_div * self.counts)
 
     @property
@@ -85,6 +92,7 @@ class PwmSetting:
 
     def period_ticks(self, ticks_per_s: int) -> Fraction:
         """The period in ticks of a machine clock of ``ticks_per_s`` (exact)."""
+        from fractions import Fraction
         return Fraction(ticks_per_s * self.clock_div * self.counts,
                         self.clock_hz << self.frac_bits)
 
@@ -96,6 +104,7 @@ def clamp_percent(duty_percent: float) -> float:
 
 def duty_count(counts: int, duty_percent: float) -> int:
     """The count nearest to ``duty_percent`` of ``counts`` (clamped; halves round up)."""
+    from fractions import Fraction
     exact = Fraction(clamp_percent(duty_percent)) * counts / 100
     return int(exact + Fraction(1, 2))
 
@@ -107,6 +116,7 @@ def count_percent(count: int, counts: int) -> float:
 
 def pwm_setting(timer: PwmTimer, frequency_hz: float) -> PwmSetting:
     """What ``timer`` makes of ``frequency_hz`` (raises :class:`PwmFrequencyError`)."""
+    from fractions import Fraction
     f = Fraction(frequency_hz) if frequency_hz == frequency_hz else Fraction(0)
     if timer.rule == PWM_RULE_BITS:
         return _bits_setting(timer, f, frequency_hz)
@@ -129,6 +139,7 @@ def frequency_range(timer: PwmTimer) -> tuple[float, float]:
 
 
 def _bits_setting(timer: PwmTimer, f: Fraction, requested: float) -> PwmSetting:
+    from fractions import Fraction
     clock = timer.clock_hz
     low, high = frequency_range(timer)
     if f <= 0 or f > clock / 2:
@@ -144,6 +155,7 @@ def _bits_setting(timer: PwmTimer, f: Fraction, requested: float) -> PwmSetting:
 
 
 def _counts_setting(timer: PwmTimer, f: Fraction, requested: float) -> PwmSetting:
+    from fractions import Fraction
     clock = timer.clock_hz
     low, high = frequency_range(timer)
     if f <= 0:

@@ -19,7 +19,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from .backend import Backend, QueueChannel
 
 
-_AQE_OK = AqeResult.OK  # (an Enum member read as a class attribute costs a lookup)
+# the ramp task compares results once per command: an Enum member read as a class
+# attribute costs a metaclass lookup, a module constant does not
+AQE_OK = AqeResult.OK
 
 
 def i32(v: int) -> int:
@@ -171,7 +173,7 @@ class StepperQueue:
                 if self.next_write_idx == self.read_idx:
                     return AqeResult.ERROR_EMPTY_QUEUE_TO_START
                 channel.start()
-            return _AQE_OK
+            return AQE_OK
         channel.sync()  # once: nothing below moves the read index
         wp = self.next_write_idx
         if ((wp - self.read_idx) & 0xFF) >= self.queue_len:
@@ -218,7 +220,7 @@ class StepperQueue:
         if start and not self.is_running():
             channel.start()
         self.last_command_ticks = ticks
-        return _AQE_OK
+        return AQE_OK
 
     def start_queue(self) -> None:
         self.channel.start()

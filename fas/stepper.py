@@ -25,7 +25,7 @@ from .codes import (
     MoveResult,
 )
 from .errors import UnsupportedError
-from .queue import StepperQueue, i32
+from .queue import AQE_OK, StepperQueue, i32
 from .quickstep.clock import QsConfigResult
 from .ramp.generator import RampGenerator
 from .timed import TimedMove, move_timed
@@ -34,10 +34,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from .arch import DriverPool
     from .engine import Engine
     from .quickstep.planner import QuickStepPlanner
-
-# the ramp task compares results once per command: an Enum member read as a class
-# attribute costs a metaclass lookup, a module constant does not
-_AQE_OK = AqeResult.OK
 
 PLANNER_FAS = 0  # FastAccelStepper's ramp generator (default)
 PLANNER_QUICKSTEP = 1  # QuickStep's plateau orders (fas.quickstep)
@@ -653,7 +649,7 @@ class Stepper:
         elif not count_up:
             return AqeResult.ERROR_NO_DIR_PIN_TO_TOGGLE
 
-        res = _AQE_OK
+        res = AQE_OK
         if self._auto_enable and self._auto_disable_delay_counter == 0:
             if not self.enable_outputs():
                 return AqeResult.WAIT_FOR_ENABLE_PIN_ACTIVE
@@ -672,7 +668,7 @@ class Stepper:
                     q.add_queue_entry(chunk, 0, count_up, start=False)
                     delay -= chunk
                 res = q.add_queue_entry(None, start=start)
-                if res != _AQE_OK:
+                if res != AQE_OK:
                     return res
 
         dir_change_needed = self._dir_pin != PIN_UNDEFINED and q.queue_end_count_up != count_up
@@ -680,7 +676,7 @@ class Stepper:
             if dir_change_needed and not self._handle_external_direction_pin(count_up):
                 res = q.add_queue_entry(self._profile.us_to_ticks(2000), 0, count_up,
                                         start=start)
-                return AqeResult.DIR_PIN_2MS_PAUSE_ADDED if res == _AQE_OK else res
+                return AqeResult.DIR_PIN_2MS_PAUSE_ADDED if res == AQE_OK else res
         elif dir_change_needed and steps != 0:
             pool = self._pool
             before_delay = pool.before_dir_change_ticks if pool is not None else 0
@@ -696,11 +692,11 @@ class Stepper:
                 if delay > 0:
                     res = q.add_queue_entry(max(delay, self._profile.min_cmd_ticks), 0,
                                             count_up, start=start)
-                    if res != _AQE_OK:
+                    if res != AQE_OK:
                         return res
 
         res = q.add_queue_entry(ticks, steps, count_up, start=start)
-        if res == _AQE_OK and self._auto_enable:
+        if res == AQE_OK and self._auto_enable:
             self._auto_disable_delay_counter = self._off_delay_count
         self._engine.kick()
         return res
@@ -893,13 +889,13 @@ class Stepper:
                 break
             if snaps is not None and q.channel.cut_pending and rg.apply_pending():
                 break  # a new request waits until the cut is confirmed or undone
-            res = _AQE_OK
+            res = AQE_OK
             cmd = rg.get_next_command(q.queue_end_pos, q.queue_end_count_up)
             if cmd.ticks != 0:
                 res = self._add_queue_entry(cmd.ticks, cmd.steps, cmd.count_up,
                                             start=not delayed_start)
                 generated += 1
-            if res == _AQE_OK:
+            if res == AQE_OK:
                 rg.after_command_enqueued(cmd)
                 if snaps is not None:
                     snaps[q.next_write_idx] = (q.entries_added, rg.snapshot())
@@ -907,7 +903,7 @@ class Stepper:
                 ticks_prepared += cmd.ticks * cmd.steps if cmd.steps > 1 else cmd.ticks
             if cmd.ticks == 0:
                 break
-            if res != _AQE_OK:
+            if res != AQE_OK:
                 if res.retry:
                     break
                 self._engine.report_ramp_abort(self, res, cmd)

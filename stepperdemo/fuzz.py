@@ -248,10 +248,9 @@ def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 
     orig_dispatch = commands.dispatch
 
     def counting_dispatch(a, cmd):
-        before = app.transcript.count(b"ERROR") + app.transcript.count(b"Unknown command")
+        mark = len(app.transcript)
         ok = orig_dispatch(a, cmd)
-        after = app.transcript.count(b"ERROR") + app.transcript.count(b"Unknown command")
-        errors_seen.append((cmd, ok, after - before))
+        errors_seen.append((cmd, ok, _errors_since(app.transcript, mark)))
         return ok
 
     from .demo import app as app_module
@@ -277,6 +276,18 @@ def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 
             res.violations.append(f"command {cmd!r} printed {n} error lines")
     _check_motion(app, backend, tracker, res)
     return res
+
+
+_ERROR_MARKS = (b"ERROR", b"Unknown command")
+
+
+def _errors_since(transcript: bytearray, mark: int) -> int:
+    """Error texts printed after ``transcript[:mark]`` (a text may have begun before
+    the mark; counting the tail keeps a long run's checks cheap)."""
+    start = max(0, mark - max(len(m) for m in _ERROR_MARKS) + 1)
+    tail = transcript[start:]
+    old = tail[:mark - start]
+    return sum(tail.count(m) - old.count(m) for m in _ERROR_MARKS)
 
 
 def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,

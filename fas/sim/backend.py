@@ -12,6 +12,7 @@ from ..queue import StepperQueue
 from .channel import SimChannel
 from .machine import PRIO_TASK, Machine
 from .pins import EdgeRecorder
+from .printing import print_chars
 
 DEFAULT_WAIT_LIMIT_S = 3600
 
@@ -298,58 +299,7 @@ class SimBackend(Backend):
         return self.machine.next_event_time()
 
     def console_write(self, data: bytes, cpu_after: Sequence[int] | None = None) -> None:
-        m = self.machine
-        uart = m.uart
-        chars = uart._chars
-        capacity = uart.capacity
-        consume = m.consume
-        heap = m._heap
-        char_ticks = self.profile.sim_char_ticks
-        resume_wait = m.resume_wait
-        byte_ticks = uart.byte_ticks
-        loads = uart._loads
-        # up to this tick nothing happens besides the printing (Machine.quiet_until): a
-        # character's time that ends before it is a plain addition to the clock
-        quiet = m.quiet_until()
-        for i in range(len(data)):
-            ticks = char_ticks if cpu_after is None else char_ticks + cpu_after[i]
-            if len(chars) >= capacity:  # Uart.room_at()
-                room = chars[0][2]
-                if room > m.now:  # the print waits for a free place in the buffer
-                    if heap and heap[0][0] <= room:
-                        m.run_until(room)
-                    else:
-                        m.now = room
-                    # it goes on once the interrupts running now are done (Machine.resume)
-                    # and hands the character over: the buffer is full, so the character
-                    # goes onto the wire when the one before it is done, whatever the
-                    # exact moment of the hand-over; the CPU time adds up exactly
-                    wait = resume_wait()
-                    if wait > 0:
-                        ticks += wait
-                    quiet = m.quiet_until()
-            # Uart.put(now), written out
-            t = m.now
-            prev = uart.last_start
-            load = t if t > prev else prev
-            start = prev + byte_ticks
-            if load > start:
-                start = load
-            uart.last_start = start
-            chars.append([t, load, start, prev])
-            uart.chars += 1
-            if load > t:
-                loads.append(load)
-                if load < quiet:
-                    quiet = load
-            # handing the character over, then what follows it: one span of loop time
-            # (Machine.consume counts every interrupt in it, so this is exact)
-            end = t + ticks
-            if end < quiet and not m.stolen_ticks:
-                m.now = end  # no interrupt and no event in the span: consume() would add
-            else:            # nothing
-                consume(ticks)
-                quiet = m.quiet_until()
+        print_chars(self.machine, data, cpu_after, self.profile.sim_char_ticks)
 
     def block_interrupts(self, ticks: int) -> None:
         self.machine.block_interrupts(ticks)
@@ -451,11 +401,10 @@ class SimBackend(Backend):
 
     def stray_read(self, pins: tuple[int, ...]) -> None:
         """The firmware's erroneous ``digitalRead()`` of step pins (StepperDemo `r`)."""
-        for pin in pins:
-            self.stray_reads += 1
-            for ch in self.channels:
-                if ch.step_pin == pin and ch.step_pin_high():
-                    self.stray_reads_during_pulse += 1
+        self.stray_reads += len(pins)
+        for ch in self.channels:  # (once per loop pass while `r` is on: one look per channel)
+            if ch.step_pin in pins and ch.step_pin_high():
+                self.stray_reads_during_pulse += pins.count(ch.step_pin)
 
     def channel_for_pin(self, step_pin: int) -> SimChannel | None:
         for ch in self.channels:

@@ -18,12 +18,12 @@ from typing import Callable
 from ..arch import Profile
 from .outputs import SimOutputs
 from .pins import PinBank
+from .printing import IsrClock
 from .uart import Uart
 
 PRIO_STEP_ISR = 10  # + channel index: TIMER1_COMPA before COMPB ...
 PRIO_TASK = 30  # timer overflow: after the compare interrupts
 PRIO_PLAIN = 50  # not an interrupt (application timers, recorders)
-_NEVER = 1 << 62  # a tick later than any run
 
 
 class Event:
@@ -63,6 +63,8 @@ class Machine:
         self.events_run = 0
         self._millis_phase = 0  # timer 0 starts counting (see start_millis)
         self._millis_started = False
+        self._clock: IsrClock | None = None  # see isr_clock()
+        self._tick_at_ms = (None, 0)  # the last answer of tick_at_millis (ms, tick)
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
@@ -173,6 +175,28 @@ class Machine:
         period interrupt).  So spending ``a`` and then ``b`` ticks ends at the same
         tick as spending ``a + b``.
         (Written out for speed: this runs for every character a program prints.)"""
+        if not self.cpu_sources:  # between events an IsrClock answers (fas.sim.printing)
+            clock = self._clock
+            if clock is None or clock.key != (self.events_run, self._seq,
+                                              self.irq_block_windows, self.activity):
+                clock = self._clock = IsrClock(self)
+            ticks = clock.spend(ticks)
+            if not ticks:
+                return
+        self.consume_counting(ticks)
+
+    def isr_clock(self) -> IsrClock:
+        """The interrupts that take time from the loop, followed until the next event
+        (not with ``cpu_sources``)."""
+        clock = self._clock
+        if clock is None or clock.key != (self.events_run, self._seq,
+                                          self.irq_block_windows, self.activity):
+            clock = self._clock = IsrClock(self)
+        return clock
+
+    def consume_counting(self, ticks: int) -> None:
+        """:meth:`consume`, each span counted here (for spans in which events fall due,
+        and with ``cpu_sources``)."""
         p = self.profile
         millis_cost = p.sim_millis_isr_ticks if self._millis_started else 0
         phase = self._millis_phase
@@ -228,51 +252,11 @@ class Machine:
                 return
             ticks = stolen
 
-    def quiet_until(self) -> int:
-        """The first tick at which anything but the loop's own work may happen: an event
-        falls due, or an interrupt takes CPU time from the loop (a step interrupt inside
-        a block of pulses, the ``millis()`` timer, the UART's transmit interrupt).
-
-        Spending time that ends before it, :meth:`consume` finds nothing to count: the
-        loop's time is a plain addition to ``now``.  A caller that spends many small
-        spans (a print, character by character) checks against it instead of calling
-        :meth:`consume` for each; it holds until time reaches it or the machine's state
-        changes otherwise (a new character's load: :meth:`Uart.put`).  Timers without
-        events (``cpu_sources``: QuickStep's) are not looked ahead: then it is ``now``.
-        The counting rules are those of :meth:`consume`."""
-        now = self.now
-        if self.cpu_sources:
-            return now
-        heap = self._heap
-        quiet = heap[0][0] if heap else _NEVER
-        for src in self.block_sources:  # interrupt j of a block at first + j * b_t
-            if src.batch and src.isr_ticks:  # ... for j <= b_n - 2 (the last is an event)
-                first = src.b_c0 + src.lat
-                if now < first:
-                    nxt = first
-                else:
-                    j = (now - first) // src.b_t + 1
-                    if j > src.b_n - 2:
-                        continue
-                    nxt = first + j * src.b_t
-                if nxt < quiet:
-                    quiet = nxt
-        p = self.profile
-        if p.sim_millis_isr_ticks and self._millis_started:  # at phase + k * overflow, k >= 1
-            phase, ov = self._millis_phase, p.sim_millis_overflow_ticks
-            nxt = phase + ((now - phase) // ov + 1) * ov if now >= phase else phase + ov
-            if nxt < quiet:
-                quiet = nxt
-        if p.sim_uart_isr_ticks:
-            nxt = self.uart.next_load_after(now)
-            if nxt is not None and nxt < quiet:
-                quiet = nxt
-        return quiet
-
     def resume(self) -> None:
         """The loop waited (polling) until now; it goes on once no interrupt routine
         holds the CPU.  What the routines took while it waited delayed nothing."""
-        wait = self.resume_wait()
+        # (between events the IsrClock's answer is the same where it is positive)
+        wait = self.resume_wait() if self.cpu_sources else self.isr_clock().resume_wait()
         if wait > 0:
             self.consume(wait)
 
@@ -323,6 +307,8 @@ class Machine:
         """Arduino's start-up has just started timer 0, the source of ``millis()``."""
         self._millis_phase = self.now
         self._millis_started = True
+        self._clock = None  # its interrupts begin
+        self._tick_at_ms = (None, 0)
 
     def millis_isrs_between(self, begin: int, end: int) -> int:
         """Timer-0 overflow interrupts in ``(begin, end]``."""
@@ -341,6 +327,13 @@ class Machine:
 
     def tick_at_millis(self, ms: int) -> int:
         """Earliest tick at which :meth:`millis` returns at least ``ms``."""
+        if ms == self._tick_at_ms[0]:  # a waiting loop asks for the same deadline often
+            return self._tick_at_ms[1]
+        tick = self._tick_at_millis(ms)
+        self._tick_at_ms = (ms, tick)
+        return tick
+
+    def _tick_at_millis(self, ms: int) -> int:
         ov = self.profile.sim_millis_overflow_ticks
         if ms <= 0:
             return self._millis_phase

@@ -22,10 +22,11 @@ its pin level is computed when read.
 
 from __future__ import annotations
 
-from fractions import Fraction
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # pragma: no cover
+    from fractions import Fraction  # (annotations only: it takes ms to import)
+
     from .pins import PinBank
 
 CHUNK_EDGES = 1 << 14  # edges handed to the pin sinks in one call

@@ -16,7 +16,7 @@ such a window waits for its end; the line goes idle meanwhile.  A write of chara
 
 from __future__ import annotations
 
-from bisect import bisect_right
+from bisect import bisect_left, bisect_right
 from collections import deque
 from operator import itemgetter
 
@@ -60,14 +60,18 @@ class Uart:
         """Interrupts are off in ``[begin, end)``: loads due in it wait for its end.
 
         Windows arrive in time order and never before a pending write, so only
-        characters loaded at or after ``begin`` move (with all that follow them).
+        characters loaded at or after ``begin`` move (with all that follow them):
+        loads are in order, so those are the last ones.
         """
-        prev_start = None
-        for ch in self._chars:
-            if prev_start is None:
-                if ch[1] < begin:
-                    continue
-                prev_start = ch[3]
+        chars = self._chars
+        k = len(chars)
+        while k and chars[k - 1][1] >= begin:
+            k -= 1
+        if k == len(chars):
+            return  # every character was loaded before the window
+        moved = [chars[i] for i in range(k, len(chars))]
+        prev_start = moved[0][3]
+        for ch in moved:
             load = max(ch[0], prev_start)
             if begin <= load < end:
                 load = end
@@ -76,12 +80,11 @@ class Uart:
             ch[2] = start
             ch[3] = prev_start
             prev_start = start
-        if prev_start is not None:
-            self.last_start = prev_start
-            self._loads[:] = ([x for x in self._loads if x < begin]
-                              + [ch[1] for ch in self._chars
-                                 if ch[1] >= begin and ch[1] > ch[0]])
-            self._pos = min(self._pos, bisect_right(self._loads, begin))
+        self.last_start = prev_start
+        loads = self._loads  # (in order: the ones before the window stay)
+        del loads[bisect_left(loads, begin):]
+        loads.extend([ch[1] for ch in moved if ch[1] > ch[0]])
+        self._pos = min(self._pos, bisect_right(loads, begin))
 
     def isr_loads_between(self, begin: int, end: int) -> int:
         """Characters the transmit interrupt loads in ``(begin, end]``.
@@ -94,8 +97,8 @@ class Uart:
         i = self._pos
         if i and loads[i - 1] > begin:  # a window before the last one
             i = bisect_right(loads, begin)
-        while i < n and loads[i] <= begin:
-            i += 1
+        elif i < n and loads[i] <= begin:  # further on (prints follow the loads
+            i = bisect_right(loads, begin, i + 1)  # themselves: fas.sim.isrclock)
         if i > 4096:  # forget what lies far behind
             del loads[:i - 256]
             n -= i - 256
@@ -105,12 +108,6 @@ class Uart:
         while j < n and loads[j] <= end:
             j += 1
         return j - i
-
-    def next_load_after(self, t: int) -> int | None:
-        """Tick of the transmit interrupt's first load after ``t`` (None: none due)."""
-        loads = self._loads
-        i = bisect_right(loads, t)
-        return loads[i] if i < len(loads) else None
 
     def isr_running_at(self, t: int, cost: int) -> int | None:
         """End of the transmit interrupt (``cost`` long) that runs at tick ``t``."""

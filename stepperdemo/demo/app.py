@@ -29,6 +29,10 @@ from . import quickstep as qs_console
 from .commands import HELP, Mode, dispatch
 from .testseq import TEST_STATE_ERROR, SeqSlot
 
+# the loop compares its mode in every pass: an Enum member read as a class attribute
+# costs a metaclass lookup, a module constant does not
+_NORMAL, _TEST, _GCODE = Mode.NORMAL, Mode.TEST, Mode.GCODE
+
 LONG_MAX = 2**31 - 1
 LONG_MIN = -(2**31)
 _WS = b" \t\n\v\f\r"
@@ -119,7 +123,7 @@ class StepperDemo(LoopProgram):
         self.engine = Engine(self.backend)
         self.engine.ramp_abort_listener = self._ramp_abort
         self.steppers: list = [None] * self.profile.max_steppers
-        self.mode = Mode.NORMAL
+        self.mode = _NORMAL
         self.test_ongoing = False
         self.test_slots = [SeqSlot() for _ in range(self.profile.max_steppers)]
         self.in_buffer = bytearray(256)
@@ -445,20 +449,23 @@ class StepperDemo(LoopProgram):
 
     def usage(self) -> None:
         p = self.profile
-        if self.mode == Mode.NORMAL:
+        if self.mode == _NORMAL:
             self.print(msg.usage_normal(esp32=p.family == "esp32", avr=p.family == "avr",
                                         small=p.demo_small_build))
         elif p.demo_small_build:
             pass  # the ATmega32U4 build has no test and config usage texts
         elif not self.scripted:
-            self.print(msg.USAGE_TEST if self.mode == Mode.TEST else msg.USAGE_CONFIG)
+            self.print(msg.USAGE_TEST if self.mode == _TEST else msg.USAGE_CONFIG)
         else:  # built-in-input firmware: the text is empty, the table is still scanned
-            self.lookup(msg.USAGE_TEST if self.mode == Mode.TEST else msg.USAGE_CONFIG)
+            self.lookup(msg.USAGE_TEST if self.mode == _TEST else msg.USAGE_CONFIG)
         self.stepper_info()
 
     # ------------------------------------------------------------ the loop
     def any_running(self) -> bool:
-        return any(s is not None and s.is_running() for s in self.steppers)
+        for s in self.steppers:  # (asked in every pass: a plain loop)
+            if s is not None and s.is_running():
+                return True
+        return False
 
     def loop_pass(self) -> None:
         """One pass of StepperDemo's ``loop()``."""
@@ -500,7 +507,7 @@ class StepperDemo(LoopProgram):
                 self.print(msg.WAIT_COMPLETE)
         elif self.qs_hold is not None:
             qs_console.service_hold(self)
-        elif self.mode == Mode.GCODE and self.read_ptr != self.write_ptr:
+        elif self.mode == _GCODE and self.read_ptr != self.write_ptr:
             if self.gcode.can_take():  # issue 12: lines are G-code blocks
                 c = self.in_buffer[self.read_ptr]
                 self.read_ptr = (self.read_ptr + 1) & 0xFF
@@ -531,14 +538,14 @@ class StepperDemo(LoopProgram):
 
         ms = b.millis()
         if self.simulate_digital_read_error:
-            b.stray_read(tuple(s.get_step_pin() for s in self.steppers if s is not None))
+            b.stray_read(tuple([s.get_step_pin() for s in self.steppers if s is not None]))
         if self.simulate_blocked_isr and (ms & 0xFF) < 0x40:
             b.block_interrupts(self.profile.sim_irq_block_ticks)
 
-        if self.mode == Mode.TEST:
+        if self.mode == _TEST:
             if self.test_ongoing:
                 self._run_tests(ms)
-        elif self.mode == Mode.GCODE:  # issue 12: G-code answers, it prints no status
+        elif self.mode == _GCODE:  # issue 12: G-code answers, it prints no status
             self.gcode.poll()
         else:
             running = self.any_running()
@@ -609,10 +616,10 @@ class StepperDemo(LoopProgram):
             return False  # every pass blocks interrupts in this window
         if not self._input_idle():
             return False
-        if self.mode == Mode.TEST and self.test_ongoing:
+        if self.mode == _TEST and self.test_ongoing:
             return all(slot.test is None or slot.state == TEST_STATE_ERROR or slot.idle
                        for slot in self.test_slots)
-        if self.mode == Mode.GCODE:
+        if self.mode == _GCODE:
             wake = self.gcode.wake_tick()
             return wake is None or wake > self.backend.now()
         return True
@@ -623,7 +630,7 @@ class StepperDemo(LoopProgram):
                 or self._held_by_w()):
             return True
         if self.read_ptr != self.write_ptr:
-            return self.mode == Mode.GCODE and not self.gcode.can_take()
+            return self.mode == _GCODE and not self.gcode.can_take()
         if self.scripted:
             return self.script_pos >= len(self.script) and self.input_consumed_at is not None
         return not self.rx
@@ -634,9 +641,9 @@ class StepperDemo(LoopProgram):
         ...), an interactive W spins, or the G-code machine waits for queue room.
         Otherwise only a stepper starting or stopping can end an idle wait
         (:meth:`_watch`), besides the clock."""
-        if self.waiting_interactive or self.mode == Mode.GCODE:
+        if self.waiting_interactive or self.mode == _GCODE:
             return True
-        if self.mode != Mode.TEST or not self.test_ongoing:
+        if self.mode != _TEST or not self.test_ongoing:
             return False
         for slot, s in zip(self.test_slots, self.steppers):
             if slot.test is None or slot.state == TEST_STATE_ERROR or slot.wake_ms is not None:
@@ -646,8 +653,8 @@ class StepperDemo(LoopProgram):
                 return True
         return False
 
-    def _running_key(self) -> tuple[bool, ...]:
-        return tuple(s is not None and s.is_running() for s in self.steppers)
+    def _running_key(self) -> list[bool]:
+        return [s is not None and s.is_running() for s in self.steppers]
 
     def _watch(self) -> Callable[[], bool]:
         """A predicate: has any stepper started or stopped since now?"""
@@ -663,7 +670,7 @@ class StepperDemo(LoopProgram):
         if n > 1 and self.in_buffer[(self.read_ptr + 1) & 0xFF] not in (0x20, 0x0A, 0x0D):
             return False
         s = self.selected_stepper
-        return self.mode in (Mode.NORMAL, Mode.TEST) and (
+        return self.mode in (_NORMAL, _TEST) and (
             (s is not None and s.is_running()) or self.test_ongoing)
 
     def _wake_time(self) -> int | None:
@@ -681,16 +688,16 @@ class StepperDemo(LoopProgram):
             candidates.append(b.tick_at_millis(self.pause_start + self.pause_ms))
         # the 100 ms status line: printed in the normal and config modes while a stepper
         # runs, and by the tests while they run (in test mode nothing else renews it)
-        if ((self.mode == Mode.TEST and self.test_ongoing)
-                or (self.mode not in (Mode.TEST, Mode.GCODE) and self.any_running())):
+        if ((self.mode == _TEST and self.test_ongoing)
+                or (self.mode not in (_TEST, _GCODE) and self.any_running())):
             candidates.append(b.tick_at_millis(self.last_time + 100))
         if self.simulate_blocked_isr:
             candidates.append(b.tick_at_millis((b.millis() | 0xFF) + 1))
-        if self.mode == Mode.TEST and self.test_ongoing:  # tests run in test mode only
+        if self.mode == _TEST and self.test_ongoing:  # tests run in test mode only
             for slot in self.test_slots:
                 if slot.test is not None and slot.wake_ms is not None:
                     candidates.append(b.tick_at_millis(slot.wake_ms))
-        if self.mode == Mode.GCODE:
+        if self.mode == _GCODE:
             wake = self.gcode.wake_tick()
             if wake is not None:
                 candidates.append(wake)
@@ -719,15 +726,15 @@ class StepperDemo(LoopProgram):
             if wake is None or wake > limit:
                 if not b.app_wait_until(limit, self._watch()):
                     return
-            else:
-                b.app_wait_until(wake, self._watch())
+            else:  # (a wake due now waits for nothing: no watch to set up)
+                b.app_wait_until(wake, self._watch() if wake > b.now() else None)
         self.loop_pass()
 
     def finished(self) -> bool:
         """Input consumed and everything at rest (the end of a scripted run)."""
         return (self.input_consumed_at is not None and self.stopped and not self.test_ongoing
                 and self.pause_ms == 0 and not self.any_running()
-                and (self.mode != Mode.GCODE or not self.gcode.busy()))
+                and (self.mode != _GCODE or not self.gcode.busy()))
 
     # ------------------------------------------------------------- helpers
     def _ramp_abort(self, stepper, res, cmd) -> None:
@@ -744,7 +751,7 @@ class StepperDemo(LoopProgram):
 
     def force_stop_all(self) -> None:
         """Console Ctrl-C: stop every stepper at once, keep positions; release holds."""
-        if self.mode == Mode.GCODE:  # issue 12: an alarm of the G-code machine
+        if self.mode == _GCODE:  # issue 12: an alarm of the G-code machine
             self.gcode.machine.abort()
         for s in self.steppers:
             if s is not None and s.is_running():
@@ -758,27 +765,27 @@ class StepperDemo(LoopProgram):
 
     # --------------------------------------------------- hosted by the console
     def mode_name(self) -> str:
-        return {Mode.NORMAL: "normal", Mode.TEST: "test", Mode.CONFIG: "config",
-                Mode.GCODE: "gcode"}[self.mode]
+        return {_NORMAL: "normal", _TEST: "test", Mode.CONFIG: "config",
+                _GCODE: "gcode"}[self.mode]
 
     # ------------------------------------------------------ g mode (issue 12)
     def enter_gcode(self) -> None:
         from ..gcode.demo_mode import DemoGcode
 
         self.print(msg.ENTER_GCODE_MODE)
-        self.mode = Mode.GCODE
+        self.mode = _GCODE
         self.gcode = DemoGcode(self)
         self.println(msg.GCODE_BANNER)
 
     def leave_gcode(self) -> None:
         self.print(msg.EXIT_TO_MAIN_MENU)
-        self.mode = Mode.NORMAL
+        self.mode = _NORMAL
         self.gcode = None
         self.stopped = not self.any_running()
         self.usage()
 
     def completions(self) -> list[tuple[str, str]]:
-        if self.mode == Mode.GCODE:  # issue 12
+        if self.mode == _GCODE:  # issue 12
             from ..gcode.program import COMPLETIONS
             return COMPLETIONS + [("x", "back to the main menu")]
         return HELP[self.mode]

@@ -13,7 +13,6 @@ Also the console's meta commands for a serial session (``/reconnect``, ``/link``
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 from collections.abc import Iterable, Sequence
 
@@ -242,6 +241,8 @@ class StopOnSignal:
     (the loop ends cleanly, closing its pty and printing its summary)."""
 
     def __init__(self) -> None:
+        import signal  # (only a device needs it: not imported at every start)
+
         self.flag = False
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, self._set)
