@@ -1,6 +1,6 @@
 """Tick-exactness guard for speed work: digests of transcripts and pin edges.
 
-    python bench/fingerprint.py [--fuzz N] [--seed S] [--against DIR] [--show]
+    python bench/fingerprint.py [--fuzz N] [--seed S] [--sequences] [--against DIR] [--show]
 
 Runs a fixed set of console lines (the speed benchmark's line, test sequences, a
 QuickStep move, ESP32 and SAM Due lines, interrupt blocking, stops) and N seeded fuzz
@@ -8,6 +8,9 @@ lines on the simulated chip and prints, per run, a digest of everything a change
 timing would move: the transcript, every recorded pin edge (tick and level), the final
 tick, pin statistics and each stepper's position.  Each line runs twice, with and
 without the edge recorder: the recorder must not change the transcript either.
+
+``--sequences`` adds every scenario file of ``sequences/`` (its program, profile and input
+as ``stepperdemo run`` runs it, with the edge recorder on).
 
 ``--against DIR`` runs the same lines in another source tree (e.g. ``git archive
 <commit> | tar x -C /tmp/before``) and reports every run whose digest differs; exit
@@ -76,24 +79,59 @@ def digest(arch: str, line: bytes) -> str:
         transcripts.append(bytes(app.transcript))
         h.update(f"{record} {reason} {b.now()} ".encode())
         h.update(bytes(app.transcript))
-        pins = b.machine.pins
-        for table in (pins.level, pins.rise, pins.fall, pins.high_max, pins.high_total):
-            h.update(repr(sorted(table.items())).encode())
-        h.update(repr([None if s is None else s.get_current_position()
-                       for s in app.steppers]).encode())
-        if record:
-            rec = b.recorder
-            for pin in sorted(rec.times):
-                h.update(f"pin {pin} ".encode())
-                h.update(rec.times[pin].tobytes())
-                h.update(bytes(rec.levels[pin]))
+        _digest_backend(h, b, app.steppers)
     if transcripts[0] != transcripts[1]:
         return "recorder-changes-transcript"
     return h.hexdigest()[:16]
 
 
+def _digest_backend(h, b, steppers) -> None:
+    """Pin tables, recorded edges and positions of a finished run into the hash."""
+    pins = b.machine.pins
+    for table in (pins.level, pins.rise, pins.fall, pins.high_max, pins.high_total):
+        h.update(repr(sorted(table.items())).encode())
+    h.update(repr([None if s is None else s.get_current_position() for s in steppers]).encode())
+    rec = b.recorder
+    if rec is not None:
+        for pin in sorted(rec.times):
+            h.update(f"pin {pin} ".encode())
+            h.update(rec.times[pin].tobytes())
+            h.update(bytes(rec.levels[pin]))
+
+
+def scenario_digest(path: str) -> str:
+    """Run one scenario file as ``stepperdemo run`` does and digest what it did."""
+    from fas.sim import SimBackend
+    from stepperdemo.program import make_program
+    from stepperdemo.scenarios.scenario import load
+
+    sc = load(path)
+    h = hashlib.sha256()
+    b = SimBackend(sc.profile, record=True)
+    try:
+        app = make_program(sc.program, b, scripted=True)
+    except ValueError as exc:
+        return f"refused: {exc}"[:40]
+    try:
+        reason = app.run_script(sc.input, firmware_end=(sc.end == "firmware"),
+                                max_ticks=int(sc.max_time_s * b.profile.ticks_per_s)).name
+    except Exception as exc:  # noqa: BLE001 - a failure is part of the fingerprint
+        reason = f"{type(exc).__name__}: {exc}"
+    h.update(f"{reason} {b.now()} ".encode())
+    h.update(bytes(app.transcript))
+    _digest_backend(h, b, getattr(app, "steppers", []))
+    return h.hexdigest()[:16]
+
+
 def run_here(cases: list[tuple[str, str]]) -> list[str]:
-    return [digest(arch, text.encode("latin-1")) for arch, text in cases]
+    return [scenario_digest(text) if arch == "scenario" else digest(arch, text.encode("latin-1"))
+            for arch, text in cases]
+
+
+def scenario_cases() -> list[tuple[str, str]]:
+    """Every scenario file of sequences/, as ("scenario", path relative to the root)."""
+    return [("scenario", str(p.relative_to(ROOT)))
+            for p in sorted((ROOT / "sequences").rglob("*.toml"))]
 
 
 def run_tree(tree: Path, cases: list[tuple[str, str]]) -> list[str]:
@@ -113,10 +151,15 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fuzz", type=int, default=100, help="fuzz lines besides the fixed ones")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--sequences", action="store_true",
+                    help="add every scenario file of sequences/")
     ap.add_argument("--against", metavar="DIR", help="another source tree to compare with")
     ap.add_argument("--show", action="store_true", help="print every digest")
     args = ap.parse_args()
+    os.chdir(ROOT)  # scenario paths are relative to the tree that runs them
     cases = LINES + fuzz_lines(args.fuzz, args.seed)
+    if args.sequences:
+        cases += scenario_cases()
     sys.path.insert(0, str(ROOT))
     mine = run_here(cases)
     if args.show or not args.against:
