@@ -23,6 +23,12 @@ Variants are made from a base with :func:`dataclasses.replace`: the ATmega2560 a
 ATmega32U4 from the ATmega328P, the Mega's timer builds from the Mega, every ESP32
 chip and ESP-IDF version from :data:`_ESP32_FAMILY`, the RP2350 from the RP2040.
 
+A new chip: its :class:`Profile` here (a variant: ``replace`` of its base) and an
+entry in :data:`PROFILES`; its simulated timing in :mod:`fas.sim.timing` (nothing to
+add where its family's fits); its StepperDemo build in :mod:`stepperdemo.demo.build`
+(required: the console wires its steppers from it); QuickStep's and the outputs'
+tables only if it has them (without an entry it has neither).
+
 Figures come from FastAccelStepper 1.2.7 (its ``pd_*/pd_config*.h`` and the platform
 drivers).
 """

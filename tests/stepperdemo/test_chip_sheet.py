@@ -15,6 +15,7 @@ from fas.quickstep.figures import NO_QUICKSTEP
 from stepperdemo import messages as msg
 from stepperdemo.chip_sheet import chip_sheet, sheet_lines
 from stepperdemo.demo.build import demo_build
+from stepperdemo.program import EndReason
 
 ROOT = Path(__file__).resolve().parents[2]
 ALL = {**PROFILES, **TEST_PROFILES}
@@ -80,3 +81,28 @@ def test_the_sheet_from_the_command_line():
     bad = _run("z80")
     assert bad.returncode == 2 and bad.stdout == ""
     assert len(bad.stderr.splitlines()) == 1 and "unknown architecture 'z80'" in bad.stderr
+
+
+def test_a_new_chip_is_a_profile_and_its_stepperdemo_build(monkeypatch):
+    """The recipe of fas/arch.py: a Profile (here a variant of the RP2040) in PROFILES
+    and a DemoBuild; the simulator times it as its family, and it has no QuickStep and
+    no user outputs until their tables list it."""
+    from dataclasses import replace
+
+    from stepperdemo.demo import build
+    from stepperdemo.demo.build import ESP32_COSTS, DemoStepper
+
+    from .helpers import run
+
+    chip = replace(get_profile("rp2040"), name="rp2040_two", title="RP2040, two steppers",
+                   max_steppers=2)
+    monkeypatch.setitem(PROFILES, chip.name, chip)
+    monkeypatch.setitem(build.BY_PROFILE, chip.name, replace(ESP32_COSTS, steppers=(
+        DemoStepper(step=2, enable_low_active=3, direction=4, on_delay_us=0, off_delay_ms=0),)))
+    app, reason = run("M1 A10000 V100 R300 W", arch=chip.name, record=True)
+    assert reason == EndReason.IDLE
+    assert "Steppers=2" in app.transcript.decode()
+    assert len(app.backend.recorder.rising(2)) == 300  # the build's step pin
+    sheet = chip_sheet(chip.name)
+    assert sheet.sim is chip_sheet("rp2040").sim
+    assert sheet.quickstep is NO_QUICKSTEP and sheet.outputs is NO_OUTPUTS
