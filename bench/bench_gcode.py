@@ -32,6 +32,7 @@ if ROOT not in sys.path:
 
 from fas.arch import PROFILES  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
+from stepperdemo.demo.build import demo_build  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.watch import observe  # noqa: E402
 
@@ -45,8 +46,8 @@ def diagonal(arch: str, dx: int, dy: int) -> dict:
     app.run_script(f"G1 X{dx} Y{dy} F600000\n", max_ticks=3600 * backend.profile.ticks_per_s)
     wall = time.perf_counter() - t0
     p = backend.profile
-    xs = backend.recorder.rising(p.demo_steppers[0].step)
-    ys = backend.recorder.rising(p.demo_steppers[1].step)
+    xs = backend.recorder.rising(demo_build(p).steppers[0].step)
+    ys = backend.recorder.rising(demo_build(p).steppers[1].step)
     events = sorted([(t, 0) for t in xs] + [(t, 1) for t in ys])
     length = math.hypot(dx, dy)
     x = y = 0

@@ -1,7 +1,7 @@
 """User outputs (seed 003): four digital and four analog (PWM) outputs per engine.
 
 ``engine.outputs`` numbers them independently, Dout0..3 and Aout0..3, on the pins of
-the profile table (``Profile.user_digital_pins`` / ``Profile.user_analog``), which
+the outputs' table (``OutputFigures.user_digital_pins`` / ``.user_analog``), which
 :meth:`UserOutputs.set_digital_pin` / :meth:`UserOutputs.set_analog_pin` override.
 
 * **Synchronized** changes (``synchronized=True``, G-code M62/M63/M67) take effect
@@ -10,7 +10,7 @@ the profile table (``Profile.user_digital_pins`` / ``Profile.user_analog``), whi
 * **Immediate** changes (M64/M65/M68) take effect at once.
 
 Analog values are a duty in percent, clamped to 0..100; each output has a frequency
-(default 5000 Hz, ``Profile.pwm_default_hz``) that its timer turns into a setting
+(default 5000 Hz, ``OutputFigures.pwm_default_hz``) that its timer turns into a setting
 (:mod:`fas.pwm`); the duty produced is the nearest count, and
 :meth:`UserOutputs.analog_state` reports it.
 
@@ -29,6 +29,7 @@ from enum import IntEnum
 from typing import TYPE_CHECKING
 
 from .codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
+from .output_figures import output_figures
 from .pwm import PwmFrequencyError, PwmSetting, count_percent, duty_count, pwm_setting
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -90,8 +91,8 @@ class UserOutputs:
 
     def __init__(self, engine: Engine) -> None:
         self._engine = engine
-        p = engine.profile
-        self.profile = p
+        p = output_figures(engine.profile)
+        self.figures = p
         self._digital_pins = [_pin_of(p.user_digital_pins, i) for i in range(OUTPUTS)]
         self._analog_pins = [p.user_analog[i].pin if i < len(p.user_analog) else PIN_UNDEFINED
                              for i in range(OUTPUTS)]
@@ -158,7 +159,7 @@ class UserOutputs:
         return None
 
     def _timer_of_pin(self, number: int, pin: int) -> str | None:
-        p = self.profile
+        p = self.figures
         unit = p.pwm_pin(pin)
         if unit is not None:
             return unit.timer
@@ -200,7 +201,7 @@ class UserOutputs:
         pin = self._analog_pins[number]
         if pin == PIN_UNDEFINED:
             return OutputResult.ERR_NO_PIN
-        timer = self.profile.pwm_timer(self._timer_of_pin(number, pin) or "")
+        timer = self.figures.pwm_timer(self._timer_of_pin(number, pin) or "")
         if timer is None:
             return OutputResult.ERR_NOT_PWM_PIN
         if self._timer_taken(timer.name):
@@ -227,7 +228,7 @@ class UserOutputs:
         pin = self._analog_pins[number]
         if pin == PIN_UNDEFINED:
             return OutputResult.ERR_NO_PIN
-        timer = self.profile.pwm_timer(self._timer_of_pin(number, pin) or "")
+        timer = self.figures.pwm_timer(self._timer_of_pin(number, pin) or "")
         if timer is None:
             return OutputResult.ERR_NOT_PWM_PIN
         try:

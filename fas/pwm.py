@@ -1,6 +1,6 @@
 """PWM arithmetic of the user analog outputs: frequency -> timer setting -> duty count.
 
-Pure computation on the figures of :class:`fas.arch.PwmTimer` (no I/O, no clock).
+Pure computation on the figures of :class:`fas.output_figures.PwmTimer` (no I/O, no clock).
 
 * :func:`pwm_setting` turns a requested frequency into what the timer can do: a clock
   divider and the number of counts per period (the duty resolution), and the
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from math import log2
 from typing import TYPE_CHECKING
 
-from .arch import PWM_RULE_BITS, PwmTimer
+from .output_figures import PWM_RULE_BITS, PwmTimer
 
 if TYPE_CHECKING:  # pragma: no cover
     from fractions import Fraction

@@ -27,6 +27,7 @@ from fas.sim import SimBackend
 
 from .demo import commands
 from .demo.app import StepperDemo
+from .demo.build import demo_build
 from .scenarios.evaluate import position_from_pins, rising_edges
 
 NUMBERS = [0, 1, -1, 2, 7, 40, 100, 255, 256, 999, 1000, 4095, 4096, 32767, 32768, 65535,
@@ -63,9 +64,9 @@ def _number(rng: random.Random, fast: bool) -> str:
 def _config_command(rng: random.Random, profile) -> str:
     """A config-mode command; direction pins are the profile's own (a pin that is also
     another stepper's step pin would make steps by itself - a wiring error, not a bug)."""
-    dirs = sorted({c.direction for c in profile.demo_steppers})
-    used = {c.step for c in profile.demo_steppers} | {c.enable_low_active
-                                                       for c in profile.demo_steppers}
+    dirs = sorted({c.direction for c in demo_build(profile).steppers})
+    used = {c.step for c in demo_build(profile).steppers} | {
+        c.enable_low_active for c in demo_build(profile).steppers}
     unused = next(p for p in range(2, 60) if p not in used and p not in dirs)
     return rng.choice(CONFIG_FORMS).format(p=rng.choice(dirs), q=rng.choice(dirs), u=unused)
 

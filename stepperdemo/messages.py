@@ -201,7 +201,7 @@ USAGE_CONFIG = NL.join([
 # fragments that are looked up the same way.  Per text: bytes read and look-ups
 # made before its first character goes out, then bytes read and look-ups in all.
 # Counted on the 1.2.6 firmware build; the simulated loop charges them with
-# ``profile.sim_msg_scan_byte_ticks`` and ``profile.sim_msg_lookup_ticks``.
+# ``DemoBuild.msg_scan_byte_ticks`` and ``DemoBuild.msg_lookup_ticks``.
 TABLE_SCAN: dict[str, tuple[int, int, int, int]] = {
     SELECT_STEPPER: (581, 1, 906, 3), TOGGLE_MOTOR_INFO: (657, 2, 982, 4),
     TOGGLE_USAGE_INFO: (666, 2, 971, 3), ENTER_TEST_MODE: (876, 2, 1373, 4),
@@ -836,3 +836,13 @@ WINDER_TOOLBAR_ENGAGED = " engaged"
 WINDER_TOOLBAR = "{pots} | {switches} | {axes} | {lock}"
 WINDER_VCD_SWITCH = "A{a}_{name}"
 # ------------------------------------------------------------- end of winder texts
+
+# ---------------------------------------------------------------------------------------
+# issue 22: the chip sheet (python -m stepperdemo.chip_sheet): one chip's figures by room
+CHIP_SHEET_LIST = "{name:<20} {title}"
+CHIP_SHEET_HEADER = "{name}: {title}"
+CHIP_SHEET_ROOM = "[{room}] {module}"
+CHIP_SHEET_FIGURE = "  {field} = {value}"
+CHIP_SHEET_NONE = "  (none: this chip has no {room} table)"
+CHIP_SHEET_ERROR = "chip_sheet: {error}"
+# ----------------------------------------------------------- end of issue 22 texts

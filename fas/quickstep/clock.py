@@ -12,7 +12,8 @@ from __future__ import annotations
 from enum import IntEnum
 from typing import TYPE_CHECKING
 
-from ..arch import Profile, QsTimer
+from ..arch import Profile
+from .figures import QsTimer, quickstep_figures
 from .timebase import TimeBase, base_range_ticks, choose
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -38,7 +39,8 @@ class QsConfigResult(IntEnum):
 class QuickStepClock:
     def __init__(self, profile: Profile) -> None:
         self.profile = profile
-        self.timer: QsTimer | None = profile.qs_timer()
+        self.figures = quickstep_figures(profile)
+        self.timer: QsTimer | None = self.figures.timer()
         self.base_us = 0  # 0: automatic
         self.planners: list[QuickStepPlanner] = []
         self._current: TimeBase | None = None
@@ -54,7 +56,7 @@ class QuickStepClock:
     def check_base(self, base_us: int, timer_number: int | None = None) -> QsConfigResult:
         if self.timer is None:
             return QsConfigResult.NOT_AVAILABLE
-        timer = self.profile.qs_timer(timer_number) if timer_number is not None else self.timer
+        timer = self.figures.timer(timer_number) if timer_number is not None else self.timer
         if timer is None:
             return QsConfigResult.NO_SUCH_TIMER
         lo, hi = self.range_us(timer)
@@ -68,17 +70,17 @@ class QuickStepClock:
         res = self.check_base(base_us, timer_number)
         if res == QsConfigResult.OK:
             if timer_number is not None:
-                self.timer = self.profile.qs_timer(timer_number)
+                self.timer = self.figures.timer(timer_number)
             self.base_us = base_us
             self._current = None
         return res
 
     def ram_used(self, extra_depth: int = 0, without: QuickStepPlanner | None = None) -> int:
         depth = sum(p.depth for p in self.planners if p is not without) + extra_depth
-        return depth * self.profile.qs_order_bytes
+        return depth * self.figures.order_bytes
 
     def fits(self, extra_depth: int, without: QuickStepPlanner | None = None) -> bool:
-        return self.ram_used(extra_depth, without) <= self.profile.qs_ram_bytes
+        return self.ram_used(extra_depth, without) <= self.figures.ram_bytes
 
     # ---------------------------------------------------------------- state
     def busy(self) -> bool:

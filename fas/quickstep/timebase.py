@@ -10,7 +10,7 @@ lands on a timer count: the interval in CPU ticks is ``interval_256 * top_counts
 
 The base time is chosen automatically - the shortest step interval any QuickStep
 motor needs at its top speed, as the seed recommends - or set; it must lie between
-``profile.qs_min_base_ticks`` (12 us on AVR) and what the counter width allows with
+``QuickStepFigures.min_base_ticks`` (12 us on AVR) and what the counter width allows with
 the largest prescaler (16.384 ms on an 8-bit timer, 4.19 s on a 16-bit one).
 """
 
@@ -18,7 +18,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..arch import Profile, QsTimer
+from ..arch import Profile
+from .figures import QsTimer, quickstep_figures
 
 INTERVAL_MIN = 256  # 1.00 base time
 INTERVAL_MAX = 255 * 256  # 255.00 base times
@@ -54,7 +55,7 @@ class TimeBase:
 def base_range_ticks(profile: Profile, timer: QsTimer) -> tuple[int, int]:
     """Shortest and longest base time (ticks) of ``timer`` on ``profile``."""
     longest = max(timer.prescalers) * (1 << timer.bits)
-    return profile.qs_min_base_ticks, longest
+    return quickstep_figures(profile).min_base_ticks, longest
 
 
 def choose(profile: Profile, timer: QsTimer, base_ticks: int) -> TimeBase:

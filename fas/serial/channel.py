@@ -106,7 +106,7 @@ class SerialChannel(QueueChannel):
         self.cuts_refused = 0
         # timing of the device queue as the host planned it (fas.gear): the host tick at
         # which the queued entries end, while the device runs them without a gap
-        self.start_ticks = backend.profile.sim_queue_start_ticks
+        self.start_ticks = backend.profile.queue_start_ticks
         self.t_end: int | None = None
         self.t_begin: int | None = None  # planned begin of a start not yet confirmed
         self.cuts_held = False  # a follower derives its steps from this queue: no cuts

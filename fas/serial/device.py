@@ -16,8 +16,9 @@ from __future__ import annotations
 import random
 from collections.abc import Callable
 
-from ..arch import Profile, PwmTimer, get_profile
+from ..arch import Profile, get_profile
 from ..backend import PulseCounter
+from ..output_figures import PwmTimer, output_figures
 from ..outputs import OutputChange
 from ..pwm import PwmSetting
 from ..queue import StepperQueue, i32
@@ -103,11 +104,12 @@ ANALOG_DEFAULT = 512  # an analog input nobody has set reads mid-scale (a centre
 
 def pwm_timer_for(profile: Profile, number: int, pin: int) -> PwmTimer | None:
     """The timer that makes analog output ``number`` on ``pin`` on this chip."""
-    unit = profile.pwm_pin(pin)
+    figures = output_figures(profile)
+    unit = figures.pwm_pin(pin)
     if unit is not None:
-        return profile.pwm_timer(unit.timer)
-    if profile.pwm_any_pin and 0 <= number < len(profile.user_analog):
-        return profile.pwm_timer(profile.user_analog[number].timer)
+        return figures.pwm_timer(unit.timer)
+    if figures.pwm_any_pin and 0 <= number < len(figures.user_analog):
+        return figures.pwm_timer(figures.user_analog[number].timer)
     return None
 
 

@@ -55,7 +55,7 @@ class SimBackend(Backend):
     def attach_engine(self, engine) -> None:
         self._engine = engine
         self._task_index = 0
-        self._task_origin = self.machine.now + self.profile.sim_task_phase_ticks
+        self._task_origin = self.machine.now + self.machine.timing.task_phase_ticks
         self._schedule_task(0)
 
     def _task_time(self, index: int) -> int:
@@ -82,13 +82,13 @@ class SimBackend(Backend):
 
     def _task(self, index: int) -> None:
         m = self.machine
-        p = self.profile
+        p = m.timing
         engine = self._engine
         engine.credit_skipped_tasks(index - self._task_index - 1)
         self._task_index = index
         may_stop = engine.may_stop_without_channel()
         m.in_task = True
-        m.task_offset = p.sim_fill_entry_ticks
+        m.task_offset = p.fill_entry_ticks
         try:
             engine.manage_steppers()
         finally:
@@ -299,7 +299,7 @@ class SimBackend(Backend):
         return self.machine.next_event_time()
 
     def console_write(self, data: bytes, cpu_after: Sequence[int] | None = None) -> None:
-        print_chars(self.machine, data, cpu_after, self.profile.sim_char_ticks)
+        print_chars(self.machine, data, cpu_after, self.machine.timing.char_ticks)
 
     def block_interrupts(self, ticks: int) -> None:
         self.machine.block_interrupts(ticks)

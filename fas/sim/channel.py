@@ -39,11 +39,11 @@ class SimChannel(QueueChannel):
         self.q = queue
         self.pins = machine.pins
         self.step_pin = queue.step_pin
-        self.lat = p.isr_latency_ticks(queue.index)
-        self.wrap = p.sim_timer_wrap_ticks
-        self.start_ticks = p.sim_queue_start_ticks
+        self.lat = machine.timing.isr_latency(queue.index)
+        self.wrap = machine.timing.timer_wrap_ticks
+        self.start_ticks = p.queue_start_ticks
         self.prio = PRIO_STEP_ISR + queue.index
-        self.isr_ticks = p.sim_isr_duration_ticks  # CPU of one step interrupt
+        self.isr_ticks = machine.timing.isr_duration_ticks  # CPU of one step interrupt
         self.irq_sensitive = p.irq_block_delays_steps
         self.running = False
         self.no_more = False
@@ -245,13 +245,13 @@ class SimChannel(QueueChannel):
         if m.in_task:  # planning one command costs the ramp task CPU time
             q = self.q
             steps = q.entries[(q.next_write_idx - 1) % q.queue_len].total_steps
-            p = m.profile
+            p = m.timing
             if steps == 0:
-                m.task_offset += p.sim_fill_pause_ticks
+                m.task_offset += p.fill_pause_ticks
             elif steps == 1:
-                m.task_offset += p.sim_fill_single_ticks
+                m.task_offset += p.fill_single_ticks
             else:
-                m.task_offset += p.sim_fill_cmd_ticks
+                m.task_offset += p.fill_cmd_ticks
 
     def step_pin_high(self) -> bool:
         """Is a step pulse on the pin at this very tick?"""

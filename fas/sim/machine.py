@@ -19,6 +19,7 @@ from ..arch import Profile
 from .outputs import SimOutputs
 from .pins import PinBank
 from .printing import IsrClock
+from .timing import sim_timing
 from .uart import Uart
 
 PRIO_STEP_ISR = 10  # + channel index: TIMER1_COMPA before COMPB ...
@@ -40,12 +41,13 @@ class Event:
 class Machine:
     def __init__(self, profile: Profile) -> None:
         self.profile = profile
+        self.timing = sim_timing(profile)
         self.now = 0
         self._heap: list[tuple[int, int, int, Event]] = []
         self._seq = 0
         self.pins = PinBank()
         self.outputs = SimOutputs(self.pins)  # user outputs: digital pins, PWM waves
-        self.uart = Uart(profile.sim_uart_byte_ticks, profile.sim_uart_tx_buffer)
+        self.uart = Uart(self.timing.uart_byte_ticks, self.timing.uart_tx_buffer)
         self.irq_blocked_until = 0
         self.irq_block_windows = 0
         self.irq_blocked_ticks = 0
@@ -153,7 +155,7 @@ class Machine:
         character while text is queued; each time it takes its CPU time from the
         code that runs (the periodic task's work is interruptible).
         """
-        cost = self.profile.sim_uart_isr_ticks
+        cost = self.timing.uart_isr_ticks
         if not cost:
             return work
         t = work
@@ -197,11 +199,11 @@ class Machine:
     def consume_counting(self, ticks: int) -> None:
         """:meth:`consume`, each span counted here (for spans in which events fall due,
         and with ``cpu_sources``)."""
-        p = self.profile
-        millis_cost = p.sim_millis_isr_ticks if self._millis_started else 0
+        timing = self.timing
+        millis_cost = timing.millis_isr_ticks if self._millis_started else 0
         phase = self._millis_phase
-        ov = p.sim_millis_overflow_ticks
-        uart_cost = p.sim_uart_isr_ticks
+        ov = timing.millis_overflow_ticks
+        uart_cost = timing.uart_isr_ticks
         uart = self.uart
         chars = uart._chars
         heap = self._heap
@@ -267,7 +269,7 @@ class Machine:
         self.stolen_ticks = 0
         now = self.now
         wait = self.busy_until - now
-        p = self.profile
+        timing = self.timing
         for src in self.block_sources:  # a step interrupt inside a block of pulses
             if src.batch:  # (SimChannel.block_isr_running_at)
                 first = src.b_c0 + src.lat
@@ -277,16 +279,16 @@ class Machine:
                         end = first + j * src.b_t + src.isr_ticks
                         if end - now > wait:
                             wait = end - now
-        cost = p.sim_uart_isr_ticks
+        cost = timing.uart_isr_ticks
         if cost:
             chars = self.uart._chars
             if chars and chars[-1][1] > now - cost:  # a load that may still run
                 end = self.uart.isr_running_at(now, cost)
                 if end is not None and end - now > wait:
                     wait = end - now
-        cost = p.sim_millis_isr_ticks
+        cost = timing.millis_isr_ticks
         if cost and self._millis_started and now >= self._millis_phase:
-            last = now - (now - self._millis_phase) % p.sim_millis_overflow_ticks
+            last = now - (now - self._millis_phase) % timing.millis_overflow_ticks
             if last > self._millis_phase and now < last + cost and last + cost - now > wait:
                 wait = last + cost - now
         return wait
@@ -312,18 +314,18 @@ class Machine:
 
     def millis_isrs_between(self, begin: int, end: int) -> int:
         """Timer-0 overflow interrupts in ``(begin, end]``."""
-        ov = self.profile.sim_millis_overflow_ticks
+        ov = self.timing.millis_overflow_ticks
         phase = self._millis_phase
         return max(0, (end - phase) // ov) - max(0, (begin - phase) // ov)
 
     def millis(self) -> int:
         """Arduino ``millis()``: timer-0 overflows with the 1.024 ms fraction fix-up."""
-        n = (self.now - self._millis_phase) // self.profile.sim_millis_overflow_ticks
+        n = (self.now - self._millis_phase) // self.timing.millis_overflow_ticks
         if n <= 0:
             return 0
-        if self.profile.sim_millis_overflow_ticks == 16384:
+        if self.timing.millis_overflow_ticks == 16384:
             return n + (3 * n) // 125
-        return n * self.profile.sim_millis_overflow_ticks * 1000 // self.profile.ticks_per_s
+        return n * self.timing.millis_overflow_ticks * 1000 // self.profile.ticks_per_s
 
     def tick_at_millis(self, ms: int) -> int:
         """Earliest tick at which :meth:`millis` returns at least ``ms``."""
@@ -334,7 +336,7 @@ class Machine:
         return tick
 
     def _tick_at_millis(self, ms: int) -> int:
-        ov = self.profile.sim_millis_overflow_ticks
+        ov = self.timing.millis_overflow_ticks
         if ms <= 0:
             return self._millis_phase
         if ov == 16384:

@@ -49,13 +49,13 @@ class IsrClock:
                 first = src.b_c0 + src.lat
                 trains.append(_train(first, src.b_t, first + (src.b_n - 2) * src.b_t,
                                      src.isr_ticks, now))
-        p = m.profile
-        if p.sim_millis_isr_ticks and m._millis_started:  # overflows k >= 1 after phase
-            ov = p.sim_millis_overflow_ticks
-            trains.append(_train(m._millis_phase + ov, ov, _NEVER, p.sim_millis_isr_ticks,
+        p = m.timing
+        if p.millis_isr_ticks and m._millis_started:  # overflows k >= 1 after phase
+            ov = p.millis_overflow_ticks
+            trains.append(_train(m._millis_phase + ov, ov, _NEVER, p.millis_isr_ticks,
                                  now))
         self.trains = trains
-        self.uart_cost = p.sim_uart_isr_ticks
+        self.uart_cost = p.uart_isr_ticks
         self.loads = m.uart._loads  # (appended to while printing: in order)
         self.li = bisect_right(self.loads, now)  # the first load after now
         # no train's interrupt before this tick (the UART's loads are looked at apart:

@@ -4,9 +4,10 @@ The timer (timer 2 on AVR, 8 bit) runs in CTC mode with the base time as its per
 Its period interrupt counts each running order's whole base times down; in the
 period where a step is due, the compare unit fires at the step's count and the
 compare interrupt writes the step pin high, does its bookkeeping and writes it low
-(``qs_pulse_ticks`` later).  So steps land on the order's interval exactly (to one
-timer count), and the CPU pays ``qs_period_isr_ticks`` (+ ``qs_motor_isr_ticks`` per
-running motor) every base time and ``qs_step_isr_ticks`` per step.
+(``QuickStepFigures.pulse_ticks`` later).  So steps land on the order's interval exactly (to one
+timer count), and the CPU pays ``period_isr_ticks`` (+ ``motor_isr_ticks`` per
+running motor) every base time and ``step_isr_ticks`` per step
+(:mod:`fas.quickstep.figures`).
 
 What the 8-bit timer changes under blocked interrupts (StepperDemo's `e`):
 
@@ -46,20 +47,20 @@ class TimerLoad:
         running = sum(1 for ch in self.channels if ch.running)
         if not running:
             return 0
-        p = self.m.profile
+        p = self.clock.figures
         n = self.clock.boundaries_between(begin, end)
-        return n * (p.qs_period_isr_ticks + running * p.qs_motor_isr_ticks)
+        return n * (p.period_isr_ticks + running * p.motor_isr_ticks)
 
 
 class QuickStepChannel(SimChannel):
     def __init__(self, machine: Machine, queue: OrderQueue, clock: QuickStepClock,
                  load: TimerLoad) -> None:
         super().__init__(machine, queue)
-        p = machine.profile
+        p = clock.figures
         self.clock = clock
-        self.lat = p.qs_pulse_ticks
-        self.start_ticks = p.qs_start_ticks
-        self.isr_ticks = p.qs_step_isr_ticks
+        self.lat = p.pulse_ticks
+        self.start_ticks = p.start_ticks
+        self.isr_ticks = p.step_isr_ticks
         self.irq_sensitive = True
         if self._on_block not in machine.block_listeners:
             machine.block_listeners.append(self._on_block)

@@ -19,13 +19,14 @@ from collections import deque
 from typing import Callable
 
 from fas import Engine
-from fas.arch import DemoConfig
 from fas.backend import Backend
 from fas.codes import PIN_UNDEFINED, RAMP_STATE_MASK
+from fas.sim.timing import sim_timing
 
 from .. import messages as msg
 from ..program import LoopProgram
 from . import quickstep as qs_console
+from .build import DemoConfig, demo_build
 from .commands import HELP, Mode, dispatch
 from .testseq import TEST_STATE_ERROR, SeqSlot
 
@@ -104,6 +105,7 @@ class StepperDemo(LoopProgram):
         # "Unknown command" there)
         self.test_mode_wait = test_mode_wait
         self.restarts = 0
+        self.build = demo_build(self.profile)
         self._reset_state()
         self.rx: deque[int] = deque()
         self.script = b""
@@ -146,7 +148,7 @@ class StepperDemo(LoopProgram):
         self._setup_started = False
         self._select_start_ms = 0  # the start-up prompt for a pin configuration
         self.config_index = 0
-        self.demo_config: DemoConfig = DemoConfig("", self.profile.demo_steppers)
+        self.demo_config: DemoConfig = DemoConfig("", self.build.steppers)
         self.qs_hold = None  # a QuickStep stepper whose move waits for FIFO room
         self.gcode = None  # issue 12: the G-code machine of the g mode
 
@@ -176,12 +178,12 @@ class StepperDemo(LoopProgram):
         while the text goes out are spread evenly over its characters.
         """
         lead_bytes, lead_lookups, total_bytes, total_lookups = scan
-        p = self.profile
+        p = self.build
         b = self.backend
-        b.app_spend(lead_bytes * p.sim_msg_scan_byte_ticks
-                    + lead_lookups * p.sim_msg_lookup_ticks)
-        rest = ((total_bytes - lead_bytes) * p.sim_msg_scan_byte_ticks
-                + (total_lookups - lead_lookups) * p.sim_msg_lookup_ticks)
+        b.app_spend(lead_bytes * p.msg_scan_byte_ticks
+                    + lead_lookups * p.msg_lookup_ticks)
+        rest = ((total_bytes - lead_bytes) * p.msg_scan_byte_ticks
+                + (total_lookups - lead_lookups) * p.msg_lookup_ticks)
         n = len(data)
         if n == 0:
             b.app_spend(rest)
@@ -196,12 +198,12 @@ class StepperDemo(LoopProgram):
     def print_number(self, value: int) -> None:
         """A number as the firmware prints it: a minus sign, then the digits, which
         ``Print::printNumber`` computes first (one 32-bit division each)."""
-        p = self.profile
+        p = self.build
         text = str(value)
         if value < 0:
             self.print("-")
             text = text[1:]
-        self.backend.app_spend(p.sim_print_call_ticks + len(text) * p.sim_print_digit_ticks)
+        self.backend.app_spend(p.print_call_ticks + len(text) * p.print_digit_ticks)
         self.print(text)
 
     def println_number(self, value: int) -> None:
@@ -209,8 +211,8 @@ class StepperDemo(LoopProgram):
         self.println()
 
     def println(self, text: str | bytes = "") -> None:
-        if not text and self.profile.sim_print_call_ticks:
-            self.backend.app_spend(self.profile.sim_print_call_ticks)  # println("")
+        if not text and self.build.print_call_ticks:
+            self.backend.app_spend(self.build.print_call_ticks)  # println("")
         if isinstance(text, str):
             self.print(text + msg.CRLF)
         else:
@@ -234,13 +236,13 @@ class StepperDemo(LoopProgram):
             return
         self._setup_started = True
         b = self.backend
-        boot = self.profile.sim_boot_ticks
+        boot = sim_timing(self.profile).boot_ticks
         if self.script_loaded:  # the built-in line is start-up data copied at reset
-            boot += len(self.script) * self.profile.sim_boot_script_byte_ticks
+            boot += len(self.script) * sim_timing(self.profile).boot_script_byte_ticks
         b.app_spend(boot)
         b.app_started()
-        b.app_spend(self.profile.sim_setup_head_ticks)
-        configs = self.profile.demo_configs
+        b.app_spend(self.build.setup_head_ticks)
+        configs = self.build.configs
         if not configs:
             self._finish_setup()
             return
@@ -263,11 +265,11 @@ class StepperDemo(LoopProgram):
             ch = self.rx.popleft()
             if 0x30 <= ch <= 0x39:
                 n = ch - 0x30
-                if n < len(self.profile.demo_configs):
+                if n < len(self.build.configs):
                     self.config_index = n
                 self._finish_setup()
                 return
-        if ((b.millis() - self._select_start_ms) & 0xFFFFFFFF) >= self.profile.demo_config_wait_ms:
+        if ((b.millis() - self._select_start_ms) & 0xFFFFFFFF) >= self.build.config_wait_ms:
             self._finish_setup()
             return
         b.app_wait_until(b.now() + 10 * self.profile.ticks_per_ms)
@@ -275,7 +277,7 @@ class StepperDemo(LoopProgram):
     def _finish_setup(self) -> None:
         b = self.backend
         p = self.profile
-        configs = p.demo_configs
+        configs = self.build.configs
         if configs:
             self.demo_config = configs[self.config_index]
             self.print(msg.USING_CONFIG)
@@ -299,9 +301,9 @@ class StepperDemo(LoopProgram):
         self.print(msg.BANNER_STEPPERS)
         self.println_number(p.max_steppers)
         self.engine.init()
-        if p.debug_led_pin != PIN_UNDEFINED:
-            self.engine.set_debug_led(p.debug_led_pin)
-        b.app_spend(p.sim_setup_steppers_ticks)
+        if self.build.debug_led_pin != PIN_UNDEFINED:
+            self.engine.set_debug_led(self.build.debug_led_pin)
+        b.app_spend(self.build.setup_steppers_ticks)
         for i, cfg in enumerate(self.demo_steppers[:p.max_steppers]):
             if cfg.step == PIN_UNDEFINED:
                 break
@@ -359,7 +361,7 @@ class StepperDemo(LoopProgram):
         return self.steppers[self.selected]
 
     def _info(self, s, long_info: bool) -> None:
-        self.backend.app_spend(self.profile.sim_info_ticks)
+        self.backend.app_spend(self.build.info_ticks)
         self.print("@")
         if self.profile.has_pulse_counter and s.pulse_counter_attached():
             pcnt_1 = s.read_pulse_counter()
@@ -418,7 +420,7 @@ class StepperDemo(LoopProgram):
 
     def output_info(self, only_running: bool) -> None:
         need_ln = False
-        scan = self.profile.sim_info_scan_ticks
+        scan = self.build.info_scan_ticks
         for i, s in enumerate(self.steppers):
             if s is None:
                 continue
@@ -451,8 +453,8 @@ class StepperDemo(LoopProgram):
         p = self.profile
         if self.mode == _NORMAL:
             self.print(msg.usage_normal(esp32=p.family == "esp32", avr=p.family == "avr",
-                                        small=p.demo_small_build))
-        elif p.demo_small_build:
+                                        small=self.build.small_build))
+        elif self.build.small_build:
             pass  # the ATmega32U4 build has no test and config usage texts
         elif not self.scripted:
             self.print(msg.USAGE_TEST if self.mode == _TEST else msg.USAGE_CONFIG)
@@ -477,7 +479,7 @@ class StepperDemo(LoopProgram):
         take_input = True
         if self.waiting_interactive:  # interactive W: the firmware busy-waits in it
             if self.selected_stepper.is_running():
-                b.app_spend(self.profile.sim_loop_pass_ticks)
+                b.app_spend(self.build.loop_pass_ticks)
                 return
             self.waiting_interactive = False
             self.println(msg.STOPPED)
@@ -532,7 +534,7 @@ class StepperDemo(LoopProgram):
                         # W blocks inside the command; a restart ends the old program
                         self.restart_pending = False
                         self.out_buffer.clear()
-                        b.app_spend(self.profile.sim_loop_pass_ticks)
+                        b.app_spend(self.build.loop_pass_ticks)
                         return
                 self.out_buffer.clear()
 
@@ -540,7 +542,7 @@ class StepperDemo(LoopProgram):
         if self.simulate_digital_read_error:
             b.stray_read(tuple([s.get_step_pin() for s in self.steppers if s is not None]))
         if self.simulate_blocked_isr and (ms & 0xFF) < 0x40:
-            b.block_interrupts(self.profile.sim_irq_block_ticks)
+            b.block_interrupts(self.build.irq_block_ticks)
 
         if self.mode == _TEST:
             if self.test_ongoing:
@@ -558,13 +560,13 @@ class StepperDemo(LoopProgram):
                 if self.usage_info:
                     self.usage()
             self.stopped = not running
-        b.app_spend(self.profile.sim_loop_pass_ticks)
+        b.app_spend(self.build.loop_pass_ticks)
 
     def _spend_command(self, cmd: bytes) -> None:
         """CPU time of parsing and executing a command, without its prints."""
-        p = self.profile
-        ticks = p.sim_cmd_ticks.get(chr(cmd[0]), p.sim_cmd_default_ticks)
-        ticks += (len(cmd) - 1) * p.sim_cmd_arg_char_ticks
+        p = self.build
+        ticks = p.cmd_ticks.get(chr(cmd[0]), p.cmd_default_ticks)
+        ticks += (len(cmd) - 1) * p.cmd_arg_char_ticks
         if ticks:
             self.backend.app_spend(ticks)
 

@@ -174,7 +174,7 @@ def cmd_stray_read(app: StepperDemo, arg: bytes) -> bool:
             app.println(msg.ESP_RESTART)
             return _restart(app)
         return False
-    if arg or not app.profile.has_stray_digital_read:
+    if arg or not app.build.has_stray_digital_read:
         return False
     app.print(msg.STRAY_DIGITAL_READ_TOGGLE)
     app.simulate_digital_read_error = not app.simulate_digital_read_error
@@ -399,7 +399,7 @@ _one_step("-", msg.STEPPED_BACKWARD, False, "one step backward")
 
 @command("T", Mode.NORMAL, hint="direct-drive self test")
 def cmd_direct_drive(app: StepperDemo, arg: bytes) -> bool:
-    if arg or app.profile.demo_small_build:
+    if arg or app.build.small_build:
         return False
     s = app.selected_stepper
     if not s.is_running():
@@ -443,7 +443,7 @@ HELP[Mode.TEST].append(("01..13", "assign a test sequence"))
 # ---------------------------------------------------------------- config mode
 @command("d", Mode.CONFIG, hint="direction pin p[,n[,t]] or dc", arg="<p,n,t>")
 def cmd_direction_pin(app: StepperDemo, arg: bytes) -> bool:
-    if app.profile.demo_small_build:
+    if app.build.small_build:
         return False  # not in the ATmega32U4 build
     s = app.selected_stepper
     if arg == b"c":

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from fas.arch import DemoStepper
 from fas.codes import PIN_UNDEFINED
 
 from .. import messages as msg
+from .build import DemoStepper
 
 if TYPE_CHECKING:  # pragma: no cover
     from .app import StepperDemo

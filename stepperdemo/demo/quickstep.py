@@ -56,7 +56,7 @@ def _error(app: StepperDemo, res: QsConfigResult, *, value: int = 0, need_depth:
         app.print(msg.QS_ERR_NOT_AVAILABLE.format(profile=p.name))
     elif res == QsConfigResult.NO_SUCH_TIMER:
         app.print(msg.QS_ERR_NO_TIMER.format(
-            timer=value, timers=", ".join(str(t.number) for t in p.qs_timers)))
+            timer=value, timers=", ".join(str(t.number) for t in clock.figures.timers)))
     elif res == QsConfigResult.DEPTH_OUT_OF_RANGE:
         app.print(msg.QS_ERR_DEPTH.format(value=value))
     elif res == QsConfigResult.PLATEAUS_OUT_OF_RANGE:
@@ -64,7 +64,7 @@ def _error(app: StepperDemo, res: QsConfigResult, *, value: int = 0, need_depth:
     elif res == QsConfigResult.RAM:
         qs = stepper.quickstep if stepper is not None else None
         need = clock.ram_used(need_depth, without=qs)
-        app.print(msg.QS_ERR_RAM.format(need=need, avail=p.qs_ram_bytes, profile=p.name))
+        app.print(msg.QS_ERR_RAM.format(need=need, avail=clock.figures.ram_bytes, profile=p.name))
     elif res == QsConfigResult.RUNNING:
         app.print(msg.QS_ERR_RUNNING.format(n=app.selected + 1))
     elif res == QsConfigResult.TIMER_IN_USE:  # issue 12: a user PWM output has it
@@ -126,7 +126,7 @@ def cmd_depth(app: StepperDemo, arg: bytes) -> bool:
         return True
     _settings(app)["depth"] = value
     app.print(msg.QS_DEPTH.format(n=app.selected + 1, depth=value, ram=clock.ram_used(),
-                                  avail=app.profile.qs_ram_bytes))
+                                  avail=clock.figures.ram_bytes))
     return True
 
 
@@ -168,7 +168,7 @@ def cmd_base(app: StepperDemo, arg: bytes) -> bool:
     us = values[0]
     res = clock.check_base(us, timer_number)
     if res == QsConfigResult.BASE_OUT_OF_RANGE or (res == QsConfigResult.OK and us < 0):
-        timer = app.profile.qs_timer(timer_number) if timer_number is not None else clock.timer
+        timer = clock.figures.timer(timer_number) if timer_number is not None else clock.timer
         lo, hi = clock.range_us(timer)
         app.print(msg.QS_ERR_BASE.format(us=us, timer=timer.number, lo=lo, hi=hi))
         return True

@@ -5,8 +5,8 @@ interactive firmware (:class:`~stepperdemo.demo.app.StepperDemo` with
 ``scripted=False``) on the simulated chip, with its serial line:
 
 * characters sent to the board arrive one per character time of the line
-  (``profile.sim_uart_byte_ticks``) in the serial driver's receive buffer
-  (``profile.sim_uart_rx_buffer`` characters); what arrives while the buffer is full
+  (``SimTiming.uart_byte_ticks``) in the serial driver's receive buffer
+  (``SimTiming.uart_rx_buffer`` characters); what arrives while the buffer is full
   is lost, as on the chip (StepperDemo takes one character per loop pass, and none
   while a ``W`` spins);
 * everything the firmware prints comes out byte for byte (CR LF where it prints
@@ -27,6 +27,7 @@ from collections import deque
 
 from fas.arch import Profile, get_profile
 from fas.sim import SimBackend
+from fas.sim.timing import sim_timing
 
 from .app import StepperDemo
 
@@ -69,7 +70,7 @@ class SimulatedBoard:
 
     def receive(self, data: bytes) -> None:
         """Characters the host sent, starting on the line now."""
-        byte_ticks = self.profile.sim_uart_byte_ticks
+        byte_ticks = sim_timing(self.profile).uart_byte_ticks
         t = max(self.backend.now(), self._line_free)
         for byte in data:
             t += byte_ticks  # a character is there once its stop bit has arrived
@@ -89,7 +90,7 @@ class SimulatedBoard:
     # -------------------------------------------------------------- running
     def _deliver(self, byte: int) -> None:
         rx = self.app.rx
-        if len(rx) < self.profile.sim_uart_rx_buffer:
+        if len(rx) < sim_timing(self.profile).uart_rx_buffer:
             rx.append(byte)
         else:
             self.rx_dropped += 1

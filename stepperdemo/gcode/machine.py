@@ -33,6 +33,7 @@ from collections import deque
 from collections.abc import Callable, Iterator
 
 from fas.codes import PIN_UNDEFINED, AqeResult
+from fas.output_figures import output_figures
 from fas.outputs import OutputResult
 from fas.pwm import PwmSetting, count_percent, duty_count, frequency_range
 
@@ -317,7 +318,7 @@ class GcodeMachine:
         if res == OutputResult.ERR_NOT_PWM_PIN:
             return msg.GCODE_ERR_NOT_PWM_PIN.format(pin=pin, profile=profile.name)
         if res == OutputResult.ERR_FREQUENCY:
-            timer = profile.pwm_timer(outputs.timer_name(number) or "")
+            timer = output_figures(profile).pwm_timer(outputs.timer_name(number) or "")
             low, high = frequency_range(timer) if timer else (0, 0)
             return msg.GCODE_ERR_FREQUENCY.format(
                 timer=timer.name if timer else "?", hz=f"{hz:g}" if hz is not None else "?",

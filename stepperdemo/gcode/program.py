@@ -18,6 +18,7 @@ from fas import Engine
 from fas.backend import Backend
 
 from .. import messages as msg
+from ..demo.build import demo_build
 from ..program import EndReason, Program
 from .machine import RESET, STATUS, GcodeMachine
 from .parser import AXES
@@ -52,7 +53,8 @@ class GcodeProgram(Program):
         self.transcript = bytearray()
         self.engine = Engine(backend)
         p = backend.profile
-        self.axes = min(axes or DEFAULT_AXES, p.max_steppers, len(p.demo_steppers), len(AXES))
+        self.axes = min(axes or DEFAULT_AXES, p.max_steppers, len(demo_build(p).steppers),
+                        len(AXES))
         self.steppers: list = [None] * p.max_steppers
         self._settings = settings
         self._setup_lines = list(setup_lines or [])
@@ -77,7 +79,7 @@ class GcodeProgram(Program):
             return
         self._setup_done = True
         self.engine.init()
-        for i, cfg in enumerate(self.profile.demo_steppers[:self.axes]):
+        for i, cfg in enumerate(demo_build(self.profile).steppers[:self.axes]):
             s = self.engine.stepper_connect_to_pin(cfg.step)
             if s is None:  # pragma: no cover - the profile table guarantees the pins
                 break

@@ -23,6 +23,8 @@ from fas.arch import Profile
 from fas.codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
 from fas.sim import SimBackend
 
+from ..demo.build import demo_build
+
 LETTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"  # stepper 1 = A ... (ESP32 has up to 14 in the demo)
 
 
@@ -44,7 +46,7 @@ class StepperPins:
 
 def stepper_pins(profile: Profile) -> list[StepperPins]:
     out = []
-    for i, cfg in enumerate(profile.demo_steppers):
+    for i, cfg in enumerate(demo_build(profile).steppers):
         out.append(StepperPins(LETTERS[i], cfg.step, cfg.direction, cfg.enable_low_active))
     return out
 

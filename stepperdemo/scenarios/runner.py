@@ -10,6 +10,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Sequence
 
+from fas.output_figures import output_figures
 from fas.sim import SimBackend
 
 from .. import messages as msg
@@ -208,7 +209,7 @@ def _output_checks(sc: Scenario, backend: SimBackend, app, pins) -> list[Check]:
         if outputs is not None:
             pin = (outputs.analog_pin if analog else outputs.digital_pin)(number)
         else:
-            p = backend.profile
+            p = output_figures(backend.profile)
             pin = p.user_analog[number].pin if analog else p.user_digital_pins[number]
         times, levels = backend.recorder.pin_edges(pin)
         tr = OutputTrace(OutputPin(exp.name, pin, analog), 0)

@@ -21,10 +21,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import IO
 
-from fas.arch import DemoStepper, Profile
+from fas.arch import Profile
 from fas.codes import PIN_UNDEFINED
 from fas.sim.channel import ENTRY_RESTART, ENTRY_START, SimChannel
 from fas.sim.trace import IRQ_BLOCKED
+
+from ..demo.build import DemoStepper, demo_build
 
 GAP_FACTOR = 4  # an interval longer than this many times the last regular one is a gap
 ACC_WINDOWS_PER_S = 100  # acceleration: speed change between windows of >= 10 ms
@@ -55,7 +57,7 @@ class Wiring:
 
 
 def demo_wiring(profile: Profile) -> list[Wiring]:
-    return [Wiring.from_demo(i, cfg) for i, cfg in enumerate(profile.demo_steppers)]
+    return [Wiring.from_demo(i, cfg) for i, cfg in enumerate(demo_build(profile).steppers)]
 
 
 class ChannelCounts:

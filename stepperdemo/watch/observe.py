@@ -5,7 +5,7 @@ before (or while) StepperDemo runs on it; ``finish()`` closes the files.  The ti
 report and the plots are available afterwards (and, for the console, at any time
 while recording: :meth:`Observers.flush` brings the figures up to date).
 
-The signals follow StepperDemo's wiring of the profile (``profile.demo_steppers``):
+The signals follow StepperDemo's wiring of the profile (``DemoBuild.steppers``):
 ``StepA``/``DirA``/``EnableA`` for stepper 1, ``B`` for stepper 2 and so on, plus
 ``IrqBlocked`` for the interrupt-blocked windows of the ``e`` injection.
 """

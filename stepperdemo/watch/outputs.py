@@ -1,7 +1,7 @@
 """What the user-output pins show (issue 12): digital levels and PWM period and duty.
 
 A consumer of :class:`fas.sim.trace.EdgeStream`, like :mod:`.motion`.  The pins are
-those of the profile table (``Profile.user_digital_pins``, ``Profile.user_analog``);
+those of the outputs' table (``OutputFigures.user_digital_pins``, ``.user_analog``);
 VCD names ``Dout0..3`` and ``Aout0..3``.  For a PWM pin every complete period (rise to
 rise) gives one period and one duty; the figures are exact (integer ticks summed),
 the plot samples are thinned as they grow.
@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from fas.arch import Profile
 from fas.codes import PIN_UNDEFINED
+from fas.output_figures import output_figures
 
 PLOT_POINTS = 2000  # samples kept per output for plots (thinned by halving)
 
@@ -27,9 +28,10 @@ class OutputPin:
 
 def output_pins(profile: Profile) -> list[OutputPin]:
     """The user outputs that have a pin in the profile table."""
-    out = [OutputPin(f"Dout{i}", pin, False) for i, pin in enumerate(profile.user_digital_pins)
+    figures = output_figures(profile)
+    out = [OutputPin(f"Dout{i}", pin, False) for i, pin in enumerate(figures.user_digital_pins)
            if pin != PIN_UNDEFINED]
-    out += [OutputPin(f"Aout{i}", a.pin, True) for i, a in enumerate(profile.user_analog)
+    out += [OutputPin(f"Aout{i}", a.pin, True) for i, a in enumerate(figures.user_analog)
             if a.pin != PIN_UNDEFINED]
     return out
 

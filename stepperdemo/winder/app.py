@@ -28,6 +28,7 @@ from fas.codes import PIN_UNDEFINED, RAMP_DIRECTION_COUNT_UP
 from fas.gear import Gear, GearResult
 
 from .. import messages as msg
+from ..demo.build import demo_build
 from ..program import LoopProgram
 from . import figures as fig
 from .commands import WAIT, Item, completions, parse_int, parse_line, parse_ratio
@@ -111,7 +112,7 @@ class Winder(LoopProgram):
 
     @staticmethod
     def profile_problem(profile) -> str | None:
-        demo = profile.demo_steppers
+        demo = demo_build(profile).steppers
         if profile.max_steppers < 2 or len(demo) < 2:
             return msg.WINDER_BAD_PROFILE.format(profile=profile.name, why="two steppers")
         if demo[0].direction == demo[1].direction:
@@ -143,7 +144,7 @@ class Winder(LoopProgram):
         b.app_started()
         self.engine.init()
         for i in range(2):
-            cfg = p.demo_steppers[i]
+            cfg = demo_build(p).steppers[i]
             s = self.engine.stepper_connect_to_pin(cfg.step)
             s.set_direction_pin(cfg.direction, cfg.direction_high_counts_up, 0)
             s.set_enable_pin(cfg.enable_low_active, True)
@@ -182,7 +183,7 @@ class Winder(LoopProgram):
 
     def _power_up(self) -> None:
         p = self.profile
-        s1, s2 = p.demo_steppers[0], p.demo_steppers[1]
+        s1, s2 = demo_build(p).steppers[0], demo_build(p).steppers[1]
         self.say(msg.WINDER_BANNER.format(version=msg.VERSION, profile=p.name, s1_step=s1.step,
                                           s1_dir=s1.direction, s2_step=s2.step,
                                           s2_dir=s2.direction))
@@ -277,7 +278,7 @@ class Winder(LoopProgram):
         self._check_limits()
         self._say_later()
         self._watch_motion()
-        b.app_spend(self.profile.sim_loop_pass_ticks)
+        b.app_spend(demo_build(self.profile).loop_pass_ticks)
 
     def _wake_time(self) -> int | None:
         times = []

@@ -6,6 +6,7 @@ from bisect import bisect_right
 
 from fas import Engine
 from fas.sim import SimBackend
+from stepperdemo.demo.build import demo_build
 
 
 def make(profile: str = "atmega328p", *, record: bool = True, dir_pin: int = 5,
@@ -13,7 +14,7 @@ def make(profile: str = "atmega328p", *, record: bool = True, dir_pin: int = 5,
     backend = SimBackend(profile, record=record)
     engine = Engine(backend)
     engine.init()
-    pin = step_pin if step_pin is not None else backend.profile.demo_steppers[0].step
+    pin = step_pin if step_pin is not None else demo_build(backend.profile).steppers[0].step
     stepper = engine.stepper_connect_to_pin(pin)
     assert stepper is not None
     if dir_pin is not None:

@@ -13,6 +13,8 @@ pulse, and the pins counted the backward step forward).
 
 import pytest
 
+from stepperdemo.demo.build import demo_build
+
 from .helpers import make, pin_position, run_until_idle
 
 PERIOD_TICKS = 50_000
@@ -30,7 +32,7 @@ def _pulses(backend, step_pin: int) -> list[tuple[int, int]]:
 @pytest.mark.parametrize("arch", ["sam_due", "esp32", "rp2040", "atmega328p"])
 def test_reversal_queued_during_the_dry_wait_steps_after_its_direction_edge(arch):
     backend, _, s = make(arch, dir_pin=DIR_PIN, enable_pin=None, auto_enable=False)
-    step_pin = backend.profile.demo_steppers[0].step
+    step_pin = demo_build(backend.profile).steppers[0].step
     assert s.add_queue_entry(PERIOD_TICKS, 1, True) == 0
     start = backend.now()
     backend.run_for(PERIOD_TICKS // 2)  # the step is done, its period still runs

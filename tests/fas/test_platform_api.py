@@ -18,6 +18,7 @@ from fas.codes import (
 )
 from fas.errors import UnsupportedError
 from fas.sim import SimBackend
+from stepperdemo.demo.build import demo_build
 
 from .helpers import make, run_until_idle
 
@@ -48,7 +49,7 @@ def test_every_profile_is_offered_and_its_figures_hold_together():
         assert p.min_cmd_ticks >= p.max_speed_ticks(1)
         for pool in p.drivers:
             assert pool.queues > 0 and pool.max_speed_ticks >= 80
-        assert len(p.demo_steppers) <= p.max_steppers
+        assert len(demo_build(p).steppers) <= p.max_steppers
     with pytest.raises(ValueError, match="unknown architecture"):
         get_profile("z80")
 
@@ -249,7 +250,7 @@ def test_debug_led_toggles_every_half_period(arch, half_period_ms):
     e = Engine(backend)
     e.init()
     e.set_debug_led(30)
-    e.stepper_connect_to_pin(backend.profile.demo_steppers[0].step)
+    e.stepper_connect_to_pin(demo_build(backend.profile).steppers[0].step)
     backend.run_for_ms(3000)
     times, _ = backend.recorder.pin_edges(30)
     assert abs(len(times) - 3000 // half_period_ms) <= 1, arch

@@ -5,6 +5,7 @@ from fractions import Fraction
 import pytest
 
 from fas.arch import PROFILES, get_profile
+from fas.output_figures import output_figures
 from fas.pwm import (
     PwmFrequencyError,
     clamp_percent,
@@ -15,7 +16,7 @@ from fas.pwm import (
 )
 
 ESP32 = get_profile("esp32")
-LEDC = ESP32.pwm_timers[0]
+LEDC = output_figures(ESP32).pwm_timers[0]
 
 
 @pytest.mark.parametrize("hz, bits, div256", [
@@ -68,7 +69,7 @@ def test_duty_count_rounds_half_up_and_reports_the_produced_percentage():
 
 
 def test_atmega328p_timer2_has_a_fixed_top_and_picks_the_nearest_prescaler():
-    t2 = get_profile("atmega328p").pwm_timer("timer 2")
+    t2 = output_figures(get_profile("atmega328p")).pwm_timer("timer 2")
     s = pwm_setting(t2, 5000)  # 62500 / 7812.5 / 1953 Hz ...: 7812.5 is nearest
     assert (s.clock_div, s.counts, s.frequency) == (8, 256, Fraction(15625, 2))
     s = pwm_setting(t2, 50)  # the slowest: prescaler 1024
@@ -77,7 +78,7 @@ def test_atmega328p_timer2_has_a_fixed_top_and_picks_the_nearest_prescaler():
 
 
 def test_atmega328p_timer0_runs_millis_and_makes_only_976_hz():
-    t0 = get_profile("atmega328p").pwm_timer("timer 0")
+    t0 = output_figures(get_profile("atmega328p")).pwm_timer("timer 0")
     for hz in (50, 5000, 100_000):
         assert pwm_setting(t0, hz).frequency == Fraction(16_000_000, 64 * 256)
 
@@ -91,12 +92,12 @@ def test_atmega328p_timer0_runs_millis_and_makes_only_976_hz():
     ("timer 2", 1000, 64, 250),
 ])
 def test_atmega2560_variable_top_gives_the_best_resolution(timer, hz, prescaler, counts):
-    s = pwm_setting(get_profile("atmega2560").pwm_timer(timer), hz)
+    s = pwm_setting(output_figures(get_profile("atmega2560")).pwm_timer(timer), hz)
     assert (s.clock_div, s.counts) == (prescaler, counts)
 
 
 def test_atmega2560_8bit_timer_cannot_make_50_hz():
-    t2 = get_profile("atmega2560").pwm_timer("timer 2")
+    t2 = output_figures(get_profile("atmega2560")).pwm_timer("timer 2")
     with pytest.raises(PwmFrequencyError) as exc:
         pwm_setting(t2, 50)
     assert exc.value.too_low and exc.value.lowest_hz == pytest.approx(61.035, abs=1e-3)
@@ -106,7 +107,7 @@ def test_atmega2560_8bit_timer_cannot_make_50_hz():
 
 
 def test_sam_timer_counter_period_is_exact_in_21_mhz_ticks():
-    tc = get_profile("sam_due").pwm_timers[0]
+    tc = output_figures(get_profile("sam_due")).pwm_timers[0]
     s = pwm_setting(tc, 5000)
     assert (s.clock_div, s.counts) == (2, 8400)
     assert s.period_ticks(21_000_000) == 4200
@@ -114,13 +115,14 @@ def test_sam_timer_counter_period_is_exact_in_21_mhz_ticks():
 
 def test_every_profile_states_its_outputs_and_their_timers():
     for name in ("atmega328p", "atmega2560", "esp32", "sam_due"):
-        p = get_profile(name)
+        p = output_figures(get_profile(name))
         assert len(p.user_digital_pins) == 4 and len(p.user_analog) == 4
-    for p in PROFILES.values():  # a profile without the table simply has no outputs
+    for profile in PROFILES.values():  # a profile without the table simply has no outputs
+        p = output_figures(profile)
         assert len(p.user_digital_pins) in (0, 4) and len(p.user_analog) in (0, 4)
         for unit in (*p.user_analog, *p.pwm_pins):
             if unit.timer:
-                assert p.pwm_timer(unit.timer) is not None, (p.name, unit)
+                assert p.pwm_timer(unit.timer) is not None, (profile.name, unit)
         # the default frequency works on every output that has a pin
         for unit in p.user_analog:
             if unit.timer:

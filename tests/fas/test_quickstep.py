@@ -11,6 +11,7 @@ from fas import Engine, MoveResult
 from fas.arch import get_profile
 from fas.backend import Backend
 from fas.quickstep.clock import QsConfigResult
+from fas.quickstep.figures import quickstep_figures
 from fas.quickstep.planner import FULL
 from fas.quickstep.plateaus import (
     ACCELERATE,
@@ -22,10 +23,11 @@ from fas.quickstep.plateaus import (
 from fas.quickstep.timebase import INTERVAL_MAX, INTERVAL_MIN, choose
 from fas.sim import SimBackend
 from fas.stepper import PLANNER_FAS, PLANNER_QUICKSTEP
+from stepperdemo.demo.build import demo_build
 
 TPS = 16_000_000
 P328 = get_profile("atmega328p")
-TIMER2 = P328.qs_timer()
+TIMER2 = quickstep_figures(P328).timer()
 
 
 def _setup(arch="atmega328p", depth=32, plateaus=8, speed_us=100, accel=1000, relay=False,
@@ -35,8 +37,8 @@ def _setup(arch="atmega328p", depth=32, plateaus=8, speed_us=100, accel=1000, re
         b.allocate_order_channel = lambda q, fq, c: Backend.allocate_order_channel(b, q, fq, c)
     e = Engine(b)
     e.init()
-    s = e.stepper_connect_to_pin(b.profile.demo_steppers[0].step)
-    s.set_direction_pin(b.profile.demo_steppers[0].direction)
+    s = e.stepper_connect_to_pin(demo_build(b.profile).steppers[0].step)
+    s.set_direction_pin(demo_build(b.profile).steppers[0].direction)
     s.set_speed_in_us(speed_us)
     s.set_acceleration(accel)
     assert s.set_planner(PLANNER_QUICKSTEP, depth, plateaus) == QsConfigResult.OK
@@ -63,7 +65,7 @@ def test_base_time_takes_the_finest_prescaler():
 
 def test_16_bit_timer_reaches_4_seconds():
     mega = get_profile("atmega2560")
-    tb = choose(mega, mega.qs_timer(3), 10**12)
+    tb = choose(mega, quickstep_figures(mega).timer(3), 10**12)
     assert tb.base_ticks == 1024 * 65536  # 4.19 s
 
 
@@ -222,9 +224,9 @@ def test_timer_interrupt_costs_cpu_per_base_period():
     s.move(1000)
     b.run_for(1000)  # the order has started
     load = b._qs_load
-    p = P328
+    p = quickstep_figures(P328)
     assert load.block_cpu_between(b.now(), b.now() + 16000) == \
-        10 * (p.qs_period_isr_ticks + p.qs_motor_isr_ticks)
+        10 * (p.period_isr_ticks + p.motor_isr_ticks)
 
 
 def test_blocked_interrupts_lose_period_interrupts_of_a_fast_base():

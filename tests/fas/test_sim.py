@@ -3,8 +3,11 @@
 from fas.arch import ATMEGA328P
 from fas.sim import SimBackend
 from fas.sim.machine import Machine
+from fas.sim.timing import sim_timing
 
 from .helpers import make, periods, rising, run_until_idle
+
+T328 = sim_timing(ATMEGA328P)
 
 
 def test_events_run_in_time_order_and_virtual_time_jumps():
@@ -39,10 +42,10 @@ def test_uart_blocks_once_its_buffer_is_full():
     # all fit, no waiting: the CPU time to hand them over, plus the transmit interrupts
     # that meanwhile load one character every byte time (the first goes out directly)
     loads = b.machine.uart.isr_loads_between(t0, b.now())
-    assert loads == (b.now() - t0) // ATMEGA328P.sim_uart_byte_ticks
-    assert b.now() - t0 == 64 * ATMEGA328P.sim_char_ticks + loads * ATMEGA328P.sim_uart_isr_ticks
+    assert loads == (b.now() - t0) // T328.uart_byte_ticks
+    assert b.now() - t0 == 64 * T328.char_ticks + loads * T328.uart_isr_ticks
     b.console_write(b"y" * 100)
-    byte = ATMEGA328P.sim_uart_byte_ticks
+    byte = T328.uart_byte_ticks
     # character k can be handed over once character k-64 went onto the wire
     assert b.now() - t0 >= (164 - 64 - 1) * byte
 
@@ -132,7 +135,7 @@ def test_uart_loads_wait_while_the_main_loop_blocks_interrupts():
 
 def test_uart_interrupts_stretch_the_ramp_task_while_text_goes_out():
     m = Machine(ATMEGA328P)
-    byte, isr = ATMEGA328P.sim_uart_byte_ticks, ATMEGA328P.sim_uart_isr_ticks
+    byte, isr = T328.uart_byte_ticks, T328.uart_isr_ticks
     assert m.stretched(10_000) == 10_000  # quiet console: no stretch
     for _ in range(20):
         m.uart.put(0)
@@ -153,14 +156,14 @@ def test_step_interrupts_take_their_time_from_the_main_loop():
     s.move(20_000)
     backend.run_for_ms(60)  # at 25 kHz, pulses simulated as blocks
     m = backend.machine
-    isr = ATMEGA328P.sim_isr_duration_ticks
+    isr = T328.isr_duration_ticks
     m.stolen_ticks = 0
     t0 = m.now
     m.consume(16_000)  # 1 ms of loop work
     spent = m.now - t0
     steps = [t for t in rising(backend, 9) if t0 <= t < m.now]
     assert spent > 16_000 + 20 * isr  # ~25 interrupts in the first ms alone
-    assert abs(spent - (16_000 + len(steps) * isr)) <= 2 * isr + ATMEGA328P.sim_fill_entry_ticks * 4
+    assert abs(spent - (16_000 + len(steps) * isr)) <= 2 * isr + T328.fill_entry_ticks * 4
 
 
 def test_interrupts_during_an_idle_wait_do_not_delay_the_loop_afterwards():
@@ -169,4 +172,4 @@ def test_interrupts_during_an_idle_wait_do_not_delay_the_loop_afterwards():
     s.set_acceleration(1_000_000)
     s.move(20_000)
     backend.app_wait_until(backend.now() + 16_000 * 100)  # 100 ms idle: 2500 interrupts
-    assert backend.machine.stolen_ticks <= ATMEGA328P.sim_isr_duration_ticks
+    assert backend.machine.stolen_ticks <= T328.isr_duration_ticks

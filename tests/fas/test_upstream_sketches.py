@@ -26,6 +26,7 @@ from fas.codes import (
     RampState,
 )
 from fas.sim import SimBackend
+from fas.sim.timing import sim_timing
 from stepperdemo.demo.testseq.rand import AvrRand
 from stepperdemo.scenarios.evaluate import pin_activity, position_from_pins
 
@@ -37,7 +38,7 @@ class Sketch:
 
     def __init__(self) -> None:
         self.backend = SimBackend("atmega328p", record=True)
-        self.backend.app_spend(self.backend.profile.sim_boot_ticks)  # reset -> setup()
+        self.backend.app_spend(sim_timing(self.backend.profile).boot_ticks)  # reset -> setup()
         self.backend.app_started()
         self.engine = Engine(self.backend)
         self.tps = self.backend.profile.ticks_per_s

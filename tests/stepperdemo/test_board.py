@@ -10,6 +10,7 @@ import asyncio
 import pytest
 
 from fas.arch import get_profile
+from fas.sim.timing import sim_timing
 from stepperdemo import messages as msg
 from stepperdemo.demo.serial_board import SimulatedBoard
 from stepperdemo.front.board_input import InputPacer, split_commands
@@ -125,8 +126,8 @@ def test_simulated_board_takes_characters_at_line_rate_into_a_small_buffer():
     board.run_until(board.now() + p.ticks_per_s // 2)
     assert board.app.waiting_interactive  # spinning in W: reads nothing
     board.receive(b"x" * 100)
-    board.run_until(board.now() + 100 * p.sim_uart_byte_ticks + 1)
-    assert len(board.app.rx) == p.sim_uart_rx_buffer == 63
+    board.run_until(board.now() + 100 * sim_timing(p).uart_byte_ticks + 1)
+    assert len(board.app.rx) == sim_timing(p).uart_rx_buffer == 63
     assert board.rx_dropped == 100 - 63
     assert b"Blocking wait for running stepper to stop\n" in board.take_output()
 

@@ -4,8 +4,10 @@ import re
 
 from fas.arch import ATMEGA328P
 from fas.sim import SimBackend
+from fas.sim.timing import sim_timing
 from stepperdemo import messages as msg
 from stepperdemo.demo.app import StepperDemo
+from stepperdemo.demo.build import demo_build
 from stepperdemo.scenarios import transcript as tr
 
 from .helpers import EndReason, after_setup, lines, run, text
@@ -194,10 +196,11 @@ def test_boot_time_grows_with_the_built_in_line_as_in_the_firmware():
     for line in ("M1 A1000 V100 R100 W", "M1  A1000 V100 R100 W"):
         app, _ = run(line)
         origins.append((app.backend._task_origin, app.backend.machine._millis_phase))
-    per_byte = ATMEGA328P.sim_boot_script_byte_ticks
+    per_byte = sim_timing(ATMEGA328P).boot_script_byte_ticks
     assert origins[1][0] - origins[0][0] == per_byte
     assert origins[1][1] - origins[0][1] == per_byte
-    assert origins[0][1] == ATMEGA328P.sim_boot_ticks + len("M1 A1000 V100 R100 W ") * per_byte
+    boot = sim_timing(ATMEGA328P).boot_ticks
+    assert origins[0][1] == boot + len("M1 A1000 V100 R100 W ") * per_byte
 
 
 def test_printing_a_text_first_scans_the_message_table():
@@ -206,13 +209,13 @@ def test_printing_a_text_first_scans_the_message_table():
     lead, lead_lookups, total, lookups = msg.TABLE_SCAN[msg.STOP]
     t0 = b.now()
     app.print(msg.STOP)
-    p = ATMEGA328P
+    p = demo_build(ATMEGA328P)
     first_char = b.machine.uart._chars[0][2]
-    lead_ticks = lead * p.sim_msg_scan_byte_ticks + lead_lookups * p.sim_msg_lookup_ticks
+    lead_ticks = lead * p.msg_scan_byte_ticks + lead_lookups * p.msg_lookup_ticks
     assert first_char == t0 + lead_ticks
     # all of the scan is spent by the time the text is handed over
-    spent = total * p.sim_msg_scan_byte_ticks + lookups * p.sim_msg_lookup_ticks
-    assert b.now() - t0 == spent + len(msg.STOP) * p.sim_char_ticks
+    spent = total * p.msg_scan_byte_ticks + lookups * p.msg_lookup_ticks
+    assert b.now() - t0 == spent + len(msg.STOP) * sim_timing(ATMEGA328P).char_ticks
 
 
 def test_transcript_comparison_masks_only_what_timing_decides():

@@ -16,6 +16,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Callable
 
 from ... import messages as msg
+from ..build import demo_build
 from .rand import make_rand
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -149,7 +150,7 @@ def sequences_for(profile) -> dict[str, Sequence]:
                  else globals()["SEQUENCES"])
     if not profile.has_pulse_counter:
         table["08"] = _finished_at_once
-    if profile.demo_small_build:
+    if demo_build(profile).small_build:
         table["12"] = _endless_nothing
         del table["13"]
     return table

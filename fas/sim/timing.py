@@ -1,0 +1,157 @@
+"""The simulated machine's timing model, per chip: one :class:`SimTiming` per profile.
+
+What the simulated chip and its Arduino core take, in ticks of the profile: the step
+timer and its interrupt, the library's periodic ramp task, reset, ``millis()``'s
+timer interrupt and the console UART.  The machine (:mod:`fas.sim.machine`), its step
+channels and the simulated backend read these; programs that run on the simulated
+chip read them where they wait for its serial driver (the console device's receive
+buffer).  What a program's own code costs (StepperDemo's loop, its message table, its
+commands) belongs to that program (:mod:`stepperdemo.demo.build`).
+
+Tables: :data:`BY_FAMILY` holds the timing of each chip family, :data:`BY_PROFILE`
+the profiles that differ from their family (the ATmega32U4's USB console);
+:func:`sim_timing` answers for a profile, by its name first, then its family.  For the
+ATmega328P the figures are calibrated against the AVR-simulator runs in
+``shared/conformance`` (see ``docs/timing-model.md``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from ..arch import Profile
+
+
+@dataclass(frozen=True)
+class SimTiming:
+    """The simulated chip's timing (ticks of its profile)."""
+
+    timer_wrap_ticks: int  # compare timer width: a missed compare waits one wrap (0: none)
+    # compare match -> ISR clears the step pin (the pulse width), per channel; the last
+    # figure stands for the channels after it
+    isr_latency_ticks: tuple[int, ...]
+    isr_duration_ticks: int  # CPU time of one step interrupt (taken from the loop)
+    fill_entry_ticks: int  # periodic task start -> first command computed
+    fill_cmd_ticks: int  # CPU time per generated queue command with several steps
+    fill_single_ticks: int  # ... with one step
+    fill_pause_ticks: int  # ... without steps (a pause)
+    task_phase_ticks: int  # first periodic task after power-on
+    boot_ticks: int  # reset -> first line of setup()
+    # ... plus this per byte of initialised data the start-up code copies (a program's
+    # built-in input line)
+    boot_script_byte_ticks: int
+    char_ticks: int  # CPU time to hand one character to the serial driver
+    uart_byte_ticks: int  # one character on the wire (start + 8 data + stop)
+    uart_tx_buffer: int  # characters the serial driver holds before blocking
+    uart_isr_ticks: int  # transmit interrupt, once per buffered character
+    # characters the serial driver's receive buffer holds; more arriving while the
+    # program does not read are lost (the console device's line, issue 15)
+    uart_rx_buffer: int
+    millis_overflow_ticks: int  # Arduino timer0 overflow period (millis() source)
+    millis_isr_ticks: int = 0  # Arduino's timer-0 overflow interrupt (millis())
+
+    def isr_latency(self, channel: int) -> int:
+        """The step pulse width of queue ``channel``."""
+        table = self.isr_latency_ticks
+        return table[min(channel, len(table) - 1)]
+
+
+def avr_uart_byte_ticks(f_cpu: int, baud: int, sim_bits: int = 10) -> int:
+    """Ticks per character on the console UART.
+
+    Arduino's HardwareSerial uses double speed: UBRR = (F_CPU/4/baud - 1)/2, so
+    115200 baud is really 117647 baud, 136 CPU cycles per bit.  A real character is
+    10 bits (1360 cycles).  The AVR simulator that produced the conformance data
+    sends one character every 11 bit times (1496 cycles, measured on the firmware
+    build); ``sim_bits=11`` reproduces it.
+    """
+    ubrr = (f_cpu // 4 // baud - 1) // 2
+    return sim_bits * 8 * (ubrr + 1)
+
+
+AVR_TIMING = SimTiming(
+    timer_wrap_ticks=65536,
+    isr_latency_ticks=(61, 73, 73),
+    isr_duration_ticks=120,
+    fill_entry_ticks=2436,
+    fill_cmd_ticks=2367,
+    fill_single_ticks=2102,
+    fill_pause_ticks=1455,
+    task_phase_ticks=67989,
+    boot_ticks=11200,
+    boot_script_byte_ticks=9,
+    char_ticks=121,
+    uart_byte_ticks=avr_uart_byte_ticks(16_000_000, 115200, sim_bits=11),
+    uart_tx_buffer=64,
+    uart_isr_ticks=114,
+    uart_rx_buffer=63,  # HardwareSerial: a 64-byte ring keeps one slot free
+    millis_overflow_ticks=64 * 256,
+    millis_isr_ticks=96,
+)
+
+# ATmega32U4: Serial is the USB CDC port, output costs no UART time (the AVR simulator
+# has no USB host, so the firmware's prints return at once)
+AVR_USB_TIMING = replace(AVR_TIMING, char_ticks=40, uart_byte_ticks=0)
+
+ESP32_TIMING = SimTiming(
+    timer_wrap_ticks=0,
+    isr_latency_ticks=(16,),
+    isr_duration_ticks=0,
+    fill_entry_ticks=80,
+    fill_cmd_ticks=80,
+    fill_single_ticks=80,
+    fill_pause_ticks=40,
+    task_phase_ticks=8000,
+    boot_ticks=16000,
+    boot_script_byte_ticks=0,
+    char_ticks=4,
+    uart_byte_ticks=(10 * 16_000_000) // 115200,
+    uart_tx_buffer=128,
+    uart_isr_ticks=0,
+    uart_rx_buffer=256,  # the Arduino-ESP32 core's default receive buffer
+    millis_overflow_ticks=16000,
+)
+
+SAM_TIMING = SimTiming(
+    timer_wrap_ticks=0,
+    isr_latency_ticks=(21 * 2,),
+    isr_duration_ticks=21 * 3,
+    fill_entry_ticks=100,
+    fill_cmd_ticks=400,
+    fill_single_ticks=400,
+    fill_pause_ticks=200,
+    task_phase_ticks=10000,
+    boot_ticks=21000,
+    boot_script_byte_ticks=0,
+    char_ticks=10,
+    uart_byte_ticks=(10 * 21_000_000) // 115200,
+    uart_tx_buffer=128,
+    uart_isr_ticks=0,
+    uart_rx_buffer=127,  # UARTClass: a 128-byte ring keeps one slot free
+    millis_overflow_ticks=21000,
+)
+
+# the Pico: the ESP32's model with a USB console (no UART time)
+PICO_TIMING = replace(ESP32_TIMING, uart_byte_ticks=0, char_ticks=8,
+                      millis_overflow_ticks=16000)
+
+BY_FAMILY: dict[str, SimTiming] = {
+    "avr": AVR_TIMING,
+    "esp32": ESP32_TIMING,
+    "sam": SAM_TIMING,
+    "rp2040": PICO_TIMING,
+    "test": ESP32_TIMING,  # upstream's pc_based test platform: ESP32-like
+}
+
+BY_PROFILE: dict[str, SimTiming] = {
+    "atmega32u4": AVR_USB_TIMING,
+}
+
+
+def sim_timing(profile: Profile) -> SimTiming:
+    """The simulated timing of ``profile``: its own entry, else its family's."""
+    timing = BY_PROFILE.get(profile.name) or BY_FAMILY.get(profile.family)
+    if timing is None:
+        raise ValueError(f"no simulated timing for profile {profile.name!r} "
+                         f"(family {profile.family!r}): add it to fas/sim/timing.py")
+    return timing

@@ -1,0 +1,312 @@
+"""StepperDemo's build for each chip: its wiring, pin configurations and its own costs.
+
+One :class:`DemoBuild` per profile name in :data:`BY_PROFILE`; :func:`demo_build`
+answers for a profile.  What is here is StepperDemo's, not the chip's or the
+library's:
+
+* its default wiring of the steppers (``StepperPins_*.h``): step, enable and
+  direction pins and the enable delays; the debug LED it switches on;
+* the pin configurations it offers at start-up (ESP32, Pico) and how long it waits;
+* what its build contains (the ATmega32U4's small build; the stray-read command `r`
+  of the AVR builds);
+* the CPU time its own code takes on the simulated chip (measured on the firmware,
+  ``docs/timing-model.md``): a loop pass, the message table, printing numbers, the
+  status lines, parsing and executing a command (by letter), the blocked section of
+  `e`.  The chip's own timing (interrupts, UART, ramp task) is in
+  :mod:`fas.sim.timing`.
+
+The other programs on the console (the winder, G-code, scenarios, the fuzzer, the
+plots) wire their steppers as StepperDemo does, from :attr:`DemoBuild.steppers`.
+
+The builds of one family share their costs: each is :data:`AVR_COSTS`,
+:data:`ESP32_COSTS` or :data:`SAM_COSTS` with its own wiring
+(:func:`dataclasses.replace`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from fas.arch import (
+    ATMEGA2560,
+    ATMEGA2560_VARIANTS,
+    ESP32,
+    ESP32_PROFILES,
+    PC_TEST,
+    Profile,
+)
+from fas.codes import PIN_UNDEFINED, FasDriver
+
+
+@dataclass(frozen=True)
+class DemoStepper:
+    """StepperDemo's default wiring of one stepper (StepperPins_*.h)."""
+
+    step: int
+    enable_low_active: int
+    direction: int
+    on_delay_us: int
+    off_delay_ms: int
+    enable_high_active: int = PIN_UNDEFINED
+    dir_change_delay_us: int = 0
+    direction_high_counts_up: bool = True
+    auto_enable: bool = True
+    driver: int = FasDriver.DONT_CARE  # ESP32: the driver StepperDemo asks for
+
+
+@dataclass(frozen=True)
+class DemoConfig:
+    """One of the pin configurations StepperDemo offers at start-up (ESP32, Pico)."""
+
+    name: str
+    steppers: tuple[DemoStepper, ...]
+
+
+@dataclass(frozen=True)
+class DemoBuild:
+    """StepperDemo built for one chip (costs in ticks of its profile)."""
+
+    steppers: tuple[DemoStepper, ...] = ()  # the wiring (of configuration 0, if any)
+    debug_led_pin: int = PIN_UNDEFINED  # engine.set_debug_led() after init
+    configs: tuple[DemoConfig, ...] = ()  # >0: the start-up pin configuration prompt
+    config_wait_ms: int = 5000  # ... how long it waits for a digit
+    small_build: bool = False  # ATmega32U4: no T, d, W/w usage, test usage, seq 13
+    has_stray_digital_read: bool = False  # `r` exists (AVR Arduino core only)
+    # --- CPU time of StepperDemo's own code (docs/timing-model.md) ---
+    setup_head_ticks: int = 0  # setup() entry -> first character of the banner
+    setup_steppers_ticks: int = 0  # engine.init() -> first stepper's pins configured
+    loop_pass_ticks: int = 0  # one pass of loop() without output
+    msg_scan_byte_ticks: int = 0  # the message table: one byte read
+    msg_lookup_ticks: int = 0  # ... one look-up (call overhead)
+    print_digit_ticks: int = 0  # printing a number: one 32-bit division per digit
+    print_call_ticks: int = 0  # printing a number or an empty line: the call
+    info_ticks: int = 0  # one stepper's status (the library getters), without prints
+    info_scan_ticks: int = 0  # output_info(): per connected stepper (isRunning)
+    cmd_arg_char_ticks: int = 0  # parsing a command: per character after the letter
+    cmd_default_ticks: int = 0  # executing a command without its own figure
+    # executing a command, by letter, without its prints and argument parsing
+    cmd_ticks: dict[str, int] = field(default_factory=dict, compare=False)
+    irq_block_ticks: int = 0  # `e`: length of one blocked section
+
+
+# ------------------------------------------------------------------------------ costs
+AVR_COSTS = DemoBuild(
+    has_stray_digital_read=True,
+    setup_head_ticks=2700,
+    setup_steppers_ticks=3758,
+    loop_pass_ticks=342,
+    msg_scan_byte_ticks=11,
+    msg_lookup_ticks=56,
+    print_digit_ticks=603,
+    print_call_ticks=180,
+    info_ticks=450,
+    info_scan_ticks=50,
+    cmd_arg_char_ticks=113,
+    cmd_default_ticks=150,
+    cmd_ticks={
+        "M": 515, "A": 680, "V": 528, "H": 1110, "h": 1847, "R": 552, "P": 596, "a": 770,
+        "j": 433, "J": 456, "@": 638, "E": 515, "D": 435, "w": 461, "K": 128, "S": 145,
+        "U": 156, "X": 323, "f": 226, "b": 223, "e": 140, "r": 144, "u": 223, "F": 405,
+        "N": 319, "O": 319, "Q": 140, "I": 140, "W": 148, "+": 150, "-": 150, "?": 0,
+        "t": 0, "c": 0, "x": 0, "d": 1451,
+    },
+    irq_block_ticks=100 * 16,
+)
+
+# ESP32 and the Pico: not measured on a firmware run, estimates
+ESP32_COSTS = DemoBuild(
+    setup_steppers_ticks=1600,
+    loop_pass_ticks=32,
+    msg_scan_byte_ticks=1,
+    msg_lookup_ticks=5,
+    irq_block_ticks=100 * 16,
+)
+
+SAM_COSTS = DemoBuild(
+    setup_steppers_ticks=2100,
+    loop_pass_ticks=100,
+    msg_scan_byte_ticks=2,
+    msg_lookup_ticks=20,
+    irq_block_ticks=100 * 21,
+)
+
+# -------------------------------------------------------------------------------- AVR
+ATMEGA328P_BUILD = replace(
+    AVR_COSTS,
+    steppers=(
+        DemoStepper(step=9, enable_low_active=6, direction=5, on_delay_us=500_000,
+                    off_delay_ms=5000),
+        DemoStepper(step=10, enable_low_active=8, direction=7, on_delay_us=5000,
+                    off_delay_ms=10),
+    ),
+    debug_led_pin=13,
+)
+
+
+def _mega(profile: Profile) -> DemoBuild:
+    """The Mega: its three steppers on the step timer's compare pins A, B, C."""
+    a, b, c = (group[0] for group in profile.step_pin_groups)
+    return replace(AVR_COSTS, steppers=(
+        DemoStepper(step=a, enable_low_active=19, direction=21, on_delay_us=500_000,
+                    off_delay_ms=5000),
+        DemoStepper(step=b, enable_low_active=18, direction=20, on_delay_us=5000,
+                    off_delay_ms=10),
+        DemoStepper(step=c, enable_low_active=43, direction=42, on_delay_us=5000,
+                    off_delay_ms=10),
+    ))
+
+
+# StepperPins_avr.h wires two of the three (the third entry of its table is empty)
+ATMEGA32U4_BUILD = replace(
+    AVR_COSTS,
+    steppers=(
+        DemoStepper(step=9, enable_low_active=16, direction=26, on_delay_us=500_000,
+                    off_delay_ms=5000),
+        DemoStepper(step=10, enable_low_active=15, direction=14, on_delay_us=5000,
+                    off_delay_ms=10),
+    ),
+    small_build=True,
+)
+
+# ------------------------------------------------------------------------------ ESP32
+# StepperPins_esp32.h, configuration 0 ("Test-HW"); its table has as many entries as
+# the build has queues: 2, 4, 6, 8, 10 or (with exactly 14 queues) 14
+_ESP32_TEST_HW = (
+    DemoStepper(step=17, enable_low_active=26, direction=18, on_delay_us=50, off_delay_ms=1000),
+    DemoStepper(step=15, enable_low_active=13, direction=18, on_delay_us=500, off_delay_ms=1000),
+    DemoStepper(step=2, enable_low_active=12, direction=19, on_delay_us=500, off_delay_ms=1000),
+    DemoStepper(step=5, enable_low_active=25, direction=22, on_delay_us=5000, off_delay_ms=10),
+    DemoStepper(step=16, enable_low_active=27, direction=21, on_delay_us=5000, off_delay_ms=10),
+    DemoStepper(step=4, enable_low_active=14, direction=21, on_delay_us=5000, off_delay_ms=10),
+    DemoStepper(step=14, enable_low_active=26, direction=19, on_delay_us=5000, off_delay_ms=10),
+    DemoStepper(step=23, enable_low_active=PIN_UNDEFINED, direction=18, on_delay_us=5000,
+                off_delay_ms=10),
+    DemoStepper(step=32, enable_low_active=PIN_UNDEFINED, direction=18, on_delay_us=5000,
+                off_delay_ms=10),
+    DemoStepper(step=33, enable_low_active=PIN_UNDEFINED, direction=PIN_UNDEFINED,
+                on_delay_us=5000, off_delay_ms=10),
+    DemoStepper(step=25, enable_low_active=PIN_UNDEFINED, direction=18, on_delay_us=5000,
+                off_delay_ms=10),
+    DemoStepper(step=26, enable_low_active=PIN_UNDEFINED, direction=18, on_delay_us=5000,
+                off_delay_ms=10),
+    DemoStepper(step=22, enable_low_active=26, direction=18, on_delay_us=5000, off_delay_ms=10),
+    DemoStepper(step=21, enable_low_active=PIN_UNDEFINED, direction=18, on_delay_us=5000,
+                off_delay_ms=10),
+)
+
+
+def _esp32_test_hw(max_steppers: int) -> tuple[DemoStepper, ...]:
+    n = 2
+    for limit, count in ((2, 4), (4, 6), (6, 8), (8, 10)):
+        if max_steppers > limit:
+            n = count
+    if max_steppers == 14:
+        n = 14
+    return _ESP32_TEST_HW[:n]
+
+
+def _esp32_driver_types(mcpwm: int, rmt: int, i2s: bool) -> tuple[DemoStepper, ...]:
+    """Configuration 1 ("Driver-Types"): one stepper per driver the build has."""
+    out = []
+    if rmt:
+        out.append(DemoStepper(step=17, enable_low_active=PIN_UNDEFINED, direction=18,
+                               on_delay_us=0, off_delay_ms=0, auto_enable=False,
+                               driver=FasDriver.RMT))
+    if i2s:
+        out.append(DemoStepper(step=15, enable_low_active=PIN_UNDEFINED, direction=18,
+                               on_delay_us=0, off_delay_ms=0, auto_enable=False,
+                               driver=FasDriver.I2S_DIRECT))
+    if mcpwm:
+        out.append(DemoStepper(step=2, enable_low_active=PIN_UNDEFINED, direction=19,
+                               on_delay_us=0, off_delay_ms=0, auto_enable=False,
+                               driver=FasDriver.MCPWM_PCNT))
+    return tuple(out)
+
+
+# StepperPins_esp32C3.h and StepperPins_esp32C6.h: two steppers, LED on GPIO 8
+_ESP32_SMALL_DEMO: dict[str, tuple[str, tuple[DemoStepper, ...]]] = {
+    "esp32c3": ("C3-Test", (
+        DemoStepper(step=6, enable_low_active=PIN_UNDEFINED, direction=PIN_UNDEFINED,
+                    on_delay_us=50, off_delay_ms=1000),
+        DemoStepper(step=7, enable_low_active=PIN_UNDEFINED, direction=PIN_UNDEFINED,
+                    on_delay_us=500, off_delay_ms=1000))),
+    "esp32c6": ("C6-Test", (
+        DemoStepper(step=6, enable_low_active=PIN_UNDEFINED, direction=7,
+                    on_delay_us=50, off_delay_ms=1000),
+        DemoStepper(step=15, enable_low_active=PIN_UNDEFINED, direction=18,
+                    on_delay_us=500, off_delay_ms=1000))),
+}
+
+
+def _esp32(profile: Profile) -> DemoBuild:
+    """An ESP32 profile's build: its pin configurations follow its chip and drivers."""
+    chip = profile.name.split("_idf")[0]  # ESP32 profiles: <chip> or <chip>_idf<N>
+    if chip in _ESP32_SMALL_DEMO:
+        cfg_name, small = _ESP32_SMALL_DEMO[chip]
+        return replace(ESP32_COSTS, steppers=small,
+                       configs=(DemoConfig(cfg_name, small),), debug_led_pin=8)
+    steppers = _esp32_test_hw(profile.max_steppers)
+    select = profile.driver_select
+    mcpwm = profile.driver_pool(FasDriver.MCPWM_PCNT)
+    rmt = profile.driver_pool(FasDriver.RMT)
+    types = _esp32_driver_types(mcpwm.queues if mcpwm and select else 0,
+                                rmt.queues if rmt and select else 0,
+                                profile.has_i2s and select)
+    return replace(ESP32_COSTS, steppers=steppers,
+                   configs=(DemoConfig("Test-HW", steppers), DemoConfig("Driver-Types", types)))
+
+
+# ---------------------------------------------------------------------------- SAM Due
+# StepperPins_sam.h lists six steppers, but only GPIO 17 (PWM channel 1) is a step
+# pin on the Due: setup() stops at the second entry (GPIO 15), so the demo has M1
+SAM_DUE_BUILD = replace(
+    SAM_COSTS,
+    steppers=(
+        DemoStepper(step=17, enable_low_active=26, direction=18, on_delay_us=50,
+                    off_delay_ms=1000),
+        DemoStepper(step=15, enable_low_active=13, direction=18, on_delay_us=500,
+                    off_delay_ms=1000),
+        DemoStepper(step=2, enable_low_active=12, direction=19, on_delay_us=500,
+                    off_delay_ms=1000),
+        DemoStepper(step=5, enable_low_active=25, direction=22, on_delay_us=5000,
+                    off_delay_ms=10),
+        DemoStepper(step=16, enable_low_active=27, direction=21, on_delay_us=5000,
+                    off_delay_ms=10),
+        DemoStepper(step=4, enable_low_active=14, direction=21, on_delay_us=5000,
+                    off_delay_ms=10),
+    ),
+)
+
+# ------------------------------------------------------------------ Raspberry Pi Pico
+_PICO_DEMO = (
+    DemoStepper(step=14, enable_low_active=13, direction=15, on_delay_us=500_000,
+                off_delay_ms=5000),
+    DemoStepper(step=18, enable_low_active=PIN_UNDEFINED, direction=PIN_UNDEFINED,
+                on_delay_us=500_000, off_delay_ms=5000),
+    DemoStepper(step=19, enable_low_active=PIN_UNDEFINED, direction=PIN_UNDEFINED,
+                on_delay_us=500_000, off_delay_ms=5000),
+)
+
+PICO_BUILD = replace(ESP32_COSTS, steppers=_PICO_DEMO,
+                     configs=(DemoConfig("Default", _PICO_DEMO),), debug_led_pin=25)
+
+BY_PROFILE: dict[str, DemoBuild] = {
+    "atmega328p": ATMEGA328P_BUILD,
+    **{p.name: _mega(p) for p in (ATMEGA2560, *ATMEGA2560_VARIANTS)},
+    "atmega32u4": ATMEGA32U4_BUILD,
+    **{p.name: _esp32(p) for p in ESP32_PROFILES},
+    "sam_due": SAM_DUE_BUILD,
+    "rp2040": PICO_BUILD,
+    "rp2350": PICO_BUILD,
+    # upstream's pc_based test platform: the ESP32's wiring, no start-up prompt
+    PC_TEST.name: replace(_esp32(ESP32), configs=()),
+}
+
+
+def demo_build(profile: Profile) -> DemoBuild:
+    """StepperDemo's build for ``profile``."""
+    build = BY_PROFILE.get(profile.name)
+    if build is None:
+        raise ValueError(f"no StepperDemo build for profile {profile.name!r}: "
+                         "add it to stepperdemo/demo/build.py")
+    return build
