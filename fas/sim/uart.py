@@ -39,6 +39,19 @@ class Uart:
         self._loads: list[int] = []
         self._pos = 0
 
+    @property
+    def records(self) -> deque[list[int]]:
+        """The newest ``capacity`` characters as ``[write tick, load tick, start tick,
+        start tick of the one before]`` (fas.sim.printing hands characters over
+        written out, for speed)."""
+        return self._chars
+
+    @property
+    def loads(self) -> list[int]:
+        """Load ticks of the characters the transmit interrupt loaded, in order (cut
+        at the front once far behind, and at the back by :meth:`interrupts_blocked`)."""
+        return self._loads
+
     def room_at(self) -> int:
         """Earliest tick at which one more character can be handed over."""
         if len(self._chars) < self.capacity:
