@@ -17,11 +17,16 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from enum import IntEnum
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from fas.backend import Backend
 
 from .subcommands import SUBCOMMANDS, load
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fas.arch import Profile
+
+    from .watch.observe import Observers
 
 Output = Callable[[bytes], None]
 
@@ -45,7 +50,7 @@ class Program(ABC):
     steppers: list
 
     @property
-    def profile(self):
+    def profile(self) -> Profile:
         return self.backend.profile
 
     # ------------------------------------------------------------ driving
@@ -100,7 +105,7 @@ class Program(ABC):
         """Pins of the program's own (inputs, outputs) to trace beside the steppers'."""
         return {}
 
-    def watch(self, observers) -> None:
+    def watch(self, observers: Observers) -> None:
         """Recording of the pins starts (``stepperdemo.watch.observe.Observers``): the
         program may add consumers of its own to ``observers.stream``."""
 

@@ -18,6 +18,8 @@ from .parsing import parse_number as _number
 from .parsing import parse_values as _values
 
 if TYPE_CHECKING:  # pragma: no cover
+    from fas.stepper import Stepper
+
     from .app import StepperDemo
 
 FIRMWARE = CommandSet()
@@ -293,12 +295,12 @@ def _simple(letter: str, text: str, action: Callable, hint: str) -> None:
     FIRMWARE.add(letter, _NORMAL, handler, hint)
 
 
-def _driver_on(s) -> None:
+def _driver_on(s: Stepper) -> None:
     s.set_auto_enable(False)
     s.enable_outputs()
 
 
-def _driver_off(s) -> None:
+def _driver_off(s: Stepper) -> None:
     s.set_auto_enable(False)
     s.disable_outputs()
 

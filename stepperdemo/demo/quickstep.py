@@ -28,6 +28,8 @@ from .command_table import CommandSet, Mode
 from .parsing import parse_number, parse_values
 
 if TYPE_CHECKING:  # pragma: no cover
+    from fas.stepper import Stepper
+
     from .app import StepperDemo
 
 #: the config commands l q p b (registered in .command_registry)
@@ -53,7 +55,7 @@ def base_text(app: StepperDemo) -> str:
 
 
 def _error(app: StepperDemo, res: QsConfigResult, *, value: int = 0, need_depth: int = 0,
-           stepper=None) -> None:
+           stepper: Stepper | None = None) -> None:
     p = app.profile
     clock = clock_of(app.engine)
     if res == QsConfigResult.NOT_AVAILABLE:
@@ -225,14 +227,14 @@ def service_hold(app: StepperDemo) -> bool:
     return False
 
 
-def status_suffix(s) -> str:
+def status_suffix(s: Stepper) -> str:
     qs = s.quickstep
     if qs is None:
         return ""
     return msg.QS_STATUS.format(label=qs.plateau_label() or "-")
 
 
-def table_suffix(app: StepperDemo, s) -> str:
+def table_suffix(app: StepperDemo, s: Stepper) -> str:
     qs = s.quickstep
     if qs is None:
         return ""
