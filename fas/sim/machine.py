@@ -219,9 +219,10 @@ class Machine:
         return (self._millis_phase + ov, ov, NEVER, p.sim_millis_isr_ticks)
 
     def isr_clock(self) -> IsrClock:
-        """The interrupts that take time from the loop, followed until the next event
-        (not with ``cpu_sources``).  A clock holds while no event ran or was scheduled,
-        no interrupt-blocked window began and no channel started or stopped."""
+        """The interrupts that take time from the loop, followed until the next event.
+        A clock holds while no event ran or was scheduled, no interrupt-blocked window
+        began and no channel started or stopped.  (With ``cpu_sources`` the machine
+        counts every span itself: the clock answers only :meth:`resume_wait` then.)"""
         key = (self.events_run, self._seq, self.irq_block_windows, self.activity)
         clock = self._clock
         if clock is None or self._clock_key != key:
