@@ -125,9 +125,10 @@ class IsrClock:
                     if nxt <= start:  # time jumped ahead (a wait): find the next one again
                         nxt = next_after(start, tr[1], tr[2], tr[3])
                     if nxt <= end:
-                        k = count_from(nxt, tr[1], tr[3], end)
+                        period = tr[1]  # (count_from; its common case written out)
+                        k = 1 if nxt + period > end else count_from(nxt, period, tr[3], end)
                         stolen += k * tr[4]
-                        nxt += k * tr[1]
+                        nxt += k * period
                         if nxt > tr[3]:
                             nxt = NEVER
                     tr[0] = nxt

@@ -41,7 +41,10 @@ class Machine:
     def __init__(self, profile: Profile) -> None:
         self.profile = profile
         self.now = 0
-        self._heap: list[tuple[int, int, int, Event]] = []
+        # the pending events as a heap of (tick, priority, order, event), the earliest
+        # first (cancelled ones stay until they come up); read it, never write it
+        # (a print looks ahead for the next event's tick: fas.sim.printing)
+        self.events: list[tuple[int, int, int, Event]] = []
         self._seq = 0
         self.pins = PinBank()
         self.outputs = SimOutputs(self.pins)  # user outputs: digital pins, PWM waves
@@ -74,7 +77,7 @@ class Machine:
             time = self.now
         ev = Event(time, prio, fn, isr)
         self._seq += 1
-        heapq.heappush(self._heap, (time, prio, self._seq, ev))
+        heapq.heappush(self.events, (time, prio, self._seq, ev))
         return ev
 
     @staticmethod
@@ -82,15 +85,8 @@ class Machine:
         if ev is not None:
             ev.cancelled = True
 
-    @property
-    def events(self) -> list[tuple[int, int, int, Event]]:
-        """The pending events as a heap of ``(tick, priority, order, event)``, the
-        earliest first (cancelled ones stay until they come up).  Read only: a
-        caller that looks ahead for the next event's tick (fas.sim.printing)."""
-        return self._heap
-
     def next_event_time(self) -> int | None:
-        heap = self._heap
+        heap = self.events
         while heap and heap[0][3].cancelled:
             heapq.heappop(heap)
         return heap[0][0] if heap else None
@@ -100,7 +96,7 @@ class Machine:
 
         ``stop_on_activity``: stop early, after the events of the first tick that
         changed :attr:`activity` (then ``now`` is that tick); True if it did."""
-        heap = self._heap
+        heap = self.events
         pop = heapq.heappop
         activity = self.activity
         while heap and heap[0][0] <= t:
@@ -237,7 +233,7 @@ class Machine:
         uart_cost = p.sim_uart_isr_ticks
         uart = self.uart
         chars = uart.records
-        heap = self._heap
+        heap = self.events
         sources = self.block_sources
         cpu_sources = self.cpu_sources
         while True:
