@@ -87,7 +87,8 @@ def digest(arch: str, line: bytes) -> str:
 
 def _digest_backend(h, b, steppers) -> None:
     """Pin tables, recorded edges and positions of a finished run into the hash."""
-    pins = b.machine.pins
+    # the backend's declared pins (issue 22); a tree from before has only the machine's
+    pins = getattr(b, "pin_states", None) or b.machine.pins
     for table in (pins.level, pins.rise, pins.fall, pins.high_max, pins.high_total):
         h.update(repr(sorted(table.items())).encode())
     h.update(repr([None if s is None else s.get_current_position() for s in steppers]).encode())

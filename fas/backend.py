@@ -10,7 +10,8 @@ interface; :mod:`fas.sim` implements it on a simulated microcontroller and
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import TYPE_CHECKING, Callable, Sequence
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Callable, Protocol, Sequence
 
 if TYPE_CHECKING:  # pragma: no cover
     from .arch import Profile
@@ -126,6 +127,38 @@ class PulseCounter:
 
     def clear(self) -> None:
         self.value = 0
+
+
+class PinRecording(Protocol):
+    """Every edge of every pin since recording began (:class:`fas.sim.pins.EdgeRecorder`)."""
+
+    def pin_edges(self, pin: int) -> tuple[Sequence[int], bytes | bytearray]:
+        """The pin's edges in time order: their ticks and levels (0/1)."""
+
+    def rising(self, pin: int) -> list[int]:
+        """The ticks of the pin's rising edges."""
+
+
+class PinStates(Protocol):
+    """The pins as the chip drives them, with statistics per pin: levels, rising and
+    falling edges, longest and summed HIGH time in ticks, and the first write
+    (``(order among all writes, level written)``) (:class:`fas.sim.pins.PinBank`)."""
+
+    @property
+    def level(self) -> Mapping[int, int]: ...
+    @property
+    def rise(self) -> Mapping[int, int]: ...
+    @property
+    def fall(self) -> Mapping[int, int]: ...
+    @property
+    def high_max(self) -> Mapping[int, int]: ...
+    @property
+    def high_total(self) -> Mapping[int, int]: ...
+    @property
+    def first_write(self) -> Mapping[int, tuple[int, int]]: ...
+
+    def get(self, pin: int) -> int:
+        """The pin's level now (0 for a pin never driven)."""
 
 
 InputListener = Callable[[int, int, int], None]  # (pin, value, tick)
@@ -306,3 +339,18 @@ class Backend(ABC):
     def _notify_limit(self, index: int, pin: int, position: int, tick: int) -> None:
         for fn in list(getattr(self, "limit_listeners", ())):
             fn(index, pin, position, tick)
+
+    # --- what observers look at (traces, reports, scenario checks): the machine time is
+    # now(); a backend that executes on the chip itself also shows its pins ---
+    #: every pin edge since the backend was made, if it records them (None: it does not)
+    recorder: PinRecording | None = None
+
+    @property
+    def pin_states(self) -> PinStates | None:
+        """The pins as the chip drives them, with their statistics (None: this backend
+        does not see its pins - they are on a device)."""
+        return None
+
+    def deliver_edges(self) -> None:
+        """Hand every pin edge made up to now to the recording and the pin statistics
+        (a PWM wave makes its edges when asked)."""

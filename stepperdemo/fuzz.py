@@ -25,9 +25,9 @@ from dataclasses import dataclass, field
 from fas.codes import PIN_UNDEFINED
 from fas.sim import SimBackend
 
-from .demo import commands
 from .demo.app import StepperDemo
 from .demo.build import demo_build
+from .demo.command_table import CommandTable
 from .scenarios.evaluate import position_from_pins, rising_edges
 
 NUMBERS = [0, 1, -1, 2, 7, 40, 100, 255, 256, 999, 1000, 4095, 4096, 32767, 32768, 65535,
@@ -246,16 +246,7 @@ def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 
 
     app.restart = restart
     errors_seen: list[tuple[bytes, bool, int]] = []
-    orig_dispatch = commands.dispatch
-
-    def counting_dispatch(a, cmd):
-        mark = len(app.transcript)
-        ok = orig_dispatch(a, cmd)
-        errors_seen.append((cmd, ok, _errors_since(app.transcript, mark)))
-        return ok
-
-    from .demo import app as app_module
-    app_module.dispatch = counting_dispatch
+    app.command_table = _CountingTable(app.command_table, app.transcript, errors_seen)
     try:
         reason = app.run_script(data, max_ticks=int(max_time_s * backend.profile.ticks_per_s))
         res.end = reason.name.lower()
@@ -265,8 +256,6 @@ def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 
             traceback.format_exception_only(type(exc), exc)).strip())
         res.violations.append(traceback.format_exc(limit=-3))
         return res
-    finally:
-        app_module.dispatch = orig_dispatch
     # an unknown command prints "Unknown command: <cmd>" once (after dispatch returns)
     unknown = app.transcript.count(b"Unknown command: ")
     if unknown != sum(1 for _, ok, _ in errors_seen if not ok):
@@ -280,6 +269,23 @@ def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 
 
 
 _ERROR_MARKS = (b"ERROR", b"Unknown command")
+
+
+class _CountingTable(CommandTable):
+    """The program's command table, noting per command whether it was accepted and how
+    many error texts it printed: ``(command, accepted, errors)``."""
+
+    def __init__(self, table: CommandTable, transcript: bytearray,
+                 seen: list[tuple[bytes, bool, int]]) -> None:
+        self.handlers, self.help = table.handlers, table.help  # the same commands
+        self.transcript = transcript
+        self.seen = seen
+
+    def dispatch(self, app: StepperDemo, cmd: bytes) -> bool:
+        mark = len(self.transcript)
+        ok = super().dispatch(app, cmd)
+        self.seen.append((cmd, ok, _errors_since(self.transcript, mark)))
+        return ok
 
 
 def _errors_since(transcript: bytearray, mark: int) -> int:

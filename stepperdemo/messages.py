@@ -846,3 +846,16 @@ CHIP_SHEET_FIGURE = "  {field} = {value}"
 CHIP_SHEET_NONE = "  (none: this chip has no {room} table)"
 CHIP_SHEET_ERROR = "chip_sheet: {error}"
 # ----------------------------------------------------------- end of issue 22 texts
+
+# ---------------------------------------------------- subcommands (stepperdemo.subcommands)
+# per subcommand: how the help lists it, and what it does (lines beside it)
+SUBCOMMAND_WINDER = ("stepperdemo winder [options]", "the helix winder (seed 002): --help")
+SUBCOMMAND_RUN = ("stepperdemo run FILES|FOLDERS ...",
+                  "run scenario files (sequences/*.toml);\n"
+                  "--board DEVICE: on a board, with the twin check")
+SUBCOMMAND_DEVICE = ("stepperdemo device --pty",
+                     "a simulated device on a new pty (--help);\n"
+                     "--console: the simulated StepperDemo firmware")
+SUBCOMMAND_RELAY = ("stepperdemo relay DEVICE", "a fault-injecting relay to a device (--help)")
+SUBCOMMAND_GCODE = ("stepperdemo gcode FILE|-", "run G-code (user outputs M62-M68; --help)")
+SUBCOMMAND_LINE = "  {usage:<35} {text}"  # a line of the help's list (further ones: no usage)

@@ -4,7 +4,7 @@ The console hosts programs - StepperDemo, and beside it the other systems that r
 the same library (the winder, G-code, ...).  Every front end - the REPL, ``-c``
 scripted runs, scenario files, ``--port`` - drives a program only through this
 interface, so a new program gets all of them by implementing it and registering its
-factory in :data:`PROGRAMS`.
+factory as a subcommand of its name (:mod:`stepperdemo.subcommands`).
 
 A program runs on a backend's clock: :meth:`Program.run_until` advances it,
 :meth:`Program.next_wake_tick` says when it next needs the CPU, typed characters
@@ -15,12 +15,18 @@ callback given at construction (bytes, the program's own line ends) and into
 
 from __future__ import annotations
 
-import importlib
 from abc import ABC, abstractmethod
 from enum import IntEnum
-from typing import Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from fas.backend import Backend
+
+from .subcommands import SUBCOMMANDS, load
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fas.arch import Profile
+
+    from .watch.observe import Observers
 
 Output = Callable[[bytes], None]
 
@@ -44,7 +50,7 @@ class Program(ABC):
     steppers: list
 
     @property
-    def profile(self):
+    def profile(self) -> Profile:
         return self.backend.profile
 
     # ------------------------------------------------------------ driving
@@ -99,7 +105,7 @@ class Program(ABC):
         """Pins of the program's own (inputs, outputs) to trace beside the steppers'."""
         return {}
 
-    def watch(self, observers) -> None:
+    def watch(self, observers: Observers) -> None:
         """Recording of the pins starts (``stepperdemo.watch.observe.Observers``): the
         program may add consumers of its own to ``observers.stream``."""
 
@@ -171,20 +177,24 @@ class LoopProgram(Program):
             self._advance(limit)
 
 
-#: program name -> "module:factory"; a factory takes (backend, *, scripted, output,
-#: **options) - options are the program's own (its command line gives them)
-PROGRAMS: dict[str, str] = {
-    "demo": "stepperdemo.demo.app:StepperDemo",
-    "gcode": "stepperdemo.gcode.program:GcodeProgram",  # issue 12
-    "winder": "stepperdemo.winder.app:Winder",  # issue 13: the helix winder (seed 002)
-}
+#: the program the bare ``stepperdemo`` hosts; the others are hosted by a subcommand of
+#: their name (:data:`stepperdemo.subcommands.SUBCOMMANDS`)
+DEFAULT_PROGRAM = ("demo", "stepperdemo.demo.app:StepperDemo")
 
 
-def program_factory(name: str):
-    module, _, attr = PROGRAMS[name].partition(":")
-    return getattr(importlib.import_module(module), attr)
+def programs() -> dict[str, str]:
+    """Program name -> ``"module:factory"``; a factory takes (backend, *, scripted,
+    output, **options) - options are the program's own (its command line gives them)."""
+    found = dict([DEFAULT_PROGRAM])
+    found.update((name, sub.program) for name, sub in SUBCOMMANDS.items()
+                 if sub.program is not None)
+    return found
+
+
+def program_factory(name: str) -> Callable[..., Program]:
+    return load(programs()[name])
 
 
 def make_program(name: str, backend: Backend, *, scripted: bool,
-                 output: Output | None = None, **options) -> Program:
+                 output: Output | None = None, **options: Any) -> Program:
     return program_factory(name)(backend, scripted=scripted, output=output, **options)

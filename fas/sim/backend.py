@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Callable, Sequence
 
 from ..arch import Profile, get_profile
-from ..backend import Backend, PulseCounter
+from ..backend import Backend, PinStates, PulseCounter
 from ..outputs import OutputChange
 from ..pwm import PwmSetting
 from ..queue import StepperQueue
@@ -411,3 +411,11 @@ class SimBackend(Backend):
             if ch.step_pin == step_pin:
                 return ch
         return None
+
+    # ----------------------------------------------------------- observers
+    @property
+    def pin_states(self) -> PinStates:
+        return self.machine.pins
+
+    def deliver_edges(self) -> None:
+        self.machine.outputs.deliver_until(self.machine.now)

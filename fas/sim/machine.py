@@ -16,9 +16,9 @@ import heapq
 from typing import Callable
 
 from ..arch import Profile
+from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after
 from .outputs import SimOutputs
 from .pins import PinBank
-from .printing import IsrClock
 from .timing import sim_timing
 from .uart import Uart
 
@@ -43,7 +43,10 @@ class Machine:
         self.profile = profile
         self.timing = sim_timing(profile)
         self.now = 0
-        self._heap: list[tuple[int, int, int, Event]] = []
+        # the pending events as a heap of (tick, priority, order, event), the earliest
+        # first (cancelled ones stay until they come up); read it, never write it
+        # (a print looks ahead for the next event's tick: fas.sim.printing)
+        self.events: list[tuple[int, int, int, Event]] = []
         self._seq = 0
         self.pins = PinBank()
         self.outputs = SimOutputs(self.pins)  # user outputs: digital pins, PWM waves
@@ -66,6 +69,7 @@ class Machine:
         self._millis_phase = 0  # timer 0 starts counting (see start_millis)
         self._millis_started = False
         self._clock: IsrClock | None = None  # see isr_clock()
+        self._clock_key: tuple[int, int, int, int] | None = None  # the state it holds for
         self._tick_at_ms = (None, 0)  # the last answer of tick_at_millis (ms, tick)
 
     # ----------------------------------------------------------- scheduling
@@ -75,7 +79,7 @@ class Machine:
             time = self.now
         ev = Event(time, prio, fn, isr)
         self._seq += 1
-        heapq.heappush(self._heap, (time, prio, self._seq, ev))
+        heapq.heappush(self.events, (time, prio, self._seq, ev))
         return ev
 
     @staticmethod
@@ -84,7 +88,7 @@ class Machine:
             ev.cancelled = True
 
     def next_event_time(self) -> int | None:
-        heap = self._heap
+        heap = self.events
         while heap and heap[0][3].cancelled:
             heapq.heappop(heap)
         return heap[0][0] if heap else None
@@ -94,7 +98,7 @@ class Machine:
 
         ``stop_on_activity``: stop early, after the events of the first tick that
         changed :attr:`activity` (then ``now`` is that tick); True if it did."""
-        heap = self._heap
+        heap = self.events
         pop = heapq.heappop
         activity = self.activity
         while heap and heap[0][0] <= t:
@@ -169,44 +173,68 @@ class Machine:
         """The main loop spends ``ticks`` of CPU time; interrupts steal some on top.
 
         Stolen are the periodic task's work and the CPU time of step interrupts:
-        those run as events add their time themselves; those of runs of pulses
-        simulated as one block are counted here for the window (every one that ran
-        in it, also of a block that ended in it, at the channel's ``isr_ticks``), as
-        are the timer-0 overflow interrupts of ``millis()``, the UART's transmit
-        interrupts and timers that tick without events (``cpu_sources``: QuickStep's
-        period interrupt).  So spending ``a`` and then ``b`` ticks ends at the same
-        tick as spending ``a + b``.
+        those run as events add their time themselves; the others are counted here
+        for the window (fas.sim.loop_isrs): the trains of :meth:`loop_trains` (the
+        step interrupts of runs of pulses simulated as one block - every one that ran
+        in the window, also of a block that ended in it, at the channel's
+        ``isr_ticks`` - and the timer-0 overflow interrupts of ``millis()``), the
+        UART's transmit interrupts and timers that tick without events
+        (``cpu_sources``: QuickStep's period interrupt).  So spending ``a`` and then
+        ``b`` ticks ends at the same tick as spending ``a + b``.
         (Written out for speed: this runs for every character a program prints.)"""
-        if not self.cpu_sources:  # between events an IsrClock answers (fas.sim.printing)
-            clock = self._clock
-            if clock is None or clock.key != (self.events_run, self._seq,
-                                              self.irq_block_windows, self.activity):
+        if not self.cpu_sources:  # between events an IsrClock answers (fas.sim.loop_isrs)
+            clock = self._clock  # (isr_clock(), written out)
+            key = (self.events_run, self._seq, self.irq_block_windows, self.activity)
+            if clock is None or self._clock_key != key:
                 clock = self._clock = IsrClock(self)
+                self._clock_key = key
             ticks = clock.spend(ticks)
             if not ticks:
                 return
         self.consume_counting(ticks)
 
+    def loop_trains(self) -> list[Train]:
+        """The periodic interrupts that take CPU time from the loop until the next
+        event, as ``(first, period, last, cost)`` (fas.sim.loop_isrs): the step
+        interrupts ``j <= b_n - 2`` of each block of pulses (its last one is an event
+        of its own), and the timer-0 overflows ``k >= 1`` after ``millis()`` started."""
+        trains = []
+        for src in self.block_sources:
+            if src.batch and src.isr_ticks:
+                first = src.b_c0 + src.lat
+                trains.append((first, src.b_t, first + (src.b_n - 2) * src.b_t,
+                               src.isr_ticks))
+        millis = self._millis_train()
+        if millis is not None:
+            trains.append(millis)
+        return trains
+
+    def _millis_train(self) -> Train | None:
+        timing = self.timing
+        if not (timing.millis_isr_ticks and self._millis_started):
+            return None
+        ov = timing.millis_overflow_ticks
+        return (self._millis_phase + ov, ov, NEVER, timing.millis_isr_ticks)
+
     def isr_clock(self) -> IsrClock:
-        """The interrupts that take time from the loop, followed until the next event
-        (not with ``cpu_sources``)."""
+        """The interrupts that take time from the loop, followed until the next event.
+        A clock holds while no event ran or was scheduled, no interrupt-blocked window
+        began and no channel started or stopped.  (With ``cpu_sources`` the machine
+        counts every span itself: the clock answers only :meth:`resume_wait` then.)"""
+        key = (self.events_run, self._seq, self.irq_block_windows, self.activity)
         clock = self._clock
-        if clock is None or clock.key != (self.events_run, self._seq,
-                                          self.irq_block_windows, self.activity):
+        if clock is None or self._clock_key != key:
             clock = self._clock = IsrClock(self)
+            self._clock_key = key
         return clock
 
     def consume_counting(self, ticks: int) -> None:
         """:meth:`consume`, each span counted here (for spans in which events fall due,
         and with ``cpu_sources``)."""
-        timing = self.timing
-        millis_cost = timing.millis_isr_ticks if self._millis_started else 0
-        phase = self._millis_phase
-        ov = timing.millis_overflow_ticks
-        uart_cost = timing.uart_isr_ticks
+        uart_cost = self.timing.uart_isr_ticks
         uart = self.uart
-        chars = uart._chars
-        heap = self._heap
+        chars = uart.records
+        heap = self.events
         sources = self.block_sources
         cpu_sources = self.cpu_sources
         while True:
@@ -222,31 +250,20 @@ class Machine:
                 for src in sources:
                     if src.isr_ticks:
                         stolen_isr += src.isr_ticks * src.block_isrs_until(end)
-            else:  # no event: the running blocks stay (SimChannel.block_isrs_until)
+                millis = self._millis_train()
+                if millis is not None:
+                    stolen_isr += millis[3] * count_between(millis, start, end)
+            else:  # no event: the trains stay (SimChannel.block_isrs_until)
                 self.now = end
                 stolen = self.stolen_ticks
-                for src in sources:
-                    if src.batch and src.isr_ticks:
-                        first = src.b_c0 + src.lat
-                        if end >= first:
-                            t = src.b_t
-                            last = src.b_n - 1
-                            k = (end - first) // t + 1
-                            if k > last:
-                                k = last
-                            if start >= first:
-                                k0 = (start - first) // t + 1
-                                k -= k0 if k0 < last else last
-                            stolen_isr += src.isr_ticks * k
+                for first, period, last, cost in self.loop_trains():
+                    nxt = next_after(start, period, first, last)
+                    if nxt <= end:
+                        stolen_isr += cost * count_from(nxt, period, last, end)
             if stolen_isr:
                 stolen += stolen_isr
             for src in cpu_sources:
                 stolen += src.block_cpu_between(start, end)
-            if millis_cost and end >= phase:
-                n = (end - phase) // ov
-                if start > phase:
-                    n -= (start - phase) // ov
-                stolen += millis_cost * n
             if uart_cost and chars and chars[-1][1] > start:
                 stolen += uart_cost * uart.isr_loads_between(start, end)
             self.stolen_ticks = 0
@@ -257,41 +274,16 @@ class Machine:
     def resume(self) -> None:
         """The loop waited (polling) until now; it goes on once no interrupt routine
         holds the CPU.  What the routines took while it waited delayed nothing."""
-        # (between events the IsrClock's answer is the same where it is positive)
-        wait = self.resume_wait() if self.cpu_sources else self.isr_clock().resume_wait()
+        wait = self.resume_wait()
         if wait > 0:
             self.consume(wait)
 
     def resume_wait(self) -> int:
         """For :meth:`resume`: forget what interrupts took while the loop waited, and
-        return how long the routines running now still hold the CPU.
-        (Written out for speed: a print that waits for the UART comes here per character.)"""
-        self.stolen_ticks = 0
-        now = self.now
-        wait = self.busy_until - now
-        timing = self.timing
-        for src in self.block_sources:  # a step interrupt inside a block of pulses
-            if src.batch:  # (SimChannel.block_isr_running_at)
-                first = src.b_c0 + src.lat
-                if now >= first:
-                    j = (now - first) // src.b_t
-                    if j <= src.b_n - 2:
-                        end = first + j * src.b_t + src.isr_ticks
-                        if end - now > wait:
-                            wait = end - now
-        cost = timing.uart_isr_ticks
-        if cost:
-            chars = self.uart._chars
-            if chars and chars[-1][1] > now - cost:  # a load that may still run
-                end = self.uart.isr_running_at(now, cost)
-                if end is not None and end - now > wait:
-                    wait = end - now
-        cost = timing.millis_isr_ticks
-        if cost and self._millis_started and now >= self._millis_phase:
-            last = now - (now - self._millis_phase) % timing.millis_overflow_ticks
-            if last > self._millis_phase and now < last + cost and last + cost - now > wait:
-                wait = last + cost - now
-        return wait
+        return how long the routines running now still hold the CPU (the step
+        interrupt of a block, the timer-0 overflow, the UART's transmit interrupt:
+        :meth:`IsrClock.resume_wait`)."""
+        return self.isr_clock().resume_wait()
 
     def block_interrupts(self, ticks: int) -> None:
         """The main loop runs ``ticks`` with interrupts disabled (busy wait)."""

@@ -24,26 +24,27 @@ _load = itemgetter(1)  # the load tick of a character record
 
 
 class Uart:
-    __slots__ = ("byte_ticks", "capacity", "_chars", "last_start", "chars", "_loads", "_pos")
+    __slots__ = ("byte_ticks", "capacity", "records", "last_start", "chars", "loads", "_pos")
 
     def __init__(self, byte_ticks: int, capacity: int) -> None:
         self.byte_ticks = byte_ticks
         self.capacity = capacity
         # the newest ``capacity`` characters as
         # [write tick, load tick, start tick, start tick of the one before]
-        self._chars: deque[list[int]] = deque(maxlen=capacity)
+        # (fas.sim.printing hands characters over written out, for speed)
+        self.records: deque[list[int]] = deque(maxlen=capacity)
         self.last_start = -(1 << 62)
         self.chars = 0
         # load ticks of the characters the transmit interrupt loaded, in order, and the
         # number of them at or before the last window asked about (windows move forward)
-        self._loads: list[int] = []
+        self.loads: list[int] = []
         self._pos = 0
 
     def room_at(self) -> int:
         """Earliest tick at which one more character can be handed over."""
-        if len(self._chars) < self.capacity:
+        if len(self.records) < self.capacity:
             return -(1 << 62)
-        return self._chars[0][2]
+        return self.records[0][2]
 
     def put(self, t: int) -> None:
         """Hand over one character at tick ``t`` (``t >= room_at()``)."""
@@ -51,10 +52,10 @@ class Uart:
         load = max(t, prev)
         start = max(load, prev + self.byte_ticks)
         self.last_start = start
-        self._chars.append([t, load, start, prev])
+        self.records.append([t, load, start, prev])
         self.chars += 1
         if load > t:
-            self._loads.append(load)
+            self.loads.append(load)
 
     def interrupts_blocked(self, begin: int, end: int) -> None:
         """Interrupts are off in ``[begin, end)``: loads due in it wait for its end.
@@ -63,7 +64,7 @@ class Uart:
         characters loaded at or after ``begin`` move (with all that follow them):
         loads are in order, so those are the last ones.
         """
-        chars = self._chars
+        chars = self.records
         k = len(chars)
         while k and chars[k - 1][1] >= begin:
             k -= 1
@@ -81,7 +82,7 @@ class Uart:
             ch[3] = prev_start
             prev_start = start
         self.last_start = prev_start
-        loads = self._loads  # (in order: the ones before the window stay)
+        loads = self.loads  # (in order: the ones before the window stay)
         del loads[bisect_left(loads, begin):]
         loads.extend([ch[1] for ch in moved if ch[1] > ch[0]])
         self._pos = min(self._pos, bisect_right(loads, begin))
@@ -92,13 +93,13 @@ class Uart:
         A character written while the data register is free goes there directly;
         only the ones that waited in the buffer are loaded by the interrupt.
         """
-        loads = self._loads
+        loads = self.loads
         n = len(loads)
         i = self._pos
         if i and loads[i - 1] > begin:  # a window before the last one
             i = bisect_right(loads, begin)
         elif i < n and loads[i] <= begin:  # further on (prints follow the loads
-            i = bisect_right(loads, begin, i + 1)  # themselves: fas.sim.isrclock)
+            i = bisect_right(loads, begin, i + 1)  # themselves: fas.sim.loop_isrs)
         if i > 4096:  # forget what lies far behind
             del loads[:i - 256]
             n -= i - 256
@@ -111,7 +112,7 @@ class Uart:
 
     def isr_running_at(self, t: int, cost: int) -> int | None:
         """End of the transmit interrupt (``cost`` long) that runs at tick ``t``."""
-        loads = self._loads
+        loads = self.loads
         i = bisect_right(loads, t)
         if i and loads[i - 1] > t - cost:
             return loads[i - 1] + cost

@@ -27,72 +27,21 @@ from .. import messages as msg
 from ..program import LoopProgram
 from . import quickstep as qs_console
 from .build import DemoConfig, demo_build
-from .commands import HELP, Mode, dispatch
+from .command_registry import COMMANDS
+from .command_table import CommandTable, Mode
 from .testseq import TEST_STATE_ERROR, SeqSlot
 
 # the loop compares its mode in every pass: an Enum member read as a class attribute
 # costs a metaclass lookup, a module constant does not
 _NORMAL, _TEST, _GCODE = Mode.NORMAL, Mode.TEST, Mode.GCODE
 
-LONG_MAX = 2**31 - 1
-LONG_MIN = -(2**31)
-_WS = b" \t\n\v\f\r"
-
-
-def strtol(data: bytes) -> tuple[int, int]:
-    """C ``strtol(s, &end, 10)`` on a 32-bit long: (value, characters consumed)."""
-    i = 0
-    n = len(data)
-    while i < n and data[i] in _WS:
-        i += 1
-    neg = False
-    if i < n and data[i] in b"+-":
-        neg = data[i] == 0x2D
-        i += 1
-    start = i
-    value = 0
-    while i < n and 0x30 <= data[i] <= 0x39:
-        value = value * 10 + data[i] - 0x30
-        i += 1
-    if i == start:
-        return 0, 0
-    if neg:
-        value = -value
-    value = max(LONG_MIN, min(LONG_MAX, value))
-    return value, i
-
-
-def parse_number(arg: bytes) -> int | None:
-    """The whole of ``arg`` as a number (empty means 0, as in the firmware), else None."""
-    value, used = strtol(arg)
-    if used != len(arg):
-        return None
-    return value
-
-
-def parse_values(arg: bytes) -> list[int] | None:
-    """``get_val1_val2_val3``: one to three comma-separated numbers, else None."""
-    values: list[int] = []
-    rest = arg
-    for i in range(3):
-        value, used = strtol(rest)
-        if used == 0:
-            return None
-        values.append(value)
-        rest = rest[used:]
-        if not rest:
-            return values
-        if i < 2:
-            if rest[:1] != b",":
-                return None
-            rest = rest[1:]
-    return None
-
 
 class StepperDemo(LoopProgram):
     """The StepperDemo program on a backend; drive it with :meth:`run_until`."""
 
     title = "StepperDemo"
+    #: what the loop runs a completed command with (.command_registry)
+    command_table: CommandTable = COMMANDS
 
     def __init__(self, backend: Backend, *, scripted: bool = True,
                  output: Callable[[bytes], None] | None = None,
@@ -526,7 +475,7 @@ class StepperDemo(LoopProgram):
                     cmd = bytes(self.out_buffer)
                     self.commands += 1
                     self._spend_command(cmd)
-                    if not dispatch(self, cmd):
+                    if not self.command_table.dispatch(self, cmd):
                         self.rejected += 1
                         self.print(msg.UNKNOWN_COMMAND)
                         self.println(cmd)
@@ -790,7 +739,7 @@ class StepperDemo(LoopProgram):
         if self.mode == _GCODE:  # issue 12
             from ..gcode.program import COMPLETIONS
             return COMPLETIONS + [("x", "back to the main menu")]
-        return HELP[self.mode]
+        return self.command_table.hints(self.mode)
 
     def toolbar_status(self) -> str:
         return f"M{self.selected + 1}"

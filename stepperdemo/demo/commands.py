@@ -1,65 +1,30 @@
-"""StepperDemo's command language: one table from (mode, letter) to a handler.
+"""StepperDemo's own commands, as the firmware has them (:data:`FIRMWARE`).
 
-A handler gets the program and the characters after the letter and returns True if
-it accepted the command; False makes the loop print ``Unknown command: <cmd>``.
 Numbers parse like C ``strtol`` (base 10, optional sign, empty means 0) and the whole
-rest of the command must be the number.
+rest of the command must be the number (:mod:`.parsing`).  The table that the program
+dispatches with is put together in :mod:`.command_registry`.
 """
 
 from __future__ import annotations
 
-from enum import IntEnum
 from typing import TYPE_CHECKING, Callable
 
 from fas.codes import PIN_UNDEFINED
 
 from .. import messages as msg
+from . import quickstep as qs_console
+from .command_table import CommandSet, Handler, Mode
+from .parsing import parse_number as _number
+from .parsing import parse_values as _values
 
 if TYPE_CHECKING:  # pragma: no cover
+    from fas.stepper import Stepper
+
     from .app import StepperDemo
 
-
-class Mode(IntEnum):
-    NORMAL = 0
-    TEST = 1
-    CONFIG = 2
-    GCODE = 3  # issue 12: a line is a G-code block (stepperdemo.gcode.demo_mode)
-
-
-Handler = Callable[["StepperDemo", bytes], bool]
-TABLE: dict[tuple[Mode, int], Handler] = {}
-
-# letters per mode, with a short description, for completion and help toolbars
-HELP: dict[Mode, list[tuple[str, str]]] = {Mode.NORMAL: [], Mode.TEST: [], Mode.CONFIG: [],
-                                           Mode.GCODE: []}
-
-
-def command(letter: str, *modes: Mode, hint: str = "",
-            arg: str = "") -> Callable[[Handler], Handler]:
-    def register(fn: Handler) -> Handler:
-        for mode in modes:
-            TABLE[(mode, ord(letter))] = fn
-            if hint:
-                HELP[mode].append((letter + arg, hint))
-        return fn
-    return register
-
-
-def dispatch(app: StepperDemo, cmd: bytes) -> bool:
-    handler = TABLE.get((app.mode, cmd[0]))
-    if handler is None:
-        return False
-    return handler(app, cmd[1:])
-
-
-def _number(arg: bytes) -> int | None:
-    from .app import parse_number
-    return parse_number(arg)
-
-
-def _values(arg: bytes) -> list[int] | None:
-    from .app import parse_values
-    return parse_values(arg)
+FIRMWARE = CommandSet()
+command = FIRMWARE.command
+_NORMAL = (Mode.NORMAL,)
 
 
 # ------------------------------------------------------------------ all modes
@@ -244,28 +209,25 @@ def _setter(text: str, apply: Callable, *, milli_hz: bool | None = None,
     return handler
 
 
-TABLE[(Mode.NORMAL, ord("A"))] = _setter(msg.SET_ACCELERATION_TO,
-                                         lambda s, v: s.set_acceleration(v))
-TABLE[(Mode.NORMAL, ord("V"))] = _setter(msg.SET_SPEED_TO_US, lambda s, v: s.set_speed_in_us(v),
-                                         milli_hz=False)
-TABLE[(Mode.NORMAL, ord("H"))] = _setter(msg.SET_SPEED_TO_HZ, lambda s, v: s.set_speed_in_hz(v),
-                                         milli_hz=True)
-TABLE[(Mode.NORMAL, ord("h"))] = _setter(msg.SET_SPEED_TO_MILLI_HZ,
-                                         lambda s, v: s.set_speed_in_milli_hz(v), milli_hz=True)
-TABLE[(Mode.NORMAL, ord("J"))] = _setter(msg.LINEAR_ACCELERATION,
-                                         lambda s, v: s.set_linear_acceleration(v), check=False)
-TABLE[(Mode.NORMAL, ord("j"))] = _setter(msg.JUMP_START, lambda s, v: s.set_jump_start(v),
-                                         check=False)
-TABLE[(Mode.NORMAL, ord("@"))] = _setter(msg.SET_POSITION,
-                                         lambda s, v: s.set_current_position(v), check=False)
-TABLE[(Mode.NORMAL, ord("D"))] = _setter(msg.SET_DISABLE_TIME,
-                                         lambda s, v: s.set_delay_to_disable(v), check=False)
-HELP[Mode.NORMAL] += [
-    ("A<accel>", "acceleration in steps/s^2"), ("V<us>", "speed as us/step"),
-    ("H<hz>", "speed in steps/s"), ("h<mhz>", "speed in steps/1000s"),
-    ("J<steps>", "linear acceleration steps"), ("j<steps>", "jump start step"),
-    ("@<pos>", "set position"), ("D<ms>", "delay to disable"),
-]
+FIRMWARE.add("A", _NORMAL, _setter(msg.SET_ACCELERATION_TO, lambda s, v: s.set_acceleration(v)),
+             "acceleration in steps/s^2", "A<accel>")
+FIRMWARE.add("V", _NORMAL, _setter(msg.SET_SPEED_TO_US, lambda s, v: s.set_speed_in_us(v),
+                                   milli_hz=False), "speed as us/step", "V<us>")
+FIRMWARE.add("H", _NORMAL, _setter(msg.SET_SPEED_TO_HZ, lambda s, v: s.set_speed_in_hz(v),
+                                   milli_hz=True), "speed in steps/s", "H<hz>")
+FIRMWARE.add("h", _NORMAL, _setter(msg.SET_SPEED_TO_MILLI_HZ,
+                                   lambda s, v: s.set_speed_in_milli_hz(v), milli_hz=True),
+             "speed in steps/1000s", "h<mhz>")
+FIRMWARE.add("J", _NORMAL, _setter(msg.LINEAR_ACCELERATION,
+                                   lambda s, v: s.set_linear_acceleration(v), check=False),
+             "linear acceleration steps", "J<steps>")
+FIRMWARE.add("j", _NORMAL, _setter(msg.JUMP_START, lambda s, v: s.set_jump_start(v),
+                                   check=False), "jump start step", "j<steps>")
+FIRMWARE.add("@", _NORMAL, _setter(msg.SET_POSITION, lambda s, v: s.set_current_position(v),
+                                   check=False), "set position", "@<pos>")
+FIRMWARE.add("D", _NORMAL, _setter(msg.SET_DISABLE_TIME,
+                                   lambda s, v: s.set_delay_to_disable(v), check=False),
+             "delay to disable", "D<ms>")
 
 
 def _mover(text: str, apply: Callable, letter: str = "") -> Handler:
@@ -283,16 +245,14 @@ def _mover(text: str, apply: Callable, letter: str = "") -> Handler:
     return handler
 
 
-TABLE[(Mode.NORMAL, ord("a"))] = _mover(msg.SET_ACCELERATION_TO,
-                                        lambda s, v: s.move_by_acceleration(v))
-TABLE[(Mode.NORMAL, ord("R"))] = _mover(msg.MOVE_STEPS,
-                                        lambda s, v: qs_console.move(s, v, False), "R")
-TABLE[(Mode.NORMAL, ord("P"))] = _mover(msg.MOVE_TO_POSITION,
-                                        lambda s, v: qs_console.move(s, v, True), "P")
-HELP[Mode.NORMAL] += [
-    ("a<accel>", "run by acceleration (+/-)"), ("R<n>", "move by n steps"),
-    ("P<pos>", "move to position"),
-]
+FIRMWARE.add("a", _NORMAL, _mover(msg.SET_ACCELERATION_TO,
+                                  lambda s, v: s.move_by_acceleration(v)),
+             "run by acceleration (+/-)", "a<accel>")
+FIRMWARE.add("R", _NORMAL, _mover(msg.MOVE_STEPS, lambda s, v: qs_console.move(s, v, False), "R"),
+             "move by n steps", "R<n>")
+FIRMWARE.add("P", _NORMAL, _mover(msg.MOVE_TO_POSITION,
+                                  lambda s, v: qs_console.move(s, v, True), "P"),
+             "move to position", "P<pos>")
 
 
 @command("E", Mode.NORMAL, hint="delay from enable to first step", arg="<us>")
@@ -322,7 +282,7 @@ def cmd_wait_ms(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
-TABLE[(Mode.TEST, ord("w"))] = cmd_wait_ms  # answers only with app.test_mode_wait
+FIRMWARE.add("w", (Mode.TEST,), cmd_wait_ms)  # answers only with app.test_mode_wait
 
 
 def _simple(letter: str, text: str, action: Callable, hint: str) -> None:
@@ -332,16 +292,15 @@ def _simple(letter: str, text: str, action: Callable, hint: str) -> None:
         app.print(text)
         action(app.selected_stepper)
         return True
-    TABLE[(Mode.NORMAL, ord(letter))] = handler
-    HELP[Mode.NORMAL].append((letter, hint))
+    FIRMWARE.add(letter, _NORMAL, handler, hint)
 
 
-def _driver_on(s) -> None:
+def _driver_on(s: Stepper) -> None:
     s.set_auto_enable(False)
     s.enable_outputs()
 
 
-def _driver_off(s) -> None:
+def _driver_off(s: Stepper) -> None:
     s.set_auto_enable(False)
     s.disable_outputs()
 
@@ -369,8 +328,7 @@ def _runner(letter: str, text: str, forward: bool, hint: str) -> None:
         app.print(msg.RETURN_CODE)
         app.println_number(res & 0xFF)
         return True
-    TABLE[(Mode.NORMAL, ord(letter))] = handler
-    HELP[Mode.NORMAL].append((letter, hint))
+    FIRMWARE.add(letter, _NORMAL, handler, hint)
 
 
 _runner("f", msg.RUN_FORWARD, True, "run forward")
@@ -389,8 +347,7 @@ def _one_step(letter: str, text: str, forward: bool, hint: str) -> None:
                 s.backward_step(blocking=True)
             app.print(text)
         return True
-    TABLE[(Mode.NORMAL, ord(letter))] = handler
-    HELP[Mode.NORMAL].append((letter, hint))
+    FIRMWARE.add(letter, _NORMAL, handler, hint)
 
 
 _one_step("+", msg.STEPPED_FORWARD, True, "one step forward")
@@ -435,9 +392,8 @@ def _select_sequence(first: str) -> Handler:
     return handler
 
 
-TABLE[(Mode.TEST, ord("0"))] = _select_sequence("0")
-TABLE[(Mode.TEST, ord("1"))] = _select_sequence("1")
-HELP[Mode.TEST].append(("01..13", "assign a test sequence"))
+FIRMWARE.add("0", (Mode.TEST,), _select_sequence("0"))
+FIRMWARE.add("1", (Mode.TEST,), _select_sequence("1"), "assign a test sequence", "01..13")
 
 
 # ---------------------------------------------------------------- config mode
@@ -471,8 +427,3 @@ def cmd_direction_pin(app: StepperDemo, arg: bytes) -> bool:
         app.println_number(values[2])
         s.set_direction_pin(pin, values[1] != 0, values[2] & 0xFFFF)
     return True
-
-
-# QuickStep (issue 14): config commands l/q/p/b and the move hold; imported last so
-# that it can register its commands in the table above
-from . import quickstep as qs_console  # noqa: E402

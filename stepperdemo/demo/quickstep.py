@@ -24,10 +24,16 @@ from fas.quickstep.setup import clock_of
 from fas.stepper import PLANNER_FAS, PLANNER_QUICKSTEP
 
 from .. import messages as msg
-from .commands import Mode, command
+from .command_table import CommandSet, Mode
+from .parsing import parse_number, parse_values
 
 if TYPE_CHECKING:  # pragma: no cover
+    from fas.stepper import Stepper
+
     from .app import StepperDemo
+
+#: the config commands l q p b (registered in .command_registry)
+COMMANDS = CommandSet()
 
 
 def _settings(app: StepperDemo) -> dict[str, int]:
@@ -49,7 +55,7 @@ def base_text(app: StepperDemo) -> str:
 
 
 def _error(app: StepperDemo, res: QsConfigResult, *, value: int = 0, need_depth: int = 0,
-           stepper=None) -> None:
+           stepper: Stepper | None = None) -> None:
     p = app.profile
     clock = clock_of(app.engine)
     if res == QsConfigResult.NOT_AVAILABLE:
@@ -72,13 +78,13 @@ def _error(app: StepperDemo, res: QsConfigResult, *, value: int = 0, need_depth:
 
 
 def _value(arg: bytes) -> int | None:
-    from .app import parse_number
     if not arg:
         return None
     return parse_number(arg)
 
 
-@command("l", Mode.CONFIG, hint="planner: l0 FastAccelStepper ramp, l1 QuickStep", arg="<0|1>")
+@COMMANDS.command("l", Mode.CONFIG, hint="planner: l0 FastAccelStepper ramp, l1 QuickStep",
+                  arg="<0|1>")
 def cmd_planner(app: StepperDemo, arg: bytes) -> bool:
     if arg not in (b"0", b"1"):
         app.print(msg.QS_ERR_SYNTAX.format(cmd="l" + arg.decode("latin-1"),
@@ -104,7 +110,7 @@ def cmd_planner(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
-@command("q", Mode.CONFIG, hint="QuickStep FIFO depth 1..255", arg="<n>")
+@COMMANDS.command("q", Mode.CONFIG, hint="QuickStep FIFO depth 1..255", arg="<n>")
 def cmd_depth(app: StepperDemo, arg: bytes) -> bool:
     value = _value(arg)
     if value is None:
@@ -130,7 +136,7 @@ def cmd_depth(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
-@command("p", Mode.CONFIG, hint="QuickStep plateaus 1..255", arg="<n>")
+@COMMANDS.command("p", Mode.CONFIG, hint="QuickStep plateaus 1..255", arg="<n>")
 def cmd_plateaus(app: StepperDemo, arg: bytes) -> bool:
     value = _value(arg)
     if value is None:
@@ -154,10 +160,9 @@ def cmd_plateaus(app: StepperDemo, arg: bytes) -> bool:
     return True
 
 
-@command("b", Mode.CONFIG, hint="QuickStep base time us (0 = auto), b<us,t> timer t",
-         arg="<us[,t]>")
+@COMMANDS.command("b", Mode.CONFIG, hint="QuickStep base time us (0 = auto), b<us,t> timer t",
+                  arg="<us[,t]>")
 def cmd_base(app: StepperDemo, arg: bytes) -> bool:
-    from .app import parse_values
     values = parse_values(arg) if arg else None
     if values is None or len(values) > 2:
         app.print(msg.QS_ERR_SYNTAX.format(cmd="b" + arg.decode("latin-1"),
@@ -222,14 +227,14 @@ def service_hold(app: StepperDemo) -> bool:
     return False
 
 
-def status_suffix(s) -> str:
+def status_suffix(s: Stepper) -> str:
     qs = s.quickstep
     if qs is None:
         return ""
     return msg.QS_STATUS.format(label=qs.plateau_label() or "-")
 
 
-def table_suffix(app: StepperDemo, s) -> str:
+def table_suffix(app: StepperDemo, s: Stepper) -> str:
     qs = s.quickstep
     if qs is None:
         return ""

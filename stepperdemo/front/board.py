@@ -31,7 +31,8 @@ from collections.abc import Callable
 from fas.serial.stream import LinkClosed
 
 from .. import messages as msg
-from ..demo.commands import HELP, Mode
+from ..demo.command_registry import COMMANDS
+from ..demo.command_table import Mode
 from ..watch import plots, status_report
 from .board_link import BoardLink, SerialBoardLink
 from .board_log import BoardLog
@@ -162,7 +163,7 @@ class BoardProgram:
         return self.session.state.mode
 
     def completions(self) -> list[tuple[str, str]]:
-        return HELP[Mode[self.mode_name().upper()]]
+        return COMMANDS.hints(Mode[self.mode_name().upper()])
 
     def toolbar_status(self) -> str:
         return f"M{self.session.state.selected}"

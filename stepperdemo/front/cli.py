@@ -10,20 +10,21 @@ from typing import Sequence
 from fas.arch import PROFILES
 
 from .. import messages as msg
+from ..subcommands import SUBCOMMANDS, help_lines, main_of
 from ..watch import options as observe_options
 from . import board_options, serial_cli
+from .scripted import (  # noqa: F401 (the exit codes are re-exported)
+    EXIT_MAX_TIME,
+    EXIT_OK,
+    EXIT_TEST_FAILED,
+    EXIT_USAGE,
+    run_scripted,
+)
 
-EXIT_OK = 0
-EXIT_TEST_FAILED = 1
-EXIT_USAGE = 2
-EXIT_MAX_TIME = 3
 EXIT_SCENARIO_FAILED = 4
 EXIT_CLOSED_PIPE = 141  # 128 + SIGPIPE: what a shell reports for a tool whose reader left
 
-SUBCOMMANDS = ("run", "device", "relay", "gcode")
-PROGRAM_SUBCOMMANDS = ("winder",)  # programs beside StepperDemo: stepperdemo winder ...
-
-DESCRIPTION = """\
+DESCRIPTION_HEAD = """\
 The StepperDemo console of FastAccelStepper on a simulated microcontroller.
 
 Without arguments: an interactive console (prompt-toolkit) running the simulated
@@ -38,13 +39,8 @@ StepperDemo sketch (its text console over the serial port); -c runs the line on
 the board and ends when the board is idle.
 
 Subcommands:
-  stepperdemo winder [options]        the helix winder (seed 002): --help
-  stepperdemo run FILES|FOLDERS ...   run scenario files (sequences/*.toml);
-                                      --board DEVICE: on a board, with the twin check
-  stepperdemo device --pty            a simulated device on a new pty (--help);
-                                      --console: the simulated StepperDemo firmware
-  stepperdemo relay DEVICE            a fault-injecting relay to a device (--help)
-  stepperdemo gcode FILE|-            run G-code (user outputs M62-M68; --help)
+"""
+DESCRIPTION_TAIL = """
 
 exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
             3 --max-time reached, 4 a scenario failed (run), 5 device lost
@@ -52,14 +48,19 @@ exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
             141 the reader of the output went away (e.g. `| head`), quietly"""
 
 
+def description() -> str:
+    """``stepperdemo --help``: the subcommands as the registry lists them."""
+    return DESCRIPTION_HEAD + "\n".join(help_lines()) + DESCRIPTION_TAIL
+
+
 def build_parser(program: str = "demo") -> argparse.ArgumentParser:
-    prog, description = "stepperdemo", DESCRIPTION
+    prog, text = "stepperdemo", description()
     if program != "demo":  # a program's own subcommand and --help text
         from ..program import program_factory
         prog = f"stepperdemo {program}"
-        description = getattr(program_factory(program), "cli_description", DESCRIPTION)
+        text = getattr(program_factory(program), "cli_description", text)
     ap = argparse.ArgumentParser(
-        prog=prog, description=description,
+        prog=prog, description=text,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("-c", "--command", metavar="LINE",
                     help="run LINE on virtual time, print the transcript, exit when the "
@@ -92,54 +93,6 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
     return ap
 
 
-def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
-    from fas.sim import SimBackend
-
-    from ..program import EndReason, make_program
-
-    out = sys.stdout.buffer
-
-    def write(data: bytes) -> None:
-        out.write(data.replace(b"\r\n", b"\n") if args.lf else data)
-
-    if args.port:  # issue 7: a device behind a serial port executes the queue commands
-        return serial_cli.run_scripted(args, write)
-    if getattr(args, "board", None):  # issue 15: a board running the original StepperDemo
-        from . import board
-        return board.run_scripted(args, write)
-    backend = SimBackend(args.arch)
-    if getattr(args, "test_mode_wait", False) and args.program == "demo":  # the demo's w
-        args.program_options = {**getattr(args, "program_options", {}), "test_mode_wait": True}
-    try:
-        app = make_program(args.program, backend, scripted=True, output=write,
-                           **getattr(args, "program_options", {}))
-    except ValueError as exc:  # the profile cannot host the program
-        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
-        return EXIT_USAGE
-    observers = None
-    try:  # watching the run (issue 6): --vcd, --plot, --report, --steps-csv
-        if observe_options.wanted(args):
-            from ..watch import observe
-            observers = observe.from_arguments(backend, args, app.trace_signals())
-    except OSError as exc:
-        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
-        return EXIT_USAGE
-    if observers is not None:
-        app.watch(observers)
-    max_ticks = int(args.max_time * backend.profile.ticks_per_s)
-    reason = app.run_script(args.command, firmware_end=args.firmware_end, max_ticks=max_ticks)
-    out.flush()
-    if observers is not None:  # issue 6: close the files, write the plot, print the report
-        for line in observe.finish_arguments(observers, args, app,
-                                             title=(title or args.command)[:100]):
-            print(line)
-        sys.stdout.flush()
-    if reason == EndReason.MAX_TIME:
-        print(msg.CLI_MAX_TIME.format(seconds=args.max_time), file=sys.stderr)
-        return EXIT_MAX_TIME
-    return app.exit_code()  # EXIT_TEST_FAILED when a test sequence failed
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """The ``stepperdemo`` command; a closed output pipe ends it quietly (issue 16)."""
     try:
@@ -169,22 +122,13 @@ def closed_pipe() -> int:
 
 def _main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if argv and argv[0] in SUBCOMMANDS:
-        if argv[0] == "run":
-            from ..scenarios.runner import main as run_main
-            return run_main(argv[1:])
-        if argv[0] in ("device", "relay"):  # issue 7
-            return serial_cli.main(argv)
-        if argv[0] == "gcode":  # issue 12
-            from ..gcode.cli import main as gcode_main
-            return gcode_main(argv[1:])
-        print(msg.CLI_ERROR.format(problem=f"{argv[0]}: not available in this version"),
-              file=sys.stderr)
-        return EXIT_USAGE
-    if argv and argv[0] in PROGRAM_SUBCOMMANDS:
-        args = build_parser(argv[0]).parse_args(argv[1:])
-    else:
-        args = build_parser().parse_args(argv)
+    program = "demo"
+    if argv and argv[0] in SUBCOMMANDS:  # stepperdemo NAME ... (stepperdemo.subcommands)
+        main_fn = main_of(argv[0])
+        if main_fn is not None:  # a tool with its own command line
+            return main_fn(argv[1:])
+        program, argv = argv[0], argv[1:]  # a program hosted with the console's options
+    args = build_parser(program).parse_args(argv)
     if args.max_time <= 0:
         print(msg.CLI_ERROR.format(problem="--max-time must be positive"), file=sys.stderr)
         return EXIT_USAGE

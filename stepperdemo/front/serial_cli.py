@@ -530,9 +530,3 @@ def run_relay(argv: Sequence[str]) -> int:
         print(msg.RELAY_STATS.format(direction=direction.replace("_", " "), **figures))
     return 0
 
-
-def main(argv: Sequence[str]) -> int:
-    """``stepperdemo device ...`` or ``stepperdemo relay ...``."""
-    if argv[0] == "device":
-        return run_device(argv[1:])
-    return run_relay(argv[1:])

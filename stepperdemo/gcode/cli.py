@@ -107,5 +107,5 @@ def main(argv: Sequence[str]) -> int:
               file=sys.stderr)
         return EXIT_USAGE
     args.command = text
-    from ..front.cli import run_scripted
+    from ..front.scripted import run_scripted
     return run_scripted(args, title=args.file)

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fas.arch import Profile
+from fas.backend import Backend, PinRecording
 from fas.codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
-from fas.sim import SimBackend
 
 from ..demo.build import demo_build
 
@@ -51,12 +51,12 @@ def stepper_pins(profile: Profile) -> list[StepperPins]:
     return out
 
 
-def _uncounted_first_edge(backend: SimBackend, pin: int) -> bool:
+def _uncounted_first_edge(backend: Backend, pin: int) -> bool:
     """Was this pin's first write also the first write of its port, and an edge?"""
     ports = backend.profile.pin_ports
-    pins = backend.machine.pins
+    pins = backend.pin_states
     port = ports.get(pin)
-    if port is None or pin not in pins.first_write:
+    if port is None or pins is None or pin not in pins.first_write:
         return False
     order, level = pins.first_write[pin]
     first_of_port = min((pins.first_write[p][0] for p, q in ports.items()
@@ -64,11 +64,15 @@ def _uncounted_first_edge(backend: SimBackend, pin: int) -> bool:
     return order == first_of_port and level == 1
 
 
-def pin_activity(backend: SimBackend, pin: int) -> PinActivity:
-    """Counts for one pin from the recorded edges (needs ``record=True``)."""
+def _recording(backend: Backend) -> PinRecording:
     if backend.recorder is None:
-        raise ValueError("pin_activity needs a backend created with record=True")
-    times, levels = backend.recorder.pin_edges(pin)
+        raise ValueError("the pins' edges need a backend created with record=True")
+    return backend.recorder
+
+
+def pin_activity(backend: Backend, pin: int) -> PinActivity:
+    """Counts for one pin from the recorded edges (needs ``record=True``)."""
+    times, levels = _recording(backend).pin_edges(pin)
     tps_us = backend.profile.ticks_per_us
     skip_first = _uncounted_first_edge(backend, pin)
     rises = falls = 0
@@ -99,20 +103,21 @@ def rising_edges(times: Sequence[int], levels: bytes) -> Sequence[int]:
     return [t for t, lv in zip(times, levels) if lv]
 
 
-def position_from_pins(backend: SimBackend, step_pin: int, dir_pin: int,
+def position_from_pins(backend: Backend, step_pin: int, dir_pin: int,
                        high_counts_up: bool = True, since: int = 0) -> int:
     """Step edges counted up while the direction pin is at its counting-up level
     (HIGH unless ``high_counts_up`` is False), down otherwise.  Without a direction
     pin on the chip (none, or an external one) every step counts up.  A direction
     edge at the tick of a step counts before it.  ``since``: only steps from this
     tick on (the chip was restarted then)."""
-    times, levels = backend.recorder.pin_edges(step_pin)
+    recording = _recording(backend)
+    times, levels = recording.pin_edges(step_pin)
     rises = rising_edges(times, bytes(levels))
     if since:
         rises = rises[bisect.bisect_left(rises, since):]
     if dir_pin == PIN_UNDEFINED or dir_pin & PIN_EXTERNAL_FLAG:
         return len(rises)
-    dtimes, dlevels = backend.recorder.pin_edges(dir_pin)
+    dtimes, dlevels = recording.pin_edges(dir_pin)
     up = 1 if high_counts_up else 0  # the direction level that counts up
     # steps before the first direction edge see the pin LOW
     before = bisect.bisect_left(rises, dtimes[0]) if len(dtimes) else len(rises)
@@ -125,9 +130,9 @@ def position_from_pins(backend: SimBackend, step_pin: int, dir_pin: int,
     return pos
 
 
-def step_times_us(backend: SimBackend, step_pin: int) -> list[float]:
+def step_times_us(backend: Backend, step_pin: int) -> list[float]:
     tps_us = backend.profile.ticks_per_us
-    times, levels = backend.recorder.pin_edges(step_pin)
+    times, levels = _recording(backend).pin_edges(step_pin)
     return [t / tps_us for t, lv in zip(times, levels) if lv]
 
 

@@ -201,7 +201,7 @@ def _output_checks(sc: Scenario, backend: SimBackend, app, pins) -> list[Check]:
     from ..watch.outputs import OutputPin, OutputTrace
 
     tps = backend.profile.ticks_per_s
-    backend.machine.outputs.deliver_until(backend.now())  # PWM edges are made on demand
+    backend.deliver_edges()  # PWM edges are made on demand
     outputs = getattr(getattr(app, "engine", None), "outputs", None)
     checks: list[Check] = []
     for exp in sc.outputs:

@@ -13,7 +13,7 @@ from typing import Any
 
 from fas.arch import PROFILES
 
-from ..program import PROGRAMS
+from ..program import programs
 
 STEPPER_KEYS = {
     "position": int, "pulses": int, "dir_transitions": list, "enable_transitions": list,
@@ -86,7 +86,7 @@ class Scenario:
     name: str
     input: str
     description: str = ""
-    program: str = "demo"  # the program the input is for (stepperdemo.program.PROGRAMS)
+    program: str = "demo"  # the program the input is for (stepperdemo.program.programs)
     profile: str = "atmega328p"
     end: str = "idle"
     max_time_s: float = 600.0
@@ -131,9 +131,10 @@ def load(path: Path | str) -> Scenario:
     if profile not in PROFILES:
         raise ScenarioError(path, "profile", f"unknown profile {profile!r}")
     program = data.get("program", "demo")
-    if program not in PROGRAMS:
+    known = programs()
+    if program not in known:
         raise ScenarioError(path, "program",
-                            f"unknown program {program!r} (known: {', '.join(sorted(PROGRAMS))})")
+                            f"unknown program {program!r} (known: {', '.join(sorted(known))})")
     end = data.get("end", "idle")
     if end not in ("idle", "firmware"):
         raise ScenarioError(path, "end", "must be 'idle' or 'firmware'")

@@ -839,7 +839,7 @@ class Winder(LoopProgram):
     def watch(self, observers) -> None:
         from .watch import InterlockMeter
 
-        pins = self.backend.machine.pins if hasattr(self.backend, "machine") else None
+        pins = self.backend.pin_states  # (None: the pins are on a device)
         wiring = observers.wiring[:2]
         levels = {w.direction: pins.get(w.direction) for w in wiring
                   if w.direction is not None and pins is not None}

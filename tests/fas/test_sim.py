@@ -123,14 +123,14 @@ def test_uart_loads_wait_while_the_main_loop_blocks_interrupts():
     u = Uart(1496, 64)
     for _ in range(3):
         u.put(0)
-    assert [c[2] for c in u._chars] == [0, 1496, 2992]
+    assert [c[2] for c in u.records] == [0, 1496, 2992]
     # interrupts off in [1000, 5000): character 1 already sits in the data register and
     # goes out; character 2 can only be loaded by the interrupt once they are back on
     u.interrupts_blocked(1000, 5000)
-    assert [c[2] for c in u._chars] == [0, 1496, 5000]
+    assert [c[2] for c in u.records] == [0, 1496, 5000]
     assert u.idle_at() == 5000 + 1496
     u.interrupts_blocked(20000, 30000)  # after the text: nothing moves
-    assert [c[2] for c in u._chars] == [0, 1496, 5000]
+    assert [c[2] for c in u.records] == [0, 1496, 5000]
 
 
 def test_uart_interrupts_stretch_the_ramp_task_while_text_goes_out():

@@ -210,7 +210,7 @@ def test_printing_a_text_first_scans_the_message_table():
     t0 = b.now()
     app.print(msg.STOP)
     p = demo_build(ATMEGA328P)
-    first_char = b.machine.uart._chars[0][2]
+    first_char = b.machine.uart.records[0][2]
     lead_ticks = lead * p.msg_scan_byte_ticks + lead_lookups * p.msg_lookup_ticks
     assert first_char == t0 + lead_ticks
     # all of the scan is spent by the time the text is handed over
