@@ -23,6 +23,7 @@ from collections.abc import Callable
 from ..arch import SERIAL_QUEUE_MAX, SERIAL_QUEUE_MIN, Profile, get_profile
 from ..backend import Backend, PulseCounter
 from ..queue import StepperQueue
+from ..schedule import TaskSchedule
 from .channel import SerialChannel
 from .clock import RealClock
 from .link import LOSSY, HostLink, LinkStats
@@ -155,9 +156,7 @@ class SerialBackend(Backend):
         self._next_sync_ns = 0
         # the periodic ramp task
         self._engine = None
-        self._task_origin = 0
-        self._task_index = -1
-        self._task_next: int | None = None
+        self.tasks = TaskSchedule()  # the ramp task's runs (attach_engine)
         self._task_tick: int | None = None
         self.task_runs = 0
         self.estop_ns: int | None = None  # when the last emergency stop was asked for
@@ -521,7 +520,7 @@ class SerialBackend(Backend):
         """Let host time reach ``tick`` (or ``pred()`` hold): link, ramp task, waiting."""
         while True:
             self._service()
-            if self._task_next is not None and self.now() >= self._task_time(self._task_next):
+            if self.tasks.is_due(self.now()):
                 self._run_task()
                 continue
             if pred is not None and pred():
@@ -530,8 +529,9 @@ class SerialBackend(Backend):
             if now >= tick:
                 return False
             deadline = tick
-            if self._task_next is not None:
-                deadline = min(deadline, self._task_time(self._task_next))
+            task_time = self.tasks.next_time()
+            if task_time is not None:
+                deadline = min(deadline, task_time)
             deadline_ns = self._ns_at(deadline)
             if self.connected and self.link is not None:
                 self.link.wait(min(deadline_ns, self._timer_ns()))
@@ -541,55 +541,37 @@ class SerialBackend(Backend):
     # ---------------------------------------------------------- ramp task
     def attach_engine(self, engine) -> None:
         self._engine = engine
-        self._task_origin = self.now() + self.profile.fill_period_ticks
-        self._task_index = -1
-        self._task_next = 0
-
-    def _task_time(self, index: int) -> int:
-        return self._task_origin + index * self.task_period_ticks
+        # run 0 one period from now (and one new period from now if the period changes)
+        self.tasks.start(self.now() + self.profile.fill_period_ticks, self.task_period_ticks)
 
     def set_task_period(self, ticks: int) -> None:
         """``engine.task_rate()``: runs after the last one follow the new period."""
-        if self._engine is None:
-            super().set_task_period(ticks)
-            return
-        last_time = self._task_time(self._task_index)
         super().set_task_period(ticks)
-        self._task_origin = last_time - self._task_index * self.task_period_ticks
-        self._task_next = self._task_index + 1
+        if self._engine is None:
+            return
+        self.tasks.set_period(self.task_period_ticks)
+        self.tasks.next = self.tasks.last + 1
 
     def _run_task(self) -> None:
-        period = self.task_period_ticks
-        idx = self._task_next
-        late = (self.now() - self._task_time(idx)) // period
-        if late > 0:
-            idx += late
+        tasks = self.tasks
+        idx = tasks.catch_up(self.now())
         engine = self._engine
         self._update_planning()
-        engine.credit_skipped_tasks(idx - self._task_index - 1)
-        self._task_index = idx
-        self._task_tick = self._task_time(idx)
+        engine.credit_skipped_tasks(tasks.begin(idx))
+        self._task_tick = tasks.time(idx)
         try:
             engine.manage_steppers()
         finally:
             self._task_tick = None
         self.task_runs += 1
-        skip = engine.quiescent_tasks()
-        self._task_next = None if skip is None else idx + 1 + skip
+        tasks.end(engine.quiescent_tasks())
         if self.link is not None and self.connected:
             self.link.flush()
 
     def wake_task(self) -> None:
         if self._engine is None:
             return
-        period = self.task_period_ticks
-        due = self._task_index + 1
-        now = self.now()
-        if now > self._task_time(due):
-            due += -(-(now - self._task_time(due)) // period)
-        if self._task_next is not None and self._task_next <= due:
-            return
-        self._task_next = due
+        self.tasks.wake(self.now())
 
     # ----------------------------------------------------------- channels
     def allocate_channel(self, queue: StepperQueue) -> SerialChannel:
@@ -779,8 +761,9 @@ class SerialBackend(Backend):
         """The next ramp task, or the next heartbeat: an idle application must still
         let the link run before the device's watchdog expires."""
         times = []
-        if self._task_next is not None:
-            times.append(self._task_time(self._task_next))
+        task_time = self.tasks.next_time()
+        if task_time is not None:
+            times.append(task_time)
         if self.connected:
             times.append(self._tick_at_ns(self._timer_ns()))
         return min(times) if times else None
