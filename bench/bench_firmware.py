@@ -34,8 +34,8 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.serial import simavr  # noqa: E402
-from fas.serial.loopback import Loopback  # noqa: E402
+from fas.device import simavr  # noqa: E402
+from fas.device.loopback import Loopback  # noqa: E402
 from stepperdemo.demo.app import StepperDemo  # noqa: E402
 from tests.fas.serial.helpers import LINES, run_firmware  # noqa: E402
 

@@ -31,8 +31,8 @@ from bisect import bisect_right
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.serial import simavr  # noqa: E402
-from fas.serial.loopback import Loopback  # noqa: E402
+from fas.device import simavr  # noqa: E402
+from fas.device.loopback import Loopback  # noqa: E402
 from fas.serial.protocol import (  # noqa: E402
     L_UP,
     PROTOCOL_VERSION,

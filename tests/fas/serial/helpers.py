@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from fas.serial.loopback import Loopback
-from fas.serial.relay import Faults
+from fas.device.loopback import Loopback
+from fas.device.relay import Faults
 from fas.sim import SimBackend
 from stepperdemo.demo.app import StepperDemo
 from stepperdemo.program import EndReason
@@ -75,7 +75,7 @@ class FirmwareOutcome(Outcome):
     pin_pulses: list[int] = field(default_factory=list)  # rising edges on pins 9, 10
     pin_positions: list[int] = field(default_factory=list)  # counted with the dir pins
     status_pulses: list[int] = field(default_factory=list)  # the device's own count
-    trace: object = None  # fas.serial.simavr.Trace
+    trace: object = None  # fas.device.simavr.Trace
     rx_log: list = field(default_factory=list)  # (cycle, bytes) the chip received
     busy: float = 0.0  # share of the chip's cycles not asleep
     stack_bytes: int = 0  # the deepest the chip's stack went
@@ -89,7 +89,7 @@ def need_firmware() -> None:
 
     import pytest
 
-    from fas.serial.simavr import toolchain_problem
+    from fas.device.simavr import toolchain_problem
 
     problem = toolchain_problem()
     if problem is None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from fas.serial.loopback import Loopback
+from fas.device.loopback import Loopback
 from fas.serial.protocol import D_ESTOP, D_WATCHDOG
 from stepperdemo.demo.app import StepperDemo
 
@@ -218,7 +218,7 @@ def test_step_edges_agree_with_the_python_device(line):
     its UART, replayed into the Python device.  The compare unit makes the rising
     edges on the same ticks (one cycle later in simavr); the falling edges come with
     the interrupt latency (the model's 61/73 ticks, the firmware's second compare)."""
-    from fas.serial.simavr import replay_on_python_device
+    from fas.device.simavr import replay_on_python_device
 
     fw = run_firmware(line)
     tr = fw.trace

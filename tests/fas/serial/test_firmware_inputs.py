@@ -11,8 +11,10 @@ from __future__ import annotations
 import pytest
 
 from fas import Engine
+from fas.device.loopback import Loopback
+from fas.device.relay import Faults
+from fas.device.simavr import SimavrDevice, build
 from fas.gear import Gear, GearResult
-from fas.serial.loopback import Loopback
 from fas.serial.protocol import (
     F_INPUTS,
     F_SIM_INPUTS,
@@ -39,8 +41,6 @@ from fas.serial.protocol import (
     Started,
     WatchInput,
 )
-from fas.serial.relay import Faults
-from fas.serial.simavr import SimavrDevice, build
 
 from .helpers import need_firmware
 from .test_firmware_protocol import MS, Host

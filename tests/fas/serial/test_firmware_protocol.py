@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import pytest
 
+from fas.device.simavr import SimavrDevice, build
 from fas.serial.protocol import (
     D_ESTOP,
     P_CUT_REFUSED,
@@ -37,7 +38,6 @@ from fas.serial.protocol import (
     decode_messages,
     encode_frame,
 )
-from fas.serial.simavr import SimavrDevice, build
 
 from .helpers import need_firmware
 

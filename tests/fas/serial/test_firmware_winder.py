@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from fas.serial.loopback import Loopback
+from fas.device.loopback import Loopback
 from stepperdemo.program import make_program
 from stepperdemo.winder import figures as fig
 

@@ -17,8 +17,8 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 
-from .clock import RealClock
-from .stream import ByteStream, LinkClosed
+from ..serial.clock import RealClock
+from ..serial.stream import ByteStream, LinkClosed
 
 NS_PER_S = 1_000_000_000
 

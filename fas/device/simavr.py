@@ -6,8 +6,8 @@
 * :class:`SimavrDevice` is the firmware as a peer of a
   :class:`~fas.serial.clock.VirtualClock`: the harness runs in lockstep, the chip
   advancing only when the clock does, so runs are deterministic and as fast as the
-  computer allows.  It stands where :class:`~fas.serial.device.Device` stands in a
-  :class:`~fas.serial.loopback.Loopback`.
+  computer allows.  It stands where :class:`~fas.device.Device` stands in a
+  :class:`~fas.device.loopback.Loopback`.
 * :class:`SimavrServer` runs the harness in real time on a new pty (``stepperdemo
   device --simavr``).
 
@@ -36,8 +36,12 @@ import tempfile
 from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from .stream import ByteStream, LinkClosed
+from ..serial.stream import ByteStream, LinkClosed
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .device import Device
 
 FIRMWARE_DIR_ENV = "STEPPERDEMO_FIRMWARE_DIR"
 BAUD_RATES = (115200, 1_000_000)
@@ -553,16 +557,17 @@ class SimavrServer:
 
 # ----------------------------------------------------------------------- replay
 def replay_on_python_device(rx_log: list[tuple[int, bytes]], timer1_start: int,
-                            cycles_per_byte: int, end_tick: int, arch: str = "atmega328p"):
+                            cycles_per_byte: int, end_tick: int,
+                            arch: str = "atmega328p") -> Device:
     """The bytes the firmware received, at the ticks they reached its UART, fed to the
-    Python device (:class:`fas.serial.device.Device`, recording its pins): the same
+    Python device (:class:`fas.device.Device`, recording its pins): the same
     session on both, so their step edges can be compared.
 
     simavr hands a received byte to the UART one character time after it was queued
     (11 bit times in simavr 1.6, which counts a parity bit), and one character after
     the byte before it; the Python device takes each byte at that tick.
     """
-    from .clock import VirtualClock
+    from ..serial.clock import VirtualClock
     from .device import Device
 
     dev = Device(None, arch, VirtualClock(), record=True)
@@ -574,7 +579,7 @@ def replay_on_python_device(rx_log: list[tuple[int, bytes]], timer1_start: int,
             tick = ready - timer1_start
             dev.advance(dev.ns_at(tick))
             for seq, payload in dev.decoder.feed(bytes((b,))):
-                dev._on_frame(seq, payload)
-            dev.out.clear()
+                dev.session.on_frame(seq, payload)
+            dev.board.out.clear()
     dev.advance(dev.ns_at(end_tick))
     return dev

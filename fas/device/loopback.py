@@ -13,16 +13,16 @@ import os
 import tempfile
 from typing import Self
 
-from .backend import SerialBackend
-from .clock import VirtualClock, Wire
+from ..serial.backend import SerialBackend
+from ..serial.clock import VirtualClock, Wire
+from ..serial.stream import ByteStream, Pty, open_serial, set_link
 from .device import Device
 from .relay import Faults, Relay
-from .stream import ByteStream, Pty, open_serial, set_link
 
 
 class Loopback:
     """``device="python"``: the simulated device (:class:`Device`); ``"simavr"``: the
-    firmware in simavr (:class:`~fas.serial.simavr.SimavrDevice`, ATmega328P only;
+    firmware in simavr (:class:`~fas.device.simavr.SimavrDevice`, ATmega328P only;
     ``firmware`` names its ELF, else it is built for the backend's baud rate)."""
 
     def __init__(self, arch: str = "atmega328p", *, faults: Faults | None = None,
