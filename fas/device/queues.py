@@ -8,6 +8,7 @@ Status).  The entries are executed by the step generator (:mod:`.stepgen`).
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 from ..arch import Profile
@@ -218,7 +219,7 @@ class DeviceQueues:
                 self.start_queue(idx)
             else:
                 self.start_events[idx] = machine.schedule(
-                    machine.now + delta, lambda i=idx: self._timed_start(i), PRIO_PLAIN)
+                    machine.now + delta, partial(self._timed_start, idx), PRIO_PLAIN)
 
     def _timed_start(self, idx: int) -> None:
         self.start_events.pop(idx, None)

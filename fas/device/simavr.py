@@ -38,9 +38,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..serial.clock import Wire
 from ..serial.stream import ByteStream, LinkClosed
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ..serial.clock import VirtualClock
+    from ..sim.pins import EdgeRecorder
     from .device import Device
 
 FIRMWARE_DIR_ENV = "STEPPERDEMO_FIRMWARE_DIR"
@@ -201,7 +204,7 @@ class Trace:
         times, levels = self.edges(pin)
         return [t for t, lv in zip(times, levels) if lv]
 
-    def recorder(self):
+    def recorder(self) -> EdgeRecorder:
         """The edges as a :class:`fas.sim.pins.EdgeRecorder` (ticks)."""
         from ..sim.pins import EdgeRecorder
 
@@ -289,7 +292,7 @@ class _Chip:
     def mem(self, addr: int, n: int, data: bytes | None = None) -> bytes:
         buf = (ctypes.c_uint8 * max(n, 1))()
         if data is not None:
-            buf[:n] = data
+            ctypes.memmove(buf, data, n)
         if self.lib.fs_mem(addr, n, buf, int(data is not None)) != 0:
             raise SimavrError(f"memory access {addr:#x}+{n} outside the chip's RAM")
         return bytes(buf[:n])
@@ -317,7 +320,7 @@ class SimavrDevice:
     does not mark the chip as simulated (a board: the firmware refuses SetInput).
     """
 
-    def __init__(self, stream: ByteStream | None = None, clock=None, *,
+    def __init__(self, stream: ByteStream | None = None, clock: VirtualClock | None = None, *,
                  elf: str | Path | None = None, baud: int = 115200,
                  trace: str | Path | None = None, boot_count: int | None = None,
                  world: bool = True) -> None:
@@ -343,7 +346,7 @@ class SimavrDevice:
         self._out = bytearray()  # bytes for the line ...
         self._partial = bytearray()  # ... and the start of a frame not yet complete
         self.stream: ByteStream | None = None
-        self.in_wires: list = []
+        self.in_wires: list[Wire] = []
         self.closed = False
         self.rx_log: list[tuple[int, bytes]] = []  # (cycle, bytes) the chip received
         self.attach(stream)
@@ -527,6 +530,7 @@ class SimavrServer:
         args.append(str(elf))
         self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      text=True, bufsize=1)
+        assert self.proc.stdout is not None
         first = self.proc.stdout.readline().strip()
         if not first.startswith("/"):
             self.proc.wait(timeout=10)

@@ -57,6 +57,17 @@ class Peer(Protocol):
     def next_ns(self) -> int | None: ...
 
 
+class Clock(Protocol):
+    """What the link and the backend need of a clock: integer ns, and a wait."""
+
+    virtual: bool
+    scale: float
+
+    def now_ns(self) -> int: ...
+
+    def wait(self, deadline_ns: int | None, stream: Waitable | None) -> None: ...
+
+
 class RealClock:
     """Wall-clock nanoseconds since creation, times ``scale``."""
 

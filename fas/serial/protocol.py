@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import astuple, dataclass
-from typing import ClassVar
+from typing import Any, ClassVar, cast
 
 PROTOCOL_VERSION = 2
 SYNC = 0x7E
@@ -150,7 +150,7 @@ class Message:
     CODE_HAS_INDEX: ClassVar[bool] = False  # the type byte carries the stepper (0x40|s)
 
     def encode(self) -> bytes:
-        return bytes((self.CODE,)) + self.FMT.pack(*astuple(self))
+        return bytes((self.CODE,)) + self.FMT.pack(*astuple(cast(Any, self)))
 
     @classmethod
     def decode(cls, data: bytes, pos: int) -> tuple[Message, int]:
@@ -451,7 +451,7 @@ class Ident(Message):
         if start + n > len(data):
             raise ProtocolError("Ident: truncated name")
         name = data[start:start + n].decode("ascii", "replace")
-        return cls(*fields, name=name), start + n
+        return cast(Any, cls)(*fields, name=name), start + n
 
 
 @register

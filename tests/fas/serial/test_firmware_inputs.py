@@ -262,7 +262,7 @@ def test_the_library_follows_a_limit_stop_on_the_firmware(faults):
             steps = trace.rising(9 + index)
             assert steps[-1] < at + REACTION_TICKS
             assert position == len(steps) == engine.stepper(index).get_current_position()
-            assert 0 <= b.device_tick32(tick) - at < REACTION_TICKS
+            assert 0 <= b.sync.device_tick32(tick) - at < REACTION_TICKS
         # away from the switch
         s2.move(-100)
         assert b.wait_until(lambda: not s2.is_running(), TPS)

@@ -77,8 +77,8 @@ def test_the_host_reads_the_device_inputs_as_they_change():
         pot = [h for h in heard if h[0] == POT][-1]
         # a switch is reported at once, a pot at its next 50 ms sample; the host gets
         # the device's tick of reading it
-        assert b.device_tick32(switch[2]) == t_switch & 0xFFFFFFFF
-        assert 0 <= b.device_tick32(pot[2]) - t_pot < 50 * TPS // 1000
+        assert b.sync.device_tick32(switch[2]) == t_switch & 0xFFFFFFFF
+        assert 0 <= b.sync.device_tick32(pot[2]) - t_pot < 50 * TPS // 1000
 
 
 def test_a_simulated_device_takes_the_hosts_pots_and_switches():
@@ -176,7 +176,7 @@ def test_a_device_limit_stops_without_a_step_after_the_switch(faults):
             steps = dev.recorder.rising(dev.queues[index].step_pin)
             assert steps[-1] <= t_switch  # stopped by the device: no step after it
             assert position == len(steps) == engine.stepper(index).get_current_position()
-            assert b.device_tick32(tick) == t_switch & 0xFFFFFFFF
+            assert b.sync.device_tick32(tick) == t_switch & 0xFFFFFFFF
         assert not any(st.halted for st in dev.steppers.stops.values())  # the host's force stop
         # let the queues in again
         s2.move(-100)  # away from it
