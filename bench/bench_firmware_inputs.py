@@ -48,7 +48,7 @@ from fas.serial.protocol import (  # noqa: E402
     WatchInput,
 )
 from stepperdemo.program import make_program  # noqa: E402
-from tests.fas.serial.test_firmware_protocol import Host  # noqa: E402
+from tests.firmware.rigs import Host  # noqa: E402
 
 TPS = 16_000_000
 SWITCH = 17  # A3

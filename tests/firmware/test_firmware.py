@@ -14,8 +14,9 @@ import pytest
 from fas.device.loopback import Loopback
 from fas.serial.protocol import D_ESTOP, D_WATCHDOG
 from stepperdemo.demo.app import StepperDemo
+from tests.fas.serial.helpers import LINES, NOISY, TPS, run_sim
 
-from .helpers import LINES, NOISY, TPS, need_firmware, run_firmware, run_sim
+from .rigs import need_firmware, run_firmware
 
 QUICK = {LINES[0], LINES[5], LINES[10]}  # in the default run; the rest with -m long
 
@@ -190,7 +191,7 @@ def test_device_simavr_serves_a_pty_for_port():
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
                             "--speed", "4"], cwd=root, stdout=subprocess.PIPE, text=True)
     try:

@@ -42,8 +42,7 @@ from fas.serial.protocol import (
     WatchInput,
 )
 
-from .helpers import need_firmware
-from .test_firmware_protocol import MS, Host
+from .rigs import MS, Host, need_firmware
 
 TPS = 16_000_000
 SWITCH, POT = 17, 14  # A3, A0
