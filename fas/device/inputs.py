@@ -15,6 +15,7 @@ from ..serial.protocol import (
     W_OFF,
     W_PULLUP,
     Input,
+    Message,
     SetInput,
     WatchInput,
 )
@@ -37,7 +38,7 @@ class DeviceInputs:
         self.watches: dict[int, list[int]] = {}
         self.analog: dict[int, int] = {}  # the analog inputs' values (set_input)
 
-    def handlers(self) -> dict[type, Handler]:
+    def handlers(self) -> dict[type[Message], Handler]:
         return {WatchInput: self.watch, SetInput: self.set_input_message}
 
     def reset(self) -> None:

@@ -9,7 +9,7 @@ mask; they stay halted until the host's ForceStop, and the host hears LimitHit.
 from __future__ import annotations
 
 from ..queue import QueueEntry
-from ..serial.protocol import L_CLEAR, L_UP, Limit, LimitHit
+from ..serial.protocol import L_CLEAR, L_UP, Limit, LimitHit, Message
 from .board import Board
 from .queues import DeviceQueues, Handler
 
@@ -24,7 +24,7 @@ class DeviceLimits:
         self.queues = queues
         self.limits: dict[tuple[int, bool], LimitRule] = {}
 
-    def handlers(self) -> dict[type, Handler]:
+    def handlers(self) -> dict[type[Message], Handler]:
         return {Limit: self.limit}
 
     def reset(self) -> None:

@@ -31,7 +31,7 @@ class DeviceOutputs:
     def __init__(self, board: Board) -> None:
         self.board = board
 
-    def handlers(self) -> dict[type, Handler]:
+    def handlers(self) -> dict[type[Message], Handler]:
         return {OutputPwm: self.message, OutputSet: self.message, OutputCancel: self.message}
 
     def cancel(self) -> None:

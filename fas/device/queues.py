@@ -110,7 +110,7 @@ class DeviceQueues:
         q = self.queues.get(m.stepper)
         if q is not None and q.step_pin != m.step_pin:
             self._stop_queue(m.stepper, q)
-            board.sim.channels.remove(q.channel)  # type: ignore[arg-type]
+            board.sim.channels.remove(self.channels[m.stepper])
             q = None
         if q is None:
             # the queue asks this object for its channel, as the library's do a backend

@@ -202,7 +202,7 @@ class Trace:
 
     def rising(self, pin: int) -> list[int]:
         times, levels = self.edges(pin)
-        return [t for t, lv in zip(times, levels) if lv]
+        return [t for t, lv in zip(times, levels, strict=True) if lv]
 
     def recorder(self) -> EdgeRecorder:
         """The edges as a :class:`fas.sim.pins.EdgeRecorder` (ticks)."""
@@ -242,7 +242,8 @@ def library_path() -> Path:
 class _Chip:
     """The harness library (libfassimavr.so) in this process: one chip at a time."""
 
-    _lib = None
+    _lib: ctypes.CDLL | None = None
+    _lib_path = ""  # the library _lib was loaded from
     _open = False
 
     def __init__(self, lib_path: Path, elf: Path, trace: Path, boot_count: int,
@@ -250,7 +251,7 @@ class _Chip:
         if _Chip._open:
             raise SimavrError("one simulated chip per process at a time")
         lib = _Chip._lib
-        if lib is None or lib._name != str(lib_path):
+        if lib is None or _Chip._lib_path != str(lib_path):
             lib = ctypes.CDLL(str(lib_path))
             u8p, u32p, u64p = (ctypes.POINTER(ctypes.c_uint8), ctypes.POINTER(ctypes.c_uint32),
                                ctypes.POINTER(ctypes.c_uint64))
@@ -263,6 +264,7 @@ class _Chip:
             lib.fs_info.argtypes = [u64p]
             lib.fs_mem.argtypes = [ctypes.c_uint16, ctypes.c_uint16, u8p, ctypes.c_int]
             _Chip._lib = lib
+            _Chip._lib_path = str(lib_path)
         self.lib = lib
         if lib.fs_open(str(elf).encode(), str(trace).encode(), b"atmega328p", CPU_HZ,
                        boot_count & 0xFFFF, int(world)) != 0:

@@ -10,6 +10,7 @@ how the pty happened to split the data.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import select
@@ -136,10 +137,8 @@ class FdStream(ByteStream):
         self.closed = True
         if self.owns:
             for fd in (self.fd, *self.keep_fds):
-                try:
+                with contextlib.suppress(OSError):
                     os.close(fd)
-                except OSError:
-                    pass
 
 
 class SerialStream(ByteStream):
@@ -214,10 +213,8 @@ def set_link(link_path: str | None, target: str) -> None:
     if not link_path:
         return
     tmp = f"{link_path}.tmp{os.getpid()}"
-    try:
+    with contextlib.suppress(FileNotFoundError):
         os.unlink(tmp)
-    except FileNotFoundError:
-        pass
     os.symlink(target, tmp)
     os.replace(tmp, link_path)
 
