@@ -31,8 +31,8 @@ from bisect import bisect_right
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.serial import simavr  # noqa: E402
-from fas.serial.loopback import Loopback  # noqa: E402
+from fas.device import simavr  # noqa: E402
+from fas.device.loopback import Loopback  # noqa: E402
 from fas.serial.protocol import (  # noqa: E402
     L_UP,
     PROTOCOL_VERSION,
@@ -48,7 +48,7 @@ from fas.serial.protocol import (  # noqa: E402
     WatchInput,
 )
 from stepperdemo.program import make_program  # noqa: E402
-from tests.fas.serial.test_firmware_protocol import Host  # noqa: E402
+from tests.firmware.rigs import Host  # noqa: E402
 
 TPS = 16_000_000
 SWITCH = 17  # A3

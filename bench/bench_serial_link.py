@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.serial.loopback import Loopback  # noqa: E402
-from fas.serial.relay import Faults  # noqa: E402
+from fas.device.loopback import Loopback  # noqa: E402
+from fas.device.relay import Faults  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
 from fas.sim.pins import EdgeRecorder  # noqa: E402
 from stepperdemo.demo.app import StepperDemo  # noqa: E402
@@ -130,7 +130,7 @@ def stop_latency(kind: str, f: Faults | None, offset_ms: int = 0) -> float:
             if dev.counters["underruns"]:  # not cruising, or ran dry while stopping
                 return float("nan")
             return _decel_start(dev.recorder.rising(s.get_step_pin()), t_call)
-        stop = dev.stop_ticks.get(0) if kind == "X" else dev.estop_tick
+        stop = dev.steppers.stop_ticks.get(0) if kind == "X" else dev.session.estop_tick
         return float("nan") if stop is None else (stop - t_call) / MS_TICKS
 
 

@@ -25,8 +25,8 @@ from bisect import bisect_right
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.serial.loopback import Loopback  # noqa: E402
-from fas.serial.relay import Faults  # noqa: E402
+from fas.device.loopback import Loopback  # noqa: E402
+from fas.device.relay import Faults  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.winder.potrule import pot_command, rule_speed  # noqa: E402

@@ -1,5 +1,5 @@
 /* The session and link layer (see session.h): what the Python device does in
- * fas/serial/device.py, on the chip. */
+ * fas/device/session.py, on the chip. */
 #include <avr/eeprom.h>
 #include <avr/io.h>
 #include <avr/pgmspace.h>

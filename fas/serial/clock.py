@@ -15,6 +15,7 @@ therefore deterministic and take no wall time beyond the computing.
 
 from __future__ import annotations
 
+import contextlib
 import select
 import time
 from collections.abc import Sequence
@@ -57,6 +58,17 @@ class Peer(Protocol):
     def next_ns(self) -> int | None: ...
 
 
+class Clock(Protocol):
+    """What the link and the backend need of a clock: integer ns, and a wait."""
+
+    virtual: bool
+    scale: float
+
+    def now_ns(self) -> int: ...
+
+    def wait(self, deadline_ns: int | None, stream: Waitable | None) -> None: ...
+
+
 class RealClock:
     """Wall-clock nanoseconds since creation, times ``scale``."""
 
@@ -78,10 +90,8 @@ class RealClock:
         if stream is None:
             time.sleep(0.05 if timeout is None else min(timeout, 0.05))
             return
-        try:
+        with contextlib.suppress(OSError, ValueError):  # closed: let the reader find out
             select.select([stream], [], [], timeout)
-        except (OSError, ValueError):  # closed descriptor: let the reader find out
-            pass
 
 
 class VirtualClock:

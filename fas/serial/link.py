@@ -26,6 +26,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 
+from .clock import Clock
 from .protocol import (
     FRAME_OVERHEAD,
     MAX_FRAME,
@@ -95,7 +96,7 @@ Handler = Callable[[list[Message], int], None]
 class HostLink:
     """Framing, acknowledgement, retransmission and clock samples over one stream."""
 
-    def __init__(self, stream: ByteStream, clock, *, window: int = 9,
+    def __init__(self, stream: ByteStream, clock: Clock, *, window: int = 9,
                  max_payload: int = 32, min_payload: int = 12, min_rto_ms: float = 10.0,
                  initial_rto_ms: float = 100.0, max_rto_ms: float = 250.0,
                  silence_ms: float = 1500.0, baud: int = 115200) -> None:

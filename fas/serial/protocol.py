@@ -17,9 +17,10 @@ this module is its one implementation on the host side and in the simulated devi
 
 from __future__ import annotations
 
+import re
 import struct
 from dataclasses import astuple, dataclass
-from typing import ClassVar
+from typing import Any, ClassVar, cast
 
 PROTOCOL_VERSION = 2
 SYNC = 0x7E
@@ -31,6 +32,7 @@ SEQ_MASK = 0x7F
 UNSEQUENCED = 0x80
 MAX_STEPPERS = 8
 MAX_RX_SLOTS = 16  # the Nak's bitmap of held frames has 16 bits
+DEVICE_CODES_FIRST = 0x50  # type bytes from here on: device -> host (section 5)
 
 
 class ProtocolError(ValueError):
@@ -141,6 +143,9 @@ class Message:
     A new message type is one subclass with ``CODE`` (see the type table in
     docs/serial-protocol.md, section 5) and ``FMT``, decorated with :func:`register`;
     ``UNSEQUENCED`` marks host messages that travel outside the sequence (section 4).
+    This is the one definition of the wire format: the Python device and the host use
+    it, and :mod:`fas.device.proto_check` holds the firmware's ``proto.h`` to it - there
+    the type is ``M_<C_NAME>`` and its size ``SIZE_<C_NAME>`` (device messages).
     """
 
     CODE: ClassVar[int]
@@ -148,9 +153,20 @@ class Message:
     UNSEQUENCED: ClassVar[bool] = False
     CODES: ClassVar[tuple[int, ...]] = ()  # every type byte it owns (default: CODE)
     CODE_HAS_INDEX: ClassVar[bool] = False  # the type byte carries the stepper (0x40|s)
+    C_NAME: ClassVar[str] = ""  # the firmware's name (default: the class name, UPPER_SNAKE)
+
+    @classmethod
+    def from_device(cls) -> bool:
+        """A device -> host message (else host -> device)."""
+        return cls.CODE >= DEVICE_CODES_FIRST
+
+    @classmethod
+    def c_name(cls) -> str:
+        """The type's name in the firmware: ``M_<c_name>`` (``EmergencyStop``: ESTOP)."""
+        return cls.C_NAME or re.sub(r"(?<!^)(?=[A-Z])", "_", cls.__name__).upper()
 
     def encode(self) -> bytes:
-        return bytes((self.CODE,)) + self.FMT.pack(*astuple(self))
+        return bytes((self.CODE,)) + self.FMT.pack(*astuple(cast(Any, self)))
 
     @classmethod
     def decode(cls, data: bytes, pos: int) -> tuple[Message, int]:
@@ -335,6 +351,7 @@ class EmergencyStop(Message):
     CODE: ClassVar[int] = 0x0E
     FMT: ClassVar[struct.Struct] = _fmt("H")
     UNSEQUENCED: ClassVar[bool] = True
+    C_NAME: ClassVar[str] = "ESTOP"
     nonce: int = 0
 
 
@@ -367,6 +384,7 @@ class Halt(Message):
 
 
 ENTRY_BASE = 0x40  # 0x40 | stepper
+E_INDEX_MASK = 0x0F  # Entry flags: the low bits of the entry's write index
 E_TOGGLE_DIR = 0x10
 E_DIR_LEVEL = 0x20
 E_COUNT_UP = 0x40
@@ -397,7 +415,7 @@ class Entry(Message):
     cont: bool
 
     def encode(self) -> bytes:
-        flags = (self.index & 0x0F) | (E_TOGGLE_DIR if self.toggle_dir else 0) \
+        flags = (self.index & E_INDEX_MASK) | (E_TOGGLE_DIR if self.toggle_dir else 0) \
             | (E_DIR_LEVEL if self.dir_level else 0) | (E_COUNT_UP if self.count_up else 0) \
             | (E_CONT if self.cont else 0)
         return bytes((ENTRY_BASE | self.stepper, flags, self.steps,
@@ -408,7 +426,8 @@ class Entry(Message):
         if pos + 5 > len(data):
             raise ProtocolError("Entry: truncated")
         code, flags, steps, lo, hi = data[pos:pos + 5]
-        return cls(code & 0x07, flags & 0x0F, steps, lo | (hi << 8), bool(flags & E_TOGGLE_DIR),
+        return cls(code & 0x07, flags & E_INDEX_MASK, steps, lo | (hi << 8),
+                   bool(flags & E_TOGGLE_DIR),
                    bool(flags & E_DIR_LEVEL), bool(flags & E_COUNT_UP),
                    bool(flags & E_CONT)), pos + 5
 
@@ -451,7 +470,7 @@ class Ident(Message):
         if start + n > len(data):
             raise ProtocolError("Ident: truncated name")
         name = data[start:start + n].decode("ascii", "replace")
-        return cls(*fields, name=name), start + n
+        return cast(Any, cls)(*fields, name=name), start + n
 
 
 @register
@@ -739,6 +758,14 @@ class Started(Message):
     tick: int
 
 
+
+
+def message_types() -> list[type[Message]]:
+    """Every registered message type, by its (first) type byte."""
+    seen: dict[type[Message], int] = {}
+    for code, cls in sorted(_BY_CODE.items()):
+        seen.setdefault(cls, code)
+    return list(seen)
 
 
 def decode_messages(payload: bytes) -> list[Message]:

@@ -10,11 +10,13 @@ how the pty happened to split the data.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import select
 import tty
 from abc import ABC, abstractmethod
+from typing import Any
 
 from .clock import Wire, wait_readable
 
@@ -135,16 +137,14 @@ class FdStream(ByteStream):
         self.closed = True
         if self.owns:
             for fd in (self.fd, *self.keep_fds):
-                try:
+                with contextlib.suppress(OSError):
                     os.close(fd)
-                except OSError:
-                    pass
 
 
 class SerialStream(ByteStream):
     """A pyserial port (``serial.Serial`` or anything ``serial_for_url`` returns)."""
 
-    def __init__(self, port, *, name: str = "") -> None:
+    def __init__(self, port: Any, *, name: str = "") -> None:
         self.port = port
         self.name = name or getattr(port, "port", "") or ""
         self.close_error = ""
@@ -153,7 +153,7 @@ class SerialStream(ByteStream):
         return self.port.fileno()
 
     def _read_raw(self) -> bytes:
-        import serial
+        import serial  # type: ignore[import-untyped]  # (pyserial has no stubs)
 
         try:
             r, _, _ = select.select([self.port.fileno()], [], [], 0)
@@ -164,7 +164,7 @@ class SerialStream(ByteStream):
             raise LinkClosed(f"{self.name}: {exc}") from exc
 
     def _write_raw(self, data: bytes) -> int:
-        import serial
+        import serial  # type: ignore[import-untyped]  # (pyserial has no stubs)
 
         try:
             return self.port.write(data) or 0
@@ -180,7 +180,7 @@ class SerialStream(ByteStream):
 
 def open_serial(path: str, baud: int = 115200) -> SerialStream:
     """Open a serial port (or pty, or pyserial URL) raw and non-blocking, input flushed."""
-    import serial
+    import serial  # type: ignore[import-untyped]  # (pyserial has no stubs)
 
     try:
         port = serial.serial_for_url(path, baudrate=baud, timeout=0, write_timeout=2.0)
@@ -213,10 +213,8 @@ def set_link(link_path: str | None, target: str) -> None:
     if not link_path:
         return
     tmp = f"{link_path}.tmp{os.getpid()}"
-    try:
+    with contextlib.suppress(FileNotFoundError):
         os.unlink(tmp)
-    except FileNotFoundError:
-        pass
     os.symlink(target, tmp)
     os.replace(tmp, link_path)
 

@@ -9,8 +9,9 @@ from ..backend import Backend, PinStates, PulseCounter
 from ..outputs import OutputChange
 from ..pwm import PwmSetting
 from ..queue import StepperQueue
+from ..schedule import TaskSchedule
 from .channel import SimChannel
-from .machine import PRIO_TASK, Machine
+from .machine import PRIO_TASK, Event, Machine
 from .pins import EdgeRecorder
 from .printing import print_chars
 
@@ -29,10 +30,8 @@ class SimBackend(Backend):
             self.recorder = EdgeRecorder()
             self.machine.pins.sinks.append(self.recorder)
         self._engine = None
-        self._task_event = None
-        self._task_next: int | None = None
-        self._task_index = 0
-        self._task_origin = 0
+        self._task_event: Event | None = None
+        self.tasks = TaskSchedule()  # the periodic task's runs
         self.task_runs = 0
         self.stray_reads = 0
         self.stray_reads_during_pulse = 0
@@ -54,38 +53,32 @@ class SimBackend(Backend):
 
     def attach_engine(self, engine) -> None:
         self._engine = engine
-        self._task_index = 0
-        self._task_origin = self.machine.now + self.machine.timing.task_phase_ticks
+        # run 0 keeps its phase if the period changes before it
+        self.tasks.start(self.machine.now + self.machine.timing.task_phase_ticks,
+                         self.task_period_ticks, anchor=0)
         self._schedule_task(0)
-
-    def _task_time(self, index: int) -> int:
-        return self._task_origin + index * self.task_period_ticks
 
     def set_task_period(self, ticks: int) -> None:
         """``engine.task_rate()``: runs after the last one follow the new period."""
-        if self._engine is None:
-            super().set_task_period(ticks)
-            return
-        last = self._task_index
-        last_time = self._task_time(last)
         super().set_task_period(ticks)
-        self._task_origin = last_time - last * self.task_period_ticks
+        if self._engine is None:
+            return
+        self.tasks.set_period(self.task_period_ticks)
         self.machine.cancel(self._task_event)
         self._task_event = None
-        self._task_next = None
+        self.tasks.stop()
         self.wake_task()
 
     def _schedule_task(self, index: int) -> None:
-        self._task_event = self.machine.schedule(self._task_time(index),
+        self._task_event = self.machine.schedule(self.tasks.time(index),
                                                  lambda: self._task(index), PRIO_TASK, isr=True)
-        self._task_next = index
+        self.tasks.next = index
 
     def _task(self, index: int) -> None:
         m = self.machine
         p = m.timing
         engine = self._engine
-        engine.credit_skipped_tasks(index - self._task_index - 1)
-        self._task_index = index
+        engine.credit_skipped_tasks(self.tasks.begin(index))
         may_stop = engine.may_stop_without_channel()
         m.in_task = True
         m.task_offset = p.fill_entry_ticks
@@ -104,29 +97,19 @@ class SimBackend(Backend):
         if self._sync_outputs and self._make_sync_outputs():
             engine.queues_idle()
             m.activity += 1
-        skip = engine.quiescent_tasks()
-        if skip is None:
+        nxt = self.tasks.end(engine.quiescent_tasks())
+        if nxt is None:
             self._task_event = None  # suspended until wake_task()
-            self._task_next = None
         else:
-            self._schedule_task(index + 1 + skip)
+            self._schedule_task(nxt)
 
     def wake_task(self) -> None:
-        nxt = self._task_next
-        if nxt is not None and nxt <= self._task_index + 1:
-            return  # the task of the next slot is planned already (the common case)
-        if getattr(self, "_engine", None) is None:
+        if self._engine is None:
             return
-        m = self.machine
-        period = self.task_period_ticks
-        due = self._task_index + 1
-        if m.now > self._task_time(due):
-            due = self._task_index + 1 + -(-(m.now - self._task_time(self._task_index + 1))
-                                          // period)
-        if self._task_next is not None and self._task_next <= due:
-            return
-        m.cancel(self._task_event)
-        self._schedule_task(due)
+        tasks = self.tasks
+        if tasks.wake(self.machine.now):
+            self.machine.cancel(self._task_event)
+            self._schedule_task(tasks.next)
 
     def reset_chip(self) -> None:
         m = self.machine
@@ -144,7 +127,7 @@ class SimBackend(Backend):
         self._sync_outputs.clear()
         m.cancel(self._task_event)
         self._task_event = None
-        self._task_next = None
+        self.tasks.stop()
         self._engine = None
         self._task_period = None
         t = m.cpu_now()

@@ -10,7 +10,7 @@
  * The same file, built as a shared library (-DFAS_SIMAVR_LIB, libfassimavr.so), is the
  * chip for co-simulation: fs_open(), then fs_run() hands it the bytes the host sent
  * and runs it to a given cycle, returning the bytes it sent; the chip advances only
- * when told to, so runs are deterministic (fas/serial/simavr.py, SimavrDevice).
+ * when told to, so runs are deterministic (fas/device/simavr.py, SimavrDevice).
  * One chip per process at a time.
  *
  * The pins.  simavr 1.6 models the ports well, but not the timers' output-compare

@@ -322,7 +322,8 @@ def parse_input(text: str, profile) -> tuple[int, int, bool | None]:
 
 def run_device(argv: Sequence[str]) -> int:
     from fas.arch import get_profile
-    from fas.serial import Device, LinkClosed, Pty, RealClock, open_serial
+    from fas.device import Device
+    from fas.serial import LinkClosed, Pty, RealClock, open_serial
     from fas.serial.stream import remove_link, set_link
 
     args = device_parser().parse_args(argv)
@@ -415,7 +416,7 @@ def run_simavr(args: argparse.Namespace) -> int:
     import time
 
     from fas.arch import get_profile
-    from fas.serial.simavr import SimavrError, SimavrServer, build, build_harness
+    from fas.device.simavr import SimavrError, SimavrServer, build, build_harness
 
     if args.arch != "atmega328p" or args.watchdog_ms != 500 or args.console:
         option = ("arch" if args.arch != "atmega328p" else
@@ -499,7 +500,8 @@ def relay_parser() -> argparse.ArgumentParser:
 
 
 def run_relay(argv: Sequence[str]) -> int:
-    from fas.serial import Faults, LinkClosed, Pty, Relay, open_serial
+    from fas.device import Faults, Relay
+    from fas.serial import LinkClosed, Pty, open_serial
     from fas.serial.stream import remove_link, set_link
 
     args = relay_parser().parse_args(argv)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from fas import Engine
-from fas.serial.loopback import Loopback
+from fas.device.loopback import Loopback
 from fas.sim import SimBackend
 from stepperdemo.demo.build import demo_build
 

@@ -263,7 +263,7 @@ def test_the_gcode_console_records_too(tmp_path):
 
 
 def test_nothing_is_recorded_on_a_device(tmp_path):
-    from fas.serial.loopback import Loopback
+    from fas.device.loopback import Loopback
 
     with Loopback() as lb:
         c = Console(backend=lb.backend, output=DummyOutput(), history=str(tmp_path / "h"))

@@ -8,7 +8,7 @@ from prompt_toolkit.document import Document
 from prompt_toolkit.input import create_pipe_input
 from prompt_toolkit.output import DummyOutput
 
-from fas.serial.loopback import Loopback
+from fas.device.loopback import Loopback
 from fas.serial.protocol import F_INPUTS
 from stepperdemo.front.console import Console, ProgramCompleter
 from stepperdemo.program import make_program

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from fas.serial.loopback import Loopback
-from fas.serial.relay import Faults
+from fas.device.loopback import Loopback
+from fas.device.relay import Faults
 from fas.sim import SimBackend
 from stepperdemo.demo.app import StepperDemo
 from stepperdemo.program import EndReason
@@ -64,84 +64,3 @@ def run_serial(line: str, arch: str = "atmega328p", faults: Faults | None = None
                        device_positions=[dev.position(i) for i in idx],
                        counters=backend.device_counters(), link=backend.link_stats(),
                        transcript=app.transcript.decode())
-
-
-# ------------------------------------------------ the firmware in simavr (issue 11)
-STEP_PINS = (9, 10)
-
-
-@dataclass
-class FirmwareOutcome(Outcome):
-    pin_pulses: list[int] = field(default_factory=list)  # rising edges on pins 9, 10
-    pin_positions: list[int] = field(default_factory=list)  # counted with the dir pins
-    status_pulses: list[int] = field(default_factory=list)  # the device's own count
-    trace: object = None  # fas.serial.simavr.Trace
-    rx_log: list = field(default_factory=list)  # (cycle, bytes) the chip received
-    busy: float = 0.0  # share of the chip's cycles not asleep
-    stack_bytes: int = 0  # the deepest the chip's stack went
-    rx_overruns: int = 0  # bytes the chip's UART receive path lost
-
-
-def need_firmware() -> None:
-    """Skip (with the reason) where the AVR toolchain or simavr is missing - except on
-    CI, where the firmware tests must run: there a missing toolchain fails them."""
-    import os
-
-    import pytest
-
-    from fas.serial.simavr import toolchain_problem
-
-    problem = toolchain_problem()
-    if problem is None:
-        return
-    if os.environ.get("CI"):
-        pytest.fail(f"CI: the firmware tests need the AVR toolchain and simavr: {problem}")
-    pytest.skip(f"firmware tests need the AVR toolchain and simavr ({problem}); "
-                "see README, 'Device firmware'")
-
-
-def pin_position(trace, step_pin: int, dir_pin: int, high_counts_up: bool = True) -> int:
-    """Steps counted from the pins: up while the direction pin is at its up level."""
-    import bisect
-
-    from fas.codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
-
-    rising = trace.rising(step_pin)
-    if dir_pin == PIN_UNDEFINED or dir_pin & PIN_EXTERNAL_FLAG:
-        return len(rising)
-    dtimes, dlevels = trace.edges(dir_pin)
-    pos = 0
-    for t in rising:
-        i = bisect.bisect_right(dtimes, t) - 1
-        level = dlevels[i] if i >= 0 else 0
-        pos += 1 if (level == 1) == high_counts_up else -1
-    return pos
-
-
-def run_firmware(line: str, faults: Faults | None = None, baud: int = 115200,
-                 **options) -> FirmwareOutcome:
-    """``line`` through the serial backend against the firmware in simavr (lockstep)."""
-    with Loopback("atmega328p", faults=faults, device="simavr", baud=baud, **options) as lb:
-        dev = lb.device
-        backend = lb.backend
-        app = StepperDemo(backend, scripted=True)
-        reason = app.run_script(line, max_ticks=600 * TPS)
-        assert backend.settle(), "the device did not come to rest"
-        assert backend.request_status() is not None
-        steppers = [s for s in app.steppers if s is not None]
-        trace = dev.trace()
-        pins = dev.pins()
-        info = dev.info()
-        return FirmwareOutcome(
-            [s.get_current_position() for s in steppers],
-            [backend.statuses[i].pulses for i in sorted(backend.statuses)], reason,
-            device_positions=[backend.statuses[i].position for i in sorted(backend.statuses)],
-            counters=backend.device_counters(), link=backend.link_stats(),
-            transcript=app.transcript.decode(),
-            pin_pulses=[pins[p].rising for p in STEP_PINS[:len(steppers)]],
-            pin_positions=[pin_position(trace, STEP_PINS[i], s.get_direction_pin(),
-                                        s.direction_pin_high_counts_up())
-                           for i, s in enumerate(steppers)],
-            status_pulses=[backend.statuses[i].pulses for i in sorted(backend.statuses)],
-            trace=trace, rx_log=dev.rx_log, busy=1 - info.sleep_cycles / info.cycle,
-            stack_bytes=dev.stack_used(), rx_overruns=dev.rx_overruns())

@@ -3,8 +3,8 @@
 import os
 import select
 
+from fas.device import Device
 from fas.serial.clock import VirtualClock, Wire
-from fas.serial.device import Device
 from fas.serial.protocol import (
     O_SYNCHRONIZED,
     P_CUT_REFUSED,
@@ -78,7 +78,7 @@ def test_hello_answers_ident_and_opens_a_session():
         # the ring is as deep as the Uno's RAM allows (fas/arch.py), not the chip's 16
         assert idents[0].queue_len == 64 and idents[0].ticks_per_s == 16_000_000
         assert idents[0].rx_slots == 8 and idents[0].slot_payload == 32
-        assert h.device.session
+        assert h.device.board.session_open
     finally:
         h.close()
 
@@ -138,7 +138,7 @@ def test_a_frame_beyond_the_slots_is_dropped():
     h = Host()
     try:
         _open(h)
-        slots = h.device.rx_slots
+        slots = h.device.session.rx_slots
         got = h.send(1 + slots + 1, _entry(slots))  # frame 1 missing, this one too far
         assert [m for _, m in got if isinstance(m, Nak)] == [Nak(1, 0)]
         assert h.device.counters["frames_held"] == 0
@@ -224,7 +224,7 @@ def test_halt_stops_at_once_and_its_force_stop_ends_it():
         h.send(UNSEQUENCED, Halt(0, 1, 5))  # overtakes what is on its way
         stopped = dev.pulses(0)
         assert 0 < stopped < 600 and not dev.running()
-        assert dev.stop_ticks[0] == dev.machine.now
+        assert dev.steppers.stop_ticks[0] == dev.machine.now
         # what was sent before the stop arrives after it: dropped
         h.send(8, Entry(0, 6, 10, 3200, False, True, True, True), Start(1, 0))
         assert dev.counters["discarded"] == 2 and not dev.running()
@@ -258,9 +258,9 @@ def test_late_emergency_stop_of_an_old_session_is_ignored():
         h.send(UNSEQUENCED, Hello(1, 5, 500, 2))
         h.send(UNSEQUENCED, Hello(1, 6, 500, 2))  # a new session
         h.send(UNSEQUENCED, EmergencyStop(5))
-        assert not h.device.estopped
+        assert not h.device.board.estopped
         h.send(UNSEQUENCED, EmergencyStop(6))
-        assert h.device.estopped
+        assert h.device.board.estopped
         h.send(0, Config(0, 9, 5, 0, 0))
         h.send(1, _entry(0))
         assert h.device.counters["rejected"] >= 1

@@ -8,8 +8,9 @@ from __future__ import annotations
 import pytest
 
 from fas import Engine
+from fas.device.loopback import Loopback
+from fas.device.relay import Faults
 from fas.gear import Gear, GearResult
-from fas.serial.loopback import Loopback
 from fas.serial.protocol import (
     F_INPUTS,
     F_SIM_INPUTS,
@@ -25,7 +26,6 @@ from fas.serial.protocol import (
     WatchInput,
     decode_messages,
 )
-from fas.serial.relay import Faults
 
 TPS = 16_000_000
 SWITCH, POT = 17, 14
@@ -77,8 +77,8 @@ def test_the_host_reads_the_device_inputs_as_they_change():
         pot = [h for h in heard if h[0] == POT][-1]
         # a switch is reported at once, a pot at its next 50 ms sample; the host gets
         # the device's tick of reading it
-        assert b.device_tick32(switch[2]) == t_switch & 0xFFFFFFFF
-        assert 0 <= b.device_tick32(pot[2]) - t_pot < 50 * TPS // 1000
+        assert b.sync.device_tick32(switch[2]) == t_switch & 0xFFFFFFFF
+        assert 0 <= b.sync.device_tick32(pot[2]) - t_pot < 50 * TPS // 1000
 
 
 def test_a_simulated_device_takes_the_hosts_pots_and_switches():
@@ -95,10 +95,10 @@ def test_a_simulated_device_takes_the_hosts_pots_and_switches():
         assert b.read_input(SWITCH) == 1  # not yet: the device has not reported it
         b.wait_until(lambda: b.read_input(POT) == 1023, TPS // 10)
         assert b.read_input(SWITCH) == 0 and b.read_input(POT) == 1023
-        assert dev.machine.pins.get(SWITCH) == 0 and dev.analog[POT] == 1023
+        assert dev.machine.pins.get(SWITCH) == 0 and dev.inputs.analog[POT] == 1023
         assert b.drive_input(21, 300)  # a pin nobody watches: a value above 1 is a pot
         assert b.settle()
-        assert dev.analog[21] == 300
+        assert dev.inputs.analog[21] == 300
 
 
 def test_a_board_refuses_set_input_and_the_host_does_not_send_it():
@@ -121,7 +121,7 @@ def test_a_device_without_inputs_gets_no_watch_and_no_limit():
         assert b.watch_input(SWITCH) is False
         assert b.set_limit(1, SWITCH, 0, True) is False
         assert b.settle() and b.request_status() is not None
-        assert b.device_counters()["rejected"] == 0 and not lb.device.watches
+        assert b.device_counters()["rejected"] == 0 and not lb.device.inputs.watches
 
 
 def test_watches_come_back_after_a_reconnect():
@@ -133,7 +133,7 @@ def test_watches_come_back_after_a_reconnect():
         dev.set_input(SWITCH, 0)
         b.wait_until(lambda: b.read_input(SWITCH) == 0, TPS // 5)
         assert b.read_input(SWITCH) == 0
-        assert SWITCH in dev.watches
+        assert SWITCH in dev.inputs.watches
 
 
 def rig(lb):
@@ -176,8 +176,8 @@ def test_a_device_limit_stops_without_a_step_after_the_switch(faults):
             steps = dev.recorder.rising(dev.queues[index].step_pin)
             assert steps[-1] <= t_switch  # stopped by the device: no step after it
             assert position == len(steps) == engine.stepper(index).get_current_position()
-            assert b.device_tick32(tick) == t_switch & 0xFFFFFFFF
-        assert not any(st.halted for st in dev.stops.values())  # the host's force stop
+            assert b.sync.device_tick32(tick) == t_switch & 0xFFFFFFFF
+        assert not any(st.halted for st in dev.steppers.stops.values())  # the host's force stop
         # let the queues in again
         s2.move(-100)  # away from it
         assert b.wait_until(lambda: not s2.is_running(), TPS)
@@ -196,13 +196,13 @@ def test_a_halted_queue_refuses_entries_until_the_host_knows():
         b.limit_listeners.append(lambda *a: hits.append(a))  # the host ignores it
         s2.move(500)  # towards the closed limit
         b.app_wait_until(b.now() + TPS // 5)
-        assert hits and dev.stops[1].halted
+        assert hits and dev.steppers.stops[1].halted
         assert dev.recorder.rising(10) == []
         assert dev.counters["discarded"] > 0  # the entries that followed
         s2.force_stop_and_new_position(hits[0][2])
         b.clear_limit(1, True)
         assert b.settle()
-        assert not dev.stops[1].halted
+        assert not dev.steppers.stops[1].halted
         s2.move(20)
         assert b.wait_until(lambda: not s2.is_running(), TPS)
         assert b.settle()

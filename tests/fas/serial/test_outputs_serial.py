@@ -3,8 +3,8 @@
 import pytest
 
 from fas import Engine
+from fas.device.loopback import Loopback
 from fas.outputs import OutputResult
-from fas.serial.loopback import Loopback
 from fas.serial.protocol import (
     O_ANALOG,
     O_SYNCHRONIZED,

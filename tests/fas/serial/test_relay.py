@@ -2,7 +2,7 @@
 
 import pytest
 
-from fas.serial.relay import Faults, FaultyLine
+from fas.device.relay import Faults, FaultyLine
 
 
 def _run(faults: Faults, data: bytes, seed: int = 7):

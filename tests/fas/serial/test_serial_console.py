@@ -2,7 +2,7 @@
 
 from prompt_toolkit.output import DummyOutput
 
-from fas.serial.loopback import Loopback
+from fas.device.loopback import Loopback
 from stepperdemo.front.console import Console
 
 from .helpers import TPS

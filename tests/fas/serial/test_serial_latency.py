@@ -7,8 +7,8 @@ depend on the machine's load.
 
 import pytest
 
-from fas.serial.loopback import Loopback
-from fas.serial.relay import Faults
+from fas.device.loopback import Loopback
+from fas.device.relay import Faults
 from fas.sim import SimBackend
 from fas.sim.pins import EdgeRecorder
 from stepperdemo.demo.app import StepperDemo
@@ -239,7 +239,7 @@ def test_force_stop_ends_within_the_cut_margin():
         s.force_stop()
         backend.wait_until(lambda: not s.is_running())
         backend.settle()
-        assert dev.stop_ticks.get(0) is None  # it ran out, nothing forced it
+        assert dev.steppers.stop_ticks.get(0) is None  # it ran out, nothing forced it
         last = dev.machine.pins.rise.get(9)
         assert last - t_call < 35 * MS
         assert s.get_current_position() == dev.position(0)
@@ -258,7 +258,7 @@ def test_x_halts_the_device_at_once(faults):
         assert not s.is_running()
         backend.app_spend(100 * MS)
         backend.settle()
-        assert dev.stop_ticks[0] - t_call < 25 * MS  # not after the 60+ ms queued
+        assert dev.steppers.stop_ticks[0] - t_call < 25 * MS  # not after the 60+ ms queued
         assert dev.counters["halts"] == 1
         assert dev.position(0) == 0 == s.get_current_position()
         made = dev.pulses(0)
@@ -276,5 +276,5 @@ def test_emergency_stop_acts_at_once():
         s = _cruise(lb)
         t_call = dev.tick_at(lb.clock.now_ns())
         assert backend.emergency_stop()
-        assert dev.estop_tick - t_call < 25 * MS
+        assert dev.session.estop_tick - t_call < 25 * MS
         assert s.get_current_position() == dev.position(0)

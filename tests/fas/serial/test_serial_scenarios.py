@@ -6,7 +6,7 @@ the host opens with pyserial - the same path as ``stepperdemo --port``.
 
 import pytest
 
-from fas.serial.relay import Faults
+from fas.device.relay import Faults
 
 from .helpers import LINES, NOISY, run_serial, run_sim
 

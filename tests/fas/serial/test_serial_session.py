@@ -1,6 +1,6 @@
 """Sessions on the serial backend: watchdog, lost devices, reconnection, stops."""
 
-from fas.serial.loopback import Loopback
+from fas.device.loopback import Loopback
 from stepperdemo.demo.app import StepperDemo
 
 from .helpers import TPS
@@ -23,13 +23,13 @@ def test_device_stops_within_its_watchdog_time_when_the_host_dies():
         _app, s = _moving(lb)
         dev = lb.device
         assert dev.running()
-        last_host_frame = dev.last_rx_tick
+        last_host_frame = dev.session.last_rx_tick
         # the host is gone: nobody drives the link any more, the device runs on
         lb.clock.run_until(lb.clock.now_ns() + 2 * 10**9)
         assert not dev.running()
-        assert dev.watchdog_tripped
+        assert dev.board.watchdog_tripped
         assert dev.counters["watchdog_trips"] == 1
-        assert dev.halt_tick - last_host_frame <= dev.watchdog_ticks + 1
+        assert dev.session.halt_tick - last_host_frame <= dev.session.watchdog_ticks + 1
         pulses = dev.pulses(0)
         assert 0 < pulses < 100_000
         assert dev.position(0) == pulses  # where the pulses stopped
@@ -47,7 +47,7 @@ def test_heartbeats_keep_an_idle_session_alive():
     with Loopback(watchdog_ms=200) as lb:
         lb.backend.app_spend(3 * TPS)  # three seconds without any command
         assert lb.backend.connected
-        assert not lb.device.watchdog_tripped
+        assert not lb.device.board.watchdog_tripped
 
 
 def test_unplugged_device_is_reported_once_and_reconnect_keeps_the_position():

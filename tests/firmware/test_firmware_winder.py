@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import pytest
 
-from fas.serial.loopback import Loopback
+from fas.device.loopback import Loopback
 from stepperdemo.program import make_program
 from stepperdemo.winder import figures as fig
 
-from .helpers import need_firmware, pin_position
+from .rigs import need_firmware, pin_position
 
 TPS = 16_000_000
 S1_STEP, S1_DIR, S2_STEP, S2_DIR = 9, 5, 10, 7
@@ -120,7 +120,7 @@ def test_winder_port_on_device_simavr_as_a_user_runs_it():
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
                             "--speed", "4"], cwd=root, stdout=subprocess.PIPE, text=True)
     try:
@@ -152,7 +152,7 @@ def test_device_simavr_inputs_from_the_command_line_and_stdin():
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
                             "--speed", "4", "--input", "A4=0", "--inputs-from-stdin"],
                            cwd=root, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)

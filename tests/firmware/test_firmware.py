@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import pytest
 
-from fas.serial.loopback import Loopback
+from fas.device.loopback import Loopback
 from fas.serial.protocol import D_ESTOP, D_WATCHDOG
 from stepperdemo.demo.app import StepperDemo
+from tests.fas.serial.helpers import LINES, NOISY, TPS, run_sim
 
-from .helpers import LINES, NOISY, TPS, need_firmware, run_firmware, run_sim
+from .rigs import need_firmware, run_firmware
 
 QUICK = {LINES[0], LINES[5], LINES[10]}  # in the default run; the rest with -m long
 
@@ -190,7 +191,7 @@ def test_device_simavr_serves_a_pty_for_port():
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
                             "--speed", "4"], cwd=root, stdout=subprocess.PIPE, text=True)
     try:
@@ -218,7 +219,7 @@ def test_step_edges_agree_with_the_python_device(line):
     its UART, replayed into the Python device.  The compare unit makes the rising
     edges on the same ticks (one cycle later in simavr); the falling edges come with
     the interrupt latency (the model's 61/73 ticks, the firmware's second compare)."""
-    from fas.serial.simavr import replay_on_python_device
+    from fas.device.simavr import replay_on_python_device
 
     fw = run_firmware(line)
     tr = fw.trace

@@ -6,8 +6,8 @@
 * :class:`SimavrDevice` is the firmware as a peer of a
   :class:`~fas.serial.clock.VirtualClock`: the harness runs in lockstep, the chip
   advancing only when the clock does, so runs are deterministic and as fast as the
-  computer allows.  It stands where :class:`~fas.serial.device.Device` stands in a
-  :class:`~fas.serial.loopback.Loopback`.
+  computer allows.  It stands where :class:`~fas.device.Device` stands in a
+  :class:`~fas.device.loopback.Loopback`.
 * :class:`SimavrServer` runs the harness in real time on a new pty (``stepperdemo
   device --simavr``).
 
@@ -36,8 +36,15 @@ import tempfile
 from array import array
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from .stream import ByteStream, LinkClosed
+from ..serial.clock import Wire
+from ..serial.stream import ByteStream, LinkClosed
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..serial.clock import VirtualClock
+    from ..sim.pins import EdgeRecorder
+    from .device import Device
 
 FIRMWARE_DIR_ENV = "STEPPERDEMO_FIRMWARE_DIR"
 BAUD_RATES = (115200, 1_000_000)
@@ -195,9 +202,9 @@ class Trace:
 
     def rising(self, pin: int) -> list[int]:
         times, levels = self.edges(pin)
-        return [t for t, lv in zip(times, levels) if lv]
+        return [t for t, lv in zip(times, levels, strict=True) if lv]
 
-    def recorder(self):
+    def recorder(self) -> EdgeRecorder:
         """The edges as a :class:`fas.sim.pins.EdgeRecorder` (ticks)."""
         from ..sim.pins import EdgeRecorder
 
@@ -235,7 +242,8 @@ def library_path() -> Path:
 class _Chip:
     """The harness library (libfassimavr.so) in this process: one chip at a time."""
 
-    _lib = None
+    _lib: ctypes.CDLL | None = None
+    _lib_path = ""  # the library _lib was loaded from
     _open = False
 
     def __init__(self, lib_path: Path, elf: Path, trace: Path, boot_count: int,
@@ -243,7 +251,7 @@ class _Chip:
         if _Chip._open:
             raise SimavrError("one simulated chip per process at a time")
         lib = _Chip._lib
-        if lib is None or lib._name != str(lib_path):
+        if lib is None or _Chip._lib_path != str(lib_path):
             lib = ctypes.CDLL(str(lib_path))
             u8p, u32p, u64p = (ctypes.POINTER(ctypes.c_uint8), ctypes.POINTER(ctypes.c_uint32),
                                ctypes.POINTER(ctypes.c_uint64))
@@ -256,6 +264,7 @@ class _Chip:
             lib.fs_info.argtypes = [u64p]
             lib.fs_mem.argtypes = [ctypes.c_uint16, ctypes.c_uint16, u8p, ctypes.c_int]
             _Chip._lib = lib
+            _Chip._lib_path = str(lib_path)
         self.lib = lib
         if lib.fs_open(str(elf).encode(), str(trace).encode(), b"atmega328p", CPU_HZ,
                        boot_count & 0xFFFF, int(world)) != 0:
@@ -285,7 +294,7 @@ class _Chip:
     def mem(self, addr: int, n: int, data: bytes | None = None) -> bytes:
         buf = (ctypes.c_uint8 * max(n, 1))()
         if data is not None:
-            buf[:n] = data
+            ctypes.memmove(buf, data, n)
         if self.lib.fs_mem(addr, n, buf, int(data is not None)) != 0:
             raise SimavrError(f"memory access {addr:#x}+{n} outside the chip's RAM")
         return bytes(buf[:n])
@@ -313,7 +322,7 @@ class SimavrDevice:
     does not mark the chip as simulated (a board: the firmware refuses SetInput).
     """
 
-    def __init__(self, stream: ByteStream | None = None, clock=None, *,
+    def __init__(self, stream: ByteStream | None = None, clock: VirtualClock | None = None, *,
                  elf: str | Path | None = None, baud: int = 115200,
                  trace: str | Path | None = None, boot_count: int | None = None,
                  world: bool = True) -> None:
@@ -339,7 +348,7 @@ class SimavrDevice:
         self._out = bytearray()  # bytes for the line ...
         self._partial = bytearray()  # ... and the start of a frame not yet complete
         self.stream: ByteStream | None = None
-        self.in_wires: list = []
+        self.in_wires: list[Wire] = []
         self.closed = False
         self.rx_log: list[tuple[int, bytes]] = []  # (cycle, bytes) the chip received
         self.attach(stream)
@@ -523,6 +532,7 @@ class SimavrServer:
         args.append(str(elf))
         self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      text=True, bufsize=1)
+        assert self.proc.stdout is not None
         first = self.proc.stdout.readline().strip()
         if not first.startswith("/"):
             self.proc.wait(timeout=10)
@@ -553,16 +563,17 @@ class SimavrServer:
 
 # ----------------------------------------------------------------------- replay
 def replay_on_python_device(rx_log: list[tuple[int, bytes]], timer1_start: int,
-                            cycles_per_byte: int, end_tick: int, arch: str = "atmega328p"):
+                            cycles_per_byte: int, end_tick: int,
+                            arch: str = "atmega328p") -> Device:
     """The bytes the firmware received, at the ticks they reached its UART, fed to the
-    Python device (:class:`fas.serial.device.Device`, recording its pins): the same
+    Python device (:class:`fas.device.Device`, recording its pins): the same
     session on both, so their step edges can be compared.
 
     simavr hands a received byte to the UART one character time after it was queued
     (11 bit times in simavr 1.6, which counts a parity bit), and one character after
     the byte before it; the Python device takes each byte at that tick.
     """
-    from .clock import VirtualClock
+    from ..serial.clock import VirtualClock
     from .device import Device
 
     dev = Device(None, arch, VirtualClock(), record=True)
@@ -574,7 +585,7 @@ def replay_on_python_device(rx_log: list[tuple[int, bytes]], timer1_start: int,
             tick = ready - timer1_start
             dev.advance(dev.ns_at(tick))
             for seq, payload in dev.decoder.feed(bytes((b,))):
-                dev._on_frame(seq, payload)
-            dev.out.clear()
+                dev.session.on_frame(seq, payload)
+            dev.board.out.clear()
     dev.advance(dev.ns_at(end_tick))
     return dev

@@ -17,8 +17,8 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 
-from .clock import RealClock
-from .stream import ByteStream, LinkClosed
+from ..serial.clock import Clock, RealClock
+from ..serial.stream import ByteStream, LinkClosed
 
 NS_PER_S = 1_000_000_000
 
@@ -131,7 +131,7 @@ class Relay:
     """Copies bytes host side <-> device side through two faulty lines."""
 
     def __init__(self, host_side: ByteStream, device_side: ByteStream, faults: Faults,
-                 clock=None) -> None:
+                 clock: Clock | None = None) -> None:
         self.host = host_side
         self.device = device_side
         self.faults = faults

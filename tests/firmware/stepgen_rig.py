@@ -11,8 +11,8 @@ from __future__ import annotations
 import struct
 from dataclasses import dataclass, field
 
+from fas.device import simavr
 from fas.queue import StepperQueue, i32
-from fas.serial import simavr
 from fas.sim import SimBackend
 from fas.sim.machine import PRIO_PLAIN
 from fas.sim.pins import EdgeRecorder

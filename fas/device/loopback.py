@@ -11,25 +11,28 @@ from __future__ import annotations
 
 import os
 import tempfile
-from typing import Self
+from typing import TYPE_CHECKING, Any, Self
 
-from .backend import SerialBackend
-from .clock import VirtualClock, Wire
+from ..serial.backend import SerialBackend
+from ..serial.clock import VirtualClock, Wire
+from ..serial.stream import ByteStream, Pty, open_serial, set_link
 from .device import Device
 from .relay import Faults, Relay
-from .stream import ByteStream, Pty, open_serial, set_link
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .simavr import SimavrDevice
 
 
 class Loopback:
     """``device="python"``: the simulated device (:class:`Device`); ``"simavr"``: the
-    firmware in simavr (:class:`~fas.serial.simavr.SimavrDevice`, ATmega328P only;
+    firmware in simavr (:class:`~fas.device.simavr.SimavrDevice`, ATmega328P only;
     ``firmware`` names its ELF, else it is built for the backend's baud rate)."""
 
     def __init__(self, arch: str = "atmega328p", *, faults: Faults | None = None,
                  watchdog_ms: int = 500, record: bool = False, connect: bool = True,
                  device: str = "python", firmware: str | None = None,
-                 trace: str | None = None, device_options: dict | None = None,
-                 **backend_options) -> None:
+                 trace: str | None = None, device_options: dict[str, Any] | None = None,
+                 **backend_options: Any) -> None:
         self.clock = VirtualClock()
         self._dir = tempfile.mkdtemp(prefix="fas-loopback-")
         self.port_path = os.path.join(self._dir, "device")
@@ -37,6 +40,7 @@ class Loopback:
         self.relay: Relay | None = None
         self._relay_pty: Pty | None = None
         self._device_pty = Pty("device")
+        self.device: Device | SimavrDevice
         if device == "simavr":
             from .simavr import SimavrDevice
 
@@ -78,7 +82,7 @@ class Loopback:
         self.clock.add_peer(self.relay)
         set_link(self.port_path, self._relay_pty.path)
 
-    def _host_wires(self) -> tuple[Wire, Wire]:
+    def _host_wires(self) -> tuple[Wire | None, Wire | None]:
         if self.relay is not None:
             return self.relay.host.rx_wire, self.relay.host.tx_wire
         s = self._device_pty.stream
@@ -90,7 +94,7 @@ class Loopback:
         stream.tx_wire, stream.rx_wire = self._host_wires()
         return stream
 
-    def open_backend(self, **options) -> SerialBackend:
+    def open_backend(self, **options: Any) -> SerialBackend:
         options.setdefault("watchdog_ms", self.device.default_watchdog_ms)
         return SerialBackend(self.port_path, clock=self.clock, opener=self.open_stream,
                              **options)
@@ -101,7 +105,8 @@ class Loopback:
         if self.relay is not None:
             raise RuntimeError("unplug is not modelled behind a relay")
         for w in (self._device_pty.stream.rx_wire, self._device_pty.stream.tx_wire):
-            w.drain()
+            if w is not None:
+                w.drain()
         self.device.unplug()
 
     def replug(self) -> None:
@@ -128,5 +133,5 @@ class Loopback:
     def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()

@@ -11,8 +11,10 @@ from __future__ import annotations
 import pytest
 
 from fas import Engine
+from fas.device.loopback import Loopback
+from fas.device.relay import Faults
+from fas.device.simavr import SimavrDevice, build
 from fas.gear import Gear, GearResult
-from fas.serial.loopback import Loopback
 from fas.serial.protocol import (
     F_INPUTS,
     F_SIM_INPUTS,
@@ -39,11 +41,8 @@ from fas.serial.protocol import (
     Started,
     WatchInput,
 )
-from fas.serial.relay import Faults
-from fas.serial.simavr import SimavrDevice, build
 
-from .helpers import need_firmware
-from .test_firmware_protocol import MS, Host
+from .rigs import MS, Host, need_firmware
 
 TPS = 16_000_000
 SWITCH, POT = 17, 14  # A3, A0
@@ -262,7 +261,7 @@ def test_the_library_follows_a_limit_stop_on_the_firmware(faults):
             steps = trace.rising(9 + index)
             assert steps[-1] < at + REACTION_TICKS
             assert position == len(steps) == engine.stepper(index).get_current_position()
-            assert 0 <= b.device_tick32(tick) - at < REACTION_TICKS
+            assert 0 <= b.sync.device_tick32(tick) - at < REACTION_TICKS
         # away from the switch
         s2.move(-100)
         assert b.wait_until(lambda: not s2.is_running(), TPS)

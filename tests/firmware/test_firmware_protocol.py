@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import pytest
 
+from fas.device.simavr import build
 from fas.serial.protocol import (
     D_ESTOP,
     P_CUT_REFUSED,
@@ -21,7 +22,6 @@ from fas.serial.protocol import (
     EmergencyStop,
     Entry,
     ForceStop,
-    FrameDecoder,
     Halt,
     Hello,
     Ident,
@@ -29,67 +29,18 @@ from fas.serial.protocol import (
     Progress,
     SetEndPos,
     Start,
-    Status,
-    StatusRequest,
     SyncReply,
     SyncRequest,
     Truncate,
-    decode_messages,
-    encode_frame,
 )
-from fas.serial.simavr import SimavrDevice, build
 
-from .helpers import need_firmware
-
-MS = 16_000  # cycles
-CHAR = 11 * 8 * 17  # simavr's character time at 115200 baud (11 bits of 136 cycles)
+from .rigs import Host, need_firmware
 
 
 @pytest.fixture(scope="module")
 def elf():
     need_firmware()
     return build(115200).elf
-
-
-class Host:
-    """Just enough of a host: frames into the chip's UART, its frames decoded."""
-
-    def __init__(self, elf, trace) -> None:
-        self.dev = SimavrDevice(elf=elf, trace=trace)
-        self.dev.run_to_cycle(20 * MS)  # boot
-        self.decoder = FrameDecoder()
-
-    def send(self, seq: int, *msgs, payload: bytes | None = None, ms: float = 15) -> list:
-        """One frame; then the chip runs for its line time and ``ms`` (its answers take
-        their line time too: 40 bytes are 3.7 ms at 115200 baud); what it sent."""
-        if payload is None:
-            payload = b"".join(m.encode() for m in msgs)
-        frame = encode_frame(seq, payload)
-        self.frame_end = self.dev.cycle + len(frame) * CHAR  # its last byte in the UART
-        out = self.dev.run_to_cycle(self.dev.cycle, frame)
-        out += self.dev.run_to_cycle(self.dev.cycle + len(frame) * CHAR + int(ms * MS))
-        return self._decode(out)
-
-    def run(self, ms: float) -> list:
-        return self._decode(self.dev.run_to_cycle(self.dev.cycle + int(ms * MS)))
-
-    def _decode(self, data: bytes) -> list:
-        """(acknowledgement, message) of every message; (ack, None) for a bare frame."""
-        got = []
-        for seq, payload in self.decoder.feed(data):
-            got += [(seq, m) for m in decode_messages(payload)] or [(seq, None)]
-        return got
-
-    def status(self) -> tuple[DeviceStatus, dict[int, Status]]:
-        got = self.send(UNSEQUENCED, StatusRequest(), ms=10)
-        device = [m for _, m in got if isinstance(m, DeviceStatus)][-1]
-        return device, {m.stepper: m for _, m in got if isinstance(m, Status)}
-
-    def counters(self) -> dict[str, int]:
-        return self.status()[0].counters()
-
-    def pulses(self, pin: int = 9) -> int:
-        return self.dev.pins()[pin].rising
 
 
 @pytest.fixture

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from .helpers import need_firmware
+from .rigs import need_firmware
 from .stepgen_rig import (
     DETACH,
     HALT,

@@ -1,0 +1,67 @@
+"""User outputs of the device (``firmware/outputs.c``, docs/serial-protocol.md section 16).
+
+PWM timers, output changes made at once or - synchronized - once every queue has run
+dry, and the cancel of those not made yet.  The chip's PWM units and its rule for
+synchronized changes are the simulated machine's (:class:`fas.sim.SimBackend`).
+"""
+
+from __future__ import annotations
+
+from ..arch import Profile
+from ..output_figures import PwmTimer, output_figures
+from ..outputs import OutputChange
+from ..pwm import PwmSetting
+from ..serial.protocol import Message, OutputCancel, OutputPwm, OutputSet
+from .board import Board
+from .queues import Handler
+
+
+def pwm_timer_for(profile: Profile, number: int, pin: int) -> PwmTimer | None:
+    """The timer that makes analog output ``number`` on ``pin`` on this chip."""
+    figures = output_figures(profile)
+    unit = figures.pwm_pin(pin)
+    if unit is not None:
+        return figures.pwm_timer(unit.timer)
+    if figures.pwm_any_pin and 0 <= number < len(figures.user_analog):
+        return figures.pwm_timer(figures.user_analog[number].timer)
+    return None
+
+
+class DeviceOutputs:
+    """The user outputs: OutputPwm, OutputSet, OutputCancel."""
+
+    def __init__(self, board: Board) -> None:
+        self.board = board
+
+    def handlers(self) -> dict[type[Message], Handler]:
+        return {OutputPwm: self.message, OutputSet: self.message, OutputCancel: self.message}
+
+    def cancel(self) -> None:
+        """Drop the synchronized changes not made yet; outputs stay as they are."""
+        self.board.sim.cancel_sync_outputs()
+
+    def message(self, m: Message) -> None:
+        """PWM timers, output changes at once or after every queue ran dry, cancel."""
+        board = self.board
+        sim = board.sim
+        if isinstance(m, OutputCancel):
+            sim.cancel_sync_outputs()
+            return
+        if isinstance(m, OutputPwm):
+            timer = pwm_timer_for(board.profile, m.number, m.pin)
+            if timer is None or m.counts < 2 or m.clock_div < 1:
+                board.reject()
+                return
+            setting = PwmSetting(timer.name, timer.clock_hz, timer.divider_frac_bits,
+                                 m.clock_div, m.counts, 0.0)
+            sim.configure_pwm(m.number, m.pin, setting, min(m.count, m.counts))
+            return
+        assert isinstance(m, OutputSet)
+        change = OutputChange(m.analog, m.number, m.pin, m.value if m.analog else
+                              (1 if m.value else 0))
+        if m.synchronized and not board.locked:
+            sim.sync_output(change)
+        elif m.synchronized:
+            board.reject()
+        else:
+            sim.set_output(change)
