@@ -150,9 +150,9 @@ class Gear:
         f = self.follower
         if f.is_running():
             return GearResult.ERR_FOLLOWER_BUSY
-        if f._auto_enable:
+        if f.get_auto_enable():
             return GearResult.ERR_AUTO_ENABLE
-        if f._dir_change_delay_ticks:
+        if f.get_dir_change_delay_ticks():
             return GearResult.ERR_DIR_DELAY
         if f.queue.channel.earliest_start_tick() is None:
             return GearResult.ERR_NO_TIMING
@@ -162,7 +162,7 @@ class Gear:
         # commands derived from its plan still reach the step timer in time
         lead = max(0, f.queue.channel.earliest_start_tick() - self.engine.backend.now())
         p = self.engine.profile
-        self._leader_planning = self.leader._forward_planning_in_ticks
+        self._leader_planning = self.leader.get_forward_planning_ticks()
         if lead > p.ticks_per_ms:
             base_ms = self._leader_planning // p.ticks_per_ms
             self.leader.set_forward_planning_time_in_ms(min(255, base_ms + LINK_PLANNING_MS))
@@ -196,7 +196,7 @@ class Gear:
     def disengage(self) -> None:
         """Stop deriving follower steps; the steps already queued still run."""
         if self.engaged and self._leader_planning is not None:
-            self.leader._forward_planning_in_ticks = self._leader_planning
+            self.leader.set_forward_planning_ticks(self._leader_planning)
         self.leader.queue.channel.hold_cuts(False)
         self.engaged = False
         self.engine.remove_task_hook(self)
