@@ -1,4 +1,5 @@
-"""The contract between a queue and what executes it: :class:`QueueChannel`.
+"""The contract between a queue and what executes it: :class:`QueueChannel`, and the
+entries they share (:class:`QueueEntry`).
 
 A backend executes each :class:`~fas.queue.StepperQueue` through one channel (the
 simulated timer-compare unit, a device behind a serial link, QuickStep's timer, a
@@ -27,10 +28,27 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:  # pragma: no cover
-    from .queue import QueueEntry
+
+class QueueEntry:
+    """One command of a queue as its channel executes it (the library writes it, see
+    :class:`fas.queue.StepperQueue`; the channel counts its ``steps`` down)."""
+
+    __slots__ = ("steps", "ticks", "count_up", "toggle_dir", "dir_level", "end_pos",
+                 "total_steps")
+
+    def __init__(self) -> None:
+        self.steps = 0  # steps still to be made; counted down by the channel
+        self.total_steps = 0
+        self.ticks = 0
+        self.count_up = True
+        self.toggle_dir = False
+        self.dir_level = True
+        self.end_pos = 0
+
+    def __repr__(self) -> str:  # pragma: no cover - debugging aid
+        return (f"QueueEntry(steps={self.steps}/{self.total_steps}, ticks={self.ticks}, "
+                f"up={self.count_up}, toggle={self.toggle_dir}, end={self.end_pos})")
 
 
 class PulseCounter:

@@ -19,8 +19,8 @@ T = TypeVar("T")
 
 
 class TaskHook(Protocol):
-    """Work that runs in the periodic ramp task right after the steppers' own planning
-    (:mod:`fas.gear` derives a follower's commands from its leader's there)."""
+    """Work that runs in the periodic ramp task right after the steppers' planners have
+    filled their queues (the winder's traverse writes its stepper's queue there)."""
 
     def run_task(self) -> None:
         """One run of the ramp task."""

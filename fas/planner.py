@@ -108,9 +108,9 @@ class Planner(ABC):
         self.host = host
 
     # ------------------------------------------------------------ hand-over
-    def attach(self) -> None:
-        """The planner has become its stepper's; its queue has taken over position
-        and direction from the planner before."""
+    def attach(self, previous: Planner | None) -> None:
+        """The planner has become its stepper's instead of ``previous`` (None: the
+        stepper's first); its queue has taken over position and direction."""
 
     def detach(self) -> None:
         """Another planner takes over (this one is at rest)."""

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from . import gear
 from .planner import Planner, PlannerHost
 from .quickstep import setup as quickstep
 from .ramp import planner as ramp
@@ -27,6 +28,7 @@ Factory = Callable[..., tuple[int, Planner | None]]
 
 PLANNER_FAS = "ramp"  # FastAccelStepper's ramp generator (every stepper starts with it)
 PLANNER_QUICKSTEP = "quickstep"  # QuickStep's plateau orders (fas.quickstep)
+PLANNER_GEAR = gear.PLANNER_GEAR  # a follower of another stepper at n:m (fas.gear)
 
 _FACTORIES: dict[str, Factory] = {}
 
@@ -37,7 +39,7 @@ def register(name: str, factory: Factory) -> None:
 
 
 def unregister(name: str) -> None:
-    if name in (PLANNER_FAS,):
+    if name in (PLANNER_FAS, PLANNER_QUICKSTEP, PLANNER_GEAR):
         raise ValueError(f"the planner {name!r} cannot be removed")
     _FACTORIES.pop(name, None)
 
@@ -57,6 +59,7 @@ def names() -> list[str]:
 
 register(PLANNER_FAS, ramp.make)
 register(PLANNER_QUICKSTEP, quickstep.make)
+register(PLANNER_GEAR, gear.make_follower)
 
-__all__ = ["PLANNER_FAS", "PLANNER_QUICKSTEP", "Factory", "PlannerHost", "lookup", "names",
-           "register", "unregister"]
+__all__ = ["PLANNER_FAS", "PLANNER_GEAR", "PLANNER_QUICKSTEP", "Factory", "PlannerHost",
+           "lookup", "names", "register", "unregister"]

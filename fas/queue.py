@@ -13,11 +13,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Protocol
 
+from .channel import QueueChannel, QueueEntry
 from .codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED, AqeResult
 
 if TYPE_CHECKING:  # pragma: no cover
     from .arch import Profile
-    from .channel import QueueChannel
+
+__all__ = ["AQE_OK", "QueueEntry", "QueueHost", "StepperQueue", "i32"]
 
 
 class QueueHost(Protocol):
@@ -38,24 +40,6 @@ AQE_OK = AqeResult.OK
 def i32(v: int) -> int:
     v &= 0xFFFFFFFF
     return v - 0x100000000 if v & 0x80000000 else v
-
-
-class QueueEntry:
-    __slots__ = ("steps", "ticks", "count_up", "toggle_dir", "dir_level", "end_pos",
-                 "total_steps")
-
-    def __init__(self) -> None:
-        self.steps = 0  # steps still to be made; counted down by the channel
-        self.total_steps = 0
-        self.ticks = 0
-        self.count_up = True
-        self.toggle_dir = False
-        self.dir_level = True
-        self.end_pos = 0
-
-    def __repr__(self) -> str:  # pragma: no cover - debugging aid
-        return (f"QueueEntry(steps={self.steps}/{self.total_steps}, ticks={self.ticks}, "
-                f"up={self.count_up}, toggle={self.toggle_dir}, end={self.end_pos})")
 
 
 class StepperQueue:

@@ -1,9 +1,13 @@
 """One stepper: the public API of FastAccelStepper in snake_case.
 
-Movement goes through the ramp generator (``move``, ``move_to``, ``run_forward`` …)
-or straight into the command queue (``add_queue_entry``).  This class also does what
-sits between the two: auto enable with its delays, the pause before the first step
-after a direction change, shared direction pins, external (callback) pins.
+A stepper keeps its pins, the driver's enable handling (:mod:`fas.drive`), its
+position and the API.  Motion - ``move``, ``move_to``, ``run_forward``, stops, and
+filling the queue in the periodic task - comes from its *planner* (:mod:`fas.planner`:
+FastAccelStepper's ramp by default, QuickStep, or any planner registered in
+:mod:`fas.planners`), which it calls without knowing which one it is.  Raw commands
+go straight into the command queue (``add_queue_entry``, ``move_timed``), past the
+planner, with what the driver needs around them (auto enable with its delays, the
+pause before the first step after a direction change, external direction pins).
 """
 
 from __future__ import annotations
@@ -14,10 +18,7 @@ from typing import TYPE_CHECKING
 from . import planners
 from .channel import PulseCounter
 from .codes import (
-    HIGH,
-    LOW,
     PIN_EXTERNAL_FLAG,
-    PIN_I2S_FLAG,
     PIN_UNDEFINED,
     TICKS_FOR_STOPPED_MOTOR,
     AqeResult,
@@ -25,11 +26,12 @@ from .codes import (
     FasDriver,
     MoveResult,
 )
+from .drive import Drive
 from .errors import UnsupportedError
 from .motion import MotionSettings, div_for_hz, div_for_milli_hz
 from .planner import Planner, PlannerHost
 from .planners import PLANNER_FAS, PLANNER_QUICKSTEP
-from .queue import AQE_OK, StepperQueue, i32
+from .queue import StepperQueue, i32
 from .timed import TimedMove, move_timed
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -50,29 +52,20 @@ class Stepper:
         self._profile = profile
         self._commands = queue  # the command queue (FastAccelStepper's)
         self._queue = queue  # the queue of the planner in use
-        self._pool = pool
         self._step_pin = queue.step_pin
-        self._dir_pin = PIN_UNDEFINED
-        self._dir_high_counts_up = True
-        self._dir_change_delay_ticks = 0
-        self._enable_pin_low_active = PIN_UNDEFINED
-        self._enable_pin_high_active = PIN_UNDEFINED
-        self._auto_enable = False
-        self._on_delay_ticks = 0
-        self._off_delay_count = 1
-        self._auto_disable_delay_counter = 0
+        # direction and enable inputs of the driver, and writing a command (fas.drive)
+        self._drive = drive = Drive(engine, pool, queue, lambda: self._queue, self.is_running)
         self._forward_planning_in_ticks = profile.ticks_per_s // 50
-        self._pending_external_dir: int | None = None
         self._pulse_counter: PulseCounter | None = None
         self._settings = MotionSettings()
         backend = engine.backend
         self._host = PlannerHost(
             index=queue.index, profile=profile, backend=backend, settings=self._settings,
-            queue=queue, write=self._add_queue_entry, wake=engine.kick,
+            queue=queue, write=drive.write, wake=engine.kick,
             wait_until=lambda predicate: backend.wait_until(predicate, 0),
             has_direction_pin=self.has_direction_pin,
             forward_planning_ticks=self.get_forward_planning_ticks,
-            start_delay=self._start_delay, command_written=self._command_written,
+            start_delay=drive.start_delay, command_written=drive.command_written,
             report_abort=lambda res, cmd: engine.report_ramp_abort(self, res, cmd),
             allocator=engine.allocator, shared=engine.shared)
         # planners made for this stepper, by name (one given up is kept: selected again,
@@ -84,7 +77,7 @@ class Stepper:
         assert planner is not None
         self._planner: Planner = planner
         self._planners[PLANNER_FAS] = planner
-        planner.attach()
+        planner.attach(None)
 
     # ----------------------------------------------------------------- pins
     @property
@@ -100,160 +93,76 @@ class Stepper:
 
     def set_direction_pin(self, dir_pin: int, dir_high_counts_up: bool = True,
                           dir_change_delay_us: int = 0) -> None:
-        if (dir_pin != PIN_UNDEFINED and dir_pin & PIN_EXTERNAL_FLAG
-                and not self._profile.external_dir_pin):
-            raise UnsupportedError("an external direction pin (PIN_EXTERNAL_FLAG)",
-                                   self._profile.name, "on ESP32 and AVR except ATmega32U4")
-        self._dir_pin = dir_pin
-        self._dir_high_counts_up = bool(dir_high_counts_up)
-        if dir_pin != PIN_UNDEFINED:
-            level = HIGH if dir_high_counts_up else LOW
-            if dir_pin & PIN_EXTERNAL_FLAG:
-                self._engine.call_external_pin(dir_pin, level)
-            else:
-                if (self._profile.has_i2s and dir_pin & PIN_I2S_FLAG
-                        and self.driver_kind() == FasDriver.I2S_MUX):
-                    self._engine.claim_mux_slot(dir_pin & 0x1F)
-                self._engine.write_output(dir_pin, level)
-        self._queue.dir_pin = dir_pin
-        self._queue.dir_high_counts_up = bool(dir_high_counts_up)
-        p = self._profile
-        if dir_change_delay_us != 0:
-            us = min(max(dir_change_delay_us, p.min_dir_delay_us), p.max_dir_delay_us)
-            self._dir_change_delay_ticks = p.us_to_ticks(us)
-        else:
-            self._dir_change_delay_ticks = 0
+        self._drive.set_direction_pin(dir_pin, dir_high_counts_up, dir_change_delay_us)
 
     def get_direction_pin(self) -> int:
-        return self._dir_pin
+        return self._drive.dir_pin
 
     def direction_pin_high_counts_up(self) -> bool:
-        return self._dir_high_counts_up
+        return self._drive.dir_high_counts_up
+
+    def get_dir_change_delay_ticks(self) -> int:
+        """The direction-change delay of :meth:`set_direction_pin` (0: none)."""
+        return self._drive.dir_change_delay_ticks
+
+    def has_direction_pin(self) -> bool:
+        return self._drive.dir_pin != PIN_UNDEFINED
 
     def set_enable_pin(self, enable_pin: int, low_active_enables_stepper: bool = True) -> None:
-        if low_active_enables_stepper:
-            self._enable_pin_low_active = enable_pin
-            if enable_pin != PIN_UNDEFINED:
-                if enable_pin & PIN_EXTERNAL_FLAG:
-                    self._engine.call_external_pin(enable_pin, HIGH)
-                else:
-                    self._engine.write_output(enable_pin, HIGH)
-                    if self._enable_pin_high_active == enable_pin:
-                        self._enable_pin_high_active = PIN_UNDEFINED
-        else:
-            self._enable_pin_high_active = enable_pin
-            if enable_pin != PIN_UNDEFINED:
-                if enable_pin & PIN_EXTERNAL_FLAG:
-                    self._engine.call_external_pin(enable_pin, LOW)
-                else:
-                    self._engine.write_output(enable_pin, LOW)
-                    if self._enable_pin_low_active == enable_pin:
-                        self._enable_pin_low_active = PIN_UNDEFINED
+        self._drive.set_enable_pin(enable_pin, low_active_enables_stepper)
 
     def get_enable_pin_high_active(self) -> int:
-        return self._enable_pin_high_active
+        return self._drive.enable_pin_high_active
 
     def get_enable_pin_low_active(self) -> int:
-        return self._enable_pin_low_active
+        return self._drive.enable_pin_low_active
 
     def set_auto_enable(self, auto_enable: bool) -> None:
-        was = self._auto_enable
-        self._auto_enable = bool(auto_enable)
-        if auto_enable and self._off_delay_count == 0:
-            self._off_delay_count = 1
-        if auto_enable and not was and self._queue.has_steps_in_queue():
-            # steps queued before are still to come: auto enable means the driver is on
-            # for them (upstream waits for the next queued command to switch it on)
-            if self.enable_outputs():
-                self._auto_disable_delay_counter = self._off_delay_count
-                self._engine.kick()
+        self._drive.set_auto_enable(auto_enable)
 
     def get_auto_enable(self) -> bool:
         """Is auto enable on (not in upstream's API; a front end that switches the
         drivers itself for a while restores it afterwards)."""
-        return self._auto_enable
+        return self._drive.auto_enable
 
     def set_delay_to_enable(self, delay_us: int) -> DelayResult:
-        delay_ticks = self._profile.us_to_ticks(delay_us & 0xFFFFFFFF)
-        if 0 < delay_ticks < self._profile.min_cmd_ticks:
-            return DelayResult.TOO_LOW
-        if delay_ticks > self._profile.max_on_delay_ticks:
-            return DelayResult.TOO_HIGH
-        self._on_delay_ticks = delay_ticks
-        return DelayResult.OK
+        return self._drive.set_delay_to_enable(delay_us)
 
     def get_delay_to_enable_ticks(self) -> int:
         """The enable delay set with :meth:`set_delay_to_enable` (not in upstream's API:
         a front end that enables drivers itself waits this long before a step)."""
-        return self._on_delay_ticks
-
-    def get_dir_change_delay_ticks(self) -> int:
-        """The direction-change delay of :meth:`set_direction_pin` (0: none)."""
-        return self._dir_change_delay_ticks
+        return self._drive.on_delay_ticks
 
     def set_delay_to_disable(self, delay_ms: int) -> None:
-        delay_ms &= 0xFFFF
-        delay_count = delay_ms // self._profile.delay_ms_base
-        if delay_ms > 0 and delay_count < 2:
-            delay_count = 2
-        self._off_delay_count = max(delay_count, 1)
-
-    def _set_enable_pin_state(self, pin: int, level: int) -> bool:
-        if pin == PIN_UNDEFINED:
-            return True
-        if pin & PIN_EXTERNAL_FLAG:
-            return self._engine.call_external_pin(pin, level) == level
-        self._engine.write_output(pin, level)
-        return True
+        self._drive.set_delay_to_disable(delay_ms)
 
     def enable_outputs(self) -> bool:
-        a = self._set_enable_pin_state(self._enable_pin_low_active, LOW)
-        b = self._set_enable_pin_state(self._enable_pin_high_active, HIGH)
-        return a and b
+        return self._drive.enable_outputs()
 
     def disable_outputs(self) -> bool:
-        if self.is_running() and self._auto_enable:
-            return False
-        a = self._set_enable_pin_state(self._enable_pin_low_active, HIGH)
-        b = self._set_enable_pin_state(self._enable_pin_high_active, LOW)
-        disabled = a and b
-        if disabled:
-            self._auto_disable_delay_counter = 0
-        return disabled
+        return self._drive.disable_outputs()
 
     def outputs_enabled(self) -> bool | None:
         """Level of the driver's enable input(s) as seen on the pins (None: no pin)."""
-        pins = []
-        backend = self._engine.backend
-        if self._enable_pin_low_active != PIN_UNDEFINED and not (
-                self._enable_pin_low_active & PIN_EXTERNAL_FLAG):
-            pins.append(backend.read_pin(self._enable_pin_low_active) == LOW)
-        if self._enable_pin_high_active != PIN_UNDEFINED and not (
-                self._enable_pin_high_active & PIN_EXTERNAL_FLAG):
-            pins.append(backend.read_pin(self._enable_pin_high_active) == HIGH)
-        if not pins:
-            return None
-        return all(pins)
+        return self._drive.outputs_enabled()
 
     # ------------------------------------------------------------- auto disable
     # (the engine's periodic task asks these of every stepper)
     def count_down_auto_disable(self) -> None:
-        if self._auto_disable_delay_counter > 1 and not self.is_running():
-            self._auto_disable_delay_counter -= 1
+        self._drive.count_down_auto_disable()
 
     def agrees_to_auto_disable(self) -> bool:
-        return not self.is_running() and self._auto_disable_delay_counter <= 1
+        return self._drive.agrees_to_auto_disable()
 
     def auto_disable_due(self) -> bool:
-        return self._auto_disable_delay_counter == 1 and not self.is_running()
+        return self._drive.auto_disable_due()
 
     def uses_enable_pin(self, pin: int) -> bool:
-        return pin != PIN_UNDEFINED and pin in (self._enable_pin_high_active,
-                                                self._enable_pin_low_active)
+        return self._drive.uses_enable_pin(pin)
 
     def needs_task(self) -> bool:
         """The next runs of the periodic task must not be skipped for this stepper."""
-        if self._auto_disable_delay_counter > 0 or self._planner.needs_task():
+        if self._drive.auto_disable_delay_counter > 0 or self._planner.needs_task():
             return True
         for planner in self._idle:
             if planner.wants_task_at_rest():
@@ -484,7 +393,7 @@ class Stepper:
             res = self.run_forward()
         elif acceleration < 0:
             self.set_acceleration(-acceleration)
-            if allow_reverse and self._dir_pin != PIN_UNDEFINED:
+            if allow_reverse and self._drive.dir_pin != PIN_UNDEFINED:
                 res = self.run_backward()
             else:
                 self.apply_speed_acceleration()
@@ -514,7 +423,7 @@ class Stepper:
             return
         if self.is_running():
             return
-        if count_up or self._dir_pin != PIN_UNDEFINED:
+        if count_up or self._drive.dir_pin != PIN_UNDEFINED:
             self._planner.single_step(count_up)
             self._block(blocking)
 
@@ -529,93 +438,7 @@ class Stepper:
             return AqeResult.QUEUE_FULL
         if self._queue is not self._commands:
             return AqeResult.QUEUE_FULL  # the planner in use runs a queue of its own
-        return self._add_queue_entry(ticks, steps, count_up, start)
-
-    def _add_queue_entry(self, ticks: int | None, steps: int = 0, count_up: bool = True,
-                         start: bool = True) -> AqeResult:
-        """Write one command into the command queue, after what auto enable and a
-        direction change need (lent to the planner: ``PlannerHost.write``)."""
-        q = self._commands
-        if ticks is None:
-            return q.add_queue_entry(None, start=start)
-        if not (0 <= steps <= 255) or not (0 <= ticks <= 65535):
-            return AqeResult.ERROR_TICKS_TOO_LOW
-        if ticks < q.max_speed_in_ticks:
-            return AqeResult.ERROR_TICKS_TOO_LOW
-        if self._dir_pin != PIN_UNDEFINED:
-            if not q.is_running() and self._engine.is_dir_pin_busy(self._dir_pin, q.index):
-                return AqeResult.DIR_PIN_IS_BUSY
-        elif not count_up:
-            return AqeResult.ERROR_NO_DIR_PIN_TO_TOGGLE
-
-        res = AQE_OK
-        if self._auto_enable and self._auto_disable_delay_counter == 0:
-            if not self.enable_outputs():
-                return AqeResult.WAIT_FOR_ENABLE_PIN_ACTIVE
-            if self._on_delay_ticks > 0:
-                delay = self._on_delay_ticks
-                if delay < self._dir_change_delay_ticks and q.queue_end_count_up != count_up:
-                    delay = self._dir_change_delay_ticks
-                while delay > 0:
-                    half = delay >> 1
-                    if half > 65535:
-                        chunk = 65535
-                    elif half < 32768:
-                        chunk = delay & 0xFFFF
-                    else:
-                        chunk = half
-                    q.add_queue_entry(chunk, 0, count_up, start=False)
-                    delay -= chunk
-                res = q.add_queue_entry(None, start=start)
-                if res != AQE_OK:
-                    return res
-
-        dir_change_needed = self._dir_pin != PIN_UNDEFINED and q.queue_end_count_up != count_up
-        if self._dir_pin != PIN_UNDEFINED and self._dir_pin & PIN_EXTERNAL_FLAG:
-            if dir_change_needed and not self._handle_external_direction_pin(count_up):
-                res = q.add_queue_entry(self._profile.us_to_ticks(2000), 0, count_up,
-                                        start=start)
-                return AqeResult.DIR_PIN_2MS_PAUSE_ADDED if res == AQE_OK else res
-        elif dir_change_needed and steps != 0:
-            pool = self._pool
-            before_delay = pool.before_dir_change_ticks if pool is not None else 0
-            after_delay = self._dir_change_delay_ticks
-            if pool is not None:
-                after_delay = max(after_delay, pool.after_dir_change_ticks)
-            if q.last_command_ticks >= before_delay:
-                before_delay = 0  # the last command already lasts long enough
-            needed = 1 + (before_delay > 0) + (after_delay > 0)
-            if q.queue_entries() >= q.queue_len - needed:
-                return AqeResult.DIR_PIN_IS_BUSY
-            for delay in (before_delay, after_delay):
-                if delay > 0:
-                    res = q.add_queue_entry(max(delay, self._profile.min_cmd_ticks), 0,
-                                            count_up, start=start)
-                    if res != AQE_OK:
-                        return res
-
-        res = q.add_queue_entry(ticks, steps, count_up, start=start)
-        if res == AQE_OK and self._auto_enable:
-            self._auto_disable_delay_counter = self._off_delay_count
-        self._engine.kick()
-        return res
-
-    def _handle_external_direction_pin(self, count_up: bool) -> bool:
-        engine = self._engine
-        if self._pending_external_dir is not None:
-            desired = self._pending_external_dir
-            if engine.call_external_pin(self._dir_pin, desired) == desired:
-                self._pending_external_dir = None
-            if self._pending_external_dir is not None:
-                return False
-        if self._commands.queue_end_count_up != count_up:
-            if self._commands.has_steps_in_queue():
-                return False
-            desired = HIGH if count_up == self._dir_high_counts_up else LOW
-            if engine.call_external_pin(self._dir_pin, desired) != desired:
-                self._pending_external_dir = desired
-                return False
-        return True
+        return self._drive.write(ticks, steps, count_up, start)
 
     def is_queue_empty(self) -> bool:
         return self._queue.is_queue_empty()
@@ -652,13 +475,15 @@ class Stepper:
     # ------------------------------------------------------- driver type (ESP32)
     def driver_kind(self) -> int | None:
         """The step generator's FasDriver value (None where the chip has no pools)."""
-        return None if self._pool is None else FasDriver(self._pool.driver)
+        pool = self._drive.pool
+        return None if pool is None else FasDriver(pool.driver)
 
     def driver_type(self) -> FasDriver:
         if not self._profile.driver_select:
             raise UnsupportedError("driver_type()", self._profile.name,
                                    "on ESP32 builds with two or more driver types")
-        return FasDriver(self._pool.driver) if self._pool is not None else FasDriver.DONT_CARE
+        kind = self.driver_kind()
+        return FasDriver.DONT_CARE if kind is None else FasDriver(kind)
 
     def driver_type_string(self) -> str:
         if not self._profile.driver_select:
@@ -687,15 +512,15 @@ class Stepper:
         if not self._engine.claim_pulse_counter(pcnt_unit, self):
             return False
         readback = None
-        dir_pin = dir_pin_readback if dir_pin_readback != PIN_UNDEFINED else self._dir_pin
+        dir_pin = dir_pin_readback if dir_pin_readback != PIN_UNDEFINED else self._drive.dir_pin
         if dir_pin == PIN_UNDEFINED or dir_pin & PIN_EXTERNAL_FLAG:
             follow = False
         else:
             follow = True
-            if dir_pin != self._dir_pin:
+            if dir_pin != self._drive.dir_pin:
                 backend = self._engine.backend
                 readback = lambda: backend.read_pin(dir_pin)  # noqa: E731
-        counter = PulseCounter(low_value, high_value, self._dir_high_counts_up,
+        counter = PulseCounter(low_value, high_value, self._drive.dir_high_counts_up,
                                follow_direction=follow, readback=readback)
         if not self._engine.backend.attach_pulse_counter(self._queue, counter):
             return False
@@ -727,7 +552,7 @@ class Stepper:
         """The registry name of the planner in use (:mod:`fas.planners`)."""
         return self._planner_name
 
-    def set_planner(self, name: str, *options: int | None) -> int:
+    def set_planner(self, name: str, *options: object) -> int:
         """Choose the planner registered as ``name`` (:mod:`fas.planners`), with the
         options its factory takes (QuickStep: FIFO depth, plateaus; None keeps the
         current or default figure).  Returns 0 (OK) or the factory's reason for
@@ -741,41 +566,24 @@ class Stepper:
         return res
 
     def use_planner(self, planner: Planner, name: str = "") -> Planner:
-        """Make ``planner`` this stepper's and return the one it replaces (which must be
-        at rest).  The new planner's queue takes over position and direction."""
+        """Make ``planner`` this stepper's and return the one it replaces (which has no
+        motion left to plan).  The new planner's queue takes over position and
+        direction (:meth:`fas.queue.StepperQueue.take_over`)."""
         old = self._planner
         if planner is old:
             return old
         planner.queue.take_over(old.queue)
         old.detach()
         self._planner = planner
-        self._planner_name = name or type(planner).__name__
+        self._planner_name = name or next(
+            (n for n, p in self._planners.items() if p is planner), type(planner).__name__)
         self._queue = planner.queue
         self._idle = [p for p in self._planners.values() if p is not planner]
         if old not in self._idle:
             self._idle.append(old)
-        planner.attach()
+        planner.attach(old)
         self._engine.planners_changed()
         return old
-
-    def has_direction_pin(self) -> bool:
-        return self._dir_pin != PIN_UNDEFINED
-
-    def _start_delay(self) -> int:
-        """Before a planner writes its own queue, idle: auto enable switches the driver
-        on; returns the delay (ticks) the first step must wait for it."""
-        q = self._queue
-        if q.is_running() or not q.is_queue_empty():
-            return 0
-        if self._auto_enable and self._auto_disable_delay_counter == 0:
-            self.enable_outputs()
-            return self._on_delay_ticks
-        return 0
-
-    def _command_written(self) -> None:
-        if self._auto_enable:
-            self._auto_disable_delay_counter = self._off_delay_count
-        self._engine.kick()
 
     def fill_queue(self) -> int:
         """One run of the periodic task for this stepper: the planner fills its queue;

@@ -101,7 +101,7 @@ class QuickStepPlanner(Planner):
     def acceleration(self) -> int:
         return self.host.settings.acceleration
 
-    def attach(self) -> None:
+    def attach(self, previous: Planner | None) -> None:
         self.clock.add(self)
 
     def detach(self) -> None:

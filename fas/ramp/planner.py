@@ -41,8 +41,9 @@ class RampPlanner(Planner):
         self._snapshots: list[Snapshot | None] | None = (
             [None] * 256 if self.queue.channel.supports_cut else None)
 
-    def attach(self) -> None:
-        self.rg.set_target_position(self.queue.queue_end_pos)
+    def attach(self, previous: Planner | None) -> None:
+        if previous is None or previous.queue is not self.queue:  # a queue of its own
+            self.rg.set_target_position(self.queue.queue_end_pos)
 
     # ------------------------------------------------------------- requests
     def check_move(self, delta: int) -> MoveResult:
@@ -262,9 +263,11 @@ class RampPlanner(Planner):
 def make(host: PlannerHost, current: Planner | None,
          kept: Planner | None) -> tuple[PlannerChange, Planner | None]:
     """The ramp for a stepper: the one it had before (its state goes on), else a new
-    one.  Refused while another planner's motion runs."""
+    one.  Refused while the planner in use has motion to plan, or runs a queue of its
+    own (the command queue may run on: its position goes on under the ramp)."""
     if current is not None and current is kept:
         return PlannerChange.OK, None
-    if current is not None and current.is_running():
+    if current is not None and (current.is_active() or (current.queue is not host.queue
+                                                        and current.is_running())):
         return PlannerChange.RUNNING, None
     return PlannerChange.OK, kept if kept is not None else RampPlanner(host)
