@@ -52,20 +52,20 @@ class PlannerHost:
 
     __slots__ = ("index", "profile", "backend", "settings", "queue", "write", "wake",
                  "wait_until", "has_direction_pin", "forward_planning_ticks",
-                 "start_delay", "command_written", "report_abort", "allocator", "shared")
+                 "start_delay", "command_written", "report_abort", "allocator", "_shared")
 
     def __init__(self, *, index: int, profile: Profile, backend: Backend,
                  settings: MotionSettings, queue: StepperQueue,
                  write: Callable[[int | None, int, bool, bool], AqeResult],
                  wake: Callable[[], None],
-                 wait_until: Callable[[Callable[[], bool]], None],
+                 wait_until: Callable[[Callable[[], bool]], object],
                  has_direction_pin: Callable[[], bool],
                  forward_planning_ticks: Callable[[], int],
                  start_delay: Callable[[], int],
                  command_written: Callable[[], None],
                  report_abort: Callable[[AqeResult, object], None],
                  allocator: Allocator,
-                 shared: Callable[[str, Callable[[], T]], T]) -> None:
+                 shared: Callable[[str, Callable[[], object]], object]) -> None:
         self.index = index  # the stepper's number
         self.profile = profile
         self.backend = backend  # the time (backend.now()), channels, the link's lead
@@ -86,9 +86,12 @@ class PlannerHost:
         self.command_written = command_written
         self.report_abort = report_abort  # a command was refused for good: (res, cmd)
         self.allocator = allocator  # timers, pulse counters, multiplexer slots
-        #: shared(key, make): one object per engine and key, made on first use
-        #: (QuickStep's timer, which serves every QuickStep motor)
-        self.shared = shared
+        self._shared = shared
+
+    def shared(self, key: str, make: Callable[[], T]) -> T:
+        """One object per engine and ``key``, made by ``make()`` on first use (state
+        a kind of planner shares between steppers: QuickStep's timer)."""
+        return self._shared(key, make)  # type: ignore[return-value]
 
 
 class Planner(ABC):

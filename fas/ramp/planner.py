@@ -42,8 +42,7 @@ class RampPlanner(Planner):
             [None] * 256 if self.queue.channel.supports_cut else None)
 
     def attach(self, previous: Planner | None) -> None:
-        if previous is None or previous.queue is not self.queue:  # a queue of its own
-            self.rg.set_target_position(self.queue.queue_end_pos)
+        self.rg.set_target_position(self.queue.queue_end_pos)  # go on from the queue's end
 
     # ------------------------------------------------------------- requests
     def check_move(self, delta: int) -> MoveResult:
