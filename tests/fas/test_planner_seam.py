@@ -8,7 +8,9 @@ import pytest
 
 from fas import MoveResult, planners
 from fas.codes import RAMP_DIRECTION_COUNT_DOWN, RAMP_DIRECTION_COUNT_UP, AqeResult, RampState
+from fas.outputs import OutputResult
 from fas.planner import Planner, PlannerChange, PlannerHost
+from fas.quickstep.clock import QsConfigResult
 from fas.quickstep.setup import clock_of, quickstep_of
 from fas.ramp.planner import RampPlanner
 
@@ -213,3 +215,28 @@ def test_quickstep_swaps_its_own_queue_in_and_out():
     s.move(-50)
     run_until_idle(b, s)
     assert s.get_current_position() == 150 == pin_position(b, STEP, DIR)
+
+
+def test_one_allocator_books_timer_2_for_pwm_or_quickstep():
+    """ATmega328P: Aout0 (pin 3), Aout1 (pin 11) and QuickStep share timer 2; whoever
+    comes first has it, the other is refused until it is given back (QuickStep by
+    ``l0``, a PWM output by moving to a pin of another timer)."""
+    _, e, s = make(dir_pin=4, enable_pin=None, auto_enable=False)
+    book = e.allocator
+    assert e.outputs.analog(0, 50, synchronized=False) == OutputResult.OK
+    assert e.outputs.analog(1, 20, synchronized=False) == OutputResult.OK
+    assert book.timer_users("timer 2") == {"pwm"}
+    assert s.set_planner(planners.PLANNER_QUICKSTEP) == QsConfigResult.TIMER_IN_USE
+    assert quickstep_of(s) is None
+    assert e.outputs.set_analog_pin(0, 6) == OutputResult.OK  # timer 0
+    assert s.set_planner(planners.PLANNER_QUICKSTEP) == QsConfigResult.TIMER_IN_USE
+    assert e.outputs.set_analog_pin(1, 5) == OutputResult.OK  # timer 0: timer 2 is free
+    assert book.timer_users("timer 2") == set()
+    assert s.set_planner(planners.PLANNER_QUICKSTEP) == 0
+    assert book.timer_users("timer 2") == {"quickstep"}
+    assert e.outputs.set_analog_pin(0, 3) == OutputResult.OK  # back on timer 2 ...
+    assert e.outputs.analog(0, 50, synchronized=False) == OutputResult.ERR_TIMER_IN_USE
+    assert s.set_planner(planners.PLANNER_FAS) == 0  # ... free again after l0
+    assert book.timer_users("timer 2") == set()
+    assert e.outputs.analog(0, 50, synchronized=False) == OutputResult.OK
+    assert book.timer_users("timer 2") == {"pwm"}
