@@ -56,7 +56,6 @@ class QsMoveResult(IntEnum):
     FIFO_FULL = 1  # the FIFO has no room for all orders of the move: nothing queued
 
 
-FULL = QsMoveResult.FIFO_FULL
 DEFAULT_DEPTH = 32
 DEFAULT_PLATEAUS = 8
 MAX_PLATEAUS = 255
