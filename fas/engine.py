@@ -10,6 +10,7 @@ from .backend import Backend
 from .codes import HIGH, LOW, PIN_I2S_FLAG, PIN_UNDEFINED, AqeResult, FasDriver
 from .errors import UnsupportedError
 from .outputs import UserOutputs
+from .planner import Planner
 from .queue import StepperQueue
 from .stepper import Stepper
 from .sync import SyncQueue
@@ -53,7 +54,10 @@ class Engine:
         self.sync = SyncQueue(self)  # synchronized outputs and the motion behind them
         self.outputs = UserOutputs(self)  # Dout0..3, Aout0..3 (seed 003)
         self._shared: dict[str, object] = {}  # see shared()
-        self._fill_late: list[Stepper] = []  # steppers whose planner fills after the others
+        # each stepper's queue and planner in use, and the planners' fills in the order of
+        # the periodic task (see planners_changed)
+        self._motion: list[tuple[StepperQueue, Planner]] = []
+        self._fills: list[Callable[[], int]] = []
 
     def init(self, cpu_core: int = 255) -> None:
         """Start the periodic ramp task (call once, as ``engine.init()`` upstream).
@@ -156,11 +160,11 @@ class Engine:
         return max(0, to_toggle - 1)
 
     def may_stop_without_channel(self) -> bool:
-        """Is a stepper running whose queue is not being executed (its ramp generator is
-        active or its queue holds entries)?  Only such a stepper can stop in a run of
-        the periodic task; the others stop when their channel does."""
-        for s in self._steppers:
-            if s is not None and s.may_stop_without_channel():
+        """Is a stepper running whose queue is not being executed (its planner has motion
+        to plan or its queue holds entries)?  Only such a stepper can start or stop in
+        a run of the periodic task; the others stop when their channel does."""
+        for q, planner in self._motion:
+            if not q.is_running() and (planner.is_active() or not q.is_queue_empty()):
                 return True
         return False
 
@@ -208,6 +212,7 @@ class Engine:
         stepper = Stepper(self, queue, got.pool)
         self._steppers[idx] = stepper
         self._stepper_cnt += 1
+        self.planners_changed()
         if got.pool is not None:
             queue.max_speed_in_ticks = got.pool.max_speed_ticks
             queue.position_in_command = got.pool.position_in_command
@@ -221,8 +226,10 @@ class Engine:
     def planners_changed(self) -> None:
         """A stepper swapped its planner: planners that follow other steppers' queues
         (``Planner.fills_late``) fill after every other one in the periodic task."""
-        self._fill_late = [s for s in self._steppers
-                           if s is not None and s.planner.fills_late]
+        steppers = [s for s in self._steppers if s is not None]
+        self._motion = [(s.queue, s.planner) for s in steppers]
+        self._fills = ([s.planner.fill for s in steppers if not s.planner.fills_late]
+                       + [s.planner.fill for s in steppers if s.planner.fills_late])
 
     @property
     def steppers(self) -> list[Stepper]:
@@ -273,12 +280,8 @@ class Engine:
                 self._debug_led_cnt = 0
         generated = 0
         steppers = self._steppers
-        late = self._fill_late
-        for s in steppers:
-            if s is not None and (not late or s not in late):
-                generated += s.fill_queue()
-        for s in late:  # planners that follow other steppers' queues (fas.gear)
-            generated += s.fill_queue()
+        for fill in self._fills:  # by stepper number; planners that follow other
+            generated += fill()  # steppers' queues last (fas.gear)
         for hook in self.task_hooks:
             hook.run_task()
         for i, s in enumerate(steppers):

@@ -55,6 +55,11 @@ class Stepper:
         self._step_pin = queue.step_pin
         # direction and enable inputs of the driver, and writing a command (fas.drive)
         self._drive = drive = Drive(engine, pool, queue, lambda: self._queue, self.is_running)
+        # the engine's periodic task asks these of every stepper (its Drive answers)
+        self.count_down_auto_disable: Callable[[], None] = drive.count_down_auto_disable
+        self.agrees_to_auto_disable: Callable[[], bool] = drive.agrees_to_auto_disable
+        self.auto_disable_due: Callable[[], bool] = drive.auto_disable_due
+        self.uses_enable_pin: Callable[[int], bool] = drive.uses_enable_pin
         self._forward_planning_in_ticks = profile.ticks_per_s // 50
         self._pulse_counter: PulseCounter | None = None
         self._settings = MotionSettings()
@@ -147,19 +152,6 @@ class Stepper:
         return self._drive.outputs_enabled()
 
     # ------------------------------------------------------------- auto disable
-    # (the engine's periodic task asks these of every stepper)
-    def count_down_auto_disable(self) -> None:
-        self._drive.count_down_auto_disable()
-
-    def agrees_to_auto_disable(self) -> bool:
-        return self._drive.agrees_to_auto_disable()
-
-    def auto_disable_due(self) -> bool:
-        return self._drive.auto_disable_due()
-
-    def uses_enable_pin(self, pin: int) -> bool:
-        return self._drive.uses_enable_pin(pin)
-
     def needs_task(self) -> bool:
         """The next runs of the periodic task must not be skipped for this stepper."""
         if self._drive.auto_disable_delay_counter > 0 or self._planner.needs_task():
@@ -168,13 +160,6 @@ class Stepper:
             if planner.wants_task_at_rest():
                 return True
         return False
-
-    def may_stop_without_channel(self) -> bool:
-        """Does the stepper run while its queue is not being executed (motion still to
-        plan, or entries waiting)?  Only then a run of the periodic task can start or
-        stop it; otherwise its channel does."""
-        q = self._queue
-        return not q.is_running() and (self._planner.is_active() or not q.is_queue_empty())
 
     # ------------------------------------------------------------- position
     def get_current_position(self) -> int:
