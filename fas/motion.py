@@ -21,9 +21,11 @@ class MotionSettings:
         "move_value", "min_travel_ticks", "s_h", "s_jump", "log2_accel", "apply",
         "any_change", "recalc_ramp_steps", "valid_acceleration", "valid_speed",
         "move_absolute", "keep_running", "keep_running_count_up", "acceleration",
+        "forward_planning_ticks",
     )
 
-    def __init__(self) -> None:
+    def __init__(self, forward_planning_ticks: int = 0) -> None:
+        self.forward_planning_ticks = forward_planning_ticks  # how far ahead to plan
         self.move_value = 0
         self.min_travel_ticks = 0  # the speed: ticks between two steps at the top
         self.s_h = 0  # linear acceleration over the first s_h steps

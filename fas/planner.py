@@ -51,7 +51,7 @@ class PlannerHost:
     """What a stepper lends its planner (made by the stepper, one per stepper)."""
 
     __slots__ = ("index", "profile", "backend", "settings", "queue", "write", "wake",
-                 "wait_until", "has_direction_pin", "forward_planning_ticks",
+                 "wait_until", "has_direction_pin",
                  "start_delay", "command_written", "report_abort", "allocator", "_shared")
 
     def __init__(self, *, index: int, profile: Profile, backend: Backend,
@@ -60,7 +60,6 @@ class PlannerHost:
                  wake: Callable[[], None],
                  wait_until: Callable[[Callable[[], bool]], object],
                  has_direction_pin: Callable[[], bool],
-                 forward_planning_ticks: Callable[[], int],
                  start_delay: Callable[[], int],
                  command_written: Callable[[], None],
                  report_abort: Callable[[AqeResult, object], None],
@@ -69,7 +68,7 @@ class PlannerHost:
         self.index = index  # the stepper's number
         self.profile = profile
         self.backend = backend  # the time (backend.now()), channels, the link's lead
-        self.settings = settings  # speed, acceleration, ... (fas.motion)
+        self.settings = settings  # speed, acceleration, forward planning (fas.motion)
         self.queue = queue  # the stepper's command queue
         #: write(ticks, steps, count_up, start): one command into the command queue,
         #: with auto enable, the enable delay and direction-change pauses before it
@@ -78,7 +77,6 @@ class PlannerHost:
         self.wake = wake  # the periodic task must run again from its next slot
         self.wait_until = wait_until  # let time pass until predicate() holds (blocking)
         self.has_direction_pin = has_direction_pin
-        self.forward_planning_ticks = forward_planning_ticks  # how far ahead to plan
         #: before a planner writes a queue of its own that is idle: auto enable switches
         #: the driver on; returns the ticks its first step must wait for that
         self.start_delay = start_delay

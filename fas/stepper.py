@@ -60,16 +60,14 @@ class Stepper:
         self.agrees_to_auto_disable: Callable[[], bool] = drive.agrees_to_auto_disable
         self.auto_disable_due: Callable[[], bool] = drive.auto_disable_due
         self.uses_enable_pin: Callable[[int], bool] = drive.uses_enable_pin
-        self._forward_planning_in_ticks = profile.ticks_per_s // 50
         self._pulse_counter: PulseCounter | None = None
-        self._settings = MotionSettings()
+        self._settings = MotionSettings(forward_planning_ticks=profile.ticks_per_s // 50)
         backend = engine.backend
         self._host = PlannerHost(
             index=queue.index, profile=profile, backend=backend, settings=self._settings,
             queue=queue, write=drive.write, wake=engine.kick,
             wait_until=lambda predicate: backend.wait_until(predicate, 0),
             has_direction_pin=self.has_direction_pin,
-            forward_planning_ticks=self.get_forward_planning_ticks,
             start_delay=drive.start_delay, command_written=drive.command_written,
             report_abort=lambda res, cmd: engine.report_ramp_abort(self, res, cmd),
             allocator=engine.allocator, shared=engine.shared)
@@ -297,15 +295,15 @@ class Stepper:
         self._engine.kick()
 
     def set_forward_planning_time_in_ms(self, ms: int) -> None:
-        self._forward_planning_in_ticks = (ms & 0xFF) * self._profile.ticks_per_ms
+        self._settings.forward_planning_ticks = (ms & 0xFF) * self._profile.ticks_per_ms
 
     def get_forward_planning_ticks(self) -> int:
         """How far ahead the planner fills the queue (``set_forward_planning_time_in_ms``)."""
-        return self._forward_planning_in_ticks
+        return self._settings.forward_planning_ticks
 
     def set_forward_planning_ticks(self, ticks: int) -> None:
         """Restore a figure :meth:`get_forward_planning_ticks` returned."""
-        self._forward_planning_in_ticks = ticks
+        self._settings.forward_planning_ticks = ticks
 
     # ----------------------------------------------------------------- moves
     def _block(self, blocking: bool) -> None:

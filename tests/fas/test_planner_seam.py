@@ -74,7 +74,7 @@ class ConstantRate(Planner):
         q = self.queue
         written = 0
         while (self.left and q.queue_entries() < q.queue_len - 1
-               and q.ticks_in_queue() < self.host.forward_planning_ticks()):
+               and q.ticks_in_queue() < self.host.settings.forward_planning_ticks):
             n = min(abs(self.left), 255)
             up = self.left > 0
             if self.host.write(self._period(), n, up, True) != AqeResult.OK:
