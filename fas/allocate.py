@@ -1,4 +1,12 @@
-"""Which queue (step channel) a new stepper gets: the platforms' ``tryAllocateQueue``.
+"""The engine's allocator: step queues, multiplexer slots, pulse counters and timers.
+
+One :class:`Allocator` per engine hands out every resource of the chip that two users
+could want: the step generators (queues), slots of the I2S multiplexer, pulse counter
+units, and timers (a user PWM output, QuickStep).  Its book is the one place that
+says who has what.
+
+Which queue (step channel) a new stepper gets follows the platforms'
+``tryAllocateQueue``.
 
 Each platform hands out its step generators differently, and users see the
 difference (which pins work, how many steppers fit, which number a stepper gets):
@@ -13,6 +21,11 @@ difference (which pins work, how many steppers fit, which number a stepper gets)
   I2S controller, then MCPWM/PCNT - and numbers steppers in connect order.  Pins
   or'ed with ``PIN_I2S_FLAG`` are slots of the I2S multiplexer (after
   ``init_i2s_mux``).
+
+Timers are booked by name (AVR: "timer 2") for a user ("pwm", "quickstep") and a key
+(the output, the QuickStep clock); one user may book a timer several times (two PWM
+outputs on one timer), and a user asks :meth:`Allocator.timer_used_by_other` before
+it takes a timer.
 """
 
 from __future__ import annotations
@@ -29,7 +42,7 @@ class Allocation:
     pool: DriverPool | None  # ESP32: the driver; None elsewhere
 
 
-class QueueAllocator:
+class Allocator:
     def __init__(self, profile: Profile) -> None:
         self.profile = profile
         self.used_groups: set[int] = set()
@@ -40,6 +53,8 @@ class QueueAllocator:
         self.i2s_mux_ready = False
         self.i2s_mux_slots: set[int] = set()
         self.count = 0
+        self.pcnt_units: dict[int, object] = {}  # unit -> who counts on it
+        self.timers: dict[str, set[tuple[str, object]]] = {}  # name -> {(user, key)}
 
     # ---------------------------------------------------------------- helpers
     def _valid_gpio(self, pin: int) -> bool:
@@ -158,3 +173,47 @@ class QueueAllocator:
             return False
         self.i2s_mux_slots.add(slot)
         return True
+
+    # -------------------------------------------------------- pulse counters
+    def claim_pulse_counter(self, unit: int, owner: object) -> bool:
+        """A pcnt unit for ``owner`` (a stepper's ``attach_to_pulse_counter``).
+        MCPWM/PCNT steppers use one each (ESP-IDF 4: unit n for the n-th of them);
+        ESP-IDF 5 picks a free one itself (an owner attached again keeps its unit)."""
+        p = self.profile
+        units = self.pcnt_units
+        mcpwm = self.per_driver.get(FasDriver.MCPWM_PCNT, 0)
+        taken = {u for u, o in units.items() if o is not owner}
+        if p.dynamic_allocation:
+            if any(o is owner for o in units.values()):
+                return True
+            if mcpwm + len(taken) >= p.pulse_counter_units:
+                return False
+            unit = max(units, default=mcpwm - 1) + 1
+        elif not 0 <= unit < p.pulse_counter_units or unit < mcpwm or unit in taken:
+            return False
+        for u in [u for u, o in units.items() if o is owner]:
+            del units[u]
+        units[unit] = owner
+        return True
+
+    # ---------------------------------------------------------------- timers
+    def hold_timer(self, timer: str, user: str, key: object) -> None:
+        """Book ``timer`` for ``user`` (ask :meth:`timer_used_by_other` first)."""
+        self.timers.setdefault(timer, set()).add((user, key))
+
+    def release_timer(self, timer: str, user: str, key: object) -> None:
+        held = self.timers.get(timer)
+        if held is not None:
+            held.discard((user, key))
+            if not held:
+                del self.timers[timer]
+
+    def timer_users(self, timer: str) -> set[str]:
+        return {user for user, _ in self.timers.get(timer, ())}
+
+    def timer_used_by_other(self, timer: str, user: str) -> bool:
+        """Is ``timer`` booked by a user other than ``user``?"""
+        return any(u != user for u, _ in self.timers.get(timer, ()))
+
+
+QueueAllocator = Allocator  # (its name before it handed out more than queues)

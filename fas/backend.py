@@ -3,130 +3,43 @@
 A backend supplies a tick clock, calls the engine's periodic task, drives pins and
 executes queue entries through one :class:`QueueChannel` per stepper.  The library
 (:mod:`fas.engine`, :mod:`fas.stepper`, :mod:`fas.queue`) talks only to this
-interface; :mod:`fas.sim` implements it on a simulated microcontroller and
-:mod:`fas.serial` on a real one behind a serial line.
+interface (and to the channels of :mod:`fas.channel`); :mod:`fas.sim` implements it
+on a simulated microcontroller and :mod:`fas.serial` on a real one behind a serial line.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Protocol, Sequence
+
+from .channel import OrderChannel, PulseCounter, QueueChannel
 
 if TYPE_CHECKING:  # pragma: no cover
     from .arch import Profile
-    from .outputs import OutputChange
     from .pwm import PwmSetting
     from .queue import StepperQueue
 
-
-class QueueChannel(ABC):
-    """Executes the entries of one :class:`~fas.queue.StepperQueue`."""
-
-    @abstractmethod
-    def is_running(self) -> bool:
-        """True from ``start()`` until the channel has found the queue empty."""
-
-    @abstractmethod
-    def start(self) -> None:
-        """Begin executing at ``read_idx`` (no-op if the queue is empty)."""
-
-    @abstractmethod
-    def force_stop(self) -> None:
-        """Stop at once; no further pulse is emitted."""
-
-    @abstractmethod
-    def sync(self) -> None:
-        """Bring ``read_idx`` and the current entry's remaining steps up to now."""
-
-    def ready_for_commands(self) -> bool:
-        return True
-
-    def entry_added(self) -> None:
-        """A new entry was appended (a channel waiting for one may continue)."""
-
-    def positions_shifted(self, delta: int) -> None:
-        """All queued positions were renumbered by ``delta``."""
-
-    # --- timing of the queue (electronic gearing, :mod:`fas.gear`) ---
-    def end_tick(self) -> int | None:
-        """While the channel works through its queue without a gap: the tick at which
-        the last queued entry ends - where an entry appended now begins.  None when
-        the channel is idle, ran dry, or this backend cannot tell."""
-        return None
-
-    def earliest_start_tick(self) -> int | None:
-        """The earliest tick at which :meth:`start_at` called now could begin the entry
-        at ``read_idx`` (None: this backend has no timed start)."""
-        return None
-
-    def start_at(self, tick: int) -> int | None:
-        """Start the idle channel so that the entry at ``read_idx`` begins at ``tick``
-        (an absolute tick), or as soon after as possible.  Returns the tick at which
-        it will begin; None if it cannot (running, empty queue, no timed start)."""
-        return None
-
-    def hold_cuts(self, hold: bool) -> None:
-        """While held, no cut drops queued entries (a follower derived steps from them)."""
-
-    # --- cuts: a stop that must not wait for a deep queue (serial backend) ----------
-    supports_cut = False  # the stepper keeps ramp snapshots and may ask for cuts
-    cut_pending = False  # a cut is not yet confirmed: hold back new ramp requests
-
-    def cut_index(self) -> int | None:
-        """The first queue index a cut sent now could drop (None: no cut possible)."""
-        return None
-
-    def cut(self, index: int, on_refused: Callable[[], None]) -> None:
-        """Drop the entries from ``index`` on, here and on the executor; if the executor
-        had already begun them, the entries come back and ``on_refused()`` is called.
-        Only channels whose :meth:`cut_index` offers an index are asked."""
-        raise NotImplementedError(f"{type(self).__name__} cannot cut its queue")
+__all__ = ["Backend", "OutputChange", "OrderChannel", "PulseCounter", "QueueChannel",
+           "InputListener", "LimitListener", "PinRecording", "PinStates"]
 
 
-class PulseCounter:
-    """An independent counter of step pulses (ESP32's pcnt unit).
+@dataclass(frozen=True)
+class OutputChange:
+    """One change of one user output (:mod:`fas.outputs`), as a backend executes it."""
 
-    Counts rising step edges up or down by the direction: the direction pin's level
-    (``follow_direction``), or the level of a read-back GPIO (``readback``), or - with
-    neither - always up.  On reaching ``high`` (or ``low``) it resets to 0; with both
-    limits 0 it wraps like an int16.
-    """
+    analog: bool
+    number: int
+    pin: int
+    value: int  # digital: 0/1; analog: the duty count (0 .. setting.counts)
+    setting: PwmSetting | None = None  # analog: the timer setting the count is for
+    synchronized: bool = False
+    percent: float = 0.0  # analog: the duty asked for (the count is what it makes)
 
-    def __init__(self, low: int, high: int, dir_high_counts_up: bool = True, *,
-                 follow_direction: bool = True,
-                 readback: Callable[[], int] | None = None) -> None:
-        self.low = low
-        self.high = high
-        self.dir_high_counts_up = dir_high_counts_up
-        self.follow_direction = follow_direction
-        self.readback = readback
-        self.value = 0
-
-    def count(self, steps: int, dir_level: bool) -> None:
-        if steps <= 0:
-            return
-        if self.readback is not None:
-            up = (self.readback() == 1) == self.dir_high_counts_up
-        elif self.follow_direction:
-            up = dir_level == self.dir_high_counts_up
-        else:
-            up = True
-        v = self.value + (steps if up else -steps)
-        if self.high == 0 and self.low == 0:
-            v = ((v + 0x8000) & 0xFFFF) - 0x8000
-        else:
-            if up and self.high > 0 and v >= self.high:
-                v %= self.high
-            elif not up and self.low < 0 and v <= self.low:
-                v = -((-v) % (-self.low))
-        self.value = v
-
-    def read(self) -> int:
-        return self.value
-
-    def clear(self) -> None:
-        self.value = 0
+    @property
+    def name(self) -> str:
+        return f"{'Aout' if self.analog else 'Dout'}{self.number}"
 
 
 class PinRecording(Protocol):
@@ -203,12 +116,13 @@ class Backend(ABC):
     def allocate_channel(self, queue: StepperQueue) -> QueueChannel:
         """Create the executor for ``queue`` (its ``step_pin`` and ``index`` are set)."""
 
-    def allocate_order_channel(self, queue, fas_queue, clock) -> QueueChannel:
-        """The executor of a QuickStep FIFO (``fas.quickstep``).  By default its orders
-        are relayed into the stepper's command queue ``fas_queue`` (a device behind a
-        serial link runs them so); the simulated chip runs them on QuickStep's timer."""
-        from .quickstep.relay import OrderRelay
-        return OrderRelay(queue, fas_queue, clock)
+    def allocate_order_channel(self, queue: StepperQueue, fas_queue: StepperQueue,
+                               clock: object) -> OrderChannel | None:
+        """An executor of a FIFO of orders (QuickStep's, :mod:`fas.quickstep`) on a timer
+        of the chip's own, paced by ``clock``; None (the default): this backend has
+        none, and the planner relays its orders into the stepper's command queue
+        ``fas_queue`` (a device behind a serial link runs them so)."""
+        return None
 
     @abstractmethod
     def write_pin(self, pin: int, level: int) -> None:

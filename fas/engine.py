@@ -2,24 +2,26 @@
 
 from __future__ import annotations
 
-from typing import Callable, Protocol
+from typing import Callable, Protocol, TypeVar
 
-from .allocate import QueueAllocator
+from .allocate import Allocator
 from .arch import Profile
 from .backend import Backend
 from .codes import HIGH, LOW, PIN_I2S_FLAG, PIN_UNDEFINED, AqeResult, FasDriver
 from .errors import UnsupportedError
 from .outputs import UserOutputs
+from .planner import Planner
 from .queue import StepperQueue
 from .stepper import Stepper
 from .sync import SyncQueue
 
 ExternalPinCall = Callable[[int, int], int]
+T = TypeVar("T")
 
 
 class TaskHook(Protocol):
-    """Work that runs in the periodic ramp task right after the steppers' own planning
-    (:mod:`fas.gear` derives a follower's commands from its leader's there)."""
+    """Work that runs in the periodic ramp task right after the steppers' planners have
+    filled their queues (the winder's traverse writes its stepper's queue there)."""
 
     def run_task(self) -> None:
         """One run of the ramp task."""
@@ -44,14 +46,18 @@ class Engine:
         self.ramp_abort_listener: Callable[[Stepper, AqeResult, object], None] | None = None
         self.task_runs = 0
         self.task_hooks: list[TaskHook] = []
-        self._allocator = QueueAllocator(self.profile)
+        # queues, multiplexer slots, pulse counters, timers: who has what (fas.allocate)
+        self.allocator = Allocator(self.profile)
         self._task_rate_ms = self.profile.fill_period_ticks // self.profile.ticks_per_ms
         self.cpu_core = 255
-        self._pcnt_units: dict[int, object] = {}  # unit -> the stepper counting on it
         self.i2s_mux_pins: tuple[int, int, int] | None = None
         self.sync = SyncQueue(self)  # synchronized outputs and the motion behind them
         self.outputs = UserOutputs(self)  # Dout0..3, Aout0..3 (seed 003)
-        self.quickstep_clock = None  # fas.quickstep.clock.QuickStepClock, made on first use
+        self._shared: dict[str, object] = {}  # see shared()
+        # each stepper's queue and planner in use, and the planners' fills in the order of
+        # the periodic task (see planners_changed)
+        self._motion: list[tuple[StepperQueue, Planner]] = []
+        self._fills: list[Callable[[], int]] = []
 
     def init(self, cpu_core: int = 255) -> None:
         """Start the periodic ramp task (call once, as ``engine.init()`` upstream).
@@ -90,7 +96,7 @@ class Engine:
         data/bclk/ws).  Slots are then pins ``PIN_I2S_FLAG | slot`` for steppers
         (step) and for direction and enable signals."""
         self._need_i2s("init_i2s_mux()")
-        if not self._allocator.claim_i2s_mux():
+        if not self.allocator.claim_i2s_mux():
             return False
         self.i2s_mux_pins = (data_pin, bclk_pin, ws_pin)
         return True
@@ -117,27 +123,19 @@ class Engine:
             self.backend.write_pin(pin, level)
 
     def claim_mux_slot(self, slot: int) -> bool:
-        return self._allocator.claim_mux_slot(slot)
+        return self.allocator.claim_mux_slot(slot)
 
     def claim_pulse_counter(self, unit: int, owner: object) -> bool:
-        """A pcnt unit for ``attach_to_pulse_counter`` of ``owner``.  MCPWM/PCNT
-        steppers use one each (ESP-IDF 4: unit n for the n-th of them); ESP-IDF 5
-        picks a free one itself (a stepper attached again keeps its unit)."""
-        p = self.profile
-        mcpwm = self._allocator.per_driver.get(FasDriver.MCPWM_PCNT, 0)
-        taken = {u for u, o in self._pcnt_units.items() if o is not owner}
-        if p.dynamic_allocation:
-            if any(o is owner for o in self._pcnt_units.values()):
-                return True
-            if mcpwm + len(taken) >= p.pulse_counter_units:
-                return False
-            unit = max(self._pcnt_units, default=mcpwm - 1) + 1
-        elif not 0 <= unit < p.pulse_counter_units or unit < mcpwm or unit in taken:
-            return False
-        for u in [u for u, o in self._pcnt_units.items() if o is owner]:
-            del self._pcnt_units[u]
-        self._pcnt_units[unit] = owner
-        return True
+        """A pcnt unit for ``attach_to_pulse_counter`` of ``owner`` (see
+        :meth:`fas.allocate.Allocator.claim_pulse_counter`)."""
+        return self.allocator.claim_pulse_counter(unit, owner)
+
+    def shared(self, key: str, make: Callable[[], T]) -> T:
+        """One object per engine and ``key``, made by ``make()`` on first use - state a
+        kind of planner shares between the steppers that use it (QuickStep's timer)."""
+        if key not in self._shared:
+            self._shared[key] = make()
+        return self._shared[key]  # type: ignore[return-value]
 
     # ------------------------------------------------- idle periodic task
     def quiescent_tasks(self) -> int | None:
@@ -148,7 +146,7 @@ class Engine:
         those runs and credit them with :meth:`credit_skipped_tasks`.
         """
         for s in self._steppers:
-            if s is not None and s._needs_task():
+            if s is not None and s.needs_task():
                 return 0
         for hook in self.task_hooks:
             if hook.needs_task():
@@ -162,13 +160,12 @@ class Engine:
         return max(0, to_toggle - 1)
 
     def may_stop_without_channel(self) -> bool:
-        """Is a stepper running whose queue is not being executed (its ramp generator is
-        active or its queue holds entries)?  Only such a stepper can stop in a run of
-        the periodic task; the others stop when their channel does."""
-        for s in self._steppers:
-            if s is not None and not s._queue.is_running():
-                if s._rg.is_ramp_generator_active() or not s._queue.is_queue_empty():
-                    return True
+        """Is a stepper running whose queue is not being executed (its planner has motion
+        to plan or its queue holds entries)?  Only such a stepper can start or stop in
+        a run of the periodic task; the others stop when their channel does."""
+        for q, planner in self._motion:
+            if not q.is_running() and (planner.is_active() or not q.is_queue_empty()):
+                return True
         return False
 
     def credit_skipped_tasks(self, n: int) -> None:
@@ -207,7 +204,7 @@ class Engine:
                                    "on ESP32 builds with two or more driver types")
         if not self._initialised:
             self.init()
-        got = self._allocator.allocate(step_pin, driver)
+        got = self.allocator.allocate(step_pin, driver)
         if got is None:
             return None
         idx = got.index
@@ -215,6 +212,7 @@ class Engine:
         stepper = Stepper(self, queue, got.pool)
         self._steppers[idx] = stepper
         self._stepper_cnt += 1
+        self.planners_changed()
         if got.pool is not None:
             queue.max_speed_in_ticks = got.pool.max_speed_ticks
             queue.position_in_command = got.pool.position_in_command
@@ -224,6 +222,14 @@ class Engine:
                 if s is not None:
                     s.queue.max_speed_in_ticks = max_ticks
         return stepper
+
+    def planners_changed(self) -> None:
+        """A stepper swapped its planner: planners that follow other steppers' queues
+        (``Planner.fills_late``) fill after every other one in the periodic task."""
+        steppers = [s for s in self._steppers if s is not None]
+        self._motion = [(s.queue, s.planner) for s in steppers]
+        self._fills = ([s.planner.fill for s in steppers if not s.planner.fills_late]
+                       + [s.planner.fill for s in steppers if s.planner.fills_late])
 
     @property
     def steppers(self) -> list[Stepper]:
@@ -274,32 +280,30 @@ class Engine:
                 self._debug_led_cnt = 0
         generated = 0
         steppers = self._steppers
-        for s in steppers:
-            if s is not None:
-                generated += s.fill_queue()
+        for fill in self._fills:  # by stepper number; planners that follow other
+            generated += fill()  # steppers' queues last (fas.gear)
         for hook in self.task_hooks:
             hook.run_task()
         for i, s in enumerate(steppers):
-            if s is None or not s._need_auto_disable():
+            if s is None or not s.auto_disable_due():
                 continue
             high_pin = s.get_enable_pin_high_active()
             low_pin = s.get_enable_pin_low_active()
             agree = True
             for j, other in enumerate(steppers):
                 if i != j and other is not None:
-                    if (other._uses_auto_enable_pin(high_pin)
-                            or other._uses_auto_enable_pin(low_pin)):
-                        if not other._agree_with_auto_disable():
+                    if other.uses_enable_pin(high_pin) or other.uses_enable_pin(low_pin):
+                        if not other.agrees_to_auto_disable():
                             agree = False
                             break
             if agree:
                 for current in steppers:
-                    if current is not None and (current._uses_auto_enable_pin(high_pin)
-                                                or current._uses_auto_enable_pin(low_pin)):
+                    if current is not None and (current.uses_enable_pin(high_pin)
+                                                or current.uses_enable_pin(low_pin)):
                         current.disable_outputs()
         for s in steppers:
             if s is not None:
-                s._update_auto_disable()
+                s.count_down_auto_disable()
         if self.sync.active():
             self.sync.progress()
         return generated

@@ -24,8 +24,14 @@ commands such that at every step edge of either stepper ``|y - (n/m)·x| <= 1``
 
 The phase ``h`` keeps the error small on both sides: ``h = m // 2`` for ratios up
 to 1/2 (|error| < 1/2 + n/m at the moment the leader stepped and the follower not
-yet), ``h = n`` above.  The gear runs as a task hook of the engine, right after
-the leader's own planning in every periodic task.
+yet), ``h = n`` above.
+
+While engaged, the gear is the follower's planner (:class:`GearFollower`, registered
+as ``"gear"`` in :mod:`fas.planners`): its fill runs in every periodic task after the
+fill of every other planner - so after the leader's own planning.  It wraps the
+planner it replaced, which keeps answering the follower's own requests (a program
+moves a geared follower only after ``disengage``); ``disengage`` gives that planner
+back.
 
 The follower must be idle when the gear engages, without auto enable (its driver
 stays on: an enable delay would shift its steps) and without a direction-change
@@ -40,9 +46,14 @@ from __future__ import annotations
 from enum import IntEnum
 from typing import TYPE_CHECKING, Callable
 
+from .codes import MoveResult
+from .planner import Planner, PlannerChange, PlannerHost
+
 if TYPE_CHECKING:  # pragma: no cover
     from .engine import Engine
     from .stepper import Stepper
+
+PLANNER_GEAR = "gear"  # the follower's planner while geared (fas.planners)
 
 MAX_TICKS = 65535  # one queue command's period
 MAX_STEPS = 255  # ... and its steps
@@ -133,6 +144,7 @@ class Gear:
         self.stats = GearStats()
         self.spans: list[GearSpan] = []  # every stretch of following, for measurements
         self._leader_planning: int | None = None
+        self._follower_planner: GearFollower | None = None
         self._reset_tracking()
 
     # ----------------------------------------------------------------- control
@@ -150,9 +162,9 @@ class Gear:
         f = self.follower
         if f.is_running():
             return GearResult.ERR_FOLLOWER_BUSY
-        if f._auto_enable:
+        if f.get_auto_enable():
             return GearResult.ERR_AUTO_ENABLE
-        if f._dir_change_delay_ticks:
+        if f.get_dir_change_delay_ticks():
             return GearResult.ERR_DIR_DELAY
         if f.queue.channel.earliest_start_tick() is None:
             return GearResult.ERR_NO_TIMING
@@ -162,7 +174,7 @@ class Gear:
         # commands derived from its plan still reach the step timer in time
         lead = max(0, f.queue.channel.earliest_start_tick() - self.engine.backend.now())
         p = self.engine.profile
-        self._leader_planning = self.leader._forward_planning_in_ticks
+        self._leader_planning = self.leader.get_forward_planning_ticks()
         if lead > p.ticks_per_ms:
             base_ms = self._leader_planning // p.ticks_per_ms
             self.leader.set_forward_planning_time_in_ms(min(255, base_ms + LINK_PLANNING_MS))
@@ -170,7 +182,12 @@ class Gear:
         self.leader.queue.channel.hold_cuts(True)  # its queued steps must all be made
         self._ingest(initial=True)
         self._open_span(self._origin_tick)
-        self.engine.add_task_hook(self)
+        if not isinstance(f.planner, GearFollower) or f.planner.gear is not self:
+            f.set_planner(PLANNER_GEAR, self)  # its fill: after the leader's planning
+            planner = f.planner
+            assert isinstance(planner, GearFollower)
+            self._follower_planner = planner
+        self.engine.kick()
         self._commit()  # the leader may be under way: its first steps come soon
         return GearResult.OK
 
@@ -196,10 +213,13 @@ class Gear:
     def disengage(self) -> None:
         """Stop deriving follower steps; the steps already queued still run."""
         if self.engaged and self._leader_planning is not None:
-            self.leader._forward_planning_in_ticks = self._leader_planning
+            self.leader.set_forward_planning_ticks(self._leader_planning)
         self.leader.queue.channel.hold_cuts(False)
         self.engaged = False
-        self.engine.remove_task_hook(self)
+        gf = self._follower_planner
+        if gf is not None and self.follower.planner is gf:
+            self.follower.use_planner(gf.base)  # the planner it replaced (steps queued run)
+        self._follower_planner = None
         self._events.clear()
         if self.spans and self.spans[-1].end is None:
             self.spans[-1].end = self.engine.backend.now()
@@ -226,7 +246,7 @@ class Gear:
         exact = max(self.h, m - self.h, n)
         self.tight_m = (exact + m) // 2 if exact < m else m
 
-    # --------------------------------------------------------------- task hook
+    # ----------------------------------------------- periodic task (GearFollower)
     def needs_task(self) -> bool:
         return self.engaged and (bool(self._events) or self.leader.is_running())
 
@@ -682,3 +702,109 @@ def split_ticks(gap: int) -> list[int]:
     n = -(-gap // MAX_TICKS)
     base, extra = divmod(gap, n)
     return [base + 1] * extra + [base] * (n - extra)
+
+
+class GearFollower(Planner):
+    """The follower's planner while geared (see the module text): the gear writes its
+    queue after every other planner's fill; the planner it replaced (``base``) answers
+    the follower's own requests and state, and is given back by ``disengage``."""
+
+    fills_late = True
+
+    def __init__(self, host: PlannerHost, base: Planner, gear: Gear) -> None:
+        super().__init__(host)
+        self.base = base
+        self.gear = gear
+        self.queue = base.queue
+
+    # --- the follower's own requests: its planner before the gear
+    def check_move(self, delta: int) -> MoveResult:
+        return self.base.check_move(delta)
+
+    def check_held(self) -> MoveResult:
+        return self.base.check_held()
+
+    def move(self, delta: int) -> MoveResult:
+        return self.base.move(delta)
+
+    def move_to(self, position: int) -> MoveResult:
+        return self.base.move_to(position)
+
+    def run(self, count_up: bool) -> MoveResult:
+        return self.base.run(count_up)
+
+    def keep_running(self) -> None:
+        self.base.keep_running()
+
+    def keep_speed(self) -> None:
+        self.base.keep_speed()
+
+    def apply_settings(self) -> None:
+        self.base.apply_settings()
+
+    def stop(self) -> None:
+        self.base.stop()
+
+    def force_stop(self) -> None:
+        self.base.force_stop()
+
+    def force_stop_at(self, position: int) -> None:
+        self.base.force_stop_at(position)
+
+    def single_step(self, count_up: bool) -> None:
+        self.base.single_step(count_up)
+
+    def positions_shifted(self, delta: int) -> None:
+        self.base.positions_shifted(delta)
+
+    # --- the periodic task: the follower's planner, then the gear
+    def fill(self) -> int:
+        generated = self.base.fill()
+        self.gear.run_task()
+        return generated
+
+    def needs_task(self) -> bool:
+        return self.base.needs_task() or self.gear.needs_task()
+
+    # --- state: the follower's planner's
+    def is_running(self) -> bool:
+        return self.base.is_running()
+
+    def is_active(self) -> bool:
+        return self.base.is_active()
+
+    def is_running_continuously(self) -> bool:
+        return self.base.is_running_continuously()
+
+    def is_stopping(self) -> bool:
+        return self.base.is_stopping()
+
+    def ramp_state(self) -> int:
+        return self.base.ramp_state()
+
+    def target_pos(self) -> int:
+        return self.base.target_pos()
+
+    def steps_to_stop(self) -> int:
+        return self.base.steps_to_stop()
+
+    def current_speed(self, realtime: bool) -> tuple[int, bool]:
+        return self.base.current_speed(realtime)
+
+    def planned_period_ticks(self) -> int:
+        return self.base.planned_period_ticks()
+
+    def current_acceleration(self) -> int:
+        return self.base.current_acceleration()
+
+    def fastest_period_ticks(self) -> int:
+        return self.base.fastest_period_ticks()
+
+
+def make_follower(host: PlannerHost, current: Planner, kept: Planner | None,
+                  gear: Gear) -> tuple[PlannerChange, Planner | None]:
+    """The registry's factory: ``stepper.set_planner("gear", gear)`` (what
+    :meth:`Gear.engage` does)."""
+    if isinstance(current, GearFollower) and current.gear is gear:
+        return PlannerChange.OK, None
+    return PlannerChange.OK, GearFollower(host, current, gear)

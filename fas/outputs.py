@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import TYPE_CHECKING
 
+from .backend import OutputChange
 from .codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
 from .output_figures import output_figures
 from .pwm import PwmFrequencyError, PwmSetting, count_percent, duty_count, pwm_setting
@@ -36,6 +37,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .engine import Engine
 
 OUTPUTS = 4  # per kind, seed 003
+TIMER_USER = "pwm"  # the outputs' name in the allocator's book of timers
 
 
 class OutputResult(IntEnum):
@@ -47,24 +49,7 @@ class OutputResult(IntEnum):
     ERR_FREQUENCY = -5  # the timer cannot make that frequency
     ERR_BUSY = -6  # a synchronized change on this timer waits: change the frequency later
     ERR_NOT_A_NUMBER = -7  # NaN duty or frequency
-    ERR_TIMER_IN_USE = -8  # the QuickStep planner runs on this timer (fas.quickstep)
-
-
-@dataclass(frozen=True)
-class OutputChange:
-    """One change of one output, as a backend executes it."""
-
-    analog: bool
-    number: int
-    pin: int
-    value: int  # digital: 0/1; analog: the duty count (0 .. setting.counts)
-    setting: PwmSetting | None = None  # analog: the timer setting the count is for
-    synchronized: bool = False
-    percent: float = 0.0  # analog: the duty asked for (the count is what it makes)
-
-    @property
-    def name(self) -> str:
-        return f"{'Aout' if self.analog else 'Dout'}{self.number}"
+    ERR_TIMER_IN_USE = -8  # another user of the timer has it (QuickStep, fas.allocate)
 
 
 @dataclass(frozen=True)
@@ -138,6 +123,9 @@ class UserOutputs:
         if self._pin_user(pin, skip=(True, number)) is not None:
             return OutputResult.ERR_PIN_IN_USE
         self._analog_pins[number] = pin
+        old = self._analog_setting[number]
+        if old is not None:
+            self._engine.allocator.release_timer(old.timer, TIMER_USER, number)
         self._analog_setting[number] = None
         return OutputResult.OK
 
@@ -168,15 +156,12 @@ class UserOutputs:
         return None
 
     def pwm_uses_timer(self, timer: str) -> bool:
-        """Does a started analog output run on ``timer`` (QuickStep asks, issue 14)?"""
-        return any(self._analog_setting[n] is not None and self.timer_name(n) == timer
-                   for n in range(OUTPUTS))
+        """Does a started analog output run on ``timer``?"""
+        return TIMER_USER in self._engine.allocator.timer_users(timer)
 
     def _timer_taken(self, timer: str) -> bool:
-        """The QuickStep planner runs on ``timer`` (AVR: "timer 2")."""
-        clock = self._engine.quickstep_clock
-        return (clock is not None and bool(clock.planners) and clock.timer is not None
-                and timer == f"timer {clock.timer.number}")
+        """Something else runs on ``timer`` (the QuickStep planner: AVR "timer 2")."""
+        return self._engine.allocator.timer_used_by_other(timer, TIMER_USER)
 
     def timer_name(self, number: int) -> str | None:
         """The PWM timer of Aout ``number`` on its current pin."""
@@ -241,6 +226,8 @@ class UserOutputs:
                 and self._timer_of_pin(n, self._analog_pins[n]) == timer]
 
     def _configure(self, number: int, setting: PwmSetting) -> None:
+        # a started output books its timer (fas.allocate) until it moves to another pin
+        self._engine.allocator.hold_timer(setting.timer, TIMER_USER, number)
         self._analog_setting[number] = setting
         self._analog_count[number] = duty_count(setting.counts, self._analog_percent[number])
         self._engine.backend.configure_pwm(number, self._analog_pins[number], setting,

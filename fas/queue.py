@@ -10,13 +10,26 @@ entry minus the steps it still has to make.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Protocol
 
+from .channel import QueueChannel, QueueEntry
 from .codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED, AqeResult
 
 if TYPE_CHECKING:  # pragma: no cover
     from .arch import Profile
-    from .backend import Backend, QueueChannel
+
+__all__ = ["AQE_OK", "QueueEntry", "QueueHost", "StepperQueue", "i32"]
+
+
+class QueueHost(Protocol):
+    """What a queue needs of its backend (:class:`fas.backend.Backend` has it)."""
+
+    def allocate_channel(self, queue: StepperQueue) -> QueueChannel:
+        """The executor of ``queue``."""
+
+    def write_pin(self, pin: int, level: int) -> None:
+        """Drive an output pin at once (a direction pin set before the first step)."""
 
 
 # the ramp task compares results once per command: an Enum member read as a class
@@ -29,24 +42,6 @@ def i32(v: int) -> int:
     return v - 0x100000000 if v & 0x80000000 else v
 
 
-class QueueEntry:
-    __slots__ = ("steps", "ticks", "count_up", "toggle_dir", "dir_level", "end_pos",
-                 "total_steps")
-
-    def __init__(self) -> None:
-        self.steps = 0  # steps still to be made; counted down by the channel
-        self.total_steps = 0
-        self.ticks = 0
-        self.count_up = True
-        self.toggle_dir = False
-        self.dir_level = True
-        self.end_pos = 0
-
-    def __repr__(self) -> str:  # pragma: no cover - debugging aid
-        return (f"QueueEntry(steps={self.steps}/{self.total_steps}, ticks={self.ticks}, "
-                f"up={self.count_up}, toggle={self.toggle_dir}, end={self.end_pos})")
-
-
 class StepperQueue:
     """Ring buffer of commands shared by the library (writer) and a channel (reader)."""
 
@@ -54,17 +49,21 @@ class StepperQueue:
     # get_current_position() then reports the command's start position
     position_in_command = True
 
-    def __init__(self, index: int, profile: Profile, backend: Backend, step_pin: int):
+    def __init__(self, index: int, profile: Profile, backend: QueueHost, step_pin: int,
+                 *, length: int | None = None,
+                 make_channel: Callable[[StepperQueue], QueueChannel] | None = None) -> None:
+        """``length``: slots of the ring (default: the profile's queue length);
+        ``make_channel``: its executor (default: the backend's ``allocate_channel``)."""
         self.index = index
         self.profile = profile
         self.backend = backend
         self.step_pin = step_pin
-        self.queue_len = profile.queue_len
-        self.entries = [QueueEntry() for _ in range(profile.queue_len)]
+        self.queue_len = length = profile.queue_len if length is None else length
+        self.entries = [QueueEntry() for _ in range(length)]
         # per slot: the ticks its command lasts as written (steps x ticks, or ticks for
         # one step or a pause) - what the ramp task sums over the queue every run
         # (ticks_in_queue); the channel changes only the entry it executes
-        self.durations = [0] * profile.queue_len
+        self.durations = [0] * length
         self.read_idx = 0
         self.next_write_idx = 0
         self.queue_end_pos = 0
@@ -77,7 +76,8 @@ class StepperQueue:
         self.last_command_ticks = 65535
         self.entries_added = 0  # statistics for invariants and reports
         self.max_fill = 0
-        self.channel: QueueChannel = backend.allocate_channel(self)
+        self.channel: QueueChannel = (backend.allocate_channel(self) if make_channel is None
+                                      else make_channel(self))
         self.is_running = self.channel.is_running  # asked very often: one call, not two
 
     # ------------------------------------------------------------- queries
@@ -182,6 +182,12 @@ class StepperQueue:
         if command_rate_ticks < self.profile.min_cmd_ticks:
             return AqeResult.ERROR_TICKS_TOO_LOW
 
+        return self._append(wp, ticks, steps, count_up, start, command_rate_ticks)
+
+    def _append(self, wp: int, ticks: int, steps: int, count_up: bool, start: bool,
+                duration: int) -> AqeResult:
+        """Write the command at write index ``wp`` (there is room), advance the queue's
+        end unless commands are ignored, tell the channel and start it if asked."""
         e = self.entries[wp % self.queue_len]
         dir_level = count_up == self.dir_high_counts_up
         toggle_dir = False
@@ -196,7 +202,7 @@ class StepperQueue:
         e.steps = steps
         e.total_steps = steps
         e.ticks = ticks
-        self.durations[wp % self.queue_len] = command_rate_ticks
+        self.durations[wp % self.queue_len] = duration
         e.count_up = count_up
         e.toggle_dir = toggle_dir
         e.dir_level = dir_level
@@ -205,6 +211,7 @@ class StepperQueue:
             end_pos = i32(end_pos)
         e.end_pos = end_pos
 
+        channel = self.channel
         if not self.ignore_commands:
             wp = (wp + 1) & 0xFF
             self.next_write_idx = wp
@@ -230,9 +237,25 @@ class StepperQueue:
         self.channel.force_stop()
         self.read_idx = self.next_write_idx
 
+    def take_over(self, previous: StepperQueue) -> None:
+        """This queue becomes the stepper's instead of ``previous`` (a planner with a
+        queue of its own, :meth:`fas.stepper.Stepper.use_planner`): it goes on from
+        ``previous``'s end - position, direction, direction pin - and its channel
+        from ``previous``'s (pulse counter, detached step pin)."""
+        if previous is self:
+            return
+        previous.channel.sync()
+        self.queue_end_pos = previous.queue_end_pos
+        self.queue_end_count_up = previous.queue_end_count_up
+        self.queue_end_dir = previous.queue_end_dir
+        self.dir_pin = previous.dir_pin
+        self.dir_high_counts_up = previous.dir_high_counts_up
+        self.channel.take_over(previous.channel)
+        self.channel.sync()
+
     def truncate(self, index: int) -> None:
         """Drop the entries from write index ``index`` on (a cut, see
-        :meth:`fas.backend.QueueChannel.cut`): the queue ends where entry ``index - 1``
+        :meth:`fas.channel.QueueChannel.cut`): the queue ends where entry ``index - 1``
         ends.  ``index`` lies after the read index."""
         last = self.entries[(index - 1) % self.queue_len]
         self.next_write_idx = index & 0xFF

@@ -175,8 +175,8 @@ class _Tracker:
             if s is None:
                 continue
             self.offset[i] = 0
-            self.auto_enable[i] = [(0, s._auto_enable)]
-            self.dir_delay[i] = [(0, s._dir_pin, s._dir_change_delay_ticks)]
+            self.auto_enable[i] = [(0, s.get_auto_enable())]
+            self.dir_delay[i] = [(0, s.get_direction_pin(), s.get_dir_change_delay_ticks())]
             self.detached[i] = False
             self._wrap(i, s)
 
@@ -213,7 +213,7 @@ class _Tracker:
 
         def set_direction_pin(pin, high_counts_up=True, delay_us=0):
             orig_dir(pin, high_counts_up, delay_us)
-            tracker.dir_delay[i].append((backend.now(), pin, s._dir_change_delay_ticks))
+            tracker.dir_delay[i].append((backend.now(), pin, s.get_dir_change_delay_ticks()))
 
         def detach_from_pin():
             tracker.detached[i] = True

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import fas.arch
 import fas.codes
+import fas.drive
 import fas.queue
 import fas.stepper
 import fas.timed
@@ -47,9 +48,9 @@ TICKS_FOR_STOPPED_MOTOR stepper_command_s actual_ticks_s queue_end_s AQE_OK MOVE
 MOVE_TIMED_OK MOVE_TIMED_BUSY MOVE_TIMED_EMPTY DELAY_OK DRIVER_MCPWM_PCNT DRIVER_DONT_CARE
 """.split()
 
-OBJECTS = {"Stepper": Stepper, "Engine": Engine, "Profile": fas.arch.Profile,
-           "DriverPool": fas.arch.DriverPool, "StepperQueue": fas.queue.StepperQueue,
-           "codes": fas.codes, "timed": fas.timed}
+OBJECTS = {"Stepper": Stepper, "Drive": fas.drive.Drive, "Engine": Engine,
+           "Profile": fas.arch.Profile, "DriverPool": fas.arch.DriverPool,
+           "StepperQueue": fas.queue.StepperQueue, "codes": fas.codes, "timed": fas.timed}
 
 
 def test_every_upstream_name_is_in_the_table():

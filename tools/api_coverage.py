@@ -6,7 +6,7 @@ The coverage table maps each public name of FastAccelStepper's headers to ours, 
     python tools/api_coverage.py            # check; exit 1 and list what is wrong
     python tools/api_coverage.py --update   # rewrite the file:line column
 
-A Python reference is ``Class.member`` (``Stepper``, ``Engine``, ``Profile``,
+A Python reference is ``Class.member`` (``Stepper``, ``Drive``, ``Engine``, ``Profile``,
 ``PulseCounter``), ``module.name`` (``codes``, ``timed``, ``arch``, ``errors``) or
 ``Class.member / Class.other`` for a name served by two.
 """
@@ -22,7 +22,8 @@ DOC = ROOT / "docs" / "api-coverage.md"
 
 OWNERS = {
     "Stepper": "fas/stepper.py", "Engine": "fas/engine.py", "Profile": "fas/arch.py",
-    "DriverPool": "fas/arch.py", "PulseCounter": "fas/backend.py", "TimedMove": "fas/timed.py",
+    "DriverPool": "fas/arch.py", "PulseCounter": "fas/channel.py", "TimedMove": "fas/timed.py",
+    "Drive": "fas/drive.py",
     "codes": "fas/codes.py", "timed": "fas/timed.py", "arch": "fas/arch.py",
     "errors": "fas/errors.py", "allocate": "fas/allocate.py", "StepperQueue": "fas/queue.py",
 }

@@ -8,8 +8,8 @@ synchronized changes are the simulated machine's (:class:`fas.sim.SimBackend`).
 from __future__ import annotations
 
 from ..arch import Profile
+from ..backend import OutputChange
 from ..output_figures import PwmTimer, output_figures
-from ..outputs import OutputChange
 from ..pwm import PwmSetting
 from ..serial.protocol import Message, OutputCancel, OutputPwm, OutputSet
 from .board import Board

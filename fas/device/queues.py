@@ -12,7 +12,7 @@ from functools import partial
 from typing import Any
 
 from ..arch import Profile
-from ..backend import PulseCounter
+from ..channel import PulseCounter
 from ..queue import StepperQueue, i32
 from ..serial.protocol import (
     P_CUT_REFUSED,

@@ -13,13 +13,21 @@ from enum import IntEnum
 from typing import TYPE_CHECKING
 
 from ..arch import Profile
+from ..planner import PlannerChange
 from .figures import QsTimer, quickstep_figures
 from .timebase import TimeBase, base_range_ticks, choose
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ..allocate import Allocator
     from .planner import QuickStepPlanner
 
 DEFAULT_BASE_TICKS_US = 1000  # automatic base time before any speed is known
+TIMER_USER = "quickstep"  # QuickStep's name in the allocator's book of timers
+
+
+def timer_name(timer: QsTimer) -> str:
+    """The timer as the profile's PWM table names it (AVR: "timer 2")."""
+    return f"timer {timer.number}"
 
 
 class QsConfigResult(IntEnum):
@@ -32,19 +40,48 @@ class QsConfigResult(IntEnum):
     DEPTH_OUT_OF_RANGE = 4
     PLATEAUS_OUT_OF_RANGE = 5
     RAM = 6  # the FIFOs would not fit the RAM
-    RUNNING = 7  # not while the motor(s) concerned run
+    RUNNING = PlannerChange.RUNNING.value  # not while the motor(s) concerned run
     TIMER_IN_USE = 8  # a user PWM output runs on the timer (issue 12, fas.outputs)
 
 
 class QuickStepClock:
-    def __init__(self, profile: Profile) -> None:
+    """The timer of every QuickStep motor of an engine (see the module text).  While
+    any motor runs QuickStep the timer is booked for it in the engine's allocator."""
+
+    def __init__(self, profile: Profile, allocator: Allocator | None = None) -> None:
         self.profile = profile
+        self.allocator = allocator
         self.figures = quickstep_figures(profile)
         self.timer: QsTimer | None = self.figures.timer()
         self.base_us = 0  # 0: automatic
         self.planners: list[QuickStepPlanner] = []
         self._current: TimeBase | None = None
         self.origin_tick = 0  # the timer's period boundaries are origin + k * base
+
+    # ------------------------------------------------------------ motors
+    def add(self, planner: QuickStepPlanner) -> None:
+        """A motor switched to QuickStep: the timer serves it (and is booked)."""
+        if not self.planners:
+            self._book(True)
+        self.planners.append(planner)
+
+    def remove(self, planner: QuickStepPlanner) -> None:
+        self.planners.remove(planner)
+        if not self.planners:
+            self._book(False)
+
+    def _book(self, hold: bool) -> None:
+        if self.allocator is None or self.timer is None:
+            return
+        if hold:
+            self.allocator.hold_timer(timer_name(self.timer), TIMER_USER, self)
+        else:
+            self.allocator.release_timer(timer_name(self.timer), TIMER_USER, self)
+
+    def timer_taken(self) -> bool:
+        """Does something else (a user PWM output, issue 12) run on the timer?"""
+        return (self.allocator is not None and self.timer is not None
+                and self.allocator.timer_used_by_other(timer_name(self.timer), TIMER_USER))
 
     # ------------------------------------------------------------- settings
     def range_us(self, timer: QsTimer | None = None) -> tuple[int, int]:
@@ -70,7 +107,11 @@ class QuickStepClock:
         res = self.check_base(base_us, timer_number)
         if res == QsConfigResult.OK:
             if timer_number is not None:
+                if self.planners:
+                    self._book(False)
                 self.timer = self.figures.timer(timer_number)
+                if self.planners:
+                    self._book(True)
             self.base_us = base_us
             self._current = None
         return res

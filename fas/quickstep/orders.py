@@ -15,12 +15,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
-from ..codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED, AqeResult
+from ..codes import AqeResult
 from ..queue import QueueEntry, StepperQueue, i32
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..arch import Profile
-    from ..backend import Backend, QueueChannel
+    from ..channel import OrderChannel
+    from ..queue import QueueHost
 
 RING = 256  # slots of the ring; ``depth`` of them may be in use
 MIN_DEPTH = 1
@@ -40,32 +41,19 @@ class OrderInfo:
 
 
 class OrderQueue(StepperQueue):
-    """The FIFO of one QuickStep motor (see the module text)."""
+    """The FIFO of one QuickStep motor (see the module text): a ring of 256 slots, of
+    which ``depth`` may be in use, with what the planner knows of each order."""
 
-    def __init__(self, index: int, profile: Profile, backend: Backend, step_pin: int,
-                 depth: int, make_channel: Callable[[OrderQueue], QueueChannel]) -> None:
-        # the fields of StepperQueue, with a ring of 256 slots (``depth`` usable)
-        self.index = index
-        self.profile = profile
-        self.backend = backend
-        self.step_pin = step_pin
+    channel: OrderChannel
+
+    def __init__(self, index: int, profile: Profile, backend: QueueHost, step_pin: int,
+                 depth: int, make_channel: Callable[[OrderQueue], OrderChannel]) -> None:
         self.depth = depth
-        self.queue_len = RING
-        self.entries = [QueueEntry() for _ in range(RING)]
         self.info: list[OrderInfo | None] = [None] * RING
-        self.read_idx = 0
-        self.next_write_idx = 0
-        self.queue_end_pos = 0
-        self.queue_end_count_up = True
-        self.queue_end_dir = True
-        self.ignore_commands = False
-        self.dir_pin = PIN_UNDEFINED
-        self.dir_high_counts_up = True
+        super().__init__(index, profile, backend, step_pin, length=RING,
+                         make_channel=make_channel)  # type: ignore[arg-type]
         self.max_speed_in_ticks = 1
         self.last_command_ticks = 0
-        self.entries_added = 0
-        self.max_fill = 0
-        self.channel = make_channel(self)
 
     def is_queue_full(self) -> bool:
         return self.queue_entries() >= self.depth
@@ -96,37 +84,9 @@ class OrderQueue(StepperQueue):
         if self.is_queue_full():
             return AqeResult.QUEUE_FULL
         wp = self.next_write_idx
-        e = self.entries[wp % RING]
-        dir_level = count_up == self.dir_high_counts_up
-        toggle_dir = False
-        if self.dir_pin != PIN_UNDEFINED:
-            if (self.is_queue_empty() and not self.is_running()
-                    and (self.dir_pin & PIN_EXTERNAL_FLAG) == 0):
-                self.backend.write_pin(self.dir_pin, 1 if dir_level else 0)
-                self.queue_end_dir = dir_level
-            else:
-                toggle_dir = dir_level != self.queue_end_dir
-        e.steps = steps
-        e.total_steps = steps
-        e.ticks = period_ticks
-        e.count_up = count_up
-        e.toggle_dir = toggle_dir
-        e.dir_level = dir_level
-        e.end_pos = i32(self.queue_end_pos + (steps if count_up else -steps))
         self.info[wp % RING] = info
-        self.next_write_idx = (wp + 1) & 0xFF
-        self.queue_end_pos = e.end_pos
-        self.queue_end_dir = dir_level
-        self.queue_end_count_up = count_up
-        self.entries_added += 1
-        fill = (self.next_write_idx - self.read_idx) & 0xFF
-        if fill > self.max_fill:
-            self.max_fill = fill
-        self.channel.entry_added()
-        if start and not self.is_running():
-            self.channel.start()
-        self.last_command_ticks = period_ticks
-        return AqeResult.OK
+        return self._append(wp, period_ticks, steps, count_up, start,
+                            period_ticks * steps if steps > 1 else period_ticks)
 
     def running_order(self) -> tuple[QueueEntry, OrderInfo] | None:
         """The order being executed (the FIFO's head), if any."""
@@ -153,11 +113,7 @@ class OrderQueue(StepperQueue):
         keep = self.channel.keep_until()
         if keep == wp:
             return
-        last = self.entries[(keep - 1) % RING]
-        self.next_write_idx = keep
-        self.queue_end_pos = last.end_pos
-        self.queue_end_count_up = last.count_up
-        self.queue_end_dir = last.dir_level
+        self.truncate(keep)
         self.channel.orders_dropped()
 
     def shorten_last(self, keep_steps: int) -> None:

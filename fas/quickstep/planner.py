@@ -1,11 +1,13 @@
 """The QuickStep planner of one stepper: moves as plateau orders in a FIFO.
 
-It stands in for FastAccelStepper's ramp generator when a stepper is switched to
-QuickStep (:meth:`fas.stepper.Stepper.set_planner`).  A move is planned at once
+It is a planner of the seam :mod:`fas.planner`: a stepper switched to QuickStep
+(``stepper.set_planner("quickstep", depth, plateaus)``, made by :func:`.setup.make`)
+passes its motion calls to it.  A move is planned at once
 into its orders (:mod:`.plateaus`); they go into the FIFO (:class:`.orders.
 OrderQueue`) as far as it has room, the rest waits as *pending* orders and is
 pushed as slots free - QuickStep's blocking enqueue.  ``move(..., wait=False)``
-queues nothing and reports :data:`FULL` when the orders do not all fit.
+queues nothing and reports :attr:`QsMoveResult.FIFO_FULL` when the orders do not
+all fit.
 
 How the FastAccelStepper API maps onto it (the console's commands follow):
 
@@ -23,7 +25,7 @@ How the FastAccelStepper API maps onto it (the console's commands follow):
 from __future__ import annotations
 
 from collections import deque
-from typing import TYPE_CHECKING
+from enum import IntEnum
 
 from ..codes import (
     RAMP_DIRECTION_COUNT_DOWN,
@@ -31,6 +33,7 @@ from ..codes import (
     MoveResult,
     RampState,
 )
+from ..planner import Planner, PlannerHost
 from ..queue import i32
 from .clock import QuickStepClock
 from .orders import OrderInfo, OrderQueue
@@ -46,10 +49,13 @@ from .plateaus import (
     plateau_steps,
 )
 
-if TYPE_CHECKING:  # pragma: no cover
-    from ..stepper import Stepper
 
-FULL = 1  # ``move(..., wait=False)``: the FIFO has no room for all orders of the move
+class QsMoveResult(IntEnum):
+    """What ``move(..., wait=False)`` may answer beyond :class:`~fas.codes.MoveResult`."""
+
+    FIFO_FULL = 1  # the FIFO has no room for all orders of the move: nothing queued
+
+
 DEFAULT_DEPTH = 32
 DEFAULT_PLATEAUS = 8
 MAX_PLATEAUS = 255
@@ -68,10 +74,12 @@ class PendingOrder:
         self.info = info
 
 
-class QuickStepPlanner:
-    def __init__(self, stepper: Stepper, clock: QuickStepClock, queue: OrderQueue,
+class QuickStepPlanner(Planner):
+    queue: OrderQueue
+
+    def __init__(self, host: PlannerHost, clock: QuickStepClock, queue: OrderQueue,
                  plateaus: int) -> None:
-        self.stepper = stepper
+        super().__init__(host)
         self.clock = clock
         self.queue = queue
         self.plateaus = plateaus
@@ -87,7 +95,16 @@ class QuickStepPlanner:
         return self.queue.depth
 
     def speed_period_ticks(self) -> int:
-        return self.stepper.get_speed_in_ticks()
+        return self.host.settings.min_travel_ticks
+
+    def acceleration(self) -> int:
+        return self.host.settings.acceleration
+
+    def attach(self, previous: Planner | None) -> None:
+        self.clock.add(self)
+
+    def detach(self) -> None:
+        self.clock.remove(self)
 
     def has_orders(self) -> bool:
         q = self.queue
@@ -95,8 +112,24 @@ class QuickStepPlanner:
             not q.is_queue_empty()
 
     # -------------------------------------------------------------- queries
+    def is_running(self) -> bool:
+        return self.has_orders()
+
     def is_active(self) -> bool:
         return self.has_orders()
+
+    def needs_task(self) -> bool:
+        return self.has_orders()
+
+    def fastest_period_ticks(self) -> int:
+        return 1  # a speed beyond the timer runs at the nearest interval allowed
+
+    def current_speed(self, realtime: bool) -> tuple[int, bool]:
+        ticks, _, up = self.running_info()
+        return ticks, up
+
+    def planned_period_ticks(self) -> int:
+        return self.current_period_ticks()
 
     def pending_orders(self) -> int:
         return len(self.pending)
@@ -161,16 +194,15 @@ class QuickStepPlanner:
 
     # ------------------------------------------------------------- planning
     def _check(self) -> MoveResult:
-        s = self.stepper
         if self.speed_period_ticks() <= 0:
             return MoveResult.ERR_SPEED_IS_UNDEFINED
-        if s.get_acceleration() <= 0:
+        if self.acceleration() <= 0:
             return MoveResult.ERR_ACCELERATION_IS_UNDEFINED
         return MoveResult.OK
 
     def _orders(self, plateaus: list[Plateau] | tuple[Plateau, ...], count_up: bool,
                 top: int, accel: int) -> list[PendingOrder]:
-        tb = self.clock.timebase(self.stepper.engine_now())
+        tb = self.clock.timebase(self.host.backend.now())
         out = []
         for p in plateaus:
             if p.steps <= 0:
@@ -185,30 +217,34 @@ class QuickStepPlanner:
         if delta == 0:
             return []
         ticks_per_s = self.queue.profile.ticks_per_s
-        accel = self.stepper.get_acceleration()
+        accel = self.acceleration()
         plan = plan_move(ticks_per_s, abs(delta), self.speed_period_ticks(), accel,
                          self.plateaus)
         return self._orders(plan.plateaus, delta > 0, plan.top_period_ticks, accel)
 
-    def start_move(self, delta: int) -> MoveResult:
+    def start_move(self, delta: int) -> MoveResult | QsMoveResult:
         """Queue what fits of a relative move; the rest stays pending until :meth:`pump`
         finds room (a host that keeps running meanwhile, as the console does)."""
         return self.move(delta, wait=None)
 
-    def move(self, delta: int, wait: bool | None = True) -> MoveResult | int:
+    # (wait=False may answer FIFO_FULL beyond the seam's MoveResult; the stepper's
+    # calls wait, as FastAccelStepper's move does)
+    def move(self, delta: int,  # type: ignore[override]
+             wait: bool | None = True) -> MoveResult | QsMoveResult:
         """Queue a relative move (after everything queued); see the module text.
 
         ``wait``: True blocks until every order is in the FIFO, False queues nothing
-        and returns :data:`FULL` if they do not all fit, None leaves the rest pending.
+        and returns :attr:`QsMoveResult.FIFO_FULL` if they do not all fit, None leaves
+        the rest pending.
         """
         res = self._check()
         if res != MoveResult.OK:
             return res
-        if delta < 0 and not self.stepper.has_direction_pin():
+        if delta < 0 and not self.host.has_direction_pin():
             return MoveResult.ERR_NO_DIRECTION_PIN
         orders = self.plan(delta)
         if wait is False and len(orders) + len(self.pending) > self.queue.free_slots():
-            return FULL
+            return QsMoveResult.FIFO_FULL
         self.endless = None
         if orders:
             self.moves += 1
@@ -217,20 +253,21 @@ class QuickStepPlanner:
         if self.pending:
             self.fifo_full_waits += 1
             if wait:
-                self.stepper.wait_backend(lambda: self.pump() >= 0 and not self.pending)
+                self.host.wait_until(lambda: self.pump() >= 0 and not self.pending)
         return MoveResult.OK
 
-    def move_to(self, position: int, wait: bool | None = True) -> MoveResult | int:
+    def move_to(self, position: int,  # type: ignore[override]
+                wait: bool | None = True) -> MoveResult | QsMoveResult:
         return self.move(i32(position - self.target_pos()), wait)
 
     def run(self, count_up: bool) -> MoveResult:
         res = self._check()
         if res != MoveResult.OK:
             return res
-        if not count_up and not self.stepper.has_direction_pin():
+        if not count_up and not self.host.has_direction_pin():
             return MoveResult.ERR_NO_DIRECTION_PIN
         ticks_per_s = self.queue.profile.ticks_per_s
-        accel = self.stepper.get_acceleration()
+        accel = self.acceleration()
         speed = self.speed_period_ticks()
         if self.endless is not None and self.endless.count_up == count_up:
             return MoveResult.OK
@@ -266,6 +303,9 @@ class QuickStepPlanner:
                                               info.accel))
         self.pump()
 
+    def keep_speed(self) -> None:
+        self.keep_running()
+
     def _cut_to_running(self) -> tuple[int, OrderInfo | None, bool] | None:
         """Drop what has not started; return (period, info, count_up) of the running order."""
         self.pending.clear()
@@ -292,12 +332,23 @@ class QuickStepPlanner:
         self.pending.extend(self._orders(below, up, info.top_period_ticks, info.accel))
         self.pump()
 
-    def force_stop(self) -> None:
+    def _drop_orders(self) -> None:
         self.pending.clear()
         self.endless = None
 
+    def force_stop(self) -> None:
+        self._drop_orders()
+        self.queue.force_stop()
+
+    def force_stop_at(self, position: int) -> None:
+        q = self.queue
+        self._drop_orders()
+        q.ignore_commands = False
+        q.force_stop()
+        q.queue_end_pos = i32(position)
+
     def single_step(self, count_up: bool) -> None:
-        tb = self.clock.timebase(self.stepper.engine_now())
+        tb = self.clock.timebase(self.host.backend.now())
         speed = self.speed_period_ticks() or tb.base_ticks
         interval = tb.interval_256(speed)
         self.pending.append(PendingOrder(tb.period_ticks(interval), 1, count_up,
@@ -305,6 +356,9 @@ class QuickStepPlanner:
         self.pump()
 
     # ---------------------------------------------------------------- pushing
+    def fill(self) -> int:
+        return self.pump()
+
     def pump(self) -> int:
         """Push pending (then endless) orders while the FIFO has room; returns how many."""
         q = self.queue
@@ -316,7 +370,7 @@ class QuickStepPlanner:
                 o = self.endless
             else:
                 break
-            delay = self.stepper.prepare_order()
+            delay = self.host.start_delay()
             q.channel.start_delay_ticks = delay
             res = q.add_order(o.period, o.steps, o.count_up, o.info)
             if res != 0:
@@ -325,6 +379,6 @@ class QuickStepPlanner:
                 self.pending.popleft()
             pushed += 1
             self.orders_queued += 1
-            self.stepper.order_added()
+            self.host.command_written()
         q.channel.sync()  # (a relay to FastAccelStepper's queue expands them there)
         return pushed

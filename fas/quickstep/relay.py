@@ -16,12 +16,12 @@ from __future__ import annotations
 from collections import deque
 from typing import TYPE_CHECKING
 
-from ..backend import QueueChannel
+from ..channel import OrderChannel
 from ..codes import AqeResult
 from ..queue import i32
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..queue import StepperQueue
+    from ..queue import QueueEntry, StepperQueue
     from .clock import QuickStepClock
     from .orders import OrderQueue
 
@@ -29,7 +29,7 @@ MAX_CMD_STEPS = 255
 MAX_CMD_TICKS = 65535
 
 
-class OrderRelay(QueueChannel):
+class OrderRelay(OrderChannel):
     def __init__(self, queue: OrderQueue, fas_queue: StepperQueue,
                  clock: QuickStepClock) -> None:
         self.q = queue
@@ -195,7 +195,7 @@ class OrderRelay(QueueChannel):
             self.cursor = q.next_write_idx
             self.left = -1
 
-    def shorten(self, e, keep: int) -> int:
+    def shorten(self, e: QueueEntry, keep: int) -> int:
         q = self.q
         cur = q.entries[self.cursor % q.queue_len] if self.cursor != q.next_write_idx else None
         if e is cur and self.left >= 0:
@@ -210,7 +210,7 @@ class OrderRelay(QueueChannel):
             return removed
         return 0
 
-    def _unsent(self, e) -> bool:
+    def _unsent(self, e: QueueEntry) -> bool:
         q = self.q
         i = self.cursor
         while i != q.next_write_idx:

@@ -1,99 +1,107 @@
-"""Switching a stepper between FastAccelStepper's ramp and QuickStep, with the checks
-the seed asks for: a QuickStep timer on the profile, FIFO depth 1 .. 255, plateaus
-1 .. 255, and all FIFOs together within the RAM the profile leaves for them."""
+"""QuickStep's factory: switching a stepper to QuickStep, with the checks the seed asks
+for - a QuickStep timer on the profile that no user PWM output runs on, FIFO depth
+1 .. 255, plateaus 1 .. 255, all FIFOs together within the RAM the profile leaves
+for them, the stepper at rest.
+
+Registered as ``"quickstep"`` in :mod:`fas.planners`:
+``stepper.set_planner("quickstep", depth, plateaus)`` (None: the current or default
+figure); asked again while QuickStep runs, it changes depth and plateaus.
+"""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 from .clock import QsConfigResult, QuickStepClock
 from .orders import MAX_DEPTH, MIN_DEPTH, OrderQueue
 from .planner import DEFAULT_DEPTH, DEFAULT_PLATEAUS, MAX_PLATEAUS, QuickStepPlanner
+from .relay import OrderRelay
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..engine import Engine
-    from ..stepper import Stepper
+    from collections.abc import Callable
+
+    from ..allocate import Allocator
+    from ..arch import Profile
+    from ..channel import OrderChannel
+    from ..planner import Planner, PlannerHost
+
+T = TypeVar("T")
+SHARED_KEY = "quickstep"  # the engine's shared state of QuickStep: its clock
 
 
-def clock_of(engine: Engine) -> QuickStepClock:
-    if engine.quickstep_clock is None:
-        engine.quickstep_clock = QuickStepClock(engine.profile)
-    return engine.quickstep_clock
+class EngineLike(Protocol):
+    """An engine, or what a stepper lends its planner: both can give the clock."""
+
+    profile: Profile
+    allocator: Allocator
+
+    def shared(self, key: str, make: Callable[[], T]) -> T: ...
 
 
-def check(stepper: Stepper, depth: int | None, plateaus: int | None) -> QsConfigResult:
-    """Would QuickStep with these figures be accepted for ``stepper``?"""
-    engine = stepper._engine
-    clock = clock_of(engine)
+class HasPlanner(Protocol):
+    """A stepper, as far as :func:`quickstep_of` asks it."""
+
+    @property
+    def planner(self) -> Planner: ...
+
+
+def quickstep_of(stepper: HasPlanner) -> QuickStepPlanner | None:
+    """The stepper's QuickStep planner while it runs QuickStep (else None): its FIFO,
+    plateaus and moves that may wait for room."""
+    planner = stepper.planner
+    return planner if isinstance(planner, QuickStepPlanner) else None
+
+
+def clock_of(engine: EngineLike) -> QuickStepClock:
+    """The engine's QuickStep timer (one for every QuickStep motor), made on first use."""
+    return engine.shared(SHARED_KEY, lambda: QuickStepClock(engine.profile, engine.allocator))
+
+
+def check(host: PlannerHost, current: Planner, depth: int | None,
+          plateaus: int | None) -> QsConfigResult:
+    """Would QuickStep with these figures be accepted for the stepper of ``host``?"""
+    clock = clock_of(host)
     if clock.timer is None:
         return QsConfigResult.NOT_AVAILABLE
-    if engine.outputs.pwm_uses_timer(f"timer {clock.timer.number}"):
+    if clock.timer_taken():
         return QsConfigResult.TIMER_IN_USE
     if depth is not None and not MIN_DEPTH <= depth <= MAX_DEPTH:
         return QsConfigResult.DEPTH_OUT_OF_RANGE
     if plateaus is not None and not 1 <= plateaus <= MAX_PLATEAUS:
         return QsConfigResult.PLATEAUS_OUT_OF_RANGE
-    qs = stepper.quickstep
+    qs = current if isinstance(current, QuickStepPlanner) else None
     new_depth = depth if depth is not None else (qs.depth if qs else DEFAULT_DEPTH)
     if not clock.fits(new_depth, without=qs):
         return QsConfigResult.RAM
-    if stepper.is_running():
+    if current.is_running():
         return QsConfigResult.RUNNING
     return QsConfigResult.OK
 
 
-def select(stepper: Stepper, planner: int, depth: int | None,
-           plateaus: int | None) -> QsConfigResult:
-    from ..stepper import PLANNER_FAS
-    engine = stepper._engine
-    qs = stepper.quickstep
-    if planner == PLANNER_FAS:
-        if qs is None:
-            return QsConfigResult.OK
-        if stepper.is_running():
-            return QsConfigResult.RUNNING
-        _switch_queue(stepper, stepper._fas_queue)
-        clock_of(engine).planners.remove(qs)
-        stepper._qs = None
-        return QsConfigResult.OK
-    res = check(stepper, depth, plateaus)
+def make(host: PlannerHost, current: Planner, kept: Planner | None,
+         depth: int | None = None,
+         plateaus: int | None = None) -> tuple[QsConfigResult, Planner | None]:
+    """QuickStep for the stepper of ``host`` (a new FIFO each time it is chosen)."""
+    res = check(host, current, depth, plateaus)
     if res != QsConfigResult.OK:
-        return res
-    clock = clock_of(engine)
-    if qs is not None:
+        return res, None
+    clock = clock_of(host)
+    if isinstance(current, QuickStepPlanner):  # already QuickStep: new figures
         if plateaus is not None:
-            qs.plateaus = plateaus
-        if depth is not None and depth != qs.depth:
-            qs.queue.depth = depth
-        return QsConfigResult.OK
-    fas_q = stepper._fas_queue
-    backend = engine.backend
-    queue = OrderQueue(fas_q.index, engine.profile, backend, fas_q.step_pin,
-                       depth if depth is not None else DEFAULT_DEPTH,
-                       lambda q: backend.allocate_order_channel(q, fas_q, clock))
-    planner_obj = QuickStepPlanner(stepper, clock, queue,
-                                   plateaus if plateaus is not None else DEFAULT_PLATEAUS)
-    _switch_queue(stepper, queue)
-    clock.planners.append(planner_obj)
-    stepper._qs = planner_obj
-    return QsConfigResult.OK
+            current.plateaus = plateaus
+        if depth is not None and depth != current.depth:
+            current.queue.depth = depth
+        return res, None
+    commands = host.queue
+    backend = host.backend
 
+    def make_channel(q: OrderQueue) -> OrderChannel:
+        # the chip's own timer if the backend has one, else relayed into the commands
+        channel = backend.allocate_order_channel(q, commands, clock)
+        return channel if channel is not None else OrderRelay(q, commands, clock)
 
-def _switch_queue(stepper: Stepper, new) -> None:
-    """Hand position, direction pin and counters over to the other queue."""
-    old = stepper._queue
-    if old is new:
-        return
-    old.channel.sync()
-    new.queue_end_pos = old.queue_end_pos
-    new.queue_end_count_up = old.queue_end_count_up
-    new.queue_end_dir = old.queue_end_dir
-    new.dir_pin = old.dir_pin
-    new.dir_high_counts_up = old.dir_high_counts_up
-    counter = getattr(old.channel, "pulse_counter", None)
-    if counter is not None and hasattr(new.channel, "pulse_counter"):
-        new.channel.pulse_counter = counter
-    new.channel.detached = getattr(old.channel, "detached", False)
-    new.channel.sync()
-    stepper._queue = new
-    stepper._rg.set_target_position(new.queue_end_pos)
+    queue = OrderQueue(commands.index, host.profile, backend, commands.step_pin,
+                       depth if depth is not None else DEFAULT_DEPTH, make_channel)
+    planner = QuickStepPlanner(host, clock, queue,
+                               plateaus if plateaus is not None else DEFAULT_PLATEAUS)
+    return res, planner

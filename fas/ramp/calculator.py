@@ -11,87 +11,9 @@ shifted by ``s_h/4`` steps.  All of it is evaluated in the log2 fixed-point doma
 from __future__ import annotations
 
 from .. import log2
+from ..motion import MotionSettings
 
-
-class RampParameters:
-    """What the application asked for; copied to the ramp task on ``apply``."""
-
-    __slots__ = (
-        "move_value", "min_travel_ticks", "s_h", "s_jump", "log2_accel", "apply",
-        "any_change", "recalc_ramp_steps", "valid_acceleration", "valid_speed",
-        "move_absolute", "keep_running", "keep_running_count_up",
-    )
-
-    def __init__(self) -> None:
-        self.move_value = 0
-        self.min_travel_ticks = 0
-        self.s_h = 0
-        self.s_jump = 0
-        self.log2_accel = 0
-        self.apply = False
-        self.any_change = False
-        self.recalc_ramp_steps = False
-        self.valid_acceleration = False
-        self.valid_speed = False
-        self.move_absolute = True
-        self.keep_running = False
-        self.keep_running_count_up = True
-
-    def copy(self) -> "RampParameters":
-        other = RampParameters.__new__(RampParameters)
-        for name in RampParameters.__slots__:
-            setattr(other, name, getattr(self, name))
-        return other
-
-    # --- application side setters (upstream: ramp_parameters_s) ---
-    def apply_parameters(self) -> None:
-        if self.any_change:
-            self.apply = True
-
-    def set_running(self, count_up: bool) -> None:
-        self.keep_running = True
-        self.keep_running_count_up = count_up
-        self.any_change = True
-        self.apply = True
-
-    def set_target_position(self, pos: int) -> None:
-        self.move_value = pos
-        self.move_absolute = True
-        self.keep_running = False
-        self.keep_running_count_up = True
-        self.any_change = True
-        self.apply = True
-
-    def set_target_relative_position(self, move: int) -> None:
-        if self.any_change and not self.move_absolute:
-            self.move_value = _i32(self.move_value + move)
-        else:
-            self.move_value = move
-        self.move_absolute = False
-        self.keep_running = False
-        self.keep_running_count_up = True
-        self.any_change = True
-        self.apply = True
-
-    def set_cubic_acceleration_steps(self, s_cubic_steps: int) -> None:
-        if self.s_h != s_cubic_steps:
-            self.s_h = s_cubic_steps
-            self.recalc_ramp_steps = True
-            self.any_change = True
-
-    def set_speed_in_ticks(self, min_step_ticks: int) -> None:
-        if not self.valid_speed or self.min_travel_ticks != min_step_ticks:
-            self.min_travel_ticks = min_step_ticks
-            self.valid_speed = True
-            self.any_change = True
-
-    def set_acceleration(self, accel: int) -> None:
-        new_log2_accel = log2.from_u32(accel)
-        if not self.valid_acceleration or self.log2_accel != new_log2_accel:
-            self.valid_acceleration = True
-            self.any_change = True
-            self.recalc_ramp_steps = True
-            self.log2_accel = new_log2_accel
+RampParameters = MotionSettings  # upstream's ramp_parameters_s: the stepper's settings
 
 
 class RampConfig:
@@ -102,7 +24,7 @@ class RampConfig:
 
     def __init__(self, log2_ticks_per_s: int, log2_ticks_div_sqrt2: int,
                  log2_accel_factor: int) -> None:
-        self.parameters = RampParameters()
+        self.parameters = MotionSettings()
         self.max_ramp_up_steps = 0
         self.log2_ticks_h = 0
         self.cubic = 0

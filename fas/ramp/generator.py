@@ -20,7 +20,8 @@ from ..codes import (
     MoveResult,
     RampState,
 )
-from .calculator import RampConfig, RampParameters, _i32
+from ..motion import MotionSettings, div_for_hz, div_for_milli_hz
+from .calculator import RampConfig, _i32
 from .control import NextCommand, RampRw, next_command
 
 _IDLE = int(RampState.IDLE)  # (an Enum member read per call costs a metaclass lookup)
@@ -28,20 +29,25 @@ _IDLE = int(RampState.IDLE)  # (an Enum member read per call costs a metaclass l
 
 class RampGenerator:
     __slots__ = ("_parameters", "config", "target_pos", "force_stop", "force_immediate_stop",
-                 "rw", "acceleration", "_ticks_per_s", "_ticks_per_us", "_min_cmd_ticks")
+                 "rw", "_ticks_per_s", "_ticks_per_us", "_min_cmd_ticks")
 
     def __init__(self, ticks_per_s: int, min_cmd_ticks: int, log2_ticks_per_s: int,
-                 log2_ticks_div_sqrt2: int, log2_accel_factor: int) -> None:
+                 log2_ticks_div_sqrt2: int, log2_accel_factor: int,
+                 parameters: MotionSettings | None = None) -> None:
+        """``parameters``: the stepper's motion settings (default: settings of its own)."""
         self._ticks_per_s = ticks_per_s
         self._ticks_per_us = ticks_per_s // 1_000_000
         self._min_cmd_ticks = min_cmd_ticks
-        self._parameters = RampParameters()
+        self._parameters = MotionSettings() if parameters is None else parameters
         self.config = RampConfig(log2_ticks_per_s, log2_ticks_div_sqrt2, log2_accel_factor)
         self.target_pos = 0
         self.force_stop = False
         self.force_immediate_stop = False
         self.rw = RampRw()
-        self.acceleration = 0
+
+    @property
+    def acceleration(self) -> int:
+        return self._parameters.acceleration
 
     # ------------------------------------------------------------------ queries
     def ramp_state(self) -> int:
@@ -82,16 +88,10 @@ class RampGenerator:
 
     def div_for_milli_hz(self, f: int) -> int:
         """250·TICKS_PER_S·4 / f with upstream's 32-bit rounding (f: mHz or ticks)."""
-        base = (250 * self._ticks_per_s) & 0xFFFFFFFF
-        res = base // f
-        base -= res * f
-        base = (base << 2) & 0xFFFFFFFF
-        res = (res << 2) & 0xFFFFFFFF
-        base += f // 2
-        return (res + base // f) & 0xFFFFFFFF
+        return div_for_milli_hz(self._ticks_per_s, f)
 
     def div_for_hz(self, f: int) -> int:
-        return (self._ticks_per_s + f // 2) // f
+        return div_for_hz(self._ticks_per_s, f)
 
     def current_period_in_ticks(self) -> int:
         return self.rw.curr_ticks
@@ -115,17 +115,13 @@ class RampGenerator:
         self._parameters.set_speed_in_ticks(ticks)
 
     def set_acceleration(self, accel: int) -> int:
-        if accel <= 0:
-            return -1
-        self.acceleration = accel
-        self._parameters.set_acceleration(accel)
-        return 0
+        return self._parameters.set_acceleration(accel)
 
     def set_linear_acceleration(self, steps: int) -> None:
         self._parameters.set_cubic_acceleration_steps(steps)
 
     def set_jump_start(self, jump_step: int) -> None:
-        self._parameters.s_jump = jump_step
+        self._parameters.set_jump_start(jump_step)
 
     def set_keep_running(self) -> None:
         self.config.parameters.keep_running = True
@@ -252,11 +248,11 @@ class RampGenerator:
         """A request (move, run, new parameters) waits for the ramp task."""
         return self._parameters.apply
 
-    def snapshot(self) -> tuple[RampRw, int, RampParameters]:
+    def snapshot(self) -> tuple[RampRw, int, MotionSettings]:
         """The planning state after the last command: ramp, target, parameters."""
         return self.rw.copy(), self.target_pos, self.config.parameters
 
-    def restore(self, snapshot: tuple[RampRw, int, RampParameters]) -> None:
+    def restore(self, snapshot: tuple[RampRw, int, MotionSettings]) -> None:
         """Plan on from a :meth:`snapshot` (the queue was cut back to where it was
         taken).  Parameters applied since stay; the ramp step is then recomputed."""
         rw, target, parameters = snapshot

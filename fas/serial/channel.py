@@ -25,7 +25,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from ..backend import PulseCounter, QueueChannel
+from ..channel import PulseCounter, QueueChannel
 from ..queue import i32
 from .protocol import (
     P_CUT_REFUSED,

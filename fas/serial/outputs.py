@@ -8,7 +8,7 @@ was reset, drives what the application last asked for.
 
 from __future__ import annotations
 
-from ..outputs import OutputChange
+from ..backend import OutputChange
 from ..pwm import PwmSetting
 from .protocol import O_ANALOG, O_SYNCHRONIZED, Message, OutputCancel, OutputPwm, OutputSet, Pin
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from ..backend import PulseCounter, QueueChannel
+from ..channel import PulseCounter, QueueChannel
 from .machine import PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -27,10 +27,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..channel import OrderChannel
 from .channel import ENTRY_NEXT, ENTRY_RESTART, ENTRY_START, SimChannel
 from .machine import Machine
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ..queue import QueueEntry
     from ..quickstep.clock import QuickStepClock
     from ..quickstep.orders import OrderQueue
 
@@ -52,7 +54,7 @@ class TimerLoad:
         return n * (p.period_isr_ticks + running * p.motor_isr_ticks)
 
 
-class QuickStepChannel(SimChannel):
+class QuickStepChannel(SimChannel, OrderChannel):
     def __init__(self, machine: Machine, queue: OrderQueue, clock: QuickStepClock,
                  load: TimerLoad) -> None:
         super().__init__(machine, queue)
@@ -108,7 +110,7 @@ class QuickStepChannel(SimChannel):
     def orders_dropped(self) -> None:
         """Orders behind the running one were taken back (nothing is armed for them)."""
 
-    def shorten(self, e, keep: int) -> int:
+    def shorten(self, e: QueueEntry, keep: int) -> int:
         """Order ``e`` makes at most ``keep`` (>= 1) more steps; returns how many steps
         were taken off it."""
         q = self.q

@@ -352,7 +352,7 @@ class StepperDemo(LoopProgram):
                     self.print_number(s.ramp_state())
             else:
                 self.print(msg.STATUS_MANUAL)
-            if s.quickstep is not None:
+            if qs_console.quickstep_of(s) is not None:
                 self.print(qs_console.status_suffix(s))
         elif long_info:
             self.print(msg.ACCELERATION_STATUS)
@@ -363,7 +363,7 @@ class StepperDemo(LoopProgram):
             else:
                 self.print(msg.SPEED_STATUS_TIME)
                 self.print_number(s.get_speed_in_us())
-            if s.quickstep is not None:
+            if qs_console.quickstep_of(s) is not None:
                 self.print(qs_console.table_suffix(self, s))
         self.print(" ")
 

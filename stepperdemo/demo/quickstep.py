@@ -20,7 +20,7 @@ from fas.codes import MoveResult
 from fas.quickstep.clock import QsConfigResult
 from fas.quickstep.orders import MAX_DEPTH, MIN_DEPTH
 from fas.quickstep.planner import DEFAULT_DEPTH, DEFAULT_PLATEAUS, MAX_PLATEAUS
-from fas.quickstep.setup import clock_of
+from fas.quickstep.setup import clock_of, quickstep_of
 from fas.stepper import PLANNER_FAS, PLANNER_QUICKSTEP
 
 from .. import messages as msg
@@ -68,7 +68,7 @@ def _error(app: StepperDemo, res: QsConfigResult, *, value: int = 0, need_depth:
     elif res == QsConfigResult.PLATEAUS_OUT_OF_RANGE:
         app.print(msg.QS_ERR_PLATEAUS.format(value=value))
     elif res == QsConfigResult.RAM:
-        qs = stepper.quickstep if stepper is not None else None
+        qs = quickstep_of(stepper) if stepper is not None else None
         need = clock.ram_used(need_depth, without=qs)
         app.print(msg.QS_ERR_RAM.format(need=need, avail=clock.figures.ram_bytes, profile=p.name))
     elif res == QsConfigResult.RUNNING:
@@ -122,7 +122,7 @@ def cmd_depth(app: StepperDemo, arg: bytes) -> bool:
     if not MIN_DEPTH <= value <= MAX_DEPTH:
         _error(app, QsConfigResult.DEPTH_OUT_OF_RANGE, value=value)
         return True
-    if s.quickstep is not None:
+    if quickstep_of(s) is not None:
         res = s.set_planner(PLANNER_QUICKSTEP, value, None)
         if res != QsConfigResult.OK:
             _error(app, res, value=value, need_depth=value, stepper=s)
@@ -147,7 +147,7 @@ def cmd_plateaus(app: StepperDemo, arg: bytes) -> bool:
     if not 1 <= value <= MAX_PLATEAUS:
         _error(app, QsConfigResult.PLATEAUS_OUT_OF_RANGE, value=value)
         return True
-    if s.quickstep is not None:
+    if quickstep_of(s) is not None:
         res = s.set_planner(PLANNER_QUICKSTEP, None, value)
         if res != QsConfigResult.OK:
             _error(app, res, value=value)
@@ -193,7 +193,7 @@ def cmd_base(app: StepperDemo, arg: bytes) -> bool:
 # ------------------------------------------------------------------ normal mode
 def move(s, delta: int, absolute: bool) -> MoveResult:
     """R/P: FastAccelStepper's move, or QuickStep's that may leave orders pending."""
-    qs = s.quickstep
+    qs = quickstep_of(s)
     if qs is None:
         return s.move_to(delta) if absolute else s.move(delta)
     if absolute:
@@ -204,7 +204,7 @@ def move(s, delta: int, absolute: bool) -> MoveResult:
 def after_move(app: StepperDemo) -> None:
     """A move that waits for FIFO room holds the input (and says so)."""
     s = app.selected_stepper
-    qs = s.quickstep
+    qs = quickstep_of(s)
     if qs is not None and qs.pending_orders():
         app.qs_hold = s
         app.print(msg.QS_HOLD.format(n=app.selected + 1, pending=qs.pending_orders()))
@@ -215,7 +215,7 @@ def service_hold(app: StepperDemo) -> bool:
     s = app.qs_hold
     if s is None:
         return False
-    qs = s.quickstep
+    qs = quickstep_of(s)
     if qs is None:
         app.qs_hold = None
         return False
@@ -228,14 +228,14 @@ def service_hold(app: StepperDemo) -> bool:
 
 
 def status_suffix(s: Stepper) -> str:
-    qs = s.quickstep
+    qs = quickstep_of(s)
     if qs is None:
         return ""
     return msg.QS_STATUS.format(label=qs.plateau_label() or "-")
 
 
 def table_suffix(app: StepperDemo, s: Stepper) -> str:
-    qs = s.quickstep
+    qs = quickstep_of(s)
     if qs is None:
         return ""
     clock = clock_of(app.engine)

@@ -36,6 +36,7 @@ from fas.codes import PIN_UNDEFINED, AqeResult
 from fas.output_figures import output_figures
 from fas.outputs import OutputResult
 from fas.pwm import PwmSetting, count_percent, duty_count, frequency_range
+from fas.quickstep.setup import quickstep_of
 
 from .. import messages as msg
 from .interp import Action, Dwell, End, Interpreter, Move, SetOutput
@@ -264,7 +265,7 @@ class GcodeMachine:
             if t == s:
                 continue
             stepper = self.steppers[i]
-            if getattr(stepper, "quickstep", None) is not None:
+            if quickstep_of(stepper) is not None:
                 raise GcodeError(msg.GCODE_ERR_QUICKSTEP_AXIS.format(letter=AXES[i]))
             pin = stepper.get_direction_pin()
             if pin == PIN_UNDEFINED:

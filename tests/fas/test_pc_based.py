@@ -13,7 +13,7 @@ from __future__ import annotations
 import pytest
 
 from fas import log2
-from fas.arch import DriverPool
+from fas.arch import PC_TEST, DriverPool
 from fas.codes import (
     PIN_EXTERNAL_FLAG,
     RAMP_STATE_MASK,
@@ -23,8 +23,11 @@ from fas.codes import (
     MoveTimedResult,
     RampState,
 )
+from fas.engine import Engine
+from fas.queue import StepperQueue
+from fas.stepper import Stepper
 
-from .pc_based import TPS, RampChecker, drain, make_stepper, run_ramp
+from .pc_based import TPS, ManualBackend, RampChecker, drain, make_stepper, run_ramp
 
 QUEUE_LEN = 16
 MIN_CMD_TICKS = TPS // 5000
@@ -593,9 +596,9 @@ def test_23_direction_delay_limits_and_clamping():
     assert PC_TEST.max_dir_delay_us == 65535 // 16
     s = make_stepper()
     s.set_direction_pin(5, True, 1)
-    assert s._dir_change_delay_ticks == PC_TEST.min_dir_delay_us * 16
+    assert s.get_dir_change_delay_ticks() == PC_TEST.min_dir_delay_us * 16
     s.set_direction_pin(5, True, 10000)
-    assert s._dir_change_delay_ticks == PC_TEST.max_dir_delay_us * 16
+    assert s.get_dir_change_delay_ticks() == PC_TEST.max_dir_delay_us * 16
 
 
 def _entries(s) -> int:
@@ -616,10 +619,14 @@ def test_23_direction_change_delay_is_a_pause_before_the_first_step():
 
 @pytest.mark.parametrize("prior_steps", [0, 1])
 def test_23_no_before_delay_when_the_last_command_is_long_enough(prior_steps):
-    s = make_stepper()
-    s.set_direction_pin(5, True, 0)
     before = 1000 * 16
-    s._pool = DriverPool(FasDriver.RMT, 1, 80, before_dir_change_ticks=before)
+    pool = DriverPool(FasDriver.RMT, 1, 80, before_dir_change_ticks=before)
+    engine = Engine(ManualBackend(PC_TEST))  # a stepper on a driver pool with that delay
+    engine.init()
+    queue = StepperQueue(0, PC_TEST, engine.backend, 0)
+    queue.max_speed_in_ticks = pool.max_speed_ticks
+    s = Stepper(engine, queue, pool)
+    s.set_direction_pin(5, True, 0)
     s.add_queue_entry(before + 1000, prior_steps, True)
     n = _entries(s)
     s.add_queue_entry(1600, 10, False, start=False)

@@ -12,7 +12,7 @@ from fas.arch import get_profile
 from fas.backend import Backend
 from fas.quickstep.clock import QsConfigResult
 from fas.quickstep.figures import quickstep_figures
-from fas.quickstep.planner import FULL
+from fas.quickstep.planner import QsMoveResult
 from fas.quickstep.plateaus import (
     ACCELERATE,
     COAST,
@@ -20,6 +20,7 @@ from fas.quickstep.plateaus import (
     MAX_ORDER_STEPS,
     plan_move,
 )
+from fas.quickstep.setup import clock_of, quickstep_of
 from fas.quickstep.timebase import INTERVAL_MAX, INTERVAL_MIN, choose
 from fas.sim import SimBackend
 from fas.stepper import PLANNER_FAS, PLANNER_QUICKSTEP
@@ -125,8 +126,8 @@ def test_move_3200_with_8_plateaus_has_8_step_periods():
 
 def test_non_blocking_move_reports_full_and_queues_nothing():
     b, _, s = _setup(depth=8, plateaus=8)
-    qs = s.quickstep
-    assert qs.move(3200, wait=False) == FULL
+    qs = quickstep_of(s)
+    assert qs.move(3200, wait=False) == QsMoveResult.FIFO_FULL
     assert s.queue_entries() == 0 and not s.is_running()
     assert qs.start_move(3200) == MoveResult.OK
     assert s.queue_entries() == 8 and qs.pending_orders() == 9
@@ -140,7 +141,7 @@ def test_blocking_move_returns_when_the_last_order_is_queued():
     t0 = b.now()
     assert s.move(3200) == MoveResult.OK
     assert b.now() > t0  # it waited for room
-    assert s.quickstep.pending_orders() == 0
+    assert quickstep_of(s).pending_orders() == 0
     assert s.target_pos() == 3200
     b.wait_until(lambda: not s.is_running())
     assert s.get_current_position() == 3200
@@ -192,8 +193,8 @@ def test_settings_refused_while_running_or_beyond_ram():
     assert s.set_planner(PLANNER_QUICKSTEP, None, 256) == QsConfigResult.PLATEAUS_OUT_OF_RANGE
     s.move(1000)
     assert s.set_planner(PLANNER_FAS) == QsConfigResult.RUNNING
-    assert e.quickstep_clock.set_base(50) == QsConfigResult.RUNNING
-    assert e.quickstep_clock.set_base(5) == QsConfigResult.BASE_OUT_OF_RANGE
+    assert clock_of(e).set_base(50) == QsConfigResult.RUNNING
+    assert clock_of(e).set_base(5) == QsConfigResult.BASE_OUT_OF_RANGE
     b.wait_until(lambda: not s.is_running())
     assert s.set_planner(PLANNER_FAS) == QsConfigResult.OK
     assert s.get_current_position() == 1000
@@ -208,12 +209,12 @@ def test_quickstep_is_not_available_without_a_timer():
     e.init()
     s = e.stepper_connect_to_pin(17)
     assert s.set_planner(PLANNER_QUICKSTEP) == QsConfigResult.NOT_AVAILABLE
-    assert s.quickstep is None
+    assert quickstep_of(s) is None
 
 
 def test_speed_beyond_the_timer_runs_at_the_nearest_allowed():
     b, e, s = _setup(plateaus=1, speed_us=100, accel=10**7)
-    e.quickstep_clock.set_base(1000)  # 1 ms: the fastest interval is 1 ms
+    clock_of(e).set_base(1000)  # 1 ms: the fastest interval is 1 ms
     s.move(20)
     b.wait_until(lambda: not s.is_running())
     assert set(_periods(b)) == {16000}
@@ -231,7 +232,7 @@ def test_timer_interrupt_costs_cpu_per_base_period():
 
 def test_blocked_interrupts_lose_period_interrupts_of_a_fast_base():
     b, e, s = _setup(plateaus=1, speed_us=1000, accel=10**7)
-    e.quickstep_clock.set_base(20)  # 20 us: a 100 us block swallows 4 period interrupts
+    clock_of(e).set_base(20)  # 20 us: a 100 us block swallows 4 period interrupts
     s.move(50)
     b.run_for(10 * 16000 + 2000)  # between two steps
     before = s.get_current_position()
