@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 from ..arch import Profile, get_profile
 from ..backend import Backend, PinStates, PulseCounter
@@ -14,6 +14,9 @@ from .channel import SimChannel
 from .machine import PRIO_TASK, Event, Machine
 from .pins import EdgeRecorder
 from .printing import print_chars
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .quickstep import QuickStepChannel
 
 DEFAULT_WAIT_LIMIT_S = 3600
 
@@ -148,7 +151,7 @@ class SimBackend(Backend):
             fn(ch)
         return ch
 
-    def allocate_order_channel(self, queue, fas_queue, clock) -> SimChannel:
+    def allocate_order_channel(self, queue, fas_queue, clock) -> QuickStepChannel:
         """QuickStep's FIFO runs on the profile's QuickStep timer (timer 2 on AVR)."""
         from .quickstep import QuickStepChannel, TimerLoad
         load = self._qs_load
