@@ -1,7 +1,7 @@
 """The device firmware in simavr: size, step timing against the Python device, link margin.
 
 1. Size: flash and RAM of the two builds (115200 and 1 000 000 baud), from avr-size.
-2. Step timing: every acceptance line (tests/fas/serial/helpers.py) runs through the
+2. Step timing: every acceptance line (rigs/serial.py) runs through the
    serial backend against the firmware in simavr (lockstep with the host's virtual
    clock).  The bytes the chip received are then replayed, at the ticks they reached
    its UART, into the Python device: the same session on both.  Per step pin: the
@@ -36,9 +36,9 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from fas.device import simavr  # noqa: E402
 from fas.device.loopback import Loopback  # noqa: E402
+from rigs.firmware import run_firmware  # noqa: E402
+from rigs.serial import LINES  # noqa: E402
 from stepperdemo.demo.app import StepperDemo  # noqa: E402
-from tests.fas.serial.helpers import LINES  # noqa: E402
-from tests.firmware.rigs import run_firmware  # noqa: E402
 
 TWO_25KHZ = "M1 A100000 V40 R20000 M2 A100000 V40 R-20000 W M2 W"
 ISSUE_LINE = "M1 A1000 V100 R3200 W M2 A2000 V200 R-1000 W"
@@ -94,7 +94,7 @@ def timing(lines: list[str]) -> None:
 
 
 def limits() -> None:
-    from tests.firmware.stepgen_rig import Both, Rig, build_rig
+    from rigs.stepgen import Both, Rig, build_rig
 
     elf = build_rig()
 

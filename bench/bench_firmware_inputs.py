@@ -47,8 +47,8 @@ from fas.serial.protocol import (  # noqa: E402
     Start,
     WatchInput,
 )
+from rigs.firmware import Host  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
-from tests.firmware.rigs import Host  # noqa: E402
 
 TPS = 16_000_000
 SWITCH = 17  # A3

@@ -31,8 +31,8 @@ from fas.arch import get_profile  # noqa: E402
 from fas.device.loopback import Loopback  # noqa: E402
 from fas.device.relay import Faults  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
+from rigs.serial import LINES  # noqa: E402  (the issue's acceptance lines)
 from stepperdemo.demo.app import StepperDemo  # noqa: E402
-from tests.fas.serial.helpers import LINES  # noqa: E402  (the issue's acceptance lines)
 
 BAUD = 115200
 WINDOW_MS = 20

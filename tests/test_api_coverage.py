@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import importlib.util
 import re
-from pathlib import Path
 
 import fas.arch
 import fas.codes
@@ -14,8 +13,8 @@ import fas.queue
 import fas.stepper
 import fas.timed
 from fas import Engine, Stepper
+from rigs import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 SPEC = importlib.util.spec_from_file_location("api_coverage", ROOT / "tools" / "api_coverage.py")
 api_coverage = importlib.util.module_from_spec(SPEC)
 SPEC.loader.exec_module(api_coverage)

@@ -6,7 +6,7 @@ from bisect import bisect_left, bisect_right
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from .helpers import make, pin_position, run_until_idle
+from rigs.sim import make, pin_position, run_until_idle
 
 op = st.one_of(
     st.tuples(st.just("move"), st.integers(-5000, 5000)),

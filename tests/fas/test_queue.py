@@ -3,8 +3,7 @@
 from fas import Engine
 from fas.codes import AqeResult
 from fas.sim import SimBackend
-
-from .helpers import make, periods, rising, run_until_idle
+from rigs.sim import make, periods, rising, run_until_idle
 
 
 def test_raw_commands_run_tick_exact():

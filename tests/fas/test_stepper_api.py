@@ -13,8 +13,7 @@ from fas.codes import (
     RampState,
 )
 from fas.sim import SimBackend
-
-from .helpers import make, periods, pin_position, rising, run_until_idle
+from rigs.sim import make, periods, pin_position, rising, run_until_idle
 
 
 # ------------------------------------------------------------------ speed

@@ -13,10 +13,10 @@ import pytest
 
 from fas.device.loopback import Loopback
 from fas.serial.protocol import D_ESTOP, D_WATCHDOG
+from rigs import ROOT
+from rigs.firmware import need_firmware, run_firmware
+from rigs.serial import LINES, NOISY, TPS, run_sim
 from stepperdemo.demo.app import StepperDemo
-from tests.fas.serial.helpers import LINES, NOISY, TPS, run_sim
-
-from .rigs import need_firmware, run_firmware
 
 QUICK = {LINES[0], LINES[5], LINES[10]}  # in the default run; the rest with -m long
 
@@ -185,22 +185,20 @@ def test_s_decelerates_from_where_the_motor_is():
 def test_device_simavr_serves_a_pty_for_port():
     """``stepperdemo device --simavr`` (real time, sped up) and ``--port PTY -c LINE``
     as a user runs them; waiting is done by reading what the processes print."""
-    import os
     import re
     import signal
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
-                            "--speed", "4"], cwd=root, stdout=subprocess.PIPE, text=True)
+                            "--speed", "4"], cwd=ROOT, stdout=subprocess.PIPE, text=True)
     try:
         first = dev.stdout.readline()
         assert first.startswith("device atmega328p (firmware ")
         path = re.search(r" on (/dev/pts/\d+)", first).group(1)
         res = subprocess.run([sys.executable, "-m", "stepperdemo", "--port", path, "-c",
                               "M1 A1000 V100 R3200 W M2 A2000 V200 R-1000 W", "--lf",
-                              "--watchdog-ms", "2000"], cwd=root, capture_output=True,
+                              "--watchdog-ms", "2000"], cwd=ROOT, capture_output=True,
                              text=True, timeout=120, check=False)
         assert res.returncode == 0, res.stderr
         assert "device M1: position 3200, 3200 pulses" in res.stderr

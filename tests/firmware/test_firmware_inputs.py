@@ -41,8 +41,7 @@ from fas.serial.protocol import (
     Started,
     WatchInput,
 )
-
-from .rigs import MS, Host, need_firmware
+from rigs.firmware import MS, Host, need_firmware
 
 TPS = 16_000_000
 SWITCH, POT = 17, 14  # A3, A0

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import pytest
 
-from .rigs import need_firmware
-from .stepgen_rig import (
+from rigs.firmware import need_firmware
+from rigs.stepgen import (
     DETACH,
     HALT,
     LB_UP,

@@ -10,10 +10,10 @@ from __future__ import annotations
 import pytest
 
 from fas.device.loopback import Loopback
+from rigs import ROOT
+from rigs.firmware import need_firmware, pin_position
 from stepperdemo.program import make_program
 from stepperdemo.winder import figures as fig
-
-from .rigs import need_firmware, pin_position
 
 TPS = 16_000_000
 S1_STEP, S1_DIR, S2_STEP, S2_DIR = 9, 5, 10, 7
@@ -114,21 +114,19 @@ def test_winder_port_on_device_simavr_as_a_user_runs_it():
     """``stepperdemo device --simavr`` (sped up) and ``stepperdemo winder --port PTY -c
     LINE``: the limit line as a user types it; waiting is done by reading what the
     processes print."""
-    import os
     import re
     import signal
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
-                            "--speed", "4"], cwd=root, stdout=subprocess.PIPE, text=True)
+                            "--speed", "4"], cwd=ROOT, stdout=subprocess.PIPE, text=True)
     try:
         first = dev.stdout.readline()
         path = re.search(r" on (/dev/pts/\d+)", first).group(1)
         res = subprocess.run([sys.executable, "-m", "stepperdemo", "winder", "--port", path,
                               "-c", "period 2 50 move 2 65535 w300 switch A3 1 w300",
-                              "--watchdog-ms", "2000"], cwd=root, capture_output=True,
+                              "--watchdog-ms", "2000"], cwd=ROOT, capture_output=True,
                              text=True, timeout=120, check=False)
         assert res.returncode == 0, res.stderr
         assert "ERROR" not in res.stdout
@@ -146,16 +144,14 @@ def test_device_simavr_inputs_from_the_command_line_and_stdin():
     """``device --simavr --input A4=0 --inputs-from-stdin``: the fixture switch closed at
     power-up and a switch pressed by a line typed at the device - both on the chip's
     pins, read back by the winder through the firmware's reports."""
-    import os
     import re
     import signal
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
                             "--speed", "4", "--input", "A4=0", "--inputs-from-stdin"],
-                           cwd=root, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+                           cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
         first = dev.stdout.readline()
         path = re.search(r" on (/dev/pts/\d+)", first).group(1)
@@ -163,7 +159,7 @@ def test_device_simavr_inputs_from_the_command_line_and_stdin():
         dev.stdin.flush()
         assert dev.stdout.readline().strip() == "device: input A5=0"
         res = subprocess.run([sys.executable, "-m", "stepperdemo", "winder", "--port", path,
-                              "-c", "status"], cwd=root, capture_output=True, text=True,
+                              "-c", "status"], cwd=ROOT, capture_output=True, text=True,
                              timeout=120, check=False)
         assert res.returncode == 0, res.stderr
         assert "A4 closed at power-up: fixture mode" in res.stdout

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -12,12 +11,12 @@ from fas.arch import PROFILES, TEST_PROFILES, get_profile
 from fas.codes import PIN_UNDEFINED
 from fas.output_figures import NO_OUTPUTS
 from fas.quickstep.figures import NO_QUICKSTEP
+from rigs import ROOT
 from stepperdemo import messages as msg
 from stepperdemo.chip_sheet import chip_sheet, sheet_lines
 from stepperdemo.demo.build import demo_build
 from stepperdemo.program import EndReason
 
-ROOT = Path(__file__).resolve().parents[2]
 ALL = {**PROFILES, **TEST_PROFILES}
 
 
@@ -89,10 +88,9 @@ def test_a_new_chip_is_a_profile_and_its_stepperdemo_build(monkeypatch):
     no user outputs until their tables list it."""
     from dataclasses import replace
 
+    from rigs.demo import run
     from stepperdemo.demo import build
     from stepperdemo.demo.build import ESP32_COSTS, DemoStepper
-
-    from .helpers import run
 
     chip = replace(get_profile("rp2040"), name="rp2040_two", title="RP2040, two steppers",
                    max_steppers=2)

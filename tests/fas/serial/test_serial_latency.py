@@ -11,9 +11,8 @@ from fas.device.loopback import Loopback
 from fas.device.relay import Faults
 from fas.sim import SimBackend
 from fas.sim.pins import EdgeRecorder
+from rigs.serial import TPS, run_serial, run_sim
 from stepperdemo.demo.app import StepperDemo
-
-from .helpers import TPS, run_serial, run_sim
 
 MS = TPS // 1000
 # the two runs

@@ -7,7 +7,6 @@ reading what the processes print.
 
 from __future__ import annotations
 
-import os
 import re
 import select
 import signal
@@ -19,9 +18,9 @@ import pytest
 
 from fas.serial import SerialBackend
 from fas.serial.protocol import D_WATCHDOG
+from rigs import ROOT
 from stepperdemo.demo.app import StepperDemo
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
 PTY_RE = re.compile(r"(/dev/pts/\d+)")
 SPEED = 4
 

@@ -1,9 +1,8 @@
 """Sessions on the serial backend: watchdog, lost devices, reconnection, stops."""
 
 from fas.device.loopback import Loopback
+from rigs.serial import TPS
 from stepperdemo.demo.app import StepperDemo
-
-from .helpers import TPS
 
 
 def _moving(lb: Loopback, steps: int = 100_000, run_ms: int = 500):

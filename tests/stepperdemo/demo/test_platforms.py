@@ -7,9 +7,8 @@ from __future__ import annotations
 import re
 
 from fas.sim import SimBackend
+from rigs.demo import EndReason, run, text
 from stepperdemo.demo.app import StepperDemo
-
-from .helpers import EndReason, run, text
 
 ESP32_START = (
     "Select pin configuration:\r\n  0: Test-HW\r\n  1: Driver-Types\r\n"

@@ -12,8 +12,7 @@ from fas.device.loopback import Loopback
 from fas.serial.protocol import F_INPUTS
 from stepperdemo.front.console import Console, ProgramCompleter
 from stepperdemo.program import make_program
-
-from .test_console import FakeClock, settle, wait
+from tests.stepperdemo.front.test_console import FakeClock, settle, wait
 
 TPS = 16_000_000
 

@@ -13,8 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from fas.sim.loop_isrs import NEVER, count_between, next_after, running_end
-
-from .helpers import make
+from rigs.sim import make
 
 PROP = settings(max_examples=int(os.environ.get("FAS_PROP_EXAMPLES", "40")), deadline=None,
                 suppress_health_check=[HealthCheck.too_slow])

@@ -16,7 +16,7 @@ from fas.sim.trace import (
     timescale_factor,
     vcd_timescale,
 )
-from tests.vcdread import read_vcd
+from rigs.vcd import read_vcd
 
 SIGNALS = {9: "StepA", 5: "DirA", 6: "EnableA", 10: "StepB", 7: "DirB", 8: "EnableB"}
 

@@ -11,13 +11,13 @@ import pytest
 
 from fas.sim import SimBackend
 from fas.sim.trace import IRQ_BLOCKED
+from rigs import ROOT
+from rigs.vcd import Vcd, read_vcd, read_vcd_pyvcd
 from stepperdemo.demo.app import StepperDemo
 from stepperdemo.front.cli import EXIT_OK, EXIT_USAGE, main
 from stepperdemo.watch import observe, plots
 from stepperdemo.watch.report import report_lines
-from tests.vcdread import Vcd, read_vcd, read_vcd_pyvcd
 
-ROOT = Path(__file__).resolve().parents[2]
 README_MOVE = "M1 A1000 V100 R3200 W"
 
 # lines that exercise every kind of pin activity; meaningful without sequence files

@@ -7,11 +7,11 @@ from __future__ import annotations
 import pytest
 
 from fas.sim import SimBackend
+from rigs.vcd import read_vcd
 from stepperdemo.demo.app import StepperDemo
 from stepperdemo.watch import report
 from stepperdemo.watch.observe import Observers
 from stepperdemo.watch.recent import BIND_MARK, MAX_EDGES, RecentTrace
-from tests.vcdread import read_vcd
 
 STEP_A = 9  # ATmega328P demo wiring: M1 step pin
 

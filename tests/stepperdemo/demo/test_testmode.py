@@ -4,9 +4,8 @@ import re
 
 import pytest
 
+from rigs.demo import EndReason, after_setup, run, text
 from stepperdemo.front.cli import main
-
-from .helpers import EndReason, after_setup, run, text
 
 
 def run_test(line: str, max_s: float = 600, **kw):

@@ -6,14 +6,12 @@ import io
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 from rich.console import Console
 
+from rigs import ROOT
 from stepperdemo.front.cli import EXIT_CLOSED_PIPE
 from stepperdemo.scenarios.runner import Check, ScenarioResult, print_results
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def stepperdemo(*args: str) -> subprocess.Popen:

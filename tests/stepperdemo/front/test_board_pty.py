@@ -22,13 +22,13 @@ from prompt_toolkit.document import Document
 from prompt_toolkit.input import create_pipe_input
 from prompt_toolkit.output import DummyOutput
 
+from rigs import ROOT
 from stepperdemo.front.board import BoardConsole
 from stepperdemo.front.board_link import SimBoardLink
 from stepperdemo.front.board_session import BoardSession
 from stepperdemo.front.console import ProgramCompleter
 from stepperdemo.watch.status_lines import parse_status
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(__file__)))
 SPEED = "8"
 QUIET = ("--quiet-ms", "200")  # the device runs 8x: 200 ms are 16 status-line periods
 LIMIT_S = 60.0  # a limit for a wait that reads output, not a measured time

@@ -26,8 +26,8 @@ from fas.serial.protocol import (
     decode_messages,
     encode_frame,
 )
+from rigs.serial import TPS, Outcome
 from stepperdemo.demo.app import StepperDemo
-from tests.fas.serial.helpers import TPS, Outcome
 
 STEP_PINS = (9, 10)
 

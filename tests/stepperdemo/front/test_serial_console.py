@@ -3,9 +3,8 @@
 from prompt_toolkit.output import DummyOutput
 
 from fas.device.loopback import Loopback
+from rigs.serial import TPS
 from stepperdemo.front.console import Console
-
-from .helpers import TPS
 
 
 def _run(console, ms: int) -> None:

@@ -7,11 +7,11 @@ from __future__ import annotations
 import pytest
 from prompt_toolkit.output import DummyOutput
 
+from rigs.vcd import read_vcd
 from stepperdemo.front.console import Console
 from stepperdemo.watch.observe import Observers
 from stepperdemo.watch.recent import MAX_EDGES, RecentTrace
-from tests.stepperdemo.test_console import run_session, settle, wait
-from tests.vcdread import read_vcd
+from tests.stepperdemo.front.test_console import run_session, settle, wait
 
 TPS = 16_000_000
 

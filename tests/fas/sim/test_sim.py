@@ -4,8 +4,7 @@ from fas.arch import ATMEGA328P
 from fas.sim import SimBackend
 from fas.sim.machine import Machine
 from fas.sim.timing import sim_timing
-
-from .helpers import make, periods, rising, run_until_idle
+from rigs.sim import make, periods, rising, run_until_idle
 
 T328 = sim_timing(ATMEGA328P)
 

@@ -7,9 +7,9 @@ import os
 import pytest
 from prompt_toolkit.output import DummyOutput
 
+from rigs.vcd import read_vcd
 from stepperdemo.front.console import META_COMMANDS, Console
 from stepperdemo.watch import plots
-from tests.vcdread import read_vcd
 
 
 class FakeClock:

@@ -8,8 +8,7 @@ from prompt_toolkit.output import DummyOutput
 from fas.sim import SimBackend
 from stepperdemo.demo.app import StepperDemo
 from stepperdemo.front.console import Console
-
-from .test_console import FakeClock, settle, wait
+from tests.stepperdemo.front.test_console import FakeClock, settle, wait
 
 TPS = 16_000_000
 

@@ -3,12 +3,12 @@
 import pytest
 
 from fas.sim import SimBackend
+from rigs.vcd import read_vcd
 from stepperdemo.front.cli import main
 from stepperdemo.program import make_program
 from stepperdemo.scenarios.runner import run_file
 from stepperdemo.scenarios.scenario import ScenarioError, load
 from stepperdemo.watch import observe, plots, report
-from tests.vcdread import read_vcd
 
 TPS = 16_000_000
 PROGRAM = "G1 X600 F600000\nM62 P1\nM67 E0 Q25\nG1 X0\nM63 P1\nG4 P0.05\n"

@@ -6,9 +6,9 @@ import math
 import pytest
 
 from fas.sim import SimBackend
+from rigs.vcd import read_vcd
 from stepperdemo.front.cli import main
 from stepperdemo.program import EndReason, make_program
-from tests.vcdread import read_vcd
 
 TPS = 16_000_000
 # the program: move X, M62 P0, move back, M63 P0, then M64 P1 and M67 E1 Q23.87

@@ -4,8 +4,7 @@ import math
 
 from fas.codes import RAMP_STATE_MASK, TICKS_FOR_STOPPED_MOTOR, RampState
 from fas.ramp import RampGenerator
-
-from .helpers import make, periods, pin_position, rising, run_until_idle
+from rigs.sim import make, periods, pin_position, rising, run_until_idle
 
 TICKS = 16_000_000
 

@@ -5,12 +5,11 @@ import re
 from fas.arch import ATMEGA328P
 from fas.sim import SimBackend
 from fas.sim.timing import sim_timing
+from rigs.demo import EndReason, after_setup, lines, run, text
 from stepperdemo import messages as msg
 from stepperdemo.demo.app import StepperDemo
 from stepperdemo.demo.build import demo_build
 from stepperdemo.scenarios import transcript as tr
-
-from .helpers import EndReason, after_setup, lines, run, text
 
 STATUS = re.compile(r"^M1: @-?\d+ => 3200 QueueEnd=-?\d+ v=\d+us/\d+ticks (ACC  |RED  |COAST) $")
 

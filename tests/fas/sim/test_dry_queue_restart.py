@@ -13,9 +13,8 @@ pulse, and the pins counted the backward step forward).
 
 import pytest
 
+from rigs.sim import make, pin_position, run_until_idle
 from stepperdemo.demo.build import demo_build
-
-from .helpers import make, pin_position, run_until_idle
 
 PERIOD_TICKS = 50_000
 DIR_PIN = 5

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 from fas.sim import SimBackend
+from rigs.demo import EndReason, lines, run, text
 from stepperdemo.demo.app import StepperDemo
-
-from .helpers import EndReason, lines, run, text
 
 TPS = 16_000_000
 
