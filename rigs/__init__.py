@@ -17,12 +17,14 @@ the checkout's root first on ``sys.path``, so ``import rigs`` finds this folder.
 
 Modules, one job each:
 
+* :mod:`rigs.pins` - steps, positions and follower errors counted from pin edges;
 * :mod:`rigs.sim` - one stepper on a recording simulated chip;
-* :mod:`rigs.demo` - StepperDemo lines on the simulated chip;
+* :mod:`rigs.demo` - StepperDemo lines on the simulated chip, a cruising stepper;
 * :mod:`rigs.serial` - lines through the serial backend to a simulated device;
 * :mod:`rigs.firmware` - the same to the firmware in simavr, or frame by frame;
 * :mod:`rigs.stepgen` - the firmware's step generator alone beside the Python one;
 * :mod:`rigs.pc_based` - FastAccelStepper's pc_based test platform (a manual backend);
+* :mod:`rigs.console` - the interactive console on a fake wall clock;
 * :mod:`rigs.vcd` - a VCD reader of our own, to check the traces we write.
 """
 

@@ -1,18 +1,14 @@
-"""Rigs of the firmware's tests (and of bench/bench_firmware*.py): the firmware in
-simavr, behind the serial backend (:func:`run_firmware`) or driven frame by frame
-(:class:`Host`); the toolchain check that skips - or, on CI, fails - without it."""
+"""The device firmware in simavr: behind the serial backend (:func:`run_firmware`) or
+driven frame by frame (:class:`Host`); the toolchain check that skips a test - or, on
+CI, fails it - without simavr and the AVR toolchain (:func:`need_firmware`)."""
 
 from __future__ import annotations
 
-import bisect
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import pytest
-
-from fas.codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
 from fas.device.loopback import Loopback
 from fas.device.relay import Faults
 from fas.device.simavr import SimavrDevice, Trace, toolchain_problem
@@ -26,6 +22,7 @@ from fas.serial.protocol import (
     decode_messages,
     encode_frame,
 )
+from rigs.pins import position_by_pins
 from rigs.serial import TPS, Outcome
 from stepperdemo.demo.app import StepperDemo
 
@@ -47,6 +44,8 @@ class FirmwareOutcome(Outcome):
 def need_firmware() -> None:
     """Skip (with the reason) where the AVR toolchain or simavr is missing - except on
     CI, where the firmware tests must run: there a missing toolchain fails them."""
+    import pytest  # only the tests ask: a bench script says why itself
+
     problem = toolchain_problem()
     if problem is None:
         return
@@ -54,20 +53,6 @@ def need_firmware() -> None:
         pytest.fail(f"CI: the firmware tests need the AVR toolchain and simavr: {problem}")
     pytest.skip(f"firmware tests need the AVR toolchain and simavr ({problem}); "
                 "see README, 'Device firmware'")
-
-
-def pin_position(trace: Trace, step_pin: int, dir_pin: int, high_counts_up: bool = True) -> int:
-    """Steps counted from the pins: up while the direction pin is at its up level."""
-    rising = trace.rising(step_pin)
-    if dir_pin == PIN_UNDEFINED or dir_pin & PIN_EXTERNAL_FLAG:
-        return len(rising)
-    dtimes, dlevels = trace.edges(dir_pin)
-    pos = 0
-    for t in rising:
-        i = bisect.bisect_right(dtimes, t) - 1
-        level = dlevels[i] if i >= 0 else 0
-        pos += 1 if (level == 1) == high_counts_up else -1
-    return pos
 
 
 def run_firmware(line: str, faults: Faults | None = None, baud: int = 115200,
@@ -91,8 +76,8 @@ def run_firmware(line: str, faults: Faults | None = None, baud: int = 115200,
             counters=backend.device_counters(), link=backend.link_stats(),
             transcript=app.transcript.decode(),
             pin_pulses=[pins[p].rising for p in STEP_PINS[:len(steppers)]],
-            pin_positions=[pin_position(trace, STEP_PINS[i], s.get_direction_pin(),
-                                        s.direction_pin_high_counts_up())
+            pin_positions=[position_by_pins(trace.edges, STEP_PINS[i], s.get_direction_pin(),
+                                            s.direction_pin_high_counts_up())
                            for i, s in enumerate(steppers)],
             status_pulses=[backend.statuses[i].pulses for i in sorted(backend.statuses)],
             trace=trace, rx_log=dev.rx_log, busy=1 - info.sleep_cycles / info.cycle,

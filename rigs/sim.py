@@ -1,16 +1,17 @@
-"""Small helpers shared by the fas tests: a 328p stepper on a recording simulator."""
+"""One stepper on a recording simulated chip (a 328p unless told), and what its pins did."""
 
 from __future__ import annotations
 
-from bisect import bisect_right
-
 from fas import Engine
 from fas.sim import SimBackend
+from rigs.pins import periods, position_by_pins
 from stepperdemo.demo.build import demo_build
 
 
 def make(profile: str = "atmega328p", *, record: bool = True, dir_pin: int = 5,
          enable_pin: int | None = 6, step_pin: int | None = None, auto_enable: bool = True):
+    """(backend, engine, stepper): one stepper on ``profile``'s simulated chip, on the
+    step pin of StepperDemo's first stepper there unless ``step_pin`` is given."""
     backend = SimBackend(profile, record=record)
     engine = Engine(backend)
     engine.init()
@@ -26,28 +27,20 @@ def make(profile: str = "atmega328p", *, record: bool = True, dir_pin: int = 5,
 
 
 def run_until_idle(backend, stepper, limit_s: float = 600) -> None:
+    """Run the chip until ``stepper`` stands; fail if it still runs after ``limit_s``."""
     ok = backend.wait_until(lambda: not stepper.is_running(),
                             int(limit_s * backend.profile.ticks_per_s))
     assert ok, "stepper did not come to rest"
 
 
 def rising(backend, pin: int) -> list[int]:
+    """The recorded rising edges of ``pin`` (ticks)."""
     return backend.recorder.rising(pin)
 
 
 def pin_position(backend, step_pin: int, dir_pin: int, high_counts_up: bool = True) -> int:
     """Position counted from the recorded step and direction edges."""
-    times, levels = backend.recorder.pin_edges(step_pin)
-    dtimes, dlevels = backend.recorder.pin_edges(dir_pin)
-    pos = 0
-    for t, lv in zip(times, levels):
-        if not lv:
-            continue
-        i = bisect_right(dtimes, t) - 1
-        level = dlevels[i] if i >= 0 else 0
-        pos += 1 if (level == 1) == high_counts_up else -1
-    return pos
+    return position_by_pins(backend.recorder.pin_edges, step_pin, dir_pin, high_counts_up)
 
 
-def periods(times: list[int]) -> list[int]:
-    return [b - a for a, b in zip(times, times[1:])]
+__all__ = ["make", "periods", "pin_position", "rising", "run_until_idle"]

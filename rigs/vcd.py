@@ -1,4 +1,4 @@
-"""Read a VCD file back for the trace tests: pyvcd's tokenizer, or a quick reader of the
+"""Read a VCD file back to check the traces we write: pyvcd's tokenizer, or a quick reader of the
 scalar-only files the trace writes (the same result, ten times faster)."""
 
 from __future__ import annotations

@@ -14,6 +14,7 @@ import pytest
 from fas.device.loopback import Loopback
 from fas.serial.protocol import D_ESTOP, D_WATCHDOG
 from rigs import ROOT
+from rigs.demo import moving
 from rigs.firmware import need_firmware, run_firmware
 from rigs.serial import LINES, NOISY, TPS, run_sim
 from stepperdemo.demo.app import StepperDemo
@@ -86,14 +87,7 @@ def test_two_steppers_at_25_khz(baud):
 
 
 def _moving(lb: Loopback, steps: int = 100_000, run_ms: int = 500):
-    app = StepperDemo(lb.backend, scripted=True)
-    app.setup()
-    s = app.steppers[0]
-    s.set_speed_in_us(100)
-    s.set_acceleration(1000)
-    s.move(steps)
-    lb.backend.app_spend(run_ms * TPS // 1000)
-    return app, s
+    return moving(lb.backend, steps=steps, speed_us=100, accel=1000, after_ms=run_ms)
 
 
 def test_watchdog_stops_the_motion_when_the_host_goes_silent():

@@ -11,7 +11,8 @@ import pytest
 
 from fas.device.loopback import Loopback
 from rigs import ROOT
-from rigs.firmware import need_firmware, pin_position
+from rigs.firmware import need_firmware
+from rigs.pins import position_by_pins
 from stepperdemo.program import make_program
 from stepperdemo.winder import figures as fig
 
@@ -40,7 +41,7 @@ def run_winder(line: str, seconds: int = 20):
 
 
 def _pins(trace, app) -> list[int]:
-    return [pin_position(trace, pin, d, s.direction_pin_high_counts_up())
+    return [position_by_pins(trace.edges, pin, d, s.direction_pin_high_counts_up())
             for pin, d, s in ((S1_STEP, S1_DIR, app.steppers[0]),
                               (S2_STEP, S2_DIR, app.steppers[1]))]
 

@@ -1,56 +1,7 @@
 """The interactive console, driven through prompt-toolkit's pipe input on a fake clock."""
 
-import asyncio
-
-from prompt_toolkit.input import create_pipe_input
-from prompt_toolkit.output import DummyOutput
-
-from stepperdemo.front.console import Console, RealTimeDriver
-
-
-class FakeClock:
-    """Virtual wall clock: time passes only when the console sleeps."""
-
-    def __init__(self) -> None:
-        self.t = 0.0
-
-    def __call__(self) -> float:
-        return self.t
-
-    async def sleep(self, seconds: float) -> None:
-        self.t += max(seconds, 0.0005)
-        await asyncio.sleep(0)
-
-
-async def settle(steps: int = 50) -> None:
-    for _ in range(steps):
-        await asyncio.sleep(0)
-
-
-async def wait(clock: FakeClock, seconds: float) -> None:
-    """Let ``seconds`` of (fake) wall-clock time pass."""
-    end = clock.t + seconds
-    while clock.t < end:
-        await asyncio.sleep(0)
-
-
-def run_session(script, tmp_path):
-    """script(inp, clock, console) is an async function typing into the console."""
-
-    async def main():
-        clock = FakeClock()
-        with create_pipe_input() as inp:
-            console = Console("atmega328p", clock=clock, sleep=clock.sleep, input=inp,
-                              output=DummyOutput(), history=str(tmp_path / "history"),
-                              redraw_postpone_s=None)
-            task = asyncio.ensure_future(console.run())
-            await settle()
-            await script(inp, clock, console)
-            inp.send_text("\x04")  # Ctrl-D
-            rc = await asyncio.wait_for(task, 30)
-            return console, rc
-
-    return asyncio.run(main())
+from rigs.console import FakeClock, run_session, settle, wait
+from stepperdemo.front.console import RealTimeDriver
 
 
 def test_move_and_wait_shows_the_stop(tmp_path):
@@ -60,7 +11,7 @@ def test_move_and_wait_shows_the_stop(tmp_path):
         inp.send_text("W\r")
         await wait(clock, 4.0)
 
-    console, rc = run_session(script, tmp_path)
+    console, rc = run_session(script, tmp_path, redraw_postpone_s=None)
     assert rc == 0
     lines = console.lines
     assert "Move steps 500" in lines and "OK" in lines
@@ -79,7 +30,7 @@ def test_ctrl_c_force_stops_a_running_move(tmp_path):
         await settle()
         await wait(clock, 0.5)
 
-    console, rc = run_session(script, tmp_path)
+    console, rc = run_session(script, tmp_path, redraw_postpone_s=None)
     s = console.app.steppers[0]
     assert not s.is_running()
     assert s.get_current_position() > 100
@@ -95,7 +46,7 @@ def test_meta_commands_and_errors_keep_the_session(tmp_path):
             await settle()
         await wait(clock, 1.0)
 
-    console, rc = run_session(script, tmp_path)
+    console, rc = run_session(script, tmp_path, redraw_postpone_s=None)
     text = "\n".join(console.lines)
     assert "Console commands" in text
     assert "unknown console command '/nonsense'" in text
@@ -115,7 +66,7 @@ def test_real_time_driver_follows_the_clock_and_sleeps_when_idle():
     app = StepperDemo(SimBackend("esp32"), scripted=False)
     driver = RealTimeDriver(app, scale=2.0, clock=clock)
     app.feed("0")  # the answer to the firmware's start-up prompt
-    clock.t = 0.5
+    clock.now = 0.5
     driver.advance()
     assert app.backend.now() == 16_000_000  # 0.5 s at x2
     # nothing runs and no LED: the console may sleep until input arrives
@@ -144,7 +95,7 @@ def test_toolbar_moves_on_while_nobody_types(tmp_path):
         await wait(clock, 2.0)
         seen["after"] = list(console.toolbar_shown)
 
-    run_session(script, tmp_path)
+    run_session(script, tmp_path, redraw_postpone_s=None)
     idle = seen["idle"]
     times = {s.split("t=")[1].split("s")[0] for s in idle}
     assert len(times) >= 6  # >= 3 redraws per second of wall time, each with a new time

@@ -7,29 +7,13 @@ from __future__ import annotations
 import pytest
 from prompt_toolkit.output import DummyOutput
 
+from rigs.console import advance, make_console, run_session, settle, wait
 from rigs.vcd import read_vcd
 from stepperdemo.front.console import Console
 from stepperdemo.watch.observe import Observers
 from stepperdemo.watch.recent import MAX_EDGES, RecentTrace
-from tests.stepperdemo.front.test_console import run_session, settle, wait
 
 TPS = 16_000_000
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
-def make_console(tmp_path, **kw) -> Console:
-    clock = FakeClock()
-    c = Console(kw.pop("arch", "atmega328p"), history=str(tmp_path / "history"), clock=clock,
-                output=DummyOutput(), **kw)
-    c.clock_ = clock
-    return c
 
 
 @pytest.fixture
@@ -37,13 +21,6 @@ def console(tmp_path):
     c = make_console(tmp_path)
     yield c
     c.trace.close()
-
-
-def advance(c: Console, seconds: float, step_s: float = 0.05) -> None:
-    for _ in range(round(seconds / step_s)):
-        c.clock_.now += step_s
-        c.driver.advance()
-        c.flush()
 
 
 def run(c: Console, line: str) -> list[str]:
@@ -244,7 +221,7 @@ def test_plot_and_report_through_the_prompt(tmp_path):
         inp.send_text("/plot\r")
         await settle()
 
-    console, rc = run_session(script, tmp_path)
+    console, rc = run_session(script, tmp_path, redraw_postpone_s=None)
     assert rc == 0
     assert "  pulses       300 (the channel counted 300), net +300 steps, position 300 by " \
            "the pins" in console.lines

@@ -5,37 +5,18 @@ from __future__ import annotations
 import os
 
 import pytest
-from prompt_toolkit.output import DummyOutput
 
+from rigs.console import advance, make_console
 from rigs.vcd import read_vcd
 from stepperdemo.front.console import META_COMMANDS, Console
 from stepperdemo.watch import plots
 
 
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 @pytest.fixture
 def console(tmp_path):
-    clock = FakeClock()
-    c = Console("atmega328p", history=str(tmp_path / "history"), clock=clock,
-                output=DummyOutput())
-    c.clock_ = clock
+    c = make_console(tmp_path)
     yield c
     c.trace.close()
-
-
-def advance(c: Console, seconds: float) -> None:
-    steps = round(seconds / 0.05)
-    for _ in range(steps):
-        c.clock_.now += 0.05
-        c.driver.advance()
-        c.flush()
 
 
 def said(c: Console, start: int) -> list[str]:
@@ -48,8 +29,7 @@ def test_trace_commands_are_offered_for_completion():
 
 
 def test_nothing_to_show_when_started_without_the_recent_trace(tmp_path):
-    c = Console("atmega328p", history=str(tmp_path / "history"), clock=FakeClock(),
-                output=DummyOutput(), recent_trace=False)
+    c = make_console(tmp_path, recent_trace=False)
     n = len(c.lines)
     c.handle_line("/report")
     c.handle_line(f"/vcd {tmp_path / 'x.vcd'}")

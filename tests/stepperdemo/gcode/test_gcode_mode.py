@@ -1,14 +1,8 @@
 """G-code in StepperDemo's g mode and in the interactive console."""
 
-import asyncio
-
-from prompt_toolkit.input import create_pipe_input
-from prompt_toolkit.output import DummyOutput
-
 from fas.sim import SimBackend
+from rigs.console import run_session, settle, wait
 from stepperdemo.demo.app import StepperDemo
-from stepperdemo.front.console import Console
-from tests.stepperdemo.front.test_console import FakeClock, settle, wait
 
 TPS = 16_000_000
 
@@ -67,20 +61,8 @@ def test_g_mode_completions_and_mode_name():
 
 
 def run_console(script, tmp_path, program="demo", arch="atmega328p"):
-    async def main():
-        clock = FakeClock()
-        with create_pipe_input() as inp:
-            console = Console(arch, clock=clock, sleep=clock.sleep, input=inp,
-                              output=DummyOutput(), history=str(tmp_path / "history"),
-                              program=program, program_options={} if program == "demo"
-                              else {"axes": 2})
-            task = asyncio.ensure_future(console.run())
-            await settle()
-            await script(inp, clock, console)
-            inp.send_text("\x04")
-            return console, await asyncio.wait_for(task, 30)
-
-    return asyncio.run(main())
+    return run_session(script, tmp_path, arch, program=program,
+                       program_options={} if program == "demo" else {"axes": 2})
 
 
 def test_gcode_console_answers_lines_in_real_time(tmp_path):

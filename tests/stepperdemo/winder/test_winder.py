@@ -6,11 +6,11 @@ Runs on virtual time; motion is measured on the recorded pins.
 from __future__ import annotations
 
 import math
-from bisect import bisect_right
 
 import pytest
 
 from fas.sim import SimBackend
+from rigs.pins import ratio_error, steps_by_pins
 from stepperdemo.front.cli import main as cli_main
 from stepperdemo.program import EndReason, make_program
 from stepperdemo.winder import figures as fig
@@ -35,30 +35,11 @@ def lines(app) -> list[str]:
 
 
 def steps(backend, step: int, dirp: int) -> list[tuple[int, int]]:
-    rec = backend.recorder
-    times, levels = rec.pin_edges(step)
-    dt, dl = rec.pin_edges(dirp)
-    out = []
-    for t, lv in zip(times, levels):
-        if lv:
-            i = bisect_right(dt, t) - 1
-            out.append((t, 1 if i >= 0 and dl[i] else -1))
-    return out
+    return steps_by_pins(backend.recorder.pin_edges, step, dirp)
 
 
 def interlock_error(backend, n: int, m: int) -> float:
-    ev = sorted([(t, 0, d) for t, d in steps(backend, S1_STEP, S1_DIR)]
-                + [(t, 1, d) for t, d in steps(backend, S2_STEP, S2_DIR)])
-    pos = [0, 0]
-    worst = 0.0
-    i = 0
-    while i < len(ev):
-        t = ev[i][0]
-        while i < len(ev) and ev[i][0] == t:
-            pos[ev[i][1]] += ev[i][2]
-            i += 1
-        worst = max(worst, abs(pos[1] - n * pos[0] / m))
-    return worst
+    return ratio_error(backend.recorder.pin_edges, (S1_STEP, S1_DIR), (S2_STEP, S2_DIR), n, m)[0]
 
 
 # ------------------------------------------------------------------ pot rule

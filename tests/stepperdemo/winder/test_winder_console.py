@@ -10,9 +10,9 @@ from prompt_toolkit.output import DummyOutput
 
 from fas.device.loopback import Loopback
 from fas.serial.protocol import F_INPUTS
+from rigs.console import FakeClock, settle, wait
 from stepperdemo.front.console import Console, ProgramCompleter
 from stepperdemo.program import make_program
-from tests.stepperdemo.front.test_console import FakeClock, settle, wait
 
 TPS = 16_000_000
 
