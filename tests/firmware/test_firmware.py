@@ -222,7 +222,7 @@ def test_step_edges_agree_with_the_python_device(line):
         assert len(f) == len(p)
         if not f:
             continue
-        assert all(0 <= a - b <= 1 for a, b in zip(f, p))
+        assert all(0 <= a - b <= 1 for a, b in zip(f, p, strict=True))
         # every pulse is high at least 2.5 us and low again well before the next step
         times, levels = tr.edges(pin)
         phases = [(levels[i], times[i + 1] - times[i]) for i in range(len(times) - 1)]
@@ -248,7 +248,7 @@ def test_user_outputs_of_a_gcode_program_on_the_device():
         tr = lb.device.trace()
     steps = tr.rising(9)
     assert len(steps) == 4000
-    d0 = list(zip(*tr.edges(2)))
+    d0 = list(zip(*tr.edges(2), strict=True))
     assert [lv for _, lv in d0] == [1, 0]
     assert steps[1999] < d0[0][0] < steps[2000] and d0[1][0] > steps[-1]
     assert tr.rising(4)[0] < steps[0]  # M64: at once

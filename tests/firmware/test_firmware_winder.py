@@ -55,7 +55,7 @@ def test_pot_at_the_end_drives_s1_at_20000_steps_per_s_then_stops():
     assert "ERROR" not in text
     assert "A0 = 1023: S1 forward" in text and "S1 stopped at" in text
     steps = trace.rising(S1_STEP)
-    gaps = [b - a for a, b in zip(steps, steps[1:])]
+    gaps = [b - a for a, b in zip(steps, steps[1:], strict=False)]
     top_ticks = 13 * fig.COUNT_US * 16
     assert min(gaps) == top_ticks  # the top speed, on the tick
     assert sum(1 for g in gaps if g == top_ticks) > 10_000  # cruising there for a while
@@ -74,7 +74,7 @@ def test_limit_switch_stops_s2_with_no_step_after_it():
     assert "A3 closed (S2 upper limit)" in text
     assert f"A3: S2 stopped at its upper limit, position {positions[1]}" in text
     times, levels = trace.edges(A3)
-    switch = [t for t, lv in zip(times, levels) if lv == 0][0]
+    switch = [t for t, lv in zip(times, levels, strict=True) if lv == 0][0]
     steps = trace.rising(S2_STEP)
     after = [t - switch for t in steps if t >= switch]
     assert after == []  # not one step after the switch (this run)

@@ -23,7 +23,7 @@ ALL = {**PROFILES, **TEST_PROFILES}
 def test_every_profile_has_a_build_wired_to_its_own_step_pins():
     for name, p in ALL.items():
         build = demo_build(p)
-        assert 0 < len(build.steppers) and build.steppers[0].step != PIN_UNDEFINED, name
+        assert len(build.steppers) > 0 and build.steppers[0].step != PIN_UNDEFINED, name
         assert p.queue_for_step_pin(build.steppers[0].step) is not None, name
         for cfg in build.configs:
             assert len(cfg.steppers) <= p.max_steppers, (name, cfg.name)

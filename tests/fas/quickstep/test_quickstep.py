@@ -48,7 +48,7 @@ def _setup(arch="atmega328p", depth=32, plateaus=8, speed_us=100, accel=1000, re
 
 def _periods(b, pin=9):
     r = b.recorder.rising(pin)
-    return [y - x for x, y in zip(r, r[1:])]
+    return [y - x for x, y in zip(r, r[1:], strict=False)]
 
 
 # ------------------------------------------------------------------ base time
@@ -153,7 +153,7 @@ def test_depth_one_stops_between_orders_depth_twenty_does_not():
         b, _, s = _setup(depth=depth, plateaus=4, speed_us=250, accel=20000)
         for _ in range(3):
             s.move(400)
-        b.wait_until(lambda: not s.is_running())
+        b.wait_until(lambda s=s: not s.is_running())
         assert s.get_current_position() == 1200
         starts[depth] = s.queue.channel.starts
     assert starts[20] == 1
@@ -224,7 +224,7 @@ def test_timer_interrupt_costs_cpu_per_base_period():
     b, e, s = _setup(plateaus=1, speed_us=100)
     s.move(1000)
     b.run_for(1000)  # the order has started
-    load = b._qs_load
+    load = s.queue.channel.load  # the timer's load on the machine
     p = quickstep_figures(P328)
     assert load.block_cpu_between(b.now(), b.now() + 16000) == \
         10 * (p.period_isr_ticks + p.motor_isr_ticks)

@@ -22,10 +22,10 @@ DIR_PIN = 5
 
 def _pulses(backend, step_pin: int) -> list[tuple[int, int]]:
     times, levels = backend.recorder.pin_edges(step_pin)
-    rises = [t for t, lv in zip(times, levels) if lv]
-    falls = [t for t, lv in zip(times, levels) if not lv]
+    rises = [t for t, lv in zip(times, levels, strict=True) if lv]
+    falls = [t for t, lv in zip(times, levels, strict=True) if not lv]
     assert len(rises) == len(falls)
-    return list(zip(rises, falls))
+    return list(zip(rises, falls, strict=True))
 
 
 @pytest.mark.parametrize("arch", ["sam_due", "esp32", "rp2040", "atmega328p"])

@@ -22,7 +22,7 @@ def test_events_run_in_time_order_and_virtual_time_jumps():
 
 def test_millis_follows_arduinos_timer0_bookkeeping():
     m = Machine(ATMEGA328P)
-    m.run_until(m._millis_phase + 1000 * 16384)
+    m.run_until(m._millis_phase + 1000 * 16384)  # noqa: SLF001 - when timer 0 started: no public reader
     assert m.millis() == 1024  # 1000 overflows of 1.024 ms
     for ms in (0, 1, 2, 41, 42, 43, 1000, 123456):
         t = m.tick_at_millis(ms)
@@ -66,7 +66,7 @@ def test_blocked_interrupts_at_25khz_make_timer_wrap_gaps_without_losing_steps()
     gaps = [x for x in p if x > 65536]
     assert gaps and all(x == 65536 + 640 for x in gaps)  # compare missed: one timer wrap
     times, levels = backend.recorder.pin_edges(9)
-    high = [b - a for a, b, lv in zip(times, times[1:], levels) if lv]
+    high = [b - a for a, b, lv in zip(times, times[1:], levels, strict=False) if lv]
     assert max(high) > 1000  # pulses stretched to the end of a blocked section
 
 

@@ -28,7 +28,7 @@ class Collect:
         self.edges: list[tuple[int, int, int]] = []
 
     def edge_run(self, pin, times, levels) -> None:
-        self.edges.extend((pin, t, lv) for t, lv in zip(times, levels))
+        self.edges.extend((pin, t, lv) for t, lv in zip(times, levels, strict=True))
 
 
 def two_steppers(backend: SimBackend):
@@ -83,7 +83,7 @@ def test_stream_hands_on_edges_in_global_time_order_and_complete():
     for pin in (9, 10, 5, 7, 6, 8):
         mine = [(t, lv) for p, t, lv in got.edges if p == pin]
         rt, rl = rec.pin_edges(pin)
-        assert mine == list(zip(rt, rl)), pin
+        assert mine == list(zip(rt, rl, strict=True)), pin
     # both steppers really ran at the same time, so the blocks had to be interleaved
     first_b = min(t for p, t, _ in got.edges if p == 10)
     last_a = max(t for p, t, _ in got.edges if p == 9)
@@ -167,7 +167,7 @@ def test_trace_switched_on_and_off_while_running(tmp_path):
     assert trace.stream.late_edges == 0
     vcd = read_vcd(path)
     rec_times, rec_levels = backend.recorder.pin_edges(9)
-    recorded = set(zip(rec_times, rec_levels))
+    recorded = set(zip(rec_times, rec_levels, strict=True))
     mine = [(t // 625, v) for t, v in vcd.edges("StepA")]
     assert len(mine) > 1000
     assert set(mine) <= recorded

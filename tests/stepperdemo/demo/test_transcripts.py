@@ -194,7 +194,7 @@ def test_boot_time_grows_with_the_built_in_line_as_in_the_firmware():
     origins = []
     for line in ("M1 A1000 V100 R100 W", "M1  A1000 V100 R100 W"):
         app, _ = run(line)
-        origins.append((app.backend.tasks.origin, app.backend.machine._millis_phase))
+        origins.append((app.backend.tasks.origin, app.backend.machine._millis_phase))  # noqa: SLF001 - when timer 0 started: no public reader
     per_byte = sim_timing(ATMEGA328P).boot_script_byte_ticks
     assert origins[1][0] - origins[0][0] == per_byte
     assert origins[1][1] - origins[0][1] == per_byte

@@ -191,7 +191,7 @@ def _repl(link: str, tmp_path, script):
 async def history_of(console, mode: str) -> None:
     """Wait until the prompt has reloaded its history for ``mode``."""
     buf = console.prompt_session.default_buffer
-    await _until(lambda: console._history_mode == mode and len(buf._working_lines) > 1,
+    await _until(lambda: console._history_mode == mode and len(buf._working_lines) > 1,  # noqa: SLF001 - the history's mode, prompt-toolkit's loaded lines: no public reader
                  f"the history of {mode} mode")
 
 

@@ -24,7 +24,7 @@ def test_g_mode_runs_blocks_and_x_alone_returns_to_stepperdemo():
     assert app.steppers[0].get_current_position() == 50
     assert app.steppers[1].get_current_position() == 0
     steps = backend.recorder.rising(9)
-    rise = [t for t, lv in zip(*backend.recorder.pin_edges(2)) if lv][0]  # Dout0
+    rise = [t for t, lv in zip(*backend.recorder.pin_edges(2), strict=True) if lv][0]  # Dout0
     assert steps[299] < rise < steps[300]
     assert app.steppers[0].get_auto_enable()  # given back to StepperDemo
     assert app.mode_name() == "normal"

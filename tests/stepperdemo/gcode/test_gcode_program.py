@@ -54,9 +54,9 @@ def test_acceptance_program_in_the_vcd_esp32(tmp_path, capsys):
     assert vcd.rising("Dout1") == [0] or vcd.rising("Dout1")[0] < steps[0]  # at once
     a_rise, a_fall = vcd.rising("Aout1"), vcd.falling("Aout1")
     assert a_rise[0] > fall  # M67 after M63, synchronized
-    periods = [b - a for a, b in zip(a_rise, a_rise[1:])]
+    periods = [b - a for a, b in zip(a_rise, a_rise[1:], strict=False)]
     assert set(periods) == {3200 * per_tick}  # 200 us: 5000 Hz
-    highs = [f - r for r, f in zip(a_rise, a_fall)]
+    highs = [f - r for r, f in zip(a_rise, a_fall, strict=True)]
     mean = sum(highs) / (len(highs) * 3200 * per_tick) * 100
     resolution = 100 / 8192  # 13 bits
     assert abs(mean - 23.87) <= resolution / 2 + 100 / 3200 / len(highs)
@@ -73,7 +73,7 @@ def test_diagonal_axes_start_together_stay_on_the_line_and_end_together():
     events = sorted([(t, 0) for t in xs] + [(t, 1) for t in ys])
     x = y = 0
     worst = 0.0
-    for t, axis in events:
+    for _t, axis in events:
         x, y = x + (axis == 0), y + (axis == 1)
         worst = max(worst, abs(x * 3000 - y * 10000) / math.hypot(10000, 3000))
     assert worst <= 1.0

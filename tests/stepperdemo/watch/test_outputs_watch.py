@@ -34,7 +34,7 @@ def test_vcd_names_every_output_with_a_pin(tmp_path):
     assert steps[599] < rise < steps[600]
     pwm = vcd.rising("Aout0")
     assert pwm[0] > steps[599]  # synchronized with the first move's end
-    assert {b - a for a, b in zip(pwm, pwm[1:])} == {2048 * 625}  # 7812.5 Hz
+    assert {b - a for a, b in zip(pwm, pwm[1:], strict=False)} == {2048 * 625}  # 7812.5 Hz
 
 
 def test_report_has_a_line_per_output_that_changed():

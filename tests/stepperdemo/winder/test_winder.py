@@ -75,7 +75,7 @@ def test_s1_pot_run_peaks_at_20000_steps_per_s_and_stops():
     app, backend, reason = run("pots pot 1 1023 w2000 pot 1 512 w1000")
     assert reason == EndReason.IDLE
     s1 = [t for t, _ in steps(backend, S1_STEP, S1_DIR)]
-    periods = [b - a for a, b in zip(s1, s1[1:])]
+    periods = [b - a for a, b in zip(s1, s1[1:], strict=False)]
     assert min(periods) == 13 * TICKS_PER_COUNT  # 19 231 steps/s: the 4 us grid
     first_top = s1[periods.index(min(periods))]
     assert first_top - s1[0] <= TPS // 2  # full speed within 0.5 s
@@ -99,7 +99,7 @@ def test_limit_switch_stops_s2_without_a_step_after_it():
     assert reason == EndReason.IDLE
     s2 = steps(backend, S2_STEP, S2_DIR)
     times, levels = backend.recorder.pin_edges(A3_PIN)
-    t_switch = [t for t, lv in zip(times, levels) if lv == 0][-1]
+    t_switch = [t for t, lv in zip(times, levels, strict=True) if lv == 0][-1]
     assert s2[-1][0] <= t_switch  # the last step came before the switch closed
     assert t_switch - s2[-1][0] < 50 * TICKS_PER_COUNT  # ... within one period of it
     assert app.limit_stops == [(fig.LIMIT_HIGH, t_switch, t_switch)]
@@ -161,7 +161,7 @@ def test_s2_pot_makes_it_independent_and_centring_it_rejoins():
 def test_interlocked_s2_running_into_a_limit_stops_both():
     app, backend, _ = run("ratio 1:2 interlock 1 pots pot 1 950 w500 switch A3 1 w300")
     times, levels = backend.recorder.pin_edges(A3_PIN)
-    t_switch = [t for t, lv in zip(times, levels) if lv == 0][-1]
+    t_switch = [t for t, lv in zip(times, levels, strict=True) if lv == 0][-1]
     for step, dirp in ((S1_STEP, S1_DIR), (S2_STEP, S2_DIR)):
         assert steps(backend, step, dirp)[-1][0] <= t_switch
     text = lines(app)
@@ -236,13 +236,13 @@ def test_traverse_runs_end_to_end_on_50_ms_intervals():
     app, backend, _ = run("period 2 100 accel 2 20000 traverse 0 2000 w4000 move 2 0 w500")
     s2 = steps(backend, S2_STEP, S2_DIR)
     pos, turns = 0, []
-    for i, (t, d) in enumerate(s2):
+    for i, (_t, d) in enumerate(s2):
         pos += d
         if i + 1 < len(s2) and s2[i + 1][1] != d:
             turns.append(pos)
     assert turns[:3] == [2000, 0, 2000]  # exactly at the ends
     times = [t for t, _ in s2]
-    periods = [b - a for a, b in zip(times, times[1:])]
+    periods = [b - a for a, b in zip(times, times[1:], strict=False)]
     assert min(periods) == 100 * TICKS_PER_COUNT  # the top speed: 2500 steps/s
     # the speed changes in 50 ms intervals: between changes a constant period
     runs = []
@@ -253,7 +253,7 @@ def test_traverse_runs_end_to_end_on_50_ms_intervals():
     # 125 -> 1125 -> 2125 steps/s, then the top: two ramp intervals of 50 ms
     assert [r[1] for r in runs[:3]] == [400 * TICKS_PER_COUNT, 154 * TICKS_PER_COUNT,
                                         100 * TICKS_PER_COUNT]
-    for (t0, p0, _), (t1, _, _) in zip(runs[:2], runs[1:3]):
+    for (t0, p0, _), (t1, _, _) in zip(runs[:2], runs[1:3], strict=True):
         assert abs((t1 - t0) - 50 * TPS // 1000) <= p0
     assert "traverse: S2 between 0 and 2000, start 125 steps/s, acceleration 20000 " \
         "steps/s^2, top 2500 steps/s, replanned every 50 ms" in lines(app)
@@ -268,7 +268,7 @@ def test_a_short_traverse_ramps_down_at_half_way():
             break
         leg.append(t)
     assert len(leg) == 300
-    periods = [b - a for a, b in zip(leg, leg[1:])]
+    periods = [b - a for a, b in zip(leg, leg[1:], strict=False)]
     fastest = min(periods)
     assert fastest > 20 * TICKS_PER_COUNT  # never reached the top speed
     first, last = periods.index(fastest), len(periods) - 1 - periods[::-1].index(fastest)

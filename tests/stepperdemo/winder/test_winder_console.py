@@ -97,6 +97,6 @@ def test_a_simulated_device_takes_pot_and_switch_from_the_line():
         assert "A0 = 900: S1 forward" in text and "S1 stopped at" in text
         assert "A3: S2 stopped at its upper limit" in text
         assert lb.backend.settle()
-        switch = [t for t, lv in zip(*dev.recorder.pin_edges(17)) if lv == 0][-1]
+        switch = [t for t, lv in zip(*dev.recorder.pin_edges(17), strict=True) if lv == 0][-1]
         assert dev.recorder.rising(10)[-1] < switch  # not one step after the switch
         assert dev.position(1) == app.steppers[1].get_current_position() > 0
