@@ -25,6 +25,7 @@ Modules, one job each:
 * :mod:`rigs.stepgen` - the firmware's step generator alone beside the Python one;
 * :mod:`rigs.pc_based` - FastAccelStepper's pc_based test platform (a manual backend);
 * :mod:`rigs.console` - the interactive console on a fake wall clock;
+* :mod:`rigs.processes` - ``python -m stepperdemo`` as a real process, read line by line;
 * :mod:`rigs.vcd` - a VCD reader of our own, to check the traces we write.
 """
 

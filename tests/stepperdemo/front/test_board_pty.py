@@ -11,7 +11,6 @@ from __future__ import annotations
 import asyncio
 import os
 import re
-import select
 import signal
 import subprocess
 import sys
@@ -23,6 +22,7 @@ from prompt_toolkit.input import create_pipe_input
 from prompt_toolkit.output import DummyOutput
 
 from rigs import ROOT
+from rigs.processes import end, read_line, spawn, wait_for
 from stepperdemo.front.board import BoardConsole
 from stepperdemo.front.board_link import SimBoardLink
 from stepperdemo.front.board_session import BoardSession
@@ -32,41 +32,13 @@ from stepperdemo.watch.status_lines import parse_status
 SPEED = "8"
 QUIET = ("--quiet-ms", "200")  # the device runs 8x: 200 ms are 16 status-line periods
 LIMIT_S = 60.0  # a limit for a wait that reads output, not a measured time
+END_S = 30.0  # the same for a process to end
 README_LINE = "M1 A1000 V100 R3200 W"
 
 
-def _spawn(*args: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "stepperdemo", *args], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            bufsize=1)
-
-
-def _read_line(proc: subprocess.Popen) -> str:
-    r, _, _ = select.select([proc.stdout], [], [], LIMIT_S)
-    line = proc.stdout.readline() if r else ""
-    if not line:
-        raise AssertionError(f"no output from {proc.args}")
-    return line
-
-
-def _wait_for(proc: subprocess.Popen, pattern: str) -> str:
-    end = time.monotonic() + LIMIT_S
-    while time.monotonic() < end:
-        line = _read_line(proc)
-        if re.search(pattern, line):
-            return line
-    raise AssertionError(f"{pattern!r} not seen")
-
-
-def _end(proc: subprocess.Popen) -> tuple[str, str]:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGTERM)
-    return proc.communicate(timeout=30)
-
-
 def _start_device(link: str) -> subprocess.Popen:
-    proc = _spawn("device", "--pty", "--console", "--speed", SPEED, "--link", link)
-    assert "console device atmega328p" in _read_line(proc)
+    proc = spawn("device", "--pty", "--console", "--speed", SPEED, "--link", link)
+    assert "console device atmega328p" in read_line(proc, LIMIT_S)
     return proc
 
 
@@ -75,7 +47,7 @@ def board(tmp_path):
     link = str(tmp_path / "board")
     proc = _start_device(link)
     yield proc, link
-    _end(proc)
+    end(proc, END_S)
 
 
 def _cli(*args: str, timeout: float = 180) -> subprocess.CompletedProcess:
@@ -107,7 +79,7 @@ def test_c_on_the_board_prints_the_firmware_transcript_ending_with_m1_at_3200(bo
     twin.wait_ready()
     twin.run_script(README_LINE, 60)
     assert _without_status_lines(out) == _without_status_lines(bytes(twin.transcript))
-    _out, _ = _end(proc)
+    _out, _ = end(proc, END_S)
     assert "console: 1 start(s)" in _out and "(0 lost: receive buffer full)" in _out
     assert "console: positions M1 3200, M2 0" in _out
 
@@ -131,13 +103,13 @@ def test_c_exit_codes_failed_test_max_time_and_bad_port(board, tmp_path):
 
 def test_c_ends_with_code_5_when_the_board_goes_away(board):
     proc, link = board
-    host = _spawn("--board", link, "-c", "M1 A1000 V100 R200000 W", "--lf")
+    host = spawn("--board", link, "-c", "M1 A1000 V100 R200000 W", "--lf")
     try:
-        _wait_for(host, r"^Blocking wait for running stepper to stop")
+        wait_for(host, r"^Blocking wait for running stepper to stop", LIMIT_S)
         proc.send_signal(signal.SIGKILL)
         _out, err = host.communicate(timeout=LIMIT_S)
     finally:
-        _end(host)
+        end(host, END_S)
     assert host.returncode == 5
     assert "board lost" in err
 
@@ -156,7 +128,7 @@ def test_run_board_passes_the_examples_with_no_position_difference(board):
     for row in ("test_sequence_13 │ M1 │ 4 ", "two_steppers     │ M2 │ -2000 │ -2000 │ +0 "):
         assert row in text
     assert "A twin position diff" in text and "test passed" in text
-    out, _ = _end(proc)
+    out, _ = end(proc, END_S)
     # a reset between the files: the pty closed and opened again, the firmware restarted
     assert out.count("host opened the port: firmware restarted") == 3
     assert "console: 3 start(s)" in out
@@ -165,9 +137,9 @@ def test_run_board_passes_the_examples_with_no_position_difference(board):
 # --------------------------------------------------------------------- REPL
 async def _until(pred, what: str, console=None) -> None:
     """Wait (reading the console's output) until ``pred()``; fail after LIMIT_S."""
-    end = time.monotonic() + LIMIT_S
+    deadline = time.monotonic() + LIMIT_S
     while not pred():
-        if time.monotonic() > end:
+        if time.monotonic() > deadline:
             seen = "" if console is None else "; last lines: " + repr(console.lines[-12:])
             raise AssertionError(f"waited for {what}{seen}")
         await asyncio.sleep(0.01)
@@ -311,7 +283,7 @@ def test_repl_lost_board_is_one_line_and_reconnect_restores_it(board, tmp_path):
         console, rc = _repl(link, tmp_path, script)
     finally:
         for p in second:
-            _end(p)
+            end(p, END_S)
     assert rc == 0
     assert len([ln for ln in console.lines if ln.startswith("board lost:")]) == 1
     assert console.session.state.positions()[1] == -50  # the new board started at 0
