@@ -60,23 +60,12 @@ async def drive(seconds: float, line: str | None, arch: str) -> float:
     return cpu / wall
 
 
-class _Clock:
-    def __init__(self) -> None:
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 def _console(recent: bool, clock=time.monotonic):
     import tempfile
 
-    from prompt_toolkit.output import DummyOutput
+    from rigs.console import make_console
 
-    from stepperdemo.front.console import Console
-
-    return Console("atmega328p", history=os.path.join(tempfile.mkdtemp(), "history"),
-                   clock=clock, output=DummyOutput(), recent_trace=recent)
+    return make_console(tempfile.mkdtemp(), clock=clock, recent_trace=recent)
 
 
 async def drive_console(seconds: float, trace: str) -> float:
@@ -104,7 +93,9 @@ def replica(sim_seconds: float, trace: str) -> float:
     pattern of real time (each pass advances the clock by the sleep the driver asks
     for, at least 0.2 ms, at most 0.25 s) but without sleeping: CPU seconds per
     simulated second, free of the scheduler's noise."""
-    clock = _Clock()
+    from rigs.console import FakeClock
+
+    clock = FakeClock()
     console = _console(trace == "recent", clock)
     if trace == "on":
         console.handle_line("/trace on")
@@ -125,7 +116,9 @@ def long_session(minutes: float, recent: bool) -> dict:
     the REPL drives it (50 ms of wall clock per step); memory with tracemalloc."""
     import tracemalloc
 
-    clock = _Clock()
+    from rigs.console import FakeClock
+
+    clock = FakeClock()
     console = _console(recent, clock)
     console.driver.advance()
     console.handle_line("M1 A1000000 V40 f")

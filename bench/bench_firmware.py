@@ -1,7 +1,7 @@
 """The device firmware in simavr: size, step timing against the Python device, link margin.
 
 1. Size: flash and RAM of the two builds (115200 and 1 000 000 baud), from avr-size.
-2. Step timing: every acceptance line (tests/fas/serial/helpers.py) runs through the
+2. Step timing: every acceptance line (rigs/serial.py) runs through the
    serial backend against the firmware in simavr (lockstep with the host's virtual
    clock).  The bytes the chip received are then replayed, at the ticks they reached
    its UART, into the Python device: the same session on both.  Per step pin: the
@@ -36,9 +36,9 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from fas.device import simavr  # noqa: E402
 from fas.device.loopback import Loopback  # noqa: E402
-from stepperdemo.demo.app import StepperDemo  # noqa: E402
-from tests.fas.serial.helpers import LINES  # noqa: E402
-from tests.firmware.rigs import run_firmware  # noqa: E402
+from rigs.demo import command_stamps  # noqa: E402
+from rigs.firmware import run_firmware  # noqa: E402
+from rigs.serial import LINES, stream_minimal  # noqa: E402
 
 TWO_25KHZ = "M1 A100000 V40 R20000 M2 A100000 V40 R-20000 W M2 W"
 ISSUE_LINE = "M1 A1000 V100 R3200 W M2 A2000 V200 R-1000 W"
@@ -94,7 +94,7 @@ def timing(lines: list[str]) -> None:
 
 
 def limits() -> None:
-    from tests.firmware.stepgen_rig import Both, Rig, build_rig
+    from rigs.stepgen import Both, Rig, build_rig
 
     elf = build_rig()
 
@@ -134,56 +134,15 @@ def limits() -> None:
 def sustained(baud: int, seconds: float) -> tuple[float, float]:
     """(commands/s, frames/s) streaming one-step commands into both queues."""
     with Loopback(device="simavr", baud=baud) as lb:
-        backend = lb.backend
-        app = StepperDemo(backend, scripted=True)
-        app.setup()
-        used = [s for s in app.steppers if s is not None][:2]
-        for s in used:
-            s.set_auto_enable(False)
-        p = backend.profile
-        ticks = max(p.min_cmd_ticks, used[0].get_max_speed_in_ticks())
-        warm_end = backend.now() + TPS // 5
-        t0 = f0 = e0 = end = None
-        sent = 0
-        while end is None or backend.now() < end:
-            added = 0
-            for s in used:
-                if not s.is_queue_full() and s.add_queue_entry(ticks, 1, True) == 0:
-                    added += 1
-            sent += added
-            if added:
-                continue
-            backend.app_spend(TPS // 10000)
-            if t0 is None and backend.now() >= warm_end:
-                t0, f0, e0 = backend.now(), backend.link.stats.frames_sent, sent
-                end = t0 + int(seconds * TPS)
-        dt = (backend.now() - t0) / TPS
-        return (sent - e0) / dt, (backend.link.stats.frames_sent - f0) / dt
+        cmds, frames, _resent = stream_minimal(lb, 2, seconds)
+        return cmds, frames
 
 
 def needed(line: str) -> int:
     """Peak commands/s of ``line`` over 20 ms windows on the simulated chip."""
     from collections import Counter
 
-    from fas.sim import SimBackend
-
-    backend = SimBackend("atmega328p")
-    stamps: list[int] = []
-    allocate = backend.allocate_channel
-
-    def counting(queue):
-        ch = allocate(queue)
-        plain = ch.entry_added
-
-        def entry_added():
-            stamps.append(backend.now())
-            plain()
-
-        ch.entry_added = entry_added
-        return ch
-
-    backend.allocate_channel = counting
-    StepperDemo(backend, scripted=True).run_script(line)
+    stamps, _profile = command_stamps(line)
     window = 20 * TPS // 1000
     return max(Counter(t // window for t in stamps).values()) * 50
 

@@ -27,7 +27,6 @@ import shutil
 import sys
 import tempfile
 import time
-from bisect import bisect_right
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -47,8 +46,9 @@ from fas.serial.protocol import (  # noqa: E402
     Start,
     WatchInput,
 )
+from rigs.firmware import Host  # noqa: E402
+from rigs.pins import ratio_error  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
-from tests.firmware.rigs import Host  # noqa: E402
 
 TPS = 16_000_000
 SWITCH = 17  # A3
@@ -156,32 +156,9 @@ def reactions(runs: int) -> None:
 
 
 # ------------------------------------------------------------------------- 3
-def _by_pins(trace, pins):
-    """(tick, +1/-1) of every step: up while the direction pin is high."""
-    step, dirp = pins
-    times, levels = trace.edges(step)
-    dt, dl = trace.edges(dirp)
-    out = []
-    for t, lv in zip(times, levels):
-        if lv:
-            i = bisect_right(dt, t) - 1
-            out.append((t, 1 if i >= 0 and dl[i] else -1))
-    return out
-
-
 def interlock_error(trace) -> tuple[float, int, int]:
-    ev = sorted([(t, 0, d) for t, d in _by_pins(trace, (9, 5))]
-                + [(t, 1, d) for t, d in _by_pins(trace, (10, 7))])
-    pos = [0, 0]
-    worst = 0.0
-    i = 0
-    while i < len(ev):
-        t = ev[i][0]
-        while i < len(ev) and ev[i][0] == t:
-            pos[ev[i][1]] += ev[i][2]
-            i += 1
-        worst = max(worst, abs(pos[1] - pos[0] / 3))
-    return worst, pos[0], pos[1]
+    """(max |S2 - S1/3| by the pins, S1's position, S2's position)."""
+    return ratio_error(trace.edges, (9, 5), (10, 7), 1, 3)
 
 
 def winder_run(line: str, max_s: int = 60):

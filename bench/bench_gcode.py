@@ -66,8 +66,7 @@ def diagonal(arch: str, dx: int, dy: int) -> dict:
 
 
 def ordering(path: str) -> dict:
-    sys.path.insert(0, os.path.join(ROOT, "tests"))
-    from vcdread import read_vcd
+    from rigs.vcd import read_vcd
 
     backend = SimBackend("esp32")
     obs = observe.attach(backend, vcd=path, analyse=False)

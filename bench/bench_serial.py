@@ -30,9 +30,9 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from fas.arch import get_profile  # noqa: E402
 from fas.device.loopback import Loopback  # noqa: E402
 from fas.device.relay import Faults  # noqa: E402
-from fas.sim import SimBackend  # noqa: E402
+from rigs.demo import command_stamps  # noqa: E402
+from rigs.serial import LINES, stream_minimal  # noqa: E402  (LINES: the issue's acceptance lines)
 from stepperdemo.demo.app import StepperDemo  # noqa: E402
-from tests.fas.serial.helpers import LINES  # noqa: E402  (the issue's acceptance lines)
 
 BAUD = 115200
 WINDOW_MS = 20
@@ -41,25 +41,7 @@ LINE = Faults(latency_ms=1.0, baud=BAUD, chunk_ms=1.0)
 
 def needed(line: str, arch: str) -> tuple[int, int, int]:
     """(commands, peak commands/s, peak frames/s) of ``line`` on the simulated chip."""
-    backend = SimBackend(arch)
-    stamps: list[int] = []
-    allocate = backend.allocate_channel
-
-    def counting(queue):
-        ch = allocate(queue)
-        plain = ch.entry_added
-
-        def entry_added():
-            stamps.append(backend.now())
-            plain()
-
-        ch.entry_added = entry_added
-        return ch
-
-    backend.allocate_channel = counting
-    app = StepperDemo(backend, scripted=True)
-    app.run_script(line)
-    p = backend.profile
+    stamps, p = command_stamps(line, arch)
     window = WINDOW_MS * p.ticks_per_ms
     per_window = Counter(t // window for t in stamps)
     tasks = {t // p.fill_period_ticks * p.fill_period_ticks for t in stamps}
@@ -73,38 +55,7 @@ def sustained(arch: str, seconds: float, steppers: int) -> tuple[float, float, i
     """(commands/s, frames/s, retransmissions) streaming minimal commands at BAUD
     into the queues of ``steppers`` steppers at once."""
     with Loopback(arch, faults=LINE) as lb:
-        backend = lb.backend
-        app = StepperDemo(backend, scripted=True)
-        app.setup()
-        used, dir_pins = [], set()  # steppers with a direction pin of their own
-        for s in app.steppers:
-            if s is not None and s.get_direction_pin() not in dir_pins:
-                dir_pins.add(s.get_direction_pin())
-                used.append(s)
-        used = used[:steppers]
-        for s in used:
-            s.set_auto_enable(False)
-        p = backend.profile
-        ticks = max(p.min_cmd_ticks, used[0].get_max_speed_in_ticks())
-        warm_end = backend.now() + p.ticks_per_s // 5
-        t0 = f0 = e0 = None
-        end = None
-        sent = 0
-        while end is None or backend.now() < end:
-            added = 0
-            for s in used:
-                if not s.is_queue_full() and s.add_queue_entry(ticks, 1, True) == 0:
-                    added += 1
-            sent += added
-            if added:
-                continue
-            backend.app_spend(p.ticks_per_s // 10000)
-            if t0 is None and backend.now() >= warm_end:
-                t0, f0, e0 = backend.now(), backend.link.stats.frames_sent, sent
-                end = t0 + int(seconds * p.ticks_per_s)
-        dt = (backend.now() - t0) / p.ticks_per_s
-        frames = backend.link.stats.frames_sent - f0
-        return (sent - e0) / dt, frames / dt, backend.link.stats.retransmissions
+        return stream_minimal(lb, steppers, seconds)
 
 
 def through_line(line: str, arch: str) -> dict:

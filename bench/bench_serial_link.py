@@ -36,6 +36,7 @@ from fas.device.loopback import Loopback  # noqa: E402
 from fas.device.relay import Faults  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
 from fas.sim.pins import EdgeRecorder  # noqa: E402
+from rigs.demo import decel_start, moving, run, two_at_25khz  # noqa: E402
 from stepperdemo.demo.app import StepperDemo  # noqa: E402
 
 TPS = 16_000_000
@@ -45,8 +46,6 @@ LINES = ("M1 A100000 V40 R20000 M2 A100000 V40 R-20000 W M2 W",
 LATENCIES_MS = (0, 1, 16)
 FAULTS = (0.0, 0.001, 0.01)
 BAUDS = (115200, 1_000_000)
-CRUISE_US = 40  # 25 kHz
-CRUISE_TICKS = CRUISE_US * 16
 STOP_AT_MS = 500
 STOP_OFFSETS_MS = (0, 5, 10)
 DEVICE: dict = {}  # device options (--queue-len, --rx-slots): what if the Uno had more
@@ -70,8 +69,7 @@ class Run:
 
 
 def run_line(line: str, f: Faults | None) -> Run:
-    sim = StepperDemo(SimBackend("atmega328p"), scripted=True)
-    sim.run_script(line, max_ticks=600 * TPS)
+    sim, _reason = run(line)
     with Loopback(faults=f, device_options=DEVICE) as lb:
         b = lb.backend
         app = StepperDemo(b, scripted=True)
@@ -90,24 +88,10 @@ def run_line(line: str, f: Faults | None) -> Run:
                    c["entries_duplicated"], link["retransmissions"], link["frames_sent"], ok)
 
 
-def _cruise(backend, offset_ms: int = 0):
-    app = StepperDemo(backend, scripted=True)
-    app.setup()
-    s = app.steppers[0]
-    s.set_speed_in_us(CRUISE_US)
-    s.set_acceleration(100_000)
-    s.move(1_000_000)
-    backend.app_spend((STOP_AT_MS + offset_ms) * MS_TICKS)
-    return app, s
-
-
 def _decel_start(rising: list[int], t_call: int) -> float:
     """ms from ``t_call`` to the first step of the deceleration (a longer period)."""
-    after = [t for t in rising if t >= t_call]
-    for a, b in zip(after, after[1:], strict=False):
-        if b - a > CRUISE_TICKS * 101 // 100:
-            return (a - t_call) / MS_TICKS
-    return float("nan")
+    ticks = decel_start(rising, t_call)
+    return float("nan") if ticks is None else ticks / MS_TICKS
 
 
 def stop_latency(kind: str, f: Faults | None, offset_ms: int = 0) -> float:
@@ -116,7 +100,7 @@ def stop_latency(kind: str, f: Faults | None, offset_ms: int = 0) -> float:
     with Loopback(faults=f, record=kind == "S", device_options=DEVICE) as lb:
         b = lb.backend
         dev = lb.device
-        _app, s = _cruise(b, offset_ms)
+        _app, s = moving(b, after_ms=STOP_AT_MS + offset_ms)
         t_call = dev.tick_at(lb.clock.now_ns())
         if kind == "S":
             s.stop_move()
@@ -146,7 +130,7 @@ def sim_stop_latency() -> float:
     b = SimBackend("atmega328p")
     rec = EdgeRecorder()
     b.machine.pins.sinks.append(rec)
-    _app, s = _cruise(b)
+    _app, s = moving(b, after_ms=STOP_AT_MS)
     t_call = b.now()
     s.stop_move()
     b.wait_until(lambda: not s.is_running(), 10 * TPS)
@@ -158,20 +142,14 @@ def host_stall(f: Faults | None, stall_ms: int = 50, at_ms: int = 700) -> tuple[
     in the middle of a 25 kHz two-stepper move."""
     with Loopback(faults=f, device_options=DEVICE) as lb:
         b = lb.backend
-        app = StepperDemo(b, scripted=True)
-        app.setup()
-        moves = (20_000, -20_000)
-        for s, d in zip(app.steppers, moves, strict=True):
-            s.set_speed_in_us(CRUISE_US)
-            s.set_acceleration(100_000)
-            s.move(d)
+        app, moves = two_at_25khz(b)
         b.app_spend(at_ms * MS_TICKS)
         lb.clock.run_until(lb.clock.now_ns() + stall_ms * 1_000_000)  # the host is away
         b.wait_until(lambda: not any(s.is_running() for s in app.steppers))
         b.settle()
         b.request_status()
         c = b.device_counters()
-        ok = [lb.device.position(i) for i in (0, 1)] == list(moves)
+        ok = [lb.device.position(i) for i in (0, 1)] == moves
         return c["underruns"], c["late_starts"], ok
 
 

@@ -21,13 +21,13 @@ import os
 import statistics
 import sys
 import time
-from bisect import bisect_right
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from fas.device.loopback import Loopback  # noqa: E402
 from fas.device.relay import Faults  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
+from rigs.pins import ratio_error, steps_by_pins  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.winder.potrule import pot_command, rule_speed  # noqa: E402
 
@@ -42,30 +42,13 @@ TRAVERSE = "period 2 100 accel 2 20000 traverse 0 2000 w4000 move 2 0 w500"
 
 
 def steps(recorder, pins) -> list[tuple[int, int]]:
-    step, dirp = pins
-    times, levels = recorder.pin_edges(step)
-    dt, dl = recorder.pin_edges(dirp)
-    out = []
-    for t, lv in zip(times, levels):
-        if lv:
-            i = bisect_right(dt, t) - 1
-            out.append((t, 1 if i >= 0 and dl[i] else -1))
-    return out
+    return steps_by_pins(recorder.pin_edges, *pins)
 
 
 def interlock_error(recorder, n: int, m: int) -> tuple[float, int, int]:
-    ev = sorted([(t, 0, d) for t, d in steps(recorder, S1)]
-                + [(t, 1, d) for t, d in steps(recorder, S2)])
-    pos = [0, 0]
-    worst = 0.0
-    i = 0
-    while i < len(ev):
-        t = ev[i][0]
-        while i < len(ev) and ev[i][0] == t:
-            pos[ev[i][1]] += ev[i][2]
-            i += 1
-        worst = max(worst, abs(pos[1] - n * pos[0] / m))
-    return worst, sum(1 for _ in steps(recorder, S1)), pos[1]
+    """(max |S2 - n/m S1| by the pins, S1's steps, S2's position)."""
+    worst, _s1, s2 = ratio_error(recorder.pin_edges, S1, S2, n, m)
+    return worst, len(steps(recorder, S1)), s2
 
 
 def sim_run(line: str, max_s: float = 120):

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import importlib.util
 import re
-from pathlib import Path
 
 import fas.arch
 import fas.codes
@@ -14,39 +13,42 @@ import fas.queue
 import fas.stepper
 import fas.timed
 from fas import Engine, Stepper
+from rigs import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 SPEC = importlib.util.spec_from_file_location("api_coverage", ROOT / "tools" / "api_coverage.py")
 api_coverage = importlib.util.module_from_spec(SPEC)
 SPEC.loader.exec_module(api_coverage)
 
 # the public names of FastAccelStepper 1.2.7's FastAccelStepper.h,
 # FastAccelStepperEngine.h and result_codes.h
-UPSTREAM = """
-init stepperConnectToPin initI2sMux i2sMuxSetBit i2sMuxGetBit task_rate _task_rate
-setExternalCallForPin setDebugLed manageSteppers
-getStepPin setDirectionPin getDirectionPin directionPinHighCountsUp setEnablePin
-getEnablePinHighActive getEnablePinLowActive enableOutputs disableOutputs setAutoEnable
-setDelayToEnable setDelayToDisable getCurrentPosition setCurrentPosition isRunning
-getMaxSpeedInUs getMaxSpeedInTicks getMaxSpeedInHz getMaxSpeedInMilliHz
-setAbsoluteSpeedLimit setSpeedInUs setSpeedInTicks setSpeedInHz setSpeedInMilliHz
-getSpeedInUs getSpeedInTicks getSpeedInMilliHz getCurrentSpeedInUs getCurrentSpeedInMilliHz
-setAcceleration getAcceleration getCurrentAcceleration setLinearAcceleration setJumpStart
-applySpeedAcceleration move moveTo keepRunning isRunningContinuously runForward runBackward
-forwardStep backwardStep moveByAcceleration stopMove isStopping stepsToStop forceStop
-forceStopAndNewPosition targetPos setForwardPlanningTimeInMs moveTimed addQueueEntry
-isQueueEmpty isQueueFull isQueueRunning ticksInQueue hasTicksInQueue queueEntries
-getPositionAfterCommandsCompleted getPeriodInUsAfterCommandsCompleted
-getPeriodInTicksAfterCommandsCompleted setPositionAfterCommandsCompleted rampState
-isRampGeneratorActive detachFromPin reAttachToPin attachToPulseCounter readPulseCounter
-clearPulseCounter pulseCounterAttached driverType driverTypeString
-ExtDirPendingState AqeResultCode aqeRetry aqeIsOk toString MoveResultCode moveIsOk
-MoveTimedResultCode moveTimedIsOk tmrFrom DelayResultCode delayIsValid FasDriver
-RAMP_STATE_MASK RAMP_DIRECTION_MASK RAMP_STATE_IDLE RAMP_STATE_ACCELERATING_FLAG
-RAMP_DIRECTION_COUNT_UP PIN_UNDEFINED PIN_EXTERNAL_FLAG PIN_I2S_FLAG MAX_ON_DELAY_TICKS
-TICKS_FOR_STOPPED_MOTOR stepper_command_s actual_ticks_s queue_end_s AQE_OK MOVE_OK
-MOVE_TIMED_OK MOVE_TIMED_BUSY MOVE_TIMED_EMPTY DELAY_OK DRIVER_MCPWM_PCNT DRIVER_DONT_CARE
-""".split()
+UPSTREAM = [
+    "init", "stepperConnectToPin", "initI2sMux", "i2sMuxSetBit", "i2sMuxGetBit", "task_rate",
+    "_task_rate", "setExternalCallForPin", "setDebugLed", "manageSteppers", "getStepPin",
+    "setDirectionPin", "getDirectionPin", "directionPinHighCountsUp", "setEnablePin",
+    "getEnablePinHighActive", "getEnablePinLowActive", "enableOutputs", "disableOutputs",
+    "setAutoEnable", "setDelayToEnable", "setDelayToDisable", "getCurrentPosition",
+    "setCurrentPosition", "isRunning", "getMaxSpeedInUs", "getMaxSpeedInTicks", "getMaxSpeedInHz",
+    "getMaxSpeedInMilliHz", "setAbsoluteSpeedLimit", "setSpeedInUs", "setSpeedInTicks",
+    "setSpeedInHz", "setSpeedInMilliHz", "getSpeedInUs", "getSpeedInTicks", "getSpeedInMilliHz",
+    "getCurrentSpeedInUs", "getCurrentSpeedInMilliHz", "setAcceleration", "getAcceleration",
+    "getCurrentAcceleration", "setLinearAcceleration", "setJumpStart", "applySpeedAcceleration",
+    "move", "moveTo", "keepRunning", "isRunningContinuously", "runForward", "runBackward",
+    "forwardStep", "backwardStep", "moveByAcceleration", "stopMove", "isStopping", "stepsToStop",
+    "forceStop", "forceStopAndNewPosition", "targetPos", "setForwardPlanningTimeInMs", "moveTimed",
+    "addQueueEntry", "isQueueEmpty", "isQueueFull", "isQueueRunning", "ticksInQueue",
+    "hasTicksInQueue", "queueEntries", "getPositionAfterCommandsCompleted",
+    "getPeriodInUsAfterCommandsCompleted", "getPeriodInTicksAfterCommandsCompleted",
+    "setPositionAfterCommandsCompleted", "rampState", "isRampGeneratorActive", "detachFromPin",
+    "reAttachToPin", "attachToPulseCounter", "readPulseCounter", "clearPulseCounter",
+    "pulseCounterAttached", "driverType", "driverTypeString", "ExtDirPendingState",
+    "AqeResultCode", "aqeRetry", "aqeIsOk", "toString", "MoveResultCode", "moveIsOk",
+    "MoveTimedResultCode", "moveTimedIsOk", "tmrFrom", "DelayResultCode", "delayIsValid",
+    "FasDriver", "RAMP_STATE_MASK", "RAMP_DIRECTION_MASK", "RAMP_STATE_IDLE",
+    "RAMP_STATE_ACCELERATING_FLAG", "RAMP_DIRECTION_COUNT_UP", "PIN_UNDEFINED",
+    "PIN_EXTERNAL_FLAG", "PIN_I2S_FLAG", "MAX_ON_DELAY_TICKS", "TICKS_FOR_STOPPED_MOTOR",
+    "stepper_command_s", "actual_ticks_s", "queue_end_s", "AQE_OK", "MOVE_OK", "MOVE_TIMED_OK",
+    "MOVE_TIMED_BUSY", "MOVE_TIMED_EMPTY", "DELAY_OK", "DRIVER_MCPWM_PCNT", "DRIVER_DONT_CARE",
+]
 
 OBJECTS = {"Stepper": Stepper, "Drive": fas.drive.Drive, "Engine": Engine,
            "Profile": fas.arch.Profile, "DriverPool": fas.arch.DriverPool,

@@ -42,7 +42,7 @@ def duration_s(rises: list[int], tps: int) -> float:
 
 
 def shortest_us(rises: list[int], tps: int) -> float:
-    return min(b - a for a, b in zip(rises, rises[1:])) * 1e6 / tps
+    return min(b - a for a, b in zip(rises, rises[1:], strict=False)) * 1e6 / tps
 
 
 def first_interval_us(rises: list[int], tps: int) -> float:
@@ -152,7 +152,7 @@ def test_linear_acceleration_follows_the_documented_curve():
 def test_speed_change_coasts_at_both_speeds():
     steps, tps = step_ticks("speed_change_while_running")
     rises = steps["A"]
-    periods = [b - a for a, b in zip(rises, rises[1:])]
+    periods = [b - a for a, b in zip(rises, rises[1:], strict=False)]
     assert periods.count(tps // 1000) == 1054 and periods.count(tps // 4000) == 2926
     assert duration_s(rises, tps) == pytest.approx(9.732, abs=0.0005)
 
@@ -166,8 +166,8 @@ def test_isr_block_costs_one_timer_wrap_per_gap():
     wrap = 65536  # the ATmega's 16-bit timer
 
     def gaps(rises: list[int]) -> list[int]:  # intervals over 4x the one before
-        periods = [b - a for a, b in zip(rises, rises[1:])]
-        return [p for q, p in zip(periods, periods[1:]) if p > 4 * q]
+        periods = [b - a for a, b in zip(rises, rises[1:], strict=False)]
+        return [p for q, p in zip(periods, periods[1:], strict=False) if p > 4 * q]
 
     assert gaps(out) == []
     assert len(gaps(back)) == 39
@@ -185,7 +185,7 @@ def test_esp32_runs_at_200_khz():
 
 def test_keep_running_and_mega_and_two_steppers_peaks():
     steps, tps = step_ticks("keep_running")  # 500 up, 1554 at 1000 steps/s, 500 down
-    periods = [b - a for a, b in zip(steps["A"], steps["A"][1:])]
+    periods = [b - a for a, b in zip(steps["A"], steps["A"][1:], strict=False)]
     assert shortest_us(steps["A"], tps) == 1000 and periods.count(tps // 1000) == 1554
     mega, tps = step_ticks("mega2560_three_steppers")
     for letter, a, s, period in (("A", 2000, 4000, 354.25), ("B", 5000, 3000, 258.5),

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+from rigs import ROOT
 
 
 def modules(root: Path, package: str) -> dict[str, Path]:

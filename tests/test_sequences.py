@@ -4,10 +4,10 @@ from pathlib import Path
 
 import pytest
 
+from rigs import ROOT
 from stepperdemo.scenarios.runner import run_file
 from stepperdemo.scenarios.scenario import collect, load
 
-ROOT = Path(__file__).resolve().parent.parent
 FILES = collect([ROOT / "sequences"])
 
 

@@ -6,47 +6,21 @@ instant with a step edge (edges of both steppers at one tick are one instant).
 
 from __future__ import annotations
 
-from bisect import bisect_right
-
 import pytest
 
 from fas import Engine
 from fas.gear import Gear, GearResult, split_ticks
 from fas.sim import SimBackend
+from rigs.pins import ratio_error, steps_by_pins
 
 S1_STEP, S1_DIR, S2_STEP, S2_DIR = 9, 5, 10, 7
-
-
-def pin_steps(recorder, step_pin: int, dir_pin: int) -> list[tuple[int, int]]:
-    """(tick, +1/-1) of every rising step edge, the direction from the dir pin."""
-    times, levels = recorder.pin_edges(step_pin)
-    dtimes, dlevels = recorder.pin_edges(dir_pin)
-    out = []
-    for t, lv in zip(times, levels):
-        if lv:
-            i = bisect_right(dtimes, t) - 1
-            out.append((t, 1 if i >= 0 and dlevels[i] else -1))
-    return out
 
 
 def errors_by_pins(backend, n: int, m: int, x0: int = 0, y0: int = 0,
                    since: int = 0) -> tuple[float, int, int]:
     """Largest |(y-y0) - n/m (x-x0)| at step instants from ``since``; end positions."""
-    rec = backend.recorder
-    events = [(t, 0, d) for t, d in pin_steps(rec, S1_STEP, S1_DIR)]
-    events += [(t, 1, d) for t, d in pin_steps(rec, S2_STEP, S2_DIR)]
-    events.sort()
-    pos = [0, 0]
-    worst = 0.0
-    i = 0
-    while i < len(events):
-        t = events[i][0]
-        while i < len(events) and events[i][0] == t:
-            pos[events[i][1]] += events[i][2]
-            i += 1
-        if t >= since:
-            worst = max(worst, abs((pos[1] - y0) - n * (pos[0] - x0) / m))
-    return worst, pos[0], pos[1]
+    return ratio_error(backend.recorder.pin_edges, (S1_STEP, S1_DIR), (S2_STEP, S2_DIR),
+                       n, m, x0, y0, since)
 
 
 def rig(dir_delay_us: int = 0):
@@ -98,7 +72,7 @@ def test_follower_reverses_with_the_leader_and_stops_with_it():
     settle(backend, s1, s2)
     worst, x, y = errors_by_pins(backend, 1, 3)
     assert worst <= 1.0
-    dirs = {d for _, d in pin_steps(backend.recorder, S2_STEP, S2_DIR)}
+    dirs = {d for _, d in steps_by_pins(backend.recorder.pin_edges, S2_STEP, S2_DIR)}
     assert dirs == {1, -1}  # it followed both ways
 
 

@@ -27,8 +27,7 @@ from fas.codes import (
     to_string,
 )
 from fas.sim import SimBackend
-
-from .pc_based import make_stepper
+from rigs.pc_based import make_stepper
 
 
 def queued(s) -> list[tuple[int, int, bool]]:

@@ -26,8 +26,7 @@ from fas.codes import (
 from fas.engine import Engine
 from fas.queue import StepperQueue
 from fas.stepper import Stepper
-
-from .pc_based import TPS, ManualBackend, RampChecker, drain, make_stepper, run_ramp
+from rigs.pc_based import TPS, ManualBackend, RampChecker, drain, make_stepper, run_ramp
 
 QUEUE_LEN = 16
 MIN_CMD_TICKS = TPS // 5000

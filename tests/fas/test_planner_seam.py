@@ -13,8 +13,7 @@ from fas.planner import Planner, PlannerChange, PlannerHost
 from fas.quickstep.clock import QsConfigResult
 from fas.quickstep.setup import clock_of, quickstep_of
 from fas.ramp.planner import RampPlanner
-
-from .helpers import make, periods, pin_position, rising, run_until_idle
+from rigs.sim import make, periods, pin_position, rising, run_until_idle
 
 STEP, DIR = 9, 5
 

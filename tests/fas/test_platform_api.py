@@ -18,9 +18,8 @@ from fas.codes import (
 )
 from fas.errors import UnsupportedError
 from fas.sim import SimBackend
+from rigs.sim import make, run_until_idle
 from stepperdemo.demo.build import demo_build
-
-from .helpers import make, run_until_idle
 
 
 def engine(arch: str) -> Engine:

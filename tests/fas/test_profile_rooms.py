@@ -8,7 +8,6 @@ import re
 import subprocess
 import sys
 from dataclasses import replace
-from pathlib import Path
 
 import pytest
 
@@ -16,8 +15,8 @@ from fas.arch import ATMEGA328P, ESP32, PROFILES, TEST_PROFILES, get_profile
 from fas.output_figures import NO_OUTPUTS, output_figures
 from fas.quickstep.figures import NO_QUICKSTEP, quickstep_figures
 from fas.sim.timing import sim_timing
+from rigs import ROOT
 
-ROOT = Path(__file__).resolve().parents[2]
 ALL = {**PROFILES, **TEST_PROFILES}
 
 

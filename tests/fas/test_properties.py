@@ -6,7 +6,7 @@ from bisect import bisect_left, bisect_right
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from .helpers import make, pin_position, run_until_idle
+from rigs.sim import make, pin_position, run_until_idle
 
 op = st.one_of(
     st.tuples(st.just("move"), st.integers(-5000, 5000)),
@@ -74,12 +74,12 @@ def test_random_sequences_keep_the_invariants(ops):
     assert s.queue.max_fill <= 16
 
     times, levels = backend.recorder.pin_edges(9)
-    rises = [t for t, lv in zip(times, levels) if lv]
-    falls = [t for t, lv in zip(times, levels) if not lv]
+    rises = [t for t, lv in zip(times, levels, strict=True) if lv]
+    falls = [t for t, lv in zip(times, levels, strict=True) if not lv]
     assert len(rises) == len(falls)
     # no period faster than the fastest speed that was ever set
     fastest = min(speeds)
-    for a, b in zip(rises, rises[1:]):
+    for a, b in zip(rises, rises[1:], strict=False):
         assert b - a >= fastest
     # the direction pin never changes during a pulse, nor just before one
     dir_times, _ = backend.recorder.pin_edges(5)

@@ -3,8 +3,7 @@
 from fas import Engine
 from fas.codes import AqeResult
 from fas.sim import SimBackend
-
-from .helpers import make, periods, rising, run_until_idle
+from rigs.sim import make, periods, rising, run_until_idle
 
 
 def test_raw_commands_run_tick_exact():
@@ -86,7 +85,7 @@ def test_position_is_exact_in_the_middle_of_a_command():
     run_until_idle(backend, s)
     assert s.get_current_position() == 200
     times, levels = backend.recorder.pin_edges(9)
-    falls = [t for t, lv in zip(times, levels) if not lv]
+    falls = [t for t, lv in zip(times, levels, strict=True) if not lv]
     for t, pos in samples:
         # the position counts a step when its interrupt ends the pulse
         assert pos == sum(1 for f in falls if f <= t)

@@ -13,8 +13,7 @@ from fas.codes import (
     RampState,
 )
 from fas.sim import SimBackend
-
-from .helpers import make, periods, pin_position, rising, run_until_idle
+from rigs.sim import make, periods, pin_position, rising, run_until_idle
 
 
 # ------------------------------------------------------------------ speed
@@ -288,13 +287,13 @@ def test_auto_enable_with_delays():
     run_until_idle(backend, s)
     en_times, en_levels = backend.recorder.pin_edges(6)
     steps = rising(backend, 9)
-    enable_at = [t for t, lv in zip(en_times, en_levels) if lv == 0][0]
+    enable_at = [t for t, lv in zip(en_times, en_levels, strict=True) if lv == 0][0]
     assert steps[0] - enable_at >= 5000 * 16  # the on-delay before the first step
-    disable_at = [t for t, lv in zip(en_times, en_levels) if lv == 1]
+    disable_at = [t for t, lv in zip(en_times, en_levels, strict=True) if lv == 1]
     assert len(disable_at) == 1  # only the initial HIGH so far
     backend.run_for_ms(150)
     en_times, en_levels = backend.recorder.pin_edges(6)
-    off = [t for t, lv in zip(en_times, en_levels) if lv == 1][-1]
+    off = [t for t, lv in zip(en_times, en_levels, strict=True) if lv == 1][-1]
     gap_ms = (off - steps[-1]) / 16000
     assert 90 <= gap_ms <= 110  # 100 ms off-delay in 4 ms task periods
 

@@ -13,10 +13,11 @@ import pytest
 
 from fas.device.loopback import Loopback
 from fas.serial.protocol import D_ESTOP, D_WATCHDOG
+from rigs import ROOT
+from rigs.demo import moving
+from rigs.firmware import need_firmware, run_firmware
+from rigs.serial import LINES, NOISY, TPS, run_sim
 from stepperdemo.demo.app import StepperDemo
-from tests.fas.serial.helpers import LINES, NOISY, TPS, run_sim
-
-from .rigs import need_firmware, run_firmware
 
 QUICK = {LINES[0], LINES[5], LINES[10]}  # in the default run; the rest with -m long
 
@@ -86,14 +87,7 @@ def test_two_steppers_at_25_khz(baud):
 
 
 def _moving(lb: Loopback, steps: int = 100_000, run_ms: int = 500):
-    app = StepperDemo(lb.backend, scripted=True)
-    app.setup()
-    s = app.steppers[0]
-    s.set_speed_in_us(100)
-    s.set_acceleration(1000)
-    s.move(steps)
-    lb.backend.app_spend(run_ms * TPS // 1000)
-    return app, s
+    return moving(lb.backend, steps=steps, speed_us=100, accel=1000, after_ms=run_ms)
 
 
 def test_watchdog_stops_the_motion_when_the_host_goes_silent():
@@ -185,22 +179,20 @@ def test_s_decelerates_from_where_the_motor_is():
 def test_device_simavr_serves_a_pty_for_port():
     """``stepperdemo device --simavr`` (real time, sped up) and ``--port PTY -c LINE``
     as a user runs them; waiting is done by reading what the processes print."""
-    import os
     import re
     import signal
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
-                            "--speed", "4"], cwd=root, stdout=subprocess.PIPE, text=True)
+                            "--speed", "4"], cwd=ROOT, stdout=subprocess.PIPE, text=True)
     try:
         first = dev.stdout.readline()
         assert first.startswith("device atmega328p (firmware ")
         path = re.search(r" on (/dev/pts/\d+)", first).group(1)
         res = subprocess.run([sys.executable, "-m", "stepperdemo", "--port", path, "-c",
                               "M1 A1000 V100 R3200 W M2 A2000 V200 R-1000 W", "--lf",
-                              "--watchdog-ms", "2000"], cwd=root, capture_output=True,
+                              "--watchdog-ms", "2000"], cwd=ROOT, capture_output=True,
                              text=True, timeout=120, check=False)
         assert res.returncode == 0, res.stderr
         assert "device M1: position 3200, 3200 pulses" in res.stderr
@@ -230,7 +222,7 @@ def test_step_edges_agree_with_the_python_device(line):
         assert len(f) == len(p)
         if not f:
             continue
-        assert all(0 <= a - b <= 1 for a, b in zip(f, p))
+        assert all(0 <= a - b <= 1 for a, b in zip(f, p, strict=True))
         # every pulse is high at least 2.5 us and low again well before the next step
         times, levels = tr.edges(pin)
         phases = [(levels[i], times[i + 1] - times[i]) for i in range(len(times) - 1)]
@@ -256,7 +248,7 @@ def test_user_outputs_of_a_gcode_program_on_the_device():
         tr = lb.device.trace()
     steps = tr.rising(9)
     assert len(steps) == 4000
-    d0 = list(zip(*tr.edges(2)))
+    d0 = list(zip(*tr.edges(2), strict=True))
     assert [lv for _, lv in d0] == [1, 0]
     assert steps[1999] < d0[0][0] < steps[2000] and d0[1][0] > steps[-1]
     assert tr.rising(4)[0] < steps[0]  # M64: at once

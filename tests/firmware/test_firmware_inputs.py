@@ -41,8 +41,7 @@ from fas.serial.protocol import (
     Started,
     WatchInput,
 )
-
-from .rigs import MS, Host, need_firmware
+from rigs.firmware import MS, Host, need_firmware
 
 TPS = 16_000_000
 SWITCH, POT = 17, 14  # A3, A0
@@ -138,7 +137,8 @@ def test_the_host_turns_the_simulated_pot_and_presses_the_switch(host):
     assert {(m.pin, m.value) for m in _all(got, Input)} == {(SWITCH, 0), (POT, 900)}
     # the harness made the change when the firmware took the message
     trace = host.dev.trace()
-    change = [c for c, lv in zip(trace.cycles[SWITCH], trace.levels[SWITCH]) if lv == 0][0]
+    change = [c for c, lv in zip(trace.cycles[SWITCH], trace.levels[SWITCH], strict=True)
+              if lv == 0][0]
     assert host.frame_end < change < host.frame_end + MS
 
 
@@ -257,7 +257,7 @@ def test_the_library_follows_a_limit_stop_on_the_firmware(faults):
         assert b.settle()
         trace = dev.trace()
         assert sorted(h[0] for h in hits) == [0, 1]
-        for index, pin, position, tick in hits:
+        for index, _pin, position, tick in hits:
             steps = trace.rising(9 + index)
             assert steps[-1] < at + REACTION_TICKS
             assert position == len(steps) == engine.stepper(index).get_current_position()

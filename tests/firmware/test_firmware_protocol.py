@@ -33,8 +33,7 @@ from fas.serial.protocol import (
     SyncRequest,
     Truncate,
 )
-
-from .rigs import Host, need_firmware
+from rigs.firmware import Host, need_firmware
 
 
 @pytest.fixture(scope="module")

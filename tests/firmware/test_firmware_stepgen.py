@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import pytest
 
-from .rigs import need_firmware
-from .stepgen_rig import (
+from rigs.firmware import need_firmware
+from rigs.stepgen import (
     DETACH,
     HALT,
     LB_UP,
@@ -67,7 +67,7 @@ def test_entries_with_pauses_and_a_reversal_give_the_models_edges(both):
     snap = both.rig.snapshot(0)
     fw, py = _compare(both, 9)
     assert len(fw) == len(py) == 302
-    assert {f - p for f, p in zip(fw, py)} == {SIM_COMPARE_OFFSET}
+    assert {f - p for f, p in zip(fw, py, strict=True)} == {SIM_COMPARE_OFFSET}
     assert snap.pulses == 302 and snap.pulse_pos == 294 - 8 and snap.state == 0
     # the direction pin toggled once, after the last step up and before the first down
     trace = both.rig.dev.trace()
@@ -90,7 +90,7 @@ def test_two_channels_at_25_khz_keep_every_compare(both):
     for pin in (9, 10):
         fw, py = _compare(both, pin)
         assert len(fw) == len(py) == 300
-        assert {f - p for f, p in zip(fw, py)} == {SIM_COMPARE_OFFSET}
+        assert {f - p for f, p in zip(fw, py, strict=True)} == {SIM_COMPARE_OFFSET}
         assert max(_widths(both, pin)) < 640 - 200  # low again well before the next step
 
 
@@ -102,7 +102,7 @@ def test_one_channel_at_50_khz(both):
     both.run_to_tick(at + 200_000)
     fw, py = _compare(both, 9)
     assert len(fw) == 500
-    assert {f - p for f, p in zip(fw, py)} == {SIM_COMPARE_OFFSET}
+    assert {f - p for f, p in zip(fw, py, strict=True)} == {SIM_COMPARE_OFFSET}
 
 
 @pytest.mark.parametrize("lead", [3000, 40_000, 65_500, 65_700, 500_000, 3 * 65_536 + 17])
@@ -143,7 +143,7 @@ def test_an_entry_after_the_queue_ran_dry_continues_as_the_model(both):
     assert both.rig.snapshot(0).state == 0
     fw, py = _compare(both, 9)
     assert len(fw) == len(py) == 8
-    assert {f - p for f, p in zip(fw, py)} == {SIM_COMPARE_OFFSET}
+    assert {f - p for f, p in zip(fw, py, strict=True)} == {SIM_COMPARE_OFFSET}
 
 
 def test_force_stop_counts_exactly_the_pulses_on_the_pin(both):
@@ -198,7 +198,7 @@ def test_an_entry_towards_a_closed_limit_makes_no_pulse_as_the_model(both):
     both.run_to_tick(both.rig.tick() + 40_000)
     fw, py = _compare(both, 9)
     assert len(fw) == len(py) == 10
-    assert {f - p for f, p in zip(fw, py)} == {SIM_COMPARE_OFFSET}
+    assert {f - p for f, p in zip(fw, py, strict=True)} == {SIM_COMPARE_OFFSET}
     count, ch, up, tick = both.rig.hits()
     assert (count, ch, up) == (1, 0, 1)
     assert fw[-1] < tick < fw[-1] + 900  # at the last pulse's interrupt, not later

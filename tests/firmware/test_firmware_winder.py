@@ -10,10 +10,11 @@ from __future__ import annotations
 import pytest
 
 from fas.device.loopback import Loopback
+from rigs import ROOT
+from rigs.firmware import need_firmware
+from rigs.pins import position_by_pins
 from stepperdemo.program import make_program
 from stepperdemo.winder import figures as fig
-
-from .rigs import need_firmware, pin_position
 
 TPS = 16_000_000
 S1_STEP, S1_DIR, S2_STEP, S2_DIR = 9, 5, 10, 7
@@ -40,7 +41,7 @@ def run_winder(line: str, seconds: int = 20):
 
 
 def _pins(trace, app) -> list[int]:
-    return [pin_position(trace, pin, d, s.direction_pin_high_counts_up())
+    return [position_by_pins(trace.edges, pin, d, s.direction_pin_high_counts_up())
             for pin, d, s in ((S1_STEP, S1_DIR, app.steppers[0]),
                               (S2_STEP, S2_DIR, app.steppers[1]))]
 
@@ -54,7 +55,7 @@ def test_pot_at_the_end_drives_s1_at_20000_steps_per_s_then_stops():
     assert "ERROR" not in text
     assert "A0 = 1023: S1 forward" in text and "S1 stopped at" in text
     steps = trace.rising(S1_STEP)
-    gaps = [b - a for a, b in zip(steps, steps[1:])]
+    gaps = [b - a for a, b in zip(steps, steps[1:], strict=False)]
     top_ticks = 13 * fig.COUNT_US * 16
     assert min(gaps) == top_ticks  # the top speed, on the tick
     assert sum(1 for g in gaps if g == top_ticks) > 10_000  # cruising there for a while
@@ -73,7 +74,7 @@ def test_limit_switch_stops_s2_with_no_step_after_it():
     assert "A3 closed (S2 upper limit)" in text
     assert f"A3: S2 stopped at its upper limit, position {positions[1]}" in text
     times, levels = trace.edges(A3)
-    switch = [t for t, lv in zip(times, levels) if lv == 0][0]
+    switch = [t for t, lv in zip(times, levels, strict=True) if lv == 0][0]
     steps = trace.rising(S2_STEP)
     after = [t - switch for t in steps if t >= switch]
     assert after == []  # not one step after the switch (this run)
@@ -114,21 +115,19 @@ def test_winder_port_on_device_simavr_as_a_user_runs_it():
     """``stepperdemo device --simavr`` (sped up) and ``stepperdemo winder --port PTY -c
     LINE``: the limit line as a user types it; waiting is done by reading what the
     processes print."""
-    import os
     import re
     import signal
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
-                            "--speed", "4"], cwd=root, stdout=subprocess.PIPE, text=True)
+                            "--speed", "4"], cwd=ROOT, stdout=subprocess.PIPE, text=True)
     try:
         first = dev.stdout.readline()
         path = re.search(r" on (/dev/pts/\d+)", first).group(1)
         res = subprocess.run([sys.executable, "-m", "stepperdemo", "winder", "--port", path,
                               "-c", "period 2 50 move 2 65535 w300 switch A3 1 w300",
-                              "--watchdog-ms", "2000"], cwd=root, capture_output=True,
+                              "--watchdog-ms", "2000"], cwd=ROOT, capture_output=True,
                              text=True, timeout=120, check=False)
         assert res.returncode == 0, res.stderr
         assert "ERROR" not in res.stdout
@@ -146,16 +145,14 @@ def test_device_simavr_inputs_from_the_command_line_and_stdin():
     """``device --simavr --input A4=0 --inputs-from-stdin``: the fixture switch closed at
     power-up and a switch pressed by a line typed at the device - both on the chip's
     pins, read back by the winder through the firmware's reports."""
-    import os
     import re
     import signal
     import subprocess
     import sys
 
-    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     dev = subprocess.Popen([sys.executable, "-m", "stepperdemo", "device", "--simavr",
                             "--speed", "4", "--input", "A4=0", "--inputs-from-stdin"],
-                           cwd=root, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+                           cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     try:
         first = dev.stdout.readline()
         path = re.search(r" on (/dev/pts/\d+)", first).group(1)
@@ -163,7 +160,7 @@ def test_device_simavr_inputs_from_the_command_line_and_stdin():
         dev.stdin.flush()
         assert dev.stdout.readline().strip() == "device: input A5=0"
         res = subprocess.run([sys.executable, "-m", "stepperdemo", "winder", "--port", path,
-                              "-c", "status"], cwd=root, capture_output=True, text=True,
+                              "-c", "status"], cwd=ROOT, capture_output=True, text=True,
                              timeout=120, check=False)
         assert res.returncode == 0, res.stderr
         assert "A4 closed at power-up: fixture mode" in res.stdout

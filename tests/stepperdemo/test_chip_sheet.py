@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
@@ -12,19 +11,19 @@ from fas.arch import PROFILES, TEST_PROFILES, get_profile
 from fas.codes import PIN_UNDEFINED
 from fas.output_figures import NO_OUTPUTS
 from fas.quickstep.figures import NO_QUICKSTEP
+from rigs import ROOT
 from stepperdemo import messages as msg
 from stepperdemo.chip_sheet import chip_sheet, sheet_lines
 from stepperdemo.demo.build import demo_build
 from stepperdemo.program import EndReason
 
-ROOT = Path(__file__).resolve().parents[2]
 ALL = {**PROFILES, **TEST_PROFILES}
 
 
 def test_every_profile_has_a_build_wired_to_its_own_step_pins():
     for name, p in ALL.items():
         build = demo_build(p)
-        assert 0 < len(build.steppers) and build.steppers[0].step != PIN_UNDEFINED, name
+        assert len(build.steppers) > 0 and build.steppers[0].step != PIN_UNDEFINED, name
         assert p.queue_for_step_pin(build.steppers[0].step) is not None, name
         for cfg in build.configs:
             assert len(cfg.steppers) <= p.max_steppers, (name, cfg.name)
@@ -89,10 +88,9 @@ def test_a_new_chip_is_a_profile_and_its_stepperdemo_build(monkeypatch):
     no user outputs until their tables list it."""
     from dataclasses import replace
 
+    from rigs.demo import run
     from stepperdemo.demo import build
     from stepperdemo.demo.build import ESP32_COSTS, DemoStepper
-
-    from .helpers import run
 
     chip = replace(get_profile("rp2040"), name="rp2040_two", title="RP2040, two steppers",
                    max_steppers=2)

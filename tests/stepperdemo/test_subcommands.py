@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from fas.sim import SimBackend
+from rigs import ROOT
 from stepperdemo import subcommands
 from stepperdemo.demo import commands, quickstep
 from stepperdemo.demo.app import StepperDemo
@@ -16,8 +17,6 @@ from stepperdemo.front.cli import main
 from stepperdemo.program import make_program, programs
 from stepperdemo.scenarios.scenario import load
 from stepperdemo.subcommands import SUBCOMMANDS, Subcommand
-
-ROOT = Path(__file__).resolve().parents[2]
 
 _GREETINGS = CommandSet()
 

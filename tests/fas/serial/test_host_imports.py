@@ -8,11 +8,10 @@ import json
 import pkgutil
 import subprocess
 import sys
-from pathlib import Path
 
 import fas.serial
+from rigs import ROOT
 
-ROOT = Path(__file__).resolve().parents[3]
 HOST_MODULES = sorted(f"fas.serial.{m.name}" for m in pkgutil.iter_modules(fas.serial.__path__))
 FORBIDDEN = ("fas.sim", "fas.device")
 

@@ -172,7 +172,7 @@ def test_a_device_limit_stops_without_a_step_after_the_switch(faults):
         b.app_wait_until(b.now() + TPS // 10)
         assert b.settle()
         assert sorted(h[0] for h in hits) == [0, 1]
-        for index, pin, position, tick in hits:
+        for index, _pin, position, tick in hits:
             steps = dev.recorder.rising(dev.queues[index].step_pin)
             assert steps[-1] <= t_switch  # stopped by the device: no step after it
             assert position == len(steps) == engine.stepper(index).get_current_position()

@@ -50,13 +50,13 @@ def test_gcode_acceptance_program_on_the_device():
         rec = dev.recorder
         steps = rec.rising(17)
         assert len(steps) == 4000
-        d0 = list(zip(*rec.pin_edges(32)))
+        d0 = list(zip(*rec.pin_edges(32), strict=True))
         assert [lv for _, lv in d0] == [1, 0]
         assert steps[1999] < d0[0][0] < steps[2000] and d0[1][0] > steps[-1]
         assert rec.rising(33)[0] < steps[0]  # M64: at once
         rises = rec.rising(16)
         assert rises[0] > d0[1][0]
-        assert {b - a for a, b in zip(rises, rises[1:])} == {3200}
+        assert {b - a for a, b in zip(rises, rises[1:], strict=False)} == {3200}
         assert lb.backend.device_counters()["rejected"] == 0
         assert "error" not in app.transcript.decode()
 

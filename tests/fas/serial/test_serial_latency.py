@@ -11,9 +11,9 @@ from fas.device.loopback import Loopback
 from fas.device.relay import Faults
 from fas.sim import SimBackend
 from fas.sim.pins import EdgeRecorder
+from rigs.demo import decel_start, moving, two_at_25khz
+from rigs.serial import TPS, run_serial, run_sim
 from stepperdemo.demo.app import StepperDemo
-
-from .helpers import TPS, run_serial, run_sim
 
 MS = TPS // 1000
 # the two runs
@@ -70,23 +70,12 @@ def test_faulty_line_costs_less_than_a_quarter_of_the_time():
     assert noisy_s <= 1.25 * clean_s
 
 
-def _two_at_25khz(lb: Loopback):
-    app = StepperDemo(lb.backend, scripted=True)
-    app.setup()
-    moves = (20_000, -20_000)
-    for s, d in zip(app.steppers, moves, strict=True):
-        s.set_speed_in_us(40)
-        s.set_acceleration(100_000)
-        s.move(d)
-    return app, list(moves)
-
-
 @pytest.mark.parametrize("faults", [None, Faults(baud=115200, chunk_ms=1), USB_16MS],
                          ids=["pty", "115200", "115200-16ms"])
 def test_50_ms_host_stall_mid_move_causes_no_underrun(faults):
     with Loopback(faults=faults) as lb:
         backend = lb.backend
-        app, moves = _two_at_25khz(lb)
+        app, moves = two_at_25khz(lb.backend)
         backend.app_spend(700 * MS)  # cruising at 25 kHz
         assert lb.device.running()
         lb.clock.run_until(lb.clock.now_ns() + 50 * 10**6)  # the host does nothing
@@ -102,7 +91,7 @@ def test_line_stalls_of_50_ms_cause_no_underrun():
     stalls = Faults(baud=115200, chunk_ms=1, stall_ms=50, stall_every_ms=300)
     with Loopback(faults=stalls) as lb:
         backend = lb.backend
-        app, moves = _two_at_25khz(lb)
+        app, moves = two_at_25khz(lb.backend)
         backend.wait_until(lambda: not any(s.is_running() for s in app.steppers))
         backend.settle()
         backend.request_status()
@@ -149,22 +138,13 @@ def test_first_fill_plans_only_the_librarys_time_so_the_start_is_early():
 
 # ------------------------------------------------------------- stops
 def _cruise(lb: Loopback):
-    app = StepperDemo(lb.backend, scripted=True)
-    app.setup()
-    s = app.steppers[0]
-    s.set_speed_in_us(40)
-    s.set_acceleration(100_000)
-    s.move(1_000_000)
-    lb.backend.app_spend(500 * MS)
-    return s
+    return moving(lb.backend)[1]
 
 
 def _decel_start(rising: list[int], t_call: int) -> int:
-    after = [t for t in rising if t >= t_call]
-    for a, b in zip(after, after[1:], strict=False):
-        if b - a > 646:  # longer than the 640-tick cruise period
-            return a - t_call
-    raise AssertionError("no deceleration")
+    ticks = decel_start(rising, t_call)
+    assert ticks is not None, "no deceleration"
+    return ticks
 
 
 def test_s_decelerates_from_where_the_motor_is():
@@ -189,13 +169,7 @@ def test_s_on_the_simulated_chip_waits_for_its_20_ms_queue():
     backend = SimBackend("atmega328p")
     rec = EdgeRecorder()
     backend.machine.pins.sinks.append(rec)
-    app = StepperDemo(backend, scripted=True)
-    app.setup()
-    s = app.steppers[0]
-    s.set_speed_in_us(40)
-    s.set_acceleration(100_000)
-    s.move(1_000_000)
-    backend.app_spend(500 * MS)
+    _app, s = moving(backend)
     t_call = backend.now()
     s.stop_move()
     backend.wait_until(lambda: not s.is_running(), 10 * TPS)

@@ -7,66 +7,31 @@ reading what the processes print.
 
 from __future__ import annotations
 
-import os
 import re
-import select
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 
 from fas.serial import SerialBackend
 from fas.serial.protocol import D_WATCHDOG
+from rigs import ROOT
+from rigs.processes import end, read_line, spawn, wait_for
 from stepperdemo.demo.app import StepperDemo
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
 PTY_RE = re.compile(r"(/dev/pts/\d+)")
 SPEED = 4
-
-
-def _spawn(*args: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "stepperdemo", *args], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            bufsize=1)
-
-
-def _read_line(proc: subprocess.Popen, timeout_s: float = 20.0) -> str:
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        r, _, _ = select.select([proc.stdout], [], [], 0.5)
-        if r:
-            line = proc.stdout.readline()
-            if line:
-                return line
-            break
-    raise AssertionError(f"no output from {proc.args}")
-
-
-def _wait_for(proc: subprocess.Popen, pattern: str, timeout_s: float = 30.0) -> str:
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        line = _read_line(proc, end - time.monotonic())
-        if re.search(pattern, line):
-            return line
-    raise AssertionError(f"{pattern!r} not seen")
-
-
-def _end(proc: subprocess.Popen) -> tuple[str, str]:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGTERM)
-    out, err = proc.communicate(timeout=20)
-    return out, err
+READ_S, WAIT_S, END_S = 20.0, 30.0, 20.0  # limits of a wait that reads output
 
 
 @pytest.fixture
 def device(tmp_path):
     link = str(tmp_path / "device")
-    proc = _spawn("device", "--pty", "--speed", str(SPEED), "--link", link)
-    path = PTY_RE.search(_read_line(proc)).group(1)
+    proc = spawn("device", "--pty", "--speed", str(SPEED), "--link", link)
+    path = PTY_RE.search(read_line(proc, READ_S)).group(1)
     yield proc, path, link
-    _end(proc)
+    end(proc, END_S)
 
 
 def _host(port: str, line: str, *extra: str) -> subprocess.CompletedProcess:
@@ -83,7 +48,7 @@ def test_cli_port_runs_a_line_on_a_device_process(device):
     assert ">> M1: @3200 " in res.stdout
     assert "device M1: position 3200, 3200 pulses" in res.stderr
     assert re.search(r"device: 2030 commands, 0 lost, 0 duplicated", res.stderr)
-    out, _ = _end(proc)
+    out, _ = end(proc, END_S)
     assert "M1: position 3200, 3200 pulses in the last session" in out
     assert "session closed" in out
 
@@ -96,31 +61,31 @@ def test_closed_pty_is_reported_and_a_new_device_takes_over(device, tmp_path):
     assert app.steppers[0].get_current_position() == 1000
     events = []
     backend.listeners.append(lambda e, t: events.append(e))
-    _end(proc)  # the device goes away, its pty is closed
+    end(proc, END_S)  # the device goes away, its pty is closed
     backend.app_spend(200 * 16000)
     assert events == ["lost"] and not backend.connected
-    second = _spawn("device", "--pty", "--speed", str(SPEED), "--link", link)
+    second = spawn("device", "--pty", "--speed", str(SPEED), "--link", link)
     try:
-        _read_line(second)
+        read_line(second, READ_S)
         backend.reconnect()
         assert backend.connected and backend.sessions == 2
         app.steppers[0].move(-400)
         backend.wait_until(lambda: not app.steppers[0].is_running())
         assert app.steppers[0].get_current_position() == 600
         backend.close()
-        out, _ = _end(second)
+        out, _ = end(second, END_S)
         assert "M1: position 600, 400 pulses in the last session, 400 since" in out
     finally:
-        _end(second)
+        end(second, END_S)
 
 
 @pytest.mark.long
 def test_relay_with_faults_between_processes(device):
     _proc, path, _ = device
-    relay = _spawn("relay", path, "--corrupt", "0.01", "--drop", "0.005", "--dup", "0.005",
-                   "--latency-ms", "1", "--seed", "3")
+    relay = spawn("relay", path, "--corrupt", "0.01", "--drop", "0.005", "--dup", "0.005",
+                  "--latency-ms", "1", "--seed", "3")
     try:
-        host_path = PTY_RE.search(_read_line(relay)).group(1)
+        host_path = PTY_RE.search(read_line(relay, READ_S)).group(1)
         res = _host(host_path, "M1 A6000 V90 R5000 M2 A5000 V110 R-4000 W M1 W")
         assert res.returncode == 0, res.stderr
         assert "device M1: position 5000, 5000 pulses" in res.stderr
@@ -129,21 +94,21 @@ def test_relay_with_faults_between_processes(device):
         retrans = int(re.search(r"(\d+) retransmitted", res.stderr).group(1))
         assert retrans > 0
     finally:
-        out, _ = _end(relay)
+        out, _ = end(relay, END_S)
     assert re.search(r"relay to device: \d+ bytes in, \d+ out, \d+ dropped", out)
 
 
 @pytest.mark.long
 def test_killed_host_leaves_a_stopped_device(device):
     proc, path, link = device
-    host = _spawn("--port", path, "-c", "M1 A1000 V100 R200000 W", "--lf")
+    host = spawn("--port", path, "-c", "M1 A1000 V100 R200000 W", "--lf")
     try:
-        _wait_for(host, r"M1: @\d{3,} ")
+        wait_for(host, r"M1: @\d{3,} ", WAIT_S)
         host.send_signal(signal.SIGKILL)
         host.wait(timeout=10)
     finally:
-        _end(host)
-    _wait_for(proc, r"watchdog: host silent, motion stopped")
+        end(host, END_S)
+    wait_for(proc, r"watchdog: host silent, motion stopped", WAIT_S)
     backend = SerialBackend(link)
     try:
         assert backend.device_status.state & D_WATCHDOG
@@ -158,13 +123,13 @@ def test_killed_host_leaves_a_stopped_device(device):
 
 def test_scripted_run_ends_with_code_5_when_the_device_goes(device):
     proc, path, _ = device
-    host = _spawn("--port", path, "-c", "M1 A1000 V100 R200000 W", "--lf",
-                  "--watchdog-ms", "2000")
+    host = spawn("--port", path, "-c", "M1 A1000 V100 R200000 W", "--lf",
+                 "--watchdog-ms", "2000")
     try:
-        _wait_for(host, r"M1: @\d{2,} ")
+        wait_for(host, r"M1: @\d{2,} ", WAIT_S)
         proc.send_signal(signal.SIGKILL)
         _out, err = host.communicate(timeout=30)
     finally:
-        _end(host)
+        end(host, END_S)
     assert host.returncode == 5
     assert "stepperdemo: device lost:" in err

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .helpers import run_serial
+from rigs.serial import run_serial
 
 QS_LINES = [
     ("c M1 l1 p8 x M1 A1000 V100 R3200 W", [3200, 0], [3200, 0]),

@@ -7,8 +7,7 @@ the host opens with pyserial - the same path as ``stepperdemo --port``.
 import pytest
 
 from fas.device.relay import Faults
-
-from .helpers import LINES, NOISY, run_serial, run_sim
+from rigs.serial import LINES, NOISY, run_serial, run_sim
 
 
 @pytest.mark.parametrize("line", LINES)

@@ -1,21 +1,13 @@
 """Sessions on the serial backend: watchdog, lost devices, reconnection, stops."""
 
 from fas.device.loopback import Loopback
+from rigs.demo import moving
+from rigs.serial import TPS
 from stepperdemo.demo.app import StepperDemo
-
-from .helpers import TPS
 
 
 def _moving(lb: Loopback, steps: int = 100_000, run_ms: int = 500):
-    backend = lb.backend
-    app = StepperDemo(backend, scripted=True)
-    app.setup()
-    s = app.steppers[0]
-    s.set_speed_in_us(100)
-    s.set_acceleration(1000)
-    s.move(steps)
-    backend.app_spend(run_ms * TPS // 1000)
-    return app, s
+    return moving(lb.backend, steps=steps, speed_us=100, accel=1000, after_ms=run_ms)
 
 
 def test_device_stops_within_its_watchdog_time_when_the_host_dies():
