@@ -21,8 +21,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from .pwm import PwmSetting
     from .queue import StepperQueue
 
-__all__ = ["Backend", "OutputChange", "OrderChannel", "PulseCounter", "QueueChannel",
-           "InputListener", "LimitListener", "PinRecording", "PinStates"]
+__all__ = ["Backend", "EngineStepper", "OutputChange", "OrderChannel", "PulseCounter",
+           "QueueChannel", "InputListener", "LimitListener", "PinRecording", "PinStates",
+           "TaskEngine"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,46 @@ class PinStates(Protocol):
         """The pin's level now (0 for a pin never driven)."""
 
 
+class EngineStepper(Protocol):
+    """What a backend may do with a stepper of its engine (:class:`fas.stepper.Stepper`):
+    find its queue, read and set its position (a link lost or a device reconnected)."""
+
+    @property
+    def queue(self) -> StepperQueue: ...
+
+    def get_current_position(self) -> int: ...
+
+    def force_stop_and_new_position(self, new_pos: int) -> None: ...
+
+
+class TaskEngine(Protocol):
+    """What a backend calls on the engine it runs (:class:`fas.engine.Engine`): the
+    periodic task, which runs it may skip, and the moment queues ran dry."""
+
+    @property
+    def steppers(self) -> Sequence[EngineStepper]: ...
+
+    def manage_steppers(self) -> int:
+        """One run of the periodic ramp task."""
+        ...
+
+    def quiescent_tasks(self) -> int | None:
+        """Runs after this one that would do nothing (None: all, until woken)."""
+        ...
+
+    def credit_skipped_tasks(self, n: int) -> None:
+        """``n`` runs were skipped (as :meth:`quiescent_tasks` allowed)."""
+        ...
+
+    def may_stop_without_channel(self) -> bool:
+        """A stepper may start or stop in this run without its channel noticing."""
+        ...
+
+    def queues_idle(self) -> None:
+        """A queue ran dry or a synchronized output was made (:mod:`fas.sync`)."""
+        ...
+
+
 InputListener = Callable[[int, int, int], None]  # (pin, value, tick)
 LimitListener = Callable[[int, int, int, int], None]  # (queue index, pin, position, tick)
 
@@ -87,13 +128,15 @@ class Backend(ABC):
     # ticks a stepper plans ahead beyond its forward-planning time once its queue runs
     # (a serial link's delays; 0 on a chip, where the queue is the timer's own)
     planning_extra_ticks: int = 0
+    # the period set by set_task_period (None: the profile's fill period)
+    _task_period: int | None = None
 
     @abstractmethod
     def now(self) -> int:
         """Current time in ticks of ``profile.ticks_per_s``."""
 
     @abstractmethod
-    def attach_engine(self, engine) -> None:
+    def attach_engine(self, engine: TaskEngine) -> None:
         """Run ``engine.manage_steppers()`` periodically (the ~4 ms ramp task).
 
         A backend may skip runs that ``engine.quiescent_tasks()`` declares idle, and
@@ -106,7 +149,7 @@ class Backend(ABC):
     @property
     def task_period_ticks(self) -> int:
         """Period of the periodic ramp task (``engine.task_rate()`` may change it)."""
-        return getattr(self, "_task_period", None) or self.profile.fill_period_ticks
+        return self._task_period or self.profile.fill_period_ticks
 
     def set_task_period(self, ticks: int) -> None:
         """From the next run on, run the periodic task every ``ticks``."""

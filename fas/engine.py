@@ -135,6 +135,7 @@ class Engine:
         kind of planner shares between the steppers that use it (QuickStep's timer)."""
         if key not in self._shared:
             self._shared[key] = make()
+        # the object make() made for this key: a T (one store holds every kind)
         return self._shared[key]  # type: ignore[return-value]
 
     # ------------------------------------------------- idle periodic task

@@ -23,7 +23,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from enum import IntEnum
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 from .codes import MoveResult
 
@@ -36,6 +36,13 @@ if TYPE_CHECKING:  # pragma: no cover
     from .queue import StepperQueue
 
 T = TypeVar("T")
+
+
+class SharedStore(Protocol):
+    """``store(key, make)``: one object per engine and ``key``, made by ``make()`` on
+    first use (:meth:`fas.engine.Engine.shared`)."""
+
+    def __call__(self, key: str, make: Callable[[], T]) -> T: ...
 
 
 class PlannerChange(IntEnum):
@@ -64,7 +71,7 @@ class PlannerHost:
                  command_written: Callable[[], None],
                  report_abort: Callable[[AqeResult, object], None],
                  allocator: Allocator,
-                 shared: Callable[[str, Callable[[], object]], object]) -> None:
+                 shared: SharedStore) -> None:
         self.index = index  # the stepper's number
         self.profile = profile
         self.backend = backend  # the time (backend.now()), channels, the link's lead
@@ -89,7 +96,7 @@ class PlannerHost:
     def shared(self, key: str, make: Callable[[], T]) -> T:
         """One object per engine and ``key``, made by ``make()`` on first use (state
         a kind of planner shares between steppers: QuickStep's timer)."""
-        return self._shared(key, make)  # type: ignore[return-value]
+        return self._shared(key, make)
 
 
 class Planner(ABC):

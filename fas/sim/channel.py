@@ -51,9 +51,10 @@ class SimChannel(QueueChannel):
         self.event: Event | None = None
         self.pending_compare = 0  # compare tick of the pending single ISR event
         self.pending_pulse = False
-        # block of pulses of one entry: pulses at b_c0 + j*b_t, j < b_n
+        # block of pulses of one entry: pulses at b_c0 + j*b_t, j < b_n (while batch;
+        # b_entry: that entry - the ring's first slot until a block runs)
         self.batch = False
-        self.b_entry: QueueEntry | None = None
+        self.b_entry: QueueEntry = queue.entries[0]
         self.b_c0 = 0
         self.b_t = 0
         self.b_n = 0

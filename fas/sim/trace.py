@@ -389,7 +389,8 @@ class VcdTrace:
         if self.writer is None or self.writer.closed:
             return
         self.writer.close(self.stream.stop())
-        self._file.close()
+        if self._file is not None:  # opened with the writer (start)
+            self._file.close()
 
 
 def pin_levels(backend: SimBackend, pins: Mapping[int, object] | Sequence[int]) -> dict[int, int]:
