@@ -28,6 +28,7 @@ import sys
 import tempfile
 import time
 from bisect import bisect_right
+from itertools import pairwise
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -162,7 +163,7 @@ def _by_pins(trace, pins):
     times, levels = trace.edges(step)
     dt, dl = trace.edges(dirp)
     out = []
-    for t, lv in zip(times, levels):
+    for t, lv in zip(times, levels, strict=True):
         if lv:
             i = bisect_right(dt, t) - 1
             out.append((t, 1 if i >= 0 and dl[i] else -1))
@@ -201,7 +202,7 @@ def winder() -> None:
     print("\n## 3. Issue 13's lines through --port on the firmware (lockstep)")
     app, tr, wall, stack, busy, _ = winder_run(POT_LINE)
     s1 = tr.rising(9)
-    gaps = [b - a for a, b in zip(s1, s1[1:])]
+    gaps = [b - a for a, b in pairwise(s1)]
     top = min(gaps)
     reach = s1[gaps.index(top)] - s1[0]
     print(f"{POT_LINE}: {len(s1)} steps; shortest period {top} ticks = {top / 16:.1f} us = "
@@ -210,7 +211,7 @@ def winder() -> None:
           f"{wall:.2f} s wall")
     app, tr, wall, stack, busy, _ = winder_run(LIMIT_LINE)
     times, levels = tr.edges(SWITCH)
-    sw = [t for t, lv in zip(times, levels) if lv == 0][0]
+    sw = [t for t, lv in zip(times, levels, strict=True) if lv == 0][0]
     s2 = tr.rising(10)
     after = sum(1 for t in s2 if t >= sw)
     print(f"{LIMIT_LINE}: {after} steps after the switch, the last one {(sw - s2[-1]) / 16:.1f} "

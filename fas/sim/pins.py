@@ -39,7 +39,7 @@ class EdgeRecorder:
 
     def rising(self, pin: int) -> list[int]:
         times, levels = self.pin_edges(pin)
-        return [t for t, lv in zip(times, levels) if lv]
+        return [t for t, lv in zip(times, levels, strict=True) if lv]
 
 
 class PinBank:
@@ -115,7 +115,7 @@ class PinBank:
     def waveform(self, pin: int, times: list[int], levels: bytes) -> None:
         """A run of edges of one pin (a PWM timer's), in time order, alternating levels."""
         level = self.level.get(pin, 0)
-        for t, lv in zip(times, levels):
+        for t, lv in zip(times, levels, strict=True):
             if lv == level:
                 continue
             level = lv

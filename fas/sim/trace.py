@@ -323,10 +323,10 @@ class VcdWriter:
         change = self._writer.change
         num, den = self._num, self._den
         if den == 1:
-            for t, lv in zip(times, levels):
+            for t, lv in zip(times, levels, strict=True):
                 change(var, t * num, lv)
         else:
-            for t, lv in zip(times, levels):
+            for t, lv in zip(times, levels, strict=True):
                 change(var, t * num // den, lv)
         self.changes += len(times)
 

@@ -202,7 +202,7 @@ def console_attach(console, backend) -> None:
     """Report a lost device in one line above the prompt."""
     def on_event(event: str, text: str) -> None:
         if event == "lost":
-            console._note(msg.SERIAL_LOST.format(reason=text))
+            console.note(msg.SERIAL_LOST.format(reason=text))
     backend.listeners.append(on_event)
 
 

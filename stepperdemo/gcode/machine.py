@@ -90,7 +90,7 @@ class MotionRun:
         profile = backend.profile
         tps = profile.ticks_per_s
         settings = machine.settings
-        deltas = [t - s for t, s in zip(move.target, move.start)]
+        deltas = [t - s for t, s in zip(move.target, move.start, strict=True)]
         steppers = machine.steppers
         rates, accels = [], []
         for i, d in enumerate(deltas):
@@ -261,7 +261,7 @@ class GcodeMachine:
         """Two axes of one move on one direction pin must go the same way (and every
         moving axis must use FastAccelStepper's queue, not QuickStep's FIFO)."""
         seen: dict[int, tuple[int, bool]] = {}
-        for i, (t, s) in enumerate(zip(move.target, move.start)):
+        for i, (t, s) in enumerate(zip(move.target, move.start, strict=True)):
             if t == s:
                 continue
             stepper = self.steppers[i]

@@ -33,7 +33,7 @@ class InterlockMeter:
         if pin in self.step:
             i = self.step.index(pin)
             d = self.dir[i]
-            for t, lv in zip(times, levels):
+            for t, lv in zip(times, levels, strict=True):
                 if t != self.tick:
                     self._measure()
                     self.tick = t
