@@ -34,11 +34,11 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.device import simavr  # noqa: E402
-from fas.device.loopback import Loopback  # noqa: E402
-from stepperdemo.demo.app import StepperDemo  # noqa: E402
-from tests.fas.serial.helpers import LINES  # noqa: E402
-from tests.firmware.rigs import run_firmware  # noqa: E402
+from fas.device import simavr
+from fas.device.loopback import Loopback
+from stepperdemo.demo.app import StepperDemo
+from tests.fas.serial.helpers import LINES
+from tests.firmware.rigs import run_firmware
 
 TWO_25KHZ = "M1 A100000 V40 R20000 M2 A100000 V40 R-20000 W M2 W"
 ISSUE_LINE = "M1 A1000 V100 R3200 W M2 A2000 V200 R-1000 W"

@@ -32,9 +32,9 @@ from itertools import pairwise
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.device import simavr  # noqa: E402
-from fas.device.loopback import Loopback  # noqa: E402
-from fas.serial.protocol import (  # noqa: E402
+from fas.device import simavr
+from fas.device.loopback import Loopback
+from fas.serial.protocol import (
     L_UP,
     PROTOCOL_VERSION,
     UNSEQUENCED,
@@ -48,8 +48,8 @@ from fas.serial.protocol import (  # noqa: E402
     Start,
     WatchInput,
 )
-from stepperdemo.program import make_program  # noqa: E402
-from tests.firmware.rigs import Host  # noqa: E402
+from stepperdemo.program import make_program
+from tests.firmware.rigs import Host
 
 TPS = 16_000_000
 SWITCH = 17  # A3

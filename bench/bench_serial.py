@@ -27,12 +27,12 @@ from collections import Counter
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.arch import get_profile  # noqa: E402
-from fas.device.loopback import Loopback  # noqa: E402
-from fas.device.relay import Faults  # noqa: E402
-from fas.sim import SimBackend  # noqa: E402
-from stepperdemo.demo.app import StepperDemo  # noqa: E402
-from tests.fas.serial.helpers import LINES  # noqa: E402  (the issue's acceptance lines)
+from fas.arch import get_profile
+from fas.device.loopback import Loopback
+from fas.device.relay import Faults
+from fas.sim import SimBackend
+from stepperdemo.demo.app import StepperDemo
+from tests.fas.serial.helpers import LINES
 
 BAUD = 115200
 WINDOW_MS = 20

@@ -32,11 +32,11 @@ from dataclasses import dataclass
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.device.loopback import Loopback  # noqa: E402
-from fas.device.relay import Faults  # noqa: E402
-from fas.sim import SimBackend  # noqa: E402
-from fas.sim.pins import EdgeRecorder  # noqa: E402
-from stepperdemo.demo.app import StepperDemo  # noqa: E402
+from fas.device.loopback import Loopback
+from fas.device.relay import Faults
+from fas.sim import SimBackend
+from fas.sim.pins import EdgeRecorder
+from stepperdemo.demo.app import StepperDemo
 
 TPS = 16_000_000
 MS_TICKS = TPS // 1000

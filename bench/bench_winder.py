@@ -26,11 +26,11 @@ from itertools import pairwise
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.device.loopback import Loopback  # noqa: E402
-from fas.device.relay import Faults  # noqa: E402
-from fas.sim import SimBackend  # noqa: E402
-from stepperdemo.program import make_program  # noqa: E402
-from stepperdemo.winder.potrule import pot_command, rule_speed  # noqa: E402
+from fas.device.loopback import Loopback
+from fas.device.relay import Faults
+from fas.sim import SimBackend
+from stepperdemo.program import make_program
+from stepperdemo.winder.potrule import pot_command, rule_speed
 
 TPS = 16_000_000
 S1, S2 = (9, 5), (10, 7)

@@ -143,7 +143,7 @@ class Backend(ABC):
         must then report them with ``engine.credit_skipped_tasks(n)``.
         """
 
-    def wake_task(self) -> None:
+    def wake_task(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """The engine has work again: do not skip the next periodic run."""
 
     @property
@@ -183,7 +183,8 @@ class Backend(ABC):
         """Count ``queue``'s pulses into ``counter``; False if the backend cannot."""
         return False
 
-    def detach_step_pin(self, queue: StepperQueue, detached: bool) -> None:
+    def detach_step_pin(  # noqa: B027 - optional hook: does nothing by default
+            self, queue: StepperQueue, detached: bool) -> None:
         """Hand the step pin to the application (``detached``) or back to the library."""
 
     def reset_chip(self) -> None:
@@ -212,11 +213,11 @@ class Backend(ABC):
         """Has the change of :meth:`sync_output` been made?"""
         return True
 
-    def cancel_sync_outputs(self) -> None:
+    def cancel_sync_outputs(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """Drop synchronized changes not made yet (alarm)."""
 
     # --- hosting an application main loop (StepperDemo) beside the library ---
-    def app_started(self) -> None:
+    def app_started(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """The application's ``setup()`` begins (Arduino has just started ``millis()``)."""
 
     def millis(self) -> int:
@@ -254,7 +255,7 @@ class Backend(ABC):
         """The main loop busy-waits ``ticks`` with interrupts disabled."""
         self.app_spend(ticks)
 
-    def stray_read(self, pins: tuple[int, ...]) -> None:
+    def stray_read(self, pins: tuple[int, ...]) -> None:  # noqa: B027 - optional: no-op by default
         """The main loop reads step pins with a stray ``digitalRead()``."""
 
     # --- inputs of the application: switches and potentiometers ---
@@ -290,7 +291,7 @@ class Backend(ABC):
         that position.  Setting a limit again replaces it.  False: not supported."""
         return False
 
-    def clear_limit(self, index: int, up: bool) -> None:
+    def clear_limit(self, index: int, up: bool) -> None:  # noqa: B027 - optional: no-op by default
         """Remove queue ``index``'s limit in that direction."""
 
     def _notify_limit(self, index: int, pin: int, position: int, tick: int) -> None:
@@ -308,6 +309,6 @@ class Backend(ABC):
         does not see its pins - they are on a device)."""
         return None
 
-    def deliver_edges(self) -> None:
+    def deliver_edges(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """Hand every pin edge made up to now to the recording and the pin statistics
         (a PWM wave makes its edges when asked)."""

@@ -129,10 +129,10 @@ class QueueChannel(ABC):
     def ready_for_commands(self) -> bool:
         return True
 
-    def entry_added(self) -> None:
+    def entry_added(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """A new entry was appended (a channel waiting for one may continue)."""
 
-    def positions_shifted(self, delta: int) -> None:
+    def positions_shifted(self, delta: int) -> None:  # noqa: B027 - optional: no-op by default
         """All queued positions were renumbered by ``delta``."""
 
     def take_over(self, previous: QueueChannel) -> None:
@@ -162,7 +162,7 @@ class QueueChannel(ABC):
         it will begin; None if it cannot (running, empty queue, no timed start)."""
         return None
 
-    def hold_cuts(self, hold: bool) -> None:
+    def hold_cuts(self, hold: bool) -> None:  # noqa: B027 - optional hook: does nothing by default
         """While held, no cut drops queued entries (a follower derived steps from them)."""
 
     # --------------- capability: cuts, a stop that must not wait for a deep queue

@@ -116,11 +116,11 @@ class Planner(ABC):
         self.host = host
 
     # ------------------------------------------------------------ hand-over
-    def attach(self, previous: Planner | None) -> None:
+    def attach(self, previous: Planner | None) -> None:  # noqa: B027 - optional: no-op by default
         """The planner has become its stepper's instead of ``previous`` (None: the
         stepper's first); its queue has taken over position and direction."""
 
-    def detach(self) -> None:
+    def detach(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """Another planner takes over (this one is at rest)."""
 
     # ------------------------------------------------------------- requests
@@ -153,7 +153,7 @@ class Planner(ABC):
     def keep_speed(self) -> None:
         """``move_by_acceleration(0)``: neither speed up nor slow down any more."""
 
-    def apply_settings(self) -> None:
+    def apply_settings(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """``apply_speed_acceleration``: new settings for the motion under way."""
 
     @abstractmethod
@@ -172,7 +172,7 @@ class Planner(ABC):
     def single_step(self, count_up: bool) -> None:
         """One step (``forward_step``/``backward_step``), the stepper at rest."""
 
-    def positions_shifted(self, delta: int) -> None:
+    def positions_shifted(self, delta: int) -> None:  # noqa: B027 - optional: no-op by default
         """The stepper renamed its positions by ``delta`` (``set_current_position``)."""
 
     @abstractmethod

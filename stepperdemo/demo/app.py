@@ -413,7 +413,7 @@ class StepperDemo(LoopProgram):
 
     # ------------------------------------------------------------ the loop
     def any_running(self) -> bool:
-        for s in self.steppers:  # (asked in every pass: a plain loop)
+        for s in self.steppers:  # noqa: SIM110 - asked in every pass: a loop, no generator
             if s is not None and s.is_running():
                 return True
         return False

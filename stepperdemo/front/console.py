@@ -10,6 +10,7 @@ force-stops every stepper and returns to the prompt; Ctrl-D leaves.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import os
 import sys
 import time
@@ -334,10 +335,8 @@ class Console:
             due = max(0.0, self._toolbar_at + TOOLBAR_REFRESH_S - self.clock())
             timeout = min(due, 1.0 if delay is None else min(max(delay, 0.0), 1.0))
             self._wake.clear()
-            try:
+            with contextlib.suppress(asyncio.TimeoutError):  # a safety net
                 await asyncio.wait_for(self._wake_or_sleep(timeout), timeout + 1)
-            except asyncio.TimeoutError:  # pragma: no cover - safety net
-                pass
 
     async def _wake_or_sleep(self, timeout: float) -> None:
         sleeper = asyncio.ensure_future(self.sleep(timeout))

@@ -93,7 +93,7 @@ class MotionRun:
         deltas = [t - s for t, s in zip(move.target, move.start, strict=True)]
         steppers = machine.steppers
         rates, accels = [], []
-        for i, d in enumerate(deltas):
+        for i in range(len(deltas)):
             spu = settings.steps_per_unit[i]
             top = tps / (steppers[i].get_max_speed_in_ticks() + 1)
             rates.append(min(settings.max_rate[i] * spu / 60, top))

@@ -13,6 +13,7 @@ The signals follow StepperDemo's wiring of the profile (``DemoBuild.steppers``):
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import tempfile
 from collections.abc import Sequence
@@ -178,10 +179,8 @@ class Observers:
 
 
 def _remove(path: str) -> None:
-    try:
+    with contextlib.suppress(OSError):
         os.remove(path)
-    except OSError:
-        pass
 
 
 def attach(backend: SimBackend, *, vcd: str | None = None, csv: str | None = None,
