@@ -93,7 +93,7 @@ class DeviceQueues:
 
     def queues_idle(self) -> None:
         """A queue ran dry or was stopped: synchronized outputs may be due (section 16)."""
-        self.board.sim._queue_idle()  # noqa: SLF001 - the chip's own rule for them
+        self.board.sim.queue_ran_dry()  # the chip's own rule for them
 
     def find(self, stepper: int) -> StepperQueue | None:
         """The queue of ``stepper`` if it is configured (else counted as rejected)."""

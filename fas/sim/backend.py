@@ -121,12 +121,7 @@ class SimBackend(Backend):
     def reset_chip(self) -> None:
         m = self.machine
         for ch in self.channels:
-            ch.force_stop()
-            on_block = getattr(ch, "_on_block", None)
-            if on_block in m.block_listeners:
-                m.block_listeners.remove(on_block)
-            if ch in m.block_sources:
-                m.block_sources.remove(ch)
+            ch.release()
         if self._qs_load is not None and self._qs_load in m.cpu_sources:
             m.cpu_sources.remove(self._qs_load)
         self._qs_load = None
@@ -148,7 +143,7 @@ class SimBackend(Backend):
         # the platform drivers' init: the step pin becomes an output driven LOW
         self.machine.pins.set(queue.step_pin, 0, self.machine.cpu_now())
         ch = SimChannel(self.machine, queue)
-        ch.on_idle = self._queue_idle
+        ch.on_idle = self.queue_ran_dry
         self.channels.append(ch)
         self.machine.block_sources.append(ch)
         for fn in self.channel_listeners:
@@ -170,7 +165,7 @@ class SimBackend(Backend):
             load = self._qs_load = TimerLoad(self.machine, clock)
             self.machine.cpu_sources.append(load)
         ch = QuickStepChannel(self.machine, queue, clock, load)
-        ch.on_idle = self._queue_idle
+        ch.on_idle = self.queue_ran_dry
         self.channels.append(ch)
         self.machine.block_sources.append(ch)
         for fn in self.channel_listeners:
@@ -237,7 +232,7 @@ class SimBackend(Backend):
             self._make(change, t)
         return True
 
-    def _queue_idle(self) -> None:
+    def queue_ran_dry(self) -> None:
         """A queue ran dry (in its step interrupt): the moment synchronized outputs wait for."""
         self._make_sync_outputs()
         if self._engine is not None:

@@ -111,6 +111,16 @@ class SimChannel(QueueChannel):
             self._note_entry(ENTRY_START, e)
         self._program(t + self.start_ticks, e)
 
+    def release(self) -> None:
+        """The chip resets: stop at once and leave the machine (its interrupt-block
+        listeners and the block sources)."""
+        self.force_stop()
+        m = self.m
+        if self._on_block in m.block_listeners:
+            m.block_listeners.remove(self._on_block)
+        if self in m.block_sources:
+            m.block_sources.remove(self)
+
     def force_stop(self) -> None:
         if self._start_event is not None:
             self.m.cancel(self._start_event)
