@@ -223,7 +223,7 @@ class QuickStepPlanner(Planner):
                          self.plateaus)
         return self._orders(plan.plateaus, delta > 0, plan.top_period_ticks, accel)
 
-    def start_move(self, delta: int) -> MoveResult | QsMoveResult:
+    def start_move(self, delta: int) -> MoveResult:
         """Queue what fits of a relative move; the rest stays pending until :meth:`pump`
         finds room (a host that keeps running meanwhile, as the console does)."""
         return self.move(delta, wait=None)

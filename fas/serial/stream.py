@@ -145,6 +145,7 @@ class SerialPort(Protocol):
     """What a stream uses of a pyserial port (``serial.Serial`` has it)."""
 
     in_waiting: int
+    dtr: bool  # a board's reset line (stepperdemo's board console pulses it)
 
     def fileno(self) -> int: ...
     def read(self, size: int = 1) -> bytes: ...
