@@ -377,7 +377,7 @@ class VcdTrace:
     def start(self) -> VcdTrace:
         start = self.stream.start()
         # kept open for the whole run (streaming); closed by close()
-        self._file = open(self.path, "w", encoding="ascii", newline="\n",  # noqa: SIM115
+        self._file = open(self.path, "w", encoding="ascii", newline="\n",  # noqa: SIM115 - written until close()
                           buffering=1 << 20)
         self.writer = VcdWriter(self._file, self.signals, self.backend.profile.ticks_per_s,
                                 start_tick=start, initial=pin_levels(self.backend, self.signals),

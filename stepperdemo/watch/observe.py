@@ -96,7 +96,7 @@ class Observers:
                 if self._spool:
                     fd, self.vcd_path = tempfile.mkstemp(prefix="stepperdemo-", suffix=".vcd")
                     os.close(fd)
-                self._vcd_file = open(self.vcd_path, "w", encoding="ascii",  # noqa: SIM115
+                self._vcd_file = open(self.vcd_path, "w", encoding="ascii",  # noqa: SIM115 - until finish()
                                       newline="\n", buffering=1 << 20)
                 self.vcd = VcdWriter(self._vcd_file, self.signals, self.profile.ticks_per_s,
                                      start_tick=start, initial=levels,
@@ -104,7 +104,7 @@ class Observers:
                                      comment=msg.VCD_COMMENT.format(profile=self.profile.name))
                 self.stream.add(self.vcd)
             if self.csv_path is not None:
-                self._csv_file = open(self.csv_path, "w", encoding="ascii",  # noqa: SIM115
+                self._csv_file = open(self.csv_path, "w", encoding="ascii",  # noqa: SIM115 - until finish()
                                       newline="\n", buffering=1 << 20)
         except OSError:
             self._abort()
