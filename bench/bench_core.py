@@ -18,8 +18,8 @@ import tracemalloc
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas import Engine  # noqa: E402
-from fas.sim import SimBackend  # noqa: E402
+from fas import Engine
+from fas.sim import SimBackend
 
 
 def run(steps: int, record: bool, trace_memory: bool = False) -> dict:

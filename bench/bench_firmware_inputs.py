@@ -27,12 +27,13 @@ import shutil
 import sys
 import tempfile
 import time
+from itertools import pairwise
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from fas.device import simavr  # noqa: E402
-from fas.device.loopback import Loopback  # noqa: E402
-from fas.serial.protocol import (  # noqa: E402
+from fas.device import simavr
+from fas.device.loopback import Loopback
+from fas.serial.protocol import (
     L_UP,
     PROTOCOL_VERSION,
     UNSEQUENCED,
@@ -178,7 +179,7 @@ def winder() -> None:
     print("\n## 3. Issue 13's lines through --port on the firmware (lockstep)")
     app, tr, wall, stack, busy, _ = winder_run(POT_LINE)
     s1 = tr.rising(9)
-    gaps = [b - a for a, b in zip(s1, s1[1:])]
+    gaps = [b - a for a, b in pairwise(s1)]
     top = min(gaps)
     reach = s1[gaps.index(top)] - s1[0]
     print(f"{POT_LINE}: {len(s1)} steps; shortest period {top} ticks = {top / 16:.1f} us = "
@@ -187,7 +188,7 @@ def winder() -> None:
           f"{wall:.2f} s wall")
     app, tr, wall, stack, busy, _ = winder_run(LIMIT_LINE)
     times, levels = tr.edges(SWITCH)
-    sw = [t for t, lv in zip(times, levels) if lv == 0][0]
+    sw = [t for t, lv in zip(times, levels, strict=True) if lv == 0][0]
     s2 = tr.rising(10)
     after = sum(1 for t in s2 if t >= sw)
     print(f"{LIMIT_LINE}: {after} steps after the switch, the last one {(sw - s2[-1]) / 16:.1f} "

@@ -78,7 +78,7 @@ def ordering(path: str) -> dict:
     steps = vcd.rising("StepA")
     (d0_rise,), (d0_fall,) = vcd.rising("Dout0"), vcd.falling("Dout0")
     rises, falls = vcd.rising("Aout1"), vcd.falling("Aout1")
-    highs = [f - r for r, f in zip(rises, falls)]
+    highs = [f - r for r, f in zip(rises, falls, strict=False)]  # (a last rise may not fall)
     period = (rises[-1] - rises[0]) / (len(rises) - 1)
     return {
         "last step of move 1 -> Dout0 rise us": (d0_rise - steps[1999]) * unit_us,

@@ -21,6 +21,7 @@ import os
 import statistics
 import sys
 import time
+from itertools import pairwise
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -63,7 +64,7 @@ def sim_run(line: str, max_s: float = 120):
 def pot_run() -> None:
     app, b, wall = sim_run("pots pot 1 1023 w2000 pot 1 512 w1000")
     s1 = [t for t, _ in steps(b.recorder, S1)]
-    periods = [y - x for x, y in zip(s1, s1[1:])]
+    periods = [y - x for x, y in pairwise(s1)]
     fastest = min(periods)
     reach = s1[periods.index(fastest)] - s1[0]
     print("## 1. S1 pot run: pots pot 1 1023 w2000 pot 1 512 w1000")
@@ -91,7 +92,7 @@ def sweep(values, csv_path: str | None) -> None:
         app = make_program("winder", b, scripted=True)
         app.run_script(f"pots pot 1 {v} w{wait_ms}", max_ticks=int(wait_ms / 1000 * TPS) + TPS)
         s1 = [t for t, _ in steps(b.recorder, S1)]
-        tail = [y - x for x, y in zip(s1, s1[1:])][-5:]
+        tail = [y - x for x, y in pairwise(s1)][-5:]
         measured = TPS / statistics.median(tail) if tail else 0.0
         rows.append((v, rule_speed(v), cmd.period_counts, cmd.steps_per_s, measured))
     shown = set(values[::16]) | {0, 461, 462, 562, 563, 1023}
@@ -113,7 +114,7 @@ def limit_sim() -> None:
     print("\n## 3. Limit switch: period 2 50 move 2 65535 w300 switch A3 1 w300")
     app, b, _ = sim_run("period 2 50 move 2 65535 w300 switch A3 1 w300")
     times, levels = b.recorder.pin_edges(A3_PIN)
-    t_sw = [t for t, lv in zip(times, levels) if lv == 0][-1]
+    t_sw = [t for t, lv in zip(times, levels, strict=True) if lv == 0][-1]
     s2 = [t for t, _ in steps(b.recorder, S2)]
     after = sum(1 for t in s2 if t > t_sw)
     print(f"simulated chip: {after} steps after the switch; last step {(t_sw - s2[-1]) / 16:.1f} "

@@ -164,12 +164,12 @@ def main() -> int:
     sys.path.insert(0, str(ROOT))
     mine = run_here(cases)
     if args.show or not args.against:
-        for (arch, text), d in zip(cases, mine):
+        for (arch, text), d in zip(cases, mine, strict=True):
             print(f"{d} [{arch}] {text[:70]!r}")
     if not args.against:
         return 0
     theirs = run_tree(Path(args.against).resolve(), cases)
-    differ = [(c, a, b) for c, a, b in zip(cases, mine, theirs) if a != b]
+    differ = [(c, a, b) for c, a, b in zip(cases, mine, theirs, strict=True) if a != b]
     for (arch, text), a, b in differ:
         print(f"DIFFERS [{arch}] {text[:70]!r}: {a} here, {b} there")
     print(f"{len(cases)} runs, {len(differ)} differ from {args.against}")

@@ -17,7 +17,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from stepperdemo.fuzz import fuzz  # noqa: E402
+from stepperdemo.fuzz import fuzz
 
 
 def _chunk(args: tuple) -> tuple[int, list]:

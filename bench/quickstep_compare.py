@@ -19,6 +19,7 @@ import os
 import subprocess
 import sys
 import tempfile
+from itertools import pairwise
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -42,9 +43,9 @@ def step_ticks(line: str) -> list[int]:
 
 
 def figures(ticks: list[int]) -> dict[str, float]:
-    iv = [b - a for a, b in zip(ticks, ticks[1:])]
+    iv = [b - a for a, b in pairwise(ticks)]
     speeds = [TPS / i for i in iv]
-    jumps = [abs(b - a) for a, b in zip(speeds, speeds[1:])]
+    jumps = [abs(b - a) for a, b in pairwise(speeds)]
     return {"steps": len(ticks), "duration_ms": (ticks[-1] - ticks[0]) * 1000 / TPS,
             "peak": max(speeds), "jump": max(jumps), "periods": len(set(iv)),
             "first": speeds[0], "longest_pause_ms": max(iv) * 1000 / TPS}
@@ -90,7 +91,7 @@ def main() -> int:
         ax = fig.subplots()
         for name, t in series:
             xs = [(b - t[0]) / TPS for b in t[1:]]
-            ys = [TPS / (b - a) for a, b in zip(t, t[1:])]
+            ys = [TPS / (b - a) for a, b in pairwise(t)]
             ax.step(xs, ys, where="pre", label=name, linewidth=1.1)
         ax.set_xlabel("time [s]")
         ax.set_ylabel("speed [steps/s]")

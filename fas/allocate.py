@@ -121,8 +121,8 @@ class Allocator:
             return None
         if driver == FasDriver.I2S_MUX:
             return None  # mux steppers are chosen by an I2S-flagged pin
-        pool = p.driver_pool(driver)
-        return None if pool is None else self._from_pool(pool, pin)
+        chosen = p.driver_pool(driver)
+        return None if chosen is None else self._from_pool(chosen, pin)
 
     def _from_pool(self, pool: DriverPool, pin: int) -> Allocation | None:
         p = self.profile

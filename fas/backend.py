@@ -21,8 +21,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from .pwm import PwmSetting
     from .queue import StepperQueue
 
-__all__ = ["Backend", "OutputChange", "OrderChannel", "PulseCounter", "QueueChannel",
-           "InputListener", "LimitListener", "PinRecording", "PinStates"]
+__all__ = ["Backend", "EngineStepper", "OutputChange", "OrderChannel", "PulseCounter",
+           "QueueChannel", "InputListener", "LimitListener", "PinRecording", "PinStates",
+           "TaskEngine"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,46 @@ class PinStates(Protocol):
         """The pin's level now (0 for a pin never driven)."""
 
 
+class EngineStepper(Protocol):
+    """What a backend may do with a stepper of its engine (:class:`fas.stepper.Stepper`):
+    find its queue, read and set its position (a link lost or a device reconnected)."""
+
+    @property
+    def queue(self) -> StepperQueue: ...
+
+    def get_current_position(self) -> int: ...
+
+    def force_stop_and_new_position(self, new_pos: int) -> None: ...
+
+
+class TaskEngine(Protocol):
+    """What a backend calls on the engine it runs (:class:`fas.engine.Engine`): the
+    periodic task, which runs it may skip, and the moment queues ran dry."""
+
+    @property
+    def steppers(self) -> Sequence[EngineStepper]: ...
+
+    def manage_steppers(self) -> int:
+        """One run of the periodic ramp task."""
+        ...
+
+    def quiescent_tasks(self) -> int | None:
+        """Runs after this one that would do nothing (None: all, until woken)."""
+        ...
+
+    def credit_skipped_tasks(self, n: int) -> None:
+        """``n`` runs were skipped (as :meth:`quiescent_tasks` allowed)."""
+        ...
+
+    def may_stop_without_channel(self) -> bool:
+        """A stepper may start or stop in this run without its channel noticing."""
+        ...
+
+    def queues_idle(self) -> None:
+        """A queue ran dry or a synchronized output was made (:mod:`fas.sync`)."""
+        ...
+
+
 InputListener = Callable[[int, int, int], None]  # (pin, value, tick)
 LimitListener = Callable[[int, int, int, int], None]  # (queue index, pin, position, tick)
 
@@ -87,26 +128,28 @@ class Backend(ABC):
     # ticks a stepper plans ahead beyond its forward-planning time once its queue runs
     # (a serial link's delays; 0 on a chip, where the queue is the timer's own)
     planning_extra_ticks: int = 0
+    # the period set by set_task_period (None: the profile's fill period)
+    _task_period: int | None = None
 
     @abstractmethod
     def now(self) -> int:
         """Current time in ticks of ``profile.ticks_per_s``."""
 
     @abstractmethod
-    def attach_engine(self, engine) -> None:
+    def attach_engine(self, engine: TaskEngine) -> None:
         """Run ``engine.manage_steppers()`` periodically (the ~4 ms ramp task).
 
         A backend may skip runs that ``engine.quiescent_tasks()`` declares idle, and
         must then report them with ``engine.credit_skipped_tasks(n)``.
         """
 
-    def wake_task(self) -> None:
+    def wake_task(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """The engine has work again: do not skip the next periodic run."""
 
     @property
     def task_period_ticks(self) -> int:
         """Period of the periodic ramp task (``engine.task_rate()`` may change it)."""
-        return getattr(self, "_task_period", None) or self.profile.fill_period_ticks
+        return self._task_period or self.profile.fill_period_ticks
 
     def set_task_period(self, ticks: int) -> None:
         """From the next run on, run the periodic task every ``ticks``."""
@@ -140,7 +183,8 @@ class Backend(ABC):
         """Count ``queue``'s pulses into ``counter``; False if the backend cannot."""
         return False
 
-    def detach_step_pin(self, queue: StepperQueue, detached: bool) -> None:
+    def detach_step_pin(  # noqa: B027 - optional hook: does nothing by default
+            self, queue: StepperQueue, detached: bool) -> None:
         """Hand the step pin to the application (``detached``) or back to the library."""
 
     def reset_chip(self) -> None:
@@ -169,11 +213,11 @@ class Backend(ABC):
         """Has the change of :meth:`sync_output` been made?"""
         return True
 
-    def cancel_sync_outputs(self) -> None:
+    def cancel_sync_outputs(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """Drop synchronized changes not made yet (alarm)."""
 
     # --- hosting an application main loop (StepperDemo) beside the library ---
-    def app_started(self) -> None:
+    def app_started(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """The application's ``setup()`` begins (Arduino has just started ``millis()``)."""
 
     def millis(self) -> int:
@@ -211,7 +255,7 @@ class Backend(ABC):
         """The main loop busy-waits ``ticks`` with interrupts disabled."""
         self.app_spend(ticks)
 
-    def stray_read(self, pins: tuple[int, ...]) -> None:
+    def stray_read(self, pins: tuple[int, ...]) -> None:  # noqa: B027 - optional: no-op by default
         """The main loop reads step pins with a stray ``digitalRead()``."""
 
     # --- inputs of the application: switches and potentiometers ---
@@ -247,7 +291,7 @@ class Backend(ABC):
         that position.  Setting a limit again replaces it.  False: not supported."""
         return False
 
-    def clear_limit(self, index: int, up: bool) -> None:
+    def clear_limit(self, index: int, up: bool) -> None:  # noqa: B027 - optional: no-op by default
         """Remove queue ``index``'s limit in that direction."""
 
     def _notify_limit(self, index: int, pin: int, position: int, tick: int) -> None:
@@ -265,6 +309,6 @@ class Backend(ABC):
         does not see its pins - they are on a device)."""
         return None
 
-    def deliver_edges(self) -> None:
+    def deliver_edges(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """Hand every pin edge made up to now to the recording and the pin statistics
         (a PWM wave makes its edges when asked)."""

@@ -69,6 +69,8 @@ class PulseCounter:
         self.follow_direction = follow_direction
         self.readback = readback
         self.value = 0
+        #: called after :meth:`clear` (an executor that keeps a copy clears it, too)
+        self.on_clear: Callable[[], None] | None = None
 
     def count(self, steps: int, dir_level: bool) -> None:
         if steps <= 0:
@@ -94,6 +96,8 @@ class PulseCounter:
 
     def clear(self) -> None:
         self.value = 0
+        if self.on_clear is not None:
+            self.on_clear()
 
 
 class QueueChannel(ABC):
@@ -125,10 +129,10 @@ class QueueChannel(ABC):
     def ready_for_commands(self) -> bool:
         return True
 
-    def entry_added(self) -> None:
+    def entry_added(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """A new entry was appended (a channel waiting for one may continue)."""
 
-    def positions_shifted(self, delta: int) -> None:
+    def positions_shifted(self, delta: int) -> None:  # noqa: B027 - optional: no-op by default
         """All queued positions were renumbered by ``delta``."""
 
     def take_over(self, previous: QueueChannel) -> None:
@@ -158,12 +162,16 @@ class QueueChannel(ABC):
         it will begin; None if it cannot (running, empty queue, no timed start)."""
         return None
 
-    def hold_cuts(self, hold: bool) -> None:
+    def hold_cuts(self, hold: bool) -> None:  # noqa: B027 - optional hook: does nothing by default
         """While held, no cut drops queued entries (a follower derived steps from them)."""
 
     # --------------- capability: cuts, a stop that must not wait for a deep queue
     supports_cut = False  # the planner keeps ramp snapshots and may ask for cuts
-    cut_pending = False  # a cut is not yet confirmed: hold back new ramp requests
+
+    @property
+    def cut_pending(self) -> bool:
+        """A cut is not yet confirmed: hold back new ramp requests."""
+        return False
 
     def cut_index(self) -> int | None:
         """The first queue index a cut sent now could drop (None: no cut possible)."""

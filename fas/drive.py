@@ -112,12 +112,12 @@ class Drive:
         self.auto_enable = bool(auto_enable)
         if auto_enable and self.off_delay_count == 0:
             self.off_delay_count = 1
-        if auto_enable and not was and self._queue().has_steps_in_queue():
-            # steps queued before are still to come: auto enable means the driver is on
-            # for them (upstream waits for the next queued command to switch it on)
-            if self.enable_outputs():
-                self.auto_disable_delay_counter = self.off_delay_count
-                self._engine.kick()
+        # steps queued before are still to come: auto enable means the driver is on for
+        # them (upstream waits for the next queued command to switch it on)
+        if (auto_enable and not was and self._queue().has_steps_in_queue()
+                and self.enable_outputs()):
+            self.auto_disable_delay_counter = self.off_delay_count
+            self._engine.kick()
 
     def set_delay_to_enable(self, delay_us: int) -> DelayResult:
         p = self._profile

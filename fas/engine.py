@@ -135,6 +135,7 @@ class Engine:
         kind of planner shares between the steppers that use it (QuickStep's timer)."""
         if key not in self._shared:
             self._shared[key] = make()
+        # the object make() made for this key: a T (one store holds every kind)
         return self._shared[key]  # type: ignore[return-value]
 
     # ------------------------------------------------- idle periodic task
@@ -258,9 +259,9 @@ class Engine:
 
     def is_dir_pin_busy(self, dir_pin: int, except_queue: int) -> bool:
         for s in self._steppers:
-            if s is not None and s.queue.index != except_queue:
-                if s.get_direction_pin() == dir_pin and s.is_queue_running():
-                    return True
+            if (s is not None and s.queue.index != except_queue
+                    and s.get_direction_pin() == dir_pin and s.is_queue_running()):
+                return True
         return False
 
     def report_ramp_abort(self, stepper: Stepper, res: AqeResult, cmd: object) -> None:
@@ -291,11 +292,11 @@ class Engine:
             low_pin = s.get_enable_pin_low_active()
             agree = True
             for j, other in enumerate(steppers):
-                if i != j and other is not None:
-                    if other.uses_enable_pin(high_pin) or other.uses_enable_pin(low_pin):
-                        if not other.agrees_to_auto_disable():
-                            agree = False
-                            break
+                if (i != j and other is not None
+                        and (other.uses_enable_pin(high_pin) or other.uses_enable_pin(low_pin))
+                        and not other.agrees_to_auto_disable()):
+                    agree = False
+                    break
             if agree:
                 for current in steppers:
                     if current is not None and (current.uses_enable_pin(high_pin)

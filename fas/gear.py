@@ -166,13 +166,14 @@ class Gear:
             return GearResult.ERR_AUTO_ENABLE
         if f.get_dir_change_delay_ticks():
             return GearResult.ERR_DIR_DELAY
-        if f.queue.channel.earliest_start_tick() is None:
+        earliest = f.queue.channel.earliest_start_tick()
+        if earliest is None:
             return GearResult.ERR_NO_TIMING
         self._set_phase()
         self._reset_tracking()
         # behind a link (a device) the leader plans further ahead, so that the follower's
         # commands derived from its plan still reach the step timer in time
-        lead = max(0, f.queue.channel.earliest_start_tick() - self.engine.backend.now())
+        lead = max(0, earliest - self.engine.backend.now())
         p = self.engine.profile
         self._leader_planning = self.leader.get_forward_planning_ticks()
         if lead > p.ticks_per_ms:
@@ -263,26 +264,26 @@ class Gear:
     def _reset_tracking(self) -> None:
         self._pt: list[int] = []  # leader pulse ticks ...
         self._px: list[int] = []  # ... and x after each
-        self._p0 = 0  # absolute index of _pt[0]
-        self._seen = self.leader.queue.entries_added
+        self._p0: int = 0  # absolute index of _pt[0]
+        self._seen: int = self.leader.queue.entries_added
         self._last_pos: int | None = None  # leader position after the last pulse seen
-        self._horizon = 0  # leader queue end: no unknown leader pulse before it
-        self._x = 0  # leader steps since the origin, after the last pulse seen
+        self._horizon: int = 0  # leader queue end: no unknown leader pulse before it
+        self._x: int = 0  # leader steps since the origin, after the last pulse seen
         self._x_base = 0
         self._y_base = 0
-        self._x_off = 0
-        self._ystar = 0  # follower target after the last pulse seen
+        self._x_off: int = 0
+        self._ystar: int = 0  # follower target after the last pulse seen
         self._events: list[_Event] = []
         self._f_end: int | None = None  # tick where the follower's commands end
-        self._bound = False  # ... and the first pending event must fall exactly there
-        self._y = 0  # follower steps committed
-        self._t_last = None  # tick of the last follower step committed
-        self._resync_pending = False
+        self._bound: bool = False  # ... and the first pending event must fall exactly there
+        self._y: int = 0  # follower steps committed
+        self._t_last: int | None = None  # tick of the last follower step committed
+        self._resync_pending: bool = False
         self._unresolved: list[tuple[int, int, bool, int]] = []  # commands not yet timed
         self._expect_end: int | None = None  # the leader's end tick as last seen
-        self._origin_tick = self.engine.backend.now()
-        self.x0 = self.leader.get_current_position()
-        self.y0 = self.follower.get_current_position()
+        self._origin_tick: int = self.engine.backend.now()
+        self.x0: int = self.leader.get_current_position()
+        self.y0: int = self.follower.get_current_position()
 
     def _ingest(self, initial: bool = False) -> None:
         """Read the leader commands queued since the last look; derive follower steps.
@@ -335,8 +336,7 @@ class Gear:
         spans.reverse()
         skip_before = None
         if initial:  # join the leader from a little ahead: the follower must start
-            ch = self.follower.queue.channel
-            skip_before = ch.earliest_start_tick() + self.start_margin
+            skip_before = self._earliest_start() + self.start_margin
             self._origin_tick = skip_before
         for begin, ticks, steps, up, end_pos in spans:
             if steps == 0:
@@ -409,6 +409,13 @@ class Gear:
             self._p0 += keep
 
     # ----------------------------------------------------------------- windows
+    def _earliest_start(self) -> int:
+        """The follower channel's earliest timed start (engage() refused a channel
+        without timed starts)."""
+        earliest = self.follower.queue.channel.earliest_start_tick()
+        assert earliest is not None
+        return earliest
+
     def _window(self, ev: _Event, tol: int | None = None) -> tuple[int, int]:
         """Ticks at which the follower may take step ``ev`` (both ends included) with
         |m·y - n·x| <= ``tol`` (default ``m``: one step) at every edge."""
@@ -471,7 +478,9 @@ class Gear:
             now = self.engine.backend.now()
             # what must be written now: the next tasks' time plus the way to the step
             # timer (a device: the link's lead)
-            lead = max(0, ch.earliest_start_tick() - now)
+            earliest_start = ch.earliest_start_tick()
+            assert earliest_start is not None  # engage() refused channels without one
+            lead = max(0, earliest_start - now)
             self._urgent = self.urgent_ticks + lead
             # a step with no known successor is written only when the follower would
             # otherwise run dry before the next task
@@ -482,7 +491,7 @@ class Gear:
                 if self._resync_pending:
                     self._restart_tracking()  # a new origin; the next task goes on
                     return
-                earliest = ch.earliest_start_tick() + self.start_margin
+                earliest = earliest_start + self.start_margin
                 t0 = max(ev0.tick, lo0, earliest)
                 if t0 - now > self._urgent and len(events) < 2 and not final:
                     return  # not yet: the next step decides the first command
@@ -502,11 +511,14 @@ class Gear:
             if self._resync_pending:
                 return  # the queued commands run out first
             if self._bound:
-                t0 = self._f_end
+                bound_end = self._f_end
+                assert bound_end is not None  # bound: set with the commands' end
+                t0 = bound_end
             else:
-                t0 = self._place_after_gap(ev0, lo0, now, final)
-                if t0 is None:
+                placed = self._place_after_gap(ev0, lo0, now, final)
+                if placed is None:
                     return
+                t0 = placed
             if self.guard is not None and not self.guard(ev0.up):
                 self._blocked(ev0.up)
                 return
@@ -517,6 +529,7 @@ class Gear:
                          final: bool) -> int | None:
         """The follower's commands end at a free tick: pause up to the next step."""
         f_end = self._f_end
+        assert f_end is not None  # the follower runs: its commands end there
         target = max(ev0.tick, lo0)
         gap = target - f_end
         if gap < 0 or (gap < self.min_cmd_ticks and f_end >= lo0):

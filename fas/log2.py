@@ -13,6 +13,7 @@ this arithmetic, so it is reproduced here operation by operation, including C's
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 INVALID = -0x8000
 MAX = 0x7FFF
@@ -21,7 +22,7 @@ UINT16_MAX_LOG2 = 0x2000  # log2 of 65536
 UINT32_MAX_LOG2 = 0x4000  # log2 of 2**32
 
 
-def _table(func) -> tuple[int, ...]:
+def _table(func: Callable[[int], float]) -> tuple[int, ...]:
     return tuple(round(func(i) * 4) for i in range(256, 512))
 
 

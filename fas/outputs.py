@@ -24,6 +24,7 @@ not happened yet, as an alarm flushes its queue).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import TYPE_CHECKING
@@ -91,7 +92,8 @@ class UserOutputs:
         self._digital_applied = [0] * OUTPUTS
         self._analog_applied: list[tuple[float, int]] = [(0.0, 0)] * OUTPUTS
         self.changes = 0
-        self.listeners: list = []  # fn(change) when a change is made (issued or applied)
+        # fn(change) when a change is made (issued or applied)
+        self.listeners: list[Callable[[OutputChange], None]] = []
 
     # ------------------------------------------------------------------ pins
     def digital_pin(self, number: int) -> int:
@@ -208,8 +210,9 @@ class UserOutputs:
         """The setting Aout ``number``'s timer makes of its frequency (or why none)."""
         if not 0 <= number < OUTPUTS:
             return OutputResult.ERR_NO_SUCH_OUTPUT
-        if self._analog_setting[number] is not None:
-            return self._analog_setting[number]
+        current = self._analog_setting[number]
+        if current is not None:
+            return current
         pin = self._analog_pins[number]
         if pin == PIN_UNDEFINED:
             return OutputResult.ERR_NO_PIN
@@ -273,8 +276,9 @@ class UserOutputs:
                 return OutputResult.ERR_TIMER_IN_USE
             # a shared timer already running for another output keeps its setting
             for n in self._sharing(found.timer):
-                if self._analog_setting[n] is not None:
-                    found = self._analog_setting[n]
+                running = self._analog_setting[n]
+                if running is not None:
+                    found = running
                     self._analog_hz[number] = self._analog_hz[n]
                     break
             self._analog_percent[number] = 0.0

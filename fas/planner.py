@@ -23,7 +23,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from enum import IntEnum
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 from .codes import MoveResult
 
@@ -36,6 +36,13 @@ if TYPE_CHECKING:  # pragma: no cover
     from .queue import StepperQueue
 
 T = TypeVar("T")
+
+
+class SharedStore(Protocol):
+    """``store(key, make)``: one object per engine and ``key``, made by ``make()`` on
+    first use (:meth:`fas.engine.Engine.shared`)."""
+
+    def __call__(self, key: str, make: Callable[[], T]) -> T: ...
 
 
 class PlannerChange(IntEnum):
@@ -64,7 +71,7 @@ class PlannerHost:
                  command_written: Callable[[], None],
                  report_abort: Callable[[AqeResult, object], None],
                  allocator: Allocator,
-                 shared: Callable[[str, Callable[[], object]], object]) -> None:
+                 shared: SharedStore) -> None:
         self.index = index  # the stepper's number
         self.profile = profile
         self.backend = backend  # the time (backend.now()), channels, the link's lead
@@ -89,7 +96,7 @@ class PlannerHost:
     def shared(self, key: str, make: Callable[[], T]) -> T:
         """One object per engine and ``key``, made by ``make()`` on first use (state
         a kind of planner shares between steppers: QuickStep's timer)."""
-        return self._shared(key, make)  # type: ignore[return-value]
+        return self._shared(key, make)
 
 
 class Planner(ABC):
@@ -109,11 +116,11 @@ class Planner(ABC):
         self.host = host
 
     # ------------------------------------------------------------ hand-over
-    def attach(self, previous: Planner | None) -> None:
+    def attach(self, previous: Planner | None) -> None:  # noqa: B027 - optional: no-op by default
         """The planner has become its stepper's instead of ``previous`` (None: the
         stepper's first); its queue has taken over position and direction."""
 
-    def detach(self) -> None:
+    def detach(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """Another planner takes over (this one is at rest)."""
 
     # ------------------------------------------------------------- requests
@@ -146,7 +153,7 @@ class Planner(ABC):
     def keep_speed(self) -> None:
         """``move_by_acceleration(0)``: neither speed up nor slow down any more."""
 
-    def apply_settings(self) -> None:
+    def apply_settings(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """``apply_speed_acceleration``: new settings for the motion under way."""
 
     @abstractmethod
@@ -165,7 +172,7 @@ class Planner(ABC):
     def single_step(self, count_up: bool) -> None:
         """One step (``forward_step``/``backward_step``), the stepper at rest."""
 
-    def positions_shifted(self, delta: int) -> None:
+    def positions_shifted(self, delta: int) -> None:  # noqa: B027 - optional: no-op by default
         """The stepper renamed its positions by ``delta`` (``set_current_position``)."""
 
     @abstractmethod

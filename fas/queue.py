@@ -11,7 +11,7 @@ entry minus the steps it still has to make.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Protocol, Self
 
 from .channel import QueueChannel, QueueEntry
 from .codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED, AqeResult
@@ -45,13 +45,17 @@ def i32(v: int) -> int:
 class StepperQueue:
     """Ring buffer of commands shared by the library (writer) and a channel (reader)."""
 
+    #: whether the channel runs: the channel's own ``is_running`` (asked very often:
+    #: one call, not two)
+    is_running: Callable[[], bool]
+
     # False: the driver cannot tell how far the running command got (ESP32 RMT, I2S);
     # get_current_position() then reports the command's start position
     position_in_command = True
 
     def __init__(self, index: int, profile: Profile, backend: QueueHost, step_pin: int,
                  *, length: int | None = None,
-                 make_channel: Callable[[StepperQueue], QueueChannel] | None = None) -> None:
+                 make_channel: Callable[[Self], QueueChannel] | None = None) -> None:
         """``length``: slots of the ring (default: the profile's queue length);
         ``make_channel``: its executor (default: the backend's ``allocate_channel``)."""
         self.index = index
@@ -78,7 +82,7 @@ class StepperQueue:
         self.max_fill = 0
         self.channel: QueueChannel = (backend.allocate_channel(self) if make_channel is None
                                       else make_channel(self))
-        self.is_running = self.channel.is_running  # asked very often: one call, not two
+        self.is_running = self.channel.is_running
 
     # ------------------------------------------------------------- queries
     def queue_entries(self) -> int:
@@ -92,9 +96,6 @@ class StepperQueue:
     def is_queue_empty(self) -> bool:
         self.channel.sync()
         return self.next_write_idx == self.read_idx
-
-    def is_running(self) -> bool:
-        return self.channel.is_running()
 
     def has_steps_in_queue(self) -> bool:
         self.channel.sync()

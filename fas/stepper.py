@@ -154,7 +154,7 @@ class Stepper:
         """The next runs of the periodic task must not be skipped for this stepper."""
         if self._drive.auto_disable_delay_counter > 0 or self._planner.needs_task():
             return True
-        for planner in self._idle:
+        for planner in self._idle:  # noqa: SIM110 - every task run: a loop, no generator
             if planner.wants_task_at_rest():
                 return True
         return False

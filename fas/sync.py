@@ -27,8 +27,8 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .backend import OutputChange
     from .engine import Engine
-    from .outputs import OutputChange
 
 
 class Barrier:

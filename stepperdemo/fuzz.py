@@ -21,6 +21,7 @@ from __future__ import annotations
 import bisect
 import random
 from dataclasses import dataclass, field
+from itertools import pairwise
 
 from fas.codes import PIN_UNDEFINED
 from fas.sim import SimBackend
@@ -328,9 +329,9 @@ def _check_motion(app: StepperDemo, backend: SimBackend, tracker: _Tracker,
         lv_bytes = bytes(levels)
         rises = rising_edges(times, lv_bytes)
         falls = (times[1::2] if len(rises) * 2 == len(times) and rises == times[0::2]
-                 else [t for t, lv in zip(times, lv_bytes) if not lv])
+                 else [t for t, lv in zip(times, lv_bytes, strict=True) if not lv])
         if not s.queue.channel.detached:
-            for a, b in zip(rises, rises[1:]):
+            for a, b in pairwise(rises):
                 if b - a < min_period:
                     res.violations.append(f"{name}: step period {b - a} ticks < {min_period}")
                     break

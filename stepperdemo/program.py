@@ -105,7 +105,7 @@ class Program(ABC):
         """Pins of the program's own (inputs, outputs) to trace beside the steppers'."""
         return {}
 
-    def watch(self, observers: Observers) -> None:
+    def watch(self, observers: Observers) -> None:  # noqa: B027 - optional: no-op by default
         """Recording of the pins starts (``stepperdemo.watch.observe.Observers``): the
         program may add consumers of its own to ``observers.stream``."""
 

@@ -27,6 +27,7 @@ import math
 import re
 import shutil
 import sys
+from itertools import pairwise
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -149,7 +150,7 @@ def timed_commands(line: str) -> int:
 
 
 def top_speed_steps_per_us(ref_steps: list[float]) -> float:
-    periods = [b - a for a, b in zip(ref_steps, ref_steps[1:]) if b > a]
+    periods = [b - a for a, b in pairwise(ref_steps) if b > a]
     return 1.0 / min(periods) if periods else 0.0
 
 

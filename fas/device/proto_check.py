@@ -121,7 +121,7 @@ def defines(text: str) -> dict[str, int | None]:
 def _sample(cls: type[Message], **values: Any) -> Message:
     """An instance of ``cls`` with every field zero (or ``values``)."""
     kwargs: dict[str, Any] = {}
-    for f in fields(cls):  # type: ignore[arg-type]
+    for f in fields(cls):
         kwargs[f.name] = values.get(f.name, "" if f.type in ("str", str) else 0)
     return cls(**kwargs)
 

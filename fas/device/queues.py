@@ -84,7 +84,7 @@ class DeviceQueues:
 
     # ------------------------------------------------------------ queues
     def allocate_channel(self, queue: StepperQueue) -> DeviceChannel:
-        """(StepperQueue calls this while it is built: the device is its backend.)"""
+        """The step generator of ``queue`` (StepperQueue calls this while it is built)."""
         ch = DeviceChannel(self.board.machine, queue)
         ch.on_idle = self.queues_idle  # synchronized outputs wait for this (issue 12)
         self.board.sim.channels.append(ch)
@@ -93,7 +93,7 @@ class DeviceQueues:
 
     def queues_idle(self) -> None:
         """A queue ran dry or was stopped: synchronized outputs may be due (section 16)."""
-        self.board.sim._queue_idle()  # noqa: SLF001 - the chip's own rule for them
+        self.board.sim.queue_ran_dry()  # the chip's own rule for them
 
     def find(self, stepper: int) -> StepperQueue | None:
         """The queue of ``stepper`` if it is configured (else counted as rejected)."""
@@ -113,9 +113,9 @@ class DeviceQueues:
             board.sim.channels.remove(self.channels[m.stepper])
             q = None
         if q is None:
-            # the queue asks this object for its channel, as the library's do a backend
-            q = StepperQueue(m.stepper, self.ring_profile, self,  # type: ignore[arg-type]
-                             m.step_pin)
+            # the chip drives its pins; its channel is the device's step generator
+            q = StepperQueue(m.stepper, self.ring_profile, board.sim, m.step_pin,
+                             make_channel=self.allocate_channel)
             self.queues[m.stepper] = q
         else:
             self._stop_queue(m.stepper, q)

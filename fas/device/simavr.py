@@ -169,7 +169,7 @@ def firmware_size(elf: Path) -> tuple[int, int]:
 class Trace:
     """Pin changes recorded by the harness: per Arduino pin, cycles and levels."""
 
-    cycles: dict[int, array] = field(default_factory=dict)
+    cycles: dict[int, array[int]] = field(default_factory=dict)
     levels: dict[int, bytearray] = field(default_factory=dict)
     timer1_start: int = 0
     end_cycle: int = 0
@@ -194,7 +194,7 @@ class Trace:
                 tr.levels[p].append(int(level))
         return tr
 
-    def edges(self, pin: int) -> tuple[array, bytearray]:
+    def edges(self, pin: int) -> tuple[array[int], bytearray]:
         """Edges of ``pin`` in device ticks (cycles since timer 1 started)."""
         base = self.timer1_start
         return (array("q", (c - base for c in self.cycles.get(pin, ()))),

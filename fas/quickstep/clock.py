@@ -84,9 +84,15 @@ class QuickStepClock:
                 and self.allocator.timer_used_by_other(timer_name(self.timer), TIMER_USER))
 
     # ------------------------------------------------------------- settings
-    def range_us(self, timer: QsTimer | None = None) -> tuple[int, int]:
+    def _timer_or_fail(self, timer: QsTimer | None = None) -> QsTimer:
+        """``timer``, else the clock's own; a profile without one has no QuickStep."""
         timer = timer or self.timer
-        lo, hi = base_range_ticks(self.profile, timer)
+        if timer is None:
+            raise ValueError(f"{self.profile.name} has no QuickStep timer")
+        return timer
+
+    def range_us(self, timer: QsTimer | None = None) -> tuple[int, int]:
+        lo, hi = base_range_ticks(self.profile, self._timer_or_fail(timer))
         tpu = self.profile.ticks_per_us
         return -(-lo // tpu), hi // tpu
 
@@ -139,7 +145,7 @@ class QuickStepClock:
     def timebase(self, now: int) -> TimeBase:
         """The base time in force; re-chosen when every QuickStep motor is at rest."""
         if self._current is None or not self.busy():
-            tb = choose(self.profile, self.timer, self.wanted_base_ticks())
+            tb = choose(self.profile, self._timer_or_fail(), self.wanted_base_ticks())
             if tb != self._current:
                 self._current = tb
                 self.origin_tick = now  # the timer restarts with its new period

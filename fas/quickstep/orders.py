@@ -51,7 +51,7 @@ class OrderQueue(StepperQueue):
         self.depth = depth
         self.info: list[OrderInfo | None] = [None] * RING
         super().__init__(index, profile, backend, step_pin, length=RING,
-                         make_channel=make_channel)  # type: ignore[arg-type]
+                         make_channel=make_channel)
         self.max_speed_in_ticks = 1
         self.last_command_ticks = 0
 
@@ -88,7 +88,7 @@ class OrderQueue(StepperQueue):
         return self._append(wp, period_ticks, steps, count_up, start,
                             period_ticks * steps if steps > 1 else period_ticks)
 
-    def running_order(self) -> tuple[QueueEntry, OrderInfo] | None:
+    def running_order(self) -> tuple[QueueEntry, OrderInfo | None] | None:
         """The order being executed (the FIFO's head), if any."""
         self.channel.sync()
         rp = self.read_idx
@@ -97,7 +97,7 @@ class OrderQueue(StepperQueue):
         info = self.info[rp % RING]
         return self.entries[rp % RING], info
 
-    def last_order(self) -> tuple[QueueEntry, OrderInfo] | None:
+    def last_order(self) -> tuple[QueueEntry, OrderInfo | None] | None:
         if self.read_idx == self.next_write_idx:
             return None
         w = (self.next_write_idx - 1) & 0xFF

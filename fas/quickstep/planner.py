@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections import deque
 from enum import IntEnum
+from typing import Literal, overload
 
 from ..codes import (
     RAMP_DIRECTION_COUNT_DOWN,
@@ -222,15 +223,19 @@ class QuickStepPlanner(Planner):
                          self.plateaus)
         return self._orders(plan.plateaus, delta > 0, plan.top_period_ticks, accel)
 
-    def start_move(self, delta: int) -> MoveResult | QsMoveResult:
+    def start_move(self, delta: int) -> MoveResult:
         """Queue what fits of a relative move; the rest stays pending until :meth:`pump`
         finds room (a host that keeps running meanwhile, as the console does)."""
         return self.move(delta, wait=None)
 
-    # (wait=False may answer FIFO_FULL beyond the seam's MoveResult; the stepper's
-    # calls wait, as FastAccelStepper's move does)
-    def move(self, delta: int,  # type: ignore[override]
-             wait: bool | None = True) -> MoveResult | QsMoveResult:
+    # only wait=False may answer FIFO_FULL beyond the seam's MoveResult; the stepper's
+    # calls wait, as FastAccelStepper's move does
+    @overload
+    def move(self, delta: int, wait: Literal[True] | None = True) -> MoveResult: ...
+    @overload
+    def move(self, delta: int, wait: bool | None) -> MoveResult | QsMoveResult: ...
+
+    def move(self, delta: int, wait: bool | None = True) -> MoveResult | QsMoveResult:
         """Queue a relative move (after everything queued); see the module text.
 
         ``wait``: True blocks until every order is in the FIFO, False queues nothing
@@ -256,8 +261,12 @@ class QuickStepPlanner(Planner):
                 self.host.wait_until(lambda: self.pump() >= 0 and not self.pending)
         return MoveResult.OK
 
-    def move_to(self, position: int,  # type: ignore[override]
-                wait: bool | None = True) -> MoveResult | QsMoveResult:
+    @overload
+    def move_to(self, position: int, wait: Literal[True] | None = True) -> MoveResult: ...
+    @overload
+    def move_to(self, position: int, wait: bool | None) -> MoveResult | QsMoveResult: ...
+
+    def move_to(self, position: int, wait: bool | None = True) -> MoveResult | QsMoveResult:
         return self.move(i32(position - self.target_pos()), wait)
 
     def run(self, count_up: bool) -> MoveResult:

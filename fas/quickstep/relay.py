@@ -14,6 +14,7 @@ been sent yet (at most one queue of commands ahead).
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from ..channel import OrderChannel
@@ -46,7 +47,7 @@ class OrderRelay(OrderChannel):
         self.pulses = 0
         self.dry = 0
         self.missed_compares = 0
-        self.entry_listeners: list = []
+        self.entry_listeners: list[Callable[[int, int, int, int], None]] = []
         self._busy = False
 
     # ------------------------------------------------------------ progress

@@ -102,10 +102,8 @@ def next_command(config: RampConfig, target_pos: int, rw: RampRw, qe_pos: int,
         delta = (target_pos - qe_pos) & 0xFFFFFFFF
         if delta & 0x80000000:
             delta -= 0x100000000
-        if delta == 0:
-            need_count_up = not count_up  # overshoot: reverse the current direction
-        else:
-            need_count_up = delta > 0
+        # delta 0 is an overshoot: reverse the current direction
+        need_count_up = not count_up if delta == 0 else delta > 0
         remaining_steps = abs(delta)
 
     prus = rw.performed_ramp_up_steps
@@ -139,15 +137,15 @@ def next_command(config: RampConfig, target_pos: int, rw: RampRw, qe_pos: int,
             # avoid generating commands that are too short:
             # 1 part accelerate, 2 parts coast, 1 part decelerate
             possible_coast_steps = (remaining_steps - prus) >> 2
-            if 0 < possible_coast_steps <= 510:
-                if possible_coast_steps * curr_ticks < 2 * min_cmd_ticks:
-                    this_state = _COAST
+            if (0 < possible_coast_steps <= 510
+                    and possible_coast_steps * curr_ticks < 2 * min_cmd_ticks):
+                this_state = _COAST
             if planning_steps > remaining_steps - prus:
                 this_state = _DECELERATE
-        elif remaining_steps - prus < 2 * planning_steps:
-            if curr_ticks != TICKS_FOR_STOPPED_MOTOR:
-                this_state = _COAST
-                planning_steps = remaining_steps - prus
+        elif (remaining_steps - prus < 2 * planning_steps
+              and curr_ticks != TICKS_FOR_STOPPED_MOTOR):
+            this_state = _COAST
+            planning_steps = remaining_steps - prus
     elif min_travel_ticks > curr_ticks:
         this_state = _DECELERATE
         if prus <= planning_steps:
@@ -157,9 +155,8 @@ def next_command(config: RampConfig, target_pos: int, rw: RampRw, qe_pos: int,
         possible_coast_steps = remaining_steps - prus
         if possible_coast_steps < 2 * planning_steps:
             planning_steps = possible_coast_steps & 0xFFFF
-            if curr_ticks < min_cmd_ticks:
-                if curr_ticks * planning_steps < min_cmd_ticks:
-                    this_state = _DECELERATE
+            if curr_ticks < min_cmd_ticks and curr_ticks * planning_steps < min_cmd_ticks:
+                this_state = _DECELERATE
 
     if remaining_steps == 0:  # implies prus == 0
         return _complete(rw)
@@ -214,9 +211,8 @@ def next_command(config: RampConfig, target_pos: int, rw: RampRw, qe_pos: int,
         if this_state & _ACC_FLAG:
             if curr_ticks < next_ticks:
                 next_ticks = curr_ticks
-        elif this_state & _DEC_FLAG:
-            if curr_ticks > next_ticks:
-                next_ticks = curr_ticks
+        elif this_state & _DEC_FLAG and curr_ticks > next_ticks:
+            next_ticks = curr_ticks
 
     steps = planning_steps
     if steps > remaining_steps:

@@ -206,9 +206,8 @@ class RampGenerator:
         curr_ticks = rw.curr_ticks
         if curr_ticks == TICKS_FOR_STOPPED_MOTOR:
             s_jump = p.s_jump
-            if s_jump != 0:
-                if cfg.calculate_ticks(s_jump) < p.min_travel_ticks:
-                    s_jump = cfg.calculate_ramp_steps(p.min_travel_ticks)
+            if s_jump != 0 and cfg.calculate_ticks(s_jump) < p.min_travel_ticks:
+                s_jump = cfg.calculate_ramp_steps(p.min_travel_ticks)
             rw.performed_ramp_up_steps = s_jump
             p.recalc_ramp_steps = False
 

@@ -33,11 +33,16 @@ reports, so the axes keep their coordinates.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
 
 from ..arch import Profile
-from ..backend import Backend, InputListener, LimitListener, PulseCounter
-from ..outputs import OutputChange
+from ..backend import (
+    Backend,
+    InputListener,
+    LimitListener,
+    OutputChange,
+    PulseCounter,
+    TaskEngine,
+)
 from ..pwm import PwmSetting
 from ..queue import StepperQueue
 from ..schedule import TaskSchedule
@@ -68,9 +73,6 @@ from .protocol import (
 )
 from .session import DeviceReports, HostSession, SerialError, check_ident
 from .stream import ByteStream, LinkClosed, open_serial
-
-if TYPE_CHECKING:  # pragma: no cover
-    from ..engine import Engine
 
 __all__ = ["SerialBackend", "SerialError"]
 
@@ -106,7 +108,7 @@ class SerialBackend(Backend):
         self.connect_timeout_ns = connect_timeout_ms * MS
         self.sync_interval_ns = sync_interval_ms * MS
         self.planning_extra_ticks = 0
-        self.profile: Profile | None = None  # type: ignore[assignment]  # (a device names it)
+        self._profile: Profile | None = None  # the device names it (see profile)
         self.session = HostSession(self.clock, baud=baud, window=window,
                                    max_payload=max_payload, watchdog_ms=watchdog_ms,
                                    report_ms=self.report_ms)
@@ -127,12 +129,24 @@ class SerialBackend(Backend):
         self._estopping = False
         self.estop_ns: int | None = None  # when the last emergency stop was asked for
         self._next_sync_ns = 0
-        self._engine: Engine | None = None
+        self._engine: TaskEngine | None = None
         self._task_tick: int | None = None  # the time of the ramp task that runs
         self.task_runs = 0
         self.connect(port if not isinstance(port, str) else None)
 
     # ------------------------------------------------- the parts, at a glance
+    @property
+    def profile(self) -> Profile:
+        """The connected device's chip (it names it in its Ident): known from the first
+        connection on, which the constructor makes."""
+        if self._profile is None:
+            raise SerialError("no device has connected yet: its profile is not known")
+        return self._profile
+
+    @profile.setter
+    def profile(self, profile: Profile) -> None:
+        self._profile = profile
+
     @property
     def link(self) -> HostLink | None:
         """The link of the current session (None: none is open)."""
@@ -214,7 +228,7 @@ class SerialBackend(Backend):
             session.drop(problem)
             raise SerialError(problem)
         try:
-            profile = check_ident(ident, self.profile)
+            profile = check_ident(ident, self._profile)
         except SerialError:
             session.drop("unsuitable device")
             raise
@@ -223,8 +237,8 @@ class SerialBackend(Backend):
         self.sync.clear()
         for _ in range(SYNC_SAMPLES_AT_OPEN):
             self._sync_once(link)
-        adopt = session.same_device(ident) and self.profile is not None
-        self.profile = profile
+        adopt = session.same_device(ident) and self._profile is not None
+        self._profile = profile
         self._update_planning()
         session.opened(ident)
         self._next_sync_ns = self.clock.now_ns() + self._sync_interval()
@@ -252,8 +266,8 @@ class SerialBackend(Backend):
         """Host-clock ns between clock samples; they are the heartbeat, too, so at least
         four fall in the device's watchdog time (device ms; a sped-up device's are short)."""
         hz = self.sync.clock_hz
-        watchdog_ns = self.watchdog_ms * MS * (self.profile.ticks_per_s if self.profile
-                                               else hz) // hz
+        profile = self._profile
+        watchdog_ns = self.watchdog_ms * MS * (profile.ticks_per_s if profile else hz) // hz
         return min(self.sync_interval_ns, watchdog_ns // 4 or self.sync_interval_ns)
 
     def _sync_once(self, link: HostLink) -> None:
@@ -297,7 +311,7 @@ class SerialBackend(Backend):
                 self.reports.status(m)
                 ch = self._by_index.get(m.stepper)
                 if ch is not None:
-                    ch.last_status = m  # type: ignore[assignment]  # (declared None)
+                    ch.last_status = m
                     if self.connected:
                         ch.apply(m.progress(), acked_mid)
             elif isinstance(m, DeviceStatus):
@@ -335,7 +349,7 @@ class SerialBackend(Backend):
     # ------------------------------------------------- the link's delays
     def _update_planning(self) -> None:
         """Forward planning beyond the library's own (:meth:`LinkMargins.planning_ticks`)."""
-        ticks = self.margins.planning_ticks(self.link, self.profile)
+        ticks = self.margins.planning_ticks(self.link, self._profile)
         if ticks is not None:
             self.planning_extra_ticks = ticks
 
@@ -350,7 +364,6 @@ class SerialBackend(Backend):
     def cut_margin_ticks(self, report_ns: int) -> int:
         """How far ahead of the last report (received at ``report_ns``) a cut must lie
         (:meth:`LinkMargins.cut_margin_ticks`)."""
-        assert self.profile is not None
         return self.margins.cut_margin_ticks(self.link, self.clock.now_ns() - report_ns,
                                              self.profile.fill_period_ticks)
 
@@ -411,8 +424,7 @@ class SerialBackend(Backend):
         return t
 
     # ---------------------------------------------------------- ramp task
-    def attach_engine(self, engine: Engine) -> None:
-        assert self.profile is not None
+    def attach_engine(self, engine: TaskEngine) -> None:
         self._engine = engine
         # run 0 one period from now (and one new period from now if the period changes)
         self.tasks.start(self.now() + self.profile.fill_period_ticks, self.task_period_ticks)
@@ -583,7 +595,6 @@ class SerialBackend(Backend):
         self._by_index[queue.index].set_detached(detached)
 
     def wait_until(self, predicate: Callable[[], bool], timeout_ticks: int = 0) -> bool:
-        assert self.profile is not None
         limit = timeout_ticks or DEFAULT_WAIT_LIMIT_S * self.profile.ticks_per_s
         return self._run_until(self.now() + limit, predicate)
 

@@ -40,6 +40,7 @@ from .protocol import (
     PcntClear,
     Progress,
     SetEndPos,
+    Status,
     Truncate,
 )
 
@@ -65,7 +66,7 @@ class CutState:
 
     __slots__ = ("end", "entries", "index", "mid", "old_write", "on_refused", "shift")
 
-    def __init__(self, index: int, old_write: int, entries: list[tuple],
+    def __init__(self, index: int, old_write: int, entries: list[tuple[object, ...]],
                  end: tuple[int, bool, bool], on_refused: Callable[[], None]) -> None:
         self.index = index
         self.old_write = old_write
@@ -97,7 +98,8 @@ class SerialChannel(QueueChannel):
         self.pulse_counter: PulseCounter | None = None
         self.pcnt_epoch_mid = 0
         self.bad_reports = 0
-        self.last_status = None  # the last Status message (position, pulses, underruns)
+        # the last Status message (position, pulses, underruns)
+        self.last_status: Status | None = None
         self.report_ns = backend.clock.now_ns()  # when the last report was taken
         self.halt: HaltState | None = None
         self.cut_state: CutState | None = None
@@ -350,18 +352,15 @@ class SerialChannel(QueueChannel):
 
     def attach_counter(self, counter: PulseCounter) -> None:
         self.pulse_counter = counter
-        plain_clear = counter.clear
-
-        def clear() -> None:
-            plain_clear()
-            if self.b.connected:
-                self.pcnt_epoch_mid = self.b.send(PcntClear(self.index))
-
-        counter.clear = clear  # the device's counter must be cleared, too
+        counter.on_clear = self._counter_cleared  # the device's counter must be cleared, too
         if self.b.connected:
             self.pcnt_epoch_mid = self.b.send(PcntAttach(
                 self.index, counter.low, counter.high, int(counter.dir_high_counts_up),
                 counter.value))
+
+    def _counter_cleared(self) -> None:
+        if self.b.connected:
+            self.pcnt_epoch_mid = self.b.send(PcntClear(self.index))
 
     # --------------------------------------------------------- reports
     def apply(self, rep: Progress, acked_mid: int) -> None:

@@ -265,8 +265,10 @@ class HostLink:
                 self.loss_rx -= self.loss_rx / LOSS_AVERAGE
                 self._weight_rx += (1.0 - self._weight_rx) / LOSS_AVERAGE
                 self._on_frame(seq, payload, now)
+                # mypy keeps the narrowing of the check above across the call; a frame
+                # may close the link (a device reset)
                 if self.closed:
-                    return
+                    return  # type: ignore[unreachable]
             d = self.decoder
             bad = d.crc_errors + d.framing_errors - self.stats.crc_errors \
                 - self.stats.framing_errors

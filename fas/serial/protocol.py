@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import re
 import struct
-from dataclasses import astuple, dataclass
+from dataclasses import Field, astuple, dataclass
 from typing import Any, ClassVar, cast
 
 PROTOCOL_VERSION = 2
@@ -150,6 +150,7 @@ class Message:
 
     CODE: ClassVar[int]
     FMT: ClassVar[struct.Struct]
+    __dataclass_fields__: ClassVar[dict[str, Field[Any]]]  # each type is a dataclass
     UNSEQUENCED: ClassVar[bool] = False
     CODES: ClassVar[tuple[int, ...]] = ()  # every type byte it owns (default: CODE)
     CODE_HAS_INDEX: ClassVar[bool] = False  # the type byte carries the stepper (0x40|s)
@@ -166,7 +167,7 @@ class Message:
         return cls.C_NAME or re.sub(r"(?<!^)(?=[A-Z])", "_", cls.__name__).upper()
 
     def encode(self) -> bytes:
-        return bytes((self.CODE,)) + self.FMT.pack(*astuple(cast(Any, self)))
+        return bytes((self.CODE,)) + self.FMT.pack(*astuple(self))
 
     @classmethod
     def decode(cls, data: bytes, pos: int) -> tuple[Message, int]:

@@ -16,7 +16,7 @@ import os
 import select
 import tty
 from abc import ABC, abstractmethod
-from typing import Any
+from typing import Protocol
 
 from .clock import Wire, wait_readable
 
@@ -141,10 +141,22 @@ class FdStream(ByteStream):
                     os.close(fd)
 
 
+class SerialPort(Protocol):
+    """What a stream uses of a pyserial port (``serial.Serial`` has it)."""
+
+    in_waiting: int
+    dtr: bool  # a board's reset line (stepperdemo's board console pulses it)
+
+    def fileno(self) -> int: ...
+    def read(self, size: int = 1) -> bytes: ...
+    def write(self, data: bytes, /) -> int | None: ...
+    def close(self) -> None: ...
+
+
 class SerialStream(ByteStream):
     """A pyserial port (``serial.Serial`` or anything ``serial_for_url`` returns)."""
 
-    def __init__(self, port: Any, *, name: str = "") -> None:
+    def __init__(self, port: SerialPort, *, name: str = "") -> None:
         self.port = port
         self.name = name or getattr(port, "port", "") or ""
         self.close_error = ""
@@ -153,7 +165,7 @@ class SerialStream(ByteStream):
         return self.port.fileno()
 
     def _read_raw(self) -> bytes:
-        import serial  # type: ignore[import-untyped]  # (pyserial has no stubs)
+        import serial
 
         try:
             r, _, _ = select.select([self.port.fileno()], [], [], 0)
@@ -164,7 +176,7 @@ class SerialStream(ByteStream):
             raise LinkClosed(f"{self.name}: {exc}") from exc
 
     def _write_raw(self, data: bytes) -> int:
-        import serial  # type: ignore[import-untyped]  # (pyserial has no stubs)
+        import serial
 
         try:
             return self.port.write(data) or 0
@@ -180,7 +192,7 @@ class SerialStream(ByteStream):
 
 def open_serial(path: str, baud: int = 115200) -> SerialStream:
     """Open a serial port (or pty, or pyserial URL) raw and non-blocking, input flushed."""
-    import serial  # type: ignore[import-untyped]  # (pyserial has no stubs)
+    import serial
 
     try:
         port = serial.serial_for_url(path, baudrate=baud, timeout=0, write_timeout=2.0)

@@ -5,8 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Callable, Sequence
 
 from ..arch import Profile, get_profile
-from ..backend import Backend, PinStates, PulseCounter
-from ..outputs import OutputChange
+from ..backend import Backend, OutputChange, PinStates, PulseCounter, TaskEngine
 from ..pwm import PwmSetting
 from ..queue import StepperQueue
 from ..schedule import TaskSchedule
@@ -16,7 +15,8 @@ from .pins import EdgeRecorder
 from .printing import print_chars
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .quickstep import QuickStepChannel
+    from ..queue import QueueEntry
+    from .quickstep import QuickStepChannel, TimerLoad
 
 DEFAULT_WAIT_LIMIT_S = 3600
 
@@ -32,7 +32,7 @@ class SimBackend(Backend):
         if record:
             self.recorder = EdgeRecorder()
             self.machine.pins.sinks.append(self.recorder)
-        self._engine = None
+        self._engine: TaskEngine | None = None
         self._task_event: Event | None = None
         self.tasks = TaskSchedule()  # the periodic task's runs
         self.task_runs = 0
@@ -48,13 +48,14 @@ class SimBackend(Backend):
         self._limits: dict[tuple[int, bool], tuple[int, int, tuple[int, ...]]] = {}
         self._sync_outputs: list[tuple[object, OutputChange]] = []  # waiting for idle queues
         self.output_listeners: list[Callable[[OutputChange, int], None]] = []  # (change, tick)
-        self._qs_load = None  # QuickStep's timer interrupt load (fas.sim.quickstep)
+        # QuickStep's timer interrupt load (fas.sim.quickstep)
+        self._qs_load: TimerLoad | None = None
 
     # ------------------------------------------------------------ Backend API
     def now(self) -> int:
         return self.machine.now
 
-    def attach_engine(self, engine) -> None:
+    def attach_engine(self, engine: TaskEngine) -> None:
         self._engine = engine
         # run 0 keeps its phase if the period changes before it
         self.tasks.start(self.machine.now + self.machine.timing.task_phase_ticks,
@@ -81,6 +82,7 @@ class SimBackend(Backend):
         m = self.machine
         p = m.timing
         engine = self._engine
+        assert engine is not None  # the task is scheduled from attach_engine on
         engine.credit_skipped_tasks(self.tasks.begin(index))
         may_stop = engine.may_stop_without_channel()
         m.in_task = True
@@ -112,17 +114,14 @@ class SimBackend(Backend):
         tasks = self.tasks
         if tasks.wake(self.machine.now):
             self.machine.cancel(self._task_event)
-            self._schedule_task(tasks.next)
+            nxt = tasks.next
+            assert nxt is not None  # wake() planned a run
+            self._schedule_task(nxt)
 
     def reset_chip(self) -> None:
         m = self.machine
         for ch in self.channels:
-            ch.force_stop()
-            on_block = getattr(ch, "_on_block", None)
-            if on_block in m.block_listeners:
-                m.block_listeners.remove(on_block)
-            if ch in m.block_sources:
-                m.block_sources.remove(ch)
+            ch.release()
         if self._qs_load is not None and self._qs_load in m.cpu_sources:
             m.cpu_sources.remove(self._qs_load)
         self._qs_load = None
@@ -144,22 +143,29 @@ class SimBackend(Backend):
         # the platform drivers' init: the step pin becomes an output driven LOW
         self.machine.pins.set(queue.step_pin, 0, self.machine.cpu_now())
         ch = SimChannel(self.machine, queue)
-        ch.on_idle = self._queue_idle
+        ch.on_idle = self.queue_ran_dry
         self.channels.append(ch)
         self.machine.block_sources.append(ch)
         for fn in self.channel_listeners:
             fn(ch)
         return ch
 
-    def allocate_order_channel(self, queue, fas_queue, clock) -> QuickStepChannel:
+    def allocate_order_channel(self, queue: StepperQueue, fas_queue: StepperQueue,
+                               clock: object) -> QuickStepChannel:
         """QuickStep's FIFO runs on the profile's QuickStep timer (timer 2 on AVR)."""
+        from ..quickstep.clock import QuickStepClock
+        from ..quickstep.orders import OrderQueue
         from .quickstep import QuickStepChannel, TimerLoad
+        # the abstract backend names no QuickStep class; the only caller is its set-up
+        if not isinstance(queue, OrderQueue) or not isinstance(clock, QuickStepClock):
+            raise TypeError("the simulated order channel runs QuickStep's OrderQueue "
+                            "on its QuickStepClock")
         load = self._qs_load
         if load is None or load.clock is not clock:
             load = self._qs_load = TimerLoad(self.machine, clock)
             self.machine.cpu_sources.append(load)
         ch = QuickStepChannel(self.machine, queue, clock, load)
-        ch.on_idle = self._queue_idle
+        ch.on_idle = self.queue_ran_dry
         self.channels.append(ch)
         self.machine.block_sources.append(ch)
         for fn in self.channel_listeners:
@@ -226,12 +232,11 @@ class SimBackend(Backend):
             self._make(change, t)
         return True
 
-    def _queue_idle(self) -> None:
+    def queue_ran_dry(self) -> None:
         """A queue ran dry (in its step interrupt): the moment synchronized outputs wait for."""
-        engine = self._engine
-        made = self._make_sync_outputs()
-        if engine is not None and (made or engine.sync.active()):
-            engine.queues_idle()
+        self._make_sync_outputs()
+        if self._engine is not None:
+            self._engine.queues_idle()  # synchronized outputs may wait for this moment
 
     def wait_until(self, predicate: Callable[[], bool], timeout_ticks: int = 0) -> bool:
         m = self.machine
@@ -344,12 +349,13 @@ class SimBackend(Backend):
                 return ch
         return None
 
-    def _guard(self, index: int, entry) -> bool:
+    def _guard(self, index: int, entry: QueueEntry) -> bool:
         """A queue takes up an entry: towards a closed limit it must not step."""
         lim = self._limits.get((index, entry.count_up))
         if lim is None or self.machine.pins.get(lim[0]) != lim[1]:
             return False
         ch = self._channel_of(index)
+        assert ch is not None  # the guard is set on this channel (set_limit)
         ch.on_halt = lambda: self._limit_stop(index, lim, halted=True)
         return True
 

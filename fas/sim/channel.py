@@ -51,9 +51,10 @@ class SimChannel(QueueChannel):
         self.event: Event | None = None
         self.pending_compare = 0  # compare tick of the pending single ISR event
         self.pending_pulse = False
-        # block of pulses of one entry: pulses at b_c0 + j*b_t, j < b_n
+        # block of pulses of one entry: pulses at b_c0 + j*b_t, j < b_n (while batch;
+        # b_entry: that entry - the ring's first slot until a block runs)
         self.batch = False
-        self.b_entry: QueueEntry | None = None
+        self.b_entry: QueueEntry = queue.entries[0]
         self.b_c0 = 0
         self.b_t = 0
         self.b_n = 0
@@ -109,6 +110,16 @@ class SimChannel(QueueChannel):
         if self.entry_listeners:
             self._note_entry(ENTRY_START, e)
         self._program(t + self.start_ticks, e)
+
+    def release(self) -> None:
+        """The chip resets: stop at once and leave the machine (its interrupt-block
+        listeners and the block sources)."""
+        self.force_stop()
+        m = self.m
+        if self._on_block in m.block_listeners:
+            m.block_listeners.remove(self._on_block)
+        if self in m.block_sources:
+            m.block_sources.remove(self)
 
     def force_stop(self) -> None:
         if self._start_event is not None:

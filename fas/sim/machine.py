@@ -13,7 +13,7 @@ and CPU time taken away from the main loop by interrupt routines.
 from __future__ import annotations
 
 import heapq
-from typing import Callable
+from typing import Callable, Protocol
 
 from ..arch import Profile
 from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after
@@ -25,6 +25,32 @@ from .uart import Uart
 PRIO_STEP_ISR = 10  # + channel index: TIMER1_COMPA before COMPB ...
 PRIO_TASK = 30  # timer overflow: after the compare interrupts
 PRIO_PLAIN = 50  # not an interrupt (application timers, recorders)
+
+
+class BlockSource(Protocol):
+    """A step channel that simulates a run of pulses as one block
+    (:class:`fas.sim.channel.SimChannel`): pulses at ``b_c0 + j * b_t``, ``j < b_n``,
+    each with a step interrupt of ``isr_ticks`` that runs ``lat`` after it."""
+
+    batch: bool  # a block runs
+    b_c0: int
+    b_t: int
+    b_n: int
+    lat: int
+    isr_ticks: int
+
+    def block_isrs_until(self, t: int) -> int:
+        """Step interrupts of the running block that ran by tick ``t``."""
+        ...
+
+
+class CpuSource(Protocol):
+    """A timer whose interrupts take CPU time without events (QuickStep's period
+    interrupt, :class:`fas.sim.quickstep.TimerLoad`)."""
+
+    def block_cpu_between(self, begin: int, end: int) -> int:
+        """The CPU ticks its interrupts take in ``(begin, end]``."""
+        ...
 
 
 class Event:
@@ -61,8 +87,10 @@ class Machine:
         # started or stopped, or a ramp task ran while a channel stood): a program
         # waiting for that need not look after every other event
         self.activity = 0
-        self.block_sources: list = []  # step channels that simulate runs of pulses as one
-        self.cpu_sources: list = []  # timers without events: block_cpu_between(begin, end)
+        # step channels that simulate runs of pulses as one
+        self.block_sources: list[BlockSource] = []
+        # timers without events: block_cpu_between(begin, end)
+        self.cpu_sources: list[CpuSource] = []
         self.task_offset = 0  # CPU time used so far by the running periodic task
         self.in_task = False
         self.events_run = 0
@@ -70,7 +98,8 @@ class Machine:
         self._millis_started = False
         self._clock: IsrClock | None = None  # see isr_clock()
         self._clock_key: tuple[int, int, int, int] | None = None  # the state it holds for
-        self._tick_at_ms = (None, 0)  # the last answer of tick_at_millis (ms, tick)
+        # the last answer of tick_at_millis (ms, tick)
+        self._tick_at_ms: tuple[int | None, int] = (None, 0)
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
@@ -262,8 +291,8 @@ class Machine:
                         stolen_isr += cost * count_from(nxt, period, last, end)
             if stolen_isr:
                 stolen += stolen_isr
-            for src in cpu_sources:
-                stolen += src.block_cpu_between(start, end)
+            for cpu in cpu_sources:
+                stolen += cpu.block_cpu_between(start, end)
             if uart_cost and chars and chars[-1][1] > start:
                 stolen += uart_cost * uart.isr_loads_between(start, end)
             self.stolen_ticks = 0

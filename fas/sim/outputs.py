@@ -25,6 +25,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # pragma: no cover
+    from collections.abc import Callable
     from fractions import Fraction  # (annotations only: it takes ms to import)
 
     from .pins import PinBank
@@ -217,7 +218,7 @@ class SimOutputs:
                 return
             self.pins.waveform(pin, times, bytes(levels))
 
-    def deliver_until(self, t: int, after_chunk=None) -> None:
+    def deliver_until(self, t: int, after_chunk: Callable[[], None] | None = None) -> None:
         """Hand every PWM edge up to tick ``t`` to the pin bank (and its sinks).
 
         Long spans go in chunks, earliest wave first; ``after_chunk()`` runs after each

@@ -10,11 +10,12 @@ edges in blocks so that a run of 255 pulses costs one call, not 510.
 from __future__ import annotations
 
 from array import array
+from collections.abc import Sequence
 from typing import Protocol
 
 
 class EdgeSink(Protocol):
-    def edges(self, pin: int, times: list[int] | range, levels: bytes) -> None:
+    def edges(self, pin: int, times: Sequence[int], levels: bytes) -> None:
         """Edges of one pin, in time order (levels 0/1)."""
 
 
@@ -22,10 +23,10 @@ class EdgeRecorder:
     """Keeps every edge in memory: per pin an array of times and one of levels."""
 
     def __init__(self) -> None:
-        self.times: dict[int, array] = {}
+        self.times: dict[int, array[int]] = {}
         self.levels: dict[int, bytearray] = {}
 
-    def edges(self, pin: int, times, levels: bytes) -> None:
+    def edges(self, pin: int, times: Sequence[int], levels: bytes) -> None:
         t = self.times.get(pin)
         if t is None:
             t = self.times[pin] = array("q")
@@ -33,12 +34,12 @@ class EdgeRecorder:
         t.extend(times)
         self.levels[pin].extend(levels)
 
-    def pin_edges(self, pin: int) -> tuple[array, bytearray]:
+    def pin_edges(self, pin: int) -> tuple[array[int], bytearray]:
         return self.times.get(pin, array("q")), self.levels.get(pin, bytearray())
 
     def rising(self, pin: int) -> list[int]:
         times, levels = self.pin_edges(pin)
-        return [t for t, lv in zip(times, levels) if lv]
+        return [t for t, lv in zip(times, levels, strict=True) if lv]
 
 
 class PinBank:
@@ -114,7 +115,7 @@ class PinBank:
     def waveform(self, pin: int, times: list[int], levels: bytes) -> None:
         """A run of edges of one pin (a PWM timer's), in time order, alternating levels."""
         level = self.level.get(pin, 0)
-        for t, lv in zip(times, levels):
+        for t, lv in zip(times, levels, strict=True):
             if lv == level:
                 continue
             level = lv

@@ -207,7 +207,9 @@ class QuickStepChannel(SimChannel, OrderChannel):
         lost = self.clock.boundaries_between(start, end) - 1
         if lost <= 0 or self.pending_compare <= end:
             return
-        base = self.clock.current.base_ticks
+        tb = self.clock.current
+        assert tb is not None  # chosen when the running orders were planned
+        base = tb.base_ticks
         self.lost_periods += lost
         self.m.cancel(self.event)
         self.pending_compare += lost * base

@@ -323,10 +323,10 @@ class VcdWriter:
         change = self._writer.change
         num, den = self._num, self._den
         if den == 1:
-            for t, lv in zip(times, levels):
+            for t, lv in zip(times, levels, strict=True):
                 change(var, t * num, lv)
         else:
-            for t, lv in zip(times, levels):
+            for t, lv in zip(times, levels, strict=True):
                 change(var, t * num // den, lv)
         self.changes += len(times)
 
@@ -377,7 +377,7 @@ class VcdTrace:
     def start(self) -> VcdTrace:
         start = self.stream.start()
         # kept open for the whole run (streaming); closed by close()
-        self._file = open(self.path, "w", encoding="ascii", newline="\n",  # noqa: SIM115
+        self._file = open(self.path, "w", encoding="ascii", newline="\n",  # noqa: SIM115 - written until close()
                           buffering=1 << 20)
         self.writer = VcdWriter(self._file, self.signals, self.backend.profile.ticks_per_s,
                                 start_tick=start, initial=pin_levels(self.backend, self.signals),
@@ -389,7 +389,8 @@ class VcdTrace:
         if self.writer is None or self.writer.closed:
             return
         self.writer.close(self.stream.stop())
-        self._file.close()
+        if self._file is not None:  # opened with the writer (start)
+            self._file.close()
 
 
 def pin_levels(backend: SimBackend, pins: Mapping[int, object] | Sequence[int]) -> dict[int, int]:

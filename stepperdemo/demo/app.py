@@ -413,7 +413,7 @@ class StepperDemo(LoopProgram):
 
     # ------------------------------------------------------------ the loop
     def any_running(self) -> bool:
-        for s in self.steppers:  # (asked in every pass: a plain loop)
+        for s in self.steppers:  # noqa: SIM110 - asked in every pass: a loop, no generator
             if s is not None and s.is_running():
                 return True
         return False
@@ -596,7 +596,7 @@ class StepperDemo(LoopProgram):
             return True
         if self.mode != _TEST or not self.test_ongoing:
             return False
-        for slot, s in zip(self.test_slots, self.steppers):
+        for slot, s in zip(self.test_slots, self.steppers, strict=True):
             if slot.test is None or slot.state == TEST_STATE_ERROR or slot.wake_ms is not None:
                 continue
             # a wait for the stop of a running stepper ends with the stop (_watch)

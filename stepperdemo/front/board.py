@@ -184,7 +184,7 @@ class BoardDriver:
         con = self.console
         s = con.session
         s.poll(0.0)
-        if con._pending and s.now() - s.last_rx_s >= PARTIAL_LINE_S:
+        if con.output_pending() and s.now() - s.last_rx_s >= PARTIAL_LINE_S:
             con.flush(final=True)  # a line the board did not finish (yet)
         wake = s.pacer.wake_in(s.now(), s.last_rx_s)
         return POLL_S if wake is None else min(wake, POLL_S)
@@ -209,7 +209,7 @@ class BoardConsole(Console):
     def _start(self, arch: str) -> None:
         link = self._link or SerialBoardLink(self.device, self.baud_rate)
         log = BoardLog(self._log_path, self.device, self.baud_rate) if self._log_path else None
-        self.session = BoardSession(link, output=self._collect, notes=self._note, log=log,
+        self.session = BoardSession(link, output=self._collect, notes=self.note, log=log,
                                     boot_wait_s=self._boot_wait_s)
         self.backend = None
         self.app = BoardProgram(self.session)
@@ -244,7 +244,7 @@ class BoardConsole(Console):
     def handle_line(self, line: str) -> None:
         s = self.session
         if s.lost is not None and not line.strip().startswith("/"):
-            self._note(msg.BOARD_NOT_CONNECTED.format(reason=s.lost))
+            self.note(msg.BOARD_NOT_CONNECTED.format(reason=s.lost))
             return
         super().handle_line(line)
 
@@ -252,15 +252,15 @@ class BoardConsole(Console):
         """Ctrl-C: X to every stepper at once."""
         s = self.session
         if s.lost is not None:
-            self._note(msg.BOARD_NOT_CONNECTED.format(reason=s.lost))
+            self.note(msg.BOARD_NOT_CONNECTED.format(reason=s.lost))
             return
         spinning = s.state.spinning
         numbers, left = s.stop_all()
-        self._note(msg.BOARD_STOP_SENT.format(
+        self.note(msg.BOARD_STOP_SENT.format(
             steppers=" ".join(f"M{n}" for n in numbers),
             left=msg.BOARD_STOP_LEFT_MODE.format(mode=left) if left else ""))
         if spinning:
-            self._note(msg.BOARD_STOP_SPINNING)
+            self.note(msg.BOARD_STOP_SPINNING)
         self._wake.set()
 
     def meta(self, line: str) -> None:
@@ -296,7 +296,7 @@ class BoardConsole(Console):
         else:
             lines = [msg.REPL_UNKNOWN_META.format(cmd=cmd)]
         for text in lines:
-            self._note(text)
+            self.note(text)
 
     def _state_lines(self) -> list[str]:
         s = self.session

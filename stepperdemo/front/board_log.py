@@ -22,7 +22,7 @@ from .. import messages as msg
 
 class BoardLog:
     def __init__(self, path: str, port: str, baud: int) -> None:
-        self._file: TextIO | None = open(path, "a", encoding="utf-8")  # noqa: SIM115
+        self._file: TextIO | None = open(path, "a", encoding="utf-8")  # noqa: SIM115 - written until close()
         start = datetime.datetime.now().astimezone().isoformat(timespec="milliseconds")
         self._write(msg.LOG_HEADER.format(version=msg.VERSION, port=port, baud=baud,
                                           start=start))

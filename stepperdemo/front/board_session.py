@@ -39,7 +39,7 @@ from ..watch.status_lines import BoardState
 from .board_input import InputPacer
 from .board_link import BoardLink
 from .board_log import BoardLog
-from .board_options import BOOT_WAIT_S, QUIET_S  # noqa: F401 (re-exported)
+from .board_options import BOOT_WAIT_S, QUIET_S
 
 POLL_S = 0.05
 CONFIG_PROMPT_WAIT_S = 6.0  # ESP32/RP2040 StepperDemo: 5 s for a pin-configuration digit

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 from typing import Sequence
@@ -112,10 +113,8 @@ def closed_pipe() -> int:
     devnull = os.open(os.devnull, os.O_WRONLY)
     for stream, wanted in ((sys.stdout, True), (sys.stderr, same)):
         if wanted:
-            try:
+            with contextlib.suppress(OSError, ValueError):
                 os.dup2(devnull, stream.fileno())
-            except (OSError, ValueError):
-                pass
     os.close(devnull)
     return EXIT_CLOSED_PIPE
 

@@ -10,6 +10,7 @@ force-stops every stepper and returns to the prompt; Ctrl-D leaves.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import os
 import sys
 import time
@@ -169,12 +170,16 @@ class Console:
             target.touch(exist_ok=True)
             return ModeHistory(str(target), lambda: self.app.mode_name())
         except OSError as exc:
-            self._note(msg.REPL_HISTORY_FAILED.format(error=exc))
+            self.note(msg.REPL_HISTORY_FAILED.format(error=exc))
             return InMemoryHistory()
 
     # ------------------------------------------------------------- output
     def _collect(self, data: bytes) -> None:
         self._pending += data
+
+    def output_pending(self) -> bool:
+        """The program printed something not shown yet (a line not finished)."""
+        return bool(self._pending)
 
     def flush(self, final: bool = False) -> None:
         """Show complete lines the program printed (and a partial line if ``final``)."""
@@ -200,7 +205,8 @@ class Console:
             style = "ansibrightblack"
         print_formatted_text(FormattedText([(style, line)]), output=self._output)
 
-    def _note(self, text: str) -> None:
+    def note(self, text: str) -> None:
+        """A line of the console's own (not the program's), shown above the prompt."""
         self.lines.append(text)
         print_formatted_text(FormattedText([("ansicyan", text)]), output=self._output)
 
@@ -237,37 +243,37 @@ class Console:
         cmd, args = parts[0], parts[1:]
         if cmd == "/help":
             for text in msg.REPL_HELP.splitlines() + help_lines(self.trace.max_edges):
-                self._note(text)
+                self.note(text)
             for text in msg.REPL_HELP_SERIAL.splitlines() if self.port else ():  # issue 7
-                self._note(text)
+                self.note(text)
         elif cmd in ("/quit", "/exit"):
             self.quit = True
         elif cmd == "/stop":
             self.app.force_stop_all()
-            self._note(msg.REPL_STOPPED_ALL)
+            self.note(msg.REPL_STOPPED_ALL)
         elif cmd == "/time":
             sim_s = self.backend.now() / self.backend.profile.ticks_per_s
-            self._note(msg.REPL_TIME.format(sim=sim_s,
+            self.note(msg.REPL_TIME.format(sim=sim_s,
                                             scale=self.driver.scale))
         elif self.port and (cmd in ("/speed", "/arch") and args or self.trace.handles(cmd)):
-            self._note(msg.SERIAL_NOT_ON_DEVICE.format(cmd=cmd))  # issue 7
+            self.note(msg.SERIAL_NOT_ON_DEVICE.format(cmd=cmd))  # issue 7
         elif cmd in serial_cli.META_COMMANDS:  # issue 7: /reconnect /link /estop
             for text in serial_cli.console_meta(self, cmd, args):
-                self._note(text)
+                self.note(text)
         elif cmd == "/speed":
             try:
                 factor = float(args[0])
                 if not 0 < factor <= 1000:
                     raise ValueError
             except (IndexError, ValueError):
-                self._note(msg.REPL_BAD_ARG.format(cmd=cmd, problem="give a factor 0 < f <= 1000"))
+                self.note(msg.REPL_BAD_ARG.format(cmd=cmd, problem="give a factor 0 < f <= 1000"))
                 return
             self.scale = factor
             self.driver.set_scale(factor)
         elif cmd == "/arch":
             if not args:
                 p = self.backend.profile
-                self._note(msg.REPL_PROFILE.format(name=p.name, title=p.title,
+                self.note(msg.REPL_PROFILE.format(name=p.name, title=p.title,
                                                    steppers=p.max_steppers, ticks=p.ticks_per_s))
                 return
             try:
@@ -276,20 +282,20 @@ class Console:
                 if problem:  # the program cannot run there (the winder: two dir pins)
                     raise ValueError(problem)
             except ValueError as exc:
-                self._note(msg.REPL_BAD_ARG.format(cmd=cmd, problem=exc))
+                self.note(msg.REPL_BAD_ARG.format(cmd=cmd, problem=exc))
                 return
             self.flush(final=True)
             kept = self.trace.stop()  # the recording belongs to the old chip (issue 6)
             self._start(args[0].lower())
             self.trace.new_chip()  # ... and the new one records as the mode says (issue 16)
-            self._note(msg.REPL_SWITCHED.format(name=args[0].lower()))
+            self.note(msg.REPL_SWITCHED.format(name=args[0].lower()))
             for text in kept:
-                self._note(text)
+                self.note(text)
         elif self.trace.handles(cmd):  # /trace /vcd /plot /report (issue 6)
             for text in self.trace.command(cmd, args):
-                self._note(text)
+                self.note(text)
         else:
-            self._note(msg.REPL_UNKNOWN_META.format(cmd=cmd))
+            self.note(msg.REPL_UNKNOWN_META.format(cmd=cmd))
 
     def handle_line(self, line: str) -> None:
         stripped = line.strip()
@@ -302,7 +308,7 @@ class Console:
     def interrupt(self) -> None:
         """Ctrl-C: stop all motion at once."""
         self.app.force_stop_all()
-        self._note(msg.REPL_STOPPED_ALL)
+        self.note(msg.REPL_STOPPED_ALL)
         self._wake.set()
 
     # ---------------------------------------------------------- main loop
@@ -329,10 +335,8 @@ class Console:
             due = max(0.0, self._toolbar_at + TOOLBAR_REFRESH_S - self.clock())
             timeout = min(due, 1.0 if delay is None else min(max(delay, 0.0), 1.0))
             self._wake.clear()
-            try:
+            with contextlib.suppress(asyncio.TimeoutError):  # a safety net
                 await asyncio.wait_for(self._wake_or_sleep(timeout), timeout + 1)
-            except asyncio.TimeoutError:  # pragma: no cover - safety net
-                pass
 
     async def _wake_or_sleep(self, timeout: float) -> None:
         sleeper = asyncio.ensure_future(self.sleep(timeout))
@@ -356,7 +360,7 @@ class Console:
             self.backend.close()
 
     async def run(self) -> int:
-        self._note(self.welcome())
+        self.note(self.welcome())
         session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
                                 output=self._output, complete_while_typing=False)
@@ -381,7 +385,7 @@ class Console:
                 self.flush(final=True)
                 self.trace.close()  # issue 6: stop recording, remove the spool file
                 self.close_session()
-        self._note(msg.REPL_BYE)
+        self.note(msg.REPL_BYE)
         return 0
 
 

@@ -202,7 +202,7 @@ def console_attach(console, backend) -> None:
     """Report a lost device in one line above the prompt."""
     def on_event(event: str, text: str) -> None:
         if event == "lost":
-            console._note(msg.SERIAL_LOST.format(reason=text))
+            console.note(msg.SERIAL_LOST.format(reason=text))
     backend.listeners.append(on_event)
 
 
@@ -309,10 +309,8 @@ def parse_input(text: str, profile) -> tuple[int, int, bool | None]:
     pin_text = pin_text.strip().upper()
     try:
         value = int(value_text)
-        if pin_text.startswith("A"):
-            pin = profile.analog_pins[int(pin_text[1:])]
-        else:
-            pin = int(pin_text)
+        pin = (profile.analog_pins[int(pin_text[1:])] if pin_text.startswith("A")
+               else int(pin_text))
     except (ValueError, IndexError):
         raise ValueError(f"{text!r} is not PIN=VALUE") from None
     if not 0 <= value <= 1023 or not 0 <= pin <= 255:

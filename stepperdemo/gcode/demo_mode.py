@@ -76,7 +76,7 @@ class DemoGcode:
 
     def _leave(self) -> None:
         self.leaving = False
-        for s, auto in zip(self.machine.steppers, self.auto_enable):
+        for s, auto in zip(self.machine.steppers, self.auto_enable, strict=True):
             # the ramp generator's target is where the G-code moves ended (R<n> is
             # relative to it): name the place where the stepper stands
             s.force_stop_and_new_position(s.get_current_position())

@@ -70,7 +70,7 @@ def line_profile(steps: Sequence[int], rate: Sequence[float], accel: Sequence[fl
     ``accel[i]`` steps/s²."""
     v = math.inf if path_speed is None else path_speed
     a = math.inf
-    for n, r, acc in zip(steps, rate, accel):
+    for n, r, acc in zip(steps, rate, accel, strict=True):
         n = abs(n)
         if n:
             v = min(v, r / n)

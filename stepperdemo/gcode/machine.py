@@ -90,10 +90,10 @@ class MotionRun:
         profile = backend.profile
         tps = profile.ticks_per_s
         settings = machine.settings
-        deltas = [t - s for t, s in zip(move.target, move.start)]
+        deltas = [t - s for t, s in zip(move.target, move.start, strict=True)]
         steppers = machine.steppers
         rates, accels = [], []
-        for i, d in enumerate(deltas):
+        for i in range(len(deltas)):
             spu = settings.steps_per_unit[i]
             top = tps / (steppers[i].get_max_speed_in_ticks() + 1)
             rates.append(min(settings.max_rate[i] * spu / 60, top))
@@ -261,7 +261,7 @@ class GcodeMachine:
         """Two axes of one move on one direction pin must go the same way (and every
         moving axis must use FastAccelStepper's queue, not QuickStep's FIFO)."""
         seen: dict[int, tuple[int, bool]] = {}
-        for i, (t, s) in enumerate(zip(move.target, move.start)):
+        for i, (t, s) in enumerate(zip(move.target, move.start, strict=True)):
             if t == s:
                 continue
             stepper = self.steppers[i]

@@ -165,7 +165,7 @@ def twin_of(sc: Scenario, board: SideRun, sim: SideRun) -> tuple[list[TwinSteppe
         bp, sp = board.positions.get(n), sim.positions.get(n)
         diff = None if bp is None or sp is None else bp - sp
         bt, stt = board.status_times.get(n, []), sim.status_times.get(n, [])
-        pairs = list(zip(bt, stt))
+        pairs = list(zip(bt, stt, strict=False))  # (the counts may differ: both are shown)
         rows.append(TwinStepper(
             sc.name, n, bp, sp, diff, len(bt), len(stt),
             bt[0] - stt[0] if pairs else None, bt[-1] - stt[-1] if pairs else None,

@@ -17,6 +17,7 @@ import gzip
 import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 from pathlib import Path
 
 from fas.arch import Profile
@@ -78,7 +79,7 @@ def pin_activity(backend: Backend, pin: int) -> PinActivity:
     rises = falls = 0
     high_max = high_total = 0.0
     rise_at = None
-    for i, (t, lv) in enumerate(zip(times, levels)):
+    for i, (t, lv) in enumerate(zip(times, levels, strict=True)):
         if i == 0 and skip_first:
             continue  # the port's initialising write: sets the level, counts nothing
         if lv:
@@ -100,7 +101,7 @@ def rising_edges(times: Sequence[int], levels: bytes) -> Sequence[int]:
     if (len(levels) % 2 == 0 and levels[0::2] == b"\x01" * half
             and levels[1::2] == b"\x00" * half):
         return times[0::2]  # pulses, as a step pin has them
-    return [t for t, lv in zip(times, levels) if lv]
+    return [t for t, lv in zip(times, levels, strict=True) if lv]
 
 
 def position_from_pins(backend: Backend, step_pin: int, dir_pin: int,
@@ -133,7 +134,7 @@ def position_from_pins(backend: Backend, step_pin: int, dir_pin: int,
 def step_times_us(backend: Backend, step_pin: int) -> list[float]:
     tps_us = backend.profile.ticks_per_us
     times, levels = _recording(backend).pin_edges(step_pin)
-    return [t / tps_us for t, lv in zip(times, levels) if lv]
+    return [t / tps_us for t, lv in zip(times, levels, strict=True) if lv]
 
 
 def read_reference_steps(path: Path) -> list[float]:
@@ -202,7 +203,7 @@ def compare_steps(ours: list[float], ref: list[float], align: str = "absolute",
     elif align == "each_move" and n:
         starts = [i for i in move_starts(ref, ref_dirs) if i < n] + [n]
         previous = 0.0
-        for a, b in zip(starts, starts[1:]):
+        for a, b in pairwise(starts):
             o = ours[a] - ref[a]
             offset = max(offset, abs(o - previous))  # this move's own start shift
             previous = o

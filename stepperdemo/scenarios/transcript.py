@@ -63,7 +63,7 @@ def first_difference(ours: str, reference: str) -> str | None:
     """None when the transcripts agree, else a one-line description of the first change."""
     a = ours.split("\n")
     b = reference.split("\n")
-    for i, (x, y) in enumerate(zip(a, b)):
+    for i, (x, y) in enumerate(zip(a, b, strict=False)):  # (lengths: compared below)
         if _masked(x.rstrip("\r")) != _masked(y.rstrip("\r")):
             return msg.TRANSCRIPT_LINE_DIFF.format(line=i + 1, ours=x.rstrip(),
                                                    ref=y.rstrip())

@@ -206,7 +206,7 @@ class StepperMotion:
     def step_run(self, times: Sequence[int], levels: bytes) -> None:
         rise = self._rise
         last = self.last_rise
-        for t, lv in zip(times, levels):
+        for t, lv in zip(times, levels, strict=True):
             if lv:
                 rise(t)
                 last = t
@@ -441,18 +441,18 @@ class MotionAnalysis:
             return
         dirs = self._by_dir.get(pin)
         enables = self._by_enable.get(pin)
-        for t, lv in zip(times, levels):
+        for t, lv in zip(times, levels, strict=True):
             was = [s.enabled() for s in enables] if enables else []
             self.levels[pin] = lv
             if dirs:
                 for s in dirs:
                     s.dir_edge(t)
             if enables:
-                for s, w in zip(enables, was):
+                for s, w in zip(enables, was, strict=True):
                     s.enable_edge(t, w)
 
     def _irq(self, times: Sequence[int], levels: bytes) -> None:
-        for t, lv in zip(times, levels):
+        for t, lv in zip(times, levels, strict=True):
             if lv:
                 self.irq_windows += 1
                 self._irq_rise = t

@@ -13,6 +13,7 @@ The signals follow StepperDemo's wiring of the profile (``DemoBuild.steppers``):
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import tempfile
 from collections.abc import Sequence
@@ -95,7 +96,7 @@ class Observers:
                 if self._spool:
                     fd, self.vcd_path = tempfile.mkstemp(prefix="stepperdemo-", suffix=".vcd")
                     os.close(fd)
-                self._vcd_file = open(self.vcd_path, "w", encoding="ascii",  # noqa: SIM115
+                self._vcd_file = open(self.vcd_path, "w", encoding="ascii",  # noqa: SIM115 - until finish()
                                       newline="\n", buffering=1 << 20)
                 self.vcd = VcdWriter(self._vcd_file, self.signals, self.profile.ticks_per_s,
                                      start_tick=start, initial=levels,
@@ -103,7 +104,7 @@ class Observers:
                                      comment=msg.VCD_COMMENT.format(profile=self.profile.name))
                 self.stream.add(self.vcd)
             if self.csv_path is not None:
-                self._csv_file = open(self.csv_path, "w", encoding="ascii",  # noqa: SIM115
+                self._csv_file = open(self.csv_path, "w", encoding="ascii",  # noqa: SIM115 - until finish()
                                       newline="\n", buffering=1 << 20)
         except OSError:
             self._abort()
@@ -178,10 +179,8 @@ class Observers:
 
 
 def _remove(path: str) -> None:
-    try:
+    with contextlib.suppress(OSError):
         os.remove(path)
-    except OSError:
-        pass
 
 
 def attach(backend: SimBackend, *, vcd: str | None = None, csv: str | None = None,

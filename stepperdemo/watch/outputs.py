@@ -66,7 +66,7 @@ class OutputTrace:
         self._since = 0
 
     def edges(self, times: Sequence[int], levels: bytes) -> None:
-        for t, lv in zip(times, levels):
+        for t, lv in zip(times, levels, strict=True):
             if lv == self.level:
                 continue
             if self.first_edge is None:

@@ -99,7 +99,7 @@ def _braille_chart(ts: Sequence[float], ys: Sequence[float], width: int,
 
     px, py = xy(ts[0], ys[0])
     dot(px, py)
-    for t, v in zip(ts[1:], ys[1:]):
+    for t, v in zip(ts[1:], ys[1:], strict=True):
         x, y = xy(t, v)
         n = max(abs(x - px), abs(y - py))
         for i in range(1, n + 1):
@@ -148,7 +148,7 @@ def terminal_plot(series: Sequence[Series], width: int = 64, height: int = 8,
 def _steps(ts: Sequence[float], ys: Sequence[float]) -> tuple[list[float], list[float]]:
     """A level held until the next change: a staircase of points."""
     out_t, out_y = [ts[0]], [ys[0]]
-    for t, y in zip(ts[1:], ys[1:]):
+    for t, y in zip(ts[1:], ys[1:], strict=True):
         out_t += [t, t]
         out_y += [out_y[-1], y]
     return out_t, out_y

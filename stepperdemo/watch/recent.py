@@ -67,7 +67,7 @@ class _Chunk:
     def runs(self) -> Iterator[tuple[int, int, int]]:
         """``(pin, start, end)`` of every run, in time order."""
         a = 0
-        for pin, b in zip(self.pins, self.ends):
+        for pin, b in zip(self.pins, self.ends, strict=True):
             yield pin, a, b
             a = b
 
@@ -161,7 +161,8 @@ class _Track:
             bases.append((ch, {"pulses": pulses, "dry": dry, "missed_compares": missed,
                                "starts": starts}))
         p = self.p0
-        entries = list(zip(self.kinds[p:], self.firsts[p:], self.ticks[p:], self.steps[p:]))
+        entries = list(zip(self.kinds[p:], self.firsts[p:], self.ticks[p:], self.steps[p:],
+                           strict=True))
         channel, base = bases[-1]
         return channel, base, bases[:-1], self.r, self.cur_ticks, entries
 
@@ -413,8 +414,8 @@ class RecentTrace:
         analysis = MotionAnalysis(self.backend, self.wiring, positions=view.start_positions,
                                   initial=self.head_levels, live=False)
         analysis.stray_base = self.stray_head
-        motions = {t.wiring.step: m for t, m in zip(self.tracks, analysis.steppers)}
-        for tr, m in zip(self.tracks, analysis.steppers):
+        motions = {t.wiring.step: m for t, m in zip(self.tracks, analysis.steppers, strict=True)}
+        for tr, m in zip(self.tracks, analysis.steppers, strict=True):
             if tr.bound:
                 m.resume(*tr.resume_args())
         outputs = OutputAnalysis(self.profile, initial=self.head_levels)

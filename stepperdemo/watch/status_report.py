@@ -11,6 +11,7 @@ the board printed nothing (a ``W`` spinning, ``T``, a long print).
 from __future__ import annotations
 
 from collections import Counter
+from itertools import pairwise
 
 from .. import messages as msg
 from .plots import Series
@@ -44,7 +45,7 @@ def _runs(samples: list[Sample]) -> list[list[Sample]]:
 def _acceleration(run: list[Sample]) -> tuple[float, float]:
     acc = dec = 0.0
     known = [s for s in run if s.speed_known]
-    for a, b in zip(known, known[1:]):
+    for a, b in pairwise(known):
         dt = b.t_s - a.t_s
         if dt < MIN_DT_S or dt > GAP_S:
             continue
@@ -81,7 +82,7 @@ def report_lines(trace: StatusTrace, source: str) -> list[str]:
         for run in runs:
             a, d = _acceleration(run)
             acc, dec = max(acc, a), max(dec, d)
-            gaps += sum(1 for x, y in zip(run, run[1:]) if y.t_s - x.t_s > GAP_S)
+            gaps += sum(1 for x, y in pairwise(run) if y.t_s - x.t_s > GAP_S)
         peak = max(abs(s.speed_sps) for s in status)
         lines.append(msg.STATUS_REPORT_SPEED.format(speed=peak, acc=acc, dec=dec))
         states = Counter(s.state for s in status)

@@ -413,11 +413,16 @@ class Winder(LoopProgram):
                 axis.pot_applied = None
                 self.say(msg.WINDER_STOPPED.format(name=axis.name,
                                                    position=s.get_current_position()))
-            elif axis.motion == FOLLOW and not self.gear.engaged and not s.is_running():
+            elif self._driver_gone(axis) and not s.is_running():
                 axis.motion = IDLE
-            elif axis.motion == TRAVERSE and (self.traverse is None or not self.traverse.active) \
-                    and not s.is_running():
-                axis.motion = IDLE
+
+    def _driver_gone(self, axis: Axis) -> bool:
+        """What moved ``axis`` has let go of it (the gear it followed, the traverse)."""
+        if axis.motion == FOLLOW:
+            return not self.gear.engaged
+        if axis.motion == TRAVERSE:
+            return self.traverse is None or not self.traverse.active
+        return False
 
     def _take_link(self, axis: Axis) -> None:
         """A link command for ``axis``: the link drives it until ``pots``."""

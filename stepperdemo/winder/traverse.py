@@ -204,9 +204,8 @@ class TraverseFeeder:
                 break
             if q.ticks_in_queue() >= self.ahead_ticks:
                 break
-            if self._seg is None or self._seg[1] == 0:
-                if not self._next_interval():
-                    break
+            if (self._seg is None or self._seg[1] == 0) and not self._next_interval():
+                break
             if not self._write():
                 break
         if not started and not q.is_queue_empty() and not q.is_running():

@@ -33,7 +33,7 @@ class InterlockMeter:
         if pin in self.step:
             i = self.step.index(pin)
             d = self.dir[i]
-            for t, lv in zip(times, levels):
+            for t, lv in zip(times, levels, strict=True):
                 if t != self.tick:
                     self._measure()
                     self.tick = t
@@ -41,13 +41,12 @@ class InterlockMeter:
                     up = d is None or self.levels.get(d, 0) == self.up_level[i]
                     self.pos[i] += 1 if up else -1
                     self._stepped = True
-        elif pin in self.dir:
-            if times:
-                last = times[-1]
-                if self.tick is not None and last != self.tick:
-                    self._measure()
-                    self.tick = None
-                self.levels[pin] = levels[-1]
+        elif pin in self.dir and times:
+            last = times[-1]
+            if self.tick is not None and last != self.tick:
+                self._measure()
+                self.tick = None
+            self.levels[pin] = levels[-1]
 
     def _measure(self) -> None:
         t = self.tick

@@ -35,9 +35,8 @@ def step(app, stepper, slot, time_ms: int) -> bool:
         stepper.set_acceleration(10_000)
         stepper.move(-3200)
         slot.state += 1
-    elif phase == 8:
-        if not stepper.is_running():
-            return True
+    elif phase == 8 and not stepper.is_running():
+        return True
     phase = slot.state & 15
     if phase in (1, 3, 5):
         slot.wait_time(slot.u32_1, 1000)

@@ -30,9 +30,8 @@ def step(app, stepper, slot, time_ms: int) -> bool:
         slot.u32_1 = (slot.u32_1 + DT_MS) & 0xFFFFFFFF
         stepper.move(1)
         slot.state += 16 - 1
-    elif phase == 7:
-        if not stepper.is_running():
-            return True
+    elif phase == 7 and not stepper.is_running():
+        return True
     phase = slot.state & 15
     if phase == 1:
         slot.wait_time(slot.u32_1, DT_MS)

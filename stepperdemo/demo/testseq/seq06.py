@@ -43,9 +43,8 @@ def step(app, stepper, slot, time_ms: int) -> bool:
         stepper.set_speed_in_us(SPEED_HOME_US)
         stepper.move(-32000)
         slot.state += 1
-    elif state == 4:
-        if not stepper.is_running():
-            return True
+    elif state == 4 and not stepper.is_running():
+        return True
     if slot.state in (1, 2):
         slot.wait_time(slot.u32_1, 100)
     elif slot.state == 4:

@@ -46,17 +46,16 @@ def step(app, stepper, slot, time_ms: int) -> bool:
             stepper.move_to(0)
             slot.u32_1 = time_ms
             slot.state += 1
-    elif state == 4:
-        if not stepper.is_running():
-            dt = _signed(elapsed(time_ms, slot.u32_1))
-            app.println_number(dt)
-            if abs(dt - HOME_MS) > HOME_TOL:
-                slot.state = TEST_STATE_ERROR
-            pos = stepper.get_position_after_commands_completed()
-            app.println_number(pos)
-            if pos != 0:
-                slot.state = TEST_STATE_ERROR
-            return True
+    elif state == 4 and not stepper.is_running():
+        dt = _signed(elapsed(time_ms, slot.u32_1))
+        app.println_number(dt)
+        if abs(dt - HOME_MS) > HOME_TOL:
+            slot.state = TEST_STATE_ERROR
+        pos = stepper.get_position_after_commands_completed()
+        app.println_number(pos)
+        if pos != 0:
+            slot.state = TEST_STATE_ERROR
+        return True
     if slot.state == 2:
         slot.wait_time(slot.u32_1, 3000)
     elif slot.state == 3:

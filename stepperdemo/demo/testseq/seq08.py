@@ -21,35 +21,34 @@ def step(app, stepper, slot, time_ms: int) -> bool:
     if slot.state == 0:
         if start_with_pulse_counter(app, stepper, slot, time_ms):
             return True
-    elif slot.state == 1:
-        if not stepper.is_running():
-            pcnt = stepper.read_pulse_counter()
-            spos = stepper.get_position_after_commands_completed()
-            slot.log.append({"t_ms": time_ms, "position": spos, "counter": pcnt})
-            if (pcnt & 0x3FFF) != (spos & 0x3FFF):
-                app.print(msg.STEPPER_POS)
-                app.print_number(spos)
-                app.print(msg.REAL_POS)
-                app.println_number(pcnt)
-                slot.state = TEST_STATE_ERROR
-                return True
-            rand = slot.rng.rand
-            speed = rand() % (VMAX * 4) & 0xFFFF
-            speed = (speed >> ((speed % 4) + 2)) + VMIN
-            accel = rand() % (AMAX * 4)
-            accel = (accel >> ((accel % 4) + 2)) + AMIN
-            move = 1_000_000 // speed
-            if move & 2:
-                move = -move
-            app.print(msg.SEQ_SPEED)
-            app.print_number(speed)
-            app.print(msg.SEQ_ACCEL)
-            app.print_number(accel)
-            app.print(msg.SEQ_MOVE)
-            app.println_number(move)
-            stepper.set_speed_in_us(speed)
-            stepper.set_acceleration(accel)
-            stepper.move(move)
-            slot.u32_1 = time_ms
+    elif slot.state == 1 and not stepper.is_running():
+        pcnt = stepper.read_pulse_counter()
+        spos = stepper.get_position_after_commands_completed()
+        slot.log.append({"t_ms": time_ms, "position": spos, "counter": pcnt})
+        if (pcnt & 0x3FFF) != (spos & 0x3FFF):
+            app.print(msg.STEPPER_POS)
+            app.print_number(spos)
+            app.print(msg.REAL_POS)
+            app.println_number(pcnt)
+            slot.state = TEST_STATE_ERROR
+            return True
+        rand = slot.rng.rand
+        speed = rand() % (VMAX * 4) & 0xFFFF
+        speed = (speed >> ((speed % 4) + 2)) + VMIN
+        accel = rand() % (AMAX * 4)
+        accel = (accel >> ((accel % 4) + 2)) + AMIN
+        move = 1_000_000 // speed
+        if move & 2:
+            move = -move
+        app.print(msg.SEQ_SPEED)
+        app.print_number(speed)
+        app.print(msg.SEQ_ACCEL)
+        app.print_number(accel)
+        app.print(msg.SEQ_MOVE)
+        app.println_number(move)
+        stepper.set_speed_in_us(speed)
+        stepper.set_acceleration(accel)
+        stepper.move(move)
+        slot.u32_1 = time_ms
     slot.wait_stop()
     return False

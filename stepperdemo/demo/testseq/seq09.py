@@ -64,14 +64,13 @@ def step(app, stepper, slot, time_ms: int) -> bool:
                 app.println_number(needed)
                 slot.log.append({"t_ms": time_ms, "steps_for_stop": needed, "after_stop": 0})
             slot.state += 1
-    elif state == 4:
-        if elapsed(time_ms, slot.u32_1) >= 100:
-            if counter and slot.s16_1 != stepper.read_pulse_counter():
-                app.println(msg.STEP_AFTER_STOP)
-                if slot.log:
-                    slot.log[-1]["after_stop"] = 1
-            slot.u32_1 = time_ms
-            slot.state = 1
+    elif state == 4 and elapsed(time_ms, slot.u32_1) >= 100:
+        if counter and slot.s16_1 != stepper.read_pulse_counter():
+            app.println(msg.STEP_AFTER_STOP)
+            if slot.log:
+                slot.log[-1]["after_stop"] = 1
+        slot.u32_1 = time_ms
+        slot.state = 1
     if slot.state == 2:
         slot.wait_time(slot.u32_1, 1000)
     elif slot.state == 4:

@@ -59,9 +59,8 @@ def run(app, stepper, slot, time_ms: int, *, period_ms: int, move_to: int | None
                     app.print_number((64 + slot.s16_1) & 0xFFFF)
                     app.println("us")
                     slot.state = 2
-    elif state == 4:
-        if not stepper.is_running():
-            return True
+    elif state == 4 and not stepper.is_running():
+        return True
     if slot.state in (2, 3):
         slot.wait_time(slot.u32_1, period_ms)
     elif slot.state == 1:

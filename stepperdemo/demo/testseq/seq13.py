@@ -26,12 +26,11 @@ def step(app, stepper, slot, time_ms: int) -> bool:
         else:
             slot.u32_1 = time_ms
             slot.state += 1
-    elif state == 4:
-        if elapsed(time_ms, slot.u32_1) >= 20:
-            if stepper.get_current_position() != 4:
-                app.println(msg.NOT_ALL_RAW_EXECUTED)
-                slot.state = TEST_STATE_ERROR
-            return True
+    elif state == 4 and elapsed(time_ms, slot.u32_1) >= 20:
+        if stepper.get_current_position() != 4:
+            app.println(msg.NOT_ALL_RAW_EXECUTED)
+            slot.state = TEST_STATE_ERROR
+        return True
     if slot.state == 4:
         slot.wait_time(slot.u32_1, 20)
     else:
