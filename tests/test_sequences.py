@@ -20,6 +20,7 @@ def _param(path: Path):
     marks = [pytest.mark.long] if sc.long else []
     if sc.known_deviations:  # strict: the day one of them is met, the test fails
         reason = "; ".join(f"{what}: measured {entry['measured']}"
+                           + (f" ({entry['reason']})" if "reason" in entry else "")
                            for what, entry in sc.known_deviations.items())
         marks.append(pytest.mark.xfail(strict=True, raises=KnownDeviation, reason=reason))
     return pytest.param(path, id=str(path.relative_to(ROOT / "sequences")), marks=marks)
