@@ -393,6 +393,9 @@ RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {droppe
 
 # ------------------------------------------------- issue 16: the console as people use it
 RUN_FAILED_CHECKS = "FAIL ({n} failed)"
+RUN_OK_KNOWN = "ok, {n} known deviation(s)"  # [known_deviation] entries still off
+RUN_KNOWN = "known"  # a known deviation, still there
+RUN_KNOWN_GONE = "MET: remove from known_deviation"  # strict: it passes now
 # the console's recording of the recent motion (bounded, on by default; /trace recent)
 REPL_TRACE_RECENT_ON = ("trace recent: recording the last {bound} pin edges (about {seconds:.1f} s "
                         "of one stepper at 25 kHz) from t={t:.3f} s")
@@ -656,6 +659,14 @@ SERIAL_DEVICE_REPAIRS = ("device: {frames_held} frames held after a gap, {cuts} 
 # issue 17: StepperDemo on the other platforms of FastAccelStepper 1.2.7
 # start-up prompt for a pin configuration (ESP32, Pico), byte-exact as the firmware
 SELECT_PIN_CONFIG = "Select pin configuration:"
+# --pin-config / a scenario's pin_config (issue 23): refused with one line
+PIN_CONFIG_HELP = ("answer StepperDemo's start-up prompt (ESP32, Pico) with this pin "
+                   "configuration, as upstream's hardware tests do: 0 Test-HW, 1 Driver-Types "
+                   "(default: no answer; -c waits the 5 s and takes 0)")
+PIN_CONFIG_NONE = ("--pin-config: StepperDemo for {arch} offers no pin configurations "
+                   "(only the ESP32 and Pico builds ask)")
+PIN_CONFIG_RANGE = "--pin-config {index}: StepperDemo for {arch} offers {names}"
+PIN_CONFIG_PROGRAM = "--pin-config: only StepperDemo has pin configurations, not {program}"
 CONFIG_ENTRY_INDENT = "  "
 CONFIG_ENTRY_SEP = ": "
 PRESS_NUMBER_TO_SELECT = "Press number to select, else 0"

@@ -45,9 +45,13 @@ class StepperDemo(LoopProgram):
 
     def __init__(self, backend: Backend, *, scripted: bool = True,
                  output: Callable[[bytes], None] | None = None,
-                 test_mode_wait: bool = False) -> None:
+                 test_mode_wait: bool = False, pin_config: int | None = None) -> None:
         self.backend = backend
         self.scripted = scripted
+        # the digit that answers every start-up prompt for a pin configuration (ESP32,
+        # Pico), as upstream's hardware tests do (STEPPER_CONFIG); None: nobody answers
+        # a scripted run (the 5 s wait), an interactive user types it
+        self.pin_config = pin_config
         self.output = output
         self.transcript = bytearray()
         # extension, off by default: `w<ms>` also in test mode (the firmware answers
@@ -203,6 +207,9 @@ class StepperDemo(LoopProgram):
             self.println(cfg.name)
         self.println(msg.PRESS_NUMBER_TO_SELECT)
         self._select_start_ms = b.millis()
+        if self.pin_config is not None:  # the digit is on the line: the first poll takes it
+            self._take_config_digit(self.pin_config)
+            return
         if self.scripted:
             while not self._setup_done:
                 self._select_pass()
@@ -213,15 +220,18 @@ class StepperDemo(LoopProgram):
         if self.rx and not self.scripted:
             ch = self.rx.popleft()
             if 0x30 <= ch <= 0x39:
-                n = ch - 0x30
-                if n < len(self.build.configs):
-                    self.config_index = n
-                self._finish_setup()
+                self._take_config_digit(ch - 0x30)
                 return
         if ((b.millis() - self._select_start_ms) & 0xFFFFFFFF) >= self.build.config_wait_ms:
             self._finish_setup()
             return
         b.app_wait_until(b.now() + 10 * self.profile.ticks_per_ms)
+
+    def _take_config_digit(self, n: int) -> None:
+        """A digit answers the prompt: that configuration if the build has it, else 0."""
+        if n < len(self.build.configs):
+            self.config_index = n
+        self._finish_setup()
 
     def _finish_setup(self) -> None:
         b = self.backend

@@ -83,6 +83,8 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
                     help="extension: accept w<ms> in test mode too (the firmware answers "
                          "'Unknown command' there), to let endless test sequences run "
                          "for a while in a -c line")
+    ap.add_argument("--pin-config", type=int, default=None, metavar="N",
+                    help=msg.PIN_CONFIG_HELP)
     ap.add_argument("--speed", type=float, default=1.0, metavar="FACTOR",
                     help="interactive: run the simulated clock FACTOR times real time")
     ap.add_argument("--history", metavar="FILE",
@@ -135,6 +137,10 @@ def _main(argv: Sequence[str] | None = None) -> int:
     if problem is not None:
         print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
+    problem = _pin_config(args)
+    if problem is not None:
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
+        return EXIT_USAGE
     if args.command is not None:
         return run_scripted(args)
     if getattr(args, "board", None):  # issue 15
@@ -142,6 +148,21 @@ def _main(argv: Sequence[str] | None = None) -> int:
         return board.run_console(args)
     from .console import run_console
     return run_console(args)
+
+
+def _pin_config(args: argparse.Namespace) -> str | None:
+    """``--pin-config N``: StepperDemo answers its start-up prompt with N (issue 23)."""
+    if args.pin_config is None:
+        return None
+    if args.program != "demo":
+        return msg.PIN_CONFIG_PROGRAM.format(program=args.program)
+    from ..demo.build import pin_config_problem
+
+    problem = pin_config_problem(PROFILES[args.arch], args.pin_config)
+    if problem is None:
+        args.program_options = {**getattr(args, "program_options", {}),
+                                "pin_config": args.pin_config}
+    return problem
 
 
 def entry() -> None:  # pragma: no cover - console script
