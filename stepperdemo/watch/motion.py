@@ -27,10 +27,11 @@ from fas.sim.channel import ENTRY_RESTART, ENTRY_START, SimChannel
 from fas.sim.trace import IRQ_BLOCKED
 
 from ..demo.build import DemoStepper, demo_build
+from .thinning import PlotSamples
 
 GAP_FACTOR = 4  # an interval longer than this many times the last regular one is a gap
 ACC_WINDOWS_PER_S = 100  # acceleration: speed change between windows of >= 10 ms
-PLOT_POINTS = 4000  # samples kept per stepper for plots (thinned by halving)
+PLOT_POINTS = 4000  # samples kept per stepper for plots (.thinning: per time bucket)
 CSV_HEADER = "time_us,stepper,direction,position,tick\n"
 
 
@@ -125,11 +126,11 @@ class StepperMotion:
         self.enable_to_step: list[int] = []  # one per driver activation followed by a step
         self._enable_edge: int | None = None
         self.steps_disabled = 0
-        self.samples: list[tuple[int, int, float]] = []  # (tick, position, speed steps/s)
+        # (tick, position, speed steps/s) for plots, thinned per time bucket keeping
+        # the extremes of the speed and the ends of every standstill
+        self.plot = PlotSamples(PLOT_POINTS, key=2)
         self.entry_steps: dict[int, int] = {}  # planned period -> steps (QuickStep plateaus)
         self.entries_taken = 0
-        self._stride = 1
-        self._since_sample = 0
 
     # --------------------------------------------------------------- channel
     def bind(self, channel: SimChannel) -> None:
@@ -253,8 +254,10 @@ class StepperMotion:
         prev = self.last_rise
         speed = 0.0
         if prev is None or self.new_motion:
-            if prev is not None:
-                self._sample(prev, self.position - (1 if up else -1), 0.0, force=True)
+            before = self.position - (1 if up else -1)
+            if prev is not None:  # the last motion ended at its last pulse
+                self.plot.add((prev, before, 0.0))
+            self.plot.add((t, before, 0.0))  # standing at the old position until now
             self.motions += 1
             self._close_window(prev)
             self._prev_win = None
@@ -287,7 +290,7 @@ class StepperMotion:
             self._enable_edge = None
         if not self.enabled():
             self.steps_disabled += 1
-        self._sample(t, self.position, speed, force=speed == 0.0)
+        self.plot.add((t, self.position, speed))
         if self.csv is not None:
             self.csv.write(f"{t * 1_000_000 / self.tps:.4f},{self.wiring.number},"
                            f"{1 if up else -1},{self.position},{t}\n")
@@ -349,20 +352,15 @@ class StepperMotion:
             self.dec_max = -acc
 
     # ------------------------------------------------------------ plot data
-    def _sample(self, t: int, pos: int, speed: float, force: bool = False) -> None:
-        self._since_sample += 1
-        if not force and self._since_sample < self._stride:
-            return
-        self._since_sample = 0
-        self.samples.append((t, pos, speed))
-        if len(self.samples) > PLOT_POINTS:
-            self.samples = self.samples[::2]
-            self._stride *= 2
+    @property
+    def samples(self) -> list[tuple[int, int, float]]:
+        """The plot samples (tick, position, speed in steps/s), in time order."""
+        return self.plot.samples()
 
     def finish(self, end_tick: int) -> None:
         self._close_window(self.last_rise)
-        if self.last_rise is not None and (not self.samples or self.samples[-1][2] != 0.0):
-            self.samples.append((self.last_rise, self.position, 0.0))
+        if self.last_rise is not None:  # the last motion ends at its last pulse
+            self.plot.add((self.last_rise, self.position, 0.0))
         self.unbind()
         if self.channel is not None and not isinstance(self.channel, ChannelCounts):
             self.channel = ChannelCounts(self.channel)
