@@ -283,6 +283,7 @@ RUN_TIMING_REPORT_HEAD = "--- timing report: {name} ---"
 CLI_MAX_TIME = ("stopped after {seconds:g} s of simulated time (--max-time): "
                 "a stepper was still running or the input was still held")
 CLI_ERROR = "stepperdemo: {problem}"
+CLI_BAD_NUMBER = "{option} {value:g}: give {what}"
 
 # ---------------------------------------------------------------------------------------
 # Watching a run (issue 6): VCD trace, plots, timing report, step CSV.  Console texts,
@@ -322,7 +323,11 @@ PLOT_TITLE_SPEED = "speed [steps/s]"
 PLOT_AXIS_TIME = "time [s]"
 PLOT_TERMINAL_HEADER = "M{n} {what}"
 PLOT_NO_DATA = "nothing to plot: no steps recorded"
-OBSERVE_BAD_SIZE = "--plot-size {size!r}: give WIDTHxHEIGHT in pixels, e.g. 1200x800"
+OBSERVE_BAD_SIZE = ("--plot-size {size!r}: give WIDTHxHEIGHT in pixels, e.g. 1200x800 "
+                    "(200 .. 10000 a side, at most 40 million pixels)")
+PLOT_BAD_FORMAT = "--plot {path}: a plot file ends in {formats}"
+PLOT_NO_FOLDER = "no folder {folder}"
+PLOT_IS_FOLDER = "it is a folder"
 OBSERVE_NOT_INTERACTIVE = ("--vcd, --plot, --report and --steps-csv go with -c (or run); "
                            "the console records the recent motion by itself: /vcd, /plot, "
                            "/report (/trace on records all of it)")
@@ -429,6 +434,11 @@ Input is sent one command at a time; after W it waits until the board's wait is 
 (in test mode: until the test completed), as a W in a StepperDemo line means."""
 BOARD_LOST = "board lost: {reason} - /reconnect restores the session"
 BOARD_NOT_CONNECTED = "no board ({reason}) - /reconnect first; the line was not sent"
+BOARD_SILENT_NOTHING = "nothing received"
+BOARD_SILENT_FOREIGN = "{n} bytes received, no line of them StepperDemo's"
+BOARD_NO_ANSWER = ("no answer from StepperDemo within {seconds:g} s of the first command "
+                   "({why}): is the board running StepperDemo at {baud} baud? "
+                   "(/reconnect PORT tries another port)")
 BOARD_RESTARTED = "the board restarted (start banner): normal mode, M1 selected{dropped}"
 BOARD_RESTART_DROPPED = "; {n} waiting command(s) dropped"
 BOARD_RECONNECTED = "board back on {port}"
@@ -459,6 +469,9 @@ LOG_RECEIVED = "{t:10.3f} < {text}"
 LOG_NOTE = "{t:10.3f} # {text}"
 CLI_BOARD_CONNECT = "stepperdemo: cannot open the board at {port}: {error}"
 CLI_BOARD_LOST = "stepperdemo: board lost: {reason}"
+CLI_BOARD_NO_ANSWER = ("stepperdemo: no answer from StepperDemo at {port} within {seconds:g} s "
+                       "of the first command ({why}): is the board running StepperDemo at "
+                       "{baud} baud?")
 CLI_BOARD_RESTARTED = "stepperdemo: the board restarted during the run (start banner)"
 CLI_BOARD_INTERRUPTED = "stepperdemo: interrupted; stop sent (X to {steppers})"
 CLI_BOARD_MAX_TIME = ("stepperdemo: stopped waiting after {seconds:g} s (--max-time): "
@@ -493,6 +506,10 @@ STATUS_REPORT_RUNS = ("  runs         {runs}; {gaps} pause(s) of more than {gap_
                       "lines while running (the board was busy: W, T, long prints)")
 
 # stepperdemo run --board: scenario files on a board, and the twin check
+RUN_NO_FOLDER = ("{option} {folder}: no folder {parent} to make it in (run makes the folder "
+                 "itself, not the ones above it)")
+RUN_BAD_FOLDER = "{option} {folder}: not a folder for the files: {error}"
+RUN_NOT_A_FOLDER = "a file is there"
 RUN_BOARD_HELP = ("run the scenario files on a board running StepperDemo (reset by DTR "
                   "between files) and compare with the simulation (twin check)")
 RUN_BOARD_SKIPPED = "the board runs StepperDemo, not program {program!r}"
@@ -513,7 +530,7 @@ RUN_TWIN_CAPTION = ("positions in steps; lines: status lines on the board/simula
 RUN_TWIN_SUMMARY = ("twin check: {steppers} stepper(s), largest position difference {pos}, "
                     "largest status-line time difference {dt:.3f} s")
 RUN_BOARD_END = {"idle": "idle", "max_time": "max time reached", "lost": "board lost",
-                 "reset": "board restarted"}
+                 "reset": "board restarted", "no_answer": "no answer from StepperDemo"}
 
 # stepperdemo device --pty --console: the simulated StepperDemo firmware on a pty
 CONSOLE_DEVICE_LISTENING = ("console device {profile} ({title}) on {path}{link}, clock "

@@ -13,7 +13,7 @@ from fas.arch import PROFILES
 from .. import messages as msg
 from ..subcommands import SUBCOMMANDS, help_lines, main_of
 from ..watch import options as observe_options
-from . import board_options, serial_cli
+from . import arg_checks, board_options, serial_cli
 from .scripted import (  # noqa: F401 (the exit codes are re-exported)
     EXIT_MAX_TIME,
     EXIT_OK,
@@ -128,10 +128,8 @@ def _main(argv: Sequence[str] | None = None) -> int:
             return main_fn(argv[1:])
         program, argv = argv[0], argv[1:]  # a program hosted with the console's options
     args = build_parser(program).parse_args(argv)
-    if args.max_time <= 0:
-        print(msg.CLI_ERROR.format(problem="--max-time must be positive"), file=sys.stderr)
-        return EXIT_USAGE
-    problem = observe_options.check_arguments(args)  # issue 6: e.g. --plot without matplotlib
+    problem = (arg_checks.number_problem(args)  # --max-time, --speed: finite, in range
+               or observe_options.check_arguments(args))  # e.g. --plot without matplotlib
     if problem is not None:
         print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE

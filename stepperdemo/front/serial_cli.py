@@ -324,10 +324,13 @@ def run_device(argv: Sequence[str]) -> int:
     from fas.serial import LinkClosed, Pty, RealClock, open_serial
     from fas.serial.stream import remove_link, set_link
 
+    from .arg_checks import speed_problem
+
     args = device_parser().parse_args(argv)
-    if args.speed <= 0 or args.watchdog_ms < 0:
-        print(msg.CLI_ERROR.format(problem="--speed must be positive, --watchdog-ms >= 0"),
-              file=sys.stderr)
+    problem = speed_problem(args.speed) or (
+        "--watchdog-ms must be >= 0" if args.watchdog_ms < 0 else None)
+    if problem:
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
     if args.simavr:
         return run_simavr(args)

@@ -160,3 +160,41 @@ def test_plot_samples_keep_everything_below_the_bound():
     for s in data:
         kept.add(s)
     assert kept.samples() == data
+
+
+# ------------------------------------------------------- the figure (item 10)
+def _figure_of(argv, monkeypatch):
+    """The matplotlib figure the command line draws (and writes)."""
+    made = []
+    real = plots.figure
+
+    def spy(*args, **kw):
+        made.append(real(*args, **kw))
+        return made[-1]
+
+    monkeypatch.setattr(plots, "figure", spy)
+    assert main(argv) == EXIT_OK
+    (fig,) = made
+    return fig
+
+
+def test_traverse_plot_has_one_legend(tmp_path, monkeypatch):
+    """The README's winder plot: two panels, the same stepper in each, one legend."""
+    fig = _figure_of(["winder", "-c", "period 2 100 accel 2 20000 traverse 0 2000 w4000 "
+                      "move 2 0 w500", "--plot", str(tmp_path / "traverse.png")], monkeypatch)
+    legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    assert len(legends) == 1
+    assert [t.get_text() for t in legends[0].get_texts()] == ["M2"]
+    assert (tmp_path / "traverse.png").stat().st_size > 0
+
+
+def test_a_long_command_is_the_whole_title_wrapped(issue_plot, tmp_path, monkeypatch):
+    fig = _figure_of(["-c", ISSUE_LINE, "--plot", str(tmp_path / "p.png")], monkeypatch)
+    title = fig._suptitle.get_text()
+    assert title.split() == ISSUE_LINE.split()  # nothing cut: its end is there
+    assert max(len(line) for line in title.splitlines()) <= plots.TITLE_WIDTH
+    longer = ISSUE_LINE + " M2 R5 W" + " R53 W w1000" * 30 + " M1 R-7 W"
+    short = plots.plot_title(longer).splitlines()
+    assert len(short) == plots.TITLE_LINES
+    assert short[0].startswith("M1 A1000 V100 R3200") and short[1].endswith(" ...")
+    assert short[-1].startswith("... ") and short[-1].endswith("R53 W w1000 M1 R-7 W")
