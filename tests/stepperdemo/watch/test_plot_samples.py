@@ -190,7 +190,7 @@ def test_traverse_plot_has_one_legend(tmp_path, monkeypatch):
 
 def test_a_long_command_is_the_whole_title_wrapped(issue_plot, tmp_path, monkeypatch):
     fig = _figure_of(["-c", ISSUE_LINE, "--plot", str(tmp_path / "p.png")], monkeypatch)
-    title = fig._suptitle.get_text()
+    (title,) = [t.get_text() for t in fig.texts]  # the suptitle
     assert title.split() == ISSUE_LINE.split()  # nothing cut: its end is there
     assert max(len(line) for line in title.splitlines()) <= plots.TITLE_WIDTH
     longer = ISSUE_LINE + " M2 R5 W" + " R53 W w1000" * 30 + " M1 R-7 W"
