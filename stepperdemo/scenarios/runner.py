@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import tempfile
 import time
@@ -390,6 +391,19 @@ def output_folder_problem(option: str, folder: str) -> str | None:
     return None
 
 
+REPORT_WIDTH_PIPED = 1000  # columns of the results when they go to a file or a pipe
+
+
+def report_console(console_class):
+    """A rich console for the results on stdout: on a terminal its width; written to
+    a file or a pipe (where rich assumes 80 columns and squeezes the tables) wide
+    enough for every table - unless COLUMNS says otherwise."""
+    out = console_class(soft_wrap=False)
+    if not out.is_terminal and not os.environ.get("COLUMNS"):
+        out.width = REPORT_WIDTH_PIPED
+    return out
+
+
 def _pipe_aware_console():
     from rich.console import Console
 
@@ -435,7 +449,7 @@ def main(argv: Sequence[str]) -> int:
             print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
             return EXIT_USAGE
     err = Console(stderr=True)
-    out = PipeAwareConsole(soft_wrap=False) if not args.json else None
+    out = report_console(PipeAwareConsole) if not args.json else None
     results: list[ScenarioResult] = []
     with Progress(console=err, transient=True, disable=args.json or not err.is_terminal) as bar:
         task = bar.add_task(msg.RUN_PROGRESS, total=len(files))

@@ -133,3 +133,20 @@ def test_board_c_on_a_pty_that_never_answers_exits_5_with_one_line(tmp_path):
     assert run.stderr.splitlines() == [
         f"stepperdemo: no answer from StepperDemo at {port} within 3 s of the first command "
         "(nothing received): is the board running StepperDemo at 115200 baud?"]
+
+
+def test_run_board_stops_at_the_first_file_without_an_answer(monkeypatch, capsys):
+    from stepperdemo.front.cli import main
+    from stepperdemo.scenarios import board_runner
+
+    monkeypatch.setattr(board_runner, "SerialBoardLink", lambda port, baud: MuteLink())
+    examples = ROOT / "sequences" / "examples"
+    rc = main(["run", "--board", "mute", str(examples / "move_3200.toml"),
+               str(examples / "two_steppers.toml")])
+    out = capsys.readouterr().out
+    assert rc == 4
+    assert "1 scenarios, 1 failed" in out  # the second file did not wait as long again
+    assert ("stopped: no answer from StepperDemo at mute (nothing received) - is the board "
+            "running StepperDemo at this baud rate?") in out
+    assert any(line.split()[:2] == ["end", "idle"] and "no answer from StepperDemo" in line
+               for line in out.splitlines())  # the file's end, among its checks
