@@ -367,6 +367,12 @@ SERIAL_LOST = "device lost: {reason} - /reconnect to restore the session"
 SERIAL_RECONNECTED = "device back on {port} ({profile}, session {sessions})"
 SERIAL_RECONNECT_FAILED = "reconnect failed: {error}"
 SERIAL_ESTOP_DONE = "emergency stop: every motion halted, positions taken from the device"
+SERIAL_ESTOP_NO_DEVICE = ("emergency stop: no device ({reason}) - nothing sent; a device that "
+                          "loses its host stops by its watchdog; /reconnect")
+SERIAL_ESTOP_FAILED = "emergency stop: no answer, the device is lost ({reason}) - /reconnect"
+SERIAL_NOT_CONNECTED = "no device ({reason}) - /reconnect first; the line was not sent"
+SERIAL_LAST_REPORT = ("the device's figures below are its last report, from before the "
+                      "connection ended")
 SERIAL_LINK_STATS = ("link: {frames_sent} frames sent, {retransmissions} retransmitted, "
                      "{naks} NAKs; {frames_received} received, {crc_errors} CRC errors, "
                      "{framing_errors} framing errors; rtt {rtt_us} us; "

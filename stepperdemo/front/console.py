@@ -302,6 +302,9 @@ class Console:
         if stripped.startswith("/"):
             self.meta(stripped)
             return
+        if self.port and not self.backend.connected:  # a lost device takes no input
+            self.note(serial_cli.not_connected(self.backend))
+            return
         self.app.feed(line + "\n")
         self._wake.set()
 
