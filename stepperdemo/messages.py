@@ -301,8 +301,8 @@ REPORT_PULSES = ("  pulses       {pulses} (the channel counted {counted}), net {
                  " position {position} by the pins")
 REPORT_POSITION_DIFFERS = "  position     the library says {library} (set with @ or X?)"
 REPORT_PERIOD = "  step period  min {min} us, median {median} us, max {max} us"
-REPORT_SPEED = ("  peak speed   {speed:.0f} steps/s; acceleration up to {acc:.0f},"
-                " deceleration up to {dec:.0f} steps/s^2")
+REPORT_SPEED = ("  peak speed   {speed:.0f} steps/s; acceleration up to {acc},"
+                " deceleration up to {dec} steps/s^2")
 REPORT_DEVIATION = ("  vs. plan     {compared} step intervals: {ontime} as planned,"
                     " {late} late (max +{late_max} us), {early} early (max -{early_max} us)")
 REPORT_DEVIATION_NONE = "  vs. plan     all {compared} step intervals as planned"

@@ -27,10 +27,12 @@ from fas.sim.channel import ENTRY_RESTART, ENTRY_START, SimChannel
 from fas.sim.trace import IRQ_BLOCKED
 
 from ..demo.build import DemoStepper, demo_build
+from .ramp_rates import phase_rates
 from .thinning import PlotSamples
 
 GAP_FACTOR = 4  # an interval longer than this many times the last regular one is a gap
 ACC_WINDOWS_PER_S = 100  # acceleration: speed change between windows of >= 10 ms
+SHORT_MOTION_WINDOWS = 3  # a motion shorter than this many windows: .ramp_rates instead
 PLOT_POINTS = 4000  # samples kept per stepper for plots (.thinning: per time bucket)
 CSV_HEADER = "time_us,stepper,direction,position,tick\n"
 
@@ -114,9 +116,13 @@ class StepperMotion:
         self.dev_early = 0
         self.dev_max_late = 0
         self.dev_max_early = 0
-        self.acc_max = 0.0
-        self.dec_max = 0.0
+        self.acc_max: float | None = None  # None: nothing to measure it from
+        self.dec_max: float | None = None
         self._win_ticks = max(1, ticks_per_s // ACC_WINDOWS_PER_S)
+        # the rising edges of the motion under way while it is short (None: it is not),
+        # and what its windows found meanwhile (used only if it turns out long)
+        self._short: list[int] | None = None
+        self._short_rates: tuple[float | None, float | None] = (None, None)
         self._win: list[int] | None = None  # [start tick, intervals, sign]
         self._prev_win: tuple[float, float] | None = None  # (signed speed, mid tick)
         self.dir_changes = 0
@@ -260,17 +266,26 @@ class StepperMotion:
             self.plot.add((t, before, 0.0))  # standing at the old position until now
             self.motions += 1
             self._close_window(prev)
+            self._end_motion()
+            self._short = [t]
             self._prev_win = None
             self.last_interval = None
         else:
             interval = t - prev
             self._period(interval)
             ref = self.last_interval
+            short = self._short
+            if short is not None:
+                if t - short[0] < SHORT_MOTION_WINDOWS * self._win_ticks:
+                    short.append(t)
+                else:
+                    self._long_motion()
             if ref is not None and interval > GAP_FACTOR * ref:
                 self.gaps += 1
                 self.gap_max = max(self.gap_max, interval)
                 self._win = None
                 self._prev_win = None
+                self._long_motion()  # (the windows' figures, not a slope across the gap)
             else:
                 self._window(prev, t, 1 if up else -1)
                 self.last_interval = interval
@@ -346,10 +361,32 @@ class StepperMotion:
             acc = -abs(speed - prev[0]) / dt
         else:
             acc = (abs(speed) - abs(prev[0])) / dt
-        if acc > self.acc_max:
+        if self._short is not None:  # held until the motion is known to be long
+            a, d = self._short_rates
+            self._short_rates = ((max(a or 0.0, acc) if acc > 0 else a),
+                                 (max(d or 0.0, -acc) if acc < 0 else d))
+        else:
+            self._rates(acc if acc > 0 else None, -acc if acc < 0 else None)
+
+    def _rates(self, acc: float | None, dec: float | None) -> None:
+        if acc is not None and (self.acc_max is None or acc > self.acc_max):
             self.acc_max = acc
-        elif -acc > self.dec_max:
-            self.dec_max = -acc
+        if dec is not None and (self.dec_max is None or dec > self.dec_max):
+            self.dec_max = dec
+
+    def _long_motion(self) -> None:
+        """The motion under way is not short (or has a gap): its windows count."""
+        if self._short is not None:
+            self._short = None
+            self._rates(*self._short_rates)
+            self._short_rates = (None, None)
+
+    def _end_motion(self) -> None:
+        """A motion ended: a short one is measured by its step times (.ramp_rates)."""
+        if self._short is not None:
+            self._rates(*phase_rates(self._short, self.tps))
+            self._short = None
+            self._short_rates = (None, None)
 
     # ------------------------------------------------------------ plot data
     @property
@@ -359,6 +396,7 @@ class StepperMotion:
 
     def finish(self, end_tick: int) -> None:
         self._close_window(self.last_rise)
+        self._end_motion()
         if self.last_rise is not None:  # the last motion ends at its last pulse
             self.plot.add((self.last_rise, self.position, 0.0))
         self.unbind()
