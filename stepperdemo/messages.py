@@ -505,9 +505,9 @@ STATUS_REPORT_NONE = "  no status lines yet"
 STATUS_REPORT_STEPPER = "M{n}  {lines} status lines, first {first:.3f} s, last {last:.3f} s"
 STATUS_REPORT_POSITION = "  position     {start} -> {end} (net {net:+d}){final}"
 STATUS_REPORT_FINAL = "; {final} in the last stepper table"
-STATUS_REPORT_SPEED = ("  speed        peak {speed:.0f} steps/s planned (v=); from successive "
-                       "lines acceleration up to {acc:.0f}, deceleration up to {dec:.0f} "
-                       "steps/s^2")
+STATUS_REPORT_SPEED = ("  speed        peak {speed:.0f} steps/s planned (v=); acceleration up "
+                       "to {acc}, deceleration up to {dec} steps/s^2 (slope of v= over the "
+                       "lines of each ACC and RED stretch)")
 STATUS_REPORT_RAMP = "  ramp         {states} (status lines per ramp state)"
 STATUS_REPORT_RUNS = ("  runs         {runs}; {gaps} pause(s) of more than {gap_ms} ms between "
                       "lines while running (the board was busy: W, T, long prints)")
