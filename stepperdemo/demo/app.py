@@ -338,7 +338,9 @@ class StepperDemo(LoopProgram):
             if self.speed_in_milli_hz:
                 self.print_number(s.get_current_speed_in_milli_hz())
                 self.print(msg.STATUS_MSTEPS)
-            else:
+            else:  # before the first command is queued the firmware prints its
+                # "undefined" period: v=268435455us/4294967295ticks (issue 26: kept,
+                # it is what the original prints - conformance d25, d26, d30)
                 self.print_number(s.get_period_in_us_after_commands_completed())
                 self.print(msg.STATUS_US)
                 self.print_number(s.get_period_in_ticks_after_commands_completed())
