@@ -744,6 +744,8 @@ class StepperDemo(LoopProgram):
         return self.command_table.hints(self.mode)
 
     def toolbar_status(self) -> str:
+        if self.mode == _TEST and self.test_ongoing:
+            return f"M{self.selected + 1} | test running"
         return f"M{self.selected + 1}"
 
     def exit_code(self) -> int:

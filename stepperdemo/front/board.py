@@ -39,7 +39,7 @@ from .board_link import BoardLink, SerialBoardLink
 from .board_log import BoardLog
 from .board_options import add_arguments, check_arguments  # noqa: F401 (re-exported)
 from .board_session import BOOT_WAIT_S, NO_ANSWER_S, POLL_S, BoardSession, End
-from .console import Console
+from .console import Console, toolbar_hints
 
 EXIT_OK = 0
 EXIT_TEST_FAILED = 1
@@ -246,7 +246,6 @@ class BoardConsole(Console):
 
         s = self.session
         st = s.state
-        hints = "  ".join(k for k, _ in self.app.completions()[:12])
         if s.lost is not None:
             status = msg.BOARD_TOOLBAR_LOST
         else:
@@ -256,7 +255,7 @@ class BoardConsole(Console):
                 running=" ".join(f"M{n}" for n in st.running()) or msg.BOARD_NONE,
                 held=msg.BOARD_TOOLBAR_HELD.format(why=held) if held else "", t=s.now())
         return FormattedText([("bold", msg.BOARD_TOOLBAR.format(port=s.link.name)),
-                              ("", status), ("italic", f"{hints}  ? usage  /help")])
+                              ("", status), ("italic", toolbar_hints(self.app.completions()))])
 
     # ------------------------------------------------------- meta commands
     def handle_line(self, line: str) -> None:
