@@ -17,7 +17,7 @@ deviations, a clean run has none.
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import IO
 
@@ -63,6 +63,15 @@ def demo_wiring(profile: Profile) -> list[Wiring]:
     return [Wiring.from_demo(i, cfg) for i, cfg in enumerate(demo_build(profile).steppers)]
 
 
+def shared_step_pins(wiring: Sequence[Wiring]) -> set[int]:
+    """Step pins that are another stepper's direction or enable pin too (StepperDemo on
+    an ESP32 wires M12's step pin 26 as the enable pin of M1, M7 and M13): a rise
+    there is a step only when the stepper's channel has a pulse planned for it."""
+    roles = {p for w in wiring for p in (w.direction, w.enable_low, w.enable_high)
+             if p is not None}
+    return {w.step for w in wiring} & roles
+
+
 class ChannelCounts:
     """A channel's counts at the moment a recording ended: the report of a finished
     recording does not count what the channel did afterwards."""
@@ -83,8 +92,12 @@ class StepperMotion:
     """Figures of one stepper, fed edge by edge in global time order."""
 
     def __init__(self, wiring: Wiring, ticks_per_s: int, levels: dict[int, int],
-                 position: int = 0, csv: IO[str] | None = None) -> None:
+                 position: int = 0, csv: IO[str] | None = None,
+                 clock: Callable[[], int] | None = None) -> None:
+        """``clock``: the simulated time, for a stepper whose step pin is shared (when
+        a queue entry was taken up: no pulse of it comes earlier)."""
         self.wiring = wiring
+        self.clock = clock
         self.tps = ticks_per_s
         self.levels = levels  # shared pin levels of the stream (dir/enable lookups)
         self.csv = csv
@@ -137,6 +150,13 @@ class StepperMotion:
         self.plot = PlotSamples(PLOT_POINTS, key=2)
         self.entry_steps: dict[int, int] = {}  # planned period -> steps (QuickStep plateaus)
         self.entries_taken = 0
+        # channel pulse index after the last pulse of the entries taken up by the time
+        # of the edge at hand (None: not known, the channel ran when bound): on a step
+        # pin shared with another role a rise beyond it is not a step.  The entries
+        # taken up later than that edge wait in pending_ends: (tick, end).
+        self.planned_end: int | None = 0
+        self.pending_ends: deque[tuple[int, int]] = deque()
+        self._in_pulse = False
 
     # --------------------------------------------------------------- channel
     def bind(self, channel: SimChannel) -> None:
@@ -145,6 +165,7 @@ class StepperMotion:
             self.index = channel.pulses + (self.index - self.channel.pulses)
         else:
             self.index = channel.pulses
+        self.planned_end = None if channel.is_running() else self.index
         self.channel = channel
         self.base = {"pulses": channel.pulses, "dry": channel.dry,
                      "missed_compares": channel.missed_compares, "starts": channel.starts}
@@ -153,11 +174,14 @@ class StepperMotion:
     def resume(self, channel: SimChannel | None, base: dict[str, int],
                others: list[tuple[SimChannel, dict[str, int]]], index: int,
                cur_ticks: int | None,
-               entries: Sequence[tuple[int, int, int, int]] = ()) -> None:
+               entries: Sequence[tuple[int, int, int, int]] = (),
+               planned_end: int | None = None,
+               pending_ends: Sequence[tuple[int, int]] = ()) -> None:
         """Continue where an earlier part of the run left off (a replay from the head
         of a bounded recording): the channel and its counts at that point, the pulse
-        index of the next rising edge, the period in force and the entries taken up
-        from there on - without listening to the channel."""
+        index of the next rising edge, the period in force, the entries taken up
+        from there on and where the pulses planned so far end - without listening to
+        the channel."""
         self.channel = channel
         self.base = base
         self.others = others
@@ -165,6 +189,8 @@ class StepperMotion:
         self.cur_ticks = cur_ticks
         for e in entries:
             self.entry(*e)
+        self.planned_end = planned_end  # (what the entries said, as of the head)
+        self.pending_ends = deque(pending_ends)
 
     def unbind(self) -> None:
         for ch in [self.channel] + [c for c, _ in self.others]:
@@ -173,6 +199,10 @@ class StepperMotion:
 
     def entry(self, kind: int, index: int, ticks: int, steps: int) -> None:
         self.plan.append((kind, index, ticks, steps))
+        if self.clock is not None:  # a shared step pin: this entry's pulses come later
+            self.pending_ends.append((self.clock(), index + steps))
+        elif self.planned_end is None or index + steps > self.planned_end:
+            self.planned_end = index + steps
         if steps:
             self.entry_steps[ticks] = self.entry_steps.get(ticks, 0) + steps
             self.entries_taken += 1
@@ -209,6 +239,27 @@ class StepperMotion:
         if not was_enabled and self.enabled():
             self.enables += 1
             self._enable_edge = t
+
+    def shared_edge(self, t: int, level: int) -> bool:
+        """An edge on a step pin that also serves another role: is it this stepper's
+        (a rise the channel has a pulse planned for, or the fall after it)?  If so it
+        is taken; False: it is the other role's."""
+        if level:
+            pending = self.pending_ends
+            while pending and pending[0][0] <= t:
+                end = pending.popleft()[1]
+                if self.planned_end is None or end > self.planned_end:
+                    self.planned_end = end
+            end = self.planned_end
+            if end is not None and self.index >= end:
+                return False
+            self._in_pulse = True
+        elif not self._in_pulse:
+            return False
+        else:
+            self._in_pulse = False
+        self.step_run((t,), bytes((level,)))
+        return True
 
     def step_run(self, times: Sequence[int], levels: bytes) -> None:
         rise = self._rise
@@ -434,10 +485,15 @@ class MotionAnalysis:
         self.csv = csv
         if csv is not None:
             csv.write(CSV_HEADER)
+        # step pins that are another stepper's direction or enable pin too: their edges
+        # are sorted by the plans of the channels
+        self._shared = shared_step_pins(wiring)
+        clock = backend.now if live else None
         self.steppers = [
             StepperMotion(w, self.tps, self.levels,
                           positions[i] if positions is not None and i < len(positions)
-                          and positions[i] is not None else 0, csv)
+                          and positions[i] is not None else 0, csv,
+                          clock if w.step in self._shared else None)
             for i, w in enumerate(wiring)]
         self._by_step = {m.wiring.step: m for m in self.steppers}
         self._by_dir: dict[int, list[StepperMotion]] = {}
@@ -467,14 +523,23 @@ class MotionAnalysis:
     def edge_run(self, pin: int, times: Sequence[int], levels: bytes) -> None:
         m = self._by_step.get(pin)
         if m is not None and m.channel is not None:
+            if pin in self._shared:
+                for t, lv in zip(times, levels, strict=True):
+                    if not m.shared_edge(t, lv):
+                        self._pin_edges(pin, (t,), bytes((lv,)))
+                return
             m.step_run(times, levels)
             return
-        if m is not None:  # no stepper on this pin: something else drives it (an output)
+        if m is not None and pin not in self._shared:  # no channel: an output drives it
             self.levels[pin] = levels[-1] if levels else self.levels.get(pin, 0)
             return
         if pin == IRQ_BLOCKED:
             self._irq(times, levels)
             return
+        self._pin_edges(pin, times, levels)
+
+    def _pin_edges(self, pin: int, times: Sequence[int], levels: bytes) -> None:
+        """Edges of a direction or enable pin (or of another pin: its level only)."""
         dirs = self._by_dir.get(pin)
         enables = self._by_enable.get(pin)
         for t, lv in zip(times, levels, strict=True):
