@@ -45,7 +45,8 @@ DESCRIPTION_TAIL = """
 
 exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
             3 --max-time reached, 4 a scenario failed (run), 5 device lost
-            (--board: the board was lost or restarted), 130 interrupted,
+            (--board: the board was lost or restarted, or no StepperDemo
+            answer came within 3 s), 130 interrupted,
             141 the reader of the output went away (e.g. `| head`), quietly"""
 
 
