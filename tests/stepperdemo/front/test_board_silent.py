@@ -140,6 +140,7 @@ def test_run_board_stops_at_the_first_file_without_an_answer(monkeypatch, capsys
     from stepperdemo.scenarios import board_runner
 
     monkeypatch.setattr(board_runner, "SerialBoardLink", lambda port, baud: MuteLink())
+    monkeypatch.delenv("COLUMNS", raising=False)  # (pytest-xdist's workers have 80)
     examples = ROOT / "sequences" / "examples"
     rc = main(["run", "--board", "mute", str(examples / "move_3200.toml"),
                str(examples / "two_steppers.toml")])
