@@ -441,8 +441,8 @@ Input is sent one command at a time; after W it waits until the board's wait is 
 (in test mode: until the test completed), as a W in a StepperDemo line means."""
 BOARD_LOST = "board lost: {reason} - /reconnect restores the session"
 BOARD_NOT_CONNECTED = "no board ({reason}) - /reconnect first; the line was not sent"
-BOARD_SILENT_NOTHING = "nothing received"
-BOARD_SILENT_FOREIGN = "{n} bytes received, no line of them StepperDemo's"
+BOARD_SILENT_NOTHING = "no start banner, nothing received"
+BOARD_SILENT_FOREIGN = "no start banner; {n} bytes received, no line of them StepperDemo's"
 BOARD_NO_ANSWER = ("no answer from StepperDemo within {seconds:g} s of the first command "
                    "({why}): is the board running StepperDemo at {baud} baud? "
                    "(/reconnect PORT tries another port)")

@@ -64,7 +64,7 @@ def test_a_silent_port_ends_a_run_after_no_answer_s_saying_nothing_came():
     assert s.run_script("M1 A1000 V100 R3200 W", 3600) == End.NO_ANSWER
     assert link.written == b"M1 A1000 V100 R3200 W\n"  # all sent; the W waits for ever
     assert NO_ANSWER_S <= link.t - s.input_start_s < NO_ANSWER_S + 0.2
-    assert s.silent_reason() == "nothing received"
+    assert s.silent_reason() == "no start banner, nothing received"
 
 
 def test_another_sketch_is_told_by_its_bytes():
@@ -72,7 +72,8 @@ def test_another_sketch_is_told_by_its_bytes():
     assert s.run_script("M1 R100", 3600) == End.NO_ANSWER  # (no W: not held, but no answer)
     n = len(s.transcript)
     assert n == 2 * len(GARBAGE)
-    assert s.silent_reason() == f"{n} bytes received, no line of them StepperDemo's"
+    assert s.silent_reason() == (f"no start banner; {n} bytes received, no line of them "
+                                 "StepperDemo's")
 
 
 def test_stepperdemo_answers_are_recognised_and_a_board_run_ends_idle():
@@ -99,9 +100,9 @@ def test_repl_notes_it_once(tmp_path):
         console.driver.advance()
         console.session.poll(0.05)
     notes = [ln for ln in console.lines if ln.startswith("no answer from StepperDemo")]
-    assert notes == ["no answer from StepperDemo within 3 s of the first command (nothing "
-                     "received): is the board running StepperDemo at 115200 baud? "
-                     "(/reconnect PORT tries another port)"]
+    assert notes == ["no answer from StepperDemo within 3 s of the first command (no start "
+                     "banner, nothing received): is the board running StepperDemo at 115200 "
+                     "baud? (/reconnect PORT tries another port)"]
 
 
 def test_board_c_on_a_pty_that_never_answers_exits_5_with_one_line(tmp_path):
@@ -132,7 +133,8 @@ def test_board_c_on_a_pty_that_never_answers_exits_5_with_one_line(tmp_path):
     assert run.stdout == ""
     assert run.stderr.splitlines() == [
         f"stepperdemo: no answer from StepperDemo at {port} within 3 s of the first command "
-        "(nothing received): is the board running StepperDemo at 115200 baud?"]
+        "(no start banner, nothing received): is the board running StepperDemo at 115200 "
+        "baud?"]
 
 
 def test_run_board_stops_at_the_first_file_without_an_answer(monkeypatch, capsys):
@@ -147,7 +149,7 @@ def test_run_board_stops_at_the_first_file_without_an_answer(monkeypatch, capsys
     out = capsys.readouterr().out
     assert rc == 4
     assert "1 scenarios, 1 failed" in out  # the second file did not wait as long again
-    assert ("stopped: no answer from StepperDemo at mute (nothing received) - is the board "
-            "running StepperDemo at this baud rate?") in out
+    assert ("stopped: no answer from StepperDemo at mute (no start banner, nothing received) - "
+            "is the board running StepperDemo at this baud rate?") in out
     assert any(line.split()[:2] == ["end", "idle"] and "no answer from StepperDemo" in line
                for line in out.splitlines())  # the file's end, among its checks
