@@ -348,7 +348,9 @@ class StepperDemo(LoopProgram):
             if self.speed_in_milli_hz:
                 self.print_number(s.get_current_speed_in_milli_hz())
                 self.print(msg.STATUS_MSTEPS)
-            else:
+            else:  # before the first command is queued the firmware prints its
+                # "undefined" period: v=268435455us/4294967295ticks (issue 26: kept,
+                # it is what the original prints - conformance d25, d26, d30)
                 self.print_number(s.get_period_in_us_after_commands_completed())
                 self.print(msg.STATUS_US)
                 self.print_number(s.get_period_in_ticks_after_commands_completed())
@@ -752,6 +754,8 @@ class StepperDemo(LoopProgram):
         return self.command_table.hints(self.mode)
 
     def toolbar_status(self) -> str:
+        if self.mode == _TEST and self.test_ongoing:
+            return f"M{self.selected + 1} | test running"
         return f"M{self.selected + 1}"
 
     def exit_code(self) -> int:

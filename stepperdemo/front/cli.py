@@ -13,7 +13,7 @@ from fas.arch import PROFILES
 from .. import messages as msg
 from ..subcommands import SUBCOMMANDS, help_lines, main_of
 from ..watch import options as observe_options
-from . import board_options, serial_cli
+from . import arg_checks, board_options, serial_cli
 from .scripted import (  # noqa: F401 (the exit codes are re-exported)
     EXIT_MAX_TIME,
     EXIT_OK,
@@ -45,7 +45,8 @@ DESCRIPTION_TAIL = """
 
 exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
             3 --max-time reached, 4 a scenario failed (run), 5 device lost
-            (--board: the board was lost or restarted), 130 interrupted,
+            (--board: the board was lost or restarted, or no StepperDemo
+            answer came within 3 s), 130 interrupted,
             141 the reader of the output went away (e.g. `| head`), quietly"""
 
 
@@ -130,10 +131,8 @@ def _main(argv: Sequence[str] | None = None) -> int:
             return main_fn(argv[1:])
         program, argv = argv[0], argv[1:]  # a program hosted with the console's options
     args = build_parser(program).parse_args(argv)
-    if args.max_time <= 0:
-        print(msg.CLI_ERROR.format(problem="--max-time must be positive"), file=sys.stderr)
-        return EXIT_USAGE
-    problem = observe_options.check_arguments(args)  # issue 6: e.g. --plot without matplotlib
+    problem = (arg_checks.number_problem(args)  # --max-time, --speed: finite, in range
+               or observe_options.check_arguments(args))  # e.g. --plot without matplotlib
     if problem is not None:
         print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -92,11 +94,14 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
 
         def named(folder: str | None, suffix: str) -> str | None:
             return str(Path(folder) / f"{sc.name}{suffix}") if folder else None
-        obs = observe.attach(backend, vcd=named(watch.vcd_dir, ".vcd"),
-                             csv=named(watch.csv_dir, ".csv"),
-                             analyse=bool(watch.csv_dir or watch.plot_dir
-                                          or watch.timing_report),
-                             extra_signals=app.trace_signals())
+        try:
+            obs = observe.attach(backend, vcd=named(watch.vcd_dir, ".vcd"),
+                                 csv=named(watch.csv_dir, ".csv"),
+                                 analyse=bool(watch.csv_dir or watch.plot_dir
+                                              or watch.timing_report),
+                                 extra_signals=app.trace_signals())
+        except OSError as exc:  # (the folder was checked: a disk full, a name too long)
+            return ScenarioResult(str(sc.path), sc.name, False, error=str(exc))
         app.watch(obs)
     t0 = time.perf_counter()
     reason = app.run_script(sc.input, firmware_end=(sc.end == "firmware"),
@@ -202,15 +207,18 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
 
         obs.finish()
         if watch.plot_dir and plots.png_available():
-            plots.write_png(plots.series_of(obs), str(Path(watch.plot_dir) / f"{sc.name}.png"),
-                            (1200, 800), title=f"{sc.name}: {sc.input[:80]}",
-                            outputs=plots.outputs_of(obs))
+            problem = plots.write_png_or_problem(
+                plots.series_of(obs), str(Path(watch.plot_dir) / f"{sc.name}.png"),
+                (1200, 800), title=plots.plot_title(f"{sc.name}: {sc.input}"),
+                outputs=plots.outputs_of(obs))
+            if problem is not None:
+                res.error = problem
         if watch.timing_report:
             watch.report_lines.append(msg.RUN_TIMING_REPORT_HEAD.format(name=sc.name))
             watch.report_lines += report.report_lines(
                 obs, positions=report.library_positions(app))
             watch.report_lines += app.watch_report()
-    res.ok = all(c.ok for c in res.checks)
+    res.ok = res.error is None and all(c.ok for c in res.checks)
     return res
 
 
@@ -402,6 +410,45 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+def output_folder_problem(option: str, folder: str) -> str | None:
+    """``run --vcd/--steps-csv/--plot DIR``: DIR is made if its parent folder exists
+    (never a chain of folders: a typo in the path is said, not built); a DIR that
+    cannot take files is a problem (a one-line text), else None."""
+    path = Path(folder)
+    try:
+        if path.exists() and not path.is_dir():
+            return msg.RUN_BAD_FOLDER.format(option=option, folder=folder,
+                                             error=msg.RUN_NOT_A_FOLDER)
+        if not path.is_dir():
+            if not path.parent.is_dir():
+                return msg.RUN_NO_FOLDER.format(option=option, folder=folder,
+                                                parent=path.parent)
+            path.mkdir()
+    except OSError as exc:
+        return msg.RUN_BAD_FOLDER.format(option=option, folder=folder,
+                                         error=exc.strerror or exc)
+    try:  # can a file be made there? (root passes every permission check: try it)
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError as exc:
+        return msg.RUN_BAD_FOLDER.format(option=option, folder=folder,
+                                         error=exc.strerror or exc)
+    return None
+
+
+REPORT_WIDTH_PIPED = 1000  # columns of the results when they go to a file or a pipe
+
+
+def report_console(console_class):
+    """A rich console for the results on stdout: on a terminal its width; written to
+    a file or a pipe (where rich assumes 80 columns and squeezes the tables) wide
+    enough for every table - unless COLUMNS says otherwise."""
+    out = console_class(soft_wrap=False)
+    if not out.is_terminal and not os.environ.get("COLUMNS"):
+        out.width = REPORT_WIDTH_PIPED
+    return out
+
+
 def _pipe_aware_console():
     from rich.console import Console
 
@@ -435,16 +482,19 @@ def main(argv: Sequence[str]) -> int:
         from .board_runner import main as board_main
         return board_main(args, files, bool(missing))
     watch = Watch(args.vcd, args.steps_csv, args.plot, args.timing_report)
-    for folder in (args.vcd, args.steps_csv, args.plot):
-        if folder:
-            Path(folder).mkdir(parents=True, exist_ok=True)
     if args.plot:
         from ..watch import plots
         if not plots.png_available():
             print(msg.PLOT_EXTRA_MISSING, file=sys.stderr)
             return EXIT_USAGE
+    for option, folder in (("--vcd", args.vcd), ("--steps-csv", args.steps_csv),
+                           ("--plot", args.plot)):
+        problem = output_folder_problem(option, folder) if folder else None
+        if problem is not None:
+            print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
+            return EXIT_USAGE
     err = Console(stderr=True)
-    out = PipeAwareConsole(soft_wrap=False) if not args.json else None
+    out = report_console(PipeAwareConsole) if not args.json else None
     results: list[ScenarioResult] = []
     with Progress(console=err, transient=True, disable=args.json or not err.is_terminal) as bar:
         task = bar.add_task(msg.RUN_PROGRESS, total=len(files))
