@@ -59,20 +59,51 @@ def dir_pins(profile, axes: int) -> list[int]:
     return [pin for pin in range(20, 200) if pin not in taken][:axes]
 
 
+class Stream:
+    """A sender streaming targets into a group as its queue takes them (a G-code
+    sender waiting for ``ok``): :meth:`run` lets time pass while it keeps feeding."""
+
+    def __init__(self, backend, group: PathGroup, targets: Sequence[Sequence[int]],
+                 feed: float | None) -> None:
+        self.backend = backend
+        self.group = group
+        self.targets = list(targets)
+        self.feed = feed
+        self.sent = 0
+
+    def pump(self) -> None:
+        g = self.group
+        while self.sent < len(self.targets):
+            res = g.line(self.targets[self.sent], self.feed)
+            if res == PathResult.QUEUE_FULL:
+                return
+            assert res in (PathResult.OK, PathResult.EMPTY_BLOCK), res
+            self.sent += 1
+        g.flush()
+
+    def run(self, until=None, limit_s: float = 3600.0) -> bool:
+        """Feed and let time pass until ``until()`` (default: every target sent and the
+        group idle); False on timeout."""
+        b = self.backend
+        g = self.group
+        if until is None:
+            def until() -> bool:
+                return self.sent == len(self.targets) and g.is_idle()
+        deadline = b.now() + int(limit_s * b.profile.ticks_per_s)
+        self.pump()
+        while not until():
+            if b.now() >= deadline:
+                return False
+            b.wait_until(lambda: until() or (self.sent < len(self.targets)
+                                             and g.room() > 0), deadline - b.now())
+            self.pump()
+        return True
+
+
 def feed_all(backend, group: PathGroup, targets: Sequence[Sequence[int]],
              feed: float | None, limit_s: float = 3600.0) -> None:
     """Queue every target (waiting for room as a sender would), flush, run to idle."""
-    tps = backend.profile.ticks_per_s
-    for t in targets:
-        while True:
-            res = group.line(t, feed)
-            if res == PathResult.QUEUE_FULL:
-                assert backend.wait_until(lambda: group.room() > 0, int(limit_s * tps))
-                continue
-            assert res in (PathResult.OK, PathResult.EMPTY_BLOCK), res
-            break
-    group.flush()
-    assert backend.wait_until(group.is_idle, int(limit_s * tps)), "the path did not end"
+    assert Stream(backend, group, targets, feed).run(limit_s=limit_s), "the path did not end"
 
 
 def axis_steps(backend, pins: Sequence[int], dirs: Sequence[int]) -> list[list[tuple[int, int]]]:
@@ -130,24 +161,29 @@ def perp_to_segment(p: Sequence[float], a: Sequence[float], b: Sequence[float]) 
 
 
 def path_deviation(points: Sequence[tuple[int, tuple[int, ...]]],
-                   polyline: Sequence[Sequence[float]]) -> tuple[float, float]:
+                   polyline: Sequence[Sequence[int]]) -> tuple[float, float]:
     """The largest Chebyshev and Euclidean distance (steps) of the instants' positions
-    from the polyline, matching each instant against the segments near the one the
-    previous instant was closest to (the path is followed in order)."""
+    from the polyline (its vertices in steps: where the blocks end).  Every axis makes
+    its last step of a block on one tick, so the path is at a vertex at one instant:
+    the instants in between are measured against the segment between the vertex
+    reached last and the next one."""
+    verts = [tuple(polyline[0])]
+    for v in polyline[1:]:
+        if tuple(v) != verts[-1]:
+            verts.append(tuple(v))
     worst_c = worst_e = 0.0
-    k = 0
-    last = len(polyline) - 2
+    b = 0
+    last = len(verts) - 1
     for _, p in points:
-        lo, hi = max(0, k - 2), min(last, k + 6)
-        best, best_k = math.inf, k
-        for j in range(lo, hi + 1):
-            v = cheb_to_segment(p, polyline[j], polyline[j + 1])
-            if v < best:
-                best, best_k = v, j
-        k = best_k
-        e = min(perp_to_segment(p, polyline[j], polyline[j + 1]) for j in range(lo, hi + 1))
-        worst_c = max(worst_c, best)
-        worst_e = max(worst_e, e)
+        if b < last and p == verts[b + 1]:
+            b += 1
+            continue  # at the vertex: on the path
+        if b == last:
+            raise AssertionError(f"a step after the path's end: {p}")
+        a, e = verts[b], verts[b + 1]
+        worst_c = max(worst_c, cheb_to_segment(p, a, e))
+        worst_e = max(worst_e, perp_to_segment(p, a, e))
+    assert b == last, f"vertex {b + 1} of {last} was never reached exactly: {verts[b + 1]}"
     return worst_c, worst_e
 
 
@@ -199,3 +235,53 @@ def fit_speed(times: Sequence[float], xs: Sequence[float], at: float) -> float:
     d = det(m)
     m1 = [[m[r][0], b[r], m[r][2]] for r in range(3)]
     return det(m1) / d
+
+
+def axis_motion(steps: Sequence[tuple[int, int]]) -> tuple[list[int], list[int]]:
+    """(ticks, position after the step) of one axis's steps."""
+    pos = 0
+    ticks, xs = [], []
+    for t, d in steps:
+        pos += d
+        ticks.append(t)
+        xs.append(pos)
+    return ticks, xs
+
+
+def interp(ticks: Sequence[int], xs: Sequence[int], t: float) -> float:
+    """Position at tick ``t``, linear between the steps around it."""
+    import bisect
+    k = bisect.bisect_right(ticks, t)
+    if k == 0:
+        return float(xs[0] - (xs[1] - xs[0] if len(xs) > 1 else 1))
+    if k >= len(ticks):
+        return float(xs[-1])
+    t0, t1 = ticks[k - 1], ticks[k]
+    x0, x1 = xs[k - 1], xs[k]
+    return x0 + (x1 - x0) * (t - t0) / (t1 - t0)
+
+
+def max_accel(ticks: Sequence[int], xs: Sequence[int], t_from: int, t_to: int, tps: int,
+              window_s: float) -> tuple[float, float]:
+    """(largest |second difference| / W^2 in steps/s^2, largest |first difference| / W
+    in steps/s) of the interpolated position over [t_from, t_to] with spacing W."""
+    import bisect
+    w = int(window_s * tps)
+    worst_a = worst_v = 0.0
+    k0 = bisect.bisect_right(ticks, t_from)  # the axis's steps inside the span only:
+    k1 = bisect.bisect_left(ticks, t_to)  # before its first step it stood or ran the
+    if k1 - k0 < 3:  # previous block's way
+        return 0.0, 0.0
+    t_from, t_to = ticks[k0], ticks[k1 - 1]
+    t = t_from + w
+    step = max(1, w // 4)
+    while t + w <= t_to:
+        x0 = interp(ticks, xs, t - w)
+        x1 = interp(ticks, xs, t)
+        x2 = interp(ticks, xs, t + w)
+        a = abs(x2 - 2 * x1 + x0) / (window_s ** 2)
+        v = abs(x2 - x1) / window_s
+        worst_a = max(worst_a, a)
+        worst_v = max(worst_v, v)
+        t += step
+    return worst_a, worst_v

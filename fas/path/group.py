@@ -239,6 +239,8 @@ class PathGroup:
         (None: the rapid rate - every axis at most its ``max_rate``)."""
         if not self.attached:
             return PathResult.ERR_NOT_ATTACHED
+        if self.lookahead.full():
+            return PathResult.QUEUE_FULL
         n = len(self.axes)
         if len(target) != n:
             return PathResult.ERR_AXES
@@ -247,8 +249,6 @@ class PathGroup:
         ints = tuple(int(t) for t in target)
         if any(not INT32_MIN <= t <= INT32_MAX for t in ints):
             return PathResult.ERR_RANGE
-        if self.lookahead.full():
-            return PathResult.QUEUE_FULL
         for a in self.axes:
             if a.base.is_active():  # the stepper's own planner has motion to plan
                 return PathResult.ERR_AXIS_BUSY

@@ -111,6 +111,7 @@ class AxisWriter:
         #: the tick at which the channel takes up the last entry written (a pause at
         #: its start, steps at their last): it must come after the next task run
         self.last_start = 0
+        self.free = 0  # entries the queue takes (counted down while writing)
 
     # ----------------------------------------------------------------- a run
     def begin(self, start_tick: int, last_start: int) -> None:
@@ -143,8 +144,9 @@ class AxisWriter:
             return Wrote.OK
         self._deep = now + low_water
         q = self.queue
+        self.free = q.queue_len - q.queue_entries()
         while True:
-            free = q.queue_len - q.queue_entries()
+            free = self.free
             if free < 2:
                 return Wrote.FULL
             if not self.pending:
@@ -216,9 +218,9 @@ class AxisWriter:
         pitch = seg.pitch[i]
         t0 = self.w_end
         min_cmd = self.min_cmd
-        tau = self._span_limit(seg, pitch, t0)
+        t_lim, slowing = self._span_limit(seg, pitch, t0)
         jmax = min(known, j0 + MAX_STEPS)
-        jh = int(seg.dist_at(t0 + tau) / pitch)
+        jh = int(seg.dist_at(t_lim) / pitch)
         if jh > jmax:
             jh = jmax
         elif jh <= j0:
@@ -254,36 +256,69 @@ class AxisWriter:
                     back = int(seg.dist_at(tn - min_cmd) / pitch)
                     if j0 < back < jh:
                         jh, th = back, seg.step_tick(i, back)
-        return self._group(seg, jh - j0, th - t0, jh, th)
+        return self._group(seg, jh - j0, th - t0, jh, th, slowing)
 
-    def _span_limit(self, seg: Segment, pitch: float, t0: float) -> float:
-        """How long a group from ``t0`` may last: its chord stays within ``tol`` steps
-        of the exact positions where the path accelerates (``a_axis tau^2 / 8``);
-        over a cruise the chord is exact, and may go on half that far into a change
-        of speed after it (``a_axis tau^2 / 2``)."""
+    def _span_limit(self, seg: Segment, pitch: float, t0: float) -> tuple[float, bool]:
+        """(the tick up to which a group from ``t0`` may go, whether the path slows
+        down there).  The chord of a group stays within ``tol`` steps of the exact
+        positions where the path changes speed (``a_axis tau^2 / 8``); over a cruise
+        it is exact, and may go on half that far into a change of speed after it
+        (``a_axis tau^2 / 2``).  A group does not reach from a part that slows down
+        into one that does not, nor back: it is placed early on one side of the exact
+        times and that side differs (:meth:`_group`)."""
         a = seg.accel / pitch  # steps/tick^2
+        pieces = seg.pieces
+        k = 0
+        while k < len(pieces) and pieces[k].t1 <= t0:
+            k += 1
+        if k == len(pieces):
+            return t0 + math.sqrt(8.0 * self.tol / a), False
+        slowing = pieces[k].a < 0.0
         cruise_end = None
-        for p in seg.pieces:
-            if t0 < p.t1:
-                if p.a != 0.0:
-                    break
+        boundary = math.inf
+        for p in pieces[k:]:
+            if (p.a < 0.0) != slowing:
+                boundary = p.t0
+                break
+            if p.a == 0.0 and (cruise_end is not None or p is pieces[k]):
                 cruise_end = p.t1
+            elif p.a != 0.0 and cruise_end is not None:
+                break
         if cruise_end is not None:
-            return cruise_end - t0 + math.sqrt(2.0 * self.tol / a)
-        return math.sqrt(8.0 * self.tol / a)
+            limit = cruise_end + math.sqrt(2.0 * self.tol / a)
+        else:
+            limit = t0 + math.sqrt(8.0 * self.tol / a)
+        return (limit if limit < boundary else boundary), slowing
 
-    def _group(self, seg: Segment, m: int, span: int, jh: int, th: int) -> Wrote:
-        """``m`` steps from ``w_end`` evenly over ``span`` ticks; step ``jh`` at ``th``."""
+    def _group(self, seg: Segment, m: int, span: int, jh: int, th: int,
+               slowing: bool) -> Wrote:
+        """``m`` steps from ``w_end`` over ``span`` ticks; step ``jh`` at ``th``.
+
+        Each step of the group comes at its exact tick or before it, never after - so
+        an axis is never a whole step behind the path (its position rounds down along
+        the path).  While the path keeps its speed or speeds up, the step times are
+        concave and their chord lies before them: the steps are spread evenly (two
+        periods ``P``, ``P + 1`` where the span does not divide, the shorter first).
+        Where it slows down the chord would lie after them: the steps come at the
+        period of the group's first interval, the shortest, and the last waits for
+        the rest."""
         i = self.axis
         up = seg.ups[i]
-        cmds = self._commands(span, m)
+        cmds = None
+        if slowing and m > 1:
+            first = seg.step_tick(i, self.j + 1) - self.w_end
+            rest = span - (m - 1) * first
+            if (first >= self.queue.max_speed_in_ticks and first <= MAX_TICKS
+                    and self._legal(first, m - 1) and self.min_wait <= rest <= MAX_TICKS):
+                cmds = [(first, m - 1), (rest, 1)]
+        if cmds is None:
+            cmds = self._commands(span, m)
         if cmds is None:  # slower than a command's period: one step and a wait
             jh = self.j + 1
             th = seg.step_tick(i, jh)
             wait = max(th - self.w_end, self.min_wait)
             cmds = [(t, 1 if k == 0 else 0) for k, t in enumerate(split_ticks(wait))]
-        free = self.queue.queue_len - self.queue.queue_entries()
-        if free < len(cmds):
+        if self.free < len(cmds):
             return Wrote.FULL
         res = self._write_all(cmds, up, seg)
         if res != Wrote.OK:
@@ -336,8 +371,7 @@ class AxisWriter:
                 wait = self.min_wait
             parts = split_ticks(wait)
             cmds = [(t, 1 if k == 0 else 0) for k, t in enumerate(parts)]
-        free = self.queue.queue_len - self.queue.queue_entries()
-        if free < len(cmds):
+        if self.free < len(cmds):
             return Wrote.FULL
         if found == Found.END:
             res = self._write_all(cmds, up, seg)
@@ -411,6 +445,7 @@ class AxisWriter:
             if listener is not None and steps and seg is not None:
                 speed = seg.pitch[self.axis] * self.tps * 60.0 / ticks
                 listener(self.w_end, speed, seg.tag)
+            self.free -= 1
             if steps > 1:
                 self.last_start = self.w_end + (steps - 1) * ticks
                 self.w_end += ticks * steps
