@@ -263,25 +263,31 @@ def interp(ticks: Sequence[int], xs: Sequence[int], t: float) -> float:
 
 def max_accel(ticks: Sequence[int], xs: Sequence[int], t_from: int, t_to: int, tps: int,
               window_s: float) -> tuple[float, float]:
-    """(largest |second difference| / W^2 in steps/s^2, largest |first difference| / W
-    in steps/s) of the interpolated position over [t_from, t_to] with spacing W."""
+    """(largest |acceleration| in steps/s^2, largest |speed| in steps/s) of one axis
+    inside [t_from, t_to], from three of its steps about ``window_s`` apart: at a
+    step's tick its position is exact, so (with steps at ticks a < b < c)
+    ``2 ((x_c - x_b) / (t_c - t_b) - (x_b - x_a) / (t_b - t_a)) / (t_c - t_a)``
+    is off by at most ``4 e / W^2`` when each step is within ``e`` steps of its
+    exact time's position (and the speed ``(x_c - x_b) / (t_c - t_b)`` by ``2 e / W``).
+    The axis's own steps only: before its first step in the span it stood, or moved
+    as the block before."""
     import bisect
     w = int(window_s * tps)
     worst_a = worst_v = 0.0
-    k0 = bisect.bisect_right(ticks, t_from)  # the axis's steps inside the span only:
-    k1 = bisect.bisect_left(ticks, t_to)  # before its first step it stood or ran the
-    if k1 - k0 < 3:  # previous block's way
-        return 0.0, 0.0
-    t_from, t_to = ticks[k0], ticks[k1 - 1]
-    t = t_from + w
-    step = max(1, w // 4)
-    while t + w <= t_to:
-        x0 = interp(ticks, xs, t - w)
-        x1 = interp(ticks, xs, t)
-        x2 = interp(ticks, xs, t + w)
-        a = abs(x2 - 2 * x1 + x0) / (window_s ** 2)
-        v = abs(x2 - x1) / window_s
-        worst_a = max(worst_a, a)
-        worst_v = max(worst_v, v)
-        t += step
+    k0 = bisect.bisect_right(ticks, t_from)
+    k1 = bisect.bisect_left(ticks, t_to)
+    a = k0
+    while a < k1:
+        b = bisect.bisect_left(ticks, ticks[a] + w, a + 1, k1)
+        if b >= k1:
+            break
+        c = bisect.bisect_left(ticks, ticks[b] + w, b + 1, k1)
+        if c >= k1:
+            break
+        ta, tb, tc = (ticks[a] / tps, ticks[b] / tps, ticks[c] / tps)
+        v1 = (xs[b] - xs[a]) / (tb - ta)
+        v2 = (xs[c] - xs[b]) / (tc - tb)
+        worst_a = max(worst_a, abs(2 * (v2 - v1) / (tc - ta)))
+        worst_v = max(worst_v, abs(v1), abs(v2))
+        a = max(a + 1, bisect.bisect_left(ticks, ticks[a] + w // 4, a + 1, k1))
     return worst_a, worst_v

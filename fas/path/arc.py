@@ -6,10 +6,14 @@ from a radius (R), and may move the plane's third axis (and any further axes) in
 proportion: a helix.
 
 * **Segments.**  The segment end points lie on the circle; a chord of angle ``phi``
-  on radius ``r`` is at most ``r (1 - cos(phi/2))`` from it.  Grbl's count
-  ``floor(|theta r / 2| / sqrt(tol (2 r - tol)))`` keeps that within the tolerance
-  ``tol`` ($12): with ``n`` segments, ``(r - tol)^2 + c^2 = r^2`` for the half chord
-  ``c = r sin(phi/2)``.
+  on radius ``r`` comes ``r (1 - cos(phi/2))`` inside it.  The count is the smallest
+  that keeps this within the tolerance ``tol`` ($12):
+  ``ceil(|theta| / (2 acos(1 - tol/r)))``.  Grbl counts
+  ``floor(|theta r / 2| / sqrt(tol (2 r - tol)))`` - its chord of half length
+  ``sqrt(tol (2 r - tol))`` comes exactly ``tol`` inside, but rounding the count
+  down lengthens every chord a little (``tol`` exceeded by up to ``(n+1)^2/n^2``);
+  ours is the same count or one more.  An arc whose radius is within ``tol / 2``
+  is one straight line, as Grbl's.
 * **Points.**  Every point is computed with exact trigonometry from the start's radius
   vector - not with Grbl's small-angle rotation and its correction every 12 segments,
   which saves an 8-bit CPU its ``sin``/``cos``; the host has them cheap, and there is
@@ -121,10 +125,12 @@ def arc_travel(start: Sequence[float], target: Sequence[float],
 
 
 def arc_segments(radius: float, travel: float, tolerance: float) -> int:
-    """Grbl's segment count: chords within ``tolerance`` of the circle (0: one line)."""
+    """The fewest segments whose chords stay within ``tolerance`` of the circle (0 or
+    1: one straight line)."""
     if radius <= 0.0 or tolerance <= 0.0 or 2.0 * radius <= tolerance:
         return 0
-    return int(abs(0.5 * travel * radius) / math.sqrt(tolerance * (2.0 * radius - tolerance)))
+    phi = 2.0 * math.acos(1.0 - tolerance / radius)  # the widest chord within tolerance
+    return math.ceil(abs(travel) / phi - 1e-9)
 
 
 def arc_points(start: Sequence[float], target: Sequence[float],

@@ -64,6 +64,9 @@ class PathAxis(Planner):
         self.base = base
         self.group = group
         self.queue = host.queue
+        #: the path moved the stepper since ``base`` last planned: before ``base`` takes
+        #: a request it goes on from the queue's end (as when it becomes the planner)
+        self.path_moved = False
 
     # ------------------------------------------------------- own requests
     def check_move(self, delta: int) -> MoveResult:
@@ -73,7 +76,12 @@ class PathAxis(Planner):
         return self.base.check_held()
 
     def _own(self) -> MoveResult:
-        return MoveResult.ERR_SPEED_IS_UNDEFINED if self.group.busy() else MoveResult.OK
+        if self.group.busy():
+            return MoveResult.ERR_SPEED_IS_UNDEFINED
+        if self.path_moved:
+            self.path_moved = False
+            self.base.attach(self)
+        return MoveResult.OK
 
     def move(self, delta: int) -> MoveResult:
         res = self._own()
@@ -88,7 +96,7 @@ class PathAxis(Planner):
         return res if res != MoveResult.OK else self.base.run(count_up)
 
     def keep_running(self) -> None:
-        if not self.group.busy():
+        if self._own() == MoveResult.OK:
             self.base.keep_running()
 
     def keep_speed(self) -> None:
@@ -115,7 +123,7 @@ class PathAxis(Planner):
         self.base.force_stop_at(position)
 
     def single_step(self, count_up: bool) -> None:
-        if not self.group.busy():
+        if self._own() == MoveResult.OK:
             self.base.single_step(count_up)
 
     def positions_shifted(self, delta: int) -> None:

@@ -190,7 +190,7 @@ class PathGroup:
             return PathResult.ERR_RUNNING
         for s, axis in zip(self.steppers, self.axes, strict=True):
             if s.planner is axis:
-                s.use_planner(axis.base)
+                s.use_planner(axis.base)  # (it goes on from the queue's end)
         self.axes = []
         self.writers = []
         self._lead = None
@@ -428,7 +428,7 @@ class PathGroup:
         host = self.axes[0].host
         fp = max(a.host.settings.forward_planning_ticks for a in self.axes)
         return float(now + fp + host.backend.planning_extra_ticks
-                     + host.profile.fill_period_ticks)
+                     + host.backend.task_period_ticks)
 
     def run_task(self) -> None:
         """The group's part of one periodic task (from the lead axis's fill)."""
@@ -455,7 +455,7 @@ class PathGroup:
 
     def _write(self) -> None:
         now = self._now()
-        low_water = 2 * self.axes[0].host.profile.fill_period_ticks
+        low_water = 2 * self.axes[0].host.backend.task_period_ticks
         for w in self.writers:
             if w.fill(now, low_water) == Wrote.ERROR:
                 self.stats.errors += 1
@@ -513,6 +513,8 @@ class PathGroup:
                 a.host.write(None, 0, True, True)
         self.stats.runs += 1
         self.run_active = True
+        for a in axes:
+            a.path_moved = True
         self._restart = False
         self.first_block_tick = None
         self._run_start = t_s

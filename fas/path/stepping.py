@@ -68,7 +68,8 @@ class Wrote(IntEnum):
 class AxisStats:
     """What one axis wrote."""
 
-    __slots__ = ("commands", "pauses", "steps", "shifted", "shift_max", "errors")
+    __slots__ = ("commands", "pauses", "steps", "shifted", "shift_max", "errors",
+                 "early_ends", "early_max")
 
     def __init__(self) -> None:
         self.commands = 0
@@ -77,6 +78,8 @@ class AxisStats:
         self.shifted = 0  # steps placed off their tick
         self.shift_max = 0  # the largest distance from its tick (ticks)
         self.errors = 0
+        self.early_ends = 0  # segments' last steps inside a group across segments ...
+        self.early_max = 0  # ... and the most ticks one came before its tick
 
 
 def split_ticks(ticks: int) -> list[int]:
@@ -97,6 +100,9 @@ class AxisWriter:
         p = host.profile
         self.tps = p.ticks_per_s
         self.min_cmd = p.min_cmd_ticks
+        #: a command at least this long keeps two task periods in the queue: a group
+        #: shorter than that may go on past a segment's last step (:meth:`_across`)
+        self.min_span = 4 * host.backend.task_period_ticks // host.queue.queue_len
         self.tol = GROUP_TOLERANCE_STEPS
         self.stats = AxisStats()
         self.listener: SpeedListener | None = None
@@ -256,23 +262,121 @@ class AxisWriter:
                     back = int(seg.dist_at(tn - min_cmd) / pitch)
                     if j0 < back < jh:
                         jh, th = back, seg.step_tick(i, back)
+        if jh == n and th - t0 < self.min_span and seg.complete and seg.end == seg.length:
+            res = self._across(seg, j0, t0)
+            if res is not None:
+                return res
         return self._group(seg, jh - j0, th - t0, jh, th, slowing)
+
+    def _across(self, seg: Segment, j0: int, t0: int) -> Wrote | None:
+        """A group that would end at its segment's last step, too short to keep the
+        queue deep (tiny segments): it goes on into the segments after it while the
+        axis keeps its direction, and its steps are placed so that none comes after
+        its tick, nor more than ``tol`` steps before it (checked step by step).  The
+        segments' last steps inside it then come up to that much early - not on the
+        tick of the other axes' (counted in ``early_ends``).  None: no longer group."""
+        ex = self.ex
+        i = self.axis
+        up = seg.ups[i]
+        exact: list[int] = []  # ticks of the steps after the pending one ...
+        where: list[tuple[int, int]] = []  # ... and their (segment, step)
+        cur = seg
+        for j in range(j0 + 1, seg.steps[i] + 1):
+            exact.append(seg.step_tick(i, j))
+            where.append((seg.seq, j))
+        while exact[-1] - t0 < self.min_span and len(exact) < MAX_STEPS:
+            nxt = ex.segment(cur.seq + 1)
+            if (nxt is None or not nxt.steps[i] or nxt.ups[i] != up
+                    or not (cur.complete and cur.end == cur.length)):
+                break
+            known = nxt.known(i)
+            j = 0
+            while j < known and len(exact) < MAX_STEPS and exact[-1] - t0 < self.min_span:
+                j += 1
+                exact.append(nxt.step_tick(i, j))
+                where.append((nxt.seq, j))
+            if j < nxt.steps[i]:
+                break
+            cur = nxt
+        first_end = seg.steps[i] - j0  # steps up to this segment's last
+        while len(exact) > first_end:
+            cmds, placed = self._placement(t0, exact)
+            if cmds is not None:
+                break
+            exact.pop()
+            where.pop()
+        else:
+            return None
+        if self.free < len(cmds):
+            return Wrote.FULL
+        res = self._write_all(cmds, up, seg)
+        if res != Wrote.OK:
+            return res
+        st = self.stats
+        for k in range(len(exact) - 1):  # the segments' last steps inside the group
+            s_k, j_k = where[k]
+            end = ex.segment(s_k)
+            if end is not None and j_k == end.steps[i]:
+                st.early_ends += 1
+                st.early_max = max(st.early_max, exact[k] - placed[k])
+        self.seq, self.j = where[-1]
+        self.t_pend = exact[-1]
+        self.pending = True
+        return Wrote.OK
+
+    def _placement(self, t0: int, exact: list[int]
+                   ) -> tuple[list[tuple[int, int]] | None, list[int]]:
+        """Commands for a step at ``t0`` and the steps up to the last of ``exact``
+        (which starts the next command), each placed at or before its exact tick and
+        at most ``tol`` steps early; (None, []) where neither the even spread nor the
+        first interval's period does that."""
+        m = len(exact)
+        span = exact[-1] - t0
+        period, r = divmod(span, m)
+        candidates: list[tuple[list[tuple[int, int]], list[int]]] = []
+        if period >= self.queue.max_speed_in_ticks and period < MAX_TICKS:
+            a = m - r
+            if r == 0 or (self._legal(period, a) and self._legal(period + 1, r)):
+                placed = [t0 + k * period + max(0, k - a) for k in range(1, m)]
+                cmds = [(period, a)] + ([(period + 1, r)] if r else [])
+                if r == 0 or self._legal(period, a):
+                    candidates.append((cmds, placed))
+        first = exact[0] - t0
+        rest = span - (m - 1) * first
+        if (m > 1 and self.queue.max_speed_in_ticks <= first <= MAX_TICKS
+                and self._legal(first, m - 1) and self.min_wait <= rest <= MAX_TICKS):
+            candidates.append(([(first, m - 1), (rest, 1)],
+                               [t0 + k * first for k in range(1, m)]))
+        for cmds, placed in candidates:
+            prev = t0
+            ok = True
+            for k in range(m - 1):
+                late = placed[k] - exact[k]
+                if late > 0 or -late > self.tol * (exact[k] - prev):
+                    ok = False
+                    break
+                prev = exact[k]
+            if ok:
+                return cmds, placed
+        return None, []
 
     def _span_limit(self, seg: Segment, pitch: float, t0: float) -> tuple[float, bool]:
         """(the tick up to which a group from ``t0`` may go, whether the path slows
-        down there).  The chord of a group stays within ``tol`` steps of the exact
-        positions where the path changes speed (``a_axis tau^2 / 8``); over a cruise
-        it is exact, and may go on half that far into a change of speed after it
-        (``a_axis tau^2 / 2``).  A group does not reach from a part that slows down
-        into one that does not, nor back: it is placed early on one side of the exact
-        times and that side differs (:meth:`_group`)."""
+        down there).  Grouped steps stay within ``tol`` steps of the exact positions:
+        where the path speeds up, their chord is off by ``a_axis tau^2 / 8`` at most;
+        where it slows down, steps at the first interval's period by
+        ``a_axis tau^2 / 2``; over a cruise they are exact, and the group may go on
+        into a change of speed after it as far as ``a_axis tau^2 / 2`` allows.  A
+        group does not reach from a part that slows down into one that does not, nor
+        back: its steps are placed early on one side and that side differs
+        (:meth:`_group`)."""
         a = seg.accel / pitch  # steps/tick^2
         pieces = seg.pieces
         k = 0
         while k < len(pieces) and pieces[k].t1 <= t0:
             k += 1
         if k == len(pieces):
-            return t0 + math.sqrt(8.0 * self.tol / a), False
+            return t0 + math.sqrt(2.0 * self.tol / a), False
         slowing = pieces[k].a < 0.0
         cruise_end = None
         boundary = math.inf
@@ -287,7 +391,7 @@ class AxisWriter:
         if cruise_end is not None:
             limit = cruise_end + math.sqrt(2.0 * self.tol / a)
         else:
-            limit = t0 + math.sqrt(8.0 * self.tol / a)
+            limit = t0 + math.sqrt((2.0 if slowing else 8.0) * self.tol / a)
         return (limit if limit < boundary else boundary), slowing
 
     def _group(self, seg: Segment, m: int, span: int, jh: int, th: int,
@@ -443,8 +547,7 @@ class AxisWriter:
                 self.host.report_abort(res, (ticks, steps, up))
                 return Wrote.ERROR
             if listener is not None and steps and seg is not None:
-                speed = seg.pitch[self.axis] * self.tps * 60.0 / ticks
-                listener(self.w_end, speed, seg.tag)
+                listener(self.w_end, seg.speed_at(self.w_end) * self.tps * 60.0, seg.tag)
             self.free -= 1
             if steps > 1:
                 self.last_start = self.w_end + (steps - 1) * ticks
