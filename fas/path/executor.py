@@ -161,6 +161,8 @@ def trapezoid(v0: float, nominal: float, v_exit: float, accel: float,
     top2 = min(nominal * nominal, peak2)
     if top2 < vx2:
         top2 = vx2
+    if abs(top2 - v02) <= 1e-9 * top2:  # at the top already (rounding): no phase of
+        top2 = v02  # a millionth of a unit that would break a cruise in two
     phases: list[tuple[float, float, float]] = []
     if top2 > v02:
         d1 = (top2 - v02) / (2.0 * accel)
