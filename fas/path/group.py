@@ -252,8 +252,9 @@ class PathGroup:
         for a in self.axes:
             if a.base.is_active():  # the stepper's own planner has motion to plan
                 return PathResult.ERR_AXIS_BUSY
-        if not self.busy():
+        if not self.busy():  # the path begins where the axes are, at their top speed now
             self._sync_position()
+            self._configure_lookahead()
         start = tuple(self.position)
         delta = tuple(t - s for t, s in zip(ints, start, strict=True))
         for d, a in zip(delta, self.axes, strict=True):
