@@ -524,3 +524,54 @@ def test_the_same_path_on_a_serial_device():
         ins = instants(steps, (0, 0))
         assert path_deviation(ins, [(0, 0)] + pts)[0] <= 1.0
         assert group.stats.underruns == 0
+
+
+def test_holds_and_resumes_at_random_moments():
+    """A random path held and resumed at random moments (some blocks queued while
+    held): it ends exactly at its end, and every step is within one step of the path
+    as run - the queued blocks with each hold's stop point between them."""
+    import random
+
+    rnd = random.Random(3)
+    backend, engine, group, pins, dirs = make_group(limits=LIMITS, junction_deviation=0.02,
+                                                    queue_blocks=8)
+    tps = backend.profile.ticks_per_s
+    pos = [0, 0]
+    pts = []
+    for _ in range(120):
+        scale = rnd.choice([2, 10, 60, 400])
+        pos = [pos[0] + rnd.randint(-scale, scale), pos[1] + rnd.randint(-scale, scale)]
+        pts.append(tuple(pos))
+    stream = Stream(backend, group, pts, 3000.0)
+    stops = []
+
+    def finished() -> bool:
+        return stream.sent == len(pts) and group.is_idle()
+
+    while not finished():
+        t = backend.now() + int(rnd.uniform(0.01, 0.3) * tps)
+        assert stream.run(until=lambda t=t: backend.now() >= t or finished(), limit_s=60)
+        if group.state == PathState.RUNNING:
+            group.hold()
+            assert stream.run(until=lambda: group.state == PathState.HELD, limit_s=5)
+            stops.append((backend.now(), tuple(s.get_current_position()
+                                               for s in group.steppers)))
+            if rnd.random() < 0.3:
+                stream.pump()  # blocks queued while held
+            assert group.resume() == PathResult.OK
+    assert len(stops) > 20
+    ins = instants(axis_steps(backend, pins, dirs), (0, 0))
+    assert ins[-1][1] == pts[-1]
+    poly = [(0, 0)]  # the path as run: vertices and stop points in time order
+    vi = si = 0
+    for t, p in ins:
+        while si < len(stops) and stops[si][0] <= t:
+            if poly[-1] != stops[si][1]:
+                poly.append(stops[si][1])
+            si += 1
+        if vi < len(pts) and p == pts[vi]:
+            poly.append(pts[vi])
+            vi += 1
+            while vi < len(pts) and pts[vi] == pts[vi - 1]:  # a block of no length
+                vi += 1
+    assert path_deviation(ins, poly + pts[vi:])[0] <= 1.0
