@@ -113,7 +113,6 @@ class PathGroup:
         self.start_margin = 0
         self.hold_start: HoldStart | None = None
         self._listener: SpeedListener | None = None
-        self._run_start = 0
         self._restart = False  # start the next run at once
 
     # ------------------------------------------------------------ joining
@@ -518,7 +517,6 @@ class PathGroup:
             a.path_moved = True
         self._restart = False
         self.first_block_tick = None
-        self._run_start = t_s
         ex = self.executor
         ex.begin(float(t_s + lead + p.min_cmd_ticks))
         for w in self.writers:
