@@ -6,7 +6,7 @@ the format is documented in the README ("Scenario files").
 
 from __future__ import annotations
 
-import tomllib
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -14,6 +14,11 @@ from typing import Any
 from fas.arch import PROFILES
 
 from ..program import programs
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10: the same parser as a package (a dependency there, pyproject.toml)
+    import tomli as tomllib
 
 STEPPER_KEYS = {
     "position": int, "pulses": int, "dir_transitions": list, "enable_transitions": list,
