@@ -639,6 +639,8 @@ QS_ERR_TIMER_PWM = "ERROR timer {timer} makes the PWM of a user output: no Quick
 DEVICE_SIMAVR_TITLE = "firmware {elf} in simavr, {baud} baud"
 DEVICE_SIMAVR_SUMMARY = "{line}"
 DEVICE_SIMAVR_BUILD_FAILED = "stepperdemo device --simavr: {error}"
+DEVICE_SIMAVR_BUILDING = ("stepperdemo device --simavr: building the {what} in {where} "
+                          "(the first time only; a few seconds)")
 DEVICE_SIMAVR_OPTION = "--{option} applies to the simulated device (--pty/--port), not --simavr"
 # ------------------------------------------------- end of issue 11 texts
 # ---------------------------------------------------------------------------------------

@@ -269,7 +269,8 @@ def device_parser() -> argparse.ArgumentParser:
                        help="run the device firmware (firmware/) in the simavr AVR "
                             "simulator on a new pty instead; builds it if needed")
     ap.add_argument("--firmware", metavar="ELF",
-                    help="--simavr: this firmware build instead of firmware/build/BAUD/")
+                    help="--simavr: this firmware build instead of the one built from the "
+                         "sources (firmware/ of the checkout or of the installed package)")
     ap.add_argument("--baud", type=int, default=115200, choices=(115200, 1_000_000),
                     help="--simavr: the firmware's line speed (default 115200)")
     ap.add_argument("--trace", metavar="FILE",
@@ -414,7 +415,14 @@ def run_simavr(args: argparse.Namespace) -> int:
     import time
 
     from fas.arch import get_profile
-    from fas.device.simavr import SimavrError, SimavrServer, build, build_harness
+    from fas.device.simavr import (
+        SimavrError,
+        SimavrServer,
+        build,
+        build_dir,
+        build_harness,
+        first_build,
+    )
 
     if args.arch != "atmega328p" or args.watchdog_ms != 500 or args.console:
         option = ("arch" if args.arch != "atmega328p" else
@@ -423,6 +431,10 @@ def run_simavr(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_USAGE
     try:
+        if first_build(None if args.firmware else args.baud):
+            print(msg.DEVICE_SIMAVR_BUILDING.format(
+                what="simavr harness" if args.firmware else "firmware and its simavr harness",
+                where=build_dir()), file=sys.stderr, flush=True)
         if args.firmware:
             elf, harness = args.firmware, build_harness()
         else:
