@@ -154,6 +154,9 @@ def test_console_run_gcode_and_winder_from_the_installed_package(installed: Inst
     res = installed.run("-c", MOVE, "--lf")
     _check(res)
     assert res.stdout.splitlines()[-2].startswith(">> M1: @3200 "), res.stdout
+    res = installed.run("--lf", stdin=MOVE + "\n")  # a pipe into the console: a script
+    _check(res)
+    assert res.stdout.splitlines()[-2].startswith(">> M1: @3200 "), res.stdout
     shutil.copy(ROOT / "sequences" / "examples" / "move_3200.toml", installed.work)
     res = installed.run("run", "move_3200.toml")
     _check(res)

@@ -19,7 +19,9 @@ from .scripted import (  # noqa: F401 (the exit codes are re-exported)
     EXIT_OK,
     EXIT_TEST_FAILED,
     EXIT_USAGE,
+    read_stdin_script,
     run_scripted,
+    stdin_is_script,
 )
 
 EXIT_SCENARIO_FAILED = 4
@@ -30,7 +32,8 @@ The StepperDemo console of FastAccelStepper on a simulated microcontroller.
 
 Without arguments: an interactive console (prompt-toolkit) running the simulated
 chip in real time.  With -c: run one line of StepperDemo commands on virtual time
-and print the transcript as the firmware would.
+and print the transcript as the firmware would.  A pipe or a file on standard input
+(echo "R100 W" | stepperdemo) is run the same way, all its lines as one script.
 
 With --port DEVICE: the same, the queue commands executed by a device behind a
 serial port or pty (real time; see docs/serial-protocol.md).
@@ -128,6 +131,8 @@ def _main(argv: Sequence[str] | None = None) -> int:
             return main_fn(argv[1:])
         program, argv = argv[0], argv[1:]  # a program hosted with the console's options
     args = build_parser(program).parse_args(argv)
+    if args.command is None and stdin_is_script():  # a pipe or a file: a script, as -c
+        args.command = read_stdin_script()
     if args.max_time <= 0:
         print(msg.CLI_ERROR.format(problem="--max-time must be positive"), file=sys.stderr)
         return EXIT_USAGE

@@ -10,6 +10,7 @@ from fas.arch import PROFILES
 
 from .. import messages as msg
 from ..front import serial_cli
+from ..front.scripted import read_stdin_script, stdin_is_script
 from ..watch import observe
 from .program import DEFAULT_AXES
 from .settings import (
@@ -74,6 +75,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str]) -> int:
     args = build_parser().parse_args(list(argv))
+    if args.file is None and stdin_is_script():  # a pipe or a file: as '-'
+        args.file = "-"
     problem = None
     if args.max_time <= 0:
         problem = "--max-time must be positive"
@@ -98,7 +101,7 @@ def main(argv: Sequence[str]) -> int:
         return run_console(args)
     try:
         if args.file == "-":
-            text = sys.stdin.read()
+            text = read_stdin_script()
         else:
             with open(args.file, encoding="utf-8", errors="replace") as f:
                 text = f.read()
