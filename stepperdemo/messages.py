@@ -315,8 +315,8 @@ REPORT_ENABLE = ("  enable       {enables} activation(s), enable-to-first-step {
 REPORT_IRQ = "interrupts blocked  {windows} window(s), {ms:.1f} ms in total"
 REPORT_STRAY = "stray digitalRead() {reads} of the step pins, {during} during a pulse"
 REPORT_LATE_EDGES = "warning: {n} edges arrived out of order (clamped in the trace)"
-PLOT_EXTRA_MISSING = ("PNG plots need matplotlib, which is not installed: "
-                      "pip install 'stepperdemo[plot]'")
+PLOT_EXTRA_MISSING = ("PNG plots need matplotlib, which is not installed: pip install "
+                      "matplotlib (in the stepperdemo checkout: pip install '.[plot]')")
 PLOT_TITLE_POSITION = "position [steps]"
 PLOT_TITLE_SPEED = "speed [steps/s]"
 PLOT_AXIS_TIME = "time [s]"
@@ -794,12 +794,13 @@ WINDER_REPORT_INTERLOCK = ("interlock    {spans} stretch(es) at {ratios}: max |S
                            "outside their window")
 WINDER_REPORT_NO_INTERLOCK = "interlock    not engaged in this run"
 WINDER_CLI_DESCRIPTION = """\
-The helix winder of seed 002 on the fas library: S1 (spindle) and S2 (traverse),
-two pots, four switches and a link.
+The helix winder on the fas library: S1 (spindle) and S2 (traverse), two pots,
+four switches and a link.
 
 Without -c: an interactive console (history, completion, a toolbar with the pots,
 switches, control and interlock).  With -c: one line of commands on virtual time,
 e.g.  stepperdemo winder -c "pots pot 1 1023 w2000 pot 1 512 w1000" --report
+(a pipe or a file on standard input runs the same way).
 
 Commands (s = stepper 1 or 2; several per line, separated by spaces):
   move s count      link move, -65535..65535 (+-65535 until told, 0 stops)
@@ -851,7 +852,8 @@ CHIP_SHEET_ERROR = "chip_sheet: {error}"
 
 # ---------------------------------------------------- subcommands (stepperdemo.subcommands)
 # per subcommand: how the help lists it, and what it does (lines beside it)
-SUBCOMMAND_WINDER = ("stepperdemo winder [options]", "the helix winder (seed 002): --help")
+SUBCOMMAND_WINDER = ("stepperdemo winder [options]",
+                     "the helix winder: two steppers, pots, switches (--help)")
 SUBCOMMAND_RUN = ("stepperdemo run FILES|FOLDERS ...",
                   "run scenario files (sequences/*.toml);\n"
                   "--board DEVICE: on a board, with the twin check")

@@ -77,23 +77,27 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
     ap.add_argument("--max-time", type=float, default=3600.0, metavar="SECONDS",
                     help="give up a scripted run after this much simulated time "
                          "(default 3600 s; a W on a stepper that never stops ends here)")
-    ap.add_argument("--firmware-end", action="store_true",
-                    help="end like the firmware's built-in-input mode: one second after "
-                         "the last input character was taken")
+    demo = program == "demo"  # StepperDemo's own options: its firmware's end, test mode
+    if demo:
+        ap.add_argument("--firmware-end", action="store_true",
+                        help="end like the firmware's built-in-input mode: one second after "
+                             "the last input character was taken")
     ap.add_argument("--lf", action="store_true",
                     help="print LF line ends instead of the firmware's CR LF")
-    ap.add_argument("--test-mode-wait", action="store_true",
-                    help="extension: accept w<ms> in test mode too (the firmware answers "
-                         "'Unknown command' there), to let endless test sequences run "
-                         "for a while in a -c line")
+    if demo:
+        ap.add_argument("--test-mode-wait", action="store_true",
+                        help="extension: accept w<ms> in test mode too (the firmware answers "
+                             "'Unknown command' there), to let endless test sequences run "
+                             "for a while in a -c line")
     ap.add_argument("--speed", type=float, default=1.0, metavar="FACTOR",
                     help="interactive: run the simulated clock FACTOR times real time")
     ap.add_argument("--history", metavar="FILE",
                     help="interactive: history file (default: in the user state directory)")
     observe_options.add_arguments(ap)  # --vcd --plot --plot-size --report --steps-csv (issue 6)
     serial_cli.add_arguments(ap)  # --port --baud --watchdog-ms (issue 7)
-    board_options.add_arguments(ap)  # --board --log --quiet-ms --boot-wait (issue 15)
-    ap.set_defaults(program=program)
+    if demo:  # a board running StepperDemo
+        board_options.add_arguments(ap)  # --board --log --quiet-ms --boot-wait (issue 15)
+    ap.set_defaults(program=program, firmware_end=False, test_mode_wait=False)
     return ap
 
 

@@ -36,7 +36,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="run on a device behind this serial port or pty (see "
                          "'stepperdemo device'); the device decides the profile")
     ap.add_argument("--baud", type=int, default=115200, metavar="N",
-                    help="serial line speed for --port and --board (default 115200)")
+                    help="serial line speed of the device or board (default 115200)")
     ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
                     help="--port: the device stops all motion after MS of host silence")
     ap.add_argument("--link-planning-ms", type=_planning_ms, default=None, metavar="MS",
