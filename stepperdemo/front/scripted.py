@@ -32,7 +32,8 @@ def stdin_is_script() -> bool:
 
 def read_stdin_script() -> str:
     """All of standard input as text (bytes that are not UTF-8 read as U+FFFD)."""
-    return sys.stdin.buffer.read().decode("utf-8", "replace")
+    raw = getattr(sys.stdin, "buffer", None)  # None: a text stream put in its place
+    return raw.read().decode("utf-8", "replace") if raw is not None else sys.stdin.read()
 
 
 def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
