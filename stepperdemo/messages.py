@@ -327,7 +327,15 @@ OBSERVE_NOT_INTERACTIVE = ("--vcd, --plot, --report and --steps-csv go with -c (
                            "the console records the recent motion by itself: /vcd, /plot, "
                            "/report (/trace on records all of it)")
 OBSERVE_BAD_TIMESCALE = ("--vcd-timescale {timescale!r}: give 1, 10 or 100 and a unit "
-                         "s, ms, us, ns, ps or fs, e.g. '1 us'")
+                         "s, ms, us, ns, ps or fs, e.g. '1 us', or 'exact'")
+REPL_VCD_BAD_UNIT = ("{unit!r} is no VCD time unit: give 1, 10 or 100 and s, ms, us, ns, ps "
+                     "or fs, e.g. 1us, or exact")
+REPL_VCD_USAGE = "give a file name and, if you like, a time unit: /vcd FILE [1us|100ns|exact]"
+VCD_ZERO_WIDTH = ("{path}: {n} pulse(s) or gap(s) shorter than {unit} start and end at the "
+                  "same time there (PulseView drops them); --vcd-timescale exact keeps every "
+                  "tick")
+REPL_VCD_ZERO_WIDTH = (" - {n} pulse(s) or gap(s) shorter than {unit} have no width in it "
+                       "(/vcd {path} exact keeps every tick)")
 OBSERVE_FILE_ERROR = "cannot write {path}: {error}"
 OBSERVE_WROTE = "wrote {path}"
 REPL_HELP_OBSERVE = """Watching the run - the console records the recent motion from the start: the
@@ -336,7 +344,8 @@ last {bound} pin edges (about {seconds:.1f} s of one stepper at 25 kHz), older o
   /trace on          record everything from now on, without a bound
   /trace off         stop recording; the last recording stays for /vcd, /plot, /report
   /trace recent      record the recent motion again (the bounded recording)
-  /vcd FILE          save the recorded pins as a VCD file (GTKWave, PulseView)
+  /vcd FILE [UNIT]   save the recorded pins as a VCD file (GTKWave, PulseView) in
+                     the time unit UNIT (--vcd-timescale, else 1us; exact: every tick)
   /plot [FILE.png]   position and speed over time: in the terminal, or as PNG
   /report            timing report per stepper (periods, deviations, gaps, ...)"""
 REPL_TRACE_ON = "trace on: recording the pins of every stepper from t={t:.3f} s"
