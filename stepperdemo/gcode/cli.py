@@ -31,7 +31,8 @@ Axes X Y Z A B C are steppers 1..6 of the profile's StepperDemo wiring.  Every l
 is answered 'ok' or 'error: <reason>'; after an error the program goes on (Grbl).
 
 With FILE (or '-' for stdin) the program runs on virtual time and ends when every
-line is done; without it, an interactive console.  --port DEVICE runs the queue
+line is done; without it, standard input if that is a pipe or a file, else an
+interactive console.  --port DEVICE runs the queue
 commands on a device (see 'stepperdemo device').
 
 Settings ($$ lists them, $N=value or --set '$N=value' changes one):
@@ -52,7 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("file", nargs="?", metavar="FILE|-",
                     help="G-code to run on virtual time ('-': standard input); "
-                         "none: the interactive console")
+                         "none: a pipe or file on stdin, else the interactive console")
     ap.add_argument("--arch", default="atmega328p", choices=sorted(PROFILES),
                     help="architecture profile (default: atmega328p)")
     ap.add_argument("--axes", type=int, default=DEFAULT_AXES, metavar="N",
