@@ -6,10 +6,12 @@ cache) with one ``--port`` line.
 
 No download: the wheel is built with the setuptools of this environment (the ``test``
 extra asks for one that builds wheels itself, ``--no-build-isolation``), the venv sees
-this environment's packages (``--system-site-packages``) and the wheel is installed
-with ``--no-deps --no-index``.  ``--ignore-installed``: a stepperdemo installed in
-this environment must not count as "already satisfied".  The venv is built once per
-run and shared by the xdist workers (a lock in the run's temporary folder).
+this environment's packages after its own (a ``.pth`` file naming them: a venv's
+``--system-site-packages`` would be the base interpreter's, not those of a venv this
+suite runs in) and the wheel is installed with ``--no-deps --no-index``.
+``--ignore-installed``: a stepperdemo installed in this environment must not count as
+"already satisfied".  The venv is built once per run and shared by the xdist workers
+(a lock in the run's temporary folder).
 """
 
 from __future__ import annotations
@@ -17,8 +19,10 @@ from __future__ import annotations
 import fcntl
 import os
 import shutil
+import site
 import subprocess
 import sys
+import sysconfig
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -87,10 +91,15 @@ def _install(base: Path) -> Installed:
     pip = [sys.executable, "-m", "pip", "--disable-pip-version-check"]
     for cmd in ([*pip, "wheel", "-q", "--no-deps", "--no-build-isolation", "--no-index",
                  "-w", str(dist), str(src)],
-                [sys.executable, "-m", "venv", "--system-site-packages", "--without-pip",
-                 str(venv)]):
+                [sys.executable, "-m", "venv", "--without-pip", str(venv)]):
         _check(subprocess.run(cmd, cwd=base, env=env, capture_output=True, text=True,
                               timeout=LIMIT_S, check=False))
+    res = subprocess.run([str(venv / "bin" / "python"), "-c",
+                          "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                         capture_output=True, text=True, timeout=LIMIT_S, check=True)
+    ours = {sysconfig.get_paths()[k] for k in ("purelib", "platlib")} | set(site.getsitepackages())
+    Path(res.stdout.strip(), "this-environment.pth").write_text(
+        "".join(f"{folder}\n" for folder in sorted(ours) if Path(folder).is_dir()))
     (wheel,) = dist.glob("stepperdemo-*.whl")
     _check(subprocess.run([*pip, "--python", str(venv / "bin" / "python"), "install", "-q",
                            "--no-deps", "--no-index", "--ignore-installed", str(wheel)],
