@@ -317,8 +317,8 @@ REPORT_ENABLE = ("  enable       {enables} activation(s), enable-to-first-step {
 REPORT_IRQ = "interrupts blocked  {windows} window(s), {ms:.1f} ms in total"
 REPORT_STRAY = "stray digitalRead() {reads} of the step pins, {during} during a pulse"
 REPORT_LATE_EDGES = "warning: {n} edges arrived out of order (clamped in the trace)"
-PLOT_EXTRA_MISSING = ("PNG plots need matplotlib, which is not installed: "
-                      "pip install 'stepperdemo[plot]'")
+PLOT_EXTRA_MISSING = ("PNG plots need matplotlib, which is not installed: pip install "
+                      "matplotlib (in the stepperdemo checkout: pip install '.[plot]')")
 PLOT_TITLE_POSITION = "position [steps]"
 PLOT_TITLE_SPEED = "speed [steps/s]"
 PLOT_AXIS_TIME = "time [s]"
@@ -333,7 +333,15 @@ OBSERVE_NOT_INTERACTIVE = ("--vcd, --plot, --report and --steps-csv go with -c (
                            "the console records the recent motion by itself: /vcd, /plot, "
                            "/report (/trace on records all of it)")
 OBSERVE_BAD_TIMESCALE = ("--vcd-timescale {timescale!r}: give 1, 10 or 100 and a unit "
-                         "s, ms, us, ns, ps or fs, e.g. '1 us'")
+                         "s, ms, us, ns, ps or fs, e.g. '1 us', or 'exact'")
+REPL_VCD_BAD_UNIT = ("{unit!r} is no VCD time unit: give 1, 10 or 100 and s, ms, us, ns, ps "
+                     "or fs, e.g. 1us, or exact")
+REPL_VCD_USAGE = "give a file name and, if you like, a time unit: /vcd FILE [1us|100ns|exact]"
+VCD_ZERO_WIDTH = ("{path}: {n} pulse(s) or gap(s) shorter than {unit} start and end at the "
+                  "same time there (PulseView drops them); --vcd-timescale exact keeps every "
+                  "tick")
+REPL_VCD_ZERO_WIDTH = (" - {n} pulse(s) or gap(s) shorter than {unit} have no width in it "
+                       "(/vcd {path} exact keeps every tick)")
 OBSERVE_FILE_ERROR = "cannot write {path}: {error}"
 OBSERVE_WROTE = "wrote {path}"
 REPL_HELP_OBSERVE = """Watching the run - the console records the recent motion from the start: the
@@ -342,7 +350,8 @@ last {bound} pin edges (about {seconds:.1f} s of one stepper at 25 kHz), older o
   /trace on          record everything from now on, without a bound
   /trace off         stop recording; the last recording stays for /vcd, /plot, /report
   /trace recent      record the recent motion again (the bounded recording)
-  /vcd FILE          save the recorded pins as a VCD file (GTKWave, PulseView)
+  /vcd FILE [UNIT]   save the recorded pins as a VCD file (GTKWave, PulseView) in
+                     the time unit UNIT (--vcd-timescale, else 1us; exact: every tick)
   /plot [FILE.png]   position and speed over time: in the terminal, or as PNG
   /report            timing report per stepper (periods, deviations, gaps, ...)"""
 REPL_TRACE_ON = "trace on: recording the pins of every stepper from t={t:.3f} s"
@@ -672,6 +681,8 @@ QS_ERR_TIMER_PWM = "ERROR timer {timer} makes the PWM of a user output: no Quick
 DEVICE_SIMAVR_TITLE = "firmware {elf} in simavr, {baud} baud"
 DEVICE_SIMAVR_SUMMARY = "{line}"
 DEVICE_SIMAVR_BUILD_FAILED = "stepperdemo device --simavr: {error}"
+DEVICE_SIMAVR_BUILDING = ("stepperdemo device --simavr: building the {what} in {where} "
+                          "(the first time only; a few seconds)")
 DEVICE_SIMAVR_OPTION = "--{option} applies to the simulated device (--pty/--port), not --simavr"
 # ------------------------------------------------- end of issue 11 texts
 # ---------------------------------------------------------------------------------------
@@ -833,12 +844,13 @@ WINDER_REPORT_INTERLOCK = ("interlock    {spans} stretch(es) at {ratios}: max |S
                            "outside their window")
 WINDER_REPORT_NO_INTERLOCK = "interlock    not engaged in this run"
 WINDER_CLI_DESCRIPTION = """\
-The helix winder of seed 002 on the fas library: S1 (spindle) and S2 (traverse),
-two pots, four switches and a link.
+The helix winder on the fas library: S1 (spindle) and S2 (traverse), two pots,
+four switches and a link.
 
 Without -c: an interactive console (history, completion, a toolbar with the pots,
 switches, control and interlock).  With -c: one line of commands on virtual time,
 e.g.  stepperdemo winder -c "pots pot 1 1023 w2000 pot 1 512 w1000" --report
+(a pipe or a file on standard input runs the same way).
 
 Commands (s = stepper 1 or 2; several per line, separated by spaces):
   move s count      link move, -65535..65535 (+-65535 until told, 0 stops)
@@ -890,7 +902,8 @@ CHIP_SHEET_ERROR = "chip_sheet: {error}"
 
 # ---------------------------------------------------- subcommands (stepperdemo.subcommands)
 # per subcommand: how the help lists it, and what it does (lines beside it)
-SUBCOMMAND_WINDER = ("stepperdemo winder [options]", "the helix winder (seed 002): --help")
+SUBCOMMAND_WINDER = ("stepperdemo winder [options]",
+                     "the helix winder: two steppers, pots, switches (--help)")
 SUBCOMMAND_RUN = ("stepperdemo run FILES|FOLDERS ...",
                   "run scenario files (sequences/*.toml);\n"
                   "--board DEVICE: on a board, with the twin check")

@@ -132,7 +132,8 @@ class Console:
                  program_options: dict | None = None,
                  link_planning_ms: int | None = None,
                  redraw_postpone_s: float | None = 0.01,
-                 recent_trace: bool = True, trace_edges: int = MAX_EDGES) -> None:
+                 recent_trace: bool = True, trace_edges: int = MAX_EDGES,
+                 vcd_timescale: str | None = None) -> None:
         self.program = program  # which program the console hosts (stepperdemo.program)
         self.program_options = program_options or {}
         self.port, self.baud, self.watchdog_ms = port, baud, watchdog_ms  # issue 7
@@ -158,7 +159,8 @@ class Console:
         self.toolbar_shown: deque[str] = deque(maxlen=64)  # recent toolbar texts, for tests
         # /trace /vcd /plot /report (issue 6); the recent motion recorded from the start
         # on a simulated chip (issue 16; recent_trace=False starts with the trace off)
-        self.trace = TraceCommands(lambda: self.app, recent=recent_trace, max_edges=trace_edges)
+        self.trace = TraceCommands(lambda: self.app, recent=recent_trace, max_edges=trace_edges,
+                                   timescale=vcd_timescale)  # /vcd's unit (issue 26)
         self._start(arch)
         self.trace.new_chip()
 
@@ -422,7 +424,8 @@ def run_console(args) -> int:
                           watchdog_ms=getattr(args, "watchdog_ms", 500),
                           program=getattr(args, "program", "demo"),
                           program_options=getattr(args, "program_options", None),
-                          link_planning_ms=getattr(args, "link_planning_ms", None))
+                          link_planning_ms=getattr(args, "link_planning_ms", None),
+                          vcd_timescale=getattr(args, "vcd_timescale", None))
     except ConnectionError as exc:  # issue 7: fas.serial.SerialError
         print(msg.CLI_SERIAL_CONNECT.format(port=port, error=exc), file=sys.stderr)
         return serial_cli.EXIT_USAGE

@@ -8,6 +8,7 @@ behind ``--board``; with the observers of ``--vcd``/``--plot``/``--report``.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from .. import messages as msg
@@ -18,6 +19,21 @@ EXIT_OK = 0
 EXIT_TEST_FAILED = 1
 EXIT_USAGE = 2
 EXIT_MAX_TIME = 3
+
+
+def stdin_is_script() -> bool:
+    """Standard input is a pipe or a file, not a terminal: its lines are a script, run
+    on virtual time as ``-c`` runs its line (``echo "R100 W" | stepperdemo``)."""
+    try:
+        return not os.isatty(sys.stdin.fileno())
+    except (AttributeError, ValueError, OSError):  # no standard input at all
+        return False
+
+
+def read_stdin_script() -> str:
+    """All of standard input as text (bytes that are not UTF-8 read as U+FFFD)."""
+    raw = getattr(sys.stdin, "buffer", None)  # None: a text stream put in its place
+    return raw.read().decode("utf-8", "replace") if raw is not None else sys.stdin.read()
 
 
 def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:

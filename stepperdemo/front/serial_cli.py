@@ -36,7 +36,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="run on a device behind this serial port or pty (see "
                          "'stepperdemo device'); the device decides the profile")
     ap.add_argument("--baud", type=int, default=115200, metavar="N",
-                    help="serial line speed for --port and --board (default 115200)")
+                    help="serial line speed of the device or board (default 115200)")
     ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
                     help="--port: the device stops all motion after MS of host silence")
     ap.add_argument("--link-planning-ms", type=_planning_ms, default=None, metavar="MS",
@@ -279,7 +279,8 @@ def device_parser() -> argparse.ArgumentParser:
                        help="run the device firmware (firmware/) in the simavr AVR "
                             "simulator on a new pty instead; builds it if needed")
     ap.add_argument("--firmware", metavar="ELF",
-                    help="--simavr: this firmware build instead of firmware/build/BAUD/")
+                    help="--simavr: this firmware build instead of the one built from the "
+                         "sources (firmware/ of the checkout or of the installed package)")
     ap.add_argument("--baud", type=int, default=115200, choices=(115200, 1_000_000),
                     help="--simavr: the firmware's line speed (default 115200)")
     ap.add_argument("--trace", metavar="FILE",
@@ -427,7 +428,14 @@ def run_simavr(args: argparse.Namespace) -> int:
     import time
 
     from fas.arch import get_profile
-    from fas.device.simavr import SimavrError, SimavrServer, build, build_harness
+    from fas.device.simavr import (
+        SimavrError,
+        SimavrServer,
+        build,
+        build_dir,
+        build_harness,
+        first_build,
+    )
 
     if args.arch != "atmega328p" or args.watchdog_ms != 500 or args.console:
         option = ("arch" if args.arch != "atmega328p" else
@@ -436,6 +444,10 @@ def run_simavr(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_USAGE
     try:
+        if first_build(None if args.firmware else args.baud):
+            print(msg.DEVICE_SIMAVR_BUILDING.format(
+                what="simavr harness" if args.firmware else "firmware and its simavr harness",
+                where=build_dir()), file=sys.stderr, flush=True)
         if args.firmware:
             elf, harness = args.firmware, build_harness()
         else:

@@ -10,6 +10,7 @@ from fas.arch import PROFILES
 
 from .. import messages as msg
 from ..front import arg_checks, serial_cli
+from ..front.scripted import read_stdin_script, stdin_is_script
 from ..watch import observe
 from .program import DEFAULT_AXES
 from .settings import (
@@ -30,7 +31,8 @@ Axes X Y Z A B C are steppers 1..6 of the profile's StepperDemo wiring.  Every l
 is answered 'ok' or 'error: <reason>'; after an error the program goes on (Grbl).
 
 With FILE (or '-' for stdin) the program runs on virtual time and ends when every
-line is done; without it, an interactive console.  --port DEVICE runs the queue
+line is done; without it, standard input if that is a pipe or a file, else an
+interactive console.  --port DEVICE runs the queue
 commands on a device (see 'stepperdemo device').
 
 Settings ($$ lists them, $N=value or --set '$N=value' changes one):
@@ -51,7 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("file", nargs="?", metavar="FILE|-",
                     help="G-code to run on virtual time ('-': standard input); "
-                         "none: the interactive console")
+                         "none: a pipe or file on stdin, else the interactive console")
     ap.add_argument("--arch", default="atmega328p", choices=sorted(PROFILES),
                     help="architecture profile (default: atmega328p)")
     ap.add_argument("--axes", type=int, default=DEFAULT_AXES, metavar="N",
@@ -74,6 +76,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str]) -> int:
     args = build_parser().parse_args(list(argv))
+    if args.file is None and stdin_is_script():  # a pipe or a file: as '-'
+        args.file = "-"
     problem = arg_checks.number_problem(args)  # --max-time, --speed: finite, in range
     if problem is None and args.axes < 1:
         problem = "--axes must be at least 1"
@@ -96,7 +100,7 @@ def main(argv: Sequence[str]) -> int:
         return run_console(args)
     try:
         if args.file == "-":
-            text = sys.stdin.read()
+            text = read_stdin_script()
         else:
             with open(args.file, encoding="utf-8", errors="replace") as f:
                 text = f.read()

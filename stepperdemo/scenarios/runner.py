@@ -76,6 +76,7 @@ class Watch:
     plot_dir: str | None = None
     timing_report: bool = False
     report_lines: list[str] = field(default_factory=list)
+    vcd_timescale: str | None = None  # as --vcd-timescale gives it (None: the default)
 
     def wanted(self) -> bool:
         return bool(self.vcd_dir or self.csv_dir or self.plot_dir or self.timing_report)
@@ -99,6 +100,7 @@ def run_scenario(sc: Scenario, *, watch: Watch | None = None) -> ScenarioResult:
                                  csv=named(watch.csv_dir, ".csv"),
                                  analyse=bool(watch.csv_dir or watch.plot_dir
                                               or watch.timing_report),
+                                 timescale=observe.vcd_unit(watch.vcd_timescale),
                                  extra_signals=app.trace_signals())
         except OSError as exc:  # (the folder was checked: a disk full, a name too long)
             return ScenarioResult(str(sc.path), sc.name, False, error=str(exc))
@@ -400,6 +402,9 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--skip-long", action="store_true", help="skip scenarios marked long")
     g = ap.add_argument_group("watching the runs (one file per scenario, named after it)")
     g.add_argument("--vcd", metavar="DIR", help="write <scenario>.vcd into DIR")
+    g.add_argument("--vcd-timescale", metavar="UNIT",
+                   help="the VCD files' time unit (default '1 us'; 'exact': every tick "
+                        "exact, see stepperdemo --help)")
     g.add_argument("--steps-csv", metavar="DIR", help="write <scenario>.csv into DIR")
     g.add_argument("--plot", metavar="DIR", help="write <scenario>.png into DIR "
                    "(needs the 'plot' extra)")
@@ -481,7 +486,14 @@ def main(argv: Sequence[str]) -> int:
     if args.board:  # issue 15: on a board running StepperDemo, with the twin check
         from .board_runner import main as board_main
         return board_main(args, files, bool(missing))
-    watch = Watch(args.vcd, args.steps_csv, args.plot, args.timing_report)
+    watch = Watch(args.vcd, args.steps_csv, args.plot, args.timing_report,
+                  vcd_timescale=args.vcd_timescale)
+    if args.vcd_timescale is not None:
+        from ..watch.options import is_vcd_unit
+        if not is_vcd_unit(args.vcd_timescale):
+            print(msg.CLI_ERROR.format(problem=msg.OBSERVE_BAD_TIMESCALE.format(
+                timescale=args.vcd_timescale)), file=sys.stderr)
+            return EXIT_USAGE
     if args.plot:
         from ..watch import plots
         if not plots.png_available():

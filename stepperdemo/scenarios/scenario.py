@@ -7,7 +7,7 @@ the format is documented in the README ("Scenario files").
 from __future__ import annotations
 
 import re
-import tomllib
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -16,6 +16,11 @@ from fas.arch import PROFILES
 
 from ..demo.build import pin_config_problem
 from ..program import programs
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10: the same parser as a package (a dependency there, pyproject.toml)
+    import tomli as tomllib
 
 STEPPER_KEYS = {
     "position": int, "pulses": int, "dir_transitions": list, "enable_transitions": list,

@@ -469,18 +469,20 @@ class RecentTrace:
         outputs.finish(view.end_tick)
         return view
 
-    def export_vcd(self, path: str) -> int:
-        """Write the kept edges as a VCD file; returns the number of edges in it
-        (OSError if the file cannot be written)."""
+    def export_vcd(self, path: str, timescale: str | None = None) -> tuple[int, int]:
+        """Write the kept edges as a VCD file in ``timescale`` (None: exact); returns the
+        number of edges in it and how many of them have no width at that unit
+        (``VcdWriter.zero_width``; OSError if the file cannot be written)."""
         self.flush()
         end = self.now_tick()
         with open(path, "w", encoding="ascii", newline="\n", buffering=1 << 20) as f:
             writer = VcdWriter(f, self.signals, self.profile.ticks_per_s,
                                start_tick=self.head_tick, initial=self.head_levels,
+                               timescale=timescale,
                                comment=msg.VCD_COMMENT.format(profile=self.profile.name))
             self._replay([writer], lambda _pin: None)
             writer.close(end)
-        return writer.changes
+        return writer.changes, writer.zero_width
 
 
 __all__ = ["RecentTrace", "RecordedWindow", "MAX_EDGES", "CHUNK_EDGES", "bound_seconds"]

@@ -38,7 +38,8 @@ def test_acceptance_program_in_the_vcd_esp32(tmp_path, capsys):
     path = tmp_path / "prog.gcode"
     path.write_text(ACCEPTANCE)
     vcd_path = tmp_path / "run.vcd"
-    rc = main(["gcode", "--arch", "esp32", str(path), "--vcd", str(vcd_path), "--report"])
+    rc = main(["gcode", "--arch", "esp32", str(path), "--vcd", str(vcd_path), "--report",
+               "--vcd-timescale", "exact"])  # PWM duty to the tick
     out = capsys.readouterr().out
     assert rc == 0
     assert "error" not in out
