@@ -648,6 +648,23 @@ GCODE_ERR_HOMING = "homing is not available: {profile} has no limit inputs here"
 GCODE_ERR_SOFT_LIMITS = "soft limits need homing"
 GCODE_ERR_LASER = "laser mode needs a PWM spindle (not yet)"
 GCODE_CLI_BAD_SET = "--set {text!r}: expected '$N=VALUE'"
+GCODE_TCP_BUSY = "busy: another host is connected"
+GCODE_TCP_BAD = "--tcp {text!r}: expected [HOST:]PORT"
+GCODE_ENDPOINT_LISTENING = ("gcode: Grbl 1.1h on {path}{link}, {profile} ({title}), axes "
+                            "{axes}, clock x{speed:g}; a host opening it resets it; Ctrl-C ends")
+GCODE_ENDPOINT_DEVICE = ("gcode: Grbl 1.1h on {path}{link}, queue commands on the device at "
+                         "{port} ({profile}), axes {axes}; Ctrl-C ends")
+GCODE_ENDPOINT_EVENT = "gcode: {event}"
+GCODE_HOST_OPENED = "host opened the port: reset"
+GCODE_HOST_CLOSED = "host closed the port"
+GCODE_ENDPOINT_STATS = ("gcode: {hosts} host(s), {lines} line(s), {errors} error(s), {alarms} "
+                        "alarm(s); received {rx} bytes ({dropped} dropped: receive buffer full, "
+                        "{high} dropped: >= 0x80), sent {tx} ({tx_dropped} with no host)")
+GCODE_ENDPOINT_POSITIONS = "gcode: MPos {mpos}, state {state}"
+GCODE_CLI_ENDPOINT_FILE = "--pty/--tcp serve senders: give no FILE (they send the program)"
+GCODE_CLI_TOML = ("{path} is a scenario file, not G-code: run it with 'stepperdemo run {path}'"
+                  "{program}")
+GCODE_CLI_TOML_PROGRAM = " (its G-code: {file})"
 GCODE_ERR_TIMER_QUICKSTEP = "{name}: {timer} runs the QuickStep planner (l0 frees it)"
 GCODE_ERR_QUICKSTEP_AXIS = ("axis {letter} runs the QuickStep planner: G-code moves need "
                             "FastAccelStepper's queue (l0 in config mode)")

@@ -180,8 +180,8 @@ class GcodeMachine:
     def idle(self) -> bool:
         """Nothing to do: no line in execution or waiting, nothing moving or queued."""
         return (self.pending is None and not self.executor.busy()
-                and (self.input_held or not self.rx.pending) and not self.startup_queue and not self.engine.sync.active()
-                and not self.executor.moving())
+                and (self.input_held or not self.rx.pending) and not self.startup_queue
+                and not self.engine.sync.active() and not self.executor.moving())
 
     def can_take_line(self) -> bool:
         """Would the parser read a line now (a file is fed a line at a time)?"""
