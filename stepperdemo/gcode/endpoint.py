@@ -75,21 +75,23 @@ class TcpPort:
                 conn.close()
 
     def read(self) -> bytes | None:
-        """What the host sent (b"": nothing now), or None while no host is connected."""
-        self._accept()
+        """What the host sent (b"": nothing now), or None while no host is connected.
+        A host that has left is noticed before a new one is let in."""
         if self.client is None:
-            return None
+            self._accept()
+            if self.client is None:
+                return None
         try:
             data = self.client.recv(READ_CHUNK)
         except (BlockingIOError, InterruptedError):
+            self._accept()  # a second host now is refused
             return b""
         except OSError:
             data = b""
-            self._drop()
-            return None
         if not data:  # the host closed the connection
             self._drop()
             return None
+        self._accept()
         return data
 
     def _drop(self) -> None:

@@ -374,7 +374,8 @@ class ExactStopExecutor(MotionExecutor):
     def _next(self, run: Run, a: AxisFeed) -> list[Command]:
         """The next command(s) of axis ``a``; advances its state."""
         lim = self._limits(a.stepper)
-        min_cmd, up = self.min_cmd, a.up
+        # no command (a pause neither) may be shorter than the stepper's step period
+        min_cmd, up = max(self.min_cmd, lim.min_step_ticks), a.up
         j = a.done + 1
         due = self._tick(run, a, j)
         if due is None:

@@ -657,9 +657,12 @@ class GcodeMachine:
             self._raise_alarm(Alarm.ABORT_CYCLE, msg.GRBL_ABORTED)
 
     def motion_failed(self, result: AqeResult) -> None:
-        """The library refused a queue command (a limit not checked): alarm."""
-        self.write(msg.GRBL_MSG.format(text=msg.GCODE_MOTION_FAILED.format(code=result.name)))
-        self.abort()
+        """The library refused a queue command (a limit not checked): every axis stops,
+        ALARM:3 (the position is not trusted) until ``$X``."""
+        self.executor.abort()
+        self.engine.outputs.cancel_pending()
+        self._clear()
+        self._raise_alarm(Alarm.ABORT_CYCLE, msg.GCODE_MOTION_FAILED.format(code=result.name))
 
     def unlock(self) -> None:
         self.alarm = None

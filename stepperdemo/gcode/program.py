@@ -92,9 +92,12 @@ class GcodeProgram(Program):
             return
         self._setup_done = True
         self.engine.init()
-        for i, cfg in enumerate(demo_build(self.profile).steppers[:self.axes]):
-            s = self.engine.stepper_connect_to_pin(cfg.step)
-            if s is None:  # pragma: no cover - the profile table guarantees the pins
+        p = self.profile
+        for i, cfg in enumerate(demo_build(p).steppers[:self.axes]):
+            # as StepperDemo connects them (ESP32 with ESP-IDF 5: the driver it names)
+            s = (self.engine.stepper_connect_to_pin(cfg.step, cfg.driver) if p.driver_select
+                 else self.engine.stepper_connect_to_pin(cfg.step))
+            if s is None:  # the profile has no more step generators for these pins
                 break
             s.set_direction_pin(cfg.direction, cfg.direction_high_counts_up,
                                 cfg.dir_change_delay_us)
