@@ -19,7 +19,7 @@ commands reach - on:
 Step times become queue commands as in :mod:`.line`: steady steps grouped (at most
 255, spanning at most ``group_span`` ticks, at least the minimum command time), a
 group ends exactly where its next step is due; a step far from the next one is a
-short command followed by pauses of at most ``group_span`` each (so that a slow
+short command followed by pauses of at most ``ahead_ticks`` each (so that a slow
 axis does not commit the law far ahead); the last step of a run is followed by the
 common ``tail``, so the queues run dry together.
 """
@@ -102,6 +102,8 @@ class ExactStopExecutor(MotionExecutor):
         # how far ahead the queues are fed: a device behind a link needs its margin too
         self.ahead_ticks = (int(ahead_ms * p.ticks_per_ms)
                             + int(getattr(backend, "planning_extra_ticks", 0)))
+        # a pause commits the law this far at most (a slow axis waits in pieces)
+        self.piece = max(self.group_span, self.ahead_ticks)
         self.tail = self.min_cmd  # after a run's last step (set per run)
         self.run: Run | None = None
         self._hold = HoldState.NONE
@@ -382,8 +384,8 @@ class ExactStopExecutor(MotionExecutor):
             a.finished = True
             return []
         wait = due - a.cur
-        if wait >= min_cmd:  # a pause first, in pieces of at most group_span
-            piece = wait if wait <= self.group_span + min_cmd else self.group_span
+        if wait >= min_cmd:  # a pause first, in pieces of at most ahead_ticks
+            piece = wait if wait <= self.piece + min_cmd else self.piece
             piece = min(piece, MAX_TICKS - min_cmd)
             if 0 < wait - piece < min_cmd:
                 piece = wait - min_cmd

@@ -101,7 +101,7 @@ def test_feed_hold_decelerates_along_the_path_and_resume_loses_no_step():
     g.advance(0.5)
     assert status(g).startswith("<Hold:0|") and g.machine.hold
     rec = g.machine.executor.holds[-1]
-    rec_ahead = g.machine.executor.ahead_ticks + g.machine.executor.group_span
+    rec_ahead = g.machine.executor.ahead_ticks + g.machine.executor.piece
     assert asked <= rec.frontier <= asked + rec_ahead  # the deceleration begins this soon
     rising = g.backend.recorder.rising
     # from the pins: the speed before the deceleration and the distance after it
