@@ -92,7 +92,7 @@ class ExactStopExecutor(MotionExecutor):
     """Blocks from rest to rest, with feed hold, resume, jog cancel and overrides."""
 
     def __init__(self, host: MotionHost, blocks: BlockQueue,
-                 ahead_ms: float = 10.0) -> None:
+                 ahead_ms: float = 20.0) -> None:
         super().__init__(host, blocks)
         backend = host.backend
         p = backend.profile
