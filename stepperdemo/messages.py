@@ -659,7 +659,8 @@ GCODE_HOST_OPENED = "host opened the port: reset"
 GCODE_HOST_CLOSED = "host closed the port"
 GCODE_ENDPOINT_STATS = ("gcode: {hosts} host(s), {lines} line(s), {errors} error(s), {alarms} "
                         "alarm(s); received {rx} bytes ({dropped} dropped: receive buffer full, "
-                        "{high} dropped: >= 0x80), sent {tx} ({tx_dropped} with no host)")
+                        "{high} dropped: >= 0x80), sent {tx} ({tx_dropped} with no host); "
+                        "the chip fell {lag:.3f} s behind the clock")
 GCODE_ENDPOINT_POSITIONS = "gcode: MPos {mpos}, state {state}"
 GCODE_CLI_ENDPOINT_FILE = "--pty/--tcp serve senders: give no FILE (they send the program)"
 GCODE_CLI_TOML = ("{path} is a scenario file, not G-code: run it with 'stepperdemo run {path}'"

@@ -225,7 +225,8 @@ def run_endpoint(args: argparse.Namespace) -> int:
         print(msg.GCODE_ENDPOINT_STATS.format(
             hosts=endpoint.hosts, lines=m.lines, errors=m.errors, alarms=m.alarms,
             rx=endpoint.rx_bytes, dropped=m.rx.dropped, high=m.rx.dropped_high,
-            tx=endpoint.tx_bytes, tx_dropped=endpoint.tx_dropped))
+            tx=endpoint.tx_bytes, tx_dropped=endpoint.tx_dropped,
+            lag=endpoint.lagged / backend.profile.ticks_per_s))
         print(msg.GCODE_ENDPOINT_POSITIONS.format(
             mpos=",".join(f"{v:.3f}" for v in m.machine_position()), state=m.state_name()))
     if observers is not None:
