@@ -655,6 +655,10 @@ class GcodeMachine:
         self._clear()
         if busy:
             self._raise_alarm(Alarm.ABORT_CYCLE, msg.GRBL_ABORTED)
+        elif self.sleeping:  # as a reset would: awake, in alarm (position not trusted)
+            self.sleeping = False
+            self.alarm = self.alarm or Alarm.ABORT_CYCLE
+            self.write(msg.GRBL_UNLOCK_HINT)
 
     def motion_failed(self, result: AqeResult) -> None:
         """The library refused a queue command (a limit not checked): every axis stops,

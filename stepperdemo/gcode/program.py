@@ -76,6 +76,7 @@ class GcodeProgram(Program):
         self._setup_lines = list(setup_lines or [])
         self.machine: GcodeMachine | None = None
         self.script: deque[str] = deque()
+        self._sending = bytearray()  # the rest of a file's line not yet in the ring
         self.input_consumed_at: int | None = None
         self._setup_done = False
 
@@ -126,22 +127,38 @@ class GcodeProgram(Program):
 
     def load_script(self, text: str) -> None:
         self.script = deque(text.splitlines())
+        self._sending.clear()
         self.input_consumed_at = None
 
     def input_pending(self) -> bool:
-        return bool(self.script) or (self.machine is not None and self.machine.rx.pending > 0)
+        """Input the machine would take now (not what a hold or sleep keeps waiting)."""
+        m = self.machine
+        if m is None:
+            return bool(self.script)
+        return bool(self.script or self._sending) and m.can_read() or (
+            m.rx.pending > 0 and m.can_read())
 
     def _take_script(self) -> None:
         """The next line of a file, when the machine would read it (comments stripped
-        first, as senders do)."""
+        first, as senders do), in pieces that fit Grbl's receive buffer."""
         m = self.machine
-        while self.script and m.can_take_line():
-            line = strip_comments(self.script.popleft())
-            if not line.strip():
+        while True:
+            if self._sending:
+                if not m.can_read() or not m.rx.free:
+                    break
+                piece = bytes(self._sending[:m.rx.free])
+                del self._sending[:len(piece)]
+                m.receive(piece)
+                m.poll()
+                continue
+            if not self.script or not m.can_take_line():
+                break
+            raw = self.script.popleft()
+            if not raw.strip():
                 continue  # a blank line of a file: nothing to answer
-            m.receive(line.encode("utf-8", "replace") + b"\n")
-            m.poll()
-        if self.scripted and not self.script and self.input_consumed_at is None:
+            self._sending += strip_comments(raw).encode("utf-8", "replace") + b"\n"
+        if (self.scripted and not self.script and not self._sending
+                and self.input_consumed_at is None):
             self.input_consumed_at = self.backend.now()
 
     # ---------------------------------------------------------------- time
@@ -155,7 +172,8 @@ class GcodeProgram(Program):
         if not self._setup_done:
             return b.now()
         m = self.machine
-        if self.script and m.can_take_line():
+        if (self._sending and m.can_read() and m.rx.free) or (
+                self.script and m.can_take_line()):
             return b.now()
         return m.wake_tick()
 
