@@ -107,3 +107,36 @@ def test_quickstep_and_pwm_do_not_share_timer_2():
     assert "[MSG:axis X runs the QuickStep planner" in text
     _, _, text = demo("g\nM68 E0 Q50\nx\nc l1 x")
     assert "ERROR timer 2 makes the PWM of a user output: no QuickStep on it" in text
+
+
+def test_the_board_console_g_mode_has_grbls_128_byte_ring_for_counting_senders():
+    """``device --pty --console`` then ``g``: the bytes go to Grbl's receive path at the
+    line's rate, so a sender counting 128 bytes loses none (issue 24: the Arduino's
+    63-byte buffer lost 34-51 characters of a 92-line program)."""
+    from collections import deque
+
+    from stepperdemo.demo.serial_board import SimulatedBoard
+
+    board = SimulatedBoard("atmega2560")
+    board.receive(b"g\n")
+    board.run_until(board.now() + TPS // 2)
+    board.take_output()
+    lines = [f"G1 X{(n % 2) * 30} Y{n} F600000" for n in range(92)] + ["M64 P0"]
+    inflight: deque[int] = deque()
+    out = b""
+    oks = 0
+    for line in lines:
+        data = (line + "\n").encode()
+        while sum(inflight) + len(data) > 128:  # wait for answers, as the sender does
+            board.run_until(board.now() + TPS // 1000)
+            out += board.take_output()
+            while oks < out.count(b"ok\r\n"):
+                oks += 1
+                inflight.popleft()
+        board.receive(data)
+        inflight.append(len(data))
+    board.run_until(board.now() + 5 * TPS)
+    out += board.take_output()
+    assert out.count(b"ok\r\n") == len(lines) and b"error" not in out
+    assert board.rx_dropped == 0 and board.app.gcode.machine.rx.dropped == 0
+    assert board.positions()[:2] == [30, 91]
