@@ -84,7 +84,8 @@ def seed_003(arch: str) -> None:
 
 def servo_sweep() -> None:
     g = RawGrbl("atmega2560", record=True)
-    text = open(os.path.join(ROOT, "sequences", "gcode", "servo_sweep.gcode")).read()
+    with open(os.path.join(ROOT, "sequences", "gcode", "servo_sweep.gcode")) as f:
+        text = f.read()
     g.program.run_script(text)
     pin = g.machine.engine.outputs.analog_pin(0)
     g.backend.deliver_edges()
@@ -97,8 +98,8 @@ def servo_sweep() -> None:
 
 def streaming_cost(arch: str) -> None:
     g = RawGrbl(arch)
-    lines = [ln.split(";")[0].strip() for ln in open(os.path.join(
-        ROOT, "sequences", "gcode", "zigzag1000.gcode"))]
+    with open(os.path.join(ROOT, "sequences", "gcode", "zigzag1000.gcode")) as f:
+        lines = [ln.split(";")[0].strip() for ln in f]
     lines = [ln for ln in lines if ln]
     inflight: deque[int] = deque()
     buf = b""

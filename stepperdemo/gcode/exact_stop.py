@@ -99,11 +99,9 @@ class ExactStopExecutor(MotionExecutor):
         self.tps = p.ticks_per_s
         self.min_cmd = p.min_cmd_ticks
         self.group_span = max(2 * p.min_cmd_ticks, p.ticks_per_s // 500)  # as .line
-        # how far ahead the queues are fed: a device behind a link needs its margin too
-        self.ahead_ticks = (int(ahead_ms * p.ticks_per_ms)
-                            + int(getattr(backend, "planning_extra_ticks", 0)))
+        self._ahead_base = int(ahead_ms * p.ticks_per_ms)
         # a pause commits the law this far at most (a slow axis waits in pieces)
-        self.piece = max(self.group_span, self.ahead_ticks)
+        self.piece = max(self.group_span, self._ahead_base)
         self.tail = self.min_cmd  # after a run's last step (set per run)
         self.run: Run | None = None
         self._hold = HoldState.NONE
@@ -115,6 +113,12 @@ class ExactStopExecutor(MotionExecutor):
         self.holds: list[HoldRecord] = []
 
     # ------------------------------------------------------------- facts
+    @property
+    def ahead_ticks(self) -> int:
+        """How far ahead the queues are fed: a device behind a link needs its margin too
+        (measured by the serial backend as it goes)."""
+        return self._ahead_base + int(getattr(self.host.backend, "planning_extra_ticks", 0))
+
     def _limits(self, stepper) -> Limits:
         return Limits(self.tps, self.min_cmd, stepper.get_max_speed_in_ticks(),
                       self.group_span)

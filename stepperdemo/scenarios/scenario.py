@@ -128,8 +128,10 @@ def load(path: Path | str) -> Scenario:
     _check_types(path, "", data, TOP_KEYS)
     if "name" not in data:
         raise ScenarioError(path, "name", "missing (required)")
-    if ("input" in data) == ("input_file" in data):
-        raise ScenarioError(path, "input", "give either input or input_file (required)")
+    if "input" not in data and "input_file" not in data:
+        raise ScenarioError(path, "input", "missing (required; or input_file)")
+    if "input" in data and "input_file" in data:
+        raise ScenarioError(path, "input", "give either input or input_file, not both")
     if "input_file" in data:  # the input in a file of its own (a G-code program)
         source = path.parent / data["input_file"]
         try:

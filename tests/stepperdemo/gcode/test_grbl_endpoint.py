@@ -93,14 +93,13 @@ def test_pygrbl_streamer_streams_with_a_jog_before_and_a_feed_hold_in_the_middle
     try:
         g.connect()
         assert g.command("$J=G91 X10 F3000", timeout=WAIT_S)
-        wait_for("Jog")
-        wait_for("Idle")
+        wait_for("Idle")  # the jog is done (a sender waits for it before streaming)
         assert g.stream(lines, total=len(lines), completion_timeout=WAIT_S)
         wait_for("Idle")
         final = g.last_status["raw"]
     finally:
         g.disconnect()
-    out = finish(proc)
+        out = finish(proc)
     assert seen["errors"] == [] and seen["alarms"] == []
     assert held["done"] and "Hold:0" in seen["states"]
     assert final.startswith("<Idle|MPos:1234.000,567.000,89.000|")
@@ -192,7 +191,7 @@ def test_a_character_counting_sender_on_tcp_with_jog_hold_and_jog_cancel():
         s.wait_for("Idle")
     finally:
         s.sock.close()
-    out = finish(proc)
+        out = finish(proc)
     assert [a for a in s.answers if a != "ok"] == []
     assert len(s.answers) == 4 + 2 + len(lines)
     assert any(line.startswith("[VER:1.1h") for line in s.other)
@@ -204,24 +203,30 @@ def test_a_character_counting_sender_on_tcp_with_jog_hold_and_jog_cancel():
 def test_one_host_at_a_time_and_each_new_host_is_a_reset():
     proc, where = start("--tcp", "127.0.0.1:0")
     host, port = where.removeprefix("tcp://").rsplit(":", 1)
-    first = CountingSender((host, int(port)))
+    try:
+        one_host_at_a_time(host, int(port))
+    finally:
+        out = finish(proc)
+    assert "gcode: 2 host(s)" in out
+
+
+def one_host_at_a_time(host: str, port: int) -> None:
+    first = CountingSender((host, port))
     try:
         assert first.read_line() == ""
         first.send("G0 X100")
         first.drain()
-        second = socket.create_connection((host, int(port)), timeout=WAIT_S)
+        second = socket.create_connection((host, port), timeout=WAIT_S)
         assert second.recv(100) == b"[MSG:busy: another host is connected]\r\n"
         assert second.recv(100) == b""  # closed
         second.close()
         first.wait_for("Idle")
     finally:
         first.sock.close()
-    third = CountingSender((host, int(port)))
+    third = CountingSender((host, port))
     try:
         assert third.read_line() == ""  # the banner again: a reset, MPos 0
         assert third.read_line() == "Grbl 1.1h ['$' for help]"
         assert third.status().startswith("<Idle|MPos:0.000,0.000,0.000|")
     finally:
         third.sock.close()
-    out = finish(proc)
-    assert "gcode: 2 host(s)" in out
