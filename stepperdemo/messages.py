@@ -275,6 +275,7 @@ RUN_BROKEN = "broken scenario file"
 RUN_CHECKS_PASSED = "{n} checks"
 RUN_PROGRESS = "running"
 RUN_SUMMARY = "{total} scenarios, {failed} failed"
+RUN_SUMMARY_SKIPPED = ", {n} skipped"
 RUN_NO_FILE = "stepperdemo run: no such file or folder: {path}"
 RUN_NOTHING = "stepperdemo run: no scenario files found"
 RUN_TIMING_REPORT_HEAD = "--- timing report: {name} ---"
@@ -283,6 +284,7 @@ RUN_TIMING_REPORT_HEAD = "--- timing report: {name} ---"
 CLI_MAX_TIME = ("stopped after {seconds:g} s of simulated time (--max-time): "
                 "a stepper was still running or the input was still held")
 CLI_ERROR = "stepperdemo: {problem}"
+CLI_BAD_NUMBER = "{option} {value:g}: give {what}"
 
 # ---------------------------------------------------------------------------------------
 # Watching a run (issue 6): VCD trace, plots, timing report, step CSV.  Console texts,
@@ -299,8 +301,8 @@ REPORT_PULSES = ("  pulses       {pulses} (the channel counted {counted}), net {
                  " position {position} by the pins")
 REPORT_POSITION_DIFFERS = "  position     the library says {library} (set with @ or X?)"
 REPORT_PERIOD = "  step period  min {min} us, median {median} us, max {max} us"
-REPORT_SPEED = ("  peak speed   {speed:.0f} steps/s; acceleration up to {acc:.0f},"
-                " deceleration up to {dec:.0f} steps/s^2")
+REPORT_SPEED = ("  peak speed   {speed:.0f} steps/s; acceleration up to {acc},"
+                " deceleration up to {dec} steps/s^2")
 REPORT_DEVIATION = ("  vs. plan     {compared} step intervals: {ontime} as planned,"
                     " {late} late (max +{late_max} us), {early} early (max -{early_max} us)")
 REPORT_DEVIATION_NONE = "  vs. plan     all {compared} step intervals as planned"
@@ -322,7 +324,11 @@ PLOT_TITLE_SPEED = "speed [steps/s]"
 PLOT_AXIS_TIME = "time [s]"
 PLOT_TERMINAL_HEADER = "M{n} {what}"
 PLOT_NO_DATA = "nothing to plot: no steps recorded"
-OBSERVE_BAD_SIZE = "--plot-size {size!r}: give WIDTHxHEIGHT in pixels, e.g. 1200x800"
+OBSERVE_BAD_SIZE = ("--plot-size {size!r}: give WIDTHxHEIGHT in pixels, e.g. 1200x800 "
+                    "(200 .. 10000 a side, at most 40 million pixels)")
+PLOT_BAD_FORMAT = "--plot {path}: a plot file ends in {formats}"
+PLOT_NO_FOLDER = "no folder {folder}"
+PLOT_IS_FOLDER = "it is a folder"
 OBSERVE_NOT_INTERACTIVE = ("--vcd, --plot, --report and --steps-csv go with -c (or run); "
                            "the console records the recent motion by itself: /vcd, /plot, "
                            "/report (/trace on records all of it)")
@@ -361,6 +367,12 @@ SERIAL_LOST = "device lost: {reason} - /reconnect to restore the session"
 SERIAL_RECONNECTED = "device back on {port} ({profile}, session {sessions})"
 SERIAL_RECONNECT_FAILED = "reconnect failed: {error}"
 SERIAL_ESTOP_DONE = "emergency stop: every motion halted, positions taken from the device"
+SERIAL_ESTOP_NO_DEVICE = ("emergency stop: no device ({reason}) - nothing sent; a device that "
+                          "loses its host stops by its watchdog; /reconnect")
+SERIAL_ESTOP_FAILED = "emergency stop: no answer, the device is lost ({reason}) - /reconnect"
+SERIAL_NOT_CONNECTED = "no device ({reason}) - /reconnect first; the line was not sent"
+SERIAL_LAST_REPORT = ("the device's figures below are its last report, from before the "
+                      "connection ended")
 SERIAL_LINK_STATS = ("link: {frames_sent} frames sent, {retransmissions} retransmitted, "
                      "{naks} NAKs; {frames_received} received, {crc_errors} CRC errors, "
                      "{framing_errors} framing errors; rtt {rtt_us} us; "
@@ -393,6 +405,9 @@ RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {droppe
 
 # ------------------------------------------------- issue 16: the console as people use it
 RUN_FAILED_CHECKS = "FAIL ({n} failed)"
+RUN_OK_KNOWN = "ok, {n} known deviation(s)"  # [known_deviation] entries still off
+RUN_KNOWN = "known"  # a known deviation, still there
+RUN_KNOWN_GONE = "MET: remove from known_deviation"  # strict: it passes now
 # the console's recording of the recent motion (bounded, on by default; /trace recent)
 REPL_TRACE_RECENT_ON = ("trace recent: recording the last {bound} pin edges (about {seconds:.1f} s "
                         "of one stepper at 25 kHz) from t={t:.3f} s")
@@ -429,6 +444,11 @@ Input is sent one command at a time; after W it waits until the board's wait is 
 (in test mode: until the test completed), as a W in a StepperDemo line means."""
 BOARD_LOST = "board lost: {reason} - /reconnect restores the session"
 BOARD_NOT_CONNECTED = "no board ({reason}) - /reconnect first; the line was not sent"
+BOARD_SILENT_NOTHING = "no start banner, nothing received"
+BOARD_SILENT_FOREIGN = "no start banner; {n} bytes received, no line of them StepperDemo's"
+BOARD_NO_ANSWER = ("no answer from StepperDemo within {seconds:g} s of the first command "
+                   "({why}): is the board running StepperDemo at {baud} baud? "
+                   "(/reconnect PORT tries another port)")
 BOARD_RESTARTED = "the board restarted (start banner): normal mode, M1 selected{dropped}"
 BOARD_RESTART_DROPPED = "; {n} waiting command(s) dropped"
 BOARD_RECONNECTED = "board back on {port}"
@@ -459,6 +479,9 @@ LOG_RECEIVED = "{t:10.3f} < {text}"
 LOG_NOTE = "{t:10.3f} # {text}"
 CLI_BOARD_CONNECT = "stepperdemo: cannot open the board at {port}: {error}"
 CLI_BOARD_LOST = "stepperdemo: board lost: {reason}"
+CLI_BOARD_NO_ANSWER = ("stepperdemo: no answer from StepperDemo at {port} within {seconds:g} s "
+                       "of the first command ({why}): is the board running StepperDemo at "
+                       "{baud} baud?")
 CLI_BOARD_RESTARTED = "stepperdemo: the board restarted during the run (start banner)"
 CLI_BOARD_INTERRUPTED = "stepperdemo: interrupted; stop sent (X to {steppers})"
 CLI_BOARD_MAX_TIME = ("stepperdemo: stopped waiting after {seconds:g} s (--max-time): "
@@ -485,17 +508,27 @@ STATUS_REPORT_NONE = "  no status lines yet"
 STATUS_REPORT_STEPPER = "M{n}  {lines} status lines, first {first:.3f} s, last {last:.3f} s"
 STATUS_REPORT_POSITION = "  position     {start} -> {end} (net {net:+d}){final}"
 STATUS_REPORT_FINAL = "; {final} in the last stepper table"
-STATUS_REPORT_SPEED = ("  speed        peak {speed:.0f} steps/s planned (v=); from successive "
-                       "lines acceleration up to {acc:.0f}, deceleration up to {dec:.0f} "
-                       "steps/s^2")
+STATUS_REPORT_SPEED = ("  speed        peak {speed:.0f} steps/s planned (v=); acceleration up "
+                       "to {acc}, deceleration up to {dec} steps/s^2 (slope of v= over the "
+                       "lines of each ACC and RED stretch)")
 STATUS_REPORT_RAMP = "  ramp         {states} (status lines per ramp state)"
 STATUS_REPORT_RUNS = ("  runs         {runs}; {gaps} pause(s) of more than {gap_ms} ms between "
                       "lines while running (the board was busy: W, T, long prints)")
 
 # stepperdemo run --board: scenario files on a board, and the twin check
+RUN_NO_FOLDER = ("{option} {folder}: no folder {parent} to make it in (run makes the folder "
+                 "itself, not the ones above it)")
+RUN_BAD_FOLDER = "{option} {folder}: not a folder for the files: {error}"
+RUN_NOT_A_FOLDER = "a file is there"
 RUN_BOARD_HELP = ("run the scenario files on a board running StepperDemo (reset by DTR "
                   "between files) and compare with the simulation (twin check)")
 RUN_BOARD_SKIPPED = "the board runs StepperDemo, not program {program!r}"
+RUN_BOARD_OTHER_CHIP = ("{name}: skipped: written for {profile} (F_CPU={f_cpu} "
+                        "TICKS_PER_S={ticks} Steppers={steppers}); the board's banner says "
+                        "F_CPU={board_f_cpu} TICKS_PER_S={board_ticks} Steppers={board_steppers}")
+RUN_BOARD_NO_ANSWER = ("stopped: no answer from StepperDemo at {port} ({why}) - is the board "
+                       "running StepperDemo at this baud rate?")
+BOARD_LOST_RUN = "board lost: {reason}"
 RUN_BOARD_NO_BANNER = "no start banner within {seconds:g} s of the reset"
 RUN_BOARD_PROFILE = "board banner F_CPU={f_cpu} TICKS_PER_S={ticks} Steppers={steppers}"
 RUN_BOARD_NO_WATCH = ("--vcd, --steps-csv, --plot, --report and --timing-report read the "
@@ -513,7 +546,7 @@ RUN_TWIN_CAPTION = ("positions in steps; lines: status lines on the board/simula
 RUN_TWIN_SUMMARY = ("twin check: {steppers} stepper(s), largest position difference {pos}, "
                     "largest status-line time difference {dt:.3f} s")
 RUN_BOARD_END = {"idle": "idle", "max_time": "max time reached", "lost": "board lost",
-                 "reset": "board restarted"}
+                 "reset": "board restarted", "no_answer": "no answer from StepperDemo"}
 
 # stepperdemo device --pty --console: the simulated StepperDemo firmware on a pty
 CONSOLE_DEVICE_LISTENING = ("console device {profile} ({title}) on {path}{link}, clock "
@@ -697,6 +730,14 @@ SERIAL_DEVICE_REPAIRS = ("device: {frames_held} frames held after a gap, {cuts} 
 # issue 17: StepperDemo on the other platforms of FastAccelStepper 1.2.7
 # start-up prompt for a pin configuration (ESP32, Pico), byte-exact as the firmware
 SELECT_PIN_CONFIG = "Select pin configuration:"
+# --pin-config / a scenario's pin_config (issue 23): refused with one line
+PIN_CONFIG_HELP = ("answer StepperDemo's start-up prompt (ESP32, Pico) with this pin "
+                   "configuration, as upstream's hardware tests do: 0 Test-HW, 1 Driver-Types "
+                   "(default: no answer; -c waits the 5 s and takes 0)")
+PIN_CONFIG_NONE = ("--pin-config: StepperDemo for {arch} offers no pin configurations "
+                   "(only the ESP32 and Pico builds ask)")
+PIN_CONFIG_RANGE = "--pin-config {index}: StepperDemo for {arch} offers {names}"
+PIN_CONFIG_PROGRAM = "--pin-config: only StepperDemo has pin configurations, not {program}"
 CONFIG_ENTRY_INDENT = "  "
 CONFIG_ENTRY_SEP = ": "
 PRESS_NUMBER_TO_SELECT = "Press number to select, else 0"

@@ -45,9 +45,13 @@ class StepperDemo(LoopProgram):
 
     def __init__(self, backend: Backend, *, scripted: bool = True,
                  output: Callable[[bytes], None] | None = None,
-                 test_mode_wait: bool = False) -> None:
+                 test_mode_wait: bool = False, pin_config: int | None = None) -> None:
         self.backend = backend
         self.scripted = scripted
+        # the digit that answers every start-up prompt for a pin configuration (ESP32,
+        # Pico), as upstream's hardware tests do (STEPPER_CONFIG); None: nobody answers
+        # a scripted run (the 5 s wait), an interactive user types it
+        self.pin_config = pin_config
         self.output = output
         self.transcript = bytearray()
         # extension, off by default: `w<ms>` also in test mode (the firmware answers
@@ -204,6 +208,9 @@ class StepperDemo(LoopProgram):
             self.println(cfg.name)
         self.println(msg.PRESS_NUMBER_TO_SELECT)
         self._select_start_ms = b.millis()
+        if self.pin_config is not None:  # the digit is on the line: the first poll takes it
+            self._take_config_digit(self.pin_config)
+            return
         if self.scripted:
             while not self._setup_done:
                 self._select_pass()
@@ -214,15 +221,18 @@ class StepperDemo(LoopProgram):
         if self.rx and not self.scripted:
             ch = self.rx.popleft()
             if 0x30 <= ch <= 0x39:
-                n = ch - 0x30
-                if n < len(self.build.configs):
-                    self.config_index = n
-                self._finish_setup()
+                self._take_config_digit(ch - 0x30)
                 return
         if ((b.millis() - self._select_start_ms) & 0xFFFFFFFF) >= self.build.config_wait_ms:
             self._finish_setup()
             return
         b.app_wait_until(b.now() + 10 * self.profile.ticks_per_ms)
+
+    def _take_config_digit(self, n: int) -> None:
+        """A digit answers the prompt: that configuration if the build has it, else 0."""
+        if n < len(self.build.configs):
+            self.config_index = n
+        self._finish_setup()
 
     def _finish_setup(self) -> None:
         b = self.backend
@@ -339,7 +349,9 @@ class StepperDemo(LoopProgram):
             if self.speed_in_milli_hz:
                 self.print_number(s.get_current_speed_in_milli_hz())
                 self.print(msg.STATUS_MSTEPS)
-            else:
+            else:  # before the first command is queued the firmware prints its
+                # "undefined" period: v=268435455us/4294967295ticks (issue 26: kept,
+                # it is what the original prints - conformance d25, d26, d30)
                 self.print_number(s.get_period_in_us_after_commands_completed())
                 self.print(msg.STATUS_US)
                 self.print_number(s.get_period_in_ticks_after_commands_completed())
@@ -758,6 +770,8 @@ class StepperDemo(LoopProgram):
         return {}
 
     def toolbar_status(self) -> str:
+        if self.mode == _TEST and self.test_ongoing:
+            return f"M{self.selected + 1} | test running"
         return f"M{self.selected + 1}"
 
     def exit_code(self) -> int:

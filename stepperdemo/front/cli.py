@@ -13,7 +13,7 @@ from fas.arch import PROFILES
 from .. import messages as msg
 from ..subcommands import SUBCOMMANDS, help_lines, main_of
 from ..watch import options as observe_options
-from . import board_options, serial_cli
+from . import arg_checks, board_options, serial_cli
 from .scripted import (  # noqa: F401 (the exit codes are re-exported)
     EXIT_MAX_TIME,
     EXIT_OK,
@@ -45,7 +45,8 @@ DESCRIPTION_TAIL = """
 
 exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
             3 --max-time reached, 4 a scenario failed (run), 5 device lost
-            (--board: the board was lost or restarted), 130 interrupted,
+            (--board: the board was lost or restarted, or no StepperDemo
+            answer came within 3 s), 130 interrupted,
             141 the reader of the output went away (e.g. `| head`), quietly"""
 
 
@@ -83,6 +84,8 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
                     help="extension: accept w<ms> in test mode too (the firmware answers "
                          "'Unknown command' there), to let endless test sequences run "
                          "for a while in a -c line")
+    ap.add_argument("--pin-config", type=int, default=None, metavar="N",
+                    help=msg.PIN_CONFIG_HELP)
     ap.add_argument("--speed", type=float, default=1.0, metavar="FACTOR",
                     help="interactive: run the simulated clock FACTOR times real time")
     ap.add_argument("--history", metavar="FILE",
@@ -128,10 +131,12 @@ def _main(argv: Sequence[str] | None = None) -> int:
             return main_fn(argv[1:])
         program, argv = argv[0], argv[1:]  # a program hosted with the console's options
     args = build_parser(program).parse_args(argv)
-    if args.max_time <= 0:
-        print(msg.CLI_ERROR.format(problem="--max-time must be positive"), file=sys.stderr)
+    problem = (arg_checks.number_problem(args)  # --max-time, --speed: finite, in range
+               or observe_options.check_arguments(args))  # e.g. --plot without matplotlib
+    if problem is not None:
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
-    problem = observe_options.check_arguments(args)  # issue 6: e.g. --plot without matplotlib
+    problem = _pin_config(args)
     if problem is not None:
         print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
@@ -142,6 +147,21 @@ def _main(argv: Sequence[str] | None = None) -> int:
         return board.run_console(args)
     from .console import run_console
     return run_console(args)
+
+
+def _pin_config(args: argparse.Namespace) -> str | None:
+    """``--pin-config N``: StepperDemo answers its start-up prompt with N (issue 23)."""
+    if args.pin_config is None:
+        return None
+    if args.program != "demo":
+        return msg.PIN_CONFIG_PROGRAM.format(program=args.program)
+    from ..demo.build import pin_config_problem
+
+    problem = pin_config_problem(PROFILES[args.arch], args.pin_config)
+    if problem is None:
+        args.program_options = {**getattr(args, "program_options", {}),
+                                "pin_config": args.pin_config}
+    return problem
 
 
 def entry() -> None:  # pragma: no cover - console script

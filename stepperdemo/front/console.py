@@ -92,6 +92,20 @@ class RealTimeDriver:
         return max(0.0, (wake - self.target_tick()) / tps / self.scale)
 
 
+TOOLBAR_COMMANDS = 12  # commands of the mode the toolbar lists
+
+
+def toolbar_hints(completions: list[tuple[str, str]]) -> str:
+    """The toolbar's list of the mode's commands: the first few, then ``?`` with what it
+    does in this mode if it is not among them, then /help."""
+    names = [k for k, _ in completions[:TOOLBAR_COMMANDS]]
+    if "?" not in names:
+        hint = next((h for k, h in completions if k == "?"), None)
+        if hint is not None:
+            names.append(f"? {hint.split()[0]}")
+    return "  ".join([*names, "/help"])
+
+
 class ProgramCompleter(Completer):
     def __init__(self, console: "Console") -> None:
         self.console = console
@@ -142,6 +156,7 @@ class Console:
         # is busy (its default); on a virtual clock (tests) pass None: redraw at once
         self.redraw_postpone_s = redraw_postpone_s
         self._toolbar_at = -TOOLBAR_REFRESH_S  # wall time of the last toolbar redraw
+        self._drawn_positions: list[int | None] = []  # stepper positions at that draw
         self.toolbar_shown: deque[str] = deque(maxlen=64)  # recent toolbar texts, for tests
         # /trace /vcd /plot /report (issue 6); the recent motion recorded from the start
         # on a simulated chip (issue 16; recent_trace=False starts with the trace off)
@@ -215,18 +230,25 @@ class Console:
     # ------------------------------------------------------------ toolbar
     def toolbar(self):
         app = self.app
-        hints = "  ".join(f"{k}" for k, _ in app.completions()[:12])
         t = self.backend.now() / self.backend.profile.ticks_per_s
-        running = sum(1 for s in app.steppers if s is not None and s.is_running())
         status = app.toolbar_status()
         state = (f" {app.mode_name()} mode | {status + ' | ' if status else ''}t={t:.3f}s"
-                 f" | running {running} | ")
+                 f" | running {self._running_since_last_draw()} | ")
         self.toolbar_shown.append(state)
         return FormattedText([
             ("bold", f" {self.backend.profile.name} "),
             ("", state),
-            ("italic", f"{hints}  ? usage  /help"),
+            ("italic", toolbar_hints(app.completions())),
         ])
+
+    def _running_since_last_draw(self) -> int:
+        """Steppers running now or moved since the toolbar was last drawn: a move of a
+        few milliseconds (test sequence 01) falls between two draws."""
+        positions = [None if s is None else s.get_current_position() for s in self.app.steppers]
+        before = self._drawn_positions
+        self._drawn_positions = positions
+        return sum(1 for i, s in enumerate(self.app.steppers) if s is not None and (
+            s.is_running() or (i < len(before) and before[i] != positions[i])))
 
     def refresh_toolbar(self) -> None:
         """Redraw the prompt (and its toolbar) every TOOLBAR_REFRESH_S of wall time, so
@@ -303,6 +325,9 @@ class Console:
         stripped = line.strip()
         if stripped.startswith("/"):
             self.meta(stripped)
+            return
+        if self.port and not self.backend.connected:  # a lost device takes no input
+            self.note(serial_cli.not_connected(self.backend))
             return
         self.app.feed(line + "\n")
         self._wake.set()

@@ -57,11 +57,16 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
     reason = app.run_script(args.command, firmware_end=args.firmware_end, max_ticks=max_ticks)
     out.flush()
+    problem = None
     if observers is not None:  # issue 6: close the files, write the plot, print the report
-        for line in observe.finish_arguments(observers, args, app,
-                                             title=(title or args.command)[:100]):
+        lines, problem = observe.finish_arguments(observers, args, app,
+                                                  title=title or args.command)
+        for line in lines:
             print(line)
         sys.stdout.flush()
+    if problem is not None:  # (checked before the run: a disk full, a folder gone)
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
+        return EXIT_USAGE
     if reason == EndReason.MAX_TIME:
         print(msg.CLI_MAX_TIME.format(seconds=args.max_time), file=sys.stderr)
         return EXIT_MAX_TIME

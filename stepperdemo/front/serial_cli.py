@@ -78,11 +78,14 @@ def planning_line(backend) -> str:
 
 
 def stats_lines(backend) -> list[str]:
-    """Link statistics, device counters and per-stepper figures, one line each."""
+    """Link statistics, device counters and per-stepper figures, one line each.  Without
+    a device (lost) its figures are those of its last report: said so."""
     lines = [msg.SERIAL_LINK_STATS.format(**backend.link_stats())]
     if backend.connected:
         lines.append(planning_line(backend))
     counters = backend.device_counters()
+    if not backend.connected and (counters or backend.statuses):
+        lines.append(msg.SERIAL_LAST_REPORT)
     if counters:
         lines.append(msg.SERIAL_DEVICE_STATS.format(**counters))
         lines.append(msg.SERIAL_DEVICE_REPAIRS.format(**counters))
@@ -198,6 +201,11 @@ class DeviceDriver:
         return max(0.0, (wake - backend.now()) / tps / self.scale)
 
 
+def not_connected(backend) -> str:
+    """The console's answer to program input while the device is lost."""
+    return msg.SERIAL_NOT_CONNECTED.format(reason=backend.lost_reason or "closed")
+
+
 def console_attach(console, backend) -> None:
     """Report a lost device in one line above the prompt."""
     def on_event(event: str, text: str) -> None:
@@ -229,9 +237,11 @@ def console_meta(console, cmd: str, args: list[str]) -> Iterable[str]:
             lines.append(msg.SERIAL_LOST.format(reason=backend.lost_reason))
         return lines
     if cmd == "/estop":
+        if not backend.connected:
+            return [msg.SERIAL_ESTOP_NO_DEVICE.format(reason=backend.lost_reason or "closed")]
         if backend.emergency_stop():
             return [msg.SERIAL_ESTOP_DONE]
-        return []
+        return [msg.SERIAL_ESTOP_FAILED.format(reason=backend.lost_reason)]
     return [msg.REPL_UNKNOWN_META.format(cmd=cmd)]
 
 
@@ -324,10 +334,13 @@ def run_device(argv: Sequence[str]) -> int:
     from fas.serial import LinkClosed, Pty, RealClock, open_serial
     from fas.serial.stream import remove_link, set_link
 
+    from .arg_checks import speed_problem
+
     args = device_parser().parse_args(argv)
-    if args.speed <= 0 or args.watchdog_ms < 0:
-        print(msg.CLI_ERROR.format(problem="--speed must be positive, --watchdog-ms >= 0"),
-              file=sys.stderr)
+    problem = speed_problem(args.speed) or (
+        "--watchdog-ms must be >= 0" if args.watchdog_ms < 0 else None)
+    if problem:
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
     if args.simavr:
         return run_simavr(args)

@@ -201,11 +201,8 @@ class TraceCommands:
             return plots.terminal_plot(series, width=width, outputs=outputs)
         if not plots.png_available():
             return [msg.PLOT_EXTRA_MISSING]
-        try:
-            plots.write_png(series, args[0], outputs=outputs)
-        except OSError as exc:
-            return [msg.OBSERVE_FILE_ERROR.format(path=args[0], error=exc)]
-        return [msg.OBSERVE_WROTE.format(path=args[0])]
+        problem = plots.write_png_or_problem(series, args[0], outputs=outputs)
+        return [problem or msg.OBSERVE_WROTE.format(path=args[0])]
 
     def _report(self) -> list[str]:
         from ..watch import report

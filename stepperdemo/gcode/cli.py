@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from fas.arch import PROFILES
 
 from .. import messages as msg
-from ..front import serial_cli
+from ..front import arg_checks, serial_cli
 from ..watch import observe
 from .program import DEFAULT_AXES
 from .settings import (
@@ -94,16 +94,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str]) -> int:
     args = build_parser().parse_args(list(argv))
-    problem = None
-    if args.max_time <= 0:
-        problem = "--max-time must be positive"
-    elif args.axes < 1:
+    problem = arg_checks.number_problem(args)  # --max-time, --speed: finite, in range
+    if problem is None and args.axes < 1:
         problem = "--axes must be at least 1"
-    elif args.speed <= 0:
-        problem = "--speed must be positive"
-    elif (args.pty or args.tcp) and args.file:
+    elif problem is None and (args.pty or args.tcp) and args.file:
         problem = msg.GCODE_CLI_ENDPOINT_FILE
-    else:
+    elif problem is None:
         for text in args.set:
             if not text.strip().startswith("$") or "=" not in text:
                 problem = msg.GCODE_CLI_BAD_SET.format(text=text)

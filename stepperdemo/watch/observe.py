@@ -209,18 +209,20 @@ def from_arguments(backend: SimBackend, args: argparse.Namespace,
 
 
 def finish_arguments(obs: Observers, args: argparse.Namespace, app=None,
-                     title: str = "") -> list[str]:
-    """Finish recording, write the plot; returns the report lines to print (maybe none)."""
+                     title: str = "") -> tuple[list[str], str | None]:
+    """Finish recording, write the plot; returns the report lines to print (maybe none)
+    and the problem with the plot file (None: written, or none asked for)."""
     from . import plots, report
 
     obs.finish()
     out: list[str] = []
+    problem = None
     if args.plot:
-        size = plots.parse_size(args.plot_size)
-        plots.write_png(plots.series_of(obs), args.plot, size, title=title,
-                        outputs=plots.outputs_of(obs))
+        problem = plots.write_png_or_problem(
+            plots.series_of(obs), args.plot, plots.parse_size(args.plot_size),
+            title=plots.plot_title(title), outputs=plots.outputs_of(obs))
     if args.report:
         out.extend(report.report_lines(obs, positions=report.library_positions(app)))
         if app is not None:
             out.extend(app.watch_report())  # the program's own figures
-    return out
+    return out, problem

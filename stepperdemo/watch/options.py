@@ -51,6 +51,9 @@ def check_arguments(args: argparse.Namespace) -> str | None:
         from . import plots
         if plots.parse_size(args.plot_size) is None:
             return msg.OBSERVE_BAD_SIZE.format(size=args.plot_size)
+        problem = plots.path_problem(args.plot)  # the file is written after the run
+        if problem is not None:
+            return problem
         if not plots.png_available():
             return msg.PLOT_EXTRA_MISSING
     return None
