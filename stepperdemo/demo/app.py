@@ -104,6 +104,7 @@ class StepperDemo(LoopProgram):
         self.demo_config: DemoConfig = DemoConfig("", self.build.steppers)
         self.qs_hold = None  # a QuickStep stepper whose move waits for FIFO room
         self.gcode = None  # issue 12: the G-code machine of the g mode
+        self.gcode_failures = 0  # issue 24: g-mode lines refused or never ended (exit 1)
 
     # ------------------------------------------------------------- output
     def print(self, text: str | bytes) -> None:
@@ -450,12 +451,18 @@ class StepperDemo(LoopProgram):
             pass
         elif self.scripted:
             if self.script_pos < len(self.script):
-                ch = self.script[self.script_pos]
-                self.script_pos += 1
+                if self.mode != _GCODE or self.gcode.room():  # g mode: wait for ring room
+                    ch = self.script[self.script_pos]
+                    self.script_pos += 1
             elif self.read_ptr == self.write_ptr and self.input_consumed_at is None:
                 self.input_consumed_at = b.now()
-        elif self.rx:
+                if self.mode == _GCODE:
+                    self.gcode.script_ended()
+        elif self.rx and (self.mode != _GCODE or not self.gcode.leaving):
             ch = self.rx.popleft()
+        if ch and self.mode == _GCODE:  # issue 24: bytes go to Grbl's receive path
+            self.gcode.receive(bytes((ch,)))
+            ch = 0
         if ch:
             if ((self.write_ptr + 1) & 0xFF) == self.read_ptr:
                 self.read_ptr = (self.read_ptr + 1) & 0xFF
@@ -470,11 +477,6 @@ class StepperDemo(LoopProgram):
                 self.print(msg.WAIT_COMPLETE)
         elif self.qs_hold is not None:
             qs_console.service_hold(self)
-        elif self.mode == _GCODE and self.read_ptr != self.write_ptr:
-            if self.gcode.can_take():  # issue 12: lines are G-code blocks
-                c = self.in_buffer[self.read_ptr]
-                self.read_ptr = (self.read_ptr + 1) & 0xFF
-                self.gcode.char(c)
         elif self.read_ptr != self.write_ptr:
             c = self.in_buffer[self.read_ptr]
             self.read_ptr = (self.read_ptr + 1) & 0xFF
@@ -593,10 +595,12 @@ class StepperDemo(LoopProgram):
                 or self._held_by_w()):
             return True
         if self.read_ptr != self.write_ptr:
-            return self.mode == _GCODE and not self.gcode.can_take()
+            return False
         if self.scripted:
+            if self.mode == _GCODE and self.script_pos < len(self.script):
+                return not self.gcode.room()  # a script waits until Grbl would read
             return self.script_pos >= len(self.script) and self.input_consumed_at is not None
-        return not self.rx
+        return not self.rx or (self.mode == _GCODE and self.gcode.leaving)
 
     def _needs_machine_events(self) -> bool:
         """True when the loop must look at every interrupt, as the firmware's passes
@@ -738,7 +742,12 @@ class StepperDemo(LoopProgram):
         self.print(msg.ENTER_GCODE_MODE)
         self.mode = _GCODE
         self.gcode = DemoGcode(self)
-        self.println(msg.GCODE_BANNER)
+        if self.read_ptr != self.write_ptr:  # input held behind the g: the machine's now
+            rest = bytearray()
+            while self.read_ptr != self.write_ptr:
+                rest.append(self.in_buffer[self.read_ptr])
+                self.read_ptr = (self.read_ptr + 1) & 0xFF
+            self.gcode.receive(bytes(rest))
 
     def leave_gcode(self) -> None:
         self.print(msg.EXIT_TO_MAIN_MENU)
@@ -753,10 +762,17 @@ class StepperDemo(LoopProgram):
             return COMPLETIONS + [("x", "back to the main menu")]
         return self.command_table.hints(self.mode)
 
+    def control_keys(self) -> dict[str, bytes]:
+        """Keys the console sends as bytes: Ctrl-X in the g mode (issue 24)."""
+        if self.mode == _GCODE:
+            from ..gcode.program import CONTROL_KEYS
+            return CONTROL_KEYS
+        return {}
+
     def toolbar_status(self) -> str:
         if self.mode == _TEST and self.test_ongoing:
             return f"M{self.selected + 1} | test running"
         return f"M{self.selected + 1}"
 
     def exit_code(self) -> int:
-        return 1 if self.test_failed_count else 0
+        return 1 if self.test_failed_count or self.gcode_failures else 0

@@ -20,8 +20,10 @@ from typing import Awaitable, Callable, Iterable
 
 from prompt_toolkit import PromptSession
 from prompt_toolkit.completion import Completer, Completion
+from prompt_toolkit.filters import Condition
 from prompt_toolkit.formatted_text import FormattedText
 from prompt_toolkit.history import InMemoryHistory
+from prompt_toolkit.key_binding import KeyBindings
 from prompt_toolkit.patch_stdout import patch_stdout
 from prompt_toolkit.shortcuts import print_formatted_text
 
@@ -332,6 +334,24 @@ class Console:
         self.app.feed(line + "\n")
         self._wake.set()
 
+    def control_key(self, key: str) -> None:
+        """A control key the program takes as a byte (Ctrl-X: Grbl's soft reset)."""
+        data = self.app.control_keys().get(key)
+        if data is not None:
+            self.app.feed(data)
+            self._wake.set()
+
+    def key_bindings(self) -> KeyBindings:
+        """The program's control keys, sent at once (eager: before Emacs's Ctrl-X
+        prefix could wait for a second key)."""
+        kb = KeyBindings()
+
+        @kb.add("c-x", eager=True, filter=Condition(lambda: "c-x" in self.app.control_keys()))
+        def _ctrl_x(event) -> None:
+            self.control_key("c-x")
+
+        return kb
+
     def interrupt(self) -> None:
         """Ctrl-C: stop all motion at once."""
         self.app.force_stop_all()
@@ -390,7 +410,8 @@ class Console:
         self.note(self.welcome())
         session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
-                                output=self._output, complete_while_typing=False)
+                                output=self._output, complete_while_typing=False,
+                                key_bindings=self.key_bindings())
         session.app.max_render_postpone_time = self.redraw_postpone_s
         self.prompt_session = session
         with patch_stdout(raw=True):

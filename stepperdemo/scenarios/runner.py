@@ -279,6 +279,9 @@ def _output_checks(sc: Scenario, backend: SimBackend, app, pins) -> list[Check]:
                 checks.append(Check(what, v[key], "none", None, None, False))
             else:
                 checks.append(_num_check(what, v[key], round(measured, 6), tol.get(key, 0)))
+        if "duty_steps" in v:  # issue 24: every step of a sweep, its duty and its time
+            checks.extend(_duty_step_checks(exp.name, v["duty_steps"], tol, times, levels,
+                                            backend.now(), tps))
         if "first_change_after_step" in v:
             letter, step = v["first_change_after_step"]
             steps = backend.recorder.rising(pins[letter].step) if letter in pins else []
@@ -289,6 +292,23 @@ def _output_checks(sc: Scenario, backend: SimBackend, app, pins) -> list[Check]:
             checks.append(Check(f"{exp.name} first change between steps {step} and "
                                 f"{step + 1} of {letter}", "yes", "yes" if ok else "no",
                                 None, None, ok))
+    return checks
+
+
+def _duty_step_checks(name: str, want: list, tol: dict, times, levels, end: int,
+                      tps: int) -> list[Check]:
+    """``duty_steps = [[duty %, seconds], ...]``: the PWM's steps of one duty, in order."""
+    from ..watch.outputs import duty_steps
+
+    got = duty_steps(times, levels, end)
+    checks = [Check(f"{name} duty steps", len(want), len(got), None, None,
+                    len(got) == len(want))]
+    for i, ((duty, seconds), (g_duty, _n, g_ticks)) in enumerate(zip(want, got,
+                                                                      strict=False)):
+        checks.append(_num_check(f"{name} step {i + 1} duty %", duty, round(g_duty, 6),
+                                 tol.get("duty_percent", 0)))
+        checks.append(_num_check(f"{name} step {i + 1} seconds", seconds,
+                                 round(g_ticks / tps, 6), tol.get("duty_steps", 0)))
     return checks
 
 

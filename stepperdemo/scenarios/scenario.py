@@ -38,7 +38,8 @@ TIMING_KEYS = {
     "duration_ratio": (int, float), "start_us": (int, float),
 }
 TOP_KEYS = {
-    "name": str, "description": str, "program": str, "profile": str, "input": str, "end": str,
+    "name": str, "description": str, "program": str, "profile": str, "input": str,
+    "input_file": str, "end": str,
     "max_time_s": (int, float), "long": bool, "reference": str, "justification": str,
     "steppers": dict, "timing": dict, "transcript": dict, "outputs": dict,
     "pin_config": int, "known_deviation": dict,
@@ -48,11 +49,12 @@ OUTPUT_KEYS = {
     "rises": int, "falls": int, "level": int, "first_change_s": (int, float),
     "first_change_after_step": list, "periods": int, "frequency_hz": (int, float),
     "duty_percent": (int, float), "duty_mean_percent": (int, float),
+    "duty_steps": list,
 }
 OUTPUT_TOLERANCE_KEYS = {
     "rises": int, "falls": int, "first_change_s": (int, float), "periods": int,
     "frequency_hz": (int, float), "duty_percent": (int, float),
-    "duty_mean_percent": (int, float),
+    "duty_mean_percent": (int, float), "duty_steps": (int, float),
 }
 OUTPUT_NAMES = tuple(f"Dout{i}" for i in range(4)) + tuple(f"Aout{i}" for i in range(4))
 
@@ -139,9 +141,19 @@ def load(path: Path | str) -> Scenario:
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(path, "-", f"not valid TOML: {exc}") from None
     _check_types(path, "", data, TOP_KEYS)
-    for key in ("name", "input"):
-        if key not in data:
-            raise ScenarioError(path, key, "missing (required)")
+    if "name" not in data:
+        raise ScenarioError(path, "name", "missing (required)")
+    if "input" not in data and "input_file" not in data:
+        raise ScenarioError(path, "input", "missing (required; or input_file)")
+    if "input" in data and "input_file" in data:
+        raise ScenarioError(path, "input", "give either input or input_file, not both")
+    if "input_file" in data:  # the input in a file of its own (a G-code program)
+        source = path.parent / data["input_file"]
+        try:
+            data["input"] = source.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ScenarioError(path, "input_file",
+                                f"cannot read {source}: {exc.strerror or exc}") from None
     profile = data.get("profile", "atmega328p")
     if profile not in PROFILES:
         raise ScenarioError(path, "profile", f"unknown profile {profile!r}")
@@ -217,6 +229,13 @@ def load(path: Path | str) -> Scenario:
                                   or not isinstance(after[1], int) or after[1] < 0):
             raise ScenarioError(path, prefix + "first_change_after_step",
                                 'expected ["A".."F", step number]')
+        steps = values.get("duty_steps")
+        if steps is not None and not all(
+                isinstance(st, list) and len(st) == 2 and all(
+                    isinstance(x, (int, float)) and not isinstance(x, bool) for x in st)
+                for st in steps):
+            raise ScenarioError(path, prefix + "duty_steps",
+                                "expected [[duty percent, seconds], ...]")
         if values.get("level", 0) not in (0, 1):
             raise ScenarioError(path, prefix + "level", "expected 0 or 1")
         sc.outputs.append(OutputExpectation(name, values, tol))

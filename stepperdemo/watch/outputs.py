@@ -164,3 +164,44 @@ class OutputAnalysis:
     def finish(self, end_tick: int) -> None:
         for tr in self.outputs:
             tr.finish(end_tick)
+
+
+def duty_steps(times: Sequence[int], levels: bytes, end_tick: int,
+               close: float = 0.1) -> list[tuple[float, int, int]]:
+    """A PWM pin's waveform as steps of one duty: ``(mean duty %, periods, ticks)`` per
+    run of consecutive periods whose duties are within ``close`` percentage points of
+    the run's first (a high time between two whole ticks alternates).  A period is
+    rise to rise; the last one before the output stops (stays low longer than a
+    period) counts with the length of the one before it."""
+    rises = [t for t, lv in zip(times, levels, strict=True) if lv]
+    falls = [t for t, lv in zip(times, levels, strict=True) if not lv]
+    periods: list[tuple[int, int]] = []  # (period, high)
+    fi = 0
+    for i, rise in enumerate(rises):
+        while fi < len(falls) and falls[fi] <= rise:
+            fi += 1
+        fall = falls[fi] if fi < len(falls) else None
+        if i + 1 < len(rises):
+            nxt = rises[i + 1]
+        elif periods and fall is not None and end_tick - rise > periods[-1][0]:
+            nxt = rise + periods[-1][0]  # stopped after this period
+        else:
+            break
+        if fall is None or fall > nxt:
+            break
+        periods.append((nxt - rise, fall - rise))
+    steps: list[tuple[float, int, int]] = []
+    first = high_sum = length = count = 0
+    for period, high in periods:
+        duty = 100.0 * high / period
+        if count and abs(duty - first) > close:
+            steps.append((100.0 * high_sum / length, count, length))
+            high_sum = length = count = 0
+        if not count:
+            first = duty
+        high_sum += high
+        length += period
+        count += 1
+    if count:
+        steps.append((100.0 * high_sum / length, count, length))
+    return steps

@@ -49,7 +49,7 @@ def test_a_file_on_stdin_is_a_script_of_many_lines_and_may_be_watched(tmp_path) 
 
 @pytest.mark.parametrize(("args", "stdin", "wanted"), [
     (("winder",), b"move 1 100 w500 status\n", "S1 spindle  @100 "),
-    (("gcode",), b"G1 X100 F6000\nM2\n", "ok\nok\n"),
+    (("gcode",), b"G1 X100 F6000\nM2\n", "ok\n[MSG:Pgm End]\nok\n"),
 ])
 def test_winder_and_gcode_read_a_script_from_stdin(args, stdin, wanted) -> None:
     res = stepperdemo(*args, "--lf", stdin=stdin)
