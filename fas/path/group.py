@@ -114,6 +114,7 @@ class PathGroup:
         self.hold_start: HoldStart | None = None
         self._listener: SpeedListener | None = None
         self._restart = False  # start the next run at once
+        self.run_start_tick: int | None = None  # where the latest run began (its pause)
 
     # ------------------------------------------------------------ joining
     def attach(self) -> PathResult:
@@ -233,9 +234,10 @@ class PathGroup:
         return self.lookahead.size - len(self.lookahead)
 
     def line(self, target: Sequence[int], feed: float | None = None, *,
-             tag: object = None) -> PathResult:
+             tag: object = None, override: bool = True) -> PathResult:
         """Queue a straight move to ``target`` (steps per axis) at ``feed`` units/min
-        (None: the rapid rate - every axis at most its ``max_rate``)."""
+        (None: the rapid rate - every axis at most its ``max_rate``); ``override``
+        False: the feed and rapid overrides leave it alone (a jog)."""
         if not self.attached:
             return PathResult.ERR_NOT_ATTACHED
         if self.lookahead.full():
@@ -259,7 +261,7 @@ class PathGroup:
         for d, a in zip(delta, self.axes, strict=True):
             if d < 0 and not a.host.has_direction_pin():
                 return PathResult.ERR_NO_DIRECTION_PIN
-        block = self.lookahead.make_block(start, delta, feed, tag)
+        block = self.lookahead.make_block(start, delta, feed, tag, override)
         if block is None:
             return PathResult.EMPTY_BLOCK
         was_empty = not self.lookahead.blocks and not self.run_active
@@ -272,7 +274,7 @@ class PathGroup:
         return PathResult.OK
 
     def line_units(self, target: Sequence[float], feed: float | None = None, *,
-                   tag: object = None) -> PathResult:
+                   tag: object = None, override: bool = True) -> PathResult:
         """:meth:`line` to a target in units (each axis rounded to its nearest step,
         as Grbl's planner does)."""
         if len(target) != len(self.settings.axes):
@@ -283,7 +285,16 @@ class PathGroup:
             if not math.isfinite(x) or not INT32_MIN <= x <= INT32_MAX:
                 return PathResult.ERR_RANGE
             steps.append(round(x))
-        return self.line(steps, feed, tag=tag)
+        return self.line(steps, feed, tag=tag, override=override)
+
+    def set_overrides(self, feed_percent: float, rapid_percent: float) -> None:
+        """Grbl's feed override (blocks with a feed) and rapid override (rapid blocks),
+        percent: every queued block is planned again with its new speed; the block in
+        execution changes from the end of what is final (at most the forward planning
+        time plus a task period from now).  Blocks queued with ``override=False`` keep
+        their speed."""
+        self.lookahead.set_overrides(feed_percent / 100.0, rapid_percent / 100.0)
+        self._wake()
 
     def flush(self) -> None:
         """No more blocks for now: start at once and run to the end of the queue."""
@@ -512,6 +523,7 @@ class PathGroup:
             for a in axes:
                 a.host.write(None, 0, True, True)
         self.stats.runs += 1
+        self.run_start_tick = t_s
         self.run_active = True
         for a in axes:
             a.path_moved = True
@@ -586,7 +598,7 @@ class PathGroup:
         for b in pending:
             end = b.end
             delta = tuple(e - s for e, s in zip(end, self.position, strict=True))
-            nb = la.make_block(tuple(self.position), delta, b.feed, b.tag)
+            nb = la.make_block(tuple(self.position), delta, b.feed, b.tag, b.override)
             if nb is None:
                 continue
             la.add(nb)

@@ -167,7 +167,7 @@ class AxisWriter:
                 self.pending = True
             gap = self.t_pend - self.w_end
             if gap:
-                if gap >= self.min_cmd:
+                if gap >= self.min_wait:  # (a pause is refused below the top speed)
                     seg = self.ex.segment(self.seq)
                     assert seg is not None
                     res = self._pauses(gap, seg.ups[self.axis], free)
@@ -514,7 +514,7 @@ class AxisWriter:
     def _pause_ahead(self, free: int) -> Wrote:
         """No step is final: pauses up to one minimum command time before the horizon."""
         gap = int(self.ex.t) - self.min_cmd - self.w_end
-        if gap < self.min_cmd or self.last_start > self._deep:
+        if gap < self.min_wait or self.last_start > self._deep:
             return Wrote.WAIT
         parts = split_ticks(gap)[:free - 1]
         return self._write_all([(t, 0) for t in parts], self.up, None)

@@ -40,7 +40,6 @@ from .. import messages as msg
 from . import dollar as dollar_commands
 from . import reports
 from .codes import Alarm, Err
-from .exact_stop import ExactStopExecutor
 from .grbl_rx import (
     DOOR,
     FEED_100,
@@ -65,7 +64,7 @@ from .grbl_rx import (
     RxLine,
 )
 from .interp import Action, Dwell, End, Interpreter, Move, Pause, SetOffset, SetOutput
-from .motion import BlockQueue, HoldState, MotionExecutor
+from .motion import BlockQueue, HoldState, MotionExecutor, make_executor, wanted_kind
 from .parser import AXES, GcodeError, parse_line
 from .settings import KEEP_ENABLED, GcodeSettings
 
@@ -103,7 +102,7 @@ class GcodeMachine:
         self.identity = identity or f"stepperdemo {msg.VERSION} {self.backend.profile.name}"
         self.rx = GrblReceiver()
         self.blocks = BlockQueue()
-        self.executor: MotionExecutor = ExactStopExecutor(self, self.blocks)
+        self.executor: MotionExecutor = make_executor(self, self.blocks)
         self.interp = Interpreter(self.axes, self.settings, check=self._check)
         self.schedule = reports.ReportSchedule()
         self.alarm: int | None = None
@@ -313,6 +312,7 @@ class GcodeMachine:
     def poll(self) -> None:
         """Everything that is due now: motion, the line in execution, new lines."""
         now = self.backend.now()
+        self._pick_executor()
         self.executor.poll()
         if self.jog_cancel and self.executor.hold_state() == HoldState.HELD:
             self._finish_jog_cancel()
@@ -331,6 +331,16 @@ class GcodeMachine:
                 break
             self._line(line, now)
         self._idle_drivers(now)
+
+    def _pick_executor(self) -> None:
+        """``$171`` (or the steppers) asks for the other executor: changed while
+        nothing is queued, moving or held."""
+        ex = self.executor
+        if (ex.busy() or ex.moving() or ex.hold_state() != HoldState.NONE
+                or getattr(ex, "kind", "") == wanted_kind(self)):
+            return
+        self.executor = make_executor(self, self.blocks)
+        self.executor.set_overrides(self.feed_override, self.rapid_override)
 
     def line(self, text: str) -> None:
         """A whole line as if received (tests, ``--set``): fed through the receive path."""
