@@ -194,12 +194,15 @@ class LookaheadExecutor(MotionExecutor):
         return None
 
     def _retire(self) -> None:
-        """Blocks the group has made final leave the block queue (front first)."""
-        if not self.handed:
-            return
-        planned = {id(b.tag) for b in self.group.lookahead.blocks}
+        """Blocks the group has made final leave the block queue (front first).  The
+        group keeps its blocks in order, so the front is retired when the group no
+        longer has it (before it there are at most blocks a hold put back)."""
         blocks = self.blocks
-        while self.handed and len(blocks) and id(blocks.peek()) not in planned:
+        planned = self.group.lookahead.blocks
+        while self.handed and len(blocks):
+            front = blocks.peek()
+            if any(b.tag is front for b in planned):
+                return
             blocks.pop()
             self.handed -= 1
 

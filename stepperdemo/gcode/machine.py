@@ -635,8 +635,9 @@ class GcodeMachine:
             if self.idle_since is not None:
                 times.append(self.idle_since + self.settings.idle_delay_ms
                              * b.profile.ticks_per_ms)
-            elif not self.executor.moving():
-                times.append(now)
+            elif not (self.executor.moving() or (self.executor.busy() and not self.hold
+                                                 and not self.door)):
+                times.append(now)  # the drivers' idle time begins now (_idle_drivers)
         return max(min(times), now) if times else None
 
     # ------------------------------------------------------- stop and reset
