@@ -182,6 +182,9 @@ class PathGroup:
                         or pool.before_dir_change_ticks > shortest)
         return False
 
+    #: public name: may ``stepper`` join a group, as far as its driver goes?
+    driver_pauses = _driver_pauses
+
     def detach(self) -> PathResult:
         """Give each stepper its own planner back (only while the group is idle)."""
         if not self.attached:

@@ -62,7 +62,7 @@ def lookahead_fits(steppers: list) -> bool:
     direction-change delay or a driver that pauses at a direction change cannot."""
     pins: set[int] = set()
     for s in steppers:
-        if s.get_dir_change_delay_ticks() or PathGroup._driver_pauses(s):
+        if s.get_dir_change_delay_ticks() or PathGroup.driver_pauses(s):
             return False
         pin = s.get_direction_pin()
         if pin != PIN_UNDEFINED:
