@@ -28,6 +28,11 @@
    around each joint, away from the line ends), and the planned speed at every
    junction that junction deviation limits against Grbl's formula
    ``v^2 = a_j d sin(theta/2) / (1 - sin(theta/2))`` computed here from the geometry.
+5. Issue 25, on a device (``--device-only``): the same program through ``--port`` on
+   the Python device and on our firmware in simavr, at 115 200 and 1 000 000 baud, on
+   the loopback's virtual clock: motion time, underruns, late starts, rejected
+   commands, final position, the bytes the host sent on average and in the busiest
+   second against the line's capacity - the link margin.
 """
 
 from __future__ import annotations
@@ -403,6 +408,69 @@ def lookahead_section(segments: int, repeat: int) -> None:
               f"{min(errs):+.4%} .. {max(errs):+.4%} of the formula")
 
 
+def device_run(lines: list[str], device: str, baud: int) -> dict:
+    """The program through ``--port`` on a device (the Python device or the firmware in
+    simavr) on the loopback's virtual clock: motion, the device's counters, the bytes
+    the host sent - on average and in the busiest second - against the line's
+    capacity (10 bits a byte)."""
+    from fas.device.loopback import Loopback
+
+    with Loopback(device=device, baud=baud) as lb:
+        b = lb.backend
+        tps = b.profile.ticks_per_s
+        app = make_program("gcode", b, scripted=True, output=lambda d: None, axes=2,
+                           setup_lines=la_setup(0))
+        app.setup()
+        m = app.machine
+        wire = lb.device.in_wires[0]  # host to device
+        samples: list[tuple[int, int]] = []
+        poll = m.poll
+
+        def sampling_poll() -> None:
+            samples.append((b.now(), wire.sent))
+            poll()
+
+        m.poll = sampling_poll  # type: ignore[method-assign]
+        w0 = time.perf_counter()
+        app.run_script("\n".join(lines) + "\n", max_ticks=3600 * tps)
+        settled = b.settle()
+        wall = time.perf_counter() - w0
+        start = m.motion_log[0][0]
+        motion = (b.now() - start) / tps
+        counters = b.device_counters()
+        busiest = 0
+        j = 0
+        for i in range(len(samples)):  # bytes sent in any second of the run
+            while samples[i][0] - samples[j][0] > tps:
+                j += 1
+            busiest = max(busiest, samples[i][1] - samples[j][1])
+        return {"motion_s": motion, "wall_s": wall, "settled": settled,
+                "errors": m.errors, "positions": m.positions(),
+                "program": list(m.interp.position_steps), "bytes": wire.sent,
+                "busiest": busiest, "capacity": baud / 10, "counters": counters,
+                "runs": len(m.motion_log), "underruns": m.executor.group.stats.underruns
+                if m.executor.kind == "lookahead" else None}
+
+
+def device_section(segments: int) -> None:
+    lines = la_lines(segments)
+    print(f"on a device through --port: {len(lines)} lines, the same program")
+    for device in ("python", "simavr"):
+        for baud in (115_200, 1_000_000):
+            r = device_run(lines, device, baud)
+            c = r["counters"]
+            print(f"  {device:6s} {baud:>7d} baud: motion {r['motion_s']:.3f} s "
+                  f"({r['wall_s']:.1f} s wall), runs {r['runs']}, host underruns "
+                  f"{r['underruns']}, device underruns {c['underruns']}, late starts "
+                  f"{c['late_starts']}, rejected {c['rejected']}, errors {r['errors']}, "
+                  f"position {r['positions']} (program {r['program']})")
+            avg = r["bytes"] / r["motion_s"]
+            print(f"      host->device {r['bytes']} bytes: {avg:.0f} B/s on average, "
+                  f"{r['busiest']} B in the busiest second, of {r['capacity']:.0f} B/s: "
+                  f"link margin {r['capacity'] / r['busiest']:.2f}x "
+                  f"({1 - r['busiest'] / r['capacity']:.0%} of the line free)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", default="10000,3000", help="the diagonal: X,Y steps")
@@ -411,9 +479,14 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="look-ahead runs; fastest counts")
     ap.add_argument("--lookahead-only", action="store_true",
                     help="only section 4 (issue 25's look-ahead figures)")
+    ap.add_argument("--device-only", action="store_true",
+                    help="only section 5 (the look-ahead program through --port)")
     args = ap.parse_args()
     if args.lookahead_only:
         lookahead_section(args.segments, args.repeat)
+        return
+    if args.device_only:
+        device_section(args.segments)
         return
     dx, dy = (int(v) for v in args.steps.split(","))
     print(f"diagonal G1 X{dx} Y{dy} F600000 (a = 10000 steps/s^2 per axis, 10 000 steps/s)")
@@ -438,6 +511,7 @@ def main() -> None:
             m = traced_pwm(s, os.path.join(d, "m.vcd"), True)
             print(f"  peak Python memory for {s:g} s: {m['peak_mb']:.1f} MB")
     lookahead_section(args.segments, args.repeat)
+    device_section(args.segments)
 
 
 if __name__ == "__main__":

@@ -469,7 +469,8 @@ class PathGroup:
 
     def _write(self) -> None:
         now = self._now()
-        low_water = 2 * self.axes[0].host.backend.task_period_ticks
+        backend = self.axes[0].host.backend  # (a device: plus the link's lead)
+        low_water = 2 * backend.task_period_ticks + backend.planning_extra_ticks
         for w in self.writers:
             if w.fill(now, low_water) == Wrote.ERROR:
                 self.stats.errors += 1

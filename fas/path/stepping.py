@@ -520,10 +520,13 @@ class AxisWriter:
         return self._write_all([(t, 0) for t in parts], self.up, None)
 
     def _pauses(self, gap: int, up: bool, free: int) -> Wrote:
+        """Pauses up to the pending step: as many as the queue takes now (a step final
+        further ahead than the queue holds in pauses - a device's long link lead - gets
+        the rest on the next runs; every part is at least half a longest command)."""
         parts = split_ticks(gap)
-        if len(parts) > free - 1:
+        if free < 2:
             return Wrote.FULL
-        return self._write_all([(t, 0) for t in parts], up, None)
+        return self._write_all([(t, 0) for t in parts[:free - 1]], up, None)
 
     def _shift(self, by: int) -> None:
         st = self.stats
