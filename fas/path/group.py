@@ -516,18 +516,7 @@ class PathGroup:
             if res.value != 0:
                 self._abandon_start()
                 return
-        if timed:
-            for ch in channels:
-                if ch.start_at(t_s) != t_s:
-                    self.stats.start_retries += 1
-                    self.start_margin *= 2
-                    self._abandon_start()
-                    return
-        else:
-            for a in axes:
-                a.host.write(None, 0, True, True)
         self.stats.runs += 1
-        self.run_start_tick = t_s
         self.run_active = True
         for a in axes:
             a.path_moved = True
@@ -537,8 +526,48 @@ class PathGroup:
         ex.begin(float(t_s + lead + p.min_cmd_ticks))
         for w in self.writers:
             w.begin(t_s + lead, t_s)
+        # the path's first commands are written before the start: a device behind a
+        # link gets them ahead of its Start (a queue holding only the lead when it
+        # starts would take up a later pause as a restart, twice as long)
+        heard: list[tuple[int, float, object]] = []  # the speed listener's, held
+        for w in self.writers:  # until the start tick is known
+            w.listener = None if self._listener is None else (
+                lambda tick, speed, tag: heard.append((tick, speed, tag)))
         ex.commit(self._horizon(now))
         self._write()
+        for w in self.writers:
+            w.listener = self._listener
+        if not self.run_active:
+            return  # a queue refused a command: aborted
+        shift = 0
+        if timed:
+            need = max(ch.earliest_start_tick() or 0 for ch in channels)
+            if need > t_s:  # the commands written take their time on the link
+                shift = need + self.start_margin - t_s
+                self._shift_timeline(shift)
+                t_s += shift
+            for ch in channels:
+                if ch.start_at(t_s) != t_s:
+                    self.stats.start_retries += 1
+                    self.start_margin *= 2
+                    self._stop_axes_now()
+                    self._requeue()
+                    self._restart = True
+                    return
+        else:
+            for a in axes:
+                a.host.write(None, 0, True, True)
+        self.run_start_tick = t_s
+        if self._listener is not None:
+            for tick, speed, tag in heard:
+                self._listener(tick + shift, speed, tag)
+
+    def _shift_timeline(self, ticks: int) -> None:
+        """The run starts ``ticks`` later than planned: everything made final so far
+        (and every axis's commands, which are durations) moves with it."""
+        self.executor.shift(ticks)
+        for w in self.writers:
+            w.shift(ticks)
 
     def _abandon_start(self) -> None:
         for a in self.axes:

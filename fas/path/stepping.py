@@ -131,6 +131,13 @@ class AxisWriter:
         self.done = False
         self.up = self.queue.queue_end_count_up
 
+    def shift(self, ticks: int) -> None:
+        """The run starts ``ticks`` later: the written commands end that much later."""
+        self.w_end += ticks
+        self.last_start += ticks
+        if self.pending:
+            self.t_pend += ticks
+
     def cursor_seq(self) -> int:
         return self.seq
 
