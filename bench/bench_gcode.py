@@ -414,14 +414,34 @@ def device_run(lines: list[str], device: str, baud: int) -> dict:
     the host sent - on average and in the busiest second - against the line's
     capacity (10 bits a byte)."""
     from fas.device.loopback import Loopback
+    from rigs.pins import steps_by_pins
 
-    with Loopback(device=device, baud=baud) as lb:
+    kw = {"record": True} if device == "python" else {}
+    with Loopback(device=device, baud=baud, **kw) as lb:
         b = lb.backend
         tps = b.profile.ticks_per_s
         app = make_program("gcode", b, scripted=True, output=lambda d: None, axes=2,
                            setup_lines=la_setup(0))
         app.setup()
         m = app.machine
+        moves: list = []
+        push = m.blocks.push
+
+        def recording_push(block) -> None:
+            moves.append(block)
+            push(block)
+
+        m.blocks.push = recording_push  # type: ignore[method-assign]
+        ends: dict[int, int] = {}
+        trim = path_executor.Executor.trim
+
+        def recording_trim(ex, keep_from: int) -> None:
+            for seg in ex.segments:
+                if seg.seq < keep_from and seg.complete:
+                    ends[id(seg.tag)] = seg.end_tick
+            trim(ex, keep_from)
+
+        path_executor.Executor.trim = recording_trim  # type: ignore[method-assign]
         wire = lb.device.in_wires[0]  # host to device
         samples: list[tuple[int, int]] = []
         poll = m.poll
@@ -432,19 +452,30 @@ def device_run(lines: list[str], device: str, baud: int) -> dict:
 
         m.poll = sampling_poll  # type: ignore[method-assign]
         w0 = time.perf_counter()
-        app.run_script("\n".join(lines) + "\n", max_ticks=3600 * tps)
-        settled = b.settle()
+        try:
+            app.run_script("\n".join(lines) + "\n", max_ticks=3600 * tps)
+            settled = b.settle()
+        finally:
+            path_executor.Executor.trim = trim  # type: ignore[method-assign]
         wall = time.perf_counter() - w0
         start = m.motion_log[0][0]
         motion = (b.now() - start) / tps
         counters = b.device_counters()
+        edges = lb.device.trace().edges if device == "simavr" else lb.device.recorder.pin_edges
+        build = demo_build(b.profile)
+        axes = [steps_by_pins(edges, c.step, c.direction, s.direction_pin_high_counts_up())
+                for c, s in zip(build.steppers[:2], m.steppers, strict=True)]
         busiest = 0
         j = 0
         for i in range(len(samples)):  # bytes sent in any second of the run
             while samples[i][0] - samples[j][0] > tps:
                 j += 1
             busiest = max(busiest, samples[i][1] - samples[j][1])
+        verts = [moves[0].start] + [mv.target for mv in moves]
+        events = sorted([(t, 0, d) for t, d in axes[0]] + [(t, 1, d) for t, d in axes[1]])
+        deviation = path_deviation(events, verts, [ends[id(mv)] for mv in moves])
         return {"motion_s": motion, "wall_s": wall, "settled": settled,
+                "deviation": deviation,
                 "errors": m.errors, "positions": m.positions(),
                 "program": list(m.interp.position_steps), "bytes": wire.sent,
                 "busiest": busiest, "capacity": baud / 10, "counters": counters,
@@ -463,7 +494,8 @@ def device_section(segments: int) -> None:
                   f"({r['wall_s']:.1f} s wall), runs {r['runs']}, host underruns "
                   f"{r['underruns']}, device underruns {c['underruns']}, late starts "
                   f"{c['late_starts']}, rejected {c['rejected']}, errors {r['errors']}, "
-                  f"position {r['positions']} (program {r['program']})")
+                  f"position {r['positions']} (program {r['program']}), largest distance "
+                  f"from the path {r['deviation']:.3f} steps")
             avg = r["bytes"] / r["motion_s"]
             print(f"      host->device {r['bytes']} bytes: {avg:.0f} B/s on average, "
                   f"{r['busiest']} B in the busiest second, of {r['capacity']:.0f} B/s: "
