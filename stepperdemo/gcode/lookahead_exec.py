@@ -35,6 +35,7 @@ allow it; otherwise the machine uses the exact-stop executor
 
 from __future__ import annotations
 
+from itertools import islice
 from typing import TYPE_CHECKING
 
 from fas.codes import PIN_UNDEFINED
@@ -201,7 +202,7 @@ class LookaheadExecutor(MotionExecutor):
         planned = self.group.lookahead.blocks
         while self.handed and len(blocks):
             front = blocks.peek()
-            if any(b.tag is front for b in planned):
+            if planned and (planned[0].tag is front or any(b.tag is front for b in planned)):
                 return
             blocks.pop()
             self.handed -= 1
@@ -228,9 +229,7 @@ class LookaheadExecutor(MotionExecutor):
         else:
             self.host.enable_drivers()
         handed_any = False
-        for i, move in enumerate(blocks):
-            if i < self.handed:
-                continue
+        for move in islice(blocks, self.handed, None):
             if g.room() <= 0:
                 break
             res = g.line(move.target, None if move.rapid else move.feed, tag=move,
