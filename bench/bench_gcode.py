@@ -295,12 +295,13 @@ def rate_and_accel(steps: list[tuple[int, int]], tps: int,
     x = interpolated(steps, grid)
     top = max(abs(x[i + 1] - x[i - 1]) / (2e-3) for i in range(1, len(x) - 1))
     h = ACC_WINDOW_MS
+    margin = 5 * dt  # a position interpolated across a junction's step feels it too
     acc = acc_away = 0.0
     for i in range(h, len(x) - h):
         a = abs(x[i + h] - 2 * x[i] + x[i - h]) / (h * 1e-3) ** 2
         acc = max(acc, a)
-        k = bisect.bisect_left(corners, grid[i - h])
-        if k < len(corners) and corners[k] <= grid[i + h]:
+        k = bisect.bisect_left(corners, grid[i - h] - margin)
+        if k < len(corners) and corners[k] <= grid[i + h] + margin:
             continue
         acc_away = max(acc_away, a)
     return top, acc, acc_away
