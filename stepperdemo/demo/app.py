@@ -54,7 +54,9 @@ class StepperDemo(LoopProgram):
         # "Unknown command" there)
         self.test_mode_wait = test_mode_wait
         self.restarts = 0
-        self.build = demo_build(self.profile)
+        # the firmware build the simulated chip runs (fas.sim.builds; None elsewhere)
+        self.firmware_build: str | None = getattr(backend, "build", None)
+        self.build = demo_build(self.profile, self.firmware_build)
         self._reset_state()
         self.rx: deque[int] = deque()
         self.script = b""
@@ -185,9 +187,10 @@ class StepperDemo(LoopProgram):
             return
         self._setup_started = True
         b = self.backend
-        boot = sim_timing(self.profile).boot_ticks
+        timing = sim_timing(self.profile, self.firmware_build)
+        boot = timing.boot_ticks
         if self.script_loaded:  # the built-in line is start-up data copied at reset
-            boot += len(self.script) * sim_timing(self.profile).boot_script_byte_ticks
+            boot += len(self.script) * timing.boot_script_byte_ticks
         b.app_spend(boot)
         b.app_started()
         b.app_spend(self.build.setup_head_ticks)
@@ -450,9 +453,11 @@ class StepperDemo(LoopProgram):
             self.in_buffer[self.write_ptr] = ch
             self.write_ptr = (self.write_ptr + 1) & 0xFF
 
+        path = 0  # CPU time of this pass's path beyond loop_pass_ticks
         if not take_input:
             pass
         elif self.pause_ms > 0:
+            path = self.build.loop_pause_ticks
             if ((b.millis() - self.pause_start) & 0xFFFFFFFF) >= self.pause_ms:
                 self.pause_ms = 0
                 self.print(msg.WAIT_COMPLETE)
@@ -467,6 +472,7 @@ class StepperDemo(LoopProgram):
             c = self.in_buffer[self.read_ptr]
             self.read_ptr = (self.read_ptr + 1) & 0xFF
             if c not in (0x20, 0x0A, 0x0D):
+                path = self.build.loop_char_ticks
                 if len(self.out_buffer) == 255:
                     self.out_buffer.clear()
                 self.out_buffer.append(c)
@@ -489,7 +495,9 @@ class StepperDemo(LoopProgram):
 
         ms = b.millis()
         if self.simulate_digital_read_error:
-            b.stray_read(tuple([s.get_step_pin() for s in self.steppers if s is not None]))
+            pins = tuple([s.get_step_pin() for s in self.steppers if s is not None])
+            b.stray_read(pins)
+            path += len(pins) * self.build.loop_stray_read_ticks
         if self.simulate_blocked_isr and (ms & 0xFF) < 0x40:
             b.block_interrupts(self.build.irq_block_ticks)
 
@@ -499,7 +507,15 @@ class StepperDemo(LoopProgram):
         elif self.mode == _GCODE:  # issue 12: G-code answers, it prints no status
             self.gcode.poll()
         else:
-            running = self.any_running()
+            running = False
+            build = self.build
+            for s in self.steppers:  # running |= stepper[i]->isRunning(), for each
+                if s is not None:
+                    if s.is_running():
+                        running = True
+                        path += build.loop_running_stepper_ticks
+                    else:
+                        path += build.loop_idle_stepper_ticks
             if running and ((ms - self.last_time) & 0xFFFFFFFF) >= 100:
                 if self.verbose:
                     self.output_info(True)
@@ -509,7 +525,7 @@ class StepperDemo(LoopProgram):
                 if self.usage_info:
                     self.usage()
             self.stopped = not running
-        b.app_spend(self.build.loop_pass_ticks)
+        b.app_spend(self.build.loop_pass_ticks + path)
 
     def _spend_command(self, cmd: bytes) -> None:
         """CPU time of parsing and executing a command, without its prints."""
