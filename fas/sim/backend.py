@@ -95,13 +95,12 @@ class SimBackend(Backend):
         m.in_task = True
         m.task_offset = p.fill_entry_ticks
         per_entry = p.fill_queued_entry_ticks
-        if per_entry:  # a running stepper's fill sums the ticks of its queued entries
-            for ch in self.channels:
+        if per_entry or p.fill_stepper_ticks:
+            for ch in self.channels:  # a running stepper's fill first sums its queue
                 if ch.running:
                     q = ch.q
                     queued = (q.next_write_idx - q.read_idx) & 0xFF
-                    if queued > 1:
-                        m.task_offset += per_entry * (queued - 1)
+                    m.task_offset += p.fill_stepper_ticks + per_entry * max(0, queued - 1)
         try:
             engine.manage_steppers()
         finally:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ..arch import Profile
+from ..arch import ATMEGA2560, ATMEGA2560_VARIANTS, Profile
 from .builds import check_build
 
 
@@ -64,8 +64,10 @@ class SimTiming:
     fill_mask_exit_ticks: int = 0
     # ... and for this long when it writes a command to the queue
     fill_cmd_mask_ticks: int = 0
-    # the ramp task of a running stepper first sums the ticks of its queued entries
-    # (all but the running one): this much per entry
+    # the ramp task's work for each running stepper before its first command ...
+    fill_stepper_ticks: int = 0
+    # ... where it first sums the ticks of its queued entries (all but the running
+    # one): this much per entry
     fill_queued_entry_ticks: int = 0
     # the step interrupt takes this much more CPU when it takes up the next queue entry
     isr_next_entry_ticks: int = 0
@@ -73,6 +75,9 @@ class SimTiming:
     fill_coast_cmd_ticks: int = 0
     # the ramp task starts a stopped queue after its fill
     fill_start_ticks: int = 0
+    # CPU time of one write call to the console's serial driver beyond char_ticks per
+    # character (the ATmega32U4's USB CDC driver)
+    console_call_ticks: int = 0
     # interrupts pending when the loop's blocked section ends enter after the
     # instruction that follows its sei
     sei_ticks: int = 0
@@ -135,14 +140,29 @@ AVR_TIME_MEASUREMENT_TIMING = replace(AVR_TIMING, isr_latency_ticks=(62, 72, 72)
                                       isr_duration_by_channel=(126, 152, 152))
 
 # the build of the runs e01-e18 (fas.sim.builds): the library's code takes fewer cycles
-AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=759, fill_start_ticks=271,
+AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=326,
+                       fill_start_ticks=597 + 1250,
                        fill_pause_ticks=1259, fill_single_ticks=1817, fill_cmd_ticks=2060,
                        fill_coast_cmd_ticks=1600, fill_queued_entry_ticks=100,
                        isr_next_entry_ticks=24, isr_duration_by_channel=(120, 135, 135))
 
 # ATmega32U4: Serial is the USB CDC port, output costs no UART time (the AVR simulator
-# has no USB host, so the firmware's prints return at once)
-AVR_USB_TIMING = replace(AVR_TIMING, char_ticks=40, uart_byte_ticks=0)
+# has no USB host, so the firmware's prints return at once): a write call to the CDC
+# driver costs 112 ticks (its checks), and its larger start-up code starts timer 0 2000
+# ticks later than on the ATmega328P (both measured on the runs e15/e16)
+AVR_USB_TIMING = replace(AVR_TIMING, char_ticks=40, uart_byte_ticks=0,
+                         boot_ticks=AVR_TIMING.boot_ticks + 2000, console_call_ticks=112)
+AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
+                           boot_ticks=AVR_USB_TIMING.boot_ticks,
+                           console_call_ticks=AVR_USB_TIMING.console_call_ticks,
+                           fill_entry_ticks=575)
+
+# ATmega2560 in the build of the runs e13/e14: a 3-byte program counter makes calls,
+# interrupt entries and returns longer
+AVR_MEGA_E_TIMING = replace(AVR_E_TIMING, fill_entry_ticks=517, fill_stepper_ticks=376,
+                            fill_start_ticks=200, fill_single_ticks=2292,
+                            fill_pause_ticks=1420, fill_cmd_ticks=2600, fill_coast_cmd_ticks=2020,
+                            isr_duration_by_channel=(127, 142, 142), millis_isr_ticks=97)
 
 ESP32_TIMING = SimTiming(
     timer_wrap_ticks=0,
@@ -186,6 +206,8 @@ SAM_TIMING = SimTiming(
 PICO_TIMING = replace(ESP32_TIMING, uart_byte_ticks=0, char_ticks=8,
                       millis_overflow_ticks=16000)
 
+MEGA_NAMES = tuple(p.name for p in (ATMEGA2560, *ATMEGA2560_VARIANTS))
+
 BY_FAMILY: dict[str, SimTiming] = {
     "avr": AVR_TIMING,
     "esp32": ESP32_TIMING,
@@ -203,7 +225,8 @@ BY_PROFILE: dict[str, SimTiming] = {
 # family, as in BY_PROFILE / BY_FAMILY
 BY_BUILD: dict[str, dict[str, SimTiming]] = {
     "d_time_measurement": {"atmega328p": AVR_TIME_MEASUREMENT_TIMING},
-    "e": {"atmega328p": AVR_E_TIMING},
+    "e": {"atmega328p": AVR_E_TIMING, "atmega32u4": AVR_USB_E_TIMING,
+          **{name: AVR_MEGA_E_TIMING for name in MEGA_NAMES}},
 }
 
 

@@ -57,6 +57,9 @@ class StepperDemo(LoopProgram):
         # the firmware build the simulated chip runs (fas.sim.builds; None elsewhere)
         self.firmware_build: str | None = getattr(backend, "build", None)
         self.build = demo_build(self.profile, self.firmware_build)
+        self._timing = sim_timing(self.profile, self.firmware_build)
+        # a write call to the console's serial driver (USB CDC: not nothing)
+        self._call_ticks = self._timing.console_call_ticks
         self._reset_state()
         self.rx: deque[int] = deque()
         self.script = b""
@@ -113,7 +116,9 @@ class StepperDemo(LoopProgram):
             data = bytes(text)
         if scan is None:
             if data:
-                self.backend.console_write(data)
+                call = self._call_ticks  # one write call for the whole text
+                self.backend.console_write(data, [call] + [0] * (len(data) - 1)
+                                           if call else None)
         else:
             self._print_from_table(data, scan)
         if not data:
@@ -140,6 +145,7 @@ class StepperDemo(LoopProgram):
             b.app_spend(rest)
             return
         share, extra = divmod(rest, n)
+        share += self._call_ticks  # the table's text goes out a character per call
         b.console_write(data, [share + 1] * extra + [share] * (n - extra))
 
     def lookup(self, text: str) -> None:
@@ -164,6 +170,9 @@ class StepperDemo(LoopProgram):
     def println(self, text: str | bytes = "") -> None:
         if not text and self.build.print_call_ticks:
             self.backend.app_spend(self.build.print_call_ticks)  # println("")
+        if text and self._call_ticks and not (isinstance(text, str)
+                                              and text + msg.CRLF in msg.TABLE_SCAN):
+            self.backend.app_spend(self._call_ticks)  # println(x): print(x), then "\r\n"
         if isinstance(text, str):
             self.print(text + msg.CRLF)
         else:
@@ -187,7 +196,7 @@ class StepperDemo(LoopProgram):
             return
         self._setup_started = True
         b = self.backend
-        timing = sim_timing(self.profile, self.firmware_build)
+        timing = self._timing
         boot = timing.boot_ticks
         if self.script_loaded:  # the built-in line is start-up data copied at reset
             boot += len(self.script) * timing.boot_script_byte_ticks
@@ -404,8 +413,19 @@ class StepperDemo(LoopProgram):
     def usage(self) -> None:
         p = self.profile
         if self.mode == _NORMAL:
-            self.print(msg.usage_normal(esp32=p.family == "esp32", avr=p.family == "avr",
-                                        small=self.build.small_build))
+            text = msg.usage_normal(esp32=p.family == "esp32", avr=p.family == "avr",
+                                    small=self.build.small_build)
+            if text in msg.TABLE_SCAN or not self.build.msg_scan_byte_ticks:
+                self.print(text)
+            else:  # another build's usage: from its own table, which is not counted;
+                # the full text's look-ups in proportion to its length
+                full = msg.TABLE_SCAN[msg.USAGE_NORMAL]
+                scan = tuple(x * len(text) // len(msg.USAGE_NORMAL) for x in full)
+                data = text.encode("utf-8")
+                self._print_from_table(data, scan)
+                self.transcript += data
+                if self.output is not None:
+                    self.output(data)
         elif self.build.small_build:
             pass  # the ATmega32U4 build has no test and config usage texts
         elif not self.scripted:

@@ -316,10 +316,18 @@ BY_PROFILE: dict[str, DemoBuild] = {
 # the firmware builds whose StepperDemo costs differ from the default build's
 # (fas.sim.builds), by profile name
 BY_BUILD: dict[str, dict[str, DemoBuild]] = {
-    "e": {"atmega328p": replace(ATMEGA328P_BUILD, loop_pass_ticks=220,
+    "e": {"atmega328p": replace(ATMEGA328P_BUILD, loop_pass_ticks=220, setup_head_ticks=1450,
                                 loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
                                 loop_char_ticks=5, loop_stray_read_ticks=81,
-                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106})},
+                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106}),
+          **{p.name: replace(_mega(p), loop_pass_ticks=300, loop_running_stepper_ticks=10,
+                             loop_idle_stepper_ticks=40, loop_char_ticks=5,
+                             cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106})
+             for p in (ATMEGA2560, *ATMEGA2560_VARIANTS)},
+          "atmega32u4": replace(ATMEGA32U4_BUILD, loop_pass_ticks=248,
+                                loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
+                                loop_char_ticks=5,
+                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 105})},
 }
 
 
