@@ -393,6 +393,7 @@ RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {droppe
 
 # ------------------------------------------------- issue 16: the console as people use it
 RUN_FAILED_CHECKS = "FAIL ({n} failed)"
+RUN_OK_XFAIL = "ok ({n} expected failure)"
 # the console's recording of the recent motion (bounded, on by default; /trace recent)
 REPL_TRACE_RECENT_ON = ("trace recent: recording the last {bound} pin edges (about {seconds:.1f} s "
                         "of one stepper at 25 kHz) from t={t:.3f} s")

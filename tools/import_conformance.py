@@ -12,10 +12,20 @@ transcript there is already marked).
 For every folder of the conformance data: write ``sequences/conformance/<name>.toml``
 with the reference figures as expectations, and copy its per-step timestamps and its
 console transcript (version and usage text replaced by markers) to
-``sequences/reference/<name>/``.  Tolerances are the smallest our simulation meets,
-and each must lie within a bound that follows from the timing model; the file states
-the reason.  A deviation beyond its bound is printed and the file is written with the
-bound, so that the scenario fails until the model is fixed.
+``sequences/reference/<name>/``.  Tolerances come from the reference, never from our
+result: exact counts where console timing cannot move them, the promise
+max(10 steps, 0.5 %) where a timed command can land a ramp-task slot off, the bounds of
+the timing model for times (a move starts in the firmware's ramp-task slot, within
+200 us), the spread of the firmware's own pulse widths, and for `e` each window's gap
+count within 1 (issue 23).  The file states the reasons.  What our simulation does
+not meet is written as the file's ``[expected_failure]`` naming the measured value
+(strict: the scenario fails the day it passes), and printed.
+
+The runs e01-e18 come from another build of the firmware than the others (the
+conformance README): their files name the firmware build ``e`` (``fas.sim.builds``).
+The board of a run follows from its data: a third step channel is the ATmega2560
+(upstream's timer-1 variant), an empty transcript the ATmega32U4 (its USB serial is not
+connected in the simulator).
 """
 
 from __future__ import annotations
@@ -36,7 +46,13 @@ sys.path.insert(0, str(ROOT))
 from stepperdemo.messages import USAGE_NORMAL  # noqa: E402
 from stepperdemo.scenarios.evaluate import read_reference_steps  # noqa: E402
 from stepperdemo.scenarios.runner import run_scenario  # noqa: E402
-from stepperdemo.scenarios.scenario import Scenario, StepperExpectation, TimingExpectation  # noqa: E402
+from stepperdemo.scenarios.scenario import (  # noqa: E402
+    ExpectedFailure,
+    GapsExpectation,
+    Scenario,
+    StepperExpectation,
+    TimingExpectation,
+)
 from stepperdemo.scenarios.transcript import mark_reference  # noqa: E402
 
 DESCRIPTION = ("Conformance: the original firmware (FastAccelStepper 1.2.6 StepperDemo, "
@@ -48,10 +64,25 @@ REASON_BUILD = ("This run comes from a local build of the original firmware ({bu
                 "(same positions, pulse counts and transcripts); its first steps come 34 us "
                 "and its ramp task 9 us earlier than there (another compiler), which the "
                 "step-time tolerances absorb.")
+DESCRIPTION_E = ("Conformance: the original firmware (FastAccelStepper 1.2.6 StepperDemo, "
+                 "{board} in an AVR simulator), the build of the runs e01-e18 (firmware "
+                 "build \"e\"), for this input line")
 RUN_FILES = ("input.txt", "result.txt", "run_info.json")
 SLOT_US = 4096.0  # the ramp task period of the ATmega328P (65536 ticks)
 START_BOUND_US = 200.0  # start of a move inside the same ramp-task slot (fill CPU model)
 PULSE_PCT_BOUND = 10.0
+# the firmware's mean step pulse over the single-stepper runs without `e` spreads from
+# 60.4 to 61.8 ticks (+-1.2 % about its mean): what a model of the mean can promise
+PULSE_PCT = 2.0
+COUNT_STEPS, COUNT_PCT = 10, 0.5  # timed input: within max(10 steps, 0.5 %) (issue 23)
+# upstream's timing tests (extras/tests/simavr_based/*/expect.txt): per step pin the
+# tolerance of Max High and of Total High, in us, as upstream states them
+UPSTREAM_TIMING_TOL = {
+    "test_sd_04_timing_328p": {"A": (5, 60), "B": (6, 270)},
+    "test_sd_04_timing_328p_37k": {"A": (5, 50)},
+}
+BOARDS = {"atmega328p": "ATmega328P", "atmega2560_timer1": "ATmega2560, timer 1",
+          "atmega32u4": "ATmega32U4"}
 
 REASON_EXACT = ("No timed wait and no speed change while running: which commands reach the "
                 "ramp generator, and in which order, does not depend on console timing, so "
@@ -92,8 +123,30 @@ REASON_SEQ_MOVES = ("The test sequence starts each move from the loop once the p
                     "start offsets are bounded by start_us.")
 REASON_ENABLE = ("Enable-off time = start-up to the first auto-enable; it depends on when "
                  "the console took the first move command (see the timing model).")
-REASON_PULSE = ("Pulse high time is the step interrupt's latency, modelled as a constant per "
-                "channel (3.8 us A, 4.6 us B); the firmware's varies with other interrupts.")
+REASON_PULSE = ("Pulse high time: the step interrupt clears the pin; it waits for the "
+                "interrupts that hold the CPU (timing model).  The firmware's mean pulse "
+                "spreads by +-1.2 % between runs (the interrupted instruction, the loop's "
+                "short critical sections), so the total is compared within 2 %; with `e` "
+                "(pulses held to the end of a blocked section) within 10 %.")
+REASON_COUNTS_TIMED = ("Counts and positions: within max(10 steps, 0.5 %) of the firmware, "
+                       "the promise for timed input (issue 23).")
+REASON_E_GAPS = ("With `e` the step interrupt misses its compare whenever a blocked section "
+                 "holds it back past the next compare; the step then waits for the 16-bit "
+                 "timer to wrap (4.1 ms).  Per 256 ms window of `e` the number of these gaps "
+                 "is compared within 1 (issue 23).")
+REASON_BUILD_E = ("The runs e01-e18 come from another build of the firmware than the d* and "
+                  "test_sd_* runs (its code takes fewer cycles; the conformance README): "
+                  "firmware build \"e\" (fas/sim/builds.py, docs/timing-model.md).")
+REASON_BUILD_TM = ("This run was built with the library's SIMAVR_TIME_MEASUREMENT, as "
+                   "upstream's timing tests are (its evaluation reports the time in the step "
+                   "and fill interrupts): the step interrupt sets a port bit before it clears "
+                   "the step pin (firmware build \"d_time_measurement\").")
+REASON_UPSTREAM_TIMING = ("This is upstream's timing test: the longest and the summed "
+                          "step pulse are compared with upstream's tolerances (its "
+                          "expect.txt).  The step interrupt clears the pin once no other "
+                          "interrupt holds the CPU: the other channel's step interrupt, "
+                          "timer 0, the UART, the ramp task's entry and exit (timing model).")
+REASON_XFAIL = ("Not met yet (expected failure, strict): {what}.")
 
 
 def parse_result(path: Path) -> dict:
@@ -104,6 +157,7 @@ def parse_result(path: Path) -> dict:
                      r"(?:, Max High=(\d+)us Total High=(\d+)us)?", line)
         if m:
             res[m.group(1)] = dict(rise=int(m.group(2)), fall=int(m.group(3)),
+                                   max_high=int(m.group(4)) if m.group(4) else None,
                                    total_high=int(m.group(5)) if m.group(5) else None)
             continue
         m = re.match(r"Position\[(\w)\]=(-?\d+)", line)
@@ -158,6 +212,28 @@ def round_up(x: float, step: float) -> float:
     return math.ceil(x / step - 1e-9) * step if x > 0 else 0
 
 
+def firmware_build(folder: Path) -> str | None:
+    """The firmware build of a run: e01.. come from the build of the `e` runs (the
+    conformance README); a run whose evaluation reports the time in the step and fill
+    interrupts was built with the library's SIMAVR_TIME_MEASUREMENT (upstream's timing
+    tests); the others come from the default build."""
+    if re.fullmatch(r"e\d+", folder.name):
+        return "e"
+    if "Time in StepISR" in (folder / "result.txt").read_text():
+        return "d_time_measurement"
+    return None
+
+
+def board_of(folder: Path, result: dict) -> str:
+    """The profile of a run's board, from its data."""
+    if "StepC" in result:
+        return "atmega2560_timer1"  # a third step channel: upstream's timer-1 variant
+    transcript = folder / "transcript.txt"
+    if transcript.exists() and not transcript.read_bytes().strip():
+        return "atmega32u4"  # its USB serial is not connected in the simulator
+    return "atmega328p"
+
+
 def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
     name = folder.name
     line = (folder / "input.txt").read_text().strip()
@@ -166,8 +242,11 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
     ref_dir = out_dir / "reference" / name
     same = ref_dir.resolve() == folder.resolve()  # importing a local run again
     build_note = run_info.get("build")
+    fw_build = firmware_build(folder)
+    profile = board_of(folder, result)
+    with_e = " e " in f" {line} "
     letters = []
-    for ch in "AB":
+    for ch in "ABC":
         src = folder / f"steps_{ch}.tsv.gz"
         if src.exists():
             ref_dir.mkdir(parents=True, exist_ok=True)
@@ -175,9 +254,11 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
                 shutil.copyfile(src, ref_dir / src.name)
             letters.append(ch)
     ref_dir.mkdir(parents=True, exist_ok=True)
-    if (folder / "transcript.txt").exists():
+    transcript_ref = None
+    if (folder / "transcript.txt").exists() and (folder / "transcript.txt").read_bytes().strip():
         marked = mark_reference((folder / "transcript.txt").read_bytes(), len(USAGE_NORMAL))
-        with gzip.open(ref_dir / "transcript.txt.gz", "wt", encoding="utf-8", newline="") as f:
+        transcript_ref = ref_dir / "transcript.txt.gz"
+        with gzip.open(transcript_ref, "wt", encoding="utf-8", newline="") as f:
             f.write(marked)
     if build_note and not same:  # keep what a later import needs (no firmware text)
         for fname in RUN_FILES:
@@ -186,34 +267,41 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
     n_timed = timed_commands(line)
     problems: list[str] = []
 
-    # expectations from the reference
+    # expectations from the reference, tolerances by rule (never from our result)
     steppers = []
-    for ch in "AB":
+    for ch in "ABC":
         step, d, en = result.get(f"Step{ch}"), result.get(f"Dir{ch}"), result.get(f"Enable{ch}")
         if step is None:
             continue
         values = {"pulses": step["rise"], "dir_transitions": [d["rise"], d["fall"]],
                   "enable_transitions": [en["rise"], en["fall"]]}
+        tol: dict = {}
         if f"Pos{ch}" in result:
             values["position"] = result[f"Pos{ch}"]
+        if timed and step["rise"]:
+            tol.update(position=COUNT_STEPS, position_pct=COUNT_PCT, pulses=COUNT_STEPS,
+                       pulses_pct=COUNT_PCT)
         if f"TEnable{ch}" in result:
             values["enable_high_max_us"] = result[f"TEnable{ch}"]
-        if step["rise"] and step["total_high"]:
+            tol["enable_high_us"] = START_BOUND_US
+        upstream = UPSTREAM_TIMING_TOL.get(name, {}).get(ch)
+        if upstream:  # upstream's own timing test: its tolerances on Max and Total High
             values["step_high_total_us"] = step["total_high"]
-        steppers.append(StepperExpectation(ch, values, {}))
+            values["step_high_max_us"] = step["max_high"]
+            tol["step_high_max_us"], tol["step_high_total_us"] = upstream
+        elif step["rise"] and step["total_high"] and fw_build is None:
+            values["step_high_total_us"] = step["total_high"]
+            tol["step_high_total_pct"] = PULSE_PCT_BOUND if with_e else PULSE_PCT
+        steppers.append(StepperExpectation(ch, values, tol))
 
-    # run our model once without tolerances to measure the deviations
     sc = Scenario(path=out_dir / "conformance" / f"{name}.toml", name=name, input=line,
-                  end="firmware", max_time_s=math.ceil(run_info["simulated_us"] / 1e6) + 60,
+                  profile=profile, build=fw_build, end="firmware",
+                  max_time_s=math.ceil(run_info["simulated_us"] / 1e6) + 60,
                   reference=ref_dir if letters else None, steppers=steppers,
-                  transcript_ref=ref_dir / "transcript.txt.gz")
+                  transcript_ref=transcript_ref)
     if letters:
         sc.timing = TimingExpectation(letters, "absolute")
     res = run_scenario(sc)
-    dev = {c.what: c.deviation for c in res.checks}
-    for c in res.checks:
-        if c.what == "transcript matches reference" and not c.ok:
-            problems.append(f"{name}: transcript differs: {c.measured}")
 
     ref_steps = {ch: read_reference_steps(ref_dir / f"steps_{ch}.tsv.gz") for ch in letters}
     v_top = max((top_speed_steps_per_us(s) for s in ref_steps.values()), default=0.0)
@@ -221,117 +309,85 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
 
     reasons: list[str] = []
     reasons_extra: list[str] = []
-    exact_counts = not timed
-    for exp in steppers:
-        ch = exp.letter
-        tol = exp.tol
-        for key, what in (("position", f"{ch} position"), ("pulses", f"{ch} pulses")):
-            d = abs(dev.get(what) or 0)
-            bound = 0 if exact_counts else 2 * slot_steps * n_timed
-            if d:
-                if d > bound:
-                    problems.append(f"{name}: {what} deviates by {d} (bound {bound})")
-                tol[key] = min(int(d), bound)
-        dmax = max(abs(dev.get(f"{ch} dir rising") or 0), abs(dev.get(f"{ch} dir falling") or 0))
-        if dmax:
-            problems.append(f"{name}: {ch} direction transitions deviate by {dmax}")
-        emax = max(abs(dev.get(f"{ch} enable rising") or 0),
-                   abs(dev.get(f"{ch} enable falling") or 0))
-        if emax:
-            problems.append(f"{name}: {ch} enable transitions deviate by {emax}")
-        if "enable_high_max_us" in exp.values:
-            d = abs(dev.get(f"{ch} enable off time us") or 0)
-            bound = START_BOUND_US if d <= START_BOUND_US else SLOT_US + START_BOUND_US
-            if d > bound:
-                problems.append(f"{name}: {ch} enable off time deviates by {d:.0f} us")
-            tol["enable_high_us"] = max(10, round_up(d, 10))
-        if "step_high_total_us" in exp.values:
-            # the reference truncates its sum to whole microseconds: allow 1 us of that
-            pct = 100 * max(0, abs(dev.get(f"{ch} pulse high total us") or 0) - 1) / exp.values[
-                "step_high_total_us"]
-            if pct > PULSE_PCT_BOUND:
-                problems.append(f"{name}: {ch} pulse high total deviates by {pct:.1f} %")
-            tol["step_high_total_pct"] = max(1, math.ceil(pct))
     counts_match = all(res.timing[ch]["steps_ours"] == res.timing[ch]["steps_ref"]
                        for ch in letters)
     timing = None
+    gaps = None
     slot_reason = None
-    if letters and counts_match and " e " in f" {line} ":
+    if letters and with_e:
         # with `e` the steps jump by whole timer wraps at steps that depend on the loop
-        # phase; the defining figures are the count (above) and the total duration
-        probe = Scenario(path=sc.path, name=name, input=line, end="firmware",
-                         max_time_s=sc.max_time_s, reference=ref_dir, steppers=[],
-                         timing=TimingExpectation(letters, "first_step"))
-        pres = run_scenario(probe)
-        ratio = max(abs(pres.timing[ch]["duration_ratio"] - 1) for ch in letters)
-        timing = dict(steppers=letters, align="first_step",
-                      duration_ratio=max(0.0005, round_up(ratio * 1.2, 0.0005)))
-        reasons_extra.append(REASON_E_TIMING)
-        if ratio > 0.01:
-            problems.append(f"{name}: duration differs by {ratio * 100:.2f} %")
+        # phase: the defining figures are the counts (above) and the gaps per window
+        gaps = GapsExpectation(letters, 1)
+        reasons_extra.append(REASON_E_GAPS)
     elif letters and counts_match:
-        med = max(res.timing[ch]["median_abs_us"] for ch in letters)
-        mx = max(res.timing[ch]["max_abs_us"] for ch in letters)
         align = "absolute"
         start_us = None
         direct = any(t in ("+", "-") for t in line.split())
         bound = START_BOUND_US + 2 * SLOT_US * n_timed + (DIRECT_BOUND_US if direct else 0)
+        mx = max(res.timing[ch]["max_abs_us"] for ch in letters)
         test_mode = "t" in line.split()
         if mx > bound and not direct and (n_timed == 0 or test_mode):
             # several moves, each issued by the loop after the previous one stopped
             # (console commands after W, or a test sequence): each may start one slot off
-            probe = Scenario(path=sc.path, name=name, input=line, end="firmware",
-                             max_time_s=sc.max_time_s, reference=ref_dir, steppers=[],
-                             timing=TimingExpectation(letters, "each_move"))
-            pres = run_scenario(probe)
             align = "each_move"
-            med = max(pres.timing[ch]["median_abs_us"] for ch in letters)
-            mx = max(pres.timing[ch]["max_abs_us"] for ch in letters)
-            off = max(abs(pres.timing[ch]["offset_us"]) for ch in letters)
-            start_us = round_up(off * 1.02 + 1, 1)
+            start_us = SLOT_US + START_BOUND_US
             reasons_extra.append(REASON_SEQ_MOVES if test_mode else REASON_EACH_MOVE)
-            if off > SLOT_US + START_BOUND_US:
-                problems.append(f"{name}: a move starts {off:.0f} us off")
         elif any(abs(abs(res.timing[ch]["first_dev_us"]) - SLOT_US) < START_BOUND_US
                  for ch in letters):
             align = "first_step"
             slot_reason = "the texts of " + ", ".join(
                 repr(t) for t in line.split() if t[:1] not in "MAVRW" or t == "?")
-            probe = Scenario(path=sc.path, name=name, input=line, end="firmware",
-                             max_time_s=sc.max_time_s, reference=ref_dir, steppers=[],
-                             timing=TimingExpectation(letters, "first_step"))
-            pres = run_scenario(probe)
-            med = max(pres.timing[ch]["median_abs_us"] for ch in letters)
-            mx = max(pres.timing[ch]["max_abs_us"] for ch in letters)
-        timing = dict(steppers=letters, align=align, median_us=round_up(med * 1.1 + 0.5, 0.5),
-                      max_us=round_up(mx * 1.1 + 0.5, 0.5))
+        timing = dict(steppers=letters, align=align, median_us=bound, max_us=bound)
         if start_us is not None:
             timing["start_us"] = start_us
         if direct:
             reasons_extra.append(REASON_DIRECT)
-        if mx > bound:
-            problems.append(f"{name}: step times deviate by up to {mx:.0f} us (bound "
-                            f"{bound:.0f})")
     if build_note:
         reasons.append(REASON_BUILD.format(build=build_note))
-    if exact_counts:
+    if fw_build == "e":
+        reasons.append(REASON_BUILD_E)
+    if fw_build == "d_time_measurement":
+        reasons.append(REASON_BUILD_TM)
+    if not timed:
         reasons.append(REASON_EXACT)
     else:
         reasons.append(REASON_TIMED.format(slot_steps=slot_steps, n=n_timed))
+        reasons.append(REASON_COUNTS_TIMED)
     if slot_reason:
         reasons.append(REASON_SLOT.format(what=slot_reason))
     reasons += reasons_extra
     reasons.append(REASON_ENABLE)
-    if any("step_high_total_us" in e.values for e in steppers):
+    if name in UPSTREAM_TIMING_TOL:
+        reasons.append(REASON_UPSTREAM_TIMING)
+    elif any("step_high_total_us" in e.values for e in steppers):
         reasons.append(REASON_PULSE)
-    if letters and not counts_match:
+    if letters and not counts_match and not with_e:
         reasons.append("The step sequences differ in length after the timed command, so "
                        "step times are not compared one by one (see the counts above).")
-    text = render(name, line, run_info, steppers, timing, reasons, letters,
-                  DESCRIPTION_BUILD.format(build=build_note) if build_note else DESCRIPTION)
-    path = out_dir / "conformance" / f"{name}.toml"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text)
+
+    # what our simulation does not meet: strict expected failures naming the values
+    final = Scenario(path=sc.path, name=name, input=line, profile=profile, build=fw_build,
+                     end="firmware", max_time_s=sc.max_time_s, reference=sc.reference,
+                     steppers=steppers, transcript_ref=transcript_ref, gaps=gaps,
+                     timing=None if timing is None else TimingExpectation(
+                         timing["steppers"], timing["align"], timing.get("median_us"),
+                         timing.get("max_us"), None, timing.get("start_us")))
+    fres = run_scenario(final)
+    failing = [c for c in fres.checks if not c.ok and c.what != "end"]
+    xfail = None
+    if failing:
+        what = "; ".join(f"{c.what} measured {c.measured} (expected {c.expected}, "
+                         f"tolerance {c.tolerance})" for c in failing)
+        xfail = ExpectedFailure([c.what for c in failing], what)
+        reasons.append(REASON_XFAIL.format(what=what))
+        problems.append(f"{name}: not met: {what}")
+    description = (DESCRIPTION_E.format(board=BOARDS[profile]) if fw_build == "e" else
+                   DESCRIPTION_BUILD.format(build=build_note) if build_note else DESCRIPTION)
+    text = render(name, line, run_info, steppers, timing, reasons, letters, description,
+                  profile=profile, fw_build=fw_build, gaps=gaps, xfail=xfail,
+                  transcript=transcript_ref is not None)
+    sc.path.parent.mkdir(parents=True, exist_ok=True)
+    sc.path.write_text(text)
     return name, problems
 
 
@@ -340,22 +396,26 @@ def toml_str(s: str) -> str:
 
 
 def render(name, line, run_info, steppers, timing, reasons, letters,
-           description: str = DESCRIPTION) -> str:
+           description: str = DESCRIPTION, *, profile: str = "atmega328p",
+           fw_build: str | None = None, gaps: GapsExpectation | None = None,
+           xfail: ExpectedFailure | None = None, transcript: bool = True) -> str:
     long = run_info["simulated_us"] > 30e6
     out = [f"name = {toml_str(name)}",
            f"description = {toml_str(description)}",
-           'profile = "atmega328p"',
-           f"input = {toml_str(line)}",
-           'end = "firmware"  # the reference ends 1 s after the last input character',
-           f"max_time_s = {math.ceil(run_info['simulated_us'] / 1e6) + 60}"]
+           f"profile = {toml_str(profile)}"]
+    if fw_build:
+        out.append(f"build = {toml_str(fw_build)}  # the firmware build (fas/sim/builds.py)")
+    out += [f"input = {toml_str(line)}",
+            'end = "firmware"  # the reference ends 1 s after the last input character',
+            f"max_time_s = {math.ceil(run_info['simulated_us'] / 1e6) + 60}"]
     if long:
         out.append("long = true")
     if letters:
         out.append(f'reference = "../reference/{name}"')
-    out.append("justification = '''")
+    out.append("justification = \'\'\'")
     for r in reasons:
         out.append(r)
-    out.append("'''")
+    out.append("\'\'\'")
     for exp in steppers:
         out.append("")
         out.append(f"[steppers.{exp.letter}]")
@@ -364,9 +424,11 @@ def render(name, line, run_info, steppers, timing, reasons, letters,
         if exp.tol:
             items = ", ".join(f"{k} = {json.dumps(v)}" for k, v in exp.tol.items())
             out.append(f"tol = {{ {items} }}")
-    out.append("")
-    out.append("[transcript]  # status lines (M1: @...) depend on timing: compared up to the @")
-    out.append(f'matches = "../reference/{name}/transcript.txt.gz"')
+    if transcript:
+        out.append("")
+        out.append("[transcript]  # status lines (M1: @...) depend on timing: compared up to "
+                   "the @")
+        out.append(f'matches = "../reference/{name}/transcript.txt.gz"')
     if timing:
         out.append("")
         out.append("[timing]")
@@ -375,14 +437,27 @@ def render(name, line, run_info, steppers, timing, reasons, letters,
         for key in ("median_us", "max_us", "duration_ratio", "start_us"):
             if key in timing:
                 out.append(f"{key} = {timing[key]}")
+    if gaps:
+        out.append("")
+        out.append("[gaps]  # the timer-wrap gaps of `e`, per 256 ms window, against the "
+                   "reference")
+        out.append(f"steppers = {json.dumps(gaps.steppers)}")
+        out.append(f"per_window = {gaps.per_window}")
+    if xfail:
+        out.append("")
+        out.append("[expected_failure]  # strict: the scenario fails the day these pass")
+        out.append(f"checks = {json.dumps(xfail.checks)}")
+        out.append(f"reason = {toml_str(xfail.reason)}")
     out.append("")
     return "\n".join(out)
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("conformance", nargs="*",
-                    default=[str(ROOT.parent / "shared" / "conformance")],
+    shared = next((f / "shared" / "conformance" for f in ROOT.parents
+                   if (f / "shared" / "conformance").is_dir()),
+                  ROOT.parent / "shared" / "conformance")
+    ap.add_argument("conformance", nargs="*", default=[str(shared)],
                     help="folders of firmware runs (default: the shared conformance data)")
     ap.add_argument("--out", default=str(ROOT / "sequences"))
     ap.add_argument("-k", help="only folders whose name contains this")

@@ -264,6 +264,7 @@ class Machine:
         uart_cost = timing.uart_isr_ticks
         loads = self.uart.loads
         sei = timing.sei_ticks
+        bfrom, buntil = self.irq_blocked_from, self.irq_blocked_until
         bc = self.batch_channel
         if bc is asker:
             bc = None
@@ -281,13 +282,16 @@ class Machine:
                 i = bisect_right(xs, t) - 1
                 if i >= 0 and t < xe[i]:
                     t = xe[i]
+            # timer 0 and the UART (lower priority than the step compares): they hold the
+            # CPU when they began with interrupts on (one held back by a blocked section
+            # runs after the step interrupts pending at its end)
             if ms_cost and t >= ms_first:
                 into = (t - self._millis_phase) % ms_ov
-                if into < ms_cost:
+                if into < ms_cost and not bfrom <= t - into <= buntil:
                     t += ms_cost - into
             if uart_cost and loads and t < loads[-1] + uart_cost:
                 i = bisect_right(loads, t) - 1
-                if i >= 0 and t < loads[i] + uart_cost:
+                if i >= 0 and t < loads[i] + uart_cost and not bfrom <= loads[i] <= buntil:
                     t = loads[i] + uart_cost
             if bc is not None:
                 end = bc.block_isr_running_at(t)

@@ -12,17 +12,23 @@ from pathlib import Path
 from typing import Any
 
 from fas.arch import PROFILES
+from fas.sim.builds import check_build
 
 from ..program import programs
 
 STEPPER_KEYS = {
     "position": int, "pulses": int, "dir_transitions": list, "enable_transitions": list,
     "enable_high_max_us": (int, float), "step_high_total_us": (int, float),
+    "step_high_max_us": (int, float),
 }
 TOLERANCE_KEYS = {
     "position": int, "pulses": int, "dir": int, "enable": int,
     "enable_high_us": (int, float), "step_high_total_pct": (int, float),
+    "step_high_total_us": (int, float), "step_high_max_us": (int, float),
+    "position_pct": (int, float), "pulses_pct": (int, float),
 }
+GAPS_KEYS = {"steppers": list, "per_window": int}
+EXPECTED_FAILURE_KEYS = {"checks": list, "reason": str}
 TIMING_KEYS = {
     "steppers": list, "align": str, "median_us": (int, float), "max_us": (int, float),
     "duration_ratio": (int, float), "start_us": (int, float),
@@ -30,7 +36,8 @@ TIMING_KEYS = {
 TOP_KEYS = {
     "name": str, "description": str, "program": str, "profile": str, "input": str, "end": str,
     "max_time_s": (int, float), "long": bool, "reference": str, "justification": str,
-    "steppers": dict, "timing": dict, "transcript": dict, "outputs": dict,
+    "steppers": dict, "timing": dict, "transcript": dict, "outputs": dict, "build": str,
+    "gaps": dict, "expected_failure": dict,
 }
 # user outputs (issue 12): [outputs.Dout0] ... [outputs.Aout3]
 OUTPUT_KEYS = {
@@ -81,6 +88,22 @@ class TimingExpectation:
 
 
 @dataclass
+class GapsExpectation:
+    """The timer-wrap gaps of `e` per window, against the reference's step files."""
+
+    steppers: list[str]
+    per_window: int = 1  # tolerance on each window's count
+
+
+@dataclass
+class ExpectedFailure:
+    """Checks known to fail (strict: the scenario fails the day one passes)."""
+
+    checks: list[str]
+    reason: str  # what is measured, and why
+
+
+@dataclass
 class Scenario:
     path: Path
     name: str
@@ -88,6 +111,7 @@ class Scenario:
     description: str = ""
     program: str = "demo"  # the program the input is for (stepperdemo.program.programs)
     profile: str = "atmega328p"
+    build: str | None = None  # the firmware build (fas.sim.builds; None: the default)
     end: str = "idle"
     max_time_s: float = 600.0
     long: bool = False
@@ -99,6 +123,8 @@ class Scenario:
     contains: list[str] = field(default_factory=list)
     not_contains: list[str] = field(default_factory=list)
     transcript_ref: Path | None = None  # whole transcript to match (scenarios.transcript)
+    gaps: GapsExpectation | None = None
+    expected_failure: ExpectedFailure | None = None
 
 
 def _check_types(path: Path, prefix: str, table: dict, schema: dict) -> None:
@@ -140,9 +166,14 @@ def load(path: Path | str) -> Scenario:
         raise ScenarioError(path, "end", "must be 'idle' or 'firmware'")
     if data.get("max_time_s", 1) <= 0:
         raise ScenarioError(path, "max_time_s", "must be positive")
+    build = data.get("build")
+    try:
+        check_build(build)
+    except ValueError as exc:
+        raise ScenarioError(path, "build", str(exc)) from None
     sc = Scenario(path=path, name=data["name"], input=data["input"],
                   description=data.get("description", ""), program=program,
-                  profile=profile, end=end,
+                  profile=profile, build=build, end=end,
                   max_time_s=float(data.get("max_time_s", 600.0)), long=data.get("long", False),
                   justification=data.get("justification", ""))
     if "reference" in data:
@@ -204,6 +235,29 @@ def load(path: Path | str) -> Scenario:
                                     f"no steps_{letter}.tsv.gz in {sc.reference}")
         sc.timing = TimingExpectation(steppers, align, t.get("median_us"), t.get("max_us"),
                                       t.get("duration_ratio"), t.get("start_us"))
+    if "gaps" in data:
+        g = data["gaps"]
+        _check_types(path, "gaps.", g, GAPS_KEYS)
+        if sc.reference is None:
+            raise ScenarioError(path, "gaps", "needs 'reference' (the folder of steps files)")
+        letters = g.get("steppers", ["A"])
+        for letter in letters:
+            if not (sc.reference / f"steps_{letter}.tsv.gz").exists():
+                raise ScenarioError(path, "gaps.steppers",
+                                    f"no steps_{letter}.tsv.gz in {sc.reference}")
+        if g.get("per_window", 1) < 0:
+            raise ScenarioError(path, "gaps.per_window", "must not be negative")
+        sc.gaps = GapsExpectation(letters, g.get("per_window", 1))
+    if "expected_failure" in data:
+        x = data["expected_failure"]
+        _check_types(path, "expected_failure.", x, EXPECTED_FAILURE_KEYS)
+        if not x.get("checks") or not all(isinstance(c, str) for c in x["checks"]):
+            raise ScenarioError(path, "expected_failure.checks",
+                                "expected a list of check names")
+        if not x.get("reason"):
+            raise ScenarioError(path, "expected_failure.reason",
+                                "say what is measured and why it is not met")
+        sc.expected_failure = ExpectedFailure(list(x["checks"]), x["reason"])
     if "transcript" in data:
         tr = data["transcript"]
         for key, value in tr.items():
