@@ -102,8 +102,8 @@ class Machine:
         self.pins = PinBank()
         self.outputs = SimOutputs(self.pins)  # user outputs: digital pins, PWM waves
         self.uart = Uart(self.timing.uart_byte_ticks, self.timing.uart_tx_buffer)
-        self.irq_blocked_from = 0
-        self.irq_blocked_until = 0
+        # the last blocked section [from, until) (none yet: far in the past)
+        self.irq_blocked_from = self.irq_blocked_until = -(1 << 62)
         self.irq_block_windows = 0
         self.irq_blocked_ticks = 0
         self.block_listeners: list[Callable[[int, int], None]] = []
