@@ -19,7 +19,9 @@ Runs of pulses inside one entry are executed as a block (one event for up to 255
 steps; one channel of a machine at a time); the block is split only when interrupts
 get blocked in its middle or when someone stops the channel.  The pulses of a block
 whose compare falls while another routine holds the CPU are found when the block ends
-(:meth:`Machine.obstacles`) and made as long as they were held.
+(:meth:`Machine.held_requests`) and made as long as they were held - where someone
+watches the pins' edges (a recorder, a trace): their timing does not depend on it, and
+without such a sink the pin statistics count a block's pulses at their plain width.
 """
 
 from __future__ import annotations
@@ -34,6 +36,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..queue import QueueEntry, StepperQueue
 
 RESTART_TICKS = 10  # the step ISR's "do it immediately" delay after the queue ran dry
+# no routine keeps a step interrupt of a block of pulses waiting this long (the longest
+# chain of other routines: timer 0, the UART, the ramp task's exit, another step interrupt)
+LATE_ENTRY = 512
 
 # kinds of entry notes (``SimChannel.entry_listeners``): which entry the channel works on
 ENTRY_START = 0  # first entry after the channel was started (a new motion)
@@ -79,6 +84,8 @@ class SimChannel(QueueChannel):
         # step interrupts of blocks that ran (each block's last one is an event of its
         # own and not counted here): the loop loses their CPU time (Machine.consume)
         self.block_isrs_done = 0
+        self._entry_req = -1  # _entry_of: the request it answered last, and its entry
+        self._entry_tick = 0
         self.precounted = 0  # the pending single pulse was already counted by sync()
         self.pulse_counter: PulseCounter | None = None
         self.detached = False
@@ -330,7 +337,7 @@ class SimChannel(QueueChannel):
                 m.batch_channel = self
                 self.cost = self.isr_next_ticks  # the last pulse's takes up the next entry
                 self.event = m.schedule(last, self._batch_end, self.prio,
-                                        enter=self.cost)
+                                        enter=self.cost, owner=self)
             else:
                 self.event = m.schedule(last + self.lat, self._batch_end, self.prio, isr=True)
         else:
@@ -345,13 +352,14 @@ class SimChannel(QueueChannel):
                      and q.entries[rp % q.queue_len].steps > 1 else self.isr_next_ticks)
         if self.contention:
             self.event = self.m.schedule(compare, self._single_isr, self.prio,
-                                         enter=self.cost)
+                                         enter=self.cost, owner=self)
         else:
             self.event = self.m.schedule(compare + self.lat, self._single_isr, self.prio,
                                          isr=True)
 
     def _leave_batch(self) -> None:
         self.batch = False
+        self._entry_req = -1
         if self.m.batch_channel is self:
             self.m.batch_channel = None
 
@@ -361,33 +369,28 @@ class SimChannel(QueueChannel):
         if j1 <= j0:
             return
         c0, t, lat = self.b_c0, self.b_t, self.lat
-        prev = j0
-        if self.contention:
-            for j, d in self._block_delays(j0, j1):
-                if j > prev:
-                    self._emit(c0 + prev * t, lat, j - prev, t)
-                self._emit(c0 + j * t, lat + d, 1)
-                prev = j + 1
-        if j1 > prev:
-            self._emit(c0 + prev * t, lat, j1 - prev, t)
+        if self.contention and self.pins.sinks:
+            waits = self._block_delays(j0, j1)
+            if waits:
+                self.pulses += j1 - j0
+                if not self.detached:
+                    self.pins.pulses_waiting(self.step_pin, c0 + j0 * t, t, j1 - j0, lat,
+                                             [(j - j0, d) for j, d in waits])
+                return
+        self._emit(c0 + j0 * t, lat, j1 - j0, t)
 
     def _block_delays(self, j0: int, j1: int) -> list[tuple[int, int]]:
         """``(j, ticks)`` for the pulses ``j0 <= j < j1`` of the running block whose
         interrupt entered late, in order."""
         m = self.m
         c0, t = self.b_c0, self.b_t
-        lo, hi = c0 + j0 * t, c0 + (j1 - 1) * t
-        out: dict[int, int] = {}
-        for s in m.obstacles(lo, hi, self):
-            j = max(j0, -(-(s - c0) // t))
-            while j < j1 and j not in out:
-                c = c0 + j * t
-                free = m.cpu_free_at(c, self)
-                if free == c:
-                    break
-                out[j] = free - c
-                j += 1
-        return sorted(out.items())
+        out: list[tuple[int, int]] = []
+        for j in m.held_requests(c0, t, j0, j1):
+            c = c0 + j * t
+            free = m.cpu_free_at(c, self)
+            if free > c:
+                out.append((j, free - c))
+        return out
 
     def block_isr_running_at(self, t: int) -> int | None:
         """End of the step interrupt of the running block that holds the CPU at tick
@@ -399,15 +402,25 @@ class SimChannel(QueueChannel):
         j = min((t - c0) // period, self.b_n - 2)
         if j < 0:
             return None
-        m = self.m
+        cost = self.isr_ticks
         for k in (j, j - 1):
             if k < 0:
                 break
             c = c0 + k * period
-            entry = m.cpu_free_at(c, self)
-            if entry <= t < entry + self.isr_ticks:
-                return entry + self.isr_ticks
+            if t - c >= cost + LATE_ENTRY:  # its interrupt is over, however late it came
+                break
+            entry = self._entry_of(c)
+            if entry <= t < entry + cost:
+                return entry + cost
         return None
+
+    def _entry_of(self, c: int) -> int:
+        """When the interrupt requested at ``c`` by the running block is entered (the
+        last answer is kept: the machine asks about the same pulse again and again)."""
+        if c != self._entry_req:
+            self._entry_req = c
+            self._entry_tick = self.m.cpu_free_at(c, self)
+        return self._entry_tick
 
     def _count(self, n: int, dir_level: bool) -> None:
         if self.pulse_counter is not None and n > 0:
@@ -442,9 +455,23 @@ class SimChannel(QueueChannel):
         fall = now + lat if self.contention else now
         if fall - last_c == lat and not self.contention:  # on time: all n pulses alike
             self._emit(c0, lat, n, t)
-        else:  # the last pulse stays high until its interrupt clears it
-            self._emit_block(0, n - 1)
-            self._emit(last_c, fall - last_c, 1)
+        elif self.contention:  # pulses whose interrupt waited are longer
+            # (found only where someone watches the pins' edges: their timing does not
+            # depend on it, and it costs a look at every block)
+            waits = self._block_delays(0, n - 1) if self.pins.sinks else []
+            if fall - last_c > lat:  # the last one stays high until its interrupt clears it
+                waits.append((n - 1, fall - last_c - lat))
+            self.pulses += n
+            if self.detached:
+                pass
+            elif waits:
+                self.pins.pulses_waiting(self.step_pin, c0, t, n, lat, waits)
+            else:
+                self.pins.pulses(self.step_pin, c0, t, n, lat)
+        else:  # held back: the last pulse stays high until the interrupt runs
+            if n > 1:
+                self._emit(c0, lat, n - 1, t)
+            self._emit(last_c, now - last_c, 1)
         if self.pulse_counter is not None:
             self._count(n - self.b_counted, e.dir_level)
         self.block_isrs_done += n - 1

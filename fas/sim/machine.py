@@ -74,10 +74,10 @@ class BatchSource(Protocol):
 
 
 class Event:
-    __slots__ = ("time", "prio", "fn", "cancelled", "isr", "enter")
+    __slots__ = ("time", "prio", "fn", "cancelled", "isr", "enter", "owner")
 
     def __init__(self, time: int, prio: int, fn: Callable[[], None], isr: bool,
-                 enter: int = 0) -> None:
+                 enter: int = 0, owner: object = None) -> None:
         self.time = time
         self.prio = prio
         self.fn = fn
@@ -86,6 +86,7 @@ class Event:
         # > 0: an interrupt request entered once the CPU is free (Machine.cpu_free_at);
         # the routine then holds the CPU this long with interrupts off
         self.enter = enter
+        self.owner = owner  # the channel whose interrupt it is (its own block: no obstacle)
 
 
 class Machine:
@@ -129,6 +130,10 @@ class Machine:
         # interrupt contention (events with ``enter``): the routines entered as events,
         # as [start, end) with interrupts off, in order (step interrupts, the ramp task's
         # entry), and the ramp task's exits (known once the task ran)
+        # no blocked section, routine entered as an event or ramp task's exit holds the
+        # CPU from this tick on (cpu_free_at's quick answer); timer 0's first overflow
+        self._quiet_from = -(1 << 62)
+        self._millis_first = 1 << 62
         self.isr_starts: list[int] = []
         self.isr_ends: list[int] = []
         self.exit_starts: list[int] = []
@@ -137,14 +142,14 @@ class Machine:
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
-                 isr: bool = False, enter: int = 0) -> Event:
+                 isr: bool = False, enter: int = 0, owner: object = None) -> Event:
         """An event at tick ``time``.  ``isr``: an interrupt, held back while the loop
         blocks interrupts.  ``enter`` > 0: an interrupt requested at ``time`` and entered
         when the CPU is free (it then holds it ``enter`` ticks; the event's function runs
         at the entry)."""
         if time < self.now:
             time = self.now
-        ev = Event(time, prio, fn, isr or enter > 0, enter)
+        ev = Event(time, prio, fn, isr or enter > 0, enter, owner)
         self._seq += 1
         heapq.heappush(self.events, (time, prio, self._seq, ev))
         return ev
@@ -168,13 +173,24 @@ class Machine:
         heap = self.events
         pop = heapq.heappop
         activity = self.activity
+        timing = self.timing
+        uart_cost, ms_ov, ms_cost = (timing.uart_isr_ticks, timing.millis_overflow_ticks,
+                                     timing.millis_isr_ticks)
         while heap and heap[0][0] <= t:
             time, prio, _, ev = pop(heap)
             if ev.cancelled:
                 continue
             if ev.isr:
                 if ev.enter:  # requested now: entered once the CPU is free
-                    free = self.cpu_free_at(time)
+                    bc = self.batch_channel
+                    loads = self.uart.loads
+                    if ((bc is None or bc is ev.owner) and time >= self._quiet_from
+                            and (not loads or time >= loads[-1] + uart_cost)
+                            and (time < self._millis_first
+                                 or (time - self._millis_phase) % ms_ov >= ms_cost)):
+                        free = time  # (cpu_free_at's common case, written out)
+                    else:
+                        free = self.cpu_free_at(time, ev.owner)
                     if free > time:  # pending; those pending then enter in priority order
                         ev.time = free
                         self._seq += 1
@@ -191,8 +207,15 @@ class Machine:
                     heapq.heappush(heap, (time, prio, _, ev))
                     return True
                 self.now = time
-            if ev.enter:
-                self.enter_isr(time, ev.enter)
+            if ev.enter:  # (enter_isr, written out: this runs for every step interrupt)
+                starts = self.isr_starts
+                if len(starts) > 4096:
+                    self._forget_isrs()
+                end = time + ev.enter
+                starts.append(time)
+                self.isr_ends.append(end)
+                if end > self._quiet_from:
+                    self._quiet_from = end
             self.events_run += 1
             stolen = self.stolen_ticks
             ev.fn()
@@ -230,6 +253,8 @@ class Machine:
             self._forget_isrs()
         starts.append(t)
         self.isr_ends.append(t + cost)
+        if t + cost > self._quiet_from:
+            self._quiet_from = t + cost
 
     def mask(self, start: int, end: int) -> None:
         """Interrupts are off in ``[start, end)`` (the ramp task's exit), known ahead."""
@@ -237,6 +262,8 @@ class Machine:
             self._forget_isrs()
         self.exit_starts.append(start)
         self.exit_ends.append(end)
+        if end > self._quiet_from:
+            self._quiet_from = end
 
     def _forget_isrs(self) -> None:
         keep = self.now
@@ -258,22 +285,30 @@ class Machine:
         than ``asker``.  (Also for ticks in the past: a block of pulses asks for its
         pulses when it ends.)"""
         timing = self.timing
-        ms_cost = timing.millis_isr_ticks if self._millis_started else 0
-        ms_ov = timing.millis_overflow_ticks
-        ms_first = self._millis_phase + ms_ov
-        uart_cost = timing.uart_isr_ticks
-        loads = self.uart.loads
-        sei = timing.sei_ticks
-        bfrom, buntil = self.irq_blocked_from, self.irq_blocked_until
         bc = self.batch_channel
         if bc is asker:
             bc = None
+        # the common case first: nothing has interrupts off at t
+        if bc is None and t >= self._quiet_from:
+            loads = self.uart.loads
+            if ((not loads or t >= loads[-1] + timing.uart_isr_ticks)
+                    and (t < self._millis_first or (t - self._millis_phase)
+                         % timing.millis_overflow_ticks >= timing.millis_isr_ticks)):
+                return t
+        ms_cost = timing.millis_isr_ticks if self._millis_started else 0
+        ms_ov = timing.millis_overflow_ticks
+        ms_phase = self._millis_phase
+        ms_first = ms_phase + ms_ov
+        uart_cost = timing.uart_isr_ticks
+        loads = self.uart.loads
+        bfrom, buntil = self.irq_blocked_from, self.irq_blocked_until
+        blocked_end = buntil + timing.sei_ticks
         starts, ends = self.isr_starts, self.isr_ends
         xs, xe = self.exit_starts, self.exit_ends
         while True:
             t0 = t
-            if self.irq_blocked_from <= t < self.irq_blocked_until + sei:
-                t = self.irq_blocked_until + sei
+            if bfrom <= t < blocked_end:
+                t = blocked_end
             if starts and t < ends[-1]:
                 i = bisect_right(starts, t) - 1
                 if i >= 0 and t < ends[i]:
@@ -286,7 +321,7 @@ class Machine:
             # CPU when they began with interrupts on (one held back by a blocked section
             # runs after the step interrupts pending at its end)
             if ms_cost and t >= ms_first:
-                into = (t - self._millis_phase) % ms_ov
+                into = (t - ms_phase) % ms_ov
                 if into < ms_cost and not bfrom <= t - into <= buntil:
                     t += ms_cost - into
             if uart_cost and loads and t < loads[-1] + uart_cost:
@@ -300,36 +335,50 @@ class Machine:
             if t == t0:
                 return t
 
-    def obstacles(self, lo: int, hi: int, asker: object = None) -> list[int]:
-        """Start ticks of the sections with interrupts off that end after ``lo`` and
-        begin by ``hi`` (millis, UART, routines entered as events, the ramp task's
-        exit): a block of pulses in ``[lo, hi]`` asks :meth:`cpu_free_at` only for the
-        pulses whose request falls in one."""
-        out: list[int] = []
+    def held_requests(self, c0: int, period: int, j0: int, j1: int) -> list[int]:
+        """The requests ``c0 + j * period`` (``j0 <= j < j1``) of a block of pulses that
+        fall in a section with interrupts off (timer 0, the UART, a routine entered as
+        an event, the ramp task's exit): only these can have waited, and only for these
+        :meth:`cpu_free_at` is asked.  In order, without repeats.
+        (Written out for speed: this runs for every block of pulses.)"""
+        lo, hi = c0 + j0 * period, c0 + (j1 - 1) * period
+        found: list[int] = []
         timing = self.timing
-        if timing.millis_isr_ticks and self._millis_started:
-            ov, cost = timing.millis_overflow_ticks, timing.millis_isr_ticks
+        cost = timing.millis_isr_ticks
+        if cost and self._millis_started:
+            ov = timing.millis_overflow_ticks
             first = self._millis_phase + ov
-            k = max(0, -(-(lo - cost + 1 - first) // ov))
-            s = first + k * ov
+            s = first + max(0, -(-(lo - cost + 1 - first) // ov)) * ov
             while s <= hi:
-                out.append(s)
+                j = j0 if s <= lo else -(-(s - c0) // period)
+                if j < j1 and c0 + j * period < s + cost:
+                    found.append(j)
                 s += ov
         cost = timing.uart_isr_ticks
         loads = self.uart.loads
         if cost and loads and loads[-1] + cost > lo:
             i = bisect_right(loads, lo - cost)
-            while i < len(loads) and loads[i] <= hi:
-                out.append(loads[i])
+            n = len(loads)
+            while i < n and loads[i] <= hi:
+                s = loads[i]
+                j = j0 if s <= lo else -(-(s - c0) // period)
+                if j < j1 and c0 + j * period < s + cost:
+                    found.append(j)
                 i += 1
         for starts, ends in ((self.isr_starts, self.isr_ends),
                              (self.exit_starts, self.exit_ends)):
-            if starts and ends[-1] > lo:
+            if ends and ends[-1] > lo:
                 i = bisect_right(ends, lo)
-                while i < len(starts) and starts[i] <= hi:
-                    out.append(starts[i])
+                n = len(starts)
+                while i < n and starts[i] <= hi:
+                    s = starts[i]
+                    j = j0 if s <= lo else -(-(s - c0) // period)
+                    if j < j1 and c0 + j * period < ends[i]:
+                        found.append(j)
                     i += 1
-        return out
+        if len(found) > 1:
+            found = sorted(set(found))
+        return found
 
     # ------------------------------------------------------- CPU and time
     def cpu_now(self) -> int:
@@ -485,6 +534,7 @@ class Machine:
         if end > self.irq_blocked_until:
             self.irq_blocked_until = end
             self.irq_blocked_from = start
+            self._quiet_from = max(self._quiet_from, end + self.timing.sei_ticks)
         self.irq_block_windows += 1
         self.irq_blocked_ticks += ticks
         self.uart.interrupts_blocked(start, end)
@@ -496,6 +546,8 @@ class Machine:
         """Arduino's start-up has just started timer 0, the source of ``millis()``."""
         self._millis_phase = self.now
         self._millis_started = True
+        if self.timing.millis_isr_ticks:
+            self._millis_first = self.now + self.timing.millis_overflow_ticks
         self._clock = None  # its interrupts begin
         self._tick_at_ms = (None, 0)
 
