@@ -38,6 +38,8 @@ from fas.arch import (
 from fas.codes import PIN_UNDEFINED, FasDriver
 from fas.sim.builds import check_build
 
+from .. import messages as msg
+
 
 @dataclass(frozen=True)
 class DemoStepper:
@@ -340,3 +342,14 @@ def demo_build(profile: Profile, firmware: str | None = None) -> DemoBuild:
         raise ValueError(f"no StepperDemo build for profile {profile.name!r}: "
                          "add it to stepperdemo/demo/build.py")
     return build
+
+
+def pin_config_problem(profile: Profile, index: int) -> str | None:
+    """Why ``index`` cannot answer this build's start-up prompt, or None."""
+    configs = demo_build(profile).configs
+    if not configs:
+        return msg.PIN_CONFIG_NONE.format(arch=profile.name)
+    if not 0 <= index < len(configs):
+        names = ", ".join(f"{i} ({c.name})" for i, c in enumerate(configs))
+        return msg.PIN_CONFIG_RANGE.format(index=index, arch=profile.name, names=names)
+    return None
