@@ -13,14 +13,24 @@ runs e01.. come from another build than the d*/test_sd_* runs (the conformance R
 ``fas.sim.builds``); ``--build`` runs every case in one build.  Gaps and windows as
 ``stepperdemo.scenarios.evaluate.wrap_gaps`` / ``gaps_per_window`` count them (the
 scenario files' ``[gaps]`` check).  ``--windows`` adds the gap start times.
+
+``--holdout`` checks that the figures of build e are the mechanism's, not the cases':
+it reads the CPU figures the `e` model rests on - the length of a blocked section and
+the loop's pitch between two blocks (the most common ones: a plain pass, a pass with a
+step or timer-0 interrupt, ...) - from the firmware's ``blocked_intervals.tsv.gz`` of
+a training half of the runs (odd numbers) only, prints them beside the model's (its
+blocked sections recorded the same way), and then reports the acceptance on the other
+half (even numbers), which no figure was read from.
 """
 
 from __future__ import annotations
 
 import argparse
+import gzip
 import re
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -58,11 +68,84 @@ def build_of(case: str) -> str:
     return "e" if re.fullmatch(r"e\d+", case) else "d"
 
 
-def run_model(inp: str, profile: str, build: str) -> SimBackend:
+TICKS_PER_US = 16
+TRAIN = [f"e{i:02d}" for i in range(1, 19, 2)]  # the hold-out split: odd numbers
+TEST = [f"e{i:02d}" for i in range(2, 19, 2)]
+PITCH_MAX_TICKS = 200 * TICKS_PER_US  # a pitch between two blocks of one window
+
+
+def run_model(inp: str, profile: str, build: str,
+              blocks: list[tuple[int, int]] | None = None) -> SimBackend:
     backend = SimBackend(profile, record=True, build=build)
+    if blocks is not None:  # record the model's blocked sections (start, end ticks)
+        backend.machine.block_listeners.append(lambda a, b: blocks.append((a, b)))
     app = make_program("demo", backend, scripted=True)
     app.run_script(inp, firmware_end=True)
     return backend
+
+
+def block_figures(blocks: list[tuple[int, int]], top: int = 4) -> tuple[list, list]:
+    """(most common block lengths, most common pitches between blocks), in ticks, each
+    as (ticks, share of all)."""
+    if not blocks:
+        return [], []
+    lengths = Counter(b - a for a, b in blocks)
+    pitches = Counter(blocks[i + 1][0] - blocks[i][1] for i in range(len(blocks) - 1)
+                      if blocks[i + 1][0] - blocks[i][1] < PITCH_MAX_TICKS)
+    n_l, n_p = sum(lengths.values()), max(1, sum(pitches.values()))
+    return ([(t, c / n_l) for t, c in lengths.most_common(1)],
+            [(t, c / n_p) for t, c in pitches.most_common(top)])
+
+
+def firmware_blocks(folder: Path) -> list[tuple[int, int]]:
+    """The firmware's blocked sections (measured), in ticks."""
+    path = folder / "blocked_intervals.tsv.gz"
+    if not path.exists():
+        return []
+    out = []
+    with gzip.open(path, "rt") as f:
+        for line in f:
+            if line[:1].isdigit():
+                a, b = map(float, line.split()[:2])
+                out.append((round(a * TICKS_PER_US), round(b * TICKS_PER_US)))
+    return out
+
+
+def holdout(conf: Path) -> int:
+    """Figures read from the training half against the model's; acceptance on the rest."""
+    print("Figures of the `e` model, read from the firmware's blocked sections of the "
+          f"training runs ({' '.join(TRAIN)}) only, beside the model's (ticks, share):")
+    print("| run | board | block fw | block model | pitches fw | pitches model |")
+    print("| --- " * 6 + "|")
+    fmt = lambda figs: " ".join(f"{t} ({share:.0%})" for t, share in figs)  # noqa: E731
+    for case in TRAIN:
+        folder = conf / case
+        fw = firmware_blocks(folder)
+        if not fw:
+            continue
+        ours: list[tuple[int, int]] = []
+        run_model((folder / "input.txt").read_text().strip(), PROFILE.get(case, "atmega328p"),
+                  build_of(case), ours)
+        (bl_fw, p_fw), (bl_m, p_m) = block_figures(fw), block_figures(ours)
+        print(f"| {case} | {PROFILE.get(case, 'atmega328p')} | {fmt(bl_fw)} | {fmt(bl_m)} "
+              f"| {fmt(p_fw)} | {fmt(p_m)} |")
+    print()
+    result = {}
+    for name, cases in (("training", TRAIN), ("held out", TEST)):
+        rows = [r for case in cases for r in case_rows(conf, case)]
+        ok = sum(verdict(r)[3] for r in rows)
+        pos = sum(abs(r["pos"] - r["pos_fw"]) <= max(10.0, abs(r["pos_fw"]) * 0.005)
+                  for r in rows)
+        result[name] = (ok, pos, len(rows))
+        print(f"{name} ({' '.join(cases)}): {ok} of {len(rows)} rows within acceptance "
+              f"(position and pulses within max(10 steps, 0.5 %) and every window's gaps "
+              f"within 1); positions alone: {pos} of {len(rows)}")
+        for r in rows:
+            off, bound, wdiff, good = verdict(r)
+            print(f"    {r['case']} {r['letter']}: {r['pos_fw']} / {r['pos']} ({off:+d}, bound "
+                  f"{bound:.0f}), windows {' '.join(map(str, r['win_fw']))} / "
+                  f"{' '.join(map(str, r['win']))}{'' if good else '  **'}")
+    return 0
 
 
 def case_rows(conf: Path, case: str, build: str | None = None) -> list[dict]:
@@ -110,8 +193,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--build", help="firmware build for every case (default: e for e01.., "
                     "d for the others)")
     ap.add_argument("--windows", action="store_true", help="print the gap start times")
+    ap.add_argument("--holdout", action="store_true",
+                    help="figures read from the odd-numbered e-runs only, beside the "
+                    "model's; acceptance on the even-numbered ones")
     args = ap.parse_args(argv)
     conf = Path(args.conformance)
+    if args.holdout:
+        return holdout(conf)
     print("| case | arch | input | pin | pos fw | pos model | off | bound | pulses fw/model "
           "| gaps fw/model | per window fw | per window model | max win diff |")
     print("| --- " * 13 + "|")

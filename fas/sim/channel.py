@@ -316,8 +316,13 @@ class SimChannel(QueueChannel):
         if pin & 0x80 == 0:
             self.pins.set(pin, 1 - self.pins.get(pin), t)
 
-    def _emit(self, first: int, width: int, count: int, period: int = 1) -> None:
+    def _made(self, count: int) -> None:
+        """``count`` pulses of the entry at the read index were made (every emission
+        passes here: a subclass that counts more, e.g. the device's position, hooks in)."""
         self.pulses += count
+
+    def _emit(self, first: int, width: int, count: int, period: int = 1) -> None:
+        self._made(count)
         if not self.detached:
             self.pins.pulses(self.step_pin, first, period, count, width)
 
@@ -372,7 +377,7 @@ class SimChannel(QueueChannel):
         if self.contention and self.pins.sinks:
             waits = self._block_delays(j0, j1)
             if waits:
-                self.pulses += j1 - j0
+                self._made(j1 - j0)
                 if not self.detached:
                     self.pins.pulses_waiting(self.step_pin, c0 + j0 * t, t, j1 - j0, lat,
                                              [(j - j0, d) for j, d in waits])
@@ -461,7 +466,7 @@ class SimChannel(QueueChannel):
             waits = self._block_delays(0, n - 1) if self.pins.sinks else []
             if fall - last_c > lat:  # the last one stays high until its interrupt clears it
                 waits.append((n - 1, fall - last_c - lat))
-            self.pulses += n
+            self._made(n)
             if self.detached:
                 pass
             elif waits:
