@@ -506,7 +506,10 @@ class StepperDemo(LoopProgram):
             c = self.in_buffer[self.read_ptr]
             self.read_ptr = (self.read_ptr + 1) & 0xFF
             if c not in (0x20, 0x0A, 0x0D):
-                path = self.build.loop_char_ticks
+                # taken where the firmware takes it: before the rest of the pass (its
+                # `e` block included), as a command's cost (_spend_command)
+                if self.build.loop_char_ticks:
+                    b.app_spend(self.build.loop_char_ticks)
                 if len(self.out_buffer) == 255:
                     self.out_buffer.clear()
                 self.out_buffer.append(c)
