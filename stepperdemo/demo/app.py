@@ -428,10 +428,11 @@ class StepperDemo(LoopProgram):
         if self.mode == _NORMAL:
             text = msg.usage_normal(esp32=p.family == "esp32", avr=p.family == "avr",
                                     small=self.build.small_build)
-            if text in msg.TABLE_SCAN or not self.build.msg_scan_byte_ticks:
+            if (text in msg.TABLE_SCAN or not self.build.small_build
+                    or not self.build.msg_scan_byte_ticks):
                 self.print(text)
-            else:  # another build's usage: from its own table, which is not counted;
-                # the full text's look-ups in proportion to its length
+            else:  # the small build's usage (ATmega32U4): from its own table, which is
+                # not counted; the full text's look-ups in proportion to its length
                 full = msg.TABLE_SCAN[msg.USAGE_NORMAL]
                 scan = tuple(x * len(text) // len(msg.USAGE_NORMAL) for x in full)
                 data = text.encode("utf-8")
