@@ -367,8 +367,27 @@ class ExactStopExecutor(MotionExecutor):
                     a.pending.popleft()
                 if a.pending or a.finished or a.cur >= until:
                     break
+                start = a.cur
                 a.pending.extend(self._next(run, a))
+                if self.speed_listener is not None:
+                    self._tell_speed(run, a, start)
         return None
+
+    def _tell_speed(self, run: Run, a: AxisFeed, start: int) -> None:
+        """The speed listener (laser mode): the path speed at each command of the
+        dominant axis just computed (``a.pending`` from ``start``), 0 at its end."""
+        if a is not max(run.axes, key=lambda x: x.n):
+            return
+        fn = self.speed_listener
+        assert fn is not None
+        tick = start
+        for ticks, steps, _up in a.pending:  # (empty before _next: only the new ones)
+            if steps:
+                t = (tick - run.origin) / self.tps
+                fn(tick, run.law.state_at(t)[1] * run.length * 60, run.block)
+            tick += ticks * steps if steps > 1 else ticks
+        if a.finished:
+            fn(a.cur, 0.0, run.block)
 
     def _tick(self, run: Run, a: AxisFeed, j: int) -> int | None:
         """Tick of the axis's step ``j`` (1..n) under the run's law (None: not in it)."""

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from enum import Enum
 from typing import TYPE_CHECKING, Protocol
 
@@ -33,6 +33,12 @@ if TYPE_CHECKING:  # pragma: no cover
     from .settings import GcodeSettings
 
 BLOCKS = 15  # usable planner blocks (Grbl's BLOCK_BUFFER_SIZE 16, one kept empty)
+
+#: ``fn(tick, rate, block)`` (issue 25, laser mode): from ``tick`` on, the path moves at
+#: ``rate`` units/min in ``block`` (0: it stops there).  An executor tells it at every
+#: queue command it writes that makes steps of the block's dominant axis (the axis
+#: with the most steps), when it writes it - ahead of ``tick``.
+SpeedListener = Callable[[int, float, "Move"], None]
 
 
 class BlockQueue:
@@ -92,7 +98,12 @@ class MotionExecutor(ABC):
 
     The machine calls :meth:`poll` whenever time has passed (and no later than
     :meth:`wake_tick`); everything else is a request that takes effect at once or
-    at the next :meth:`poll`."""
+    at the next :meth:`poll`.
+
+    :attr:`speed_listener` (None: nobody listens) is told the path speed at every
+    queue command (:data:`SpeedListener`); the laser's M4 power follows it."""
+
+    speed_listener: SpeedListener | None = None
 
     def __init__(self, host: MotionHost, blocks: BlockQueue) -> None:
         self.host = host

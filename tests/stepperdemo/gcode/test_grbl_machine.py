@@ -56,12 +56,13 @@ def test_bytes_at_or_above_0x80_never_enter_a_line_and_overlong_lines_are_error_
 
 def test_unknown_words_and_lines_in_alarm_answer_error_and_the_session_goes_on():
     g = grbl()
-    g.send(b"G1 X10 F600 W3\nhello world\nG2 X1 Y1 I5\nG0 X3\n")
+    g.send(b"G1 X10 F600 W3\nhello world\nG2 X1 Y1 R0.5 F9\nG0 X3\n")
     g.settle()
     assert lines(g.take()) == [
         "[MSG:unknown word W3]", "error:20",
         "[MSG:H needs a number: 'HELLOWORLD' is not G-code]", "error:2",
-        "[MSG:G2 (arc) is not supported yet: straight lines only (G0, G1)]", "error:20",
+        "[MSG:arc radius R0.5 is less than half the distance to the target (0.707107)]",
+        "error:34",
         "ok"]
     g.send(b"G0 X400\n")
     g.advance(0.01)
