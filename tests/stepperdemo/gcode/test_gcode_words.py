@@ -161,7 +161,7 @@ def test_a_helix_moves_the_linear_axis_in_proportion():
 
 
 def test_the_arc_tolerance_sets_the_segment_count_as_grbl():
-    for tol, count in ((0.002, None), (0.1, None)):
+    for tol in (0.002, 0.1):
         it = Interpreter(3, GcodeSettings(steps_per_unit=[SPU] * 6))
         it.settings.kept[12] = tol
         segs = [a for a in it.interpret(parse_line("G2 X0 Y0 I10 F100")) if isinstance(a, Move)]
