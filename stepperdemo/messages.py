@@ -614,6 +614,7 @@ REPORT_OUTPUT_PWM_FEW = ("{name} (pin {pin})  {rises} rise(s), {falls} fall(s), 
 REPORT_LEVEL_HIGH = "high"
 REPORT_LEVEL_LOW = "low"
 PLOT_TITLE_OUTPUTS = "outputs [Dout level, Aout duty %]"
+PLOT_TITLE_FEED = "feed along the path [units/min]"
 PLOT_TERMINAL_OUTPUT = "{name} {what}"
 PLOT_OUTPUT_LEVEL = "level"
 PLOT_OUTPUT_DUTY = "duty [%]"

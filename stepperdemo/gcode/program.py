@@ -239,6 +239,14 @@ class GcodeProgram(Program):
                         for i, s in enumerate(self.machine.steppers))
         return f"{axes} | queue {len(self.machine.blocks)}"
 
+    def path_units(self) -> dict[int, float]:
+        """Steps per unit of each axis by its stepper number (M1 = X ...): ``--plot``
+        shows the feed along the path with it."""
+        if self.machine is None:
+            return {}
+        st = self.machine.settings
+        return {i + 1: st.steps_per_unit[i] for i in range(self.machine.axes)}
+
     def exit_code(self) -> int:
         """1 when any line was answered with an error."""
         return 1 if self.machine is not None and self.machine.errors else 0
