@@ -84,7 +84,7 @@ def status_report(m: GcodeMachine) -> str:
         fields.append("WPos:" + axis_values([p - o for p, o in zip(mpos, wco, strict=True)]))
     if st.status_mask & 2:
         fields.append(f"Bf:{m.blocks.room},{m.rx.free}")
-    fields.append(f"FS:{m.executor.path_rate():.0f},0")
+    fields.append(f"FS:{m.executor.path_rate():.0f},{m.tooling.reported_speed():.0f}")
     show_wco, show_ov = m.schedule.fields(state.split(":")[0] in BUSY_STATES)
     if show_wco:
         fields.append("WCO:" + axis_values(wco))

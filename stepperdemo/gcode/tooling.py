@@ -133,6 +133,16 @@ class Tooling:
         return spindle_duty(rpm, float(st.kept.get(RPM_MAX, 1000.0)),
                             float(st.kept.get(RPM_MIN, 0.0)), step)
 
+    def reported_speed(self) -> float:
+        """The spindle speed for the status report's ``FS:`` (Grbl's ``sys.spindle_speed``):
+        S with the override, within ``$31``..``$30``, while the output is on; else 0."""
+        if self.state == SPINDLE_OFF or self.applied_duty() <= 0.0:
+            return 0.0
+        st = self.m.settings
+        rpm = self.speed * self.m.spindle_override / 100.0
+        return min(max(rpm, float(st.kept.get(RPM_MIN, 0.0))),
+                   float(st.kept.get(RPM_MAX, 1000.0)))
+
     def applied_duty(self) -> float:
         n = self.spindle_output()
         return 0.0 if n is None else self._outputs().analog_applied(n)[0]
