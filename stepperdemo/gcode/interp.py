@@ -43,7 +43,15 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from fas.path.arc import ArcError, Plane, arc_center_from_radius, arc_points, check_arc_offsets
+from fas.path.arc import (
+    ArcError,
+    Plane,
+    arc_center_from_radius,
+    arc_points,
+    arc_segments,
+    arc_travel,
+    check_arc_offsets,
+)
 
 from .. import messages as msg
 from .codes import Err
@@ -58,6 +66,7 @@ COORD_SYSTEMS = 6  # G54 .. G59
 TLO_AXIS = 2  # the tool length offset is on Z (Grbl's TOOL_LENGTH_OFFSET_AXIS)
 LASER_MODE = 32  # the setting
 ARC_TOLERANCE = 12
+MAX_ARC_SEGMENTS = 65535  # Grbl counts them in 16 bits; a larger arc gets longer chords
 
 # every G code this interpreter reads -> its modal group (Grbl's groups)
 _G_GROUPS: dict[float, str] = {
@@ -696,6 +705,12 @@ class Interpreter:
                 raise GcodeError(Err.INVALID_TARGET, msg.GCODE_ERR_ARC_IJK.format(
                     r0=f"{r0 / scale:.4f}", r1=f"{r1 / scale:.4f}"))
         tolerance = float(self.settings.kept.get(ARC_TOLERANCE, 0.002))
+        radius = math.hypot(*offset)
+        travel = arc_travel(start, target, offset, plane, clockwise)
+        if arc_segments(radius, travel, tolerance) > MAX_ARC_SEGMENTS:
+            # an arc of kilometres: the chords of at most 65535 segments
+            tolerance = radius * (1.0 - math.cos(abs(travel) / (2 * MAX_ARC_SEGMENTS)))
+            tolerance *= 1.0 + 1e-9
         return (offset, plane, clockwise, tolerance)
 
     def _output(self, code: float, values: dict[str, float], line: str) -> SetOutput:
