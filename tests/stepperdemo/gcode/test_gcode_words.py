@@ -431,16 +431,19 @@ def test_laser_m3_is_constant_in_g1_and_off_in_g0():
 
 
 # ---------------------------------------------------------------- bad programs
-def test_random_words_never_raise_and_every_line_is_answered():
-    rng = random.Random(25)
-    g = grbl()
+@pytest.mark.parametrize("arch, seed", [("atmega2560", 25), ("esp32", 26), ("rp2040", 27),
+                                        ("atmega328p", 28)])
+def test_random_words_never_raise_and_every_line_is_answered(arch, seed):
+    rng = random.Random(seed)
+    g = grbl(arch)
     letters = "GMXYZIJKRSTFPLNQE"
     codes = ["G0", "G1", "G2", "G3", "G17", "G18", "G19", "G20", "G21", "G28", "G28.1",
              "G30", "G38.2", "G43.1", "G49", "G53", "G54", "G59", "G80", "G90", "G91",
-             "G92", "G10", "M3", "M4", "M5", "M7", "M8", "M9", "M6", "M2", "G61", "G40"]
+             "G92", "G10", "M3", "M4", "M5", "M7", "M8", "M9", "M6", "M2", "G61", "G40",
+             "G92.1", "G30.1", "G55", "M62", "M67", "G4", "G93"]
     sent = 0
     send(g, "$110=60000\n$111=60000\n$112=60000\n$120=20000\n$121=20000\n$122=20000\n")
-    for _ in range(200):
+    for _ in range(120):
         words = [rng.choice(codes) for _ in range(rng.randint(0, 2))]
         words += [f"{rng.choice(letters[2:])}{rng.uniform(-3, 3):.3f}"
                   for _ in range(rng.randint(0, 4))]
@@ -451,4 +454,5 @@ def test_random_words_never_raise_and_every_line_is_answered():
     out = lines(g.take())
     answers = [ln for ln in out if ln == "ok" or ln.startswith("error:")]
     assert len(answers) == sent
+    assert answers.count("ok") > sent // 5  # (not only refusals)
     assert not any("Traceback" in ln or ln.startswith("ALARM") for ln in out)
