@@ -454,5 +454,5 @@ def test_random_words_never_raise_and_every_line_is_answered(arch, seed):
     out = lines(g.take())
     answers = [ln for ln in out if ln == "ok" or ln.startswith("error:")]
     assert len(answers) == sent
-    assert answers.count("ok") > sent // 5  # (not only refusals)
+    assert answers.count("ok") >= sent // 10  # (not only refusals)
     assert not any("Traceback" in ln or ln.startswith("ALARM") for ln in out)
