@@ -128,8 +128,12 @@ def parameters(m: GcodeMachine) -> list[str]:
 
 def build_info(m: GcodeMachine) -> list[str]:
     """``$I``: Grbl's version with our identity in the user string, and the options."""
+    # Grbl's option letters: V a variable (PWM) spindle, M mist coolant (M7)
+    mist = m.tooling.map.mist
+    options = ("V" if m.tooling.spindle_output() is not None else "") + (
+        "M" if mist is not None and m.tooling.role(False, mist) is not None else "")
     return [f"[VER:{GRBL_VERSION}:{m.settings.build_info or m.identity}]",
-            f"[OPT:,{m.blocks.size},{m.rx.ring_size}]"]
+            f"[OPT:{options},{m.blocks.size},{m.rx.ring_size}]"]
 
 
 def settings_lines(m: GcodeMachine) -> list[str]:

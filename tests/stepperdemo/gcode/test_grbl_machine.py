@@ -301,7 +301,7 @@ def test_startup_lines_run_after_a_reset_and_settings_persist():
     assert out[:2] == ["ok", "[MSG:X needs a number: 'X' is not G-code]"]
     assert out[2:6] == ["error:2", "$N0=G91", "$N1=", "ok"]
     assert out[6] == "[VER:1.1h.20190830:stepperdemo py-fas-0.1.0 atmega2560]"
-    assert out[7] == "[OPT:,15,128]"
+    assert out[7] == "[OPT:VM,15,128]"  # a PWM spindle and mist coolant (atmega2560)
     g.send(b"$100=80\n\x18")  # the reset comes first: the line in the ring is gone
     g.settle()
     assert g.machine.settings.steps_per_unit[0] == 1
