@@ -9,9 +9,10 @@ Words (``docs/gcode.md`` has the table and the differences from Grbl):
   ``$12`` (:func:`fas.path.arc.arc_points`), each an ordinary :class:`Move`.  G80
   (motion off).  G38.2-G38.5 (probing) are read and checked; the machine refuses them
   where the profile has no probe input.
-* **Units and distances**: G20 inches / G21 mm (every length and F of the block times
-  25.4 inside), G90 / G91 absolute / incremental, G91.1 (I/J/K are always
-  incremental), G93 is refused, G94.
+* **Units, distances, feed**: G20 inches / G21 mm (every length and F of the block
+  times 25.4 inside), G90 / G91 absolute / incremental, G91.1 (I/J/K are always
+  incremental), G93 inverse time (each G1/G2/G3 block in 1/F minutes: its moves get
+  the feed length x F) / G94 units per minute.
 * **Coordinates**: G54-G59 (six work coordinate systems, set by G10 L2 P0-6 to values
   or by G10 L20 so that the present position gets the values), G92 / G92.1 (an offset
   on top), G43.1 Z / G49 (tool length offset on Z), G53 (this block in machine
@@ -74,7 +75,7 @@ _G_GROUPS: dict[float, str] = {
     **{g: "non-modal" for g in (4.0, 10.0, 28.0, 28.1, 30.0, 30.1, 53.0, 92.0, 92.1)},
     17.0: "plane", 18.0: "plane", 19.0: "plane",
     90.0: "distance", 91.0: "distance", 91.1: "arc distance",
-    94.0: "feed mode", 20.0: "units", 21.0: "units", 40.0: "cutter compensation",
+    93.0: "feed mode", 94.0: "feed mode", 20.0: "units", 21.0: "units", 40.0: "cutter compensation",
     43.1: "tool length", 49.0: "tool length",
     **{float(g): "coordinate system" for g in range(54, 60)},
     61.0: "path control",
@@ -244,7 +245,8 @@ class Interpreter:
         self.plane = 17
         self.inches = False
         self.coord_select = 0  # G54
-        self.feed = 0.0  # units/min
+        self.feed = 0.0  # units/min (G93: 1/min, for this block only)
+        self.inverse_time = False  # G93
         self.spindle_speed = 0.0
         self.spindle = SPINDLE_OFF
         self.mist = self.flood = False
@@ -259,6 +261,7 @@ class Interpreter:
         self.motion = 1
         self.absolute = True
         self.plane = 17
+        self.inverse_time = False
         self.coord_select = 0
         self.spindle = SPINDLE_OFF
         self.mist = self.flood = False
@@ -348,7 +351,12 @@ class Interpreter:
             raise GcodeError(Err.VALUE_WORD_MISSING,
                              msg.GCODE_ERR_P_CONFLICT.format(a=uses_p[0], b=uses_p[1]))
 
-        feed = values.pop("F") * scale if "F" in values else self.feed
+        inverse = (self.inverse_time if "feed mode" not in groups
+                   else groups["feed mode"] == 93.0)
+        if "F" in values:  # G93: 1/minutes, never scaled by G20
+            feed = values.pop("F") * (1.0 if inverse else scale)
+        else:  # G93 (and leaving it): F is not modal - undefined until given
+            feed = 0.0 if inverse or self.inverse_time else self.feed
         spindle_speed = values.pop("S", self.spindle_speed)
         tool = self.tool
         if "T" in values:
@@ -496,22 +504,31 @@ class Interpreter:
                           feed)
         steps = list(self.position_steps)
         for target, rapid in targets:
+            points = [target] if arc is None or probe is not None else arc_points(
+                position, target, arc[0], arc[1], arc[2], arc[3])
+            move_feed = feed
+            if inverse and not rapid:  # the whole block in 1/F minutes: its length * F
+                ends = [position, *points]
+                move_feed = feed * sum(math.dist(a, b) for a, b in zip(ends, ends[1:],
+                                                                       strict=False))
+                if power is not None:
+                    power = Laser(power.dynamic, power.speed, move_feed)
             if probe is not None:
-                move = Move(tuple(self._steps(target)), tuple(steps), False, feed, block.line)
+                move = Move(tuple(self._steps(target)), tuple(steps), False, move_feed,
+                            block.line)
                 actions.append(Probe(move, probe in (38.2, 38.3), probe in (38.2, 38.4),
                                      probe, block.line))
                 steps = list(move.target)
                 position = target
                 continue
-            points = [target] if arc is None else arc_points(
-                position, target, arc[0], arc[1], arc[2], arc[3])
             for point in points:
                 t = self._steps(list(point))
                 if t != steps:
                     actions.append(Move(tuple(t), tuple(steps), rapid,
-                                        None if rapid else feed, block.line,
+                                        None if rapid else move_feed, block.line,
                                         laser=None if power is None else
-                                        (Laser(power.dynamic, 0.0, feed) if rapid else power)))
+                                        (Laser(power.dynamic, 0.0, move_feed) if rapid
+                                         else power)))
                     steps = t
             position = list(target)
 
@@ -525,6 +542,7 @@ class Interpreter:
                 self.check(action)
         # the block is valid: take its modal state
         self.feed = feed
+        self.inverse_time = inverse
         self.spindle_speed = spindle_speed
         self.spindle = spindle
         self.mist, self.flood = mist, flood

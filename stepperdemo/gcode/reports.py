@@ -103,13 +103,14 @@ def parser_state(m: GcodeMachine) -> str:
     units, distance, feed mode, [M0/M2/M30], spindle, coolant, T, F, S."""
     it = m.interp
     words = [code_name("G", it.motion), f"G{54 + it.coord_select}", f"G{it.plane}",
-             "G20" if it.inches else "G21", "G90" if it.absolute else "G91", "G94"]
+             "G20" if it.inches else "G21", "G90" if it.absolute else "G91",
+             "G93" if it.inverse_time else "G94"]
     if m.paused:
         words.append("M0")
     words.append(f"M{it.spindle}")
     coolant = (["M7"] if it.mist else []) + (["M8"] if it.flood else [])
     words += coolant or ["M9"]
-    feed = it.feed / MM_PER_INCH if it.inches else it.feed
+    feed = it.feed / MM_PER_INCH if it.inches and not it.inverse_time else it.feed
     words += [f"T{it.tool}", f"F{feed:.0f}", f"S{it.spindle_speed:.0f}"]
     return "[GC:" + " ".join(words) + "]"
 

@@ -53,7 +53,7 @@ def test_malformed_lines_are_refused_with_grbls_number(line, code, reason):
 
 @pytest.mark.parametrize("line, code, reason", [
     ("G2 X1 Y1 I5", 22, "undefined feed rate: G2 needs F"),
-    ("G93", 20, "unsupported command G93"),
+    ("G64", 20, "unsupported command G64"),
     ("M3 M5", 21, "M3 and M5 in one line"),
     ("G0 G1 X1", 21, "G0 and G1 in one line"),
     ("G90 G91", 21, "G90 and G91 in one line"),

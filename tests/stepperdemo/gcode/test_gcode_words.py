@@ -217,6 +217,26 @@ def test_g20_takes_inches_for_words_and_feed_and_g21_goes_back():
     assert g.machine.positions()[:2] == [0, 0]
 
 
+def test_g93_inverse_time_finishes_each_move_in_1_over_f_minutes():
+    g = grbl()
+    assert send(g, "G93 G1 X40 F60\n$G\nX0\nG94 X10\n") == [
+        "ok", "[GC:G1 G54 G17 G21 G90 G93 M5 M9 T0 F60 S0]", "ok",
+        "[MSG:undefined feed rate: G1 needs F]", "error:22",  # F is per block in G93
+        "[MSG:undefined feed rate: G1 needs F]", "error:22"]  # ... and undefined after
+    xs = g.backend.recorder.rising(g.machine.steppers[0].get_step_pin())
+    gaps = [b - a for a, b in zip(xs, xs[1:], strict=False)]
+    # 40 mm in 1/60 min: cruise at 2400 mm/min = 3200 steps/s, 5000 ticks a step
+    assert min(gaps) == 5000 and gaps.count(5000) > 1000
+    t0 = g.backend.now()
+    assert send(g, "G93 G2 X40 Y0 I20 F30\n") == ["ok"]  # a full circle, 125.7 mm in 2 s
+    assert g.machine.positions()[:2] == [3200, 0]
+    # each of its segments at 125.7 mm * 30/min (not reached: they are short and stop)
+    assert all(b.feed == pytest.approx(2 * math.pi * 20 * 30, rel=1e-4)
+               for b in Interpreter(3, g.machine.settings).interpret(
+                   parse_line("G93 G2 X0 Y0 I20 F30")) if isinstance(b, Move))
+    assert g.backend.now() > t0
+
+
 def test_g10_sets_work_coordinate_systems_that_g54_to_g59_select_and_dollar_hash_shows():
     g = grbl()
     send(g, "G10 L2 P2 X10 Y20\nG55\nG0 X0 Y0\n")
