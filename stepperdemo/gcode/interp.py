@@ -7,8 +7,8 @@ Words (``docs/gcode.md`` has the table and the differences from Grbl):
   (negative: the arc of more than 180 degrees), the plane's third axis moving in
   proportion (a helix); the arc becomes straight segments within the arc tolerance
   ``$12`` (:func:`fas.path.arc.arc_points`), each an ordinary :class:`Move`.  G80
-  (motion off).  G38.2-G38.5 (probing) are read and checked; the machine refuses them
-  where the profile has no probe input.
+  (motion off).  G38.2-G38.5 (probing, :mod:`.probe`) are read and checked; the
+  machine refuses them where the profile has no probe input.
 * **Units, distances, feed**: G20 inches / G21 mm (every length and F of the block
   times 25.4 inside), G90 / G91 absolute / incremental, G91.1 (I/J/K are always
   incremental), G93 inverse time (each G1/G2/G3 block in 1/F minutes: its moves get

@@ -82,6 +82,7 @@ from .interp import (
 from .motion import BlockQueue, HoldState, MotionExecutor
 from .parser import AXES, GcodeError, parse_line
 from .settings import KEEP_ENABLED, GcodeSettings
+from .probe import ProbeCycle
 from .tooling import Tooling
 
 OVERRIDE_MIN, OVERRIDE_MAX = 10, 200  # feed and spindle override, percent
@@ -122,6 +123,7 @@ class GcodeMachine:
         self.interp = Interpreter(self.axes, self.settings, check=self._check)
         self.tooling = Tooling(self)  # spindle/laser and coolant outputs (issue 25)
         self.executor.speed_listener = self.tooling.on_speed
+        self.probe = ProbeCycle(self, self.tooling.map.probe)  # G38.x (issue 25)
         self.schedule = reports.ReportSchedule()
         self.alarm: int | None = None
         self.check_mode = False
@@ -467,6 +469,8 @@ class GcodeMachine:
                 self._output(action)  # the library makes it when the queues run dry
                 run.handed = True
             return not self.engine.sync.active()
+        if isinstance(action, Probe):
+            return self.probe.execute(action)
         if isinstance(action, Dwell):
             if run.dwell_until is None and run.dwell_left is None:
                 if ex.busy() or ex.moving():
@@ -488,9 +492,6 @@ class GcodeMachine:
         elif isinstance(action, End):
             self.tooling.poll(now)
             self._program_end(action)
-        elif isinstance(action, Probe):  # pragma: no cover - refused by _check
-            raise GcodeError(Err.UNSUPPORTED_COMMAND, msg.GCODE_ERR_NO_PROBE.format(
-                code=f"G{action.code:g}", profile=self.backend.profile.name))
         return True
 
     def _apply_offset(self, action: SetOffset | End) -> None:
@@ -521,8 +522,10 @@ class GcodeMachine:
     def _check(self, action: Action) -> None:
         """Refuse a block before it changes anything (called by the interpreter)."""
         if isinstance(action, Probe):
-            raise GcodeError(Err.UNSUPPORTED_COMMAND, msg.GCODE_ERR_NO_PROBE.format(
-                code=f"G{action.code:g}", profile=self.backend.profile.name))
+            if not self.probe.available:
+                raise GcodeError(Err.UNSUPPORTED_COMMAND, msg.GCODE_ERR_NO_PROBE.format(
+                    code=f"G{action.code:g}", profile=self.backend.profile.name))
+            self._check_directions(action.move)
         if isinstance(action, SetOutput):
             outputs = self.engine.outputs
             name = f"{'Aout' if action.analog else 'Dout'}{action.number}"
@@ -701,6 +704,7 @@ class GcodeMachine:
         queue and the synchronized outputs not yet made are dropped, the outputs keep
         their state; ALARM:3 (locked until ``$X``) when anything was under way."""
         busy = self.executor.busy() or self.executor.moving() or self.pending is not None
+        self.probe.cancel()
         self.executor.abort()
         self.engine.outputs.cancel_pending()
         self.tooling.all_off()  # Grbl's mc_reset: spindle and coolant stop
@@ -715,11 +719,21 @@ class GcodeMachine:
     def motion_failed(self, result: AqeResult) -> None:
         """The library refused a queue command (a limit not checked): every axis stops,
         ALARM:3 (the position is not trusted) until ``$X``."""
+        self.probe.cancel()
         self.executor.abort()
         self.engine.outputs.cancel_pending()
         self.tooling.all_off()
         self._clear()
         self._raise_alarm(Alarm.ABORT_CYCLE, msg.GCODE_MOTION_FAILED.format(code=result.name))
+
+    def probe_alarm(self, code: int, reason: str) -> None:
+        """A probe cycle failed (ALARM:4 touching at the start, ALARM:5 no contact):
+        every axis at rest, the queue and the lines waiting dropped, locked until $X."""
+        self.probe.cancel()
+        self.executor.abort()
+        self.blocks.clear()
+        self.interp.sync_position(self.positions())
+        self._raise_alarm(code, reason)
 
     def unlock(self) -> None:
         self.alarm = None
@@ -736,6 +750,7 @@ class GcodeMachine:
         every output off, everything received and queued dropped, the parser and the
         overrides as at power-on; the machine position is kept."""
         moving = self.executor.moving() or self.executor.hold_state() == HoldState.STOPPING
+        self.probe.cancel()
         self.executor.abort()
         self.engine.outputs.reset()
         self.tooling.forget()
@@ -751,6 +766,7 @@ class GcodeMachine:
     def power_on(self) -> None:
         """A host opened the port (an Arduino's DTR reset): as at power-on - stopped,
         outputs off, machine position 0, drivers off; settings and ``$N`` lines kept."""
+        self.probe.cancel()
         self.executor.abort()
         self.engine.outputs.reset()
         self.tooling.forget()

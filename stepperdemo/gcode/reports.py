@@ -117,13 +117,13 @@ def parser_state(m: GcodeMachine) -> str:
 
 def parameters(m: GcodeMachine) -> list[str]:
     """``$#``: G54-G59, G28, G30 (machine units), the G92 offset, the tool length
-    offset and the last probe (none: no probe input)."""
+    offset and the last probe (machine units, 1: it touched)."""
     it = m.interp
     c = it.coords
     lines = [f"[G{54 + n}:{axis_values(c.systems[n])}]" for n in range(len(c.systems))]
     lines += [f"[G28:{axis_values(c.g28)}]", f"[G30:{axis_values(c.g30)}]",
               "[G92:" + axis_values(list(it.offset)) + "]", f"[TLO:{it.tlo:.3f}]",
-              f"[PRB:{axis_values([0.0] * m.axes)}:0]"]
+              m.probe.report()]
     return lines
 
 

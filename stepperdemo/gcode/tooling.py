@@ -50,16 +50,19 @@ class ToolMap:
     spindle_pwm: int | None  # Aout number: M3/M4 S -> duty; the laser
     mist: int | None  # Dout number: M7
     flood: int | None  # Dout number: M8
+    probe: int | None = None  # input pin (pulled low on contact): G38.2-G38.5
 
 
 #: the map, per profile (profiles not named have no user outputs: no spindle, no coolant).
 #: ATmega328p: Aout1 is pin 11, Grbl's own spindle PWM pin (D11, timer 2); Dout2 is
 #: pin 12 and Dout3 pin 14 (A0).  The others take the same numbers, so that Dout0,
-#: Dout1 and Aout0 stay free for M62-M68 everywhere.
+#: Dout1 and Aout0 stay free for M62-M68 everywhere.  The probe is Grbl's probe pin:
+#: A5 (pin 19) on the ATmega328p, A15 (pin 69) on the ATmega2560.
 _USUAL = ToolMap(spindle_pwm=1, mist=2, flood=3)
 TOOL_MAPS: dict[str, ToolMap] = {
-    name: _USUAL for name in (
-        "atmega328p", "atmega2560", "esp32", "esp32_idf5", "esp32_idf6", "sam_due")
+    "atmega328p": ToolMap(spindle_pwm=1, mist=2, flood=3, probe=19),
+    "atmega2560": ToolMap(spindle_pwm=1, mist=2, flood=3, probe=69),
+    **{name: _USUAL for name in ("esp32", "esp32_idf5", "esp32_idf6", "sam_due")},
 }
 NO_TOOLS = ToolMap(None, None, None)
 

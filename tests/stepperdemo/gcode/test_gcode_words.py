@@ -303,13 +303,53 @@ def test_tool_length_offset_moves_z_and_shows_in_wco_and_tlo():
 
 
 def test_probing_without_a_probe_input_is_refused_after_grbls_checks():
-    g = grbl()
+    g = grbl("esp32")
     out = send(g, "G38.2 Z-10 F100\nG38.2 F100\nG38.3 Z0 F100\nG38.2 Z-1\n")
-    assert out == ["[MSG:G38.2: atmega2560 has no probe input]", "error:20",
+    assert out == ["[MSG:G38.2: esp32 has no probe input]", "error:20",
                    "[MSG:G38.2 needs axis words]", "error:26",
                    "[MSG:probe target is the present position]", "error:33",
                    "[MSG:undefined feed rate: G38.2 needs F]", "error:22"]
     assert g.machine.positions() == [0, 0, 0]
+
+
+PROBE_PIN = 69  # atmega2560: Grbl's A15
+
+
+def test_g38_2_stops_every_axis_at_the_contact_and_reports_the_position():
+    g = grbl()
+    g.send(b"G0 Z2\nG38.2 Z-10 X1 F120\n")  # (X too: both axes stop at the contact)
+    while g.machine.positions()[2] > -80:  # Z passes -1 mm: the probe touches
+        g.advance_ticks(1000)
+    touched = g.backend.now()
+    g.backend.drive_input(PROBE_PIN, 0)
+    assert g.settle()
+    out = lines(g.take())
+    z = g.machine.positions()[2]
+    assert -82 <= z <= -80 and out[-2:] == [f"[PRB:{g.machine.positions()[0] / SPU:.3f},"
+                                            f"0.000,{z / SPU:.3f}:1]", "ok"]
+    rec = g.backend.recorder
+    for s in g.machine.steppers[::2]:  # X and Z: not one pulse after the contact
+        assert all(t <= touched for t in rec.rising(s.get_step_pin()))
+    assert g.machine.interp.position_steps == g.machine.positions()  # parser there
+    assert send(g, "$#\n")[10] == out[-2]
+    g.backend.drive_input(PROBE_PIN, 1)
+    assert send(g, "G0 Z0\n") == ["ok"] and g.machine.positions()[2] == 0
+
+
+def test_probe_failures_are_grbls_alarms_and_g38_3_reports_no_contact():
+    g = grbl()
+    out = send(g, "G38.3 Z-1 F600\n")  # no contact, no error: the end is the position
+    assert out == ["[PRB:0.000,0.000,-1.000:0]", "ok"] and g.machine.alarm is None
+    out = send(g, "G38.2 Z-2 F600\n")
+    assert out[-2:] == ["ALARM:5", "ok"] and g.machine.positions()[2] == -160
+    assert send(g, "G0 Z0\n")[-1] == "error:9"
+    send(g, "$X\n")
+    g.backend.drive_input(PROBE_PIN, 0)  # touching already
+    out = send(g, "G38.2 Z-3 F600\n")
+    assert out[-2:] == ["ALARM:4", "ok"] and g.machine.positions()[2] == -160
+    send(g, "$X\n")
+    out = send(g, "G38.4 Z0 F600\n")  # away from the contact: it never leaves it
+    assert out[-2:] == ["ALARM:5", "ok"]
 
 
 # ------------------------------------------------------------ spindle, coolant
@@ -471,8 +511,11 @@ def test_random_words_never_raise_and_every_line_is_answered(arch, seed):
         g.send((" ".join(words) + "\n").encode())
         sent += 1
         assert g.settle(max_seconds=600)
+        if g.machine.alarm is not None:  # a probe without contact: ALARM:5
+            g.machine.unlock()
     out = lines(g.take())
     answers = [ln for ln in out if ln == "ok" or ln.startswith("error:")]
     assert len(answers) == sent
     assert answers.count("ok") >= sent // 10  # (not only refusals)
-    assert not any("Traceback" in ln or ln.startswith("ALARM") for ln in out)
+    assert not any("Traceback" in ln or ln in ("ALARM:1", "ALARM:2", "ALARM:3")
+                   for ln in out)
