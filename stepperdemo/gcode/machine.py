@@ -81,8 +81,8 @@ from .interp import (
 )
 from .motion import BlockQueue, HoldState, MotionExecutor
 from .parser import AXES, GcodeError, parse_line
-from .settings import KEEP_ENABLED, GcodeSettings
 from .probe import ProbeCycle
+from .settings import KEEP_ENABLED, GcodeSettings
 from .tooling import Tooling
 
 OVERRIDE_MIN, OVERRIDE_MAX = 10, 200  # feed and spindle override, percent
