@@ -34,7 +34,7 @@ from fas.codes import AqeResult
 
 from .interp import Move
 from .line import MAX_STEPS, MAX_TICKS, Limits, group_commands
-from .motion import BlockQueue, HoldState, MotionExecutor, MotionHost
+from .motion import BlockQueue, HoldState, MotionExecutor, MotionHost, SpeedListener
 from .timelaw import TimeLaw, ramp_to_rest, stop_from
 
 Command = tuple[int, int, bool]
@@ -111,6 +111,7 @@ class ExactStopExecutor(MotionExecutor):
         self.rapid_percent = 100
         self.runs: list[tuple[int, int]] = []  # (start tick, lead ticks) of every run
         self.holds: list[HoldRecord] = []
+        self.speed_listener: SpeedListener | None = None  # the laser hook (issue 25)
 
     # ------------------------------------------------------------- facts
     @property
@@ -372,6 +373,10 @@ class ExactStopExecutor(MotionExecutor):
                 if self.speed_listener is not None:
                     self._tell_speed(run, a, start)
         return None
+
+    def set_speed_listener(self, fn: SpeedListener | None) -> bool:
+        self.speed_listener = fn
+        return True
 
     def _tell_speed(self, run: Run, a: AxisFeed, start: int) -> None:
         """The speed listener (laser mode): the path speed at each command of the

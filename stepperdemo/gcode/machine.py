@@ -122,7 +122,7 @@ class GcodeMachine:
         self.executor: MotionExecutor = ExactStopExecutor(self, self.blocks)
         self.interp = Interpreter(self.axes, self.settings, check=self._check)
         self.tooling = Tooling(self)  # spindle/laser and coolant outputs (issue 25)
-        self.executor.speed_listener = self.tooling.on_speed
+        self.executor.set_speed_listener(self.tooling.on_speed)  # laser mode
         self.probe = ProbeCycle(self, self.tooling.map.probe)  # G38.x (issue 25)
         self.schedule = reports.ReportSchedule()
         self.alarm: int | None = None

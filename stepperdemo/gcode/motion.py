@@ -23,7 +23,7 @@ from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Callable, Iterator
 from enum import Enum
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:  # pragma: no cover
     from fas.backend import Backend
@@ -34,11 +34,9 @@ if TYPE_CHECKING:  # pragma: no cover
 
 BLOCKS = 15  # usable planner blocks (Grbl's BLOCK_BUFFER_SIZE 16, one kept empty)
 
-#: ``fn(tick, rate, block)`` (issue 25, laser mode): from ``tick`` on, the path moves at
-#: ``rate`` units/min in ``block`` (0: it stops there).  An executor tells it at every
-#: queue command it writes that makes steps of the block's dominant axis (the axis
-#: with the most steps), when it writes it - ahead of ``tick``.
-SpeedListener = Callable[[int, float, "Move"], None]
+#: the laser hook: ``fn(tick, speed units/min, move or None)`` - see
+#: :meth:`MotionExecutor.set_speed_listener`
+SpeedListener = Callable[[int, float, Any], None]
 
 
 class BlockQueue:
@@ -98,12 +96,7 @@ class MotionExecutor(ABC):
 
     The machine calls :meth:`poll` whenever time has passed (and no later than
     :meth:`wake_tick`); everything else is a request that takes effect at once or
-    at the next :meth:`poll`.
-
-    :attr:`speed_listener` (None: nobody listens) is told the path speed at every
-    queue command (:data:`SpeedListener`); the laser's M4 power follows it."""
-
-    speed_listener: SpeedListener | None = None
+    at the next :meth:`poll`."""
 
     def __init__(self, host: MotionHost, blocks: BlockQueue) -> None:
         self.host = host
@@ -165,3 +158,12 @@ class MotionExecutor(ABC):
     @abstractmethod
     def path_rate(self) -> float:
         """The speed along the path now, units/min (``FS:``)."""
+
+    def set_speed_listener(self, fn: SpeedListener | None) -> bool:
+        """The laser hook (issue 25): ``fn(tick, speed, move)`` for every queue command
+        of the dominant axis (the one with the most steps) of each block, as the
+        command is written - ahead of time, with the tick at which it begins on the
+        pins - with the path speed from there in units/min (0 where the path stops)
+        and the block (the :class:`~.interp.Move`).  Grbl's M4 laser power follows it.
+        False: this executor has none."""
+        return False

@@ -192,9 +192,11 @@ class Tooling:
         self.state, self.mist, self.flood = SPINDLE_OFF, False, False
 
     # ---------------------------------------------------------- laser timing
-    def on_speed(self, tick: int, rate: float, block: Move) -> None:
+    def on_speed(self, tick: int, rate: float, block: Move | None) -> None:
         """The executor's speed listener: from ``tick`` on the path runs at ``rate``
         units/min in ``block``."""
+        if not isinstance(block, Move):
+            return
         laser: Laser | None = block.laser
         if laser is None or self.spindle_output() is None:
             return

@@ -438,7 +438,7 @@ def test_laser_m4_duty_follows_the_speed_at_every_queue_command():
             told.append((tick, rate))
         original(tick, rate, block)
 
-    g.machine.executor.speed_listener = spy
+    assert g.machine.executor.set_speed_listener(spy)
     made: list[tuple[int, float]] = []  # (tick, duty) of every change of the output
     g.backend.output_listeners.append(lambda ch, t: made.append((t, ch.percent)))
     feed = 3000.0
