@@ -350,6 +350,8 @@ class GcodeMachine:
         now = self.backend.now()
         self.executor.poll()
         self.tooling.poll(now)
+        if (self.hold or self.door) and self.executor.hold_state() == HoldState.HELD:
+            self.tooling.hold_off()  # laser mode: no laser while held (Grbl)
         if self.jog_cancel and self.executor.hold_state() == HoldState.HELD:
             self._finish_jog_cancel()
         while True:
@@ -522,7 +524,7 @@ class GcodeMachine:
     def _check(self, action: Action) -> None:
         """Refuse a block before it changes anything (called by the interpreter)."""
         if isinstance(action, Probe):
-            if not self.probe.available:
+            if not self.probe.available():
                 raise GcodeError(Err.UNSUPPORTED_COMMAND, msg.GCODE_ERR_NO_PROBE.format(
                     code=f"G{action.code:g}", profile=self.backend.profile.name))
             self._check_directions(action.move)

@@ -43,19 +43,24 @@ class ProbeCycle:
 
     def __init__(self, machine: GcodeMachine, pin: int | None) -> None:
         self.m = machine
-        backend = machine.backend
         self.pin: int | None = None
-        if pin is not None and _limits_supported(backend) and backend.watch_input(pin):
-            self.pin = pin
-            backend.limit_listeners.append(self._stopped)
+        self._pin = pin if pin is not None and _limits_supported(machine.backend) else None
         self.position = [0] * machine.axes  # steps, the last probe's (machine)
         self.succeeded = False
         self.active: Probe | None = None
         self._limits: list[tuple[int, bool]] = []
         self._stops: dict[int, int] = {}  # queue index -> position where it stopped
 
-    @property
     def available(self) -> bool:
+        """The profile has a probe input and the backend watches it (from the first
+        G38.x on: a program that never probes leaves the pin alone)."""
+        if self.pin is None and self._pin is not None:
+            backend = self.m.backend
+            if backend.watch_input(self._pin):
+                self.pin = self._pin
+                backend.limit_listeners.append(self._stopped)
+            else:
+                self._pin = None
         return self.pin is not None
 
     def touching(self) -> bool:

@@ -35,6 +35,11 @@ CRLF = "\r\n"
 
 COMPLETIONS = [
     ("G0", "rapid move: G0 X.. Y.."), ("G1", "line at feed F: G1 X.. F.."),
+    ("G4", "dwell P seconds"), ("G90", "absolute"), ("G91", "incremental"),
+    ("G92", "set position (offset)"), ("M62", "Dout P on, synchronized"),
+    ("M63", "Dout P off, synchronized"), ("M64", "Dout P on, at once"),
+    ("M65", "Dout P off, at once"), ("M67", "Aout E duty Q%, synchronized"),
+    ("M68", "Aout E duty Q%, at once"),
     ("G2", "arc clockwise: G2 X.. Y.. I.. J.. (or R..)"), ("G3", "arc counter-clockwise"),
     ("G20", "inches"), ("G21", "millimetres"), ("G28", "to the stored position"),
     ("G10 L20 P1", "set G54 so that here is X.. Y.."), ("G54", "work coordinates 1"),
@@ -42,11 +47,7 @@ COMPLETIONS = [
     ("M3", "spindle on at S"), ("M4", "spindle CCW; laser mode: power follows speed"),
     ("M5", "spindle off"), ("M7", "mist coolant"), ("M8", "flood coolant"),
     ("M9", "coolant off"),
-    ("G4", "dwell P seconds"), ("G90", "absolute"), ("G91", "incremental"),
-    ("G92", "set position (offset)"), ("M62", "Dout P on, synchronized"),
-    ("M63", "Dout P off, synchronized"), ("M64", "Dout P on, at once"),
-    ("M65", "Dout P off, at once"), ("M67", "Aout E duty Q%, synchronized"),
-    ("M68", "Aout E duty Q%, at once"), ("M2", "end of program"), ("$$", "settings"),
+    ("M2", "end of program"), ("$$", "settings"),
     ("$J=", "jog: $J=G91 X10 F3000"), ("$X", "unlock after an alarm"),
     ("?", "status"), ("!", "feed hold"), ("~", "resume"),
 ]

@@ -96,6 +96,9 @@ class Tooling:
         self._duties: list[float] = []
         self.last_scheduled: float | None = None
         self.changes = 0  # duty changes made for the laser (figures, tests)
+        # outputs this has switched on: only those does it switch off (M5, M9, M2,
+        # an alarm), so a program driving them with M62-M68 alone keeps its values
+        self._driven: set[tuple[bool, int]] = set()
 
     # ----------------------------------------------------------------- facts
     def _outputs(self):
@@ -153,7 +156,13 @@ class Tooling:
     # --------------------------------------------------------------- changes
     def _set_duty(self, duty: float) -> None:
         n = self.spindle_output()
-        if n is not None and self._outputs().analog_applied(n)[0] != duty:
+        if n is None or (duty == 0.0 and (True, n) not in self._driven):
+            return
+        if duty > 0.0:
+            self._driven.add((True, n))
+        else:
+            self._driven.discard((True, n))
+        if self._outputs().analog_applied(n)[0] != duty:
             self._outputs().analog(n, duty, synchronized=False)
 
     def set_spindle(self, state: int, speed: float) -> None:
@@ -172,12 +181,26 @@ class Tooling:
         if self.state != SPINDLE_OFF and not self.m.interp.laser_mode:
             self._set_duty(self.duty_for(self.speed))
 
+    def hold_off(self) -> None:
+        """Laser mode, a feed hold has stopped the machine: the laser off until the
+        motion goes on (Grbl's ``DISABLE_LASER_DURING_HOLD``, on by default); the next
+        queue command of a powered move sets its power again."""
+        if self.m.interp.laser_mode and self.state != SPINDLE_OFF:
+            self.clear_schedule()
+            self._set_duty(0.0)
+
     def set_coolant(self, mist: bool, flood: bool) -> None:
         self.mist, self.flood = mist, flood
         outputs = self._outputs()
         for n, on in ((self._coolant_output(self.map.mist), mist),
                       (self._coolant_output(self.map.flood), flood)):
-            if n is not None and outputs.digital_applied(n) != int(on):
+            if n is None or (not on and (False, n) not in self._driven):
+                continue
+            if on:
+                self._driven.add((False, n))
+            else:
+                self._driven.discard((False, n))
+            if outputs.digital_applied(n) != int(on):
                 outputs.digital(n, on, synchronized=False)
 
     def all_off(self) -> None:
@@ -190,6 +213,7 @@ class Tooling:
         """A reset has switched every output off already."""
         self.clear_schedule()
         self.state, self.mist, self.flood = SPINDLE_OFF, False, False
+        self._driven.clear()
 
     # ---------------------------------------------------------- laser timing
     def on_speed(self, tick: int, rate: float, block: Move | None) -> None:

@@ -489,6 +489,20 @@ def test_laser_m4_duty_follows_the_speed_at_every_queue_command(executor):
     assert not [p for p in periods if p[0] > told[-1][0] + period]
 
 
+def test_laser_is_off_during_a_feed_hold_and_powered_again_when_the_move_goes_on():
+    g = grbl(setup=MM + "$30=1000\n$32=1\n")
+    g.send(b"G1 F3000 M3 S400\nG1 X40\n")
+    g.advance(0.3)
+    assert spindle_duty(g) == 40.0
+    g.send(b"!")
+    g.advance(0.5)
+    assert g.machine.state_name() == "Hold:0" and spindle_duty(g) == 0.0
+    g.send(b"~")
+    g.advance(0.2)
+    assert g.machine.state_name() == "Run" and spindle_duty(g) == 40.0
+    assert g.settle() and g.machine.positions()[0] == 3200
+
+
 def test_laser_m3_is_constant_in_g1_and_off_in_g0():
     g = grbl(setup=MM + "$30=1000\n$32=1\n")
     send(g, "G1 F3000\nM3 S250\n")
