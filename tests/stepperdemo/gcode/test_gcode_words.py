@@ -103,10 +103,10 @@ def test_arc_ends_exactly_and_stays_within_the_tolerance_plus_a_step_on_the_pins
     assert len(path) > 100
 
 
-@pytest.mark.xfail(strict=True, reason="radius error on the pins is $12 + 1.50 steps for "
-                   "this half circle (measured): segment targets are rounded to whole "
-                   "steps (up to 0.59 step off the circle) and the other axis lags up to "
-                   "one step behind the moving one")
+@pytest.mark.xfail(strict=True, reason="radius error on the pins 0.0188 mm = $12 (0.002) + "
+                   "1.34 steps for this half circle (measured): segment targets are "
+                   "rounded to whole steps (up to 0.59 step off the circle) and the other "
+                   "axis lags up to one step behind the moving one")
 def test_arc_radius_error_within_the_tolerance_plus_one_step():
     g = grbl()
     send(g, "G2 X20 Y0 I10 J0 F3000\n")
