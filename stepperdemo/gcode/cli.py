@@ -26,9 +26,13 @@ EXIT_USAGE = 2
 DESCRIPTION = f"""\
 A Grbl 1.1 controller on FastAccelStepper, for G-code senders and by hand: G0/G1
 straight lines whose axes start together, stay on the line and arrive together;
-G4 P<seconds>; G90/G91; G92/G92.1; M62/M63 P<n> digital output on/off after the
-motion before it, M64/M65 at once; M67/M68 E<n> Q<percent> PWM duty (synchronized /
-at once); M0 M2 M30.  A synchronized output or a dwell holds the parser (Grbl_ESP32).
+G2/G3 arcs (I/J/K or R, planes G17/G18/G19, segments within $12); G20/G21;
+G54-G59, G10 L2/L20, G92/G92.1, G43.1/G49, G53, G28/G30 (.1); G4 P<seconds>;
+G90/G91; M3/M4/M5 S spindle or laser ($32=1: Grbl's laser mode) and M7/M8/M9
+coolant on the user outputs the profile maps (docs/gcode.md); T, M6;
+M62/M63 P<n> digital output on/off after the motion before it, M64/M65 at once;
+M67/M68 E<n> Q<percent> PWM duty (synchronized / at once); M0 M2 M30.
+A synchronized output or a dwell holds the parser (Grbl_ESP32).
 Axes X Y Z A B C are steppers 1..6 of the profile's StepperDemo wiring.  Every line
 is answered 'ok' or 'error:N' (Grbl's numbers; the reason in a [MSG:...] line
 before it); after an error the program goes on (Grbl).  Real-time bytes act
@@ -46,6 +50,9 @@ Settings ($$ lists them, $N=value or --set '$N=value' changes one):
   $1        step idle delay, ms (255 keeps the drivers on)     default {DEFAULT_IDLE_DELAY_MS}
   $10       status report: 1 MPos (else WPos) + 2 Bf:          default 3
   $11       junction deviation, units (look-ahead corners)      default 0.01
+  $12       arc tolerance, units                               default 0.002
+  $30 $31   spindle speed S of full / of the least PWM duty    default 1000 0
+  $32       laser mode (M4 power follows the speed)            default 0
   $100-105  steps per unit, X Y Z A B C                        default {DEFAULT_STEPS_PER_UNIT:g}
   $110-115  maximum rate, units/min (also the G0 rate)         default {DEFAULT_MAX_RATE:g}
   $120-125  acceleration per axis, units/s^2                   default {DEFAULT_ACCELERATION:g}

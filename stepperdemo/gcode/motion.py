@@ -25,8 +25,8 @@ one with the most steps) of each block, as the command is written - ahead of tim
 with the tick at which it begins on the pins - with the path speed from there in
 units/min (0 where the path stops) and the block (the :class:`~.interp.Move`).  A
 laser's power proportional to the speed (Grbl's M4 in laser mode, ``$32``) follows
-it, updated at every queue command.  The look-ahead executor has it (``fas.path``'s
-``speed_listener``); the exact-stop executor answers False.
+it, updated at every queue command.  Both executors have it (the look-ahead one
+through ``fas.path``'s ``speed_listener``).
 
 An executor reaches the steppers through a :class:`MotionHost` (the machine).
 """
@@ -46,10 +46,11 @@ if TYPE_CHECKING:  # pragma: no cover
     from .interp import Move
     from .settings import GcodeSettings
 
-#: the laser hook: ``fn(tick, speed units/min, move or None)``
-SpeedListener = Callable[[int, float, Any], None]
-
 BLOCKS = 15  # usable planner blocks (Grbl's BLOCK_BUFFER_SIZE 16, one kept empty)
+
+#: the laser hook: ``fn(tick, speed units/min, move or None)`` - see
+#: :meth:`MotionExecutor.set_speed_listener`
+SpeedListener = Callable[[int, float, Any], None]
 
 
 class BlockQueue:
@@ -173,7 +174,12 @@ class MotionExecutor(ABC):
         """The speed along the path now, units/min (``FS:``)."""
 
     def set_speed_listener(self, fn: SpeedListener | None) -> bool:
-        """The laser hook (see the module text); False: this executor has none."""
+        """The laser hook (issue 25): ``fn(tick, speed, move)`` for every queue command
+        of the dominant axis (the one with the most steps) of each block, as the
+        command is written - ahead of time, with the tick at which it begins on the
+        pins - with the path speed from there in units/min (0 where the path stops)
+        and the block (the :class:`~.interp.Move`).  Grbl's M4 laser power follows it.
+        False: this executor has none."""
         return False
 
 
