@@ -230,8 +230,13 @@ def run_endpoint(args: argparse.Namespace) -> int:
             lag=endpoint.lagged / backend.profile.ticks_per_s))
         print(msg.GCODE_ENDPOINT_POSITIONS.format(
             mpos=",".join(f"{v:.3f}" for v in m.machine_position()), state=m.state_name()))
+    problem = None
     if observers is not None:
-        for line in observe.finish_arguments(observers, args, app, title="gcode endpoint"):
+        lines, problem = observe.finish_arguments(observers, args, app, title="gcode endpoint")
+        for line in lines:
             print(line)
     sys.stdout.flush()
+    if problem is not None:  # checked before serving: a folder gone, a disk full since
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
+        return EXIT_USAGE
     return 0
