@@ -146,7 +146,10 @@ def scenario_program(path: str, text: str) -> str | None:
     """A scenario file given as G-code (issue 26): the problem to say, else None."""
     if not path.endswith(".toml"):
         return None
-    import tomllib
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # Python 3.10: tomli (a dependency there, pyproject.toml)
+        import tomli as tomllib
 
     try:
         data = tomllib.loads(text)
