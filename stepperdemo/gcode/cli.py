@@ -100,6 +100,8 @@ def main(argv: Sequence[str]) -> int:
     if args.file is None and not serving and stdin_is_script():  # a pipe or a file: '-'
         args.file = "-"
     problem = arg_checks.number_problem(args)  # --max-time, --speed: finite, in range
+    if problem is None and args.pty:
+        problem = arg_checks.link_problem(args.link)
     if problem is None and args.axes < 1:
         problem = "--axes must be at least 1"
     elif problem is None and (args.pty or args.tcp) and args.file:
