@@ -285,6 +285,8 @@ CLI_MAX_TIME = ("stopped after {seconds:g} s of simulated time (--max-time): "
                 "a stepper was still running or the input was still held")
 CLI_ERROR = "stepperdemo: {problem}"
 CLI_BAD_NUMBER = "{option} {value:g}: give {what}"
+LINK_NO_FOLDER = "--link {path}: no folder {folder} to make the link in"
+LINK_IS_FOLDER = "--link {path}: a folder is in its place"
 
 # ---------------------------------------------------------------------------------------
 # Watching a run (issue 6): VCD trace, plots, timing report, step CSV.  Console texts,

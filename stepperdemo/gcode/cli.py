@@ -109,6 +109,8 @@ def main(argv: Sequence[str]) -> int:
     if args.file is None and not serving and stdin_is_script():  # a pipe or a file: '-'
         args.file = "-"
     problem = arg_checks.number_problem(args)  # --max-time, --speed: finite, in range
+    if problem is None and args.pty:
+        problem = arg_checks.link_problem(args.link)
     if problem is None and args.axes < 1:
         problem = "--axes must be at least 1"
     elif problem is None and (args.pty or args.tcp) and args.file:
@@ -155,7 +157,10 @@ def scenario_program(path: str, text: str) -> str | None:
     """A scenario file given as G-code (issue 26): the problem to say, else None."""
     if not path.endswith(".toml"):
         return None
-    import tomllib
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # Python 3.10: tomli (a dependency there, pyproject.toml)
+        import tomli as tomllib
 
     try:
         data = tomllib.loads(text)
@@ -239,8 +244,13 @@ def run_endpoint(args: argparse.Namespace) -> int:
             lag=endpoint.lagged / backend.profile.ticks_per_s))
         print(msg.GCODE_ENDPOINT_POSITIONS.format(
             mpos=",".join(f"{v:.3f}" for v in m.machine_position()), state=m.state_name()))
+    problem = None
     if observers is not None:
-        for line in observe.finish_arguments(observers, args, app, title="gcode endpoint"):
+        lines, problem = observe.finish_arguments(observers, args, app, title="gcode endpoint")
+        for line in lines:
             print(line)
     sys.stdout.flush()
+    if problem is not None:  # checked before serving: a folder gone, a disk full since
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
+        return EXIT_USAGE
     return 0
