@@ -163,11 +163,13 @@ AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
 # than on the ATmega328P (one more cycle to enter, the extra pushes of its prologue)
 AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76),
                           isr_duration_by_channel=(127, 142, 142), millis_isr_ticks=97)
-# ... in the build of the runs e13/e14
+# ... in the build of the runs e13/e14, where channel A's pin falls 64 ticks after the
+# entry (3 later than on the ATmega328P): e13's plain pulses average 64.4 ticks, held
+# pulses apart (bench/e_fidelity.py --pulses); B and C as above (e14)
 AVR_MEGA_E_TIMING = replace(AVR_E_TIMING, fill_entry_ticks=517, fill_stepper_ticks=376,
                             fill_start_ticks=200, fill_single_ticks=2292,
                             fill_pause_ticks=1420, fill_cmd_ticks=2600, fill_coast_cmd_ticks=2020,
-                            isr_latency_ticks=AVR_MEGA_TIMING.isr_latency_ticks,
+                            isr_latency_ticks=(64, 76, 76),
                             isr_duration_by_channel=AVR_MEGA_TIMING.isr_duration_by_channel,
                             millis_isr_ticks=AVR_MEGA_TIMING.millis_isr_ticks)
 
