@@ -119,12 +119,26 @@ def firmware_blocks(folder: Path) -> list[tuple[int, int]]:
     return out
 
 
+TASK_PITCH = (1700, 3200)  # a pitch across a ramp task that plans no command (ticks)
+
+
+def task_pitches(blocks: list[tuple[int, int]], top: int = 2) -> list[tuple[int, float]]:
+    """The most common pitches between two blocks across a ramp task that plans no
+    command (timer 1's overflow every 4.096 ms: the loop's pass plus the task), each as
+    (ticks, share of those)."""
+    c = Counter(blocks[i + 1][0] - blocks[i][1] for i in range(len(blocks) - 1)
+                if TASK_PITCH[0] <= blocks[i + 1][0] - blocks[i][1] < TASK_PITCH[1])
+    n = max(1, sum(c.values()))
+    return [(t, k / n) for t, k in c.most_common(top)]
+
+
 def holdout(conf: Path) -> int:
     """Figures read from the training half against the model's; acceptance on the rest."""
     print("Figures of the `e` model, read from the firmware's blocked sections of the "
           f"training runs ({' '.join(TRAIN)}) only, beside the model's (ticks, share):")
-    print("| run | board | block fw | block model | pitches fw | pitches model |")
-    print("| --- " * 6 + "|")
+    print("| run | board | block fw | block model | pitches fw | pitches model "
+          "| across a ramp task fw | model |")
+    print("| --- " * 8 + "|")
     fmt = lambda figs: " ".join(f"{t} ({share:.0%})" for t, share in figs)  # noqa: E731
     for case in TRAIN:
         folder = conf / case
@@ -136,7 +150,8 @@ def holdout(conf: Path) -> int:
                   build_of(case), ours)
         (bl_fw, p_fw), (bl_m, p_m) = block_figures(fw), block_figures(ours)
         print(f"| {case} | {PROFILE.get(case, 'atmega328p')} | {fmt(bl_fw)} | {fmt(bl_m)} "
-              f"| {fmt(p_fw)} | {fmt(p_m)} |")
+              f"| {fmt(p_fw)} | {fmt(p_m)} | {fmt(task_pitches(fw))} "
+              f"| {fmt(task_pitches(ours))} |")
     print()
     result = {}
     for name, cases in (("training", TRAIN), ("held out", TEST)):
