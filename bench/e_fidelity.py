@@ -21,11 +21,19 @@ step or timer-0 interrupt, ...) - from the firmware's ``blocked_intervals.tsv.gz
 a training half of the runs (odd numbers) only, prints them beside the model's (its
 blocked sections recorded the same way), and then reports the acceptance on the other
 half (even numbers), which no figure was read from.
+
+``--pulses`` splits each step pin's pulse-high total (``result.txt``'s Total High, the
+model's pins) into the pulses held by a blocked section - a compare inside a block keeps
+its pin high to the block's end; their extra time is summed from the blocks and the
+step rises of each side - and the rest, whose mean per pulse (ticks) is the plain pulse
+width plus what the other interrupts add: the figure the step interrupt's latency
+(``SimTiming.isr_latency_ticks``) is read from, apart from where the blocks fall.
 """
 
 from __future__ import annotations
 
 import argparse
+import bisect
 import gzip
 import re
 import sys
@@ -111,12 +119,26 @@ def firmware_blocks(folder: Path) -> list[tuple[int, int]]:
     return out
 
 
+TASK_PITCH = (1700, 3200)  # a pitch across a ramp task that plans no command (ticks)
+
+
+def task_pitches(blocks: list[tuple[int, int]], top: int = 2) -> list[tuple[int, float]]:
+    """The most common pitches between two blocks across a ramp task that plans no
+    command (timer 1's overflow every 4.096 ms: the loop's pass plus the task), each as
+    (ticks, share of those)."""
+    c = Counter(blocks[i + 1][0] - blocks[i][1] for i in range(len(blocks) - 1)
+                if TASK_PITCH[0] <= blocks[i + 1][0] - blocks[i][1] < TASK_PITCH[1])
+    n = max(1, sum(c.values()))
+    return [(t, k / n) for t, k in c.most_common(top)]
+
+
 def holdout(conf: Path) -> int:
     """Figures read from the training half against the model's; acceptance on the rest."""
     print("Figures of the `e` model, read from the firmware's blocked sections of the "
           f"training runs ({' '.join(TRAIN)}) only, beside the model's (ticks, share):")
-    print("| run | board | block fw | block model | pitches fw | pitches model |")
-    print("| --- " * 6 + "|")
+    print("| run | board | block fw | block model | pitches fw | pitches model "
+          "| across a ramp task fw | model |")
+    print("| --- " * 8 + "|")
     fmt = lambda figs: " ".join(f"{t} ({share:.0%})" for t, share in figs)  # noqa: E731
     for case in TRAIN:
         folder = conf / case
@@ -128,7 +150,8 @@ def holdout(conf: Path) -> int:
                   build_of(case), ours)
         (bl_fw, p_fw), (bl_m, p_m) = block_figures(fw), block_figures(ours)
         print(f"| {case} | {PROFILE.get(case, 'atmega328p')} | {fmt(bl_fw)} | {fmt(bl_m)} "
-              f"| {fmt(p_fw)} | {fmt(p_m)} |")
+              f"| {fmt(p_fw)} | {fmt(p_m)} | {fmt(task_pitches(fw))} "
+              f"| {fmt(task_pitches(ours))} |")
     print()
     result = {}
     for name, cases in (("training", TRAIN), ("held out", TEST)):
@@ -145,6 +168,56 @@ def holdout(conf: Path) -> int:
             print(f"    {r['case']} {r['letter']}: {r['pos_fw']} / {r['pos']} ({off:+d}, bound "
                   f"{bound:.0f}), windows {' '.join(map(str, r['win_fw']))} / "
                   f"{' '.join(map(str, r['win']))}{'' if good else '  **'}")
+    return 0
+
+
+def held_extra(rises: list[int], blocks: list[tuple[int, int]]) -> tuple[int, int]:
+    """(pulses whose rise falls inside a blocked section, their summed ticks from the
+    rise to the block's end): what the blocks add to the pulses' high time."""
+    starts = [a for a, _ in blocks]
+    n = extra = 0
+    for c in rises:
+        k = bisect.bisect_right(starts, c) - 1
+        if k >= 0 and c < blocks[k][1]:
+            n += 1
+            extra += blocks[k][1] - c
+    return n, extra
+
+
+def firmware_high_totals(folder: Path) -> dict[str, int]:
+    """Total High (us) per step pin letter, from the firmware run's ``result.txt``."""
+    text = (folder / "result.txt").read_text()
+    return {m.group(1): int(m.group(2))
+            for m in re.finditer(r"Step(\w):.*Total High=(\d+)us", text)}
+
+
+def pulses(conf: Path, cases: list[str]) -> int:
+    """Pulse-high totals split into the blocks' part and the plain pulses' mean."""
+    print("| case | pin | total high fw / model (us) | held pulses fw / model | their extra "
+          "fw / model (us) | rest per pulse fw / model (ticks) |")
+    print("| --- " * 6 + "|")
+    for case in cases:
+        folder = conf / case
+        ours: list[tuple[int, int]] = []
+        backend = run_model((folder / "input.txt").read_text().strip(),
+                            PROFILE.get(case, "atmega328p"), build_of(case), ours)
+        fw_blocks = firmware_blocks(folder)
+        totals = firmware_high_totals(folder)
+        for sp in stepper_pins(backend.profile):
+            ref_path = folder / f"steps_{sp.letter}.tsv.gz"
+            if not ref_path.exists() or sp.letter not in totals:
+                continue
+            ref, _ = read_reference_track(ref_path)
+            fw_rises = [round(t * TICKS_PER_US) for t in ref]
+            our_rises = [round(t * TICKS_PER_US) for t in step_times_us(backend, sp.step)]
+            act = pin_activity(backend, sp.step)
+            n_fw, x_fw = held_extra(fw_rises, fw_blocks)
+            n_m, x_m = held_extra(our_rises, ours)
+            rest_fw = (totals[sp.letter] * TICKS_PER_US - x_fw) / max(1, len(fw_rises))
+            rest_m = (act.high_total_us * TICKS_PER_US - x_m) / max(1, act.rises)
+            print(f"| {case} | {sp.letter} | {totals[sp.letter]} / {act.high_total_us:.0f} "
+                  f"| {n_fw} / {n_m} | {x_fw / TICKS_PER_US:.0f} / {x_m / TICKS_PER_US:.0f} "
+                  f"| {rest_fw:.2f} / {rest_m:.2f} |")
     return 0
 
 
@@ -196,8 +269,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--holdout", action="store_true",
                     help="figures read from the odd-numbered e-runs only, beside the "
                     "model's; acceptance on the even-numbered ones")
+    ap.add_argument("--pulses", action="store_true",
+                    help="pulse-high totals: the part the blocks add and the plain "
+                    "pulses' mean per pulse, firmware beside model")
     args = ap.parse_args(argv)
     conf = Path(args.conformance)
+    if args.pulses:
+        return pulses(conf, args.cases or [c for c in CASES if c.startswith("e")])
     if args.holdout:
         return holdout(conf)
     print("| case | arch | input | pin | pos fw | pos model | off | bound | pulses fw/model "

@@ -101,9 +101,12 @@ class SimBackend(Backend):
                     q = ch.q
                     queued = (q.next_write_idx - q.read_idx) & 0xFF
                     m.task_offset += p.fill_stepper_ticks + per_entry * max(0, queued - 1)
+                    ch.plan_pending = bool(p.fill_plan_ticks)
         try:
             engine.manage_steppers()
         finally:
+            for ch in self.channels:
+                ch.plan_pending = False
             # the task's own CPU time; the UART interrupts that run inside it are
             # counted as such by the loop (Machine.consume)
             cost = m.task_offset

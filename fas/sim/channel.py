@@ -98,6 +98,9 @@ class SimChannel(QueueChannel):
         # channel takes up an entry; pulse_index is the number of its first pulse
         self.entry_listeners: list[Callable[[int, int, int, int], None]] = []
         self._noted: QueueEntry | None = None
+        # the running ramp task's fill of this (running) stepper has not planned a
+        # command yet: its first one costs SimTiming.fill_plan_ticks more
+        self.plan_pending = False
         self._start_event: Event | None = None  # a timed start (start_at) waiting
         self._start_tick = 0  # ... and the tick of its first compare
         # limit switches: entry_guard(entry) True stops the channel before the entry's
@@ -286,6 +289,9 @@ class SimChannel(QueueChannel):
             e = q.entries[(wp - 1) % q.queue_len]
             steps = e.total_steps
             p = m.timing
+            if self.plan_pending:
+                self.plan_pending = False
+                m.task_offset += p.fill_plan_ticks
             if steps == 0:
                 m.task_offset += p.fill_pause_ticks
             elif steps == 1:
