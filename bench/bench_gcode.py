@@ -14,11 +14,31 @@
    seconds and edges per wall second, and the peak Python memory (tracemalloc) for half
    and the whole time - flat, because the waveform is made in chunks as the trace
    flushes.
+4. Issue 25, look-ahead (``--lookahead-only`` runs this section alone): a
+   ``--segments`` program (default 10 000: circles of short chords and a laser raster,
+   bench/bench_path.py's, 80 steps/mm, 1000 mm/s^2, 12 000 mm/min per axis, $11 =
+   0.01 mm) as G-code lines through the G-code machine on the simulated chip, traced:
+   real-time factor (CPU time, best of ``--repeat``; target >= 50), the planner alone
+   (blocks/s, target >= 20 000), the job's duration with look-ahead against the
+   exact-stop executor (``$171=1``; target <= half), from the pins: the largest
+   Chebyshev distance of the axes from the commanded polyline at every step (target
+   <= 1 step), each axis's top rate and acceleration (positions interpolated between
+   step edges, rate over 2 ms, acceleration as the second difference over 20 ms)
+   against $110/$120, the feed across the raster's collinear joints (X over 16 steps
+   around each joint, away from the line ends), and the planned speed at every
+   junction that junction deviation limits against Grbl's formula
+   ``v^2 = a_j d sin(theta/2) / (1 - sin(theta/2))`` computed here from the geometry.
+5. Issue 25, on a device (``--device-only``): the same program through ``--port`` on
+   the Python device and on our firmware in simavr, at 115 200 and 1 000 000 baud, on
+   the loopback's virtual clock: motion time, underruns, late starts, rejected
+   commands, final position, the bytes the host sent on average and in the busiest
+   second against the line's capacity - the link margin.
 """
 
 from __future__ import annotations
 
 import argparse
+import bisect
 import math
 import os
 import sys
@@ -29,8 +49,10 @@ import tracemalloc
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
+sys.path.insert(1, os.path.join(ROOT, "bench"))  # bench_path's program
 
 from fas.arch import PROFILES  # noqa: E402
+from fas.path import executor as path_executor  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
 from stepperdemo.demo.build import demo_build  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
@@ -118,11 +140,387 @@ def traced_pwm(seconds: float, path: str, memory: bool) -> dict:
             "file_mb": os.path.getsize(path) / 1e6}
 
 
+# ------------------------------------------------------------ issue 25
+LA_ARCH = "atmega328p"
+ACC_WINDOW_MS = 20
+#: what steps up to 1/8 step early (the path planner's grouping) can add to a second
+#: difference over the window: 4 * 0.125 / h^2, steps/s^2
+ACC_RESOLUTION = 4 * 0.125 / (ACC_WINDOW_MS * 1e-3) ** 2
+
+
+def la_setup(motion: int) -> list[str]:
+    import bench_path as bp
+
+    return ([f"$10{i}={bp.SPU}" for i in range(2)] + [f"$11{i}={bp.MAX_RATE}" for i in range(2)]
+            + [f"$12{i}={bp.ACCEL}" for i in range(2)] + [f"$11={bp.JUNCTION}", f"$171={motion}"])
+
+
+def la_lines(segments: int) -> list[str]:
+    import bench_path as bp
+
+    return [f"G1 X{p[0]:.4f} Y{p[1]:.4f} F{f:g}" for p, f in bp.cam_program(segments)]
+
+
+def la_run(lines: list[str], motion: int, record: bool, corners: bool = False) -> dict:
+    """The program through the G-code machine: motion time, CPU time, the blocks
+    (targets in steps, feed) and, traced, the step and direction edges."""
+    backend = SimBackend(LA_ARCH, record=record)
+    app = make_program("gcode", backend, scripted=True, output=lambda d: None, axes=2,
+                       setup_lines=la_setup(motion))
+    app.setup()
+    m = app.machine
+    moves: list = []
+    push = m.blocks.push
+
+    def recording_push(block) -> None:
+        moves.append(block)
+        push(block)
+
+    m.blocks.push = recording_push  # type: ignore[method-assign]
+    #: id(move) -> (planned speed at its end units/s, the tick it ends)
+    exits: dict[int, tuple[float, int]] = {}
+    trim = path_executor.Executor.trim
+    if corners:
+        def recording_trim(ex, keep_from: int) -> None:
+            for seg in ex.segments:
+                if seg.seq < keep_from and seg.complete and seg.pieces:
+                    last = seg.pieces[-1]
+                    exits[id(seg.tag)] = ((last.v0 + last.a * (last.t1 - last.t0)) * ex.tps,
+                                          seg.end_tick)
+            trim(ex, keep_from)
+
+        path_executor.Executor.trim = recording_trim  # type: ignore[method-assign]
+    try:
+        c0, w0 = time.process_time(), time.perf_counter()
+        app.run_script("\n".join(lines) + "\n",
+                       max_ticks=3600 * backend.profile.ticks_per_s)
+        cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+    finally:
+        path_executor.Executor.trim = trim  # type: ignore[method-assign]
+    tps = backend.profile.ticks_per_s
+    build = demo_build(backend.profile)
+    steps = [backend.recorder.rising(c.step) for c in build.steppers[:2]] if record else []
+    end = max(st[-1] for st in steps) if steps else backend.now()
+    start = m.motion_log[0][0]
+    out = {"motion_s": (end - start) / tps, "cpu_s": cpu, "wall_s": wall, "moves": moves,
+           "exits": exits, "errors": m.errors, "executor": m.executor.kind,
+           "positions": m.positions(), "backend": backend, "steppers": m.steppers}
+    out["rtf"] = out["motion_s"] / cpu
+    return out
+
+
+def signed_steps(backend, stepper, cfg) -> list[tuple[int, int]]:
+    """(tick, +1/-1) of every step of one axis, the direction from its pin's level."""
+    rec = backend.recorder
+    steps = rec.rising(cfg.step)
+    times, levels = rec.pin_edges(cfg.direction)
+    high_up = stepper.direction_pin_high_counts_up()
+    out = []
+    k = -1
+    level = 0  # the level before any edge (the pin starts low)
+    for t in steps:
+        while k + 1 < len(times) and times[k + 1] <= t:
+            k += 1
+            level = levels[k]
+        out.append((t, 1 if bool(level) == high_up else -1))
+    return out
+
+
+def chebyshev_to_segment(px: float, py: float, a: tuple, b: tuple) -> float:
+    ax, ay = a[0] - px, a[1] - py
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    cands = [0.0, 1.0]
+    for num, den in ((ax, dx), (ay, dy), (ax - ay, dx - dy), (ax + ay, dx + dy)):
+        if den:
+            t = -num / den
+            if 0.0 < t < 1.0:
+                cands.append(t)
+    return min(max(abs(ax + t * dx), abs(ay + t * dy)) for t in cands)
+
+
+def path_deviation(events: list[tuple[int, int, int]], verts: list[tuple[int, int]],
+                   ends: list[int]) -> float:
+    """The largest Chebyshev distance (steps) of the axes' position, after every tick
+    with steps, from the commanded polyline: from the block the planner had at that
+    tick (``ends``: each block's end tick) or its neighbours."""
+    x = y = 0
+    k = 0
+    worst = 0.0
+    n = len(verts) - 1
+    i = 0
+    while i < len(events):
+        t = events[i][0]
+        while i < len(events) and events[i][0] == t:
+            _, axis, d = events[i]
+            if axis == 0:
+                x += d
+            else:
+                y += d
+            i += 1
+        while k < n - 1 and ends[k] < t:
+            k += 1
+        best = min(chebyshev_to_segment(x, y, verts[j], verts[j + 1])
+                   for j in range(max(0, k - 1), min(k + 2, n)))
+        worst = max(worst, best)
+    return worst
+
+
+def interpolated(steps: list[tuple[int, int]], grid: list[int]) -> list[float]:
+    """Position (steps, fractional between edges) at each tick of ``grid``."""
+    out = []
+    pos = 0
+    k = 0
+    n = len(steps)
+    for g in grid:
+        while k < n and steps[k][0] <= g:
+            pos += steps[k][1]
+            k += 1
+        if 0 < k < n and steps[k][1] == steps[k - 1][1]:
+            t0, t1 = steps[k - 1][0], steps[k][0]
+            out.append(pos + steps[k][1] * (g - t0) / (t1 - t0))
+        else:
+            out.append(float(pos))
+    return out
+
+
+def rate_and_accel(steps: list[tuple[int, int]], tps: int,
+                   corners: list[int]) -> tuple[float, float, float]:
+    """Top speed (steps/s, over 2 ms) and acceleration (steps/s^2, second difference
+    over 20 ms) from one axis's signed step edges: everywhere, and away from the
+    ``corners`` (ticks of junctions that turn, where Grbl's model changes
+    each axis's speed at once by what junction deviation allows)."""
+    t0, t1 = steps[0][0], steps[-1][0]
+    dt = tps // 1000  # 1 ms grid
+    grid = list(range(t0 - 20 * dt, t1 + 20 * dt, dt))
+    x = interpolated(steps, grid)
+    top = max(abs(x[i + 1] - x[i - 1]) / (2e-3) for i in range(1, len(x) - 1))
+    h = ACC_WINDOW_MS
+    margin = 5 * dt  # a position interpolated across a junction's step feels it too
+    acc = acc_away = 0.0
+    for i in range(h, len(x) - h):
+        a = abs(x[i + h] - 2 * x[i] + x[i - h]) / (h * 1e-3) ** 2
+        acc = max(acc, a)
+        k = bisect.bisect_left(corners, grid[i - h] - margin)
+        if k < len(corners) and corners[k] <= grid[i + h] + margin:
+            continue
+        acc_away = max(acc_away, a)
+    return top, acc, acc_away
+
+
+def jd_speed(u: tuple[float, float], w: tuple[float, float], accel: float, d: float) -> float:
+    """Grbl's junction-deviation speed (units/s) from direction ``u`` into ``w``."""
+    cos_theta = -(u[0] * w[0] + u[1] * w[1])
+    if cos_theta > 0.999999:
+        return 0.0
+    if cos_theta < -0.999999:
+        return math.inf
+    bx, by = w[0] - u[0], w[1] - u[1]
+    norm = math.hypot(bx, by)
+    a_j = min(accel / abs(c / norm) for c in (bx, by) if c)
+    sin_half = math.sqrt(0.5 * (1.0 - cos_theta))
+    return math.sqrt(a_j * d * sin_half / (1.0 - sin_half))
+
+
+def lookahead_section(segments: int, repeat: int) -> None:
+    import bench_path as bp
+
+    lines = la_lines(segments)
+    print(f"look-ahead: {len(lines)} G-code lines (bench_path's program), {LA_ARCH}, "
+          f"2 axes, 80 steps/mm, $11={bp.JUNCTION}")
+    runs = [la_run(lines, 0, record=False) for _ in range(repeat)]
+    r = min(runs, key=lambda x: x["cpu_s"])
+    print(f"  motion {r['motion_s']:.3f} s in {r['cpu_s']:.2f} s CPU ({r['wall_s']:.2f} s wall): "
+          f"{r['rtf']:.1f}x real time, {len(lines) / r['cpu_s']:.0f} lines/s "
+          f"(executor {r['executor']}, errors {r['errors']})")
+    program = bp.steps_of(bp.cam_program(segments))
+    p = min((bp.planner_alone(program) for _ in range(repeat)), key=lambda x: x["cpu_s"])
+    print(f"  planner alone: {p['blocks_per_s']:.0f} blocks/s")
+    t = la_run(lines, 1, record=False)
+    print(f"  exact stop ($171=1): motion {t['motion_s']:.3f} s ({t['executor']}); "
+          f"look-ahead takes {r['motion_s'] / t['motion_s']:.1%} of it")
+    traced = la_run(lines, 0, record=True, corners=True)
+    backend = traced["backend"]
+    tps = backend.profile.ticks_per_s
+    build = demo_build(backend.profile)
+    axes = [signed_steps(backend, traced["steppers"][i], build.steppers[i]) for i in range(2)]
+    moves = traced["moves"]
+    verts = [moves[0].start] + [mv.target for mv in moves]
+    events = sorted([(t, 0, d) for t, d in axes[0]] + [(t, 1, d) for t, d in axes[1]])
+    final = [sum(d for _, d in a) for a in axes]
+    print(f"  traced: {traced['motion_s']:.3f} s, final position {final} (machine "
+          f"{traced['positions']}, program {list(verts[-1])})")
+    ends = [traced["exits"][id(mv)][1] for mv in moves]
+    print(f"  largest distance from the commanded path: "
+          f"{path_deviation(events, verts, ends):.3f} steps (Chebyshev, at every step)")
+    corners = []
+    for k in range(len(moves) - 1):
+        a, b = moves[k], moves[k + 1]
+        ua = [a.target[i] - a.start[i] for i in range(2)]
+        ub = [b.target[i] - b.start[i] for i in range(2)]
+        cos = (ua[0] * ub[0] + ua[1] * ub[1]) / (math.hypot(*ua) * math.hypot(*ub))
+        if cos < 0.999999:  # any change of direction
+            corners.append(ends[k])
+    corners.sort()
+    for i, name in enumerate("XY"):
+        top, acc, away = rate_and_accel(axes[i], tps, corners)
+        print(f"  {name}: top rate {top / bp.SPU * 60:.0f} mm/min (limit {bp.MAX_RATE:.0f}); "
+              f"acceleration {away / bp.SPU:.0f} mm/s^2 away from the {len(corners)} "
+              f"junctions that turn, {acc / bp.SPU:.0f} with them (limit {bp.ACCEL:.0f}; "
+              f"resolution +-{ACC_RESOLUTION / bp.SPU:.0f})")
+    # the raster's collinear joints: X speed over 16 steps around each
+    xs = [t for t, _ in axes[0]]
+    ratios = []
+    units = [(mv.target[0] - mv.start[0], mv.target[1] - mv.start[1]) for mv in moves]
+    pos_x = 0
+    counted = 0  # X steps made up to each block's end (|steps|, as edges come)
+    run_len = 0
+    for k, mv in enumerate(moves[:-1]):
+        counted += abs(units[k][0])
+        pos_x = mv.target[0]
+        straight = units[k][1] == 0 and units[k + 1][1] == 0 and units[k][0] * units[k + 1][0] > 0
+        run_len = run_len + 1 if straight else 0
+        if not straight or mv.feed != bp.RASTER_FEED or run_len < 12:
+            continue
+        rest = 0  # blocks of the same line after this joint
+        for j in range(k + 1, min(k + 13, len(moves) - 1)):
+            if units[j][1] == 0 and units[j + 1][1] == 0:
+                rest += 1
+        if rest < 12 or counted + 8 >= len(xs):
+            continue
+        speed = 16 / ((xs[counted + 7] - xs[counted - 9]) / tps) / bp.SPU * 60
+        ratios.append(speed / bp.RASTER_FEED)
+    del pos_x
+    if ratios:
+        print(f"  feed across {len(ratios)} collinear raster joints: {min(ratios):.4f} .. "
+              f"{max(ratios):.4f} of F{bp.RASTER_FEED:g} (from the X pin)")
+    exits = traced["exits"]
+    errs = []
+    for k in range(len(moves) - 1):
+        a, b = moves[k], moves[k + 1]
+        ua = [(a.target[i] - a.start[i]) / bp.SPU for i in range(2)]
+        ub = [(b.target[i] - b.start[i]) / bp.SPU for i in range(2)]
+        la, lb = math.hypot(*ua), math.hypot(*ub)
+        v = jd_speed((ua[0] / la, ua[1] / la), (ub[0] / lb, ub[1] / lb), bp.ACCEL,
+                     bp.JUNCTION)
+        if v < 0.99 * min(a.feed, b.feed) / 60 and id(a) in exits and v > 0:
+            errs.append(exits[id(a)][0] / v - 1)
+    if errs:
+        print(f"  planned speed at {len(errs)} junctions limited by junction deviation: "
+              f"{min(errs):+.4%} .. {max(errs):+.4%} of the formula")
+
+
+def device_run(lines: list[str], device: str, baud: int) -> dict:
+    """The program through ``--port`` on a device (the Python device or the firmware in
+    simavr) on the loopback's virtual clock: motion, the device's counters, the bytes
+    the host sent - on average and in the busiest second - against the line's
+    capacity (10 bits a byte)."""
+    from fas.device.loopback import Loopback
+    from rigs.pins import steps_by_pins
+
+    kw = {"record": True} if device == "python" else {}
+    with Loopback(device=device, baud=baud, **kw) as lb:
+        b = lb.backend
+        tps = b.profile.ticks_per_s
+        app = make_program("gcode", b, scripted=True, output=lambda d: None, axes=2,
+                           setup_lines=la_setup(0))
+        app.setup()
+        m = app.machine
+        moves: list = []
+        push = m.blocks.push
+
+        def recording_push(block) -> None:
+            moves.append(block)
+            push(block)
+
+        m.blocks.push = recording_push  # type: ignore[method-assign]
+        ends: dict[int, int] = {}
+        trim = path_executor.Executor.trim
+
+        def recording_trim(ex, keep_from: int) -> None:
+            for seg in ex.segments:
+                if seg.seq < keep_from and seg.complete:
+                    ends[id(seg.tag)] = seg.end_tick
+            trim(ex, keep_from)
+
+        path_executor.Executor.trim = recording_trim  # type: ignore[method-assign]
+        wire = lb.device.in_wires[0]  # host to device
+        samples: list[tuple[int, int]] = []
+        poll = m.poll
+
+        def sampling_poll() -> None:
+            samples.append((b.now(), wire.sent))
+            poll()
+
+        m.poll = sampling_poll  # type: ignore[method-assign]
+        w0 = time.perf_counter()
+        try:
+            app.run_script("\n".join(lines) + "\n", max_ticks=3600 * tps)
+            settled = b.settle()
+        finally:
+            path_executor.Executor.trim = trim  # type: ignore[method-assign]
+        wall = time.perf_counter() - w0
+        start = m.motion_log[0][0]
+        motion = (b.now() - start) / tps
+        counters = b.device_counters()
+        edges = lb.device.trace().edges if device == "simavr" else lb.device.recorder.pin_edges
+        build = demo_build(b.profile)
+        axes = [steps_by_pins(edges, c.step, c.direction, s.direction_pin_high_counts_up())
+                for c, s in zip(build.steppers[:2], m.steppers, strict=True)]
+        busiest = 0
+        j = 0
+        for i in range(len(samples)):  # bytes sent in any second of the run
+            while samples[i][0] - samples[j][0] > tps:
+                j += 1
+            busiest = max(busiest, samples[i][1] - samples[j][1])
+        verts = [moves[0].start] + [mv.target for mv in moves]
+        events = sorted([(t, 0, d) for t, d in axes[0]] + [(t, 1, d) for t, d in axes[1]])
+        deviation = path_deviation(events, verts, [ends[id(mv)] for mv in moves])
+        return {"motion_s": motion, "wall_s": wall, "settled": settled,
+                "deviation": deviation,
+                "errors": m.errors, "positions": m.positions(),
+                "program": list(m.interp.position_steps), "bytes": wire.sent,
+                "busiest": busiest, "capacity": baud / 10, "counters": counters,
+                "runs": len(m.motion_log), "underruns": m.executor.group.stats.underruns
+                if m.executor.kind == "lookahead" else None}
+
+
+def device_section(segments: int) -> None:
+    lines = la_lines(segments)
+    print(f"on a device through --port: {len(lines)} lines, the same program")
+    for device in ("python", "simavr"):
+        for baud in (115_200, 1_000_000):
+            r = device_run(lines, device, baud)
+            c = r["counters"]
+            print(f"  {device:6s} {baud:>7d} baud: motion {r['motion_s']:.3f} s "
+                  f"({r['wall_s']:.1f} s wall), runs {r['runs']}, host underruns "
+                  f"{r['underruns']}, device underruns {c['underruns']}, late starts "
+                  f"{c['late_starts']}, rejected {c['rejected']}, errors {r['errors']}, "
+                  f"position {r['positions']} (program {r['program']}), largest distance "
+                  f"from the path {r['deviation']:.3f} steps")
+            avg = r["bytes"] / r["motion_s"]
+            print(f"      host->device {r['bytes']} bytes: {avg:.0f} B/s on average, "
+                  f"{r['busiest']} B in the busiest second, of {r['capacity']:.0f} B/s: "
+                  f"link margin {r['capacity'] / r['busiest']:.2f}x "
+                  f"({1 - r['busiest'] / r['capacity']:.0%} of the line free)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", default="10000,3000", help="the diagonal: X,Y steps")
     ap.add_argument("--pwm-seconds", type=float, default=10.0)
+    ap.add_argument("--segments", type=int, default=10000, help="look-ahead program")
+    ap.add_argument("--repeat", type=int, default=3, help="look-ahead runs; fastest counts")
+    ap.add_argument("--lookahead-only", action="store_true",
+                    help="only section 4 (issue 25's look-ahead figures)")
+    ap.add_argument("--device-only", action="store_true",
+                    help="only section 5 (the look-ahead program through --port)")
     args = ap.parse_args()
+    if args.lookahead_only:
+        lookahead_section(args.segments, args.repeat)
+        return
+    if args.device_only:
+        device_section(args.segments)
+        return
     dx, dy = (int(v) for v in args.steps.split(","))
     print(f"diagonal G1 X{dx} Y{dy} F600000 (a = 10000 steps/s^2 per axis, 10 000 steps/s)")
     for arch in PROFILES:
@@ -145,6 +543,8 @@ def main() -> None:
         for s in (args.pwm_seconds / 2, args.pwm_seconds):
             m = traced_pwm(s, os.path.join(d, "m.vcd"), True)
             print(f"  peak Python memory for {s:g} s: {m['peak_mb']:.1f} MB")
+    lookahead_section(args.segments, args.repeat)
+    device_section(args.segments)
 
 
 if __name__ == "__main__":

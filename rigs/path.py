@@ -291,3 +291,27 @@ def max_accel(ticks: Sequence[int], xs: Sequence[int], t_from: int, t_to: int, t
         worst_v = max(worst_v, abs(v1), abs(v2))
         a = max(a + 1, bisect.bisect_left(ticks, ticks[a] + w // 4, a + 1, k1))
     return worst_a, worst_v
+
+
+def tracked_deviation(points: Sequence[tuple[int, tuple[int, ...]]],
+                      polyline: Sequence[Sequence[int]], window: int = 3) -> float:
+    """The largest Chebyshev distance (steps) of the instants' positions from the
+    polyline, each measured against the segments from the one the previous instant was
+    nearest to and ``window`` after it (the path is followed forward; no vertex needs
+    to be reached exactly - tiny blocks' last steps may come a little early)."""
+    verts = [tuple(polyline[0])]
+    for v in polyline[1:]:
+        if tuple(v) != verts[-1]:
+            verts.append(tuple(v))
+    worst = 0.0
+    k = 0
+    n = len(verts) - 1
+    for _, p in points:
+        best, best_j = math.inf, k
+        for j in range(k, min(k + window + 1, n)):
+            d = cheb_to_segment(p, verts[j], verts[j + 1])
+            if d < best - 1e-12:
+                best, best_j = d, j
+        k = best_j
+        worst = max(worst, best)
+    return worst

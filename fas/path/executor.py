@@ -223,6 +223,18 @@ class Executor:
         self.final = False
         self.stop_segment = None
 
+    def shift(self, ticks: int) -> None:
+        """Move everything made final so far ``ticks`` later (a start that came later)."""
+        self.t += ticks
+        for seg in self.segments:
+            seg.t_start += ticks
+            seg.t_done += ticks
+            if seg.complete:
+                seg.end_tick += ticks
+            for piece in seg.pieces:
+                piece.t0 += ticks
+                piece.t1 += ticks
+
     def segment(self, seq: int) -> Segment | None:
         i = seq - self.first_seq
         segs = self.segments

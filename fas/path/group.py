@@ -114,6 +114,7 @@ class PathGroup:
         self.hold_start: HoldStart | None = None
         self._listener: SpeedListener | None = None
         self._restart = False  # start the next run at once
+        self.run_start_tick: int | None = None  # where the latest run began (its pause)
 
     # ------------------------------------------------------------ joining
     def attach(self) -> PathResult:
@@ -181,6 +182,9 @@ class PathGroup:
                         or pool.before_dir_change_ticks > shortest)
         return False
 
+    #: public name: may ``stepper`` join a group, as far as its driver goes?
+    driver_pauses = _driver_pauses
+
     def detach(self) -> PathResult:
         """Give each stepper its own planner back (only while the group is idle)."""
         if not self.attached:
@@ -233,9 +237,10 @@ class PathGroup:
         return self.lookahead.size - len(self.lookahead)
 
     def line(self, target: Sequence[int], feed: float | None = None, *,
-             tag: object = None) -> PathResult:
+             tag: object = None, override: bool = True) -> PathResult:
         """Queue a straight move to ``target`` (steps per axis) at ``feed`` units/min
-        (None: the rapid rate - every axis at most its ``max_rate``)."""
+        (None: the rapid rate - every axis at most its ``max_rate``); ``override``
+        False: the feed and rapid overrides leave it alone (a jog)."""
         if not self.attached:
             return PathResult.ERR_NOT_ATTACHED
         if self.lookahead.full():
@@ -259,7 +264,7 @@ class PathGroup:
         for d, a in zip(delta, self.axes, strict=True):
             if d < 0 and not a.host.has_direction_pin():
                 return PathResult.ERR_NO_DIRECTION_PIN
-        block = self.lookahead.make_block(start, delta, feed, tag)
+        block = self.lookahead.make_block(start, delta, feed, tag, override)
         if block is None:
             return PathResult.EMPTY_BLOCK
         was_empty = not self.lookahead.blocks and not self.run_active
@@ -272,7 +277,7 @@ class PathGroup:
         return PathResult.OK
 
     def line_units(self, target: Sequence[float], feed: float | None = None, *,
-                   tag: object = None) -> PathResult:
+                   tag: object = None, override: bool = True) -> PathResult:
         """:meth:`line` to a target in units (each axis rounded to its nearest step,
         as Grbl's planner does)."""
         if len(target) != len(self.settings.axes):
@@ -283,7 +288,16 @@ class PathGroup:
             if not math.isfinite(x) or not INT32_MIN <= x <= INT32_MAX:
                 return PathResult.ERR_RANGE
             steps.append(round(x))
-        return self.line(steps, feed, tag=tag)
+        return self.line(steps, feed, tag=tag, override=override)
+
+    def set_overrides(self, feed_percent: float, rapid_percent: float) -> None:
+        """Grbl's feed override (blocks with a feed) and rapid override (rapid blocks),
+        percent: every queued block is planned again with its new speed; the block in
+        execution changes from the end of what is final (at most the forward planning
+        time plus a task period from now).  Blocks queued with ``override=False`` keep
+        their speed."""
+        self.lookahead.set_overrides(feed_percent / 100.0, rapid_percent / 100.0)
+        self._wake()
 
     def flush(self) -> None:
         """No more blocks for now: start at once and run to the end of the queue."""
@@ -462,7 +476,8 @@ class PathGroup:
 
     def _write(self) -> None:
         now = self._now()
-        low_water = 2 * self.axes[0].host.backend.task_period_ticks
+        backend = self.axes[0].host.backend  # (a device: plus the link's lead)
+        low_water = 2 * backend.task_period_ticks + backend.planning_extra_ticks
         for w in self.writers:
             if w.fill(now, low_water) == Wrote.ERROR:
                 self.stats.errors += 1
@@ -508,16 +523,6 @@ class PathGroup:
             if res.value != 0:
                 self._abandon_start()
                 return
-        if timed:
-            for ch in channels:
-                if ch.start_at(t_s) != t_s:
-                    self.stats.start_retries += 1
-                    self.start_margin *= 2
-                    self._abandon_start()
-                    return
-        else:
-            for a in axes:
-                a.host.write(None, 0, True, True)
         self.stats.runs += 1
         self.run_active = True
         for a in axes:
@@ -528,8 +533,48 @@ class PathGroup:
         ex.begin(float(t_s + lead + p.min_cmd_ticks))
         for w in self.writers:
             w.begin(t_s + lead, t_s)
+        # the path's first commands are written before the start: a device behind a
+        # link gets them ahead of its Start (a queue holding only the lead when it
+        # starts would take up a later pause as a restart, twice as long)
+        heard: list[tuple[int, float, object]] = []  # the speed listener's, held
+        for w in self.writers:  # until the start tick is known
+            w.listener = None if self._listener is None else (
+                lambda tick, speed, tag: heard.append((tick, speed, tag)))
         ex.commit(self._horizon(now))
         self._write()
+        for w in self.writers:
+            w.listener = self._listener
+        if not self.run_active:
+            return  # a queue refused a command: aborted
+        shift = 0
+        if timed:
+            need = max(ch.earliest_start_tick() or 0 for ch in channels)
+            if need > t_s:  # the commands written take their time on the link
+                shift = need + self.start_margin - t_s
+                self._shift_timeline(shift)
+                t_s += shift
+            for ch in channels:
+                if ch.start_at(t_s) != t_s:
+                    self.stats.start_retries += 1
+                    self.start_margin *= 2
+                    self._stop_axes_now()
+                    self._requeue()
+                    self._restart = True
+                    return
+        else:
+            for a in axes:
+                a.host.write(None, 0, True, True)
+        self.run_start_tick = t_s
+        if self._listener is not None:
+            for tick, speed, tag in heard:
+                self._listener(tick + shift, speed, tag)
+
+    def _shift_timeline(self, ticks: int) -> None:
+        """The run starts ``ticks`` later than planned: everything made final so far
+        (and every axis's commands, which are durations) moves with it."""
+        self.executor.shift(ticks)
+        for w in self.writers:
+            w.shift(ticks)
 
     def _abandon_start(self) -> None:
         for a in self.axes:
@@ -593,7 +638,7 @@ class PathGroup:
         for b in pending:
             end = b.end
             delta = tuple(e - s for e, s in zip(end, self.position, strict=True))
-            nb = la.make_block(tuple(self.position), delta, b.feed, b.tag)
+            nb = la.make_block(tuple(self.position), delta, b.feed, b.tag, b.override)
             if nb is None:
                 continue
             la.add(nb)

@@ -46,12 +46,12 @@ class Block:
 
     __slots__ = ("start", "delta", "unit", "length", "remaining", "acceleration",
                  "rapid_rate", "nominal_speed", "entry_sqr", "max_entry_sqr",
-                 "max_junction_sqr", "tag", "feed")
+                 "max_junction_sqr", "tag", "feed", "override")
 
     def __init__(self, start: tuple[int, ...], delta: tuple[int, ...],
                  unit: tuple[float, ...], length: float, acceleration: float,
                  rapid_rate: float, nominal_speed: float, tag: object,
-                 feed: float | None) -> None:
+                 feed: float | None, override: bool = True) -> None:
         self.start = start  # steps, where the block begins
         self.delta = delta  # steps per axis (signed)
         self.unit = unit  # unit vector in units
@@ -65,6 +65,7 @@ class Block:
         self.max_junction_sqr = 0.0
         self.tag = tag  # the caller's (a G-code line number, a laser power)
         self.feed = feed  # units/min as asked (None: rapid)
+        self.override = override  # the feed/rapid override applies (not to a jog)
 
     @property
     def end(self) -> tuple[int, ...]:
@@ -102,6 +103,8 @@ class Lookahead:
         self.prev_nominal = 0.0
         self.recalculations = 0
         self.pass_steps = 0  # blocks visited by both passes (the work planning did)
+        self.feed_scale = 1.0  # feed override (Grbl's 0x90..0x94), G1 blocks
+        self.rapid_scale = 1.0  # rapid override (0x95..0x97), rapid blocks
 
     def configure(self, axes: Sequence[AxisLimits], junction_deviation: float,
                   top_rates: Sequence[float] | None = None) -> None:
@@ -134,9 +137,10 @@ class Lookahead:
 
     # ---------------------------------------------------------------- adding
     def make_block(self, start: tuple[int, ...], delta: tuple[int, ...],
-                   feed: float | None, tag: object) -> Block | None:
+                   feed: float | None, tag: object, override: bool = True) -> Block | None:
         """A block from ``start`` by ``delta`` steps at ``feed`` units/min (None: the
-        rapid rate); None for a block of no length.  Not queued yet (:meth:`add`)."""
+        rapid rate); None for a block of no length.  Not queued yet (:meth:`add`).
+        ``override``: the overrides (:meth:`set_overrides`) scale its speed."""
         spu = self.spu
         d_units = [d / s for d, s in zip(delta, spu, strict=True)]
         length = math.sqrt(sum(x * x for x in d_units))
@@ -145,8 +149,38 @@ class Lookahead:
         unit = tuple(x / length for x in d_units)
         acceleration = limit_along(self.accel, unit)
         rapid = limit_along(self.max_rate, unit)
-        nominal = rapid if feed is None else min(max(feed, MINIMUM_FEED) / 60.0, rapid)
-        return Block(start, delta, unit, length, acceleration, rapid, nominal, tag, feed)
+        block = Block(start, delta, unit, length, acceleration, rapid, rapid, tag, feed,
+                      override)
+        block.nominal_speed = self.nominal(block)
+        return block
+
+    def nominal(self, block: Block) -> float:
+        """The block's speed (units/s): its feed or the rapid rate, scaled by the
+        override (Grbl's ``plan_compute_profile_nominal_speed``), at most the rapid rate."""
+        rapid = block.rapid_rate
+        if block.feed is None:
+            return rapid * self.rapid_scale if block.override else rapid
+        feed = block.feed * self.feed_scale if block.override else block.feed
+        return min(max(feed, MINIMUM_FEED) / 60.0, rapid)
+
+    def set_overrides(self, feed_scale: float, rapid_scale: float) -> None:
+        """New override factors: every queued block's speed and junction limits are
+        computed again and the whole queue is planned again (Grbl's
+        ``plan_update_velocity_profile_parameters``).  The block in execution takes
+        its new speed from the end of what is final on."""
+        self.feed_scale, self.rapid_scale = feed_scale, rapid_scale
+        prev = 0.0
+        for i, b in enumerate(self.blocks):
+            b.nominal_speed = self.nominal(b)
+            if i:
+                top = min(b.nominal_speed, prev)
+                b.max_entry_sqr = min(top * top, b.max_junction_sqr)
+                if b.entry_sqr > b.max_entry_sqr:
+                    b.entry_sqr = b.max_entry_sqr
+            prev = b.nominal_speed
+        if self.blocks:
+            self.prev_nominal = prev
+        self.replan_from_first()
 
     def add(self, block: Block) -> None:
         """Queue ``block`` (there is room) and plan again."""

@@ -131,6 +131,13 @@ class AxisWriter:
         self.done = False
         self.up = self.queue.queue_end_count_up
 
+    def shift(self, ticks: int) -> None:
+        """The run starts ``ticks`` later: the written commands end that much later."""
+        self.w_end += ticks
+        self.last_start += ticks
+        if self.pending:
+            self.t_pend += ticks
+
     def cursor_seq(self) -> int:
         return self.seq
 
@@ -167,7 +174,7 @@ class AxisWriter:
                 self.pending = True
             gap = self.t_pend - self.w_end
             if gap:
-                if gap >= self.min_cmd:
+                if gap >= self.min_wait:  # (a pause is refused below the top speed)
                     seg = self.ex.segment(self.seq)
                     assert seg is not None
                     res = self._pauses(gap, seg.ups[self.axis], free)
@@ -514,16 +521,19 @@ class AxisWriter:
     def _pause_ahead(self, free: int) -> Wrote:
         """No step is final: pauses up to one minimum command time before the horizon."""
         gap = int(self.ex.t) - self.min_cmd - self.w_end
-        if gap < self.min_cmd or self.last_start > self._deep:
+        if gap < self.min_wait or self.last_start > self._deep:
             return Wrote.WAIT
         parts = split_ticks(gap)[:free - 1]
         return self._write_all([(t, 0) for t in parts], self.up, None)
 
     def _pauses(self, gap: int, up: bool, free: int) -> Wrote:
+        """Pauses up to the pending step: as many as the queue takes now (a step final
+        further ahead than the queue holds in pauses - a device's long link lead - gets
+        the rest on the next runs; every part is at least half a longest command)."""
         parts = split_ticks(gap)
-        if len(parts) > free - 1:
+        if free < 2:
             return Wrote.FULL
-        return self._write_all([(t, 0) for t in parts], up, None)
+        return self._write_all([(t, 0) for t in parts[:free - 1]], up, None)
 
     def _shift(self, by: int) -> None:
         st = self.stats

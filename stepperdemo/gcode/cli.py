@@ -49,6 +49,7 @@ commands on a device (see 'stepperdemo device').
 Settings ($$ lists them, $N=value or --set '$N=value' changes one):
   $1        step idle delay, ms (255 keeps the drivers on)     default {DEFAULT_IDLE_DELAY_MS}
   $10       status report: 1 MPos (else WPos) + 2 Bf:          default 3
+  $11       junction deviation, units (look-ahead corners)      default 0.01
   $12       arc tolerance, units                               default 0.002
   $30 $31   spindle speed S of full / of the least PWM duty    default 1000 0
   $32       laser mode (M4 power follows the speed)            default 0
@@ -58,6 +59,7 @@ Settings ($$ lists them, $N=value or --set '$N=value' changes one):
   $140-143  PWM frequency of Aout0-3, Hz                       default 5000
   $150-153  pin of Dout0-3, $160-163 pin of Aout0-3            default: profile table
   $170      status report shows Dout:/Aout:                    default 0
+  $171      motion: 0 look-ahead, 1 stop at every block        default 0
 With one step per unit, X/Y/Z are in steps and F in steps per minute.
 
 exit codes: 0 ok, 1 a line was answered with an error, 2 bad arguments,

@@ -232,6 +232,12 @@ def set_setting(m: GcodeMachine, number: int, value: float) -> None:
                 n=number, range="0 or 1"))
         st.report_outputs = bool(value)
         return
+    if number == 171:  # issue 25: the executor
+        if value not in (0, 1):
+            raise GcodeError(Err.INVALID_STATEMENT, msg.GCODE_ERR_SETTING_RANGE.format(
+                n=number, range="0 or 1"))
+        st.motion = int(value)
+        return
     axis = axis_setting(number)
     if axis is not None:
         base, i = axis

@@ -91,6 +91,8 @@ class Run:
 class ExactStopExecutor(MotionExecutor):
     """Blocks from rest to rest, with feed hold, resume, jog cancel and overrides."""
 
+    kind = "exact_stop"
+
     def __init__(self, host: MotionHost, blocks: BlockQueue,
                  ahead_ms: float = 20.0) -> None:
         super().__init__(host, blocks)

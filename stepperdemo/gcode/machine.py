@@ -40,7 +40,6 @@ from .. import messages as msg
 from . import dollar as dollar_commands
 from . import reports
 from .codes import Alarm, Err
-from .exact_stop import ExactStopExecutor
 from .grbl_rx import (
     DOOR,
     FEED_100,
@@ -79,7 +78,7 @@ from .interp import (
     SetOutput,
     SetSpindle,
 )
-from .motion import BlockQueue, HoldState, MotionExecutor
+from .motion import BlockQueue, HoldState, MotionExecutor, make_executor, wanted_kind
 from .parser import AXES, GcodeError, parse_line
 from .probe import ProbeCycle
 from .settings import KEEP_ENABLED, GcodeSettings
@@ -119,7 +118,7 @@ class GcodeMachine:
         self.identity = identity or f"stepperdemo {msg.VERSION} {self.backend.profile.name}"
         self.rx = GrblReceiver()
         self.blocks = BlockQueue()
-        self.executor: MotionExecutor = ExactStopExecutor(self, self.blocks)
+        self.executor: MotionExecutor = make_executor(self, self.blocks)
         self.interp = Interpreter(self.axes, self.settings, check=self._check)
         self.tooling = Tooling(self)  # spindle/laser and coolant outputs (issue 25)
         self.executor.set_speed_listener(self.tooling.on_speed)  # laser mode
@@ -348,6 +347,7 @@ class GcodeMachine:
     def poll(self) -> None:
         """Everything that is due now: motion, the line in execution, new lines."""
         now = self.backend.now()
+        self._pick_executor()
         self.executor.poll()
         self.tooling.poll(now)
         if (self.hold or self.door) and self.executor.hold_state() == HoldState.HELD:
@@ -369,6 +369,17 @@ class GcodeMachine:
                 break
             self._line(line, now)
         self._idle_drivers(now)
+
+    def _pick_executor(self) -> None:
+        """``$171`` (or the steppers) asks for the other executor: changed while
+        nothing is queued, moving or held."""
+        ex = self.executor
+        if (ex.busy() or ex.moving() or ex.hold_state() != HoldState.NONE
+                or getattr(ex, "kind", "") == wanted_kind(self)):
+            return
+        self.executor = make_executor(self, self.blocks)
+        self.executor.set_overrides(self.feed_override, self.rapid_override)
+        self.executor.set_speed_listener(self.tooling.on_speed)  # laser mode
 
     def line(self, text: str) -> None:
         """A whole line as if received (tests, ``--set``): fed through the receive path."""
@@ -681,8 +692,9 @@ class GcodeMachine:
             if self.idle_since is not None:
                 times.append(self.idle_since + self.settings.idle_delay_ms
                              * b.profile.ticks_per_ms)
-            elif not self.executor.moving():
-                times.append(now)
+            elif not (self.executor.moving() or (self.executor.busy() and not self.hold
+                                                 and not self.door)):
+                times.append(now)  # the drivers' idle time begins now (_idle_drivers)
         return max(min(times), now) if times else None
 
     # ------------------------------------------------------- stop and reset

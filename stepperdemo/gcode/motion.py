@@ -9,10 +9,24 @@ usable of 16, what ``Bf:`` reports).
 in order and turns them into each axis's FastAccelStepper queue commands, and it
 answers the real-time requests a Grbl controller must honour - a feed hold that
 decelerates along the path and a resume that goes on from there with no step lost,
-a jog cancel, feed and rapid overrides.  Today's executor,
-:class:`~.exact_stop.ExactStopExecutor`, starts and ends every block at rest; a
-look-ahead planner (issue 25) plugs in here as another executor reading the same
-queue - the machine (:mod:`.machine`) knows only this interface.
+a jog cancel, feed and rapid overrides.  Two executors read the same queue - the
+machine (:mod:`.machine`) knows only this interface and picks one with
+:func:`make_executor`:
+
+* :class:`~.lookahead_exec.LookaheadExecutor` (the default): the blocks planned with
+  look-ahead by ``fas.path`` (junction deviation ``$11``, blocks joining without a
+  pause);
+* :class:`~.exact_stop.ExactStopExecutor` (``$171=1``, or where the steppers cannot
+  form a path group): every block from rest to rest (issue 24).
+
+**Laser hook.**  :meth:`MotionExecutor.set_speed_listener` registers
+``fn(tick, speed, move)``: called for every queue command of the dominant axis (the
+one with the most steps) of each block, as the command is written - ahead of time,
+with the tick at which it begins on the pins - with the path speed from there in
+units/min (0 where the path stops) and the block (the :class:`~.interp.Move`).  A
+laser's power proportional to the speed (Grbl's M4 in laser mode, ``$32``) follows
+it, updated at every queue command.  Both executors have it (the look-ahead one
+through ``fas.path``'s ``speed_listener``).
 
 An executor reaches the steppers through a :class:`MotionHost` (the machine).
 """
@@ -167,3 +181,24 @@ class MotionExecutor(ABC):
         and the block (the :class:`~.interp.Move`).  Grbl's M4 laser power follows it.
         False: this executor has none."""
         return False
+
+
+def make_executor(host: MotionHost, blocks: BlockQueue) -> MotionExecutor:
+    """The executor the settings ask for (``$171``) and the steppers allow."""
+    from .exact_stop import ExactStopExecutor
+    from .lookahead_exec import LookaheadExecutor, lookahead_fits
+    from .settings import MOTION_LOOKAHEAD
+
+    if host.settings.motion == MOTION_LOOKAHEAD and lookahead_fits(host.steppers):
+        return LookaheadExecutor(host, blocks)
+    return ExactStopExecutor(host, blocks)
+
+
+def wanted_kind(host: MotionHost) -> str:
+    """``"lookahead"`` or ``"exact_stop"``: what :func:`make_executor` would make now."""
+    from .lookahead_exec import lookahead_fits
+    from .settings import MOTION_LOOKAHEAD
+
+    if host.settings.motion == MOTION_LOOKAHEAD and lookahead_fits(host.steppers):
+        return "lookahead"
+    return "exact_stop"

@@ -157,4 +157,5 @@ def settings_lines(m: GcodeMachine) -> list[str]:
     lines += [f"${150 + n}={outputs.digital_pin(n)}" for n in range(4)]
     lines += [f"${160 + n}={outputs.analog_pin(n)}" for n in range(4)]
     lines.append(f"$170={int(st.report_outputs)}")
+    lines.append(f"$171={st.motion}")
     return lines

@@ -13,8 +13,11 @@ three), and A, B, C when the machine has those axes.
             (255: keep them on)
  $2-$6      step/dir/enable/limit/probe inversion masks (fixed)         0
  $10        status report: 1 MPos (else WPos), +2 ``Bf:`` buffer state  3
- $11        junction deviation (kept for the look-ahead executor)       0.010
- $12        arc tolerance: G2/G3 segments stay this close, units        0.002
+ $11        junction deviation, units: how far a corner's arc may stay  0.010
+            from the corner - the look-ahead's corner speed (0: stop at
+            every corner)
+ $12        arc tolerance, units: largest distance of an arc's chords   0.002
+            from the arc (G2/G3)
  $13        report inches (fixed: no inches)                            0
  $20-$27    soft limits, hard limits, homing (no limit inputs: 0)       Grbl's
  $30 $31    spindle speed (S) of full / of the least duty (.tooling)    1000 0
@@ -27,7 +30,13 @@ three), and A, B, C when the machine has those axes.
  $150-153   pin of Dout0-3                                              profile
  $160-163   pin of Aout0-3 (a PWM pin of the profile)                   profile
  $170       status report shows the user outputs (``Dout:``/``Aout:``)  0
+ $171       motion: 0 look-ahead (``fas.path``), 1 exact stop at every   0
+            block (issue 24's executor, for comparison)
 =========  ==========================================================  ===========
+
+The machine executes its blocks with look-ahead (:mod:`.lookahead_exec`) unless
+``$171=1`` or its steppers cannot form a path group (two axes on one direction pin,
+as StepperDemo's ESP32 wiring has: then every block stops, :mod:`.exact_stop`).
 
 With the default of one step per unit, axis words and F are in steps and steps per
 minute (F600000 = 10 000 steps/s).  A rate above what the stepper can do is limited
@@ -57,6 +66,9 @@ KEPT = {11: (0.010, 3), 12: (0.002, 3), 24: (25.0, 3), 25: (500.0, 3), 26: (250.
         27: (1.0, 3), 30: (1000.0, 0), 31: (0.0, 0), 32: (0.0, 0)}
 #: flags a machine without limit inputs can only keep at 0
 SWITCHES = (20, 22)
+JUNCTION_DEVIATION, ARC_TOLERANCE = 11, 12
+#: $171: how blocks are executed
+MOTION_LOOKAHEAD, MOTION_EXACT_STOP = 0, 1
 
 
 @dataclass
@@ -70,10 +82,21 @@ class GcodeSettings:
     idle_delay_ms: int = DEFAULT_IDLE_DELAY_MS
     status_mask: int = DEFAULT_STATUS_MASK
     report_outputs: bool = False  # $170
+    motion: int = MOTION_LOOKAHEAD  # $171
     kept: dict[int, float] = field(
         default_factory=lambda: {n: v for n, (v, _d) in KEPT.items()})
     startup: list[str] = field(default_factory=lambda: ["", ""])  # $N0, $N1
     build_info: str = ""  # $I=text
+
+    @property
+    def junction_deviation(self) -> float:
+        """``$11``, units (the look-ahead's corner speeds)."""
+        return self.kept[JUNCTION_DEVIATION]
+
+    @property
+    def arc_tolerance(self) -> float:
+        """``$12``, units (G2/G3 cut into chords within it)."""
+        return self.kept[ARC_TOLERANCE]
 
     def axis_values(self, base: int) -> list[float]:
         """The list behind ``$100``/``$110``/``$120``/``$130``."""

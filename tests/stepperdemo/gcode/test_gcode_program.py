@@ -152,7 +152,7 @@ def test_block_queue_takes_lines_only_while_it_has_room():
     assert len(m.blocks) == 15 and m.executor.current() is not None
     assert m.pending is not None and m.pending.text == "G1X0F600000"
     assert lines(app).count("ok") == 15  # the line waiting has no answer yet
-    app.run_until(m.executor.run.origin + TPS // 4)  # the first block (0.2 s) is done
+    app.run_until(app.backend.now() + TPS // 4)  # the first block (0.2 s) is done
     assert lines(app).count("ok") == 16 and len(m.blocks) == 15
     app.run_until(app.backend.now() + 10 * TPS)  # 39 more blocks of 0.2 s
     assert lines(app).count("ok") == 40 and app.finished()

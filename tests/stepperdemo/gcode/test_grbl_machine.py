@@ -91,8 +91,21 @@ def hold_program(g: RawGrbl) -> None:
     g.advance(1.0)  # cruising (the acceleration takes 0.2 s)
 
 
-def test_feed_hold_decelerates_along_the_path_and_resume_loses_no_step():
-    g = grbl(setup=MM)
+def hold_frontier(g: RawGrbl) -> tuple[int, int]:
+    """Where the last feed hold's deceleration began, and how long after the ``!`` it
+    may begin: exact stop - the queues' lead; look-ahead - what the group made final
+    (forward planning and two task periods, docs/path-planner.md)."""
+    ex = g.machine.executor
+    if ex.kind == "exact_stop":
+        return ex.holds[-1].frontier, ex.ahead_ticks + ex.piece
+    s = g.machine.steppers[0]
+    latency = s.get_forward_planning_ticks() + 2 * g.backend.task_period_ticks
+    return round(ex.group.hold_start.tick), latency
+
+
+@pytest.mark.parametrize("motion", [0, 1])  # $171: look-ahead, exact stop
+def test_feed_hold_decelerates_along_the_path_and_resume_loses_no_step(motion):
+    g = grbl(setup=MM + f"$171={motion}\n")
     hold_program(g)
     assert lines(g.take()) == ["ok"]
     asked = g.backend.now()
@@ -101,26 +114,33 @@ def test_feed_hold_decelerates_along_the_path_and_resume_loses_no_step():
     g.send(b"~")  # during Hold:1: lost, as in Grbl
     g.advance(0.5)
     assert status(g).startswith("<Hold:0|") and g.machine.hold
-    rec = g.machine.executor.holds[-1]
-    rec_ahead = g.machine.executor.ahead_ticks + g.machine.executor.piece
-    assert asked <= rec.frontier <= asked + rec_ahead  # the deceleration begins this soon
+    frontier, rec_ahead = hold_frontier(g)
+    assert asked <= frontier <= asked + rec_ahead  # the deceleration begins this soon
     rising = g.backend.recorder.rising
     # from the pins: the speed before the deceleration and the distance after it
     for pin, n, accel in ((X_STEP, 16000, 500 * 80), (Y_STEP, 8000, 500 * 80 / 2)):
         edges = rising(pin)
-        before = [t for t in edges if t < rec.frontier]
-        window = [t for t in before if t >= rec.frontier - TPS // 2]  # cruising
+        before = [t for t in edges if t < frontier]
+        window = [t for t in before if t >= frontier - TPS // 2]  # cruising
         v = (len(window) - 1) / ((window[-1] - window[0]) / TPS)  # steps/s
         # where the axis is when the deceleration begins (between two steps), and where
         # v^2 / 2a later it must stand: the steps it makes are those it passes
-        at_frontier = len(before) + (rec.frontier - before[-1]) / TPS * v
+        at_frontier = len(before) + (frontier - before[-1]) / TPS * v
         stop = at_frontier + v * v / (2 * accel)
         assert abs(len(edges) - stop) <= 1, (pin, len(edges), stop, v)
         decel_steps = len(edges) - len(before)
         assert decel_steps > 300 * n / 16000  # a real deceleration, not a stop
-        periods = [b - a for a, b in zip(edges[len(before):], edges[len(before) + 1:],
-                                         strict=False)]
-        assert all(b >= a - 2 for a, b in zip(periods, periods[1:], strict=False))  # slower
+        if motion == 1:  # exact stop: every step at its own tick, each period longer
+            periods = [b - a for a, b in zip(edges[len(before):], edges[len(before) + 1:],
+                                             strict=False)]
+            assert all(b >= a - 2 for a, b in zip(periods, periods[1:], strict=False))
+        else:  # look-ahead: steps grouped at even periods, each at most 1/8 step early
+            # (docs/path-planner.md), on the deceleration from the frontier
+            t_stop = v / accel
+            for m, t in enumerate(edges[len(before):], start=len(before) + 1):
+                dt = min((t - frontier) / TPS, t_stop)
+                ideal = at_frontier + v * dt - accel * dt * dt / 2  # path position there
+                assert -0.125 - 0.1 <= ideal - m <= 0.1, (pin, m, ideal - m)
     g.send(b"~")
     assert g.settle()
     assert g.machine.positions()[:2] == [16000, 8000]
