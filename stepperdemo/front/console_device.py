@@ -98,6 +98,17 @@ class HangupPty:
                 return None
             raise
 
+    def _read_all(self) -> bytes:
+        """What is left to read of a host that has closed (bounded: another host may
+        be writing behind it)."""
+        data = bytearray()
+        for _ in range(64):
+            chunk = self._read_master()
+            if not chunk:
+                break
+            data += chunk
+        return bytes(data)
+
     def read(self) -> bytes | None:
         """What the host sent (b"": nothing), or None while no host has it open (and
         once after a host closed it, even if another opened it since)."""
@@ -108,8 +119,9 @@ class HangupPty:
             return None
         self._look()
         if self._serving:
-            data = self._read_master() or b""  # all the host wrote before its close
-            if self._gone:
+            data = self._read_master() or b""
+            if self._gone:  # then all the host wrote before its close is its own
+                data += self._read_all()
                 self._serving = self._gone = False
                 self._say_gone = True
                 self._discard_unread()
@@ -121,6 +133,7 @@ class HangupPty:
         self._discard_unread()
         data = self._read_master() or b""
         if not self._hosts:  # opened and closed again already: a reset all the same
+            data += self._read_all()
             self._serving = False
             self._say_gone = True
         return data
