@@ -46,3 +46,17 @@ def test_every_in_page_link_leads_to_a_heading():
     assert links and links <= anchors, links - anchors
     for doc in re.findall(r"\]\((docs/[\w.-]+)\)", README):
         assert (ROOT / doc).is_file(), doc
+
+
+def test_every_command_that_names_sequences_says_it_needs_the_checkout():
+    """``sequences/`` is not in the wheel: a user of the installed package who types
+    ``stepperdemo run --board PORT sequences/examples`` gets "no such file"; each such
+    command says it runs in the checkout, and the section on scenario files says why."""
+    blocks = re.findall(r"```sh\n(.*?)```", README, re.DOTALL)
+    commands = [line for block in blocks for line in block.splitlines()
+                if re.search(r"\ssequences\b", line.split("#", 1)[0])]
+    assert len(commands) >= 3, commands  # quickstep, the board's examples, d35
+    for line in commands:
+        assert "#" in line and "checkout" in line.split("#", 1)[1], line
+    section = README.split("## Scenario files", 1)[1].split("\n## ", 1)[0]
+    assert re.search(r"not in the\s+installed package", section), section[:400]

@@ -6,12 +6,13 @@ board (:class:`~stepperdemo.demo.serial_board.SimulatedBoard`) in real time (or
 console byte for byte.  Everything ``--board`` does can be tried and tested on it.
 
 The reset: a pty has no DTR line, so the device resets the firmware the way an
-Arduino Uno's auto-reset does, when a host opens the port.  The device keeps no
-descriptor of the pty's slave side open, so it sees the slave close (the master
-reads EIO: a hang-up) and open again; every open after a close restarts the
-firmware (banner, usage, stepper table), and while no host has the port open the
-firmware stands still and nothing is sent.  ``--board`` resets a pty by closing
-and opening it (its DTR pulse fails there), which is exactly this.
+Arduino Uno's auto-reset does, when a host opens the port.  :class:`HangupPty` sees
+every open and close of the slave side (a close and an open back to back included,
+through Linux's inotify; elsewhere as the master's hang-up while nobody has it open);
+every open after a close restarts the firmware (banner, usage, stepper table), and
+while no host has the port open the firmware stands still and nothing is sent.
+``--board`` resets a pty by closing and opening it (its DTR pulse fails there), which
+is exactly this.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import errno
 import os
 import select
 import sys
+import termios
 import time
 import tty
 from collections.abc import Callable
@@ -29,24 +31,64 @@ from fas.arch import get_profile
 
 from .. import messages as msg
 from ..demo.serial_board import SimulatedBoard
+from . import pty_opens
 
 HANGUP_POLL_S = 0.01  # while no host has the port open: look this often
 MAX_SLEEP_S = 0.05
 READ_CHUNK = 4096
+#: a new host is taken on (the reset, the banner) this long after its open, as an
+#: Arduino's bootloader delays the sketch after DTR (there about 1 s): a host that
+#: clears its input after opening (pyserial does) must not clear the banner away
+BOOT_S = 0.05
 
 
 class HangupPty:
-    """A new pty whose slave side is not held open here (a host's close is seen)."""
+    """A new pty on which every host's open and close is seen, back to back included.
 
-    def __init__(self) -> None:
+    Where the kernel reports the slave's opens and closes (:mod:`.pty_opens`), a
+    descriptor of the slave is kept here (so the master never hangs up) and a host is
+    served from its open to its close: :meth:`read` gives the bytes of the host that
+    left, then None once, then the next host's bytes - a new host after a close is
+    always seen, even when it opened before the close was noticed.  What the last
+    host left unread is discarded when it goes and when the next one comes.
+    Elsewhere the slave is not held and a close is the master's hang-up (EIO), seen
+    only while nobody has the port open.  A new host is taken on :data:`BOOT_S`
+    after its open; what it sends meanwhile waits for it.
+    """
+
+    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
+        self.clock = clock
         self.master, slave = os.openpty()
         tty.setraw(slave)
         self.path = os.ttyname(slave)
-        os.close(slave)
         os.set_blocking(self.master, False)
+        self.watch = pty_opens.watch(self.path)  # after our own open: not counted
+        self._slave: int | None = slave
+        if self.watch is None:
+            os.close(slave)
+            self._slave = None
+        self._hosts = 0  # opens minus closes seen
+        self._came = False  # a host opened since a host was last taken on
+        self._came_at = 0.0  # ... at this clock time (its last open)
+        self._serving = False  # a host is being served
+        self._gone = False  # ... and it has closed (another may have opened since)
+        self._say_gone = False  # the next read says None
 
-    def read(self) -> bytes | None:
-        """What the host sent (b"": nothing), or None while no host has it open."""
+    def _look(self) -> None:
+        for opened in self.watch.take():
+            if opened:
+                self._hosts += 1
+                if self._hosts == 1:
+                    self._came, self._came_at = True, self.clock()
+            else:
+                self._hosts = max(0, self._hosts - 1)
+                self._gone = self._gone or (self._serving and self._hosts == 0)
+
+    def _discard_unread(self) -> None:
+        """Forget what was sent and not read: the next host must not get it."""
+        termios.tcflush(self._slave, termios.TCIFLUSH)
+
+    def _read_master(self) -> bytes | None:
         try:
             return os.read(self.master, READ_CHUNK)
         except BlockingIOError:
@@ -56,15 +98,78 @@ class HangupPty:
                 return None
             raise
 
+    def _read_all(self) -> bytes:
+        """What is left to read of a host that has closed (bounded: another host may
+        be writing behind it)."""
+        data = bytearray()
+        for _ in range(64):
+            chunk = self._read_master()
+            if not chunk:
+                break
+            data += chunk
+        return bytes(data)
+
+    def read(self) -> bytes | None:
+        """What the host sent (b"": nothing), or None while no host has it open (and
+        once after a host closed it, even if another opened it since)."""
+        if self.watch is None:
+            return self._read_master()
+        if self._say_gone:
+            self._say_gone = False
+            return None
+        self._look()
+        if self._serving:
+            data = self._read_master() or b""
+            if self._gone:  # then all the host wrote before its close is its own
+                data += self._read_all()
+                self._serving = self._gone = False
+                self._say_gone = True
+                self._discard_unread()
+            return data
+        if not (self._came or self._hosts) or self.clock() - self._came_at < BOOT_S:
+            return None
+        self._came = False
+        self._serving = True  # a new host
+        self._discard_unread()
+        data = self._read_master() or b""
+        if not self._hosts:  # opened and closed again already: a reset all the same
+            data += self._read_all()
+            self._serving = False
+            self._say_gone = True
+        return data
+
     def write(self, data: bytes) -> int:
         """What the pty took now (0 while its buffer is full or nobody has it open)."""
+        if self.watch is not None:
+            self._look()
+            if not self._serving or self._gone or self._say_gone:
+                return 0
         try:
-            return os.write(self.master, data)
+            sent = os.write(self.master, data)
         except (BlockingIOError, OSError):
             return 0
+        if self.watch is not None:
+            self._look()
+            if self._gone:  # it went while this was written
+                self._discard_unread()
+        return sent
+
+    def readers(self) -> list[int]:
+        """Descriptors that become readable when the host sends or opens or closes."""
+        return [self.master] if self.watch is None else [self.watch.fd, self.master]
+
+    def idle_readers(self) -> list[int]:
+        """Descriptors that become readable when a host opens the port while none is
+        served (the master is left out: it hangs up if not held, and a new host's
+        bytes wait until it is taken on)."""
+        return [] if self.watch is None else [self.watch.fd]
 
     def close(self) -> None:
         os.close(self.master)
+        if self._slave is not None:
+            os.close(self._slave)
+        if self.watch is not None:
+            self.watch.close()
 
 
 class ConsoleDevice:
@@ -110,7 +215,7 @@ class ConsoleDevice:
             if self.open:
                 self.open = False
                 self._event(msg.CONSOLE_DEVICE_CLOSED)
-            select.select([], [], [], HANGUP_POLL_S)
+            select.select(self.pty.idle_readers(), [], [], HANGUP_POLL_S)
             return
         if not self.open:
             self._opened()
@@ -126,7 +231,7 @@ class ConsoleDevice:
         if wake is not None:
             sleep = min(sleep, max(0.0, (wake - self._target_tick()) / self._tps / self.speed))
         writable = [self.pty.master] if self._unsent else []
-        select.select([self.pty.master], writable, [], sleep)
+        select.select(self.pty.readers(), writable, [], sleep)
 
     def serve(self, stop: Callable[[], bool]) -> None:
         while not stop():

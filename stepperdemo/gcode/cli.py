@@ -14,6 +14,7 @@ from ..front import arg_checks, serial_cli
 from ..front.scripted import read_stdin_script, stdin_is_script
 from ..watch import observe
 from .program import DEFAULT_AXES
+from .reports import axis_values
 from .settings import (
     DEFAULT_ACCELERATION,
     DEFAULT_IDLE_DELAY_MS,
@@ -243,7 +244,7 @@ def run_endpoint(args: argparse.Namespace) -> int:
             tx=endpoint.tx_bytes, tx_dropped=endpoint.tx_dropped,
             lag=endpoint.lagged / backend.profile.ticks_per_s))
         print(msg.GCODE_ENDPOINT_POSITIONS.format(
-            mpos=",".join(f"{v:.3f}" for v in m.machine_position()), state=m.state_name()))
+            mpos=axis_values(m.machine_position()), state=m.state_name()))
     problem = None
     if observers is not None:
         lines, problem = observe.finish_arguments(observers, args, app, title="gcode endpoint")

@@ -8,8 +8,8 @@ running Grbl 1.1:
 * **A host opening the port is a reset**, as an Arduino's DTR is: the machine powers
   on (stopped, outputs off, machine position 0, the banner
   ``\\r\\nGrbl 1.1h ['$' for help]\\r\\n``); settings and ``$N`` lines are kept.  On a
-  pty the host's open and close are seen because no descriptor of its slave side is
-  kept here (:class:`~stepperdemo.front.console_device.HangupPty`); on TCP a
+  pty every open and close of its slave side is seen, a close and an open back to
+  back included (:class:`~stepperdemo.front.console_device.HangupPty`); on TCP a
   connection is a host, one at a time (a second one is told it is busy and closed).
 * Bytes go to Grbl's receive path the moment they are read: real-time bytes act at
   the simulated tick of that moment, the rest fills the 128-byte ring.
@@ -131,7 +131,7 @@ class PtyPort:
         self.path = self.pty.path
 
     def fileno_list(self) -> list:
-        return [self.pty.master]
+        return self.pty.readers()  # the master last
 
     def read(self) -> bytes | None:
         return self.pty.read()
@@ -243,9 +243,10 @@ class Endpoint:
             timeout = min(timeout, 0.001)
         readers = self.port.fileno_list()
         writers = [f for f in readers[-1:]] if self._unsent else []
+        if no_host and isinstance(self.port, PtyPort):
+            readers = self.port.pty.idle_readers()
         try:
-            select.select([] if no_host and isinstance(self.port, PtyPort) else readers,
-                          writers, [], timeout)
+            select.select(readers, writers, [], timeout)
         except OSError as exc:  # pragma: no cover - a closed descriptor at the end
             if exc.errno != errno.EBADF:
                 raise

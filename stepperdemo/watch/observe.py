@@ -225,7 +225,7 @@ def finish_arguments(obs: Observers, args: argparse.Namespace, app=None,
     out: list[str] = []
     problem = None
     if args.plot:
-        series = plots.series_of(obs)
+        series = plots.series_of(obs, getattr(app, "stepper_prefix", "M"))
         units = getattr(app, "path_units", None)  # G-code: the feed along the path too
         feed = plots.path_feed(series, units()) if callable(units) else None
         problem = plots.write_png_or_problem(

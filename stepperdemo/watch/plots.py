@@ -29,14 +29,15 @@ class Series:
     t_s: list[float]
     position: list[int]
     speed: list[float]
+    prefix: str = "M"  # the program's name of a stepper: M1 (StepperDemo), S1 (winder)
 
     @property
     def label(self) -> str:
-        return f"M{self.number}"
+        return f"{self.prefix}{self.number}"
 
 
-def series_of(obs: Observers) -> list[Series]:
-    """The plot data of every stepper that made steps."""
+def series_of(obs: Observers, prefix: str = "M") -> list[Series]:
+    """The plot data of every stepper that made steps, named ``prefix`` + number."""
     obs.flush()
     if obs.analysis is None:
         return []
@@ -46,7 +47,8 @@ def series_of(obs: Observers) -> list[Series]:
         if not m.samples:
             continue
         out.append(Series(m.wiring.number, [t / tps for t, _, _ in m.samples],
-                          [p for _, p, _ in m.samples], [v for _, _, v in m.samples]))
+                          [p for _, p, _ in m.samples], [v for _, _, v in m.samples],
+                          prefix))
     return out
 
 

@@ -76,6 +76,7 @@ class Winder(LoopProgram):
 
     title = "helix winder"
     cli_description = msg.WINDER_CLI_DESCRIPTION
+    stepper_prefix = "S"  # its steppers are S1, S2 (plots)
 
     def __init__(self, backend: Backend, *, scripted: bool = True,
                  output: Callable[[bytes], None] | None = None) -> None:

@@ -301,6 +301,9 @@ class _SlowPty:
         self.taken += data[:n]
         return n
 
+    def readers(self) -> list[int]:
+        return [self.master]
+
 
 def test_console_device_delays_output_for_a_slow_host_but_loses_none(monkeypatch):
     from stepperdemo.front import console_device

@@ -74,3 +74,15 @@ def test_a_plot_that_cannot_be_written_at_the_end_is_said(tmp_path):
     assert proc.returncode == 2, (out, err)
     assert err.strip().startswith(f"stepperdemo: cannot write {folder / 'run.png'}"), err
     assert "Traceback" not in err
+
+
+def test_the_closing_mpos_line_has_three_axes_as_the_status_reports_on_two_axis_profiles():
+    proc = spawn("gcode", "--speed", "20", "--tcp", "0")  # atmega328p: two steppers
+    try:
+        where = re.search(r" on tcp://127\.0\.0\.1:(\d+)", read_line(proc, WAIT_S))
+        assert where
+        move_and_wait(int(where.group(1)), b"G0 X10 Y5\n")
+    finally:
+        out, err = end(proc, WAIT_S)
+    assert err == "", err
+    assert "gcode: MPos 10.000,5.000,0.000, state Idle" in out.splitlines(), out

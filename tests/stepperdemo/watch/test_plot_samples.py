@@ -35,9 +35,9 @@ def issue_plot(tmp_path_factory):
         drawn.append(list(series))
         real_png(series, path, *args, **kw)
 
-    def series_spy(obs):
+    def series_spy(obs, *args):
         observed.append(obs)
-        return real_series(obs)
+        return real_series(obs, *args)
 
     png = tmp_path_factory.mktemp("plot") / "p.png"
     mp = pytest.MonkeyPatch()
@@ -184,8 +184,18 @@ def test_traverse_plot_has_one_legend(tmp_path, monkeypatch):
                       "move 2 0 w500", "--plot", str(tmp_path / "traverse.png")], monkeypatch)
     legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
     assert len(legends) == 1
-    assert [t.get_text() for t in legends[0].get_texts()] == ["M2"]
+    assert [t.get_text() for t in legends[0].get_texts()] == ["S2"]  # the winder's name
     assert (tmp_path / "traverse.png").stat().st_size > 0
+
+
+def test_winder_plots_name_its_steppers_s1_and_s2(tmp_path, monkeypatch):
+    fig = _figure_of(["winder", "-c", "period 1 100 accel 1 20000 move 1 500 period 2 100 "
+                      "accel 2 20000 move 2 300 w500", "--plot", str(tmp_path / "w.png")],
+                     monkeypatch)
+    lines = [line for ax in fig.axes for line in ax.get_lines()]
+    assert sorted({line.get_label() for line in lines}) == ["S1", "S2"]
+    ends = {line.get_label(): line.get_ydata()[-1] for line in fig.axes[0].get_lines()}
+    assert ends == {"S1": 500, "S2": 300}  # the position panel: S1 at 500, S2 at 300
 
 
 def test_a_long_command_is_the_whole_title_wrapped(issue_plot, tmp_path, monkeypatch):
