@@ -87,6 +87,9 @@ class SimTiming:
     # interrupts pending when the loop's blocked section ends enter after the
     # instruction that follows its sei
     sei_ticks: int = 0
+    # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
+    # (the ATmega32U4's USBDevice.attach())
+    core_main_ticks: int = 0
 
     def isr_latency(self, channel: int) -> int:
         """The step pulse width of queue ``channel`` when its interrupt enters at once."""
@@ -162,10 +165,14 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
 # ticks later than on the ATmega328P (both measured on the runs e15/e16)
 AVR_USB_TIMING = replace(AVR_TIMING, char_ticks=40, uart_byte_ticks=0,
                          boot_ticks=AVR_TIMING.boot_ticks + 2000, console_call_ticks=112)
+# In the build of the runs e15/e16 the core's main() attaches the USB device between
+# init() and setup() for 10 880 ticks: their first steps and e15's ramp task (the
+# pitches across it, mod 65536) come that much after the model's without it, while
+# e15's `e` windows (millis()) start where the model's do
 AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
                            boot_ticks=AVR_USB_TIMING.boot_ticks,
                            console_call_ticks=AVR_USB_TIMING.console_call_ticks,
-                           fill_entry_ticks=575)
+                           fill_entry_ticks=575, core_main_ticks=10880)
 
 # ATmega2560: a 3-byte program counter makes calls, interrupt entries and returns
 # longer.  Its step interrupts take 127 ticks (channel A) and 142 (B, C), timer 0's 97
