@@ -35,7 +35,7 @@ class QueueEntry:
     :class:`fas.queue.StepperQueue`; the channel counts its ``steps`` down)."""
 
     __slots__ = ("steps", "ticks", "count_up", "toggle_dir", "dir_level", "end_pos",
-                 "total_steps")
+                 "total_steps", "bare")
 
     def __init__(self) -> None:
         self.steps = 0  # steps still to be made; counted down by the channel
@@ -45,6 +45,9 @@ class QueueEntry:
         self.toggle_dir = False
         self.dir_level = True
         self.end_pos = 0
+        # written by the library itself, not planned by a ramp (the pauses of auto
+        # enable's delay): a bare queue write
+        self.bare = False
 
     def __repr__(self) -> str:  # pragma: no cover - debugging aid
         return (f"QueueEntry(steps={self.steps}/{self.total_steps}, ticks={self.ticks}, "

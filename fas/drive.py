@@ -239,7 +239,7 @@ class Drive:
                         chunk = delay & 0xFFFF
                     else:
                         chunk = half
-                    q.add_queue_entry(chunk, 0, count_up, start=False)
+                    q.add_queue_entry(chunk, 0, count_up, start=False, bare=True)
                     delay -= chunk
                 res = q.add_queue_entry(None, start=start)
                 if res != AQE_OK:

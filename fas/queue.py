@@ -166,8 +166,9 @@ class StepperQueue:
 
     # ------------------------------------------------------------- writing
     def add_queue_entry(self, ticks: int | None, steps: int = 0, count_up: bool = True,
-                        start: bool = True) -> AqeResult:
-        """Append one command (``ticks is None``: only start the queue)."""
+                        start: bool = True, bare: bool = False) -> AqeResult:
+        """Append one command (``ticks is None``: only start the queue).  ``bare``: the
+        library writes it itself, no planner computed it (:attr:`QueueEntry.bare`)."""
         channel = self.channel
         if not channel.ready_for_commands():
             return AqeResult.DEVICE_NOT_READY
@@ -185,10 +186,10 @@ class StepperQueue:
         if command_rate_ticks < self.profile.min_cmd_ticks:
             return AqeResult.ERROR_TICKS_TOO_LOW
 
-        return self._append(wp, ticks, steps, count_up, start, command_rate_ticks)
+        return self._append(wp, ticks, steps, count_up, start, command_rate_ticks, bare)
 
     def _append(self, wp: int, ticks: int, steps: int, count_up: bool, start: bool,
-                duration: int) -> AqeResult:
+                duration: int, bare: bool = False) -> AqeResult:
         """Write the command at write index ``wp`` (there is room), advance the queue's
         end unless commands are ignored, tell the channel and start it if asked."""
         e = self.entries[wp % self.queue_len]
@@ -209,6 +210,7 @@ class StepperQueue:
         e.count_up = count_up
         e.toggle_dir = toggle_dir
         e.dir_level = dir_level
+        e.bare = bare
         end_pos = self.queue_end_pos + (steps if count_up else -steps)
         if not -0x80000000 <= end_pos <= 0x7FFFFFFF:  # (i32() only where it wraps: hot path)
             end_pos = i32(end_pos)

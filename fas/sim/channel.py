@@ -293,7 +293,9 @@ class SimChannel(QueueChannel):
                 self.plan_pending = False
                 m.task_offset += p.fill_plan_ticks
             if steps == 0:
-                m.task_offset += p.fill_pause_ticks
+                # a pause of auto enable's delay is a bare queue write (no ramp step)
+                m.task_offset += (p.fill_bare_pause_ticks
+                                  if e.bare and p.fill_bare_pause_ticks else p.fill_pause_ticks)
             elif steps == 1:
                 m.task_offset += p.fill_single_ticks
             elif (p.fill_coast_cmd_ticks and ((wp - 1 - q.read_idx) & 0xFF)

@@ -78,12 +78,18 @@ class SimTiming:
     fill_coast_cmd_ticks: int = 0
     # the ramp task starts a stopped queue after its fill
     fill_start_ticks: int = 0
+    # a pause the library writes itself before the first command (auto enable's delay):
+    # a bare queue write, no ramp step planned (0: as fill_pause_ticks)
+    fill_bare_pause_ticks: int = 0
     # CPU time of one write call to the console's serial driver beyond char_ticks per
     # character (the ATmega32U4's USB CDC driver)
     console_call_ticks: int = 0
     # interrupts pending when the loop's blocked section ends enter after the
     # instruction that follows its sei
     sei_ticks: int = 0
+    # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
+    # (the ATmega32U4's USBDevice.attach())
+    core_main_ticks: int = 0
 
     def isr_latency(self, channel: int) -> int:
         """The step pulse width of queue ``channel`` when its interrupt enters at once."""
@@ -147,7 +153,7 @@ AVR_TIME_MEASUREMENT_TIMING = replace(AVR_TIMING, isr_latency_ticks=(62, 73, 73)
 # on to plan commands: the pitch between two blocks across a ramp task that plans none
 # is the firmware's so in every run (bench/e_fidelity.py --holdout, "across a ramp task")
 AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
-                       fill_plan_ticks=100,
+                       fill_plan_ticks=100, fill_bare_pause_ticks=608,
                        fill_start_ticks=597 + 1250,
                        fill_pause_ticks=1259, fill_single_ticks=1817, fill_cmd_ticks=2060,
                        fill_coast_cmd_ticks=1600, fill_queued_entry_ticks=100,
@@ -159,10 +165,14 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
 # ticks later than on the ATmega328P (both measured on the runs e15/e16)
 AVR_USB_TIMING = replace(AVR_TIMING, char_ticks=40, uart_byte_ticks=0,
                          boot_ticks=AVR_TIMING.boot_ticks + 2000, console_call_ticks=112)
+# In the build of the runs e15/e16 the core's main() attaches the USB device between
+# init() and setup() for 10 880 ticks: their first steps and e15's ramp task (the
+# pitches across it, mod 65536) come that much after the model's without it, while
+# e15's `e` windows (millis()) start where the model's do
 AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
                            boot_ticks=AVR_USB_TIMING.boot_ticks,
                            console_call_ticks=AVR_USB_TIMING.console_call_ticks,
-                           fill_entry_ticks=575)
+                           fill_entry_ticks=575, core_main_ticks=10880)
 
 # ATmega2560: a 3-byte program counter makes calls, interrupt entries and returns
 # longer.  Its step interrupts take 127 ticks (channel A) and 142 (B, C), timer 0's 97
@@ -172,10 +182,17 @@ AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76),
                           isr_duration_by_channel=(127, 142, 142), millis_isr_ticks=97)
 # ... in the build of the runs e13/e14, where channel A's pin falls 64 ticks after the
 # entry (3 later than on the ATmega328P): e13's plain pulses average 64.4 ticks, held
-# pulses apart (bench/e_fidelity.py --pulses); B and C as above (e14)
+# pulses apart (bench/e_fidelity.py --pulses); B and C as above (e14).  Its start-up
+# code (reset to init(), which starts timer 0) takes 4950 ticks longer than the
+# ATmega328P's: every `e` window of e13 starts that much later after its multiple of
+# 256 ms, and its ramp task (timer 1's overflow) runs ~4300 ticks later mod 65536 (the
+# pitches across it).  With the task where the firmware has it, the commands a task
+# plans cost what they cost on the ATmega328P (e13's pitches across a task that plans
+# commands: 6500-6800 ticks, as the model's with these), and a queue's start 2384
+# (e13's first step; e14's B and C then come to the tick as well)
 AVR_MEGA_E_TIMING = replace(AVR_E_TIMING, fill_entry_ticks=517, fill_stepper_ticks=276,
-                            fill_start_ticks=200, fill_single_ticks=2292,
-                            fill_pause_ticks=1420, fill_cmd_ticks=2600, fill_coast_cmd_ticks=2020,
+                            boot_ticks=AVR_E_TIMING.boot_ticks + 4950,
+                            fill_start_ticks=2384,
                             isr_latency_ticks=(64, 76, 76),
                             isr_duration_by_channel=AVR_MEGA_TIMING.isr_duration_by_channel,
                             millis_isr_ticks=AVR_MEGA_TIMING.millis_isr_ticks)

@@ -207,7 +207,7 @@ class StepperDemo(LoopProgram):
             boot += len(self.script) * timing.boot_script_byte_ticks
         b.app_spend(boot)
         b.app_started()
-        b.app_spend(self.build.setup_head_ticks)
+        b.app_spend(timing.core_main_ticks + self.build.setup_head_ticks)
         configs = self.build.configs
         if not configs:
             self._finish_setup()

@@ -322,7 +322,11 @@ BY_BUILD: dict[str, dict[str, DemoBuild]] = {
                                 loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
                                 loop_char_ticks=5, loop_stray_read_ticks=81,
                                 cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106}),
+          # (setup() entry to the banner: 2076 ticks - the ramp task of e13 runs where the
+          # firmware's does, mod 65536, with the start-up of fas.sim.timing's
+          # AVR_MEGA_E_TIMING)
           **{p.name: replace(_mega(p), loop_pass_ticks=300, loop_running_stepper_ticks=10,
+                             setup_head_ticks=2076,
                              loop_idle_stepper_ticks=40, loop_char_ticks=5,
                              cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106})
              for p in (ATMEGA2560, *ATMEGA2560_VARIANTS)},
