@@ -37,7 +37,7 @@ from ..demo.app import StepperDemo
 from ..demo.build import demo_build
 from ..demo.command_table import CommandTable, Mode
 from ..scenarios.evaluate import position_from_pins, rising_edges
-from .common import LINE, Case, FuzzResult
+from .common import LINE, MAX_COMMAND_STEPS, Case, FuzzResult
 from .gcode import STATUS, gcode_lines
 
 PROGRAM = "demo"
@@ -209,6 +209,11 @@ class _Tracker:
         self.dir_delay: dict[int, list[tuple[int, int, int]]] = {}
         self.detached: dict[int, bool] = {}
         self.since = 0  # the last restart of the chip (ESP32 `r`): pins count from here
+        self.drifts: list[str] = []  # force stops that kept a position the pins deny
+
+    def same_frame(self, i: int) -> bool:
+        """Do stepper i's pins count in the library's frame (see _check_motion)?"""
+        return not (_dir_frame_changed(self.app, self, i) or _step_pin_shared(self.app, i))
 
     def restarted(self) -> None:
         """The chip rebooted: new steppers, a new frame of reference for the pins."""
@@ -251,10 +256,18 @@ class _Tracker:
             tracker.offset[i] += s.get_current_position() - before
 
         def force_stop_and_new_position(new_pos):
+            before = s.get_current_position()
             orig_force(new_pos)
             pins = tracker.app.demo_steppers[i]
             physical = position_from_pins(backend, pins.step, s.get_direction_pin(),
                                           s.direction_pin_high_counts_up(), tracker.since)
+            if new_pos == before and tracker.same_frame(i):  # it claims to stop where it is
+                drift = (before - physical - tracker.offset[i] + 2**31) % 2**32 - 2**31
+                lag = 1 if s.queue.position_in_command else MAX_COMMAND_STEPS
+                if abs(drift) > lag:
+                    tracker.drifts.append(
+                        f"M{i + 1}: force stop keeping position {before}, but the pins "
+                        f"counted {physical} + declared {tracker.offset[i]}")
             tracker.offset[i] = s.get_current_position() - physical
 
         def set_auto_enable(value):
@@ -316,6 +329,7 @@ def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 
     for cmd, ok, n in errors_seen:
         if ok and n > 1:
             res.violations.append(f"command {cmd!r} printed {n} error lines")
+    res.violations += tracker.drifts
     _check_motion(app, backend, tracker, res)
     return res
 
