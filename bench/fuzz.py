@@ -103,7 +103,7 @@ def main() -> int:
                     "that hosts the program)")
     ap.add_argument("--max-time", type=float, help="simulated seconds per run "
                     "(default: the program's own)")
-    ap.add_argument("--mem-mb", type=int, default=2000, help="memory limit of a worker, MB")
+    ap.add_argument("--mem-mb", type=int, default=1200, help="memory limit of a worker, MB")
     ap.add_argument("--run-timeout", type=int, default=120, help="wall seconds per run")
     ap.add_argument("--replay", type=int, metavar="RUN", help="run RUN again, in full")
     args = ap.parse_args()
