@@ -20,7 +20,10 @@ Inputs (:func:`gcode_case`):
 **Hook for the Grbl real-time grammar**: :data:`REALTIME` holds the real-time bytes the
 program takes out of the stream wherever they arrive; a later step adds Grbl 1.1's
 (``!``, ``~``, 0x84, 0x85, 0x90-0x9D, 0x9E, 0xA0, 0xA1) to it and, beside
-:func:`realtime_case`, the invariants of their states (hold, resume, jog cancel).
+:func:`realtime_case`, the invariants of their states (hold, resume, jog cancel).  The
+probe (:func:`probe`) expects a state that takes lines (Idle, Run, Alarm): with Grbl's
+Sleep, Hold and Door it first has to bring the program out of them as a sender does
+(Ctrl-X, ``~``), by the state its ``?`` reports.
 
 Invariants (:func:`check_gcode`):
 

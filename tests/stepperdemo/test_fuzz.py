@@ -200,7 +200,7 @@ def _answers_settings_status_and_a_move(program: str, arch: str, script: str):
     text = bytes(app.transcript)
     assert b"$1=" in text or b"$100=" in text, text[-400:]
     assert status_reports(text) >= 2, text[-400:]
-    assert responses(text).count("ok") >= 3, text[-400:]  # $$, G91, the move
+    assert responses(text).count("ok") >= 4, text[-400:]  # $$, $100=1, G91, the move
     pins = StepTrack(backend, x.get_step_pin(), x.get_direction_pin(),
                      x.direction_pin_high_counts_up()).final
     assert x.get_current_position() - start == pins == 10
@@ -214,12 +214,13 @@ GMODE_PROFILES = [
 
 @pytest.mark.parametrize("arch", GMODE_PROFILES)
 def test_every_profiles_g_mode_answers_settings_status_and_a_move(arch):
-    _answers_settings_status_and_a_move("demo", arch, "g\n$$\n?\nG91\nG1 X10 F6000\n?\nx\n")
+    _answers_settings_status_and_a_move("demo", arch,
+                                        "g\n$$\n?\n$100=1\nG91\nG1 X10 F6000\n?\nx\n")
 
 
 @pytest.mark.parametrize("arch", list(PROFILES))
 def test_every_profiles_gcode_program_answers_settings_status_and_a_move(arch):
-    _answers_settings_status_and_a_move("gcode", arch, "$$\n?\nG91\nG1 X10 F6000\n?")
+    _answers_settings_status_and_a_move("gcode", arch, "$$\n?\n$100=1\nG91\nG1 X10 F6000\n?")
 
 
 @pytest.mark.xfail(strict=True, reason=SLOW_FEED_CRASH)
