@@ -77,12 +77,15 @@ class PinStates(Protocol):
 
 class EngineStepper(Protocol):
     """What a backend may do with a stepper of its engine (:class:`fas.stepper.Stepper`):
-    find its queue, read and set its position (a link lost or a device reconnected)."""
+    find its queue, read and set its position, see whether it runs (a link lost or a
+    device reconnected)."""
 
     @property
     def queue(self) -> StepperQueue: ...
 
     def get_current_position(self) -> int: ...
+
+    def is_running(self) -> bool: ...
 
     def force_stop_and_new_position(self, new_pos: int) -> None: ...
 

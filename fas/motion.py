@@ -12,6 +12,7 @@ acceleration of its time.
 from __future__ import annotations
 
 from . import log2
+from .codes import TICKS_FOR_STOPPED_MOTOR
 
 
 class MotionSettings:
@@ -48,6 +49,14 @@ class MotionSettings:
         return other
 
     # --- settings ---
+    def set_speed_checked(self, min_step_ticks: int, fastest_ticks: int) -> int:
+        """``FastAccelStepper::setSpeedInTicks()``: -1 (and nothing changes) for a
+        period below the stepper's fastest or for ``TICKS_FOR_STOPPED_MOTOR``."""
+        if min_step_ticks < fastest_ticks or min_step_ticks >= TICKS_FOR_STOPPED_MOTOR:
+            return -1
+        self.set_speed_in_ticks(min_step_ticks)
+        return 0
+
     def set_speed_in_ticks(self, min_step_ticks: int) -> None:
         if not self.valid_speed or self.min_travel_ticks != min_step_ticks:
             self.min_travel_ticks = min_step_ticks
@@ -121,6 +130,13 @@ def div_for_milli_hz(ticks_per_s: int, f: int) -> int:
     res = (res << 2) & 0xFFFFFFFF
     base += f // 2
     return (res + base // f) & 0xFFFFFFFF
+
+
+def milli_hz_of_ticks(ticks_per_s: int, ticks: int) -> int:
+    """``((uint32_t)250 * TICKS_PER_S) / ticks * 4`` in uint32_t, as the C++ computes
+    ``getMaxSpeedInMilliHz()`` and ``getCurrentSpeedInMilliHz()`` (no rounding; the
+    product wraps where TICKS_PER_S > 17 179 869, e.g. the SAM Due's 21 MHz)."""
+    return ((250 * ticks_per_s) & 0xFFFFFFFF) // ticks * 4 & 0xFFFFFFFF
 
 
 def _i32(v: int) -> int:

@@ -20,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from . import gear
+from .path import axis as path
 from .planner import Planner, PlannerHost
 from .quickstep import setup as quickstep
 from .ramp import planner as ramp
@@ -29,6 +30,7 @@ Factory = Callable[..., tuple[int, Planner | None]]
 PLANNER_FAS = "ramp"  # FastAccelStepper's ramp generator (every stepper starts with it)
 PLANNER_QUICKSTEP = "quickstep"  # QuickStep's plateau orders (fas.quickstep)
 PLANNER_GEAR = gear.PLANNER_GEAR  # a follower of another stepper at n:m (fas.gear)
+PLANNER_PATH = path.PLANNER_PATH  # an axis of a path group (fas.path)
 
 _FACTORIES: dict[str, Factory] = {}
 
@@ -39,7 +41,7 @@ def register(name: str, factory: Factory) -> None:
 
 
 def unregister(name: str) -> None:
-    if name in (PLANNER_FAS, PLANNER_QUICKSTEP, PLANNER_GEAR):
+    if name in (PLANNER_FAS, PLANNER_QUICKSTEP, PLANNER_GEAR, PLANNER_PATH):
         raise ValueError(f"the planner {name!r} cannot be removed")
     _FACTORIES.pop(name, None)
 
@@ -60,6 +62,7 @@ def names() -> list[str]:
 register(PLANNER_FAS, ramp.make)
 register(PLANNER_QUICKSTEP, quickstep.make)
 register(PLANNER_GEAR, gear.make_follower)
+register(PLANNER_PATH, path.make)
 
-__all__ = ["PLANNER_FAS", "PLANNER_GEAR", "PLANNER_QUICKSTEP", "Factory", "PlannerHost",
-           "lookup", "names", "register", "unregister"]
+__all__ = ["PLANNER_FAS", "PLANNER_GEAR", "PLANNER_PATH", "PLANNER_QUICKSTEP", "Factory",
+           "PlannerHost", "lookup", "names", "register", "unregister"]

@@ -11,12 +11,14 @@ entry minus the steps it still has to make.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Protocol, Self
+from typing import TYPE_CHECKING, Protocol
 
 from .channel import QueueChannel, QueueEntry
 from .codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED, AqeResult
 
 if TYPE_CHECKING:  # pragma: no cover
+    from typing_extensions import Self  # typing.Self is Python 3.11+
+
     from .arch import Profile
 
 __all__ = ["AQE_OK", "QueueEntry", "QueueHost", "StepperQueue", "i32"]

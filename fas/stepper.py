@@ -20,7 +20,6 @@ from .channel import PulseCounter
 from .codes import (
     PIN_EXTERNAL_FLAG,
     PIN_UNDEFINED,
-    TICKS_FOR_STOPPED_MOTOR,
     AqeResult,
     DelayResult,
     FasDriver,
@@ -28,7 +27,7 @@ from .codes import (
 )
 from .drive import Drive
 from .errors import UnsupportedError
-from .motion import MotionSettings, div_for_hz, div_for_milli_hz
+from .motion import MotionSettings, div_for_hz, div_for_milli_hz, milli_hz_of_ticks
 from .planner import Planner, PlannerHost
 from .planners import PLANNER_FAS, PLANNER_QUICKSTEP
 from .queue import StepperQueue, i32
@@ -210,7 +209,9 @@ class Stepper:
         return self._profile.ticks_per_s // self.get_max_speed_in_ticks()
 
     def get_max_speed_in_milli_hz(self) -> int:
-        return (250 * self._profile.ticks_per_s) // self.get_max_speed_in_ticks() * 4
+        # uint32_t arithmetic as in the C++: 250 * TICKS_PER_S wraps where
+        # TICKS_PER_S > 17 179 869 (SAM Due: 21 MHz -> 9 095 548 at 420 ticks)
+        return milli_hz_of_ticks(self._profile.ticks_per_s, self.get_max_speed_in_ticks())
 
     def set_absolute_speed_limit(self, max_speed_in_ticks: int) -> None:
         if not self._profile.abs_speed_limit:
@@ -219,12 +220,8 @@ class Stepper:
         self._queue.max_speed_in_ticks = max_speed_in_ticks & 0xFFFF
 
     def set_speed_in_ticks(self, min_step_ticks: int) -> int:
-        if min_step_ticks < self._planner.fastest_period_ticks():
-            return -1
-        if min_step_ticks >= TICKS_FOR_STOPPED_MOTOR:
-            return -1
-        self._settings.set_speed_in_ticks(min_step_ticks)
-        return 0
+        return self._settings.set_speed_checked(min_step_ticks,
+                                                self._planner.fastest_period_ticks())
 
     def set_speed_in_us(self, min_step_us: int) -> int:
         p = self._profile
@@ -265,8 +262,8 @@ class Stepper:
         ticks, count_up = self._planner.current_speed(realtime)
         if ticks <= 0:
             return 0
-        mhz = (250 * self._profile.ticks_per_s) // ticks * 4
-        return mhz if count_up else -mhz
+        mhz = i32(milli_hz_of_ticks(self._profile.ticks_per_s, ticks))  # int32_t speed_in_mhz
+        return mhz if count_up else i32(-mhz)
 
     def get_period_in_ticks_after_commands_completed(self) -> int:
         return self._planner.planned_period_ticks()

@@ -7,7 +7,7 @@ simulator, positions counted from recorded pins, the console on a virtual wall c
 Each lives here once; a test and a bench script that need it import it from here.
 
 ``rigs`` sits at the top of the checkout beside ``fas`` and ``stepperdemo`` and is not
-installed (``pyproject.toml`` packages only those two): the rigs drive StepperDemo,
+installed (``setup.py`` packages only those two): the rigs drive StepperDemo,
 so they cannot live in ``fas`` (which never imports ``stepperdemo``), and they are
 measuring set-ups (the issues' acceptance lines, a pytest skip) rather than part of a
 program a user runs.  What a user needs to test their own motion is already in the

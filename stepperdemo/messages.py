@@ -275,6 +275,7 @@ RUN_BROKEN = "broken scenario file"
 RUN_CHECKS_PASSED = "{n} checks"
 RUN_PROGRESS = "running"
 RUN_SUMMARY = "{total} scenarios, {failed} failed"
+RUN_SUMMARY_SKIPPED = ", {n} skipped"
 RUN_NO_FILE = "stepperdemo run: no such file or folder: {path}"
 RUN_NOTHING = "stepperdemo run: no scenario files found"
 RUN_TIMING_REPORT_HEAD = "--- timing report: {name} ---"
@@ -283,6 +284,7 @@ RUN_TIMING_REPORT_HEAD = "--- timing report: {name} ---"
 CLI_MAX_TIME = ("stopped after {seconds:g} s of simulated time (--max-time): "
                 "a stepper was still running or the input was still held")
 CLI_ERROR = "stepperdemo: {problem}"
+CLI_BAD_NUMBER = "{option} {value:g}: give {what}"
 
 # ---------------------------------------------------------------------------------------
 # Watching a run (issue 6): VCD trace, plots, timing report, step CSV.  Console texts,
@@ -299,8 +301,8 @@ REPORT_PULSES = ("  pulses       {pulses} (the channel counted {counted}), net {
                  " position {position} by the pins")
 REPORT_POSITION_DIFFERS = "  position     the library says {library} (set with @ or X?)"
 REPORT_PERIOD = "  step period  min {min} us, median {median} us, max {max} us"
-REPORT_SPEED = ("  peak speed   {speed:.0f} steps/s; acceleration up to {acc:.0f},"
-                " deceleration up to {dec:.0f} steps/s^2")
+REPORT_SPEED = ("  peak speed   {speed:.0f} steps/s; acceleration up to {acc},"
+                " deceleration up to {dec} steps/s^2")
 REPORT_DEVIATION = ("  vs. plan     {compared} step intervals: {ontime} as planned,"
                     " {late} late (max +{late_max} us), {early} early (max -{early_max} us)")
 REPORT_DEVIATION_NONE = "  vs. plan     all {compared} step intervals as planned"
@@ -315,19 +317,31 @@ REPORT_ENABLE = ("  enable       {enables} activation(s), enable-to-first-step {
 REPORT_IRQ = "interrupts blocked  {windows} window(s), {ms:.1f} ms in total"
 REPORT_STRAY = "stray digitalRead() {reads} of the step pins, {during} during a pulse"
 REPORT_LATE_EDGES = "warning: {n} edges arrived out of order (clamped in the trace)"
-PLOT_EXTRA_MISSING = ("PNG plots need matplotlib, which is not installed: "
-                      "pip install 'stepperdemo[plot]'")
+PLOT_EXTRA_MISSING = ("PNG plots need matplotlib, which is not installed: pip install "
+                      "matplotlib (in the stepperdemo checkout: pip install '.[plot]')")
 PLOT_TITLE_POSITION = "position [steps]"
 PLOT_TITLE_SPEED = "speed [steps/s]"
 PLOT_AXIS_TIME = "time [s]"
 PLOT_TERMINAL_HEADER = "M{n} {what}"
 PLOT_NO_DATA = "nothing to plot: no steps recorded"
-OBSERVE_BAD_SIZE = "--plot-size {size!r}: give WIDTHxHEIGHT in pixels, e.g. 1200x800"
+OBSERVE_BAD_SIZE = ("--plot-size {size!r}: give WIDTHxHEIGHT in pixels, e.g. 1200x800 "
+                    "(200 .. 10000 a side, at most 40 million pixels)")
+PLOT_BAD_FORMAT = "--plot {path}: a plot file ends in {formats}"
+PLOT_NO_FOLDER = "no folder {folder}"
+PLOT_IS_FOLDER = "it is a folder"
 OBSERVE_NOT_INTERACTIVE = ("--vcd, --plot, --report and --steps-csv go with -c (or run); "
                            "the console records the recent motion by itself: /vcd, /plot, "
                            "/report (/trace on records all of it)")
 OBSERVE_BAD_TIMESCALE = ("--vcd-timescale {timescale!r}: give 1, 10 or 100 and a unit "
-                         "s, ms, us, ns, ps or fs, e.g. '1 us'")
+                         "s, ms, us, ns, ps or fs, e.g. '1 us', or 'exact'")
+REPL_VCD_BAD_UNIT = ("{unit!r} is no VCD time unit: give 1, 10 or 100 and s, ms, us, ns, ps "
+                     "or fs, e.g. 1us, or exact")
+REPL_VCD_USAGE = "give a file name and, if you like, a time unit: /vcd FILE [1us|100ns|exact]"
+VCD_ZERO_WIDTH = ("{path}: {n} pulse(s) or gap(s) shorter than {unit} start and end at the "
+                  "same time there (PulseView drops them); --vcd-timescale exact keeps every "
+                  "tick")
+REPL_VCD_ZERO_WIDTH = (" - {n} pulse(s) or gap(s) shorter than {unit} have no width in it "
+                       "(/vcd {path} exact keeps every tick)")
 OBSERVE_FILE_ERROR = "cannot write {path}: {error}"
 OBSERVE_WROTE = "wrote {path}"
 REPL_HELP_OBSERVE = """Watching the run - the console records the recent motion from the start: the
@@ -336,7 +350,8 @@ last {bound} pin edges (about {seconds:.1f} s of one stepper at 25 kHz), older o
   /trace on          record everything from now on, without a bound
   /trace off         stop recording; the last recording stays for /vcd, /plot, /report
   /trace recent      record the recent motion again (the bounded recording)
-  /vcd FILE          save the recorded pins as a VCD file (GTKWave, PulseView)
+  /vcd FILE [UNIT]   save the recorded pins as a VCD file (GTKWave, PulseView) in
+                     the time unit UNIT (--vcd-timescale, else 1us; exact: every tick)
   /plot [FILE.png]   position and speed over time: in the terminal, or as PNG
   /report            timing report per stepper (periods, deviations, gaps, ...)"""
 REPL_TRACE_ON = "trace on: recording the pins of every stepper from t={t:.3f} s"
@@ -361,6 +376,12 @@ SERIAL_LOST = "device lost: {reason} - /reconnect to restore the session"
 SERIAL_RECONNECTED = "device back on {port} ({profile}, session {sessions})"
 SERIAL_RECONNECT_FAILED = "reconnect failed: {error}"
 SERIAL_ESTOP_DONE = "emergency stop: every motion halted, positions taken from the device"
+SERIAL_ESTOP_NO_DEVICE = ("emergency stop: no device ({reason}) - nothing sent; a device that "
+                          "loses its host stops by its watchdog; /reconnect")
+SERIAL_ESTOP_FAILED = "emergency stop: no answer, the device is lost ({reason}) - /reconnect"
+SERIAL_NOT_CONNECTED = "no device ({reason}) - /reconnect first; the line was not sent"
+SERIAL_LAST_REPORT = ("the device's figures below are its last report, from before the "
+                      "connection ended")
 SERIAL_LINK_STATS = ("link: {frames_sent} frames sent, {retransmissions} retransmitted, "
                      "{naks} NAKs; {frames_received} received, {crc_errors} CRC errors, "
                      "{framing_errors} framing errors; rtt {rtt_us} us; "
@@ -393,6 +414,9 @@ RELAY_STATS = ("relay {direction}: {bytes_in} bytes in, {bytes_out} out, {droppe
 
 # ------------------------------------------------- issue 16: the console as people use it
 RUN_FAILED_CHECKS = "FAIL ({n} failed)"
+RUN_OK_KNOWN = "ok, {n} known deviation(s)"  # [known_deviation] entries still off
+RUN_KNOWN = "known"  # a known deviation, still there
+RUN_KNOWN_GONE = "MET: remove from known_deviation"  # strict: it passes now
 # the console's recording of the recent motion (bounded, on by default; /trace recent)
 REPL_TRACE_RECENT_ON = ("trace recent: recording the last {bound} pin edges (about {seconds:.1f} s "
                         "of one stepper at 25 kHz) from t={t:.3f} s")
@@ -429,6 +453,11 @@ Input is sent one command at a time; after W it waits until the board's wait is 
 (in test mode: until the test completed), as a W in a StepperDemo line means."""
 BOARD_LOST = "board lost: {reason} - /reconnect restores the session"
 BOARD_NOT_CONNECTED = "no board ({reason}) - /reconnect first; the line was not sent"
+BOARD_SILENT_NOTHING = "no start banner, nothing received"
+BOARD_SILENT_FOREIGN = "no start banner; {n} bytes received, no line of them StepperDemo's"
+BOARD_NO_ANSWER = ("no answer from StepperDemo within {seconds:g} s of the first command "
+                   "({why}): is the board running StepperDemo at {baud} baud? "
+                   "(/reconnect PORT tries another port)")
 BOARD_RESTARTED = "the board restarted (start banner): normal mode, M1 selected{dropped}"
 BOARD_RESTART_DROPPED = "; {n} waiting command(s) dropped"
 BOARD_RECONNECTED = "board back on {port}"
@@ -459,6 +488,9 @@ LOG_RECEIVED = "{t:10.3f} < {text}"
 LOG_NOTE = "{t:10.3f} # {text}"
 CLI_BOARD_CONNECT = "stepperdemo: cannot open the board at {port}: {error}"
 CLI_BOARD_LOST = "stepperdemo: board lost: {reason}"
+CLI_BOARD_NO_ANSWER = ("stepperdemo: no answer from StepperDemo at {port} within {seconds:g} s "
+                       "of the first command ({why}): is the board running StepperDemo at "
+                       "{baud} baud?")
 CLI_BOARD_RESTARTED = "stepperdemo: the board restarted during the run (start banner)"
 CLI_BOARD_INTERRUPTED = "stepperdemo: interrupted; stop sent (X to {steppers})"
 CLI_BOARD_MAX_TIME = ("stepperdemo: stopped waiting after {seconds:g} s (--max-time): "
@@ -485,17 +517,27 @@ STATUS_REPORT_NONE = "  no status lines yet"
 STATUS_REPORT_STEPPER = "M{n}  {lines} status lines, first {first:.3f} s, last {last:.3f} s"
 STATUS_REPORT_POSITION = "  position     {start} -> {end} (net {net:+d}){final}"
 STATUS_REPORT_FINAL = "; {final} in the last stepper table"
-STATUS_REPORT_SPEED = ("  speed        peak {speed:.0f} steps/s planned (v=); from successive "
-                       "lines acceleration up to {acc:.0f}, deceleration up to {dec:.0f} "
-                       "steps/s^2")
+STATUS_REPORT_SPEED = ("  speed        peak {speed:.0f} steps/s planned (v=); acceleration up "
+                       "to {acc}, deceleration up to {dec} steps/s^2 (slope of v= over the "
+                       "lines of each ACC and RED stretch)")
 STATUS_REPORT_RAMP = "  ramp         {states} (status lines per ramp state)"
 STATUS_REPORT_RUNS = ("  runs         {runs}; {gaps} pause(s) of more than {gap_ms} ms between "
                       "lines while running (the board was busy: W, T, long prints)")
 
 # stepperdemo run --board: scenario files on a board, and the twin check
+RUN_NO_FOLDER = ("{option} {folder}: no folder {parent} to make it in (run makes the folder "
+                 "itself, not the ones above it)")
+RUN_BAD_FOLDER = "{option} {folder}: not a folder for the files: {error}"
+RUN_NOT_A_FOLDER = "a file is there"
 RUN_BOARD_HELP = ("run the scenario files on a board running StepperDemo (reset by DTR "
                   "between files) and compare with the simulation (twin check)")
 RUN_BOARD_SKIPPED = "the board runs StepperDemo, not program {program!r}"
+RUN_BOARD_OTHER_CHIP = ("{name}: skipped: written for {profile} (F_CPU={f_cpu} "
+                        "TICKS_PER_S={ticks} Steppers={steppers}); the board's banner says "
+                        "F_CPU={board_f_cpu} TICKS_PER_S={board_ticks} Steppers={board_steppers}")
+RUN_BOARD_NO_ANSWER = ("stopped: no answer from StepperDemo at {port} ({why}) - is the board "
+                       "running StepperDemo at this baud rate?")
+BOARD_LOST_RUN = "board lost: {reason}"
 RUN_BOARD_NO_BANNER = "no start banner within {seconds:g} s of the reset"
 RUN_BOARD_PROFILE = "board banner F_CPU={f_cpu} TICKS_PER_S={ticks} Steppers={steppers}"
 RUN_BOARD_NO_WATCH = ("--vcd, --steps-csv, --plot, --report and --timing-report read the "
@@ -513,7 +555,7 @@ RUN_TWIN_CAPTION = ("positions in steps; lines: status lines on the board/simula
 RUN_TWIN_SUMMARY = ("twin check: {steppers} stepper(s), largest position difference {pos}, "
                     "largest status-line time difference {dt:.3f} s")
 RUN_BOARD_END = {"idle": "idle", "max_time": "max time reached", "lost": "board lost",
-                 "reset": "board restarted"}
+                 "reset": "board restarted", "no_answer": "no answer from StepperDemo"}
 
 # stepperdemo device --pty --console: the simulated StepperDemo firmware on a pty
 CONSOLE_DEVICE_LISTENING = ("console device {profile} ({title}) on {path}{link}, clock "
@@ -575,44 +617,58 @@ PLOT_TITLE_OUTPUTS = "outputs [Dout level, Aout duty %]"
 PLOT_TERMINAL_OUTPUT = "{name} {what}"
 PLOT_OUTPUT_LEVEL = "level"
 PLOT_OUTPUT_DUTY = "duty [%]"
-# the G-code program (Grbl conventions: "ok", "error: <reason>", [MSG:...], <status>)
-GCODE_BANNER = "Grbl 1.1h [stepperdemo G-code " + VERSION + ", '$' for help]"
+# the G-code program: Grbl 1.1's answers (issue 24: "ok", "error:N", "ALARM:N", the
+# reason of a refusal in a [MSG:...] line before it; no reason text may contain "ok",
+# "error:" or "ALARM:" - bCNC counts any line with those as an answer)
+GCODE_BANNER = "Grbl 1.1h ['$' for help]"
 GCODE_OK = "ok"
-GCODE_ERROR = "error: {reason}"
+GRBL_ERROR = "error:{code}"
+GRBL_ALARM = "ALARM:{code}"
+GRBL_MSG = "[MSG:{text}]"
+GRBL_HELP = "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]"
+GRBL_UNLOCK_HINT = "[MSG:'$H'|'$X' to unlock]"
+GCODE_UNLOCKED = GRBL_UNLOCKED = "[MSG:Caution: Unlocked]"
+GRBL_ENABLED = "[MSG:Enabled]"
+GRBL_DISABLED = "[MSG:Disabled]"
+GRBL_CHECK_DOOR = "[MSG:Check Door]"
+GRBL_PGM_END = "[MSG:Pgm End]"
+GRBL_RESTORING = "[MSG:Restoring defaults]"
+GRBL_SLEEPING = "[MSG:Sleeping]"
+GRBL_ABORTED = "stopped at once by the console; the position may be lost"
+GRBL_RESET_MOVING = "reset while moving; the position may be lost"
 GCODE_DUTY = "[MSG:Aout{number} {duty:.4f}% ({count}/{counts} at {hz:.6g} Hz)]"
-GCODE_STATUS = "<{state}|MPos:{pos}|FS:{feed},0{wco}|Dout:{dout}|Aout:{aout}>"
-GCODE_ALARM_ABORT = "ALARM: aborted - motion stopped, queue dropped; $X to unlock"
-GCODE_UNLOCKED = "[MSG:Caution: Unlocked]"
-GCODE_MOTION_FAILED = "[MSG:the library refused a queue command ({code}); aborting]"
-GCODE_HELP = ("[HLP:$$ settings, $N=value, $G modes, $X unlock, ? status, ctrl-x reset; "
-              "G0 G1 G4 G90 G91 G92 G92.1 M2 M30 M62-M65 P<n> M67 M68 E<n> Q<%>]")
-GCODE_MODES = "[GC:G{motion} G{distance} G94 G21 G17 G54 F{feed}]"
-GCODE_SETTING = "${n}={value} ({what})"
-GCODE_NOTHING = "nothing"
-GCODE_ERR_COMMENT = "comment not closed: ( without )"
+GCODE_MOTION_FAILED = "the library refused a queue command ({code}); stopping"
 GCODE_ERR_LONG = "line longer than {n} characters"
 GCODE_ERR_EXPECTED_LETTER = "expected a letter at '{text}'"
-GCODE_ERR_BAD_NUMBER = "{letter} needs a number, got '{text}'"
+GCODE_ERR_BAD_NUMBER = "{letter} needs a number: '{text}' is not G-code"
 GCODE_ERR_UNKNOWN_WORD = "unknown word {word}"
-GCODE_ERR_LINE_NUMBER = "N (line number) must come first"
+GCODE_ERR_NOT_INTEGER = "{word} needs a whole number"
+GCODE_ERR_NEGATIVE = "{word} must not be negative"
+GCODE_ERR_LINE_NUMBER = "line number beyond N9999999"
 GCODE_ERR_REPEATED = "word {letter} twice in one line"
 GCODE_ERR_INCHES = "G20 (inches) is not supported: units are set by $100-$105"
+GCODE_ERR_ARCS = "{code} (arc) is not supported yet: straight lines only (G0, G1)"
 GCODE_ERR_UNSUPPORTED = "unsupported command {code}"
 GCODE_ERR_MODAL = "{a} and {b} in one line (same modal group)"
 GCODE_ERR_NO_AXIS = "axis {letter}: no stepper {n} (axes here: {axes})"
 GCODE_ERR_AXIS_CONFLICT = "{a} and {b} both want the axis words"
 GCODE_ERR_UNUSED = "unused word(s): {words}"
 GCODE_ERR_P_CONFLICT = "P used by both {a} and {b}"
-GCODE_ERR_FEED_POSITIVE = "F must be positive"
 GCODE_ERR_DWELL_P = "G4 needs P (seconds)"
-GCODE_ERR_DWELL_NEGATIVE = "G4 P must not be negative"
 GCODE_ERR_G92_AXES = "G92 needs axis words"
 GCODE_ERR_NO_FEED = "undefined feed rate: G1 needs F"
 GCODE_ERR_RANGE = "{letter} target beyond the 32-bit step range"
 GCODE_ERR_NEEDS_P = "{code} needs P (digital output 0..3)"
 GCODE_ERR_NEEDS_EQ = "{code} needs {missing} (E: analog output 0..3, Q: duty in %)"
 GCODE_ERR_OUTPUT_RANGE = "output {letter}{value} out of range (0..{last})"
+GCODE_ERR_TOOL = "tool T{tool} above T{most}"
 GCODE_ERR_ALARM = "alarm lock: $X to unlock (or ctrl-x)"
+GCODE_ERR_JOGGING = "G-code waits while jogging (0x85 cancels the jog)"
+GCODE_ERR_JOG_FORM = "a jog is $J=<axis words> F<rate>"
+GCODE_ERR_JOG_STATE = "jogging only when Idle or jogging, not in {state}"
+GCODE_ERR_JOG_CODE = "{code} is not allowed in a jog"
+GCODE_ERR_JOG_AXES = "a jog needs axis words"
+GCODE_ERR_JOG_FEED = "a jog needs F (units/min)"
 GCODE_ERR_NO_OUTPUT_PIN = "{name} has no pin on {profile} (set one with ${setting})"
 GCODE_ERR_OUTPUT_PIN_USED = "{name}: pin {pin} is used by {user}"
 GCODE_ERR_NOT_PWM_PIN = "pin {pin} has no PWM timer on {profile}"
@@ -624,14 +680,41 @@ GCODE_ERR_SHARED_DIR = ("axes {a} and {b} share direction pin {pin}: they cannot
                         "opposite directions in one line")
 GCODE_ERR_DOLLAR = "unknown $ command '{text}' ($ for help)"
 GCODE_ERR_SETTING_VALUE = "setting value '{text}' is not a number"
-GCODE_ERR_NOT_IDLE = "settings change only when idle"
+GCODE_ERR_NOT_IDLE = "not now: the machine is in {state}"
 GCODE_ERR_SETTING_RANGE = "${n} must be {range}"
+GCODE_ERR_SETTING_FIXED = "${n} is fixed at {value} on this machine"
 GCODE_ERR_NO_SETTING = "no setting ${n}"
+GCODE_ERR_STORED_LONG = "longer than {n} characters"
+GCODE_ERR_STARTUP_DOLLAR = "a startup line is G-code, not a $ command"
+GCODE_ERR_HOMING = "homing is not available: {profile} has no limit inputs here"
+GCODE_ERR_SOFT_LIMITS = "soft limits need homing"
+GCODE_ERR_LASER = "laser mode needs a PWM spindle (not yet)"
 GCODE_CLI_BAD_SET = "--set {text!r}: expected '$N=VALUE'"
+GCODE_TCP_BUSY = "busy: another host is connected"
+GCODE_TCP_BAD = "--tcp {text!r}: expected [HOST:]PORT"
+GCODE_ENDPOINT_LISTENING = ("gcode: Grbl 1.1h on {path}{link}, {profile} ({title}), axes "
+                            "{axes}, clock x{speed:g}; a host opening it resets it; Ctrl-C ends")
+GCODE_ENDPOINT_DEVICE = ("gcode: Grbl 1.1h on {path}{link}, queue commands on the device at "
+                         "{port} ({profile}), axes {axes}; Ctrl-C ends")
+GCODE_ENDPOINT_EVENT = "gcode: {event}"
+GCODE_HOST_OPENED = "host opened the port: reset"
+GCODE_HOST_CLOSED = "host closed the port"
+GCODE_ENDPOINT_STATS = ("gcode: {hosts} host(s), {lines} line(s), {errors} error(s), {alarms} "
+                        "alarm(s); received {rx} bytes ({dropped} dropped: receive buffer full, "
+                        "{high} dropped: >= 0x80), sent {tx} ({tx_dropped} with no host); "
+                        "the chip fell {lag:.3f} s behind the clock")
+GCODE_ENDPOINT_POSITIONS = "gcode: MPos {mpos}, state {state}"
+GCODE_CLI_ENDPOINT_FILE = "--pty/--tcp serve senders: give no FILE (they send the program)"
+GCODE_CLI_TOML = ("{path} is a scenario file, not G-code: run it with 'stepperdemo run {path}'"
+                  "{program}")
+GCODE_CLI_TOML_PROGRAM = " (its G-code: {file})"
 GCODE_ERR_TIMER_QUICKSTEP = "{name}: {timer} runs the QuickStep planner (l0 frees it)"
 GCODE_ERR_QUICKSTEP_AXIS = ("axis {letter} runs the QuickStep planner: G-code moves need "
                             "FastAccelStepper's queue (l0 in config mode)")
-ENTER_GCODE_MODE = "Enter G-code mode (a line is a block, x alone leaves)" + NL
+ENTER_GCODE_MODE = ("Enter G-code mode (Grbl 1.1: a block ends at a line end; x alone on a "
+                    "line leaves)" + NL)
+GCODE_UNENDED_LINE = ("not executed: '{text}' has no line end (a block ends at LF or CR; "
+                      "in -c write $'...\\n...')")
 QS_ERR_TIMER_PWM = "ERROR timer {timer} makes the PWM of a user output: no QuickStep on it" + NL
 # ----------------------------------------------------------- end of issue 12 texts
 
@@ -639,6 +722,8 @@ QS_ERR_TIMER_PWM = "ERROR timer {timer} makes the PWM of a user output: no Quick
 DEVICE_SIMAVR_TITLE = "firmware {elf} in simavr, {baud} baud"
 DEVICE_SIMAVR_SUMMARY = "{line}"
 DEVICE_SIMAVR_BUILD_FAILED = "stepperdemo device --simavr: {error}"
+DEVICE_SIMAVR_BUILDING = ("stepperdemo device --simavr: building the {what} in {where} "
+                          "(the first time only; a few seconds)")
 DEVICE_SIMAVR_OPTION = "--{option} applies to the simulated device (--pty/--port), not --simavr"
 # ------------------------------------------------- end of issue 11 texts
 # ---------------------------------------------------------------------------------------
@@ -656,6 +741,14 @@ SERIAL_DEVICE_REPAIRS = ("device: {frames_held} frames held after a gap, {cuts} 
 # issue 17: StepperDemo on the other platforms of FastAccelStepper 1.2.7
 # start-up prompt for a pin configuration (ESP32, Pico), byte-exact as the firmware
 SELECT_PIN_CONFIG = "Select pin configuration:"
+# --pin-config / a scenario's pin_config (issue 23): refused with one line
+PIN_CONFIG_HELP = ("answer StepperDemo's start-up prompt (ESP32, Pico) with this pin "
+                   "configuration, as upstream's hardware tests do: 0 Test-HW, 1 Driver-Types "
+                   "(default: no answer; -c waits the 5 s and takes 0)")
+PIN_CONFIG_NONE = ("--pin-config: StepperDemo for {arch} offers no pin configurations "
+                   "(only the ESP32 and Pico builds ask)")
+PIN_CONFIG_RANGE = "--pin-config {index}: StepperDemo for {arch} offers {names}"
+PIN_CONFIG_PROGRAM = "--pin-config: only StepperDemo has pin configurations, not {program}"
 CONFIG_ENTRY_INDENT = "  "
 CONFIG_ENTRY_SEP = ": "
 PRESS_NUMBER_TO_SELECT = "Press number to select, else 0"
@@ -792,12 +885,13 @@ WINDER_REPORT_INTERLOCK = ("interlock    {spans} stretch(es) at {ratios}: max |S
                            "outside their window")
 WINDER_REPORT_NO_INTERLOCK = "interlock    not engaged in this run"
 WINDER_CLI_DESCRIPTION = """\
-The helix winder of seed 002 on the fas library: S1 (spindle) and S2 (traverse),
-two pots, four switches and a link.
+The helix winder on the fas library: S1 (spindle) and S2 (traverse), two pots,
+four switches and a link.
 
 Without -c: an interactive console (history, completion, a toolbar with the pots,
 switches, control and interlock).  With -c: one line of commands on virtual time,
 e.g.  stepperdemo winder -c "pots pot 1 1023 w2000 pot 1 512 w1000" --report
+(a pipe or a file on standard input runs the same way).
 
 Commands (s = stepper 1 or 2; several per line, separated by spaces):
   move s count      link move, -65535..65535 (+-65535 until told, 0 stops)
@@ -849,7 +943,8 @@ CHIP_SHEET_ERROR = "chip_sheet: {error}"
 
 # ---------------------------------------------------- subcommands (stepperdemo.subcommands)
 # per subcommand: how the help lists it, and what it does (lines beside it)
-SUBCOMMAND_WINDER = ("stepperdemo winder [options]", "the helix winder (seed 002): --help")
+SUBCOMMAND_WINDER = ("stepperdemo winder [options]",
+                     "the helix winder: two steppers, pots, switches (--help)")
 SUBCOMMAND_RUN = ("stepperdemo run FILES|FOLDERS ...",
                   "run scenario files (sequences/*.toml);\n"
                   "--board DEVICE: on a board, with the twin check")

@@ -96,6 +96,11 @@ class Program(ABC):
         """Program-specific toolbar text (selected stepper, inputs, ...)."""
         return ""
 
+    def control_keys(self) -> dict[str, bytes]:
+        """Control keys the console sends to the program as bytes when pressed (a key
+        name of prompt-toolkit -> bytes; the G-code machine's Ctrl-X)."""
+        return {}
+
     def exit_code(self) -> int:
         """0 when a scripted run succeeded; non-zero (1) when it reported a failure."""
         return 0

@@ -9,6 +9,10 @@ The coverage table maps each public name of FastAccelStepper's headers to ours, 
 A Python reference is ``Class.member`` (``Stepper``, ``Drive``, ``Engine``, ``Profile``,
 ``PulseCounter``), ``module.name`` (``codes``, ``timed``, ``arch``, ``errors``) or
 ``Class.member / Class.other`` for a name served by two.
+
+``--update`` also rewrites the table of known deviations (between the two marker
+comments): every ``[known_deviation]`` entry of the scenario files in ``sequences/``,
+with the value it names; the check fails while that table is out of date.
 """
 
 from __future__ import annotations
@@ -16,6 +20,11 @@ from __future__ import annotations
 import re
 import sys
 from pathlib import Path
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10: the same parser as a package (pyproject.toml)
+    import tomli as tomllib
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "api-coverage.md"
@@ -72,9 +81,36 @@ def rows(text: str):
         yield n, m, refs
 
 
+KNOWN_START = "<!-- known deviations: tools/api_coverage.py --update writes this table -->"
+KNOWN_END = "<!-- end of known deviations -->"
+
+
+def known_table() -> str:
+    """The known-deviation rows of every scenario file, as a Markdown table."""
+    rows = ["| scenario | check | measured | why |", "| --- | --- | --- | --- |"]
+    for path in sorted((ROOT / "sequences").rglob("*.toml")):
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        for what, entry in data.get("known_deviation", {}).items():
+            reason = str(entry.get("reason", "")).replace("|", "\\|")
+            rows.append(f"| `{path.relative_to(ROOT / 'sequences')}` | "
+                        f"{what.replace('|', chr(92) + '|')} | "
+                        f"{entry['measured']} | {reason} |")
+    return "\n".join(rows)
+
+
+def _known_block(text: str) -> tuple[int, int] | None:
+    start, end = text.find(KNOWN_START), text.find(KNOWN_END)
+    return None if start < 0 or end < start else (start + len(KNOWN_START), end)
+
+
 def check() -> list[str]:
     text = DOC.read_text()
     problems = []
+    block = _known_block(text)
+    if block is None:
+        problems.append("the known-deviation table's markers are missing")
+    elif text[block[0]:block[1]].strip() != known_table():
+        problems.append("the known-deviation table is out of date (--update)")
     for _, m, refs in rows(text):
         wanted = ", ".join(locate(r) or "?" for r in refs)
         if "?" in wanted.split(", "):
@@ -86,6 +122,11 @@ def check() -> list[str]:
 
 
 def update() -> None:
+    text = DOC.read_text()
+    block = _known_block(text)
+    if block is not None:
+        text = text[:block[0]] + "\n" + known_table() + "\n" + text[block[1]:]
+        DOC.write_text(text)
     lines = DOC.read_text().splitlines()
     for n, m, refs in list(rows("\n".join(lines))):
         wanted = ", ".join(locate(r) or "?" for r in refs)

@@ -12,10 +12,13 @@ transcript there is already marked).
 For every folder of the conformance data: write ``sequences/conformance/<name>.toml``
 with the reference figures as expectations, and copy its per-step timestamps and its
 console transcript (version and usage text replaced by markers) to
-``sequences/reference/<name>/``.  Tolerances are the smallest our simulation meets,
-and each must lie within a bound that follows from the timing model; the file states
-the reason.  A deviation beyond its bound is printed and the file is written with the
-bound, so that the scenario fails until the model is fixed.
+``sequences/reference/<name>/``.  Tolerances come from the reference, never from our
+result (docs/tolerances.md): counts exact without timed input, else max(10 steps,
+0.5 %) (the acceptance rule of issues 16 and 23); times within the firmware's own
+spread between two builds (336 us); pulse high time within upstream's tolerance.
+The file is then run once: every check it does not meet is written as a
+``[known_deviation]`` entry naming the measured value (a strict expected failure in the
+suite, until the model meets it; importing again after a model change refreshes them).
 """
 
 from __future__ import annotations
@@ -27,7 +30,6 @@ import math
 import re
 import shutil
 import sys
-from itertools import pairwise
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -51,7 +53,27 @@ REASON_BUILD = ("This run comes from a local build of the original firmware ({bu
 RUN_FILES = ("input.txt", "result.txt", "run_info.json")
 SLOT_US = 4096.0  # the ramp task period of the ATmega328P (65536 ticks)
 START_BOUND_US = 200.0  # start of a move inside the same ramp-task slot (fill CPU model)
-PULSE_PCT_BOUND = 10.0
+DIRECT_BOUND_US = 1500.0
+# --- tolerances, from the reference (docs/tolerances.md) ---
+# two builds of the same firmware source land its commands 200-336 us apart (the e-runs of
+# the shared conformance data against the d-runs, README there): a time of the firmware
+# (enable-off end, step times, move starts) is known no better than that
+BUILD_SPREAD_US = 336
+# positions and pulse counts of timed input: max(10 steps, 0.5 %) (issues 16 and 23)
+COUNT_MIN_STEPS = 10
+COUNT_PER_MILLE = 5
+# pulse high total: upstream's own tolerance where its test has this input ...
+UPSTREAM_TOTAL_HIGH_US = {
+    "test_sd_04_timing_328p": {"A": 60, "B": 270},
+    "test_sd_04_timing_328p_37k": {"A": 50},
+    "test_sd_05_328p": {"A": 800},
+    "test_sd_14_328p": {"A": 1000},
+}
+# ... else the widest relative one upstream grants on the 328P: 800 of 55477 us (sd_05)
+UPSTREAM_TOTAL_HIGH_PCT = 1.44
+E_WINDOW_PERIOD_US = 256_000  # `e` blocks while millis() & 0xff < 0x40
+E_WINDOW_US = 65_000
+E_GAP_US = 4096.0  # one missed compare: the 16-bit timer wraps
 
 REASON_EXACT = ("No timed wait and no speed change while running: which commands reach the "
                 "ramp generator, and in which order, does not depend on console timing, so "
@@ -59,42 +81,50 @@ REASON_EXACT = ("No timed wait and no speed change while running: which commands
 REASON_TIMED = ("Timed input (w<ms> waits, speed changes while running, test sequences): "
                 "the moment a command takes effect depends on console timing (115200-baud "
                 "UART, the firmware's message-table lookups) and lands on the 4.096 ms ramp "
-                "task.  Each of the {n} timed motion command(s) may land one slot earlier "
-                "or later than in the firmware; that moves the turning point of the motion "
-                "by at most one slot of travel at the top speed ({slot_steps} steps) out and "
-                "the same back, so counts stay within 2 x {slot_steps} x {n} steps and step "
-                "times within 2 x 4.096 ms x {n} (+0.2 ms); the tolerances are the measured "
-                "deviations, all inside these bounds.")
+                "task.  Positions and pulse counts are held to max(10 steps, 0.5 %) of the "
+                "firmware's, the acceptance rule of issues 16 and 23; transitions are exact.")
+REASON_TIMES = ("Times (the enable-off time, step times, move starts) are held to 336 us: two "
+                "builds of the same firmware source land its commands 200-336 us apart (the "
+                "e-runs against the d-runs of the shared conformance data), so the firmware's "
+                "own times are known no better than that.")
 REASON_SLOT = ("The firmware starts the first move one ramp-task slot (4.096 ms) later than "
                "the model: its console needs more CPU time for {what} than our model of its "
                "message table gives (docs/timing-model.md).  Step timing is therefore "
-               "compared from the first step on (align = first_step), and the enable-off "
-               "time allows one slot.")
+               "compared from the first step on (align = first_step); the enable-off time "
+               "shows the slot.")
 REASON_E_TIMING = ("With `e` the step interrupt misses its compare whenever it is held "
                    "back more than one period; the next step then waits for the 16-bit timer "
                    "to wrap (4.1 ms).  Which steps are hit depends on the loop's phase to the "
-                   "microsecond, so steps are not compared one by one; the step count (exact) "
-                   "and the duration from first to last step are.")
-DIRECT_BOUND_US = 1500.0
+                   "microsecond, so steps are not compared one by one; the step count and the "
+                   "duration from first to last step are: the duration within one 4.1 ms gap "
+                   "per `e` window the motion spans ({windows}), the acceptance rule of "
+                   "issue 23 (gaps per window within +-1 of the firmware's).")
 REASON_DIRECT = ("Single steps (+/-) are started by the console command itself, not by the "
-                 "ramp task, so their time is the console's: our model of the firmware's "
-                 "console places them within 1.5 ms.")
+                 "ramp task, so their time is the console's.")
 REASON_EACH_MOVE = ("Each move is started by a console command after the previous one "
-                    "stopped (W) and the usage was printed; such a move may start one "
-                    "4.096 ms ramp-task slot off (console CPU model, docs/timing-model.md). "
-                    "Step times are compared move by move (align = each_move) and the start "
-                    "offsets are bounded by start_us.")
+                    "stopped (W) and the usage was printed; step times are compared move by "
+                    "move (align = each_move) and each move's start offset is bounded by "
+                    "start_us.")
 REASON_SEQ_MOVES = ("The test sequence starts each move from the loop once the previous one "
-                    "has stopped.  When the loop notices the stop within microseconds of "
-                    "a ramp-task start, the move starts one 4.096 ms slot off (console CPU "
-                    "model, docs/timing-model.md); the offsets add up over the sequence. "
-                    "Step times are compared move by move (align = each_move) and the "
-                    "start offsets are bounded by start_us.")
+                    "has stopped; step times are compared move by move (align = each_move) "
+                    "and each move's start offset is bounded by start_us.")
 REASON_ENABLE = ("Enable-off time = start-up to the first auto-enable; it depends on when "
                  "the console took the first move command (see the timing model).")
-REASON_PULSE = ("Pulse high time is the step interrupt's latency, modelled as a constant per "
-                "channel (3.8 us A, 4.6 us B); the firmware's varies with other interrupts.")
-
+REASON_PULSE = ("Pulse high time is the step interrupt's latency; the model's is a constant per "
+                "channel (3.8 us A, 4.6 us B), the firmware's varies with other interrupts. "
+                "Its total is held to {what}.")
+REASON_KNOWN = ("[known_deviation] lists the checks the model does not meet yet, each with the "
+                "value measured at import; the suite runs them as strict expected failures.")
+KNOWN_WHY = (  # check name suffix -> what it is about
+    ("pulse high total us", "pulse widths under interrupt contention (issue 23 item 2)"),
+    ("duration ratio", "the `e` model (issue 23 item 1)"),
+    ("enable off time us", "console timing: the first move command lands elsewhere"),
+    ("step time median |dev| us", "console timing: step times"),
+    ("step time max |dev| us", "console timing: step times"),
+    ("move start |offset| us", "console timing: a move starts in another ramp-task slot"),
+    ("position", "a timed command takes effect in another ramp-task slot"),
+    ("pulses", "a timed command takes effect in another ramp-task slot"),
+)
 
 def parse_result(path: Path) -> dict:
     res: dict = {}
@@ -149,15 +179,6 @@ def timed_commands(line: str) -> int:
     return max(n, 1) if is_timed(line) else 0
 
 
-def top_speed_steps_per_us(ref_steps: list[float]) -> float:
-    periods = [b - a for a, b in pairwise(ref_steps) if b > a]
-    return 1.0 / min(periods) if periods else 0.0
-
-
-def round_up(x: float, step: float) -> float:
-    return math.ceil(x / step - 1e-9) * step if x > 0 else 0
-
-
 def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
     name = folder.name
     line = (folder / "input.txt").read_text().strip()
@@ -185,73 +206,49 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
     timed = is_timed(line)
     n_timed = timed_commands(line)
     problems: list[str] = []
+    exact_counts = not timed
 
-    # expectations from the reference
+    # expectations from the reference, tolerances by rule (docs/tolerances.md)
     steppers = []
+    upstream_total = UPSTREAM_TOTAL_HIGH_US.get(name, {})
     for ch in "AB":
         step, d, en = result.get(f"Step{ch}"), result.get(f"Dir{ch}"), result.get(f"Enable{ch}")
         if step is None:
             continue
         values = {"pulses": step["rise"], "dir_transitions": [d["rise"], d["fall"]],
                   "enable_transitions": [en["rise"], en["fall"]]}
+        tol: dict = {}
         if f"Pos{ch}" in result:
             values["position"] = result[f"Pos{ch}"]
+        if not exact_counts and step["rise"]:  # a stepper that never stepped: exact
+            for key in ("position", "pulses"):
+                if key in values:
+                    tol[key] = max(COUNT_MIN_STEPS, abs(values[key]) * COUNT_PER_MILLE // 1000)
         if f"TEnable{ch}" in result:
             values["enable_high_max_us"] = result[f"TEnable{ch}"]
+            tol["enable_high_us"] = BUILD_SPREAD_US
         if step["rise"] and step["total_high"]:
             values["step_high_total_us"] = step["total_high"]
-        steppers.append(StepperExpectation(ch, values, {}))
+            if ch in upstream_total:
+                tol["step_high_total_us"] = upstream_total[ch]
+            else:
+                tol["step_high_total_pct"] = UPSTREAM_TOTAL_HIGH_PCT
+        steppers.append(StepperExpectation(ch, values, tol))
 
-    # run our model once without tolerances to measure the deviations
-    sc = Scenario(path=out_dir / "conformance" / f"{name}.toml", name=name, input=line,
-                  end="firmware", max_time_s=math.ceil(run_info["simulated_us"] / 1e6) + 60,
-                  reference=ref_dir if letters else None, steppers=steppers,
-                  transcript_ref=ref_dir / "transcript.txt.gz")
-    if letters:
-        sc.timing = TimingExpectation(letters, "absolute")
-    res = run_scenario(sc)
-    dev = {c.what: c.deviation for c in res.checks}
-    for c in res.checks:
-        if c.what == "transcript matches reference" and not c.ok:
-            problems.append(f"{name}: transcript differs: {c.measured}")
+    def scenario(timing: TimingExpectation | None, with_steppers: bool = True) -> Scenario:
+        sc = Scenario(path=out_dir / "conformance" / f"{name}.toml", name=name, input=line,
+                      end="firmware", max_time_s=math.ceil(run_info["simulated_us"] / 1e6) + 60,
+                      reference=ref_dir if letters else None,
+                      steppers=steppers if with_steppers else [],
+                      transcript_ref=ref_dir / "transcript.txt.gz")
+        sc.timing = timing
+        return sc
 
+    # one run without step-time limits: how the step sequences compare
+    res = run_scenario(scenario(TimingExpectation(letters, "absolute") if letters else None))
     ref_steps = {ch: read_reference_steps(ref_dir / f"steps_{ch}.tsv.gz") for ch in letters}
-    v_top = max((top_speed_steps_per_us(s) for s in ref_steps.values()), default=0.0)
-    slot_steps = max(1, math.ceil(SLOT_US * v_top))
-
     reasons: list[str] = []
     reasons_extra: list[str] = []
-    exact_counts = not timed
-    for exp in steppers:
-        ch = exp.letter
-        tol = exp.tol
-        for key, what in (("position", f"{ch} position"), ("pulses", f"{ch} pulses")):
-            d = abs(dev.get(what) or 0)
-            bound = 0 if exact_counts else 2 * slot_steps * n_timed
-            if d:
-                if d > bound:
-                    problems.append(f"{name}: {what} deviates by {d} (bound {bound})")
-                tol[key] = min(int(d), bound)
-        dmax = max(abs(dev.get(f"{ch} dir rising") or 0), abs(dev.get(f"{ch} dir falling") or 0))
-        if dmax:
-            problems.append(f"{name}: {ch} direction transitions deviate by {dmax}")
-        emax = max(abs(dev.get(f"{ch} enable rising") or 0),
-                   abs(dev.get(f"{ch} enable falling") or 0))
-        if emax:
-            problems.append(f"{name}: {ch} enable transitions deviate by {emax}")
-        if "enable_high_max_us" in exp.values:
-            d = abs(dev.get(f"{ch} enable off time us") or 0)
-            bound = START_BOUND_US if d <= START_BOUND_US else SLOT_US + START_BOUND_US
-            if d > bound:
-                problems.append(f"{name}: {ch} enable off time deviates by {d:.0f} us")
-            tol["enable_high_us"] = max(10, round_up(d, 10))
-        if "step_high_total_us" in exp.values:
-            # the reference truncates its sum to whole microseconds: allow 1 us of that
-            pct = 100 * max(0, abs(dev.get(f"{ch} pulse high total us") or 0) - 1) / exp.values[
-                "step_high_total_us"]
-            if pct > PULSE_PCT_BOUND:
-                problems.append(f"{name}: {ch} pulse high total deviates by {pct:.1f} %")
-            tol["step_high_total_pct"] = max(1, math.ceil(pct))
     counts_match = all(res.timing[ch]["steps_ours"] == res.timing[ch]["steps_ref"]
                        for ch in letters)
     timing = None
@@ -259,18 +256,15 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
     if letters and counts_match and " e " in f" {line} ":
         # with `e` the steps jump by whole timer wraps at steps that depend on the loop
         # phase; the defining figures are the count (above) and the total duration
-        probe = Scenario(path=sc.path, name=name, input=line, end="firmware",
-                         max_time_s=sc.max_time_s, reference=ref_dir, steppers=[],
-                         timing=TimingExpectation(letters, "first_step"))
-        pres = run_scenario(probe)
-        ratio = max(abs(pres.timing[ch]["duration_ratio"] - 1) for ch in letters)
+        first = min(s[0] for s in ref_steps.values() if s)
+        last = max(s[-1] for s in ref_steps.values() if s)
+        windows = sum(1 for k in range(int(last // E_WINDOW_PERIOD_US) + 1)
+                      if k * E_WINDOW_PERIOD_US + E_WINDOW_US > first
+                      and k * E_WINDOW_PERIOD_US < last)
         timing = dict(steppers=letters, align="first_step",
-                      duration_ratio=max(0.0005, round_up(ratio * 1.2, 0.0005)))
-        reasons_extra.append(REASON_E_TIMING)
-        if ratio > 0.01:
-            problems.append(f"{name}: duration differs by {ratio * 100:.2f} %")
+                      duration_ratio=round(max(1, windows) * E_GAP_US / (last - first), 6))
+        reasons_extra.append(REASON_E_TIMING.format(windows=windows))
     elif letters and counts_match:
-        med = max(res.timing[ch]["median_abs_us"] for ch in letters)
         mx = max(res.timing[ch]["max_abs_us"] for ch in letters)
         align = "absolute"
         start_us = None
@@ -279,60 +273,72 @@ def build(folder: Path, out_dir: Path) -> tuple[str, list[str]]:
         test_mode = "t" in line.split()
         if mx > bound and not direct and (n_timed == 0 or test_mode):
             # several moves, each issued by the loop after the previous one stopped
-            # (console commands after W, or a test sequence): each may start one slot off
-            probe = Scenario(path=sc.path, name=name, input=line, end="firmware",
-                             max_time_s=sc.max_time_s, reference=ref_dir, steppers=[],
-                             timing=TimingExpectation(letters, "each_move"))
-            pres = run_scenario(probe)
+            # (console commands after W, or a test sequence): compared move by move
             align = "each_move"
-            med = max(pres.timing[ch]["median_abs_us"] for ch in letters)
-            mx = max(pres.timing[ch]["max_abs_us"] for ch in letters)
-            off = max(abs(pres.timing[ch]["offset_us"]) for ch in letters)
-            start_us = round_up(off * 1.02 + 1, 1)
+            start_us = BUILD_SPREAD_US
             reasons_extra.append(REASON_SEQ_MOVES if test_mode else REASON_EACH_MOVE)
-            if off > SLOT_US + START_BOUND_US:
-                problems.append(f"{name}: a move starts {off:.0f} us off")
         elif any(abs(abs(res.timing[ch]["first_dev_us"]) - SLOT_US) < START_BOUND_US
                  for ch in letters):
             align = "first_step"
             slot_reason = "the texts of " + ", ".join(
                 repr(t) for t in line.split() if t[:1] not in "MAVRW" or t == "?")
-            probe = Scenario(path=sc.path, name=name, input=line, end="firmware",
-                             max_time_s=sc.max_time_s, reference=ref_dir, steppers=[],
-                             timing=TimingExpectation(letters, "first_step"))
-            pres = run_scenario(probe)
-            med = max(pres.timing[ch]["median_abs_us"] for ch in letters)
-            mx = max(pres.timing[ch]["max_abs_us"] for ch in letters)
-        timing = dict(steppers=letters, align=align, median_us=round_up(med * 1.1 + 0.5, 0.5),
-                      max_us=round_up(mx * 1.1 + 0.5, 0.5))
+        timing = dict(steppers=letters, align=align, median_us=BUILD_SPREAD_US,
+                      max_us=BUILD_SPREAD_US)
         if start_us is not None:
             timing["start_us"] = start_us
         if direct:
             reasons_extra.append(REASON_DIRECT)
-        if mx > bound:
-            problems.append(f"{name}: step times deviate by up to {mx:.0f} us (bound "
-                            f"{bound:.0f})")
     if build_note:
         reasons.append(REASON_BUILD.format(build=build_note))
-    if exact_counts:
-        reasons.append(REASON_EXACT)
-    else:
-        reasons.append(REASON_TIMED.format(slot_steps=slot_steps, n=n_timed))
+    reasons.append(REASON_EXACT if exact_counts else REASON_TIMED)
+    reasons.append(REASON_TIMES)
     if slot_reason:
         reasons.append(REASON_SLOT.format(what=slot_reason))
     reasons += reasons_extra
     reasons.append(REASON_ENABLE)
     if any("step_high_total_us" in e.values for e in steppers):
-        reasons.append(REASON_PULSE)
+        what = (", ".join(f"{ch} {v} us" for ch, v in upstream_total.items())
+                + " (upstream's tolerance in its expect.txt for this input)" if upstream_total
+                else f"{UPSTREAM_TOTAL_HIGH_PCT} %, the widest relative tolerance upstream's "
+                "expect.txt grant the Total High of the 328P (test_sd_05: 800 of 55477 us)")
+        reasons.append(REASON_PULSE.format(what=what))
     if letters and not counts_match:
         reasons.append("The step sequences differ in length after the timed command, so "
                        "step times are not compared one by one (see the counts above).")
+
+    # the file as written, run once: what it does not meet is a known deviation
+    sc = scenario(None if timing is None else TimingExpectation(
+        timing["steppers"], timing["align"], timing.get("median_us"), timing.get("max_us"),
+        timing.get("duration_ratio"), timing.get("start_us")))
+    final = run_scenario(sc)
+    known = {}
+    for c in final.checks:
+        if c.ok:
+            continue
+        why = next((w for suffix, w in KNOWN_WHY if c.what.endswith(suffix)), None)
+        if why is None:  # a count, a transition, the transcript: not a tolerance matter
+            problems.append(f"{name}: {c.what}: expected {c.expected}, measured {c.measured}")
+            continue
+        measured = round(c.measured, 3) if isinstance(c.measured, float) else c.measured
+        known[c.what] = dict(measured=measured, reason=f"{why}; the firmware: {c.expected} "
+                             f"+- {_num(c.tolerance)}")
+    if known:
+        reasons.append(REASON_KNOWN)
     text = render(name, line, run_info, steppers, timing, reasons, letters,
-                  DESCRIPTION_BUILD.format(build=build_note) if build_note else DESCRIPTION)
+                  DESCRIPTION_BUILD.format(build=build_note) if build_note else DESCRIPTION,
+                  known)
     path = out_dir / "conformance" / f"{name}.toml"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
     return name, problems
+
+
+def _num(v: float | None) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float):
+        return f"{v:.4f}".rstrip("0").rstrip(".") if v < 1 else f"{v:.1f}".removesuffix(".0")
+    return str(v)
 
 
 def toml_str(s: str) -> str:
@@ -340,7 +346,7 @@ def toml_str(s: str) -> str:
 
 
 def render(name, line, run_info, steppers, timing, reasons, letters,
-           description: str = DESCRIPTION) -> str:
+           description: str = DESCRIPTION, known: dict | None = None) -> str:
     long = run_info["simulated_us"] > 30e6
     out = [f"name = {toml_str(name)}",
            f"description = {toml_str(description)}",
@@ -375,6 +381,13 @@ def render(name, line, run_info, steppers, timing, reasons, letters,
         for key in ("median_us", "max_us", "duration_ratio", "start_us"):
             if key in timing:
                 out.append(f"{key} = {timing[key]}")
+    if known:
+        out.append("")
+        out.append("[known_deviation]  # not met yet: the value measured at import "
+                   "(tools/import_conformance.py)")
+        for what, entry in known.items():
+            out.append(f"{toml_str(what)} = {{ measured = {json.dumps(entry['measured'])}, "
+                       f"reason = {toml_str(entry['reason'])} }}")
     out.append("")
     return "\n".join(out)
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 import tempfile
-from typing import TYPE_CHECKING, Any, Self
+from typing import TYPE_CHECKING, Any
 
 from ..serial.backend import SerialBackend
 from ..serial.clock import VirtualClock, Wire
@@ -20,6 +20,8 @@ from .device import Device
 from .relay import Faults, Relay
 
 if TYPE_CHECKING:  # pragma: no cover
+    from typing_extensions import Self  # typing.Self is Python 3.11+
+
     from .simavr import SimavrDevice
 
 

@@ -256,8 +256,11 @@ def _check_counters(device_h: str, problems: list[str]) -> None:
 
 
 def firmware_dir() -> Path:
-    """``firmware/`` of this source tree."""
-    return Path(__file__).resolve().parents[2] / "firmware"
+    """The firmware sources the simavr runner builds (the checkout's or the installed
+    package's copy, :func:`fas.device.simavr.firmware_dir`)."""
+    from .simavr import firmware_dir as sources
+
+    return sources()
 
 
 def main(argv: list[str] | None = None) -> int:

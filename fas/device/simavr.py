@@ -27,6 +27,8 @@ from __future__ import annotations
 import bisect
 import ctypes
 import fcntl
+import functools
+import hashlib
 import os
 import random
 import re
@@ -67,10 +69,20 @@ class SimavrError(RuntimeError):
 
 # ------------------------------------------------------------------------- build
 def firmware_dir() -> Path:
-    """The firmware sources: $STEPPERDEMO_FIRMWARE_DIR or ``firmware/`` of the repository."""
+    """The firmware sources: $STEPPERDEMO_FIRMWARE_DIR, the installed package's copy
+    (``fas/device/firmware``, package data: setup.py) or ``firmware/`` of the checkout."""
     env = os.environ.get(FIRMWARE_DIR_ENV)
     if env:
         return Path(env)
+    installed = _installed_firmware()
+    return installed if (installed / "Makefile").is_file() else _checkout_firmware()
+
+
+def _installed_firmware() -> Path:
+    return Path(__file__).resolve().parent / "firmware"
+
+
+def _checkout_firmware() -> Path:
     return Path(__file__).resolve().parents[2] / "firmware"
 
 
@@ -99,7 +111,32 @@ class Build:
 
 
 def build_dir() -> Path:
-    return firmware_dir() / "build"
+    """Where the firmware is built: ``build/`` beside the sources of a checkout (or of
+    $STEPPERDEMO_FIRMWARE_DIR); for the installed package, whose folder may be
+    read-only and is replaced by every upgrade, a per-user cache named by a hash of
+    the sources: ``$XDG_CACHE_HOME/stepperdemo/firmware/<hash>`` (~/.cache)."""
+    fw = firmware_dir()
+    if fw != _installed_firmware():
+        return fw / "build"
+    cache = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(cache) / "stepperdemo" / "firmware" / sources_key(fw)
+
+
+@functools.lru_cache(maxsize=4)
+def sources_key(fw: Path) -> str:
+    """16 hex digits of a SHA-256 over the names and contents of the firmware's sources
+    (its ``build/`` folder left out)."""
+    digest = hashlib.sha256()
+    for path in sorted(fw.rglob("*")):
+        rel = path.relative_to(fw)
+        if path.is_file() and rel.parts[0] != "build" and "__pycache__" not in rel.parts:
+            digest.update(rel.as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
+
+
+def _cached() -> bool:
+    """Builds go to the per-user cache: what is there was built from these very sources."""
+    return firmware_dir() == _installed_firmware()
 
 
 def elf_path(baud: int = 115200) -> Path:
@@ -110,16 +147,35 @@ def harness_path() -> Path:
     return build_dir() / "fas-simavr"
 
 
+def _stamps(targets: tuple[str, ...]) -> list[Path]:
+    """In the cache: the marks of the make targets that were built (``all`` per baud)."""
+    baud = next((t.split("=", 1)[1] for t in targets if t.startswith("BAUD=")), "115200")
+    return [build_dir() / f".made-{t}-{baud}" if t == "all" else build_dir() / f".made-{t}"
+            for t in targets if "=" not in t]
+
+
+def is_built(*targets: str) -> bool:
+    """True when ``make targets`` has nothing to do for certain: the installed sources
+    were built into the cache before (a checkout asks make, which knows the times)."""
+    return _cached() and all(p.is_file() for p in _stamps(targets))
+
+
 def _make(*targets: str) -> None:
+    if is_built(*targets):  # the cache is keyed by the sources: nothing can be stale
+        return
     problem = toolchain_problem()
     if problem:
         raise SimavrError(f"cannot build the firmware: {problem}")
-    fw = firmware_dir()
-    build_dir().mkdir(parents=True, exist_ok=True)
-    with open(build_dir() / ".lock", "w") as lock:  # one make at a time (test workers)
+    fw, out = firmware_dir(), build_dir()
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / ".lock", "w") as lock:  # one make at a time (test workers)
         fcntl.flock(lock, fcntl.LOCK_EX)
-        res = subprocess.run(["make", "-C", str(fw), *targets], capture_output=True,
-                             text=True, check=False)
+        where = [f"BUILD={out}"] if _cached() else []  # a checkout: its Makefile's build/
+        res = subprocess.run(["make", "-C", str(fw), *where, *targets],
+                             capture_output=True, text=True, check=False)
+        if res.returncode == 0 and _cached():
+            for stamp in _stamps(targets):
+                stamp.touch()
     if res.returncode != 0:
         tail = "\n".join((res.stdout + res.stderr).strip().splitlines()[-15:])
         raise SimavrError(f"make -C {fw} {' '.join(targets)} failed:\n{tail}")
@@ -134,6 +190,16 @@ def build(baud: int = 115200) -> Build:
     _make(f"BAUD={baud}", "all", "sim")
     flash, ram = firmware_size(elf_path(baud))
     return Build(elf_path(baud), harness_path(), flash, ram, baud)
+
+
+def first_build(baud: int | None = 115200) -> bool:
+    """True when :func:`build` (``baud``) or :func:`build_harness` (None) has to compile
+    from nothing, which takes a while (a checkout's make may still refresh a file)."""
+    targets = ("sim",) if baud is None else (f"BAUD={baud}", "all", "sim")
+    if is_built(*targets):
+        return False
+    outputs = [harness_path()] if baud is None else [harness_path(), elf_path(baud)]
+    return _cached() or not all(p.is_file() for p in outputs)
 
 
 def build_harness() -> Path:

@@ -73,14 +73,18 @@ class RampPlanner(Planner):
         self.host.wake()
 
     def keep_speed(self) -> None:
+        """``moveByAcceleration(0)``: both speed settings go through
+        ``setSpeedInTicks()``'s check, so a period of 0 (not running) or a stepper
+        without a speed leaves the speed as it was (undefined stays undefined)."""
         rg = self.rg
         settings = self.host.settings
+        fastest = self.fastest_period_ticks()
         max_speed = rg.speed_in_ticks()
-        settings.set_speed_in_ticks(self.planned_period_ticks())
+        settings.set_speed_checked(self.planned_period_ticks(), fastest)
         settings.set_acceleration(1)  # keeps the current speed
         self.apply_settings()
         self.host.wake()
-        settings.set_speed_in_ticks(max_speed)
+        settings.set_speed_checked(max_speed, fastest)
 
     def apply_settings(self) -> None:
         self.rg.apply_speed_acceleration()

@@ -294,6 +294,14 @@ class SerialBackend(Backend):
                 s.force_stop_and_new_position(s.get_current_position())
         self._notify("lost", reason)
 
+    def _drop_unsendable(self, engine: TaskEngine) -> None:
+        """No device: what a planner queued since the loss can never start (a channel
+        starts only on a connected device).  Dropped at once, the stepper stands where
+        it stood instead of "running" for ever; ``reconnect`` goes on from there."""
+        for s in engine.steppers:
+            if s.is_running():
+                s.force_stop_and_new_position(s.get_current_position())
+
     def _notify(self, event: str, text: str) -> None:
         for fn in list(self.listeners):
             fn(event, text)
@@ -449,6 +457,8 @@ class SerialBackend(Backend):
             engine.manage_steppers()
         finally:
             self._task_tick = None
+        if not self.connected:
+            self._drop_unsendable(engine)
         self.task_runs += 1
         tasks.end(engine.quiescent_tasks())
         link = self.link

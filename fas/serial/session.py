@@ -198,14 +198,18 @@ class HostSession:
         self.connected = False
 
     def account(self, link: HostLink) -> None:
-        """Add a link's counters to those of the sessions that ended."""
+        """Add a link's counters to those of the sessions that ended (its round trip
+        stays as the last one measured)."""
         total = self.closed_stats
         for name, value in link.stats.as_dict().items():
             if name != "rtt_us":
                 setattr(total, name, getattr(total, name) + value)
+            elif value:
+                total.rtt_us = value
 
     def link_stats(self) -> dict[str, int]:
-        """Link counters over every session so far (rtt: the current one)."""
+        """Link counters over every session so far (rtt: the current one's, without a
+        session the last one measured)."""
         total = LinkStats(**self.closed_stats.as_dict())
         if self.link is not None:
             for name, value in self.link.stats.as_dict().items():

@@ -257,16 +257,22 @@ def _timescale_label(k: int) -> str:
     raise ValueError(f"timescale 1e-{k} s is finer than 1 fs")
 
 
-def timescale_factor(timescale: str, ticks_per_s: int) -> tuple[int, int]:
-    """``(num, den)`` with VCD time = tick * num // den for a timescale like "1 ns"."""
+def timescale_fs(timescale: str) -> int:
+    """A VCD timescale like "1 us" in femtoseconds (ValueError, KeyError if it is none)."""
     from vcd.common import Timescale
 
     ts = Timescale.from_str(timescale)
-    exp = {u: e for e, u in _UNITS}[ts.unit.value]
+    exp: int = {u: e for e, u in _UNITS}[ts.unit.value]
     magnitude = int(getattr(ts.magnitude, "value", ts.magnitude))
     if magnitude not in (1, 10, 100):  # the standard's; viewers misread other magnitudes
         raise ValueError(f"timescale magnitude {magnitude}: use 1, 10 or 100")
-    num, den = 10**exp, magnitude * ticks_per_s
+    unit_fs: int = 10 ** (15 - exp)  # exp <= 15: a whole number
+    return magnitude * unit_fs
+
+
+def timescale_factor(timescale: str, ticks_per_s: int) -> tuple[int, int]:
+    """``(num, den)`` with VCD time = tick * num // den for a timescale like "1 ns"."""
+    num, den = 10**15, timescale_fs(timescale) * ticks_per_s
     g = gcd(num, den)
     return num // g, den // g
 
@@ -277,6 +283,11 @@ class VcdWriter:
     ``signals`` maps a pin to one or more names (a pin shared by two steppers, like
     the ESP32 demo's direction pin, gets one variable and an alias).  Edges of pins
     without a name are counted in ``ignored`` and not written.
+
+    ``timescale`` None is the coarsest unit in which every tick is exact
+    (:func:`vcd_timescale`).  A coarser unit rounds each edge down to it: a pulse (or
+    a gap) shorter than the unit can then start and end at the same time, a change
+    that viewers such as PulseView drop; ``zero_width`` counts them.
     """
 
     def __init__(self, file: IO[str], signals: Mapping[int, str | Sequence[str]],
@@ -310,6 +321,10 @@ class VcdWriter:
         self._writer.flush()
         self.changes = 0
         self.ignored = 0
+        # changes that the unit puts at the time of the one before on their pin (a later
+        # tick, the same VCD time); changes in one tick are not counted: no unit parts them
+        self.zero_width = 0
+        self._last: dict[int, tuple[int, int]] = {}  # pin -> (tick, VCD time) of its last
         self.closed = False
 
     def vcd_time(self, tick: int) -> int:
@@ -325,9 +340,17 @@ class VcdWriter:
         if den == 1:
             for t, lv in zip(times, levels, strict=True):
                 change(var, t * num, lv)
-        else:
+        else:  # rounded down to the unit: a change may fall on the one before
+            last_t, last = self._last.get(pin, (-1, -1))
+            zero = 0
             for t, lv in zip(times, levels, strict=True):
-                change(var, t * num // den, lv)
+                vt = t * num // den
+                if vt == last and t != last_t:
+                    zero += 1
+                last_t, last = t, vt
+                change(var, vt, lv)
+            self._last[pin] = (last_t, last)
+            self.zero_width += zero
         self.changes += len(times)
 
     def flush(self, end_tick: int | None = None) -> None:
@@ -339,17 +362,64 @@ class VcdWriter:
             self.closed = True
             self._writer.close(self.vcd_time(end_tick))
 
-    def copy_to(self, path: str, end_tick: int) -> None:
-        """Write what is recorded so far, ending at ``end_tick``, to another file."""
+    def copy_to(self, path: str, end_tick: int, timescale: str | None = None) -> int:
+        """Write what is recorded so far, ending at ``end_tick``, to another file - in
+        another ``timescale`` if one is given.  Returns the changes of the copy that
+        fall on the time of the one before on their signal (see ``zero_width``)."""
         if not self.closed:
             self._writer.flush()
         if not self.file.closed:
             self.file.flush()
+        end = None if self.closed else self.vcd_time(end_tick)
         with open(self.file.name, encoding="ascii") as src, \
                 open(path, "w", encoding="ascii", newline="\n") as dst:
-            shutil.copyfileobj(src, dst, 1 << 20)
-            if not self.closed:
-                dst.write(f"#{self.vcd_time(end_tick)}\n")
+            if timescale is None or timescale_fs(timescale) == timescale_fs(self.timescale):
+                shutil.copyfileobj(src, dst, 1 << 20)
+                if end is not None:
+                    dst.write(f"#{end}\n")
+                return self.zero_width
+            return _rescale(src, dst, timescale, timescale_fs(self.timescale),
+                            timescale_fs(timescale), end)
+
+
+def _rescale(src: IO[str], dst: IO[str], timescale: str, src_fs: int, dst_fs: int,
+             end: int | None) -> int:
+    """Copy a VCD of scalar wires written by :class:`VcdWriter` into another unit: each
+    time is rounded down to it (the same as writing it in that unit at once, as long
+    as the source was exact or the new unit is a multiple of the old one).  Equal
+    times are merged; returns the changes that the new unit puts on the time of the one
+    before on their wire (``VcdWriter.zero_width``)."""
+    zero, shown = 0, -1
+    now = was = 0
+    last: dict[str, tuple[int, int]] = {}  # identifier -> (old time, new time)
+    header = True
+    for line in src:
+        if header:
+            if line.startswith("$timescale"):
+                line = f"$timescale {timescale} $end\n"
+            elif line.startswith("$enddefinitions"):
+                header = False
+            dst.write(line)
+            continue
+        if line.startswith("#"):
+            was = int(line[1:])
+            now = was * src_fs // dst_fs
+            if now != shown:
+                dst.write(f"#{now}\n")
+                shown = now
+            continue
+        if line[:1] in "01xzXZ" and len(line) > 2:
+            ident = line[1:-1]
+            before = last.get(ident)
+            if before is not None and before[1] == now and before[0] != was:
+                zero += 1
+            last[ident] = (was, now)
+        dst.write(line)
+    if end is not None:
+        end = end * src_fs // dst_fs
+        if end != shown:
+            dst.write(f"#{end}\n")
+    return zero
 
 
 class VcdTrace:

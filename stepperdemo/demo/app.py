@@ -45,9 +45,13 @@ class StepperDemo(LoopProgram):
 
     def __init__(self, backend: Backend, *, scripted: bool = True,
                  output: Callable[[bytes], None] | None = None,
-                 test_mode_wait: bool = False) -> None:
+                 test_mode_wait: bool = False, pin_config: int | None = None) -> None:
         self.backend = backend
         self.scripted = scripted
+        # the digit that answers every start-up prompt for a pin configuration (ESP32,
+        # Pico), as upstream's hardware tests do (STEPPER_CONFIG); None: nobody answers
+        # a scripted run (the 5 s wait), an interactive user types it
+        self.pin_config = pin_config
         self.output = output
         self.transcript = bytearray()
         # extension, off by default: `w<ms>` also in test mode (the firmware answers
@@ -100,6 +104,7 @@ class StepperDemo(LoopProgram):
         self.demo_config: DemoConfig = DemoConfig("", self.build.steppers)
         self.qs_hold = None  # a QuickStep stepper whose move waits for FIFO room
         self.gcode = None  # issue 12: the G-code machine of the g mode
+        self.gcode_failures = 0  # issue 24: g-mode lines refused or never ended (exit 1)
 
     # ------------------------------------------------------------- output
     def print(self, text: str | bytes) -> None:
@@ -203,6 +208,9 @@ class StepperDemo(LoopProgram):
             self.println(cfg.name)
         self.println(msg.PRESS_NUMBER_TO_SELECT)
         self._select_start_ms = b.millis()
+        if self.pin_config is not None:  # the digit is on the line: the first poll takes it
+            self._take_config_digit(self.pin_config)
+            return
         if self.scripted:
             while not self._setup_done:
                 self._select_pass()
@@ -213,15 +221,18 @@ class StepperDemo(LoopProgram):
         if self.rx and not self.scripted:
             ch = self.rx.popleft()
             if 0x30 <= ch <= 0x39:
-                n = ch - 0x30
-                if n < len(self.build.configs):
-                    self.config_index = n
-                self._finish_setup()
+                self._take_config_digit(ch - 0x30)
                 return
         if ((b.millis() - self._select_start_ms) & 0xFFFFFFFF) >= self.build.config_wait_ms:
             self._finish_setup()
             return
         b.app_wait_until(b.now() + 10 * self.profile.ticks_per_ms)
+
+    def _take_config_digit(self, n: int) -> None:
+        """A digit answers the prompt: that configuration if the build has it, else 0."""
+        if n < len(self.build.configs):
+            self.config_index = n
+        self._finish_setup()
 
     def _finish_setup(self) -> None:
         b = self.backend
@@ -338,7 +349,9 @@ class StepperDemo(LoopProgram):
             if self.speed_in_milli_hz:
                 self.print_number(s.get_current_speed_in_milli_hz())
                 self.print(msg.STATUS_MSTEPS)
-            else:
+            else:  # before the first command is queued the firmware prints its
+                # "undefined" period: v=268435455us/4294967295ticks (issue 26: kept,
+                # it is what the original prints - conformance d25, d26, d30)
                 self.print_number(s.get_period_in_us_after_commands_completed())
                 self.print(msg.STATUS_US)
                 self.print_number(s.get_period_in_ticks_after_commands_completed())
@@ -438,12 +451,18 @@ class StepperDemo(LoopProgram):
             pass
         elif self.scripted:
             if self.script_pos < len(self.script):
-                ch = self.script[self.script_pos]
-                self.script_pos += 1
+                if self.mode != _GCODE or self.gcode.room():  # g mode: wait for ring room
+                    ch = self.script[self.script_pos]
+                    self.script_pos += 1
             elif self.read_ptr == self.write_ptr and self.input_consumed_at is None:
                 self.input_consumed_at = b.now()
-        elif self.rx:
+                if self.mode == _GCODE:
+                    self.gcode.script_ended()
+        elif self.rx and (self.mode != _GCODE or not self.gcode.leaving):
             ch = self.rx.popleft()
+        if ch and self.mode == _GCODE:  # issue 24: bytes go to Grbl's receive path
+            self.gcode.receive(bytes((ch,)))
+            ch = 0
         if ch:
             if ((self.write_ptr + 1) & 0xFF) == self.read_ptr:
                 self.read_ptr = (self.read_ptr + 1) & 0xFF
@@ -458,11 +477,6 @@ class StepperDemo(LoopProgram):
                 self.print(msg.WAIT_COMPLETE)
         elif self.qs_hold is not None:
             qs_console.service_hold(self)
-        elif self.mode == _GCODE and self.read_ptr != self.write_ptr:
-            if self.gcode.can_take():  # issue 12: lines are G-code blocks
-                c = self.in_buffer[self.read_ptr]
-                self.read_ptr = (self.read_ptr + 1) & 0xFF
-                self.gcode.char(c)
         elif self.read_ptr != self.write_ptr:
             c = self.in_buffer[self.read_ptr]
             self.read_ptr = (self.read_ptr + 1) & 0xFF
@@ -581,10 +595,12 @@ class StepperDemo(LoopProgram):
                 or self._held_by_w()):
             return True
         if self.read_ptr != self.write_ptr:
-            return self.mode == _GCODE and not self.gcode.can_take()
+            return False
         if self.scripted:
+            if self.mode == _GCODE and self.script_pos < len(self.script):
+                return not self.gcode.room()  # a script waits until Grbl would read
             return self.script_pos >= len(self.script) and self.input_consumed_at is not None
-        return not self.rx
+        return not self.rx or (self.mode == _GCODE and self.gcode.leaving)
 
     def _needs_machine_events(self) -> bool:
         """True when the loop must look at every interrupt, as the firmware's passes
@@ -726,7 +742,12 @@ class StepperDemo(LoopProgram):
         self.print(msg.ENTER_GCODE_MODE)
         self.mode = _GCODE
         self.gcode = DemoGcode(self)
-        self.println(msg.GCODE_BANNER)
+        if self.read_ptr != self.write_ptr:  # input held behind the g: the machine's now
+            rest = bytearray()
+            while self.read_ptr != self.write_ptr:
+                rest.append(self.in_buffer[self.read_ptr])
+                self.read_ptr = (self.read_ptr + 1) & 0xFF
+            self.gcode.receive(bytes(rest))
 
     def leave_gcode(self) -> None:
         self.print(msg.EXIT_TO_MAIN_MENU)
@@ -741,8 +762,17 @@ class StepperDemo(LoopProgram):
             return COMPLETIONS + [("x", "back to the main menu")]
         return self.command_table.hints(self.mode)
 
+    def control_keys(self) -> dict[str, bytes]:
+        """Keys the console sends as bytes: Ctrl-X in the g mode (issue 24)."""
+        if self.mode == _GCODE:
+            from ..gcode.program import CONTROL_KEYS
+            return CONTROL_KEYS
+        return {}
+
     def toolbar_status(self) -> str:
+        if self.mode == _TEST and self.test_ongoing:
+            return f"M{self.selected + 1} | test running"
         return f"M{self.selected + 1}"
 
     def exit_code(self) -> int:
-        return 1 if self.test_failed_count else 0
+        return 1 if self.test_failed_count or self.gcode_failures else 0

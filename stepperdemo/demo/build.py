@@ -37,6 +37,8 @@ from fas.arch import (
 )
 from fas.codes import PIN_UNDEFINED, FasDriver
 
+from .. import messages as msg
+
 
 @dataclass(frozen=True)
 class DemoStepper:
@@ -301,6 +303,17 @@ BY_PROFILE: dict[str, DemoBuild] = {
     # upstream's pc_based test platform: the ESP32's wiring, no start-up prompt
     PC_TEST.name: replace(_esp32(ESP32), configs=()),
 }
+
+
+def pin_config_problem(profile: Profile, index: int) -> str | None:
+    """Why ``index`` cannot answer this build's start-up prompt, or None."""
+    configs = demo_build(profile).configs
+    if not configs:
+        return msg.PIN_CONFIG_NONE.format(arch=profile.name)
+    if not 0 <= index < len(configs):
+        names = ", ".join(f"{i} ({c.name})" for i, c in enumerate(configs))
+        return msg.PIN_CONFIG_RANGE.format(index=index, arch=profile.name, names=names)
+    return None
 
 
 def demo_build(profile: Profile) -> DemoBuild:

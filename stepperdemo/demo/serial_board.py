@@ -89,6 +89,10 @@ class SimulatedBoard:
 
     # -------------------------------------------------------------- running
     def _deliver(self, byte: int) -> None:
+        gcode = self.app.gcode
+        if gcode is not None and not gcode.leaving:  # the g mode: Grbl's receive path
+            gcode.receive(bytes((byte,)))
+            return
         rx = self.app.rx
         if len(rx) < sim_timing(self.profile).uart_rx_buffer:
             rx.append(byte)

@@ -17,8 +17,9 @@ running the simulation:
 
 Exit codes of ``-c`` on a board: 0 ok, 1 a test sequence failed, 2 bad arguments or
 the port cannot be opened, 3 ``--max-time`` reached with the board still busy,
-5 the board was lost or restarted during the run, 130 interrupted (Ctrl-C; the stop
-was sent).
+5 the board was lost or restarted during the run, or nothing StepperDemo prints came
+within 3 s of the first command (``board_session.NO_ANSWER_S``: another sketch, a
+wrong ``--baud``), 130 interrupted (Ctrl-C; the stop was sent).
 """
 
 from __future__ import annotations
@@ -37,8 +38,8 @@ from ..watch import plots, status_report
 from .board_link import BoardLink, SerialBoardLink
 from .board_log import BoardLog
 from .board_options import add_arguments, check_arguments  # noqa: F401 (re-exported)
-from .board_session import BOOT_WAIT_S, POLL_S, BoardSession, End
-from .console import Console
+from .board_session import BOOT_WAIT_S, NO_ANSWER_S, POLL_S, BoardSession, End
+from .console import Console, toolbar_hints
 
 EXIT_OK = 0
 EXIT_TEST_FAILED = 1
@@ -78,11 +79,8 @@ def plot_lines(session: BoardSession, argv: list[str]) -> list[str]:
         return plots.terminal_plot(series, width=width)
     if not plots.png_available():
         return [msg.PLOT_EXTRA_MISSING]
-    try:
-        plots.write_png(series, argv[0])
-    except OSError as exc:
-        return [msg.OBSERVE_FILE_ERROR.format(path=argv[0], error=exc)]
-    return [msg.OBSERVE_WROTE.format(path=argv[0])]
+    problem = plots.write_png_or_problem(series, argv[0])
+    return [problem or msg.OBSERVE_WROTE.format(path=argv[0])]
 
 
 # ------------------------------------------------------------------ -c LINE
@@ -105,7 +103,7 @@ def run_scripted(args: argparse.Namespace, write: Callable[[bytes], None]) -> in
         out.flush()
 
     session = BoardSession(link, output=show, log=log, quiet_s=args.quiet_ms / 1000,
-                           boot_wait_s=args.boot_wait,
+                           boot_wait_s=args.boot_wait, lost_note=None,  # said at the end
                            notes=lambda text: print(text, file=sys.stderr))
     try:
         session.wait_ready()
@@ -118,15 +116,23 @@ def run_scripted(args: argparse.Namespace, write: Callable[[bytes], None]) -> in
         session.close()
         return EXIT_INTERRUPTED
     reason = session.busy_reason()
+    silent = session.silent_reason()
     session.close()
     out.flush()
     if getattr(args, "plot", None):
         size = plots.parse_size(args.plot_size)
-        plots.write_png(status_report.series_of(session.state.trace), args.plot, size,
-                        title=args.command[:100])
+        problem = plots.write_png_or_problem(
+            status_report.series_of(session.state.trace), args.plot, size,
+            title=plots.plot_title(args.command))
+        if problem is not None:
+            print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
     if getattr(args, "report", False):
         for line in status_report.report_lines(session.state.trace, args.board):
             print(line)
+    if end == End.NO_ANSWER:
+        print(msg.CLI_BOARD_NO_ANSWER.format(port=args.board, seconds=NO_ANSWER_S,
+                                             why=silent, baud=args.baud), file=sys.stderr)
+        return EXIT_LOST
     if end == End.LOST:
         print(msg.CLI_BOARD_LOST.format(reason=session.lost), file=sys.stderr)
         return EXIT_LOST
@@ -184,6 +190,7 @@ class BoardDriver:
         con = self.console
         s = con.session
         s.poll(0.0)
+        con.check_silence()
         if con.output_pending() and s.now() - s.last_rx_s >= PARTIAL_LINE_S:
             con.flush(final=True)  # a line the board did not finish (yet)
         wake = s.pacer.wake_in(s.now(), s.last_rx_s)
@@ -204,6 +211,7 @@ class BoardConsole(Console):
         self._log_path = log
         self._boot_wait_s = boot_wait_s
         self.session: BoardSession | None = None
+        self._silence_noted = False
         super().__init__(history=history, input=input, output=output)
 
     def _start(self, arch: str) -> None:
@@ -222,13 +230,22 @@ class BoardConsole(Console):
     def close_session(self) -> None:
         self.session.close()
 
+    def check_silence(self) -> None:
+        """One note when the port does not answer as StepperDemo (board_session)."""
+        why = self.session.silent_reason()
+        if why is None:
+            self._silence_noted = False  # (a reconnect starts the question again)
+        elif not self._silence_noted:
+            self._silence_noted = True
+            self.note(msg.BOARD_NO_ANSWER.format(seconds=NO_ANSWER_S, why=why,
+                                                 baud=self.baud_rate))
+
     # ------------------------------------------------------------ toolbar
     def toolbar(self):
         from prompt_toolkit.formatted_text import FormattedText
 
         s = self.session
         st = s.state
-        hints = "  ".join(k for k, _ in self.app.completions()[:12])
         if s.lost is not None:
             status = msg.BOARD_TOOLBAR_LOST
         else:
@@ -238,7 +255,7 @@ class BoardConsole(Console):
                 running=" ".join(f"M{n}" for n in st.running()) or msg.BOARD_NONE,
                 held=msg.BOARD_TOOLBAR_HELD.format(why=held) if held else "", t=s.now())
         return FormattedText([("bold", msg.BOARD_TOOLBAR.format(port=s.link.name)),
-                              ("", status), ("italic", f"{hints}  ? usage  /help")])
+                              ("", status), ("italic", toolbar_hints(self.app.completions()))])
 
     # ------------------------------------------------------- meta commands
     def handle_line(self, line: str) -> None:

@@ -14,7 +14,7 @@ BOOT_WAIT_S = 2.5  # an Arduino's bootloader waits ~1.5 s after a reset before s
 
 
 def add_arguments(ap: argparse.ArgumentParser) -> None:
-    g = ap.add_argument_group("a board running the original StepperDemo (issue 15)")
+    g = ap.add_argument_group("a board running the original StepperDemo")
     g.add_argument("--board", metavar="DEVICE",
                    help="talk to a board running StepperDemo at this serial port or pty "
                         "(--baud sets the speed); with -c: run the line on it")

@@ -25,6 +25,12 @@ original StepperDemo"):
 So a run ends ``quiet_s`` after the last thing the board printed once nothing above
 holds.  With ``Q`` off the end of a motion without ``W`` is seen only as the status
 lines stopping (the quiet period); with ``I`` and ``Q`` both off not at all.
+
+A port with something else behind it (another sketch, a wrong ``--baud``, a board
+that does not run) would hold a ``W`` for ever: when nothing StepperDemo prints (its
+banner, a status line, an answer to a command) came within :data:`NO_ANSWER_S` of
+the first command sent, :meth:`silent_reason` says so and a run ends
+(:attr:`End.NO_ANSWER`).
 """
 
 from __future__ import annotations
@@ -43,6 +49,10 @@ from .board_options import BOOT_WAIT_S, QUIET_S
 
 POLL_S = 0.05
 CONFIG_PROMPT_WAIT_S = 6.0  # ESP32/RP2040 StepperDemo: 5 s for a pin-configuration digit
+#: StepperDemo answers a command within milliseconds (a usage text within 0.2 s, an
+#: ESP32's start-up prompt within 5 s): nothing of its own this long after the first
+#: command was sent, and it is not StepperDemo at this baud rate
+NO_ANSWER_S = 3.0
 
 
 class End(Enum):
@@ -50,6 +60,7 @@ class End(Enum):
     MAX_TIME = "max_time"
     LOST = "lost"
     RESET = "reset"
+    NO_ANSWER = "no_answer"  # nothing StepperDemo says came (see silent_reason)
 
 
 class BoardSession:
@@ -58,10 +69,14 @@ class BoardSession:
 
     def __init__(self, link: BoardLink, *, output: Callable[[bytes], None] | None = None,
                  notes: Callable[[str], None] | None = None, log: BoardLog | None = None,
-                 quiet_s: float = QUIET_S, boot_wait_s: float = BOOT_WAIT_S) -> None:
+                 quiet_s: float = QUIET_S, boot_wait_s: float = BOOT_WAIT_S,
+                 lost_note: str | None = msg.BOARD_LOST) -> None:
+        """``lost_note``: the note when the board is lost (the REPL's, which offers
+        ``/reconnect``); None: no note (a scripted run says it when it ends)."""
         self.link = link
         self.output = output
         self.notes = notes
+        self.lost_note = lost_note
         self.log = log
         self.quiet_s = quiet_s
         self.boot_wait_s = boot_wait_s
@@ -149,7 +164,8 @@ class BoardSession:
         if self.lost is None:
             self.lost = reason
             self.pacer.clear()
-            self.note(msg.BOARD_LOST.format(reason=reason))
+            if self.lost_note is not None:
+                self.note(self.lost_note.format(reason=reason))
 
     def poll(self, timeout_s: float = POLL_S) -> bool:
         """Send what may go, wait up to ``timeout_s`` for the board, take what came.
@@ -171,6 +187,17 @@ class BoardSession:
         return bool(data)
 
     # ---------------------------------------------------------- questions
+    def silent_reason(self) -> str | None:
+        """Why the board is taken not to run StepperDemo (a console text: what came),
+        or None.  See the module text."""
+        if self.state.answers or self.input_start_s is None:
+            return None
+        if self.now() - self.input_start_s < NO_ANSWER_S:
+            return None
+        if not self.transcript:
+            return msg.BOARD_SILENT_NOTHING
+        return msg.BOARD_SILENT_FOREIGN.format(n=len(self.transcript))
+
     def busy_reason(self) -> str | None:
         """Why the board is not idle yet (a key of ``messages.BOARD_BUSY_WHY``)."""
         if self.pacer.queue:
@@ -208,8 +235,11 @@ class BoardSession:
                 return End.LOST
             if self.unexpected_resets:
                 return End.RESET
-            if self.busy_reason() is None:
-                return End.IDLE
+            if self.silent_reason() is not None:
+                return End.NO_ANSWER
+            if self.busy_reason() is None and (self.state.answers
+                                               or self.input_start_s is None):
+                return End.IDLE  # (input without any answer yet: wait for one)
             if self.now() - start >= max_s:
                 return End.MAX_TIME
             self.poll(POLL_S)
@@ -251,6 +281,8 @@ class BoardSession:
         self.link.reopen(port)
         self.lost = None
         self.unexpected_resets = 0
+        self.state.answers = 0  # perhaps another port: is StepperDemo there?
+        self.input_start_s = None
         self.pacer.clear()
         self._partial.clear()
         self._banner_until = self.now() + self.boot_wait_s

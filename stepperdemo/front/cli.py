@@ -13,13 +13,15 @@ from fas.arch import PROFILES
 from .. import messages as msg
 from ..subcommands import SUBCOMMANDS, help_lines, main_of
 from ..watch import options as observe_options
-from . import board_options, serial_cli
+from . import arg_checks, board_options, serial_cli
 from .scripted import (  # noqa: F401 (the exit codes are re-exported)
     EXIT_MAX_TIME,
     EXIT_OK,
     EXIT_TEST_FAILED,
     EXIT_USAGE,
+    read_stdin_script,
     run_scripted,
+    stdin_is_script,
 )
 
 EXIT_SCENARIO_FAILED = 4
@@ -30,7 +32,8 @@ The StepperDemo console of FastAccelStepper on a simulated microcontroller.
 
 Without arguments: an interactive console (prompt-toolkit) running the simulated
 chip in real time.  With -c: run one line of StepperDemo commands on virtual time
-and print the transcript as the firmware would.
+and print the transcript as the firmware would.  A pipe or a file on standard input
+(echo "R100 W" | stepperdemo) is run the same way, all its lines as one script.
 
 With --port DEVICE: the same, the queue commands executed by a device behind a
 serial port or pty (real time; see docs/serial-protocol.md).
@@ -45,7 +48,8 @@ DESCRIPTION_TAIL = """
 
 exit codes: 0 ok, 1 a test sequence failed, 2 bad arguments,
             3 --max-time reached, 4 a scenario failed (run), 5 device lost
-            (--board: the board was lost or restarted), 130 interrupted,
+            (--board: the board was lost or restarted, or no StepperDemo
+            answer came within 3 s), 130 interrupted,
             141 the reader of the output went away (e.g. `| head`), quietly"""
 
 
@@ -74,23 +78,29 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
     ap.add_argument("--max-time", type=float, default=3600.0, metavar="SECONDS",
                     help="give up a scripted run after this much simulated time "
                          "(default 3600 s; a W on a stepper that never stops ends here)")
-    ap.add_argument("--firmware-end", action="store_true",
-                    help="end like the firmware's built-in-input mode: one second after "
-                         "the last input character was taken")
+    demo = program == "demo"  # StepperDemo's own options: its firmware's end, test mode
+    if demo:
+        ap.add_argument("--firmware-end", action="store_true",
+                        help="end like the firmware's built-in-input mode: one second after "
+                             "the last input character was taken")
     ap.add_argument("--lf", action="store_true",
                     help="print LF line ends instead of the firmware's CR LF")
-    ap.add_argument("--test-mode-wait", action="store_true",
-                    help="extension: accept w<ms> in test mode too (the firmware answers "
-                         "'Unknown command' there), to let endless test sequences run "
-                         "for a while in a -c line")
+    if demo:
+        ap.add_argument("--test-mode-wait", action="store_true",
+                        help="extension: accept w<ms> in test mode too (the firmware answers "
+                             "'Unknown command' there), to let endless test sequences run "
+                             "for a while in a -c line")
+    ap.add_argument("--pin-config", type=int, default=None, metavar="N",
+                    help=msg.PIN_CONFIG_HELP)
     ap.add_argument("--speed", type=float, default=1.0, metavar="FACTOR",
                     help="interactive: run the simulated clock FACTOR times real time")
     ap.add_argument("--history", metavar="FILE",
                     help="interactive: history file (default: in the user state directory)")
     observe_options.add_arguments(ap)  # --vcd --plot --plot-size --report --steps-csv (issue 6)
     serial_cli.add_arguments(ap)  # --port --baud --watchdog-ms (issue 7)
-    board_options.add_arguments(ap)  # --board --log --quiet-ms --boot-wait (issue 15)
-    ap.set_defaults(program=program)
+    if demo:  # a board running StepperDemo
+        board_options.add_arguments(ap)  # --board --log --quiet-ms --boot-wait (issue 15)
+    ap.set_defaults(program=program, firmware_end=False, test_mode_wait=False)
     return ap
 
 
@@ -128,10 +138,14 @@ def _main(argv: Sequence[str] | None = None) -> int:
             return main_fn(argv[1:])
         program, argv = argv[0], argv[1:]  # a program hosted with the console's options
     args = build_parser(program).parse_args(argv)
-    if args.max_time <= 0:
-        print(msg.CLI_ERROR.format(problem="--max-time must be positive"), file=sys.stderr)
+    if args.command is None and stdin_is_script():  # a pipe or a file: a script, as -c
+        args.command = read_stdin_script()
+    problem = (arg_checks.number_problem(args)  # --max-time, --speed: finite, in range
+               or observe_options.check_arguments(args))  # e.g. --plot without matplotlib
+    if problem is not None:
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
-    problem = observe_options.check_arguments(args)  # issue 6: e.g. --plot without matplotlib
+    problem = _pin_config(args)
     if problem is not None:
         print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
@@ -142,6 +156,21 @@ def _main(argv: Sequence[str] | None = None) -> int:
         return board.run_console(args)
     from .console import run_console
     return run_console(args)
+
+
+def _pin_config(args: argparse.Namespace) -> str | None:
+    """``--pin-config N``: StepperDemo answers its start-up prompt with N (issue 23)."""
+    if args.pin_config is None:
+        return None
+    if args.program != "demo":
+        return msg.PIN_CONFIG_PROGRAM.format(program=args.program)
+    from ..demo.build import pin_config_problem
+
+    problem = pin_config_problem(PROFILES[args.arch], args.pin_config)
+    if problem is None:
+        args.program_options = {**getattr(args, "program_options", {}),
+                                "pin_config": args.pin_config}
+    return problem
 
 
 def entry() -> None:  # pragma: no cover - console script

@@ -20,8 +20,10 @@ from typing import Awaitable, Callable, Iterable
 
 from prompt_toolkit import PromptSession
 from prompt_toolkit.completion import Completer, Completion
+from prompt_toolkit.filters import Condition
 from prompt_toolkit.formatted_text import FormattedText
 from prompt_toolkit.history import InMemoryHistory
+from prompt_toolkit.key_binding import KeyBindings
 from prompt_toolkit.patch_stdout import patch_stdout
 from prompt_toolkit.shortcuts import print_formatted_text
 
@@ -90,6 +92,20 @@ class RealTimeDriver:
         return max(0.0, (wake - self.target_tick()) / tps / self.scale)
 
 
+TOOLBAR_COMMANDS = 12  # commands of the mode the toolbar lists
+
+
+def toolbar_hints(completions: list[tuple[str, str]]) -> str:
+    """The toolbar's list of the mode's commands: the first few, then ``?`` with what it
+    does in this mode if it is not among them, then /help."""
+    names = [k for k, _ in completions[:TOOLBAR_COMMANDS]]
+    if "?" not in names:
+        hint = next((h for k, h in completions if k == "?"), None)
+        if hint is not None:
+            names.append(f"? {hint.split()[0]}")
+    return "  ".join([*names, "/help"])
+
+
 class ProgramCompleter(Completer):
     def __init__(self, console: "Console") -> None:
         self.console = console
@@ -118,7 +134,8 @@ class Console:
                  program_options: dict | None = None,
                  link_planning_ms: int | None = None,
                  redraw_postpone_s: float | None = 0.01,
-                 recent_trace: bool = True, trace_edges: int = MAX_EDGES) -> None:
+                 recent_trace: bool = True, trace_edges: int = MAX_EDGES,
+                 vcd_timescale: str | None = None) -> None:
         self.program = program  # which program the console hosts (stepperdemo.program)
         self.program_options = program_options or {}
         self.port, self.baud, self.watchdog_ms = port, baud, watchdog_ms  # issue 7
@@ -140,10 +157,12 @@ class Console:
         # is busy (its default); on a virtual clock (tests) pass None: redraw at once
         self.redraw_postpone_s = redraw_postpone_s
         self._toolbar_at = -TOOLBAR_REFRESH_S  # wall time of the last toolbar redraw
+        self._drawn_positions: list[int | None] = []  # stepper positions at that draw
         self.toolbar_shown: deque[str] = deque(maxlen=64)  # recent toolbar texts, for tests
         # /trace /vcd /plot /report (issue 6); the recent motion recorded from the start
         # on a simulated chip (issue 16; recent_trace=False starts with the trace off)
-        self.trace = TraceCommands(lambda: self.app, recent=recent_trace, max_edges=trace_edges)
+        self.trace = TraceCommands(lambda: self.app, recent=recent_trace, max_edges=trace_edges,
+                                   timescale=vcd_timescale)  # /vcd's unit (issue 26)
         self._start(arch)
         self.trace.new_chip()
 
@@ -213,18 +232,25 @@ class Console:
     # ------------------------------------------------------------ toolbar
     def toolbar(self):
         app = self.app
-        hints = "  ".join(f"{k}" for k, _ in app.completions()[:12])
         t = self.backend.now() / self.backend.profile.ticks_per_s
-        running = sum(1 for s in app.steppers if s is not None and s.is_running())
         status = app.toolbar_status()
         state = (f" {app.mode_name()} mode | {status + ' | ' if status else ''}t={t:.3f}s"
-                 f" | running {running} | ")
+                 f" | running {self._running_since_last_draw()} | ")
         self.toolbar_shown.append(state)
         return FormattedText([
             ("bold", f" {self.backend.profile.name} "),
             ("", state),
-            ("italic", f"{hints}  ? usage  /help"),
+            ("italic", toolbar_hints(app.completions())),
         ])
+
+    def _running_since_last_draw(self) -> int:
+        """Steppers running now or moved since the toolbar was last drawn: a move of a
+        few milliseconds (test sequence 01) falls between two draws."""
+        positions = [None if s is None else s.get_current_position() for s in self.app.steppers]
+        before = self._drawn_positions
+        self._drawn_positions = positions
+        return sum(1 for i, s in enumerate(self.app.steppers) if s is not None and (
+            s.is_running() or (i < len(before) and before[i] != positions[i])))
 
     def refresh_toolbar(self) -> None:
         """Redraw the prompt (and its toolbar) every TOOLBAR_REFRESH_S of wall time, so
@@ -302,8 +328,29 @@ class Console:
         if stripped.startswith("/"):
             self.meta(stripped)
             return
+        if self.port and not self.backend.connected:  # a lost device takes no input
+            self.note(serial_cli.not_connected(self.backend))
+            return
         self.app.feed(line + "\n")
         self._wake.set()
+
+    def control_key(self, key: str) -> None:
+        """A control key the program takes as a byte (Ctrl-X: Grbl's soft reset)."""
+        data = self.app.control_keys().get(key)
+        if data is not None:
+            self.app.feed(data)
+            self._wake.set()
+
+    def key_bindings(self) -> KeyBindings:
+        """The program's control keys, sent at once (eager: before Emacs's Ctrl-X
+        prefix could wait for a second key)."""
+        kb = KeyBindings()
+
+        @kb.add("c-x", eager=True, filter=Condition(lambda: "c-x" in self.app.control_keys()))
+        def _ctrl_x(event) -> None:
+            self.control_key("c-x")
+
+        return kb
 
     def interrupt(self) -> None:
         """Ctrl-C: stop all motion at once."""
@@ -363,7 +410,8 @@ class Console:
         self.note(self.welcome())
         session = PromptSession(history=self.history, completer=ProgramCompleter(self),
                                 bottom_toolbar=self.toolbar, input=self._input,
-                                output=self._output, complete_while_typing=False)
+                                output=self._output, complete_while_typing=False,
+                                key_bindings=self.key_bindings())
         session.app.max_render_postpone_time = self.redraw_postpone_s
         self.prompt_session = session
         with patch_stdout(raw=True):
@@ -397,7 +445,8 @@ def run_console(args) -> int:
                           watchdog_ms=getattr(args, "watchdog_ms", 500),
                           program=getattr(args, "program", "demo"),
                           program_options=getattr(args, "program_options", None),
-                          link_planning_ms=getattr(args, "link_planning_ms", None))
+                          link_planning_ms=getattr(args, "link_planning_ms", None),
+                          vcd_timescale=getattr(args, "vcd_timescale", None))
     except ConnectionError as exc:  # issue 7: fas.serial.SerialError
         print(msg.CLI_SERIAL_CONNECT.format(port=port, error=exc), file=sys.stderr)
         return serial_cli.EXIT_USAGE

@@ -8,6 +8,7 @@ behind ``--board``; with the observers of ``--vcd``/``--plot``/``--report``.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from .. import messages as msg
@@ -18,6 +19,21 @@ EXIT_OK = 0
 EXIT_TEST_FAILED = 1
 EXIT_USAGE = 2
 EXIT_MAX_TIME = 3
+
+
+def stdin_is_script() -> bool:
+    """Standard input is a pipe or a file, not a terminal: its lines are a script, run
+    on virtual time as ``-c`` runs its line (``echo "R100 W" | stepperdemo``)."""
+    try:
+        return not os.isatty(sys.stdin.fileno())
+    except (AttributeError, ValueError, OSError):  # no standard input at all
+        return False
+
+
+def read_stdin_script() -> str:
+    """All of standard input as text (bytes that are not UTF-8 read as U+FFFD)."""
+    raw = getattr(sys.stdin, "buffer", None)  # None: a text stream put in its place
+    return raw.read().decode("utf-8", "replace") if raw is not None else sys.stdin.read()
 
 
 def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
@@ -57,11 +73,16 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
     max_ticks = int(args.max_time * backend.profile.ticks_per_s)
     reason = app.run_script(args.command, firmware_end=args.firmware_end, max_ticks=max_ticks)
     out.flush()
+    problem = None
     if observers is not None:  # issue 6: close the files, write the plot, print the report
-        for line in observe.finish_arguments(observers, args, app,
-                                             title=(title or args.command)[:100]):
+        lines, problem = observe.finish_arguments(observers, args, app,
+                                                  title=title or args.command)
+        for line in lines:
             print(line)
         sys.stdout.flush()
+    if problem is not None:  # (checked before the run: a disk full, a folder gone)
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
+        return EXIT_USAGE
     if reason == EndReason.MAX_TIME:
         print(msg.CLI_MAX_TIME.format(seconds=args.max_time), file=sys.stderr)
         return EXIT_MAX_TIME

@@ -36,7 +36,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                     help="run on a device behind this serial port or pty (see "
                          "'stepperdemo device'); the device decides the profile")
     ap.add_argument("--baud", type=int, default=115200, metavar="N",
-                    help="serial line speed for --port and --board (default 115200)")
+                    help="serial line speed of the device or board (default 115200)")
     ap.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
                     help="--port: the device stops all motion after MS of host silence")
     ap.add_argument("--link-planning-ms", type=_planning_ms, default=None, metavar="MS",
@@ -78,11 +78,14 @@ def planning_line(backend) -> str:
 
 
 def stats_lines(backend) -> list[str]:
-    """Link statistics, device counters and per-stepper figures, one line each."""
+    """Link statistics, device counters and per-stepper figures, one line each.  Without
+    a device (lost) its figures are those of its last report: said so."""
     lines = [msg.SERIAL_LINK_STATS.format(**backend.link_stats())]
     if backend.connected:
         lines.append(planning_line(backend))
     counters = backend.device_counters()
+    if not backend.connected and (counters or backend.statuses):
+        lines.append(msg.SERIAL_LAST_REPORT)
     if counters:
         lines.append(msg.SERIAL_DEVICE_STATS.format(**counters))
         lines.append(msg.SERIAL_DEVICE_REPAIRS.format(**counters))
@@ -198,6 +201,11 @@ class DeviceDriver:
         return max(0.0, (wake - backend.now()) / tps / self.scale)
 
 
+def not_connected(backend) -> str:
+    """The console's answer to program input while the device is lost."""
+    return msg.SERIAL_NOT_CONNECTED.format(reason=backend.lost_reason or "closed")
+
+
 def console_attach(console, backend) -> None:
     """Report a lost device in one line above the prompt."""
     def on_event(event: str, text: str) -> None:
@@ -229,9 +237,11 @@ def console_meta(console, cmd: str, args: list[str]) -> Iterable[str]:
             lines.append(msg.SERIAL_LOST.format(reason=backend.lost_reason))
         return lines
     if cmd == "/estop":
+        if not backend.connected:
+            return [msg.SERIAL_ESTOP_NO_DEVICE.format(reason=backend.lost_reason or "closed")]
         if backend.emergency_stop():
             return [msg.SERIAL_ESTOP_DONE]
-        return []
+        return [msg.SERIAL_ESTOP_FAILED.format(reason=backend.lost_reason)]
     return [msg.REPL_UNKNOWN_META.format(cmd=cmd)]
 
 
@@ -269,7 +279,8 @@ def device_parser() -> argparse.ArgumentParser:
                        help="run the device firmware (firmware/) in the simavr AVR "
                             "simulator on a new pty instead; builds it if needed")
     ap.add_argument("--firmware", metavar="ELF",
-                    help="--simavr: this firmware build instead of firmware/build/BAUD/")
+                    help="--simavr: this firmware build instead of the one built from the "
+                         "sources (firmware/ of the checkout or of the installed package)")
     ap.add_argument("--baud", type=int, default=115200, choices=(115200, 1_000_000),
                     help="--simavr: the firmware's line speed (default 115200)")
     ap.add_argument("--trace", metavar="FILE",
@@ -324,10 +335,13 @@ def run_device(argv: Sequence[str]) -> int:
     from fas.serial import LinkClosed, Pty, RealClock, open_serial
     from fas.serial.stream import remove_link, set_link
 
+    from .arg_checks import speed_problem
+
     args = device_parser().parse_args(argv)
-    if args.speed <= 0 or args.watchdog_ms < 0:
-        print(msg.CLI_ERROR.format(problem="--speed must be positive, --watchdog-ms >= 0"),
-              file=sys.stderr)
+    problem = speed_problem(args.speed) or (
+        "--watchdog-ms must be >= 0" if args.watchdog_ms < 0 else None)
+    if problem:
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
     if args.simavr:
         return run_simavr(args)
@@ -414,7 +428,14 @@ def run_simavr(args: argparse.Namespace) -> int:
     import time
 
     from fas.arch import get_profile
-    from fas.device.simavr import SimavrError, SimavrServer, build, build_harness
+    from fas.device.simavr import (
+        SimavrError,
+        SimavrServer,
+        build,
+        build_dir,
+        build_harness,
+        first_build,
+    )
 
     if args.arch != "atmega328p" or args.watchdog_ms != 500 or args.console:
         option = ("arch" if args.arch != "atmega328p" else
@@ -423,6 +444,10 @@ def run_simavr(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_USAGE
     try:
+        if first_build(None if args.firmware else args.baud):
+            print(msg.DEVICE_SIMAVR_BUILDING.format(
+                what="simavr harness" if args.firmware else "firmware and its simavr harness",
+                where=build_dir()), file=sys.stderr, flush=True)
         if args.firmware:
             elf, harness = args.firmware, build_harness()
         else:

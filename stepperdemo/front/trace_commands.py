@@ -23,6 +23,7 @@ from fas.sim import SimBackend
 
 from .. import messages as msg
 from ..watch.observe import Observers
+from ..watch.options import is_vcd_unit, vcd_unit
 from ..watch.recent import MAX_EDGES, RecentTrace, bound_seconds
 
 META_COMMANDS = {
@@ -43,9 +44,11 @@ def help_lines(max_edges: int = MAX_EDGES) -> list[str]:
 
 class TraceCommands:
     def __init__(self, get_app: Callable[[], object], *, recent: bool = True,
-                 max_edges: int = MAX_EDGES) -> None:
+                 max_edges: int = MAX_EDGES, timescale: str | None = None) -> None:
         self.get_app = get_app  # the console's current program (changes with /arch)
         self.max_edges = max_edges
+        # the unit of /vcd FILE without one: --vcd-timescale, else the console's default
+        self.timescale = timescale
         self.mode = RECENT if recent else OFF
         # the one recording: the recent one, an unbounded one (/trace on), or the last
         # of either after /trace off; None before anything was recorded
@@ -170,18 +173,26 @@ class TraceCommands:
         return msg.REPL_TRACE_STATUS.format(state=ON, edges=rec.edges(), start=start)
 
     def _vcd(self, args: list[str]) -> list[str]:
-        if len(args) != 1:
-            return [msg.REPL_BAD_ARG.format(cmd="/vcd", problem="give a file name")]
+        """``/vcd FILE [UNIT]``: the unit as one word (1us, exact) or two (1 us)."""
+        if not args or len(args) > 3:
+            return [msg.REPL_BAD_ARG.format(cmd="/vcd", problem=msg.REPL_VCD_USAGE)]
+        path, given = args[0], " ".join(args[1:]) or self.timescale
+        if given is not None and not is_vcd_unit(given):
+            return [msg.REPL_BAD_ARG.format(cmd="/vcd",
+                                            problem=msg.REPL_VCD_BAD_UNIT.format(unit=given))]
+        unit = vcd_unit(given)  # None: exact
         rec = self.recording
         try:
-            edges = rec.export_vcd(args[0])
+            edges, zero = rec.export_vcd(path, unit)
         except OSError as exc:
-            return [msg.OBSERVE_FILE_ERROR.format(path=args[0], error=exc)]
-        text = msg.REPL_VCD_WROTE.format(path=args[0], edges=edges,
+            return [msg.OBSERVE_FILE_ERROR.format(path=path, error=exc)]
+        text = msg.REPL_VCD_WROTE.format(path=path, edges=edges,
                                          start=self._s(rec.start_tick),
                                          end=self._s(rec.now_tick()))
         if isinstance(rec, RecentTrace) and rec.dropped:
             text += msg.REPL_VCD_START_DROPPED.format(bound=self.max_edges)
+        if zero:
+            text += msg.REPL_VCD_ZERO_WIDTH.format(n=zero, unit=unit, path=path)
         return [text]
 
     def _view(self, app=None):
@@ -201,11 +212,8 @@ class TraceCommands:
             return plots.terminal_plot(series, width=width, outputs=outputs)
         if not plots.png_available():
             return [msg.PLOT_EXTRA_MISSING]
-        try:
-            plots.write_png(series, args[0], outputs=outputs)
-        except OSError as exc:
-            return [msg.OBSERVE_FILE_ERROR.format(path=args[0], error=exc)]
-        return [msg.OBSERVE_WROTE.format(path=args[0])]
+        problem = plots.write_png_or_problem(series, args[0], outputs=outputs)
+        return [problem or msg.OBSERVE_WROTE.format(path=args[0])]
 
     def _report(self) -> list[str]:
         from ..watch import report

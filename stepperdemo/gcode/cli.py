@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 
 from fas.arch import PROFILES
 
 from .. import messages as msg
-from ..front import serial_cli
+from ..front import arg_checks, serial_cli
+from ..front.scripted import read_stdin_script, stdin_is_script
 from ..watch import observe
 from .program import DEFAULT_AXES
 from .settings import (
@@ -22,24 +24,33 @@ from .settings import (
 EXIT_USAGE = 2
 
 DESCRIPTION = f"""\
-A G-code interpreter (Grbl conventions) on FastAccelStepper: G0/G1 straight lines
-whose axes start together, stay on the line and arrive together; G4 P<seconds>;
-G90/G91; G92/G92.1; M62/M63 P<n> digital output on/off after the motion before it,
-M64/M65 at once; M67/M68 E<n> Q<percent> PWM duty (synchronized / at once); M2/M30.
+A Grbl 1.1 controller on FastAccelStepper, for G-code senders and by hand: G0/G1
+straight lines whose axes start together, stay on the line and arrive together;
+G4 P<seconds>; G90/G91; G92/G92.1; M62/M63 P<n> digital output on/off after the
+motion before it, M64/M65 at once; M67/M68 E<n> Q<percent> PWM duty (synchronized /
+at once); M0 M2 M30.  A synchronized output or a dwell holds the parser (Grbl_ESP32).
 Axes X Y Z A B C are steppers 1..6 of the profile's StepperDemo wiring.  Every line
-is answered 'ok' or 'error: <reason>'; after an error the program goes on (Grbl).
+is answered 'ok' or 'error:N' (Grbl's numbers; the reason in a [MSG:...] line
+before it); after an error the program goes on (Grbl).  Real-time bytes act
+wherever they arrive: ? status, ! feed hold, ~ resume, Ctrl-X reset, 0x85 jog
+cancel, 0x90-0x9D overrides; $J= jogs; $ lists the $ commands.
 
 With FILE (or '-' for stdin) the program runs on virtual time and ends when every
-line is done; without it, an interactive console.  --port DEVICE runs the queue
+line is done; without it, standard input if that is a pipe or a file, else an
+interactive console (Ctrl-X resets).  --pty or --tcp serve it to senders (bCNC,
+cncjs, UGS, LaserGRBL, pygrbl-streamer) in real time, a host opening the port resets
+it; see docs/gcode.md.  --port DEVICE runs the queue
 commands on a device (see 'stepperdemo device').
 
 Settings ($$ lists them, $N=value or --set '$N=value' changes one):
   $1        step idle delay, ms (255 keeps the drivers on)     default {DEFAULT_IDLE_DELAY_MS}
+  $10       status report: 1 MPos (else WPos) + 2 Bf:          default 3
   $100-105  steps per unit, X Y Z A B C                        default {DEFAULT_STEPS_PER_UNIT:g}
   $110-115  maximum rate, units/min (also the G0 rate)         default {DEFAULT_MAX_RATE:g}
   $120-125  acceleration per axis, units/s^2                   default {DEFAULT_ACCELERATION:g}
   $140-143  PWM frequency of Aout0-3, Hz                       default 5000
   $150-153  pin of Dout0-3, $160-163 pin of Aout0-3            default: profile table
+  $170      status report shows Dout:/Aout:                    default 0
 With one step per unit, X/Y/Z are in steps and F in steps per minute.
 
 exit codes: 0 ok, 1 a line was answered with an error, 2 bad arguments,
@@ -51,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("file", nargs="?", metavar="FILE|-",
                     help="G-code to run on virtual time ('-': standard input); "
-                         "none: the interactive console")
+                         "none: a pipe or file on stdin, else the interactive console")
     ap.add_argument("--arch", default="atmega328p", choices=sorted(PROFILES),
                     help="architecture profile (default: atmega328p)")
     ap.add_argument("--axes", type=int, default=DEFAULT_AXES, metavar="N",
@@ -64,7 +75,18 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--lf", action="store_true",
                     help="print LF line ends instead of Grbl's CR LF")
     ap.add_argument("--speed", type=float, default=1.0, metavar="FACTOR",
-                    help="interactive: run the simulated clock FACTOR times real time")
+                    help="interactive, --pty, --tcp: run the simulated clock FACTOR times "
+                         "real time")
+    where = ap.add_mutually_exclusive_group()
+    where.add_argument("--pty", action="store_true",
+                       help="serve G-code senders on a new pty (its path on the first line)")
+    where.add_argument("--tcp", metavar="[HOST:]PORT",
+                       help="serve G-code senders on a TCP port (loopback unless HOST is "
+                            "given; port 0: any free one, printed on the first line)")
+    ap.add_argument("--link", metavar="PATH",
+                    help="--pty: also make PATH a symbolic link to the pty (a stable name)")
+    ap.add_argument("--quiet", action="store_true",
+                    help="--pty/--tcp: print only the path (pty path or tcp://HOST:PORT)")
     ap.add_argument("--history", metavar="FILE",
                     help="interactive: history file (default: in the user state directory)")
     observe.add_arguments(ap)
@@ -74,18 +96,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str]) -> int:
     args = build_parser().parse_args(list(argv))
-    problem = None
-    if args.max_time <= 0:
-        problem = "--max-time must be positive"
-    elif args.axes < 1:
+    serving = args.pty or args.tcp  # an endpoint reads its host, never stdin
+    if args.file is None and not serving and stdin_is_script():  # a pipe or a file: '-'
+        args.file = "-"
+    problem = arg_checks.number_problem(args)  # --max-time, --speed: finite, in range
+    if problem is None and args.axes < 1:
         problem = "--axes must be at least 1"
-    else:
+    elif problem is None and (args.pty or args.tcp) and args.file:
+        problem = msg.GCODE_CLI_ENDPOINT_FILE
+    elif problem is None:
         for text in args.set:
             if not text.strip().startswith("$") or "=" not in text:
                 problem = msg.GCODE_CLI_BAD_SET.format(text=text)
                 break
     if problem is None:
-        args.command = "" if args.file else None
+        args.command = "" if args.file or args.pty or args.tcp else None
         problem = observe.check_arguments(args)
     if problem is not None:
         print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
@@ -93,12 +118,14 @@ def main(argv: Sequence[str]) -> int:
     args.program = "gcode"
     args.program_options = {"axes": args.axes, "setup_lines": list(args.set)}
     args.firmware_end = False
+    if args.pty or args.tcp:
+        return run_endpoint(args)
     if args.file is None:
         from ..front.console import run_console
         return run_console(args)
     try:
         if args.file == "-":
-            text = sys.stdin.read()
+            text = read_stdin_script()
         else:
             with open(args.file, encoding="utf-8", errors="replace") as f:
                 text = f.read()
@@ -106,6 +133,105 @@ def main(argv: Sequence[str]) -> int:
         print(msg.CLI_ERROR.format(problem=f"{args.file}: {exc.strerror or exc}"),
               file=sys.stderr)
         return EXIT_USAGE
+    toml = scenario_program(args.file, text)
+    if toml is not None:
+        print(msg.CLI_ERROR.format(problem=toml), file=sys.stderr)
+        return EXIT_USAGE
     args.command = text
     from ..front.scripted import run_scripted
     return run_scripted(args, title=args.file)
+
+
+def scenario_program(path: str, text: str) -> str | None:
+    """A scenario file given as G-code (issue 26): the problem to say, else None."""
+    if not path.endswith(".toml"):
+        return None
+    import tomllib
+
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        return None
+    if not isinstance(data, dict) or "input" not in data and "input_file" not in data:
+        return None
+    program = ""
+    if isinstance(data.get("input_file"), str):
+        program = msg.GCODE_CLI_TOML_PROGRAM.format(
+            file=os.path.join(os.path.dirname(path), data["input_file"]))
+    return msg.GCODE_CLI_TOML.format(path=path, program=program)
+
+
+def run_endpoint(args: argparse.Namespace) -> int:
+    """``stepperdemo gcode --pty|--tcp``: serve senders until Ctrl-C."""
+    from fas.serial.stream import remove_link, set_link
+
+    from ..front.serial_cli import StopOnSignal
+    from ..program import make_program
+    from .endpoint import Endpoint, PtyPort, TcpPort, parse_tcp
+
+    backend = None
+    if args.port:
+        from fas.serial import SerialError
+        try:
+            backend = serial_cli.open_backend(args.port, args.baud, args.watchdog_ms,
+                                              getattr(args, "link_planning_ms", None))
+        except SerialError as exc:
+            print(msg.CLI_SERIAL_CONNECT.format(port=args.port, error=exc), file=sys.stderr)
+            return EXIT_USAGE
+    else:
+        from fas.sim import SimBackend
+        backend = SimBackend(args.arch)
+    try:
+        port = PtyPort() if args.pty else TcpPort(*parse_tcp(args.tcp))
+    except (ValueError, OSError) as exc:
+        print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+        return EXIT_USAGE
+    app = make_program("gcode", backend, scripted=False, **args.program_options)
+    observers = None
+    if not args.port and observe.wanted(args):
+        try:
+            observers = observe.from_arguments(backend, args, app.trace_signals())
+        except OSError as exc:
+            print(msg.CLI_ERROR.format(problem=exc), file=sys.stderr)
+            port.close()
+            return EXIT_USAGE
+        app.watch(observers)
+    if args.pty:
+        set_link(args.link, port.path)
+    events = None if args.quiet else (
+        lambda text: print(msg.GCODE_ENDPOINT_EVENT.format(event=text), flush=True))
+    endpoint = Endpoint(app, port, args.speed, device_clock=bool(args.port), events=events)
+    p = backend.profile
+    link = f" ({args.link})" if args.link and args.pty else ""
+    if args.quiet:
+        print(port.path, flush=True)
+    elif args.port:
+        print(msg.GCODE_ENDPOINT_DEVICE.format(path=port.path, link=link, port=args.port,
+                                               profile=p.name, axes=app.axes), flush=True)
+    else:
+        print(msg.GCODE_ENDPOINT_LISTENING.format(path=port.path, link=link, profile=p.name,
+                                                  title=p.title, axes=app.axes,
+                                                  speed=args.speed), flush=True)
+    stop = StopOnSignal()
+    try:
+        endpoint.serve(stop)
+    finally:
+        if args.pty:
+            remove_link(args.link, port.path)
+        port.close()
+        if args.port:
+            backend.close()
+    m = app.machine
+    if not args.quiet:
+        print(msg.GCODE_ENDPOINT_STATS.format(
+            hosts=endpoint.hosts, lines=m.lines, errors=m.errors, alarms=m.alarms,
+            rx=endpoint.rx_bytes, dropped=m.rx.dropped, high=m.rx.dropped_high,
+            tx=endpoint.tx_bytes, tx_dropped=endpoint.tx_dropped,
+            lag=endpoint.lagged / backend.profile.ticks_per_s))
+        print(msg.GCODE_ENDPOINT_POSITIONS.format(
+            mpos=",".join(f"{v:.3f}" for v in m.machine_position()), state=m.state_name()))
+    if observers is not None:
+        for line in observe.finish_arguments(observers, args, app, title="gcode endpoint"):
+            print(line)
+    sys.stdout.flush()
+    return 0

@@ -157,13 +157,13 @@ def axis_commands(times: Sequence[int], count_up: bool, tail: int,
                 yield w, 0, count_up
             cur += span
         else:
-            for cmd in _group(span, m, count_up, limits):
+            for cmd in group_commands(span, m, count_up, limits):
                 cur += cmd[0] * cmd[1]  # what the queue really does: the next group
                 yield cmd  # starts from there and makes up a rounding
         k += m
 
 
-def _group(span: int, m: int, count_up: bool,
+def group_commands(span: int, m: int, count_up: bool,
            limits: Limits) -> list[tuple[int, int, bool]]:
     """``m`` evenly spaced steps over ``span`` ticks: exactly as one command, or two whose
     periods differ by a tick (when both are long enough to be commands); else the

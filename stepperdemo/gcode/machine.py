@@ -1,36 +1,34 @@
-"""The G-code machine: lines in, ``ok``/``error:`` out, blocks executed in order.
+"""The G-code machine: Grbl 1.1's controller on the ``fas`` library, byte by byte.
 
-Shared by the ``stepperdemo gcode`` program and StepperDemo's ``g`` mode.  It owns
-no clock: its host calls :meth:`GcodeMachine.line` for every complete input line,
-:meth:`GcodeMachine.poll` whenever time has passed, and sleeps until
-:meth:`GcodeMachine.wake_tick`.
+Shared by the ``stepperdemo gcode`` program (file, console, the ``--pty``/``--tcp``
+endpoint) and StepperDemo's ``g`` mode.  It owns no clock: its host hands it the
+bytes a sender sent (:meth:`GcodeMachine.receive`, at the tick they arrive), calls
+:meth:`GcodeMachine.poll` whenever time has passed and sleeps until
+:meth:`GcodeMachine.wake_tick`.  Everything it prints goes to ``write`` a line at a
+time (the host adds the line end).
 
-* Every line is answered when it is taken: ``ok`` (parsed and queued) or
-  ``error: <reason>`` (nothing of it happens; the program goes on - Grbl's
-  convention, so that a sender streaming a file sees every mistake and decides).
-  Lines are taken only while the block queue has room (16 blocks, as Grbl's
-  planner): a sender waiting for ``ok`` before each line, or counting characters,
-  streams without overrunning it.
-* The block queue runs in order: a move starts when the previous move has finished
-  and every synchronized output before it has changed; a synchronized output (M62,
-  M63, M67) is handed to the library once the move before it is completely queued
-  (the library makes it when the steppers stop - :mod:`fas.sync`); a dwell (G4)
-  starts when everything before it is done.  Immediate outputs (M64, M65, M68)
-  happen when their line is taken.
-* A move is a straight line (:mod:`.line`): its axes start on the same tick, stay on
-  the line and make their last steps on the same tick; every move starts and ends
-  at rest (exact stop).
-* An abort (the console's Ctrl-C) stops every stepper at once, drops the queue and
-  the synchronized outputs not yet made, leaves the outputs as they are and locks
-  the machine (ALARM) until ``$X``.  Ctrl-X (soft reset) stops the same way,
-  switches every output off and resets the modal state.
+Grbl's structure, kept because senders depend on it:
+
+* **Receive path** (:mod:`.grbl_rx`): real-time bytes act on arrival, wherever they
+  are in a line; the rest goes into the 128-byte ring; lines are assembled from it
+  only while the parser is free.
+* **One line at a time.**  A line is parsed into actions (:mod:`.interp`) and
+  executed in order; it is answered ``ok`` when its last action is done - a move
+  when the block queue (15 blocks) had room for it, a synchronized output (M62, M63,
+  M67) when it has changed after all motion before it, a dwell (G4) when it has
+  passed after all motion before it, G92/M2 when the motion before them is done.
+  Until then no further line is read (the parser is "held", as in Grbl_ESP32), so
+  an immediate output (M64, M65, M68) can never overtake an earlier synchronized one.
+* **States** Idle, Run, Hold:0/1, Jog, Alarm, Check, Door:0/2, Sleep; feed hold,
+  resume, jog cancel and overrides go to the motion executor (:mod:`.motion`).
+* **Answers**: ``ok``; ``error:N`` and ``ALARM:N`` with Grbl's numbers
+  (:mod:`.codes`), the reason in a ``[MSG:...]`` line before them.
 """
 
 from __future__ import annotations
 
-import math
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 from fas.codes import PIN_UNDEFINED, AqeResult
 from fas.output_figures import output_figures
@@ -39,207 +37,442 @@ from fas.pwm import PwmSetting, count_percent, duty_count, frequency_range
 from fas.quickstep.setup import quickstep_of
 
 from .. import messages as msg
-from .interp import Action, Dwell, End, Interpreter, Move, SetOutput
-from .line import Limits, StepTimes, axis_commands, line_profile
-from .parser import AXES, GcodeError, parse_line, strip_comments
-from .settings import (
-    KEEP_ENABLED,
-    SETTING_HELP,
-    GcodeSettings,
-    axis_setting,
-    output_setting,
+from . import dollar as dollar_commands
+from . import reports
+from .codes import Alarm, Err
+from .exact_stop import ExactStopExecutor
+from .grbl_rx import (
+    DOOR,
+    FEED_100,
+    FEED_MINUS_1,
+    FEED_MINUS_10,
+    FEED_PLUS_1,
+    FEED_PLUS_10,
+    HOLD,
+    JOG_CANCEL,
+    RAPID_25,
+    RAPID_50,
+    RAPID_100,
+    RESET,
+    RESUME,
+    SPINDLE_100,
+    SPINDLE_MINUS_1,
+    SPINDLE_MINUS_10,
+    SPINDLE_PLUS_1,
+    SPINDLE_PLUS_10,
+    STATUS,
+    GrblReceiver,
+    RxLine,
 )
+from .interp import Action, Dwell, End, Interpreter, Move, Pause, SetOffset, SetOutput
+from .motion import BlockQueue, HoldState, MotionExecutor
+from .parser import AXES, GcodeError, parse_line
+from .settings import KEEP_ENABLED, GcodeSettings
 
-QUEUE_BLOCKS = 16  # blocks waiting (Grbl's planner buffer)
-RESET = 0x18  # Ctrl-X
-STATUS = "?"
-
-
-class AxisFeed:
-    """The queue commands of one axis of a move, fed into its stepper's queue."""
-
-    def __init__(self, stepper, commands: Iterator[tuple[int, int, bool]]) -> None:
-        self.stepper = stepper
-        self.commands = commands
-        self.next: tuple[int, int, bool] | None = next(commands, None)
-        self.entries = 0
-
-    @property
-    def fed(self) -> bool:
-        return self.next is None
-
-    def feed(self, start: bool) -> AqeResult | None:
-        """Add commands while the queue has room; the first error (None: all fine)."""
-        s = self.stepper
-        while self.next is not None and not s.is_queue_full():
-            ticks, steps, up = self.next
-            res = s.add_queue_entry(ticks, steps, up, start=start)
-            if res != AqeResult.OK:
-                return None if res.retry else res
-            self.entries += 1
-            self.next = next(self.commands, None)
-        return None
+OVERRIDE_MIN, OVERRIDE_MAX = 10, 200  # feed and spindle override, percent
+_FEED_STEPS = {FEED_PLUS_10: 10, FEED_MINUS_10: -10, FEED_PLUS_1: 1, FEED_MINUS_1: -1}
+_SPINDLE_STEPS = {SPINDLE_PLUS_10: 10, SPINDLE_MINUS_10: -10, SPINDLE_PLUS_1: 1,
+                  SPINDLE_MINUS_1: -1}
+_RAPID = {RAPID_100: 100, RAPID_50: 50, RAPID_25: 25}
 
 
-class MotionRun:
-    """One move in execution: per moving axis its commands and how far they are fed."""
+class LineRun:
+    """A line in execution: its actions, done in order; answered after the last."""
 
-    def __init__(self, machine: GcodeMachine, move: Move) -> None:
-        self.move = move
-        backend = machine.backend
-        profile = backend.profile
-        tps = profile.ticks_per_s
-        settings = machine.settings
-        deltas = [t - s for t, s in zip(move.target, move.start, strict=True)]
-        steppers = machine.steppers
-        rates, accels = [], []
-        for i in range(len(deltas)):
-            spu = settings.steps_per_unit[i]
-            top = tps / (steppers[i].get_max_speed_in_ticks() + 1)
-            rates.append(min(settings.max_rate[i] * spu / 60, top))
-            accels.append(settings.acceleration[i] * spu)
-        path_speed = None
-        if not move.rapid:
-            length = math.sqrt(sum((d / settings.steps_per_unit[i]) ** 2
-                                   for i, d in enumerate(deltas)))
-            path_speed = move.feed / 60 / length
-        self.profile = line_profile(deltas, rates, accels, path_speed)
-        lead = profile.min_cmd_ticks
-        if not machine.drivers_on:
-            lead = max([lead] + [steppers[i].get_delay_to_enable_ticks()
-                                 for i, d in enumerate(deltas) if d])
-        for i, d in enumerate(deltas):
-            if d:
-                lead = max(lead, steppers[i].get_dir_change_delay_ticks())
-        self.lead_ticks = lead
-        limits_of = machine.limits
-        # the last step of every axis is followed by the same wait: the queues run dry
-        # together (it must suit the slowest stepper's top speed)
-        tail = max([profile.min_cmd_ticks] + [steppers[i].get_max_speed_in_ticks()
-                                              for i, d in enumerate(deltas) if d])
-        self.axes = [
-            AxisFeed(steppers[i], axis_commands(StepTimes(self.profile, abs(d), lead, tps),
-                                                d > 0, tail, limits_of(i)))
-            for i, d in enumerate(deltas) if d]
-        self.started = False
-        self.start_tick: int | None = None
-        self.error: AqeResult | None = None
-
-    def begin(self) -> None:
-        """Fill every queue, then start them all on one tick."""
-        for axis in self.axes:
-            # after a force stop the queue ignores commands until a new motion is planned
-            # (the ramp generator clears this; raw commands must do it themselves)
-            axis.stepper.queue.ignore_commands = False
-            err = axis.feed(start=False)
-            self.error = self.error or err
-        for axis in self.axes:
-            axis.stepper.add_queue_entry(None, start=True)
-        self.started = True
-
-    def feed(self) -> None:
-        for axis in self.axes:
-            if not axis.fed:
-                err = axis.feed(start=True)
-                self.error = self.error or err
-
-    @property
-    def fed(self) -> bool:
-        return self.error is not None or all(a.fed for a in self.axes)
-
-    def done(self) -> bool:
-        return self.fed and not any(a.stepper.is_running() for a in self.axes)
+    def __init__(self, text: str, actions: list[Action], echo: bool = False) -> None:
+        self.text = text
+        self.actions = actions
+        self.index = 0
+        self.echo = echo  # a startup line: answered '>LINE:ok'
+        self.handed = False  # the synchronized output of the current action is with fas
+        self.dwell_until: int | None = None
+        self.dwell_left: int | None = None  # a dwell paused by a feed hold
 
 
 class GcodeMachine:
-    """Interpreter, block queue and motion of the G-code program (see module text)."""
+    """Grbl's controller on the library's steppers (see the module text)."""
 
     def __init__(self, engine, steppers: list, write: Callable[[str], None],
-                 settings: GcodeSettings | None = None) -> None:
+                 settings: GcodeSettings | None = None, *, identity: str = "") -> None:
         self.engine = engine
         self.backend = engine.backend
         self.steppers = steppers
         self.axes = len(steppers)
         self.write = write
         self.settings = settings or GcodeSettings()
+        self.identity = identity or f"stepperdemo {msg.VERSION} {self.backend.profile.name}"
+        self.rx = GrblReceiver()
+        self.blocks = BlockQueue()
+        self.executor: MotionExecutor = ExactStopExecutor(self, self.blocks)
         self.interp = Interpreter(self.axes, self.settings, check=self._check)
-        self.queue: deque[Action] = deque()
-        self.motion: MotionRun | None = None
-        self.dwell_until: int | None = None
-        self.alarm = False
+        self.schedule = reports.ReportSchedule()
+        self.alarm: int | None = None
+        self.check_mode = False
+        self.sleeping = False
+        self.hold = False  # a feed hold (or M0) is in effect
+        self.paused = False  # ... made by M0
+        self.door = False
+        self.jog_cancel = False
+        self.pending: LineRun | None = None
+        self.startup_queue: deque[str] = deque()
+        self.feed_override = self.rapid_override = self.spindle_override = 100
+        self.wco: tuple[float, ...] = (0.0,) * self.axes
         self.drivers_on = False
         self.idle_since: int | None = None
+        #: a host's own lines (StepperDemo's ``x``): called with the filtered line,
+        #: True when it took it
+        self.intercept: Callable[[str], bool] | None = None
+        self.input_held = False  # the host reads no more lines (leaving the g mode)
         self.lines = 0
         self.errors = 0
-        self.moves = 0
+        self.alarms = 0
+        self.resets = 0
         self.ends = 0
         self.last_error = ""
-        self.motion_log: list[tuple[int, int]] = []  # (start tick, lead ticks) per move
-        self.interp.sync_position(self._positions())
+        outputs = engine.outputs
+        self._output_defaults = ([outputs.digital_pin(n) for n in range(4)],
+                                 [outputs.analog_pin(n) for n in range(4)],
+                                 [outputs.frequency_hz(n) for n in range(4)])
+        self.interp.sync_position(self.positions())
 
-    # ----------------------------------------------------------- facts
-    def limits(self, axis: int) -> Limits:
-        p = self.backend.profile
-        return Limits(p.ticks_per_s, p.min_cmd_ticks,
-                      self.steppers[axis].get_max_speed_in_ticks(),
-                      max(2 * p.min_cmd_ticks, p.ticks_per_s // 500))
-
-    def _positions(self) -> list[int]:
+    # ----------------------------------------------------------------- facts
+    def positions(self) -> list[int]:
         return [s.get_current_position() for s in self.steppers]
 
-    def idle(self) -> bool:
-        """Nothing queued, moving, dwelling or waiting for an output."""
-        return (not self.queue and self.motion is None and self.dwell_until is None
-                and not self.engine.sync.active())
+    def machine_position(self) -> list[float]:
+        return [p / self.settings.steps_per_unit[i] for i, p in enumerate(self.positions())]
 
-    def can_take_line(self) -> bool:
-        return len(self.queue) < QUEUE_BLOCKS
+    @property
+    def queue(self) -> BlockQueue:
+        return self.blocks
+
+    @property
+    def motion_log(self) -> list[tuple[int, int]]:
+        """(start tick, lead ticks) of every run of the executor."""
+        return getattr(self.executor, "runs", [])
+
+    def jogging(self) -> bool:
+        cur = self.executor.current()
+        return (cur is not None and cur.jog) or any(b.jog for b in self.blocks) or (
+            self.pending is not None and any(isinstance(a, Move) and a.jog
+                                             for a in self.pending.actions))
 
     def state_name(self) -> str:
-        if self.alarm:
+        if self.sleeping:
+            return "Sleep"
+        if self.alarm is not None:
             return "Alarm"
-        return "Idle" if self.idle() else "Run"
+        held = self.executor.hold_state() == HoldState.HELD
+        if self.door:
+            return "Door:0" if held else "Door:2"
+        if self.jog_cancel:
+            return "Jog"
+        if self.hold:
+            return "Hold:0" if held else "Hold:1"
+        if self.jogging():
+            return "Jog"
+        if self.check_mode:
+            return "Check"
+        if self.executor.busy():
+            return "Run"
+        return "Idle"
 
-    # ----------------------------------------------------------- input
-    def realtime(self, ch: str) -> bool:
-        """A real-time character (handled on arrival, not a line); True if it was one."""
-        if ch == STATUS:
-            self.write(self.status_report())
-            return True
-        if ord(ch) == RESET:
+    def idle(self) -> bool:
+        """Nothing to do: no line in execution or waiting, nothing moving or queued."""
+        return (self.pending is None and not self.executor.busy()
+                and (self.input_held or not self.rx.pending) and not self.startup_queue
+                and not self.engine.sync.active() and not self.executor.moving())
+
+    def can_take_line(self) -> bool:
+        """Would the parser read a line now (a file is fed a line at a time)?"""
+        return self.pending is None and self._reading() and not self.rx.pending
+
+    def can_read(self) -> bool:
+        """Would the parser read a line now (not held, no line in execution)?"""
+        return self.pending is None and self._reading()
+
+    def _reading(self) -> bool:
+        return not (self.hold or self.door or self.sleeping or self.jog_cancel
+                    or self.input_held)
+
+    # ----------------------------------------------------------------- input
+    def receive(self, data: bytes) -> None:
+        """Bytes from the host, arriving now: real-time commands act at once (one
+        status report for any number of ``?`` among them), the rest is buffered."""
+        reported = False
+        for byte in self.rx.receive(data):
+            if byte == STATUS:
+                if not reported:
+                    self.write(reports.status_report(self))
+                    reported = True
+            else:
+                self.realtime(byte)
+
+    def realtime(self, byte: int) -> None:
+        """One real-time command (Grbl 1.1's table)."""
+        if byte == STATUS:
+            self.write(reports.status_report(self))
+        elif byte == RESET:
             self.soft_reset()
-            return True
-        return False
+        elif byte == HOLD:
+            self.feed_hold()
+        elif byte == RESUME:
+            self.cycle_start()
+        elif byte == DOOR:
+            self.safety_door()
+        elif byte == JOG_CANCEL:
+            if self.state_name() == "Jog" and not self.jog_cancel:
+                self._cancel_jog()
+        elif byte == FEED_100 or byte in _FEED_STEPS:
+            value = 100 if byte == FEED_100 else self.feed_override + _FEED_STEPS[byte]
+            self._set_overrides(feed=min(OVERRIDE_MAX, max(OVERRIDE_MIN, value)))
+        elif byte in _RAPID:
+            self._set_overrides(rapid=_RAPID[byte])
+        elif byte == SPINDLE_100 or byte in _SPINDLE_STEPS:
+            value = 100 if byte == SPINDLE_100 else (self.spindle_override
+                                                      + _SPINDLE_STEPS[byte])
+            self._set_overrides(spindle=min(OVERRIDE_MAX, max(OVERRIDE_MIN, value)))
+        # 0x9E spindle stop, 0xA0/0xA1 coolant toggles: no spindle or coolant yet
+
+    def feed_hold(self) -> None:
+        """``!``: decelerate along the path and stop (Hold:1 -> Hold:0); a jog is
+        cancelled instead."""
+        state = self.state_name()
+        if state == "Jog":
+            if not self.jog_cancel:
+                self._cancel_jog()
+            return
+        if state not in ("Idle", "Run"):
+            return
+        self.hold = True
+        self.executor.hold()
+        self._pause_dwell()
+
+    def cycle_start(self) -> None:
+        """``~``: resume from Hold:0 or Door:0 (a ``~`` while still decelerating is
+        lost, as in Grbl)."""
+        if not (self.hold or self.door) or self.executor.hold_state() != HoldState.HELD:
+            return
+        self.hold = self.paused = self.door = False
+        self.executor.resume()
+        run = self.pending
+        if run is not None and run.dwell_left is not None:
+            run.dwell_until = self.backend.now() + run.dwell_left
+            run.dwell_left = None
+
+    def safety_door(self) -> None:
+        """0x84: as a feed hold, until ``~`` (this machine has no door switch: the door
+        reads closed once the motion has stopped)."""
+        state = self.state_name()
+        if state not in ("Idle", "Run", "Jog") and not state.startswith("Hold"):
+            return
+        self.write(msg.GRBL_CHECK_DOOR)
+        if state == "Jog":
+            self._cancel_jog()
+        else:
+            self.executor.hold()
+            self._pause_dwell()
+        self.hold = self.paused = False
+        self.door = True
+
+    def _pause_dwell(self) -> None:
+        run = self.pending
+        if run is not None and run.dwell_until is not None:
+            run.dwell_left = max(0, run.dwell_until - self.backend.now())
+            run.dwell_until = None
+
+    def _cancel_jog(self) -> None:
+        self.jog_cancel = True
+        self.executor.hold()
+
+    def _finish_jog_cancel(self) -> None:
+        """The jog has stopped: drop the rest of it and every jog queued after it."""
+        self.jog_cancel = False
+        self.executor.discard()
+        self.blocks.clear()
+        self.executor.resume()
+        if self.pending is not None and any(isinstance(a, Move) and a.jog
+                                            for a in self.pending.actions):
+            self.pending = None  # a jog line waiting for room: flushed with the rest
+            self.write(msg.GCODE_OK)
+        self.interp.sync_position(self.positions())
+        if self.door:  # the door came during the jog: resuming means Idle
+            self.executor.hold()
+
+    def _set_overrides(self, feed: int | None = None, rapid: int | None = None,
+                       spindle: int | None = None) -> None:
+        old = (self.feed_override, self.rapid_override, self.spindle_override)
+        self.feed_override = old[0] if feed is None else feed
+        self.rapid_override = old[1] if rapid is None else rapid
+        self.spindle_override = old[2] if spindle is None else spindle
+        if (self.feed_override, self.rapid_override, self.spindle_override) != old:
+            self.schedule.overrides_changed()
+            self.executor.set_overrides(self.feed_override, self.rapid_override)
+
+    # ----------------------------------------------------------------- lines
+    def poll(self) -> None:
+        """Everything that is due now: motion, the line in execution, new lines."""
+        now = self.backend.now()
+        self.executor.poll()
+        if self.jog_cancel and self.executor.hold_state() == HoldState.HELD:
+            self._finish_jog_cancel()
+        while True:
+            if self.pending is not None:
+                if not self._advance(self.pending, now):
+                    break
+                self.pending = None
+            if not self._reading():
+                break
+            if self.startup_queue:
+                self._startup(self.startup_queue.popleft())
+                continue
+            line = self.rx.take_line()
+            if line is None:
+                break
+            self._line(line, now)
+        self._idle_drivers(now)
 
     def line(self, text: str) -> None:
-        """One complete input line: answered ``ok`` or ``error: <reason>``."""
+        """A whole line as if received (tests, ``--set``): fed through the receive path."""
+        self.receive(text.encode("utf-8", "replace") + b"\n")
+        self.poll()
+
+    def _line(self, line: RxLine, now: int) -> None:
         self.lines += 1
-        stripped = text.strip()
+        text = line.text
         try:
-            if stripped.startswith("$"):
-                self._dollar(strip_comments(stripped).strip())
-            else:
-                block = parse_line(text)
-                if self.alarm and not block.empty:
-                    raise GcodeError(msg.GCODE_ERR_ALARM)
-                for action in self.interp.interpret(block):
-                    self._accept(action)
+            if line.overflow:
+                raise GcodeError(Err.OVERFLOW, msg.GCODE_ERR_LONG.format(n=self.rx.line_max))
+            if self.intercept is not None and self.intercept(text):
+                return
+            if text == "":
+                self.write(msg.GCODE_OK)
+                return
+            if text[0] == "$":
+                outcome = dollar_commands.dollar(self, text)
+                if isinstance(outcome, list):
+                    self._begin(LineRun(text, outcome), now)
+                    return
+                self.write(msg.GCODE_OK)
+                if outcome is not None:
+                    outcome()
+                return
+            self._begin(LineRun(text, self._gcode(text)), now)
         except GcodeError as exc:
-            self.errors += 1
-            self.last_error = str(exc)
-            self.write(msg.GCODE_ERROR.format(reason=exc))
-            return
-        self.write(msg.GCODE_OK)
+            self._refuse(exc)
 
-    def _accept(self, action: Action) -> None:
-        if isinstance(action, SetOutput) and not action.synchronized:
-            self._output(action)  # M64/M65/M68: at once
-            return
+    def _gcode(self, text: str) -> list[Action]:
+        state = self.state_name()
+        if state == "Alarm":
+            raise GcodeError(Err.SYSTEM_GC_LOCK, msg.GCODE_ERR_ALARM)
+        if state == "Jog":
+            raise GcodeError(Err.SYSTEM_GC_LOCK, msg.GCODE_ERR_JOGGING)
+        return self.interp.interpret(parse_line(text))
+
+    def check_line(self, text: str) -> None:
+        """Raise the error a G-code line would get, changing nothing (``$Nx=``)."""
+        saved = dict(self.interp.__dict__)
+        saved["position_steps"] = list(self.interp.position_steps)
+        saved["offset"] = list(self.interp.offset)
+        try:
+            if text.startswith("$"):
+                raise GcodeError(Err.INVALID_STATEMENT, msg.GCODE_ERR_STARTUP_DOLLAR)
+            self.interp.interpret(parse_line(text))
+        finally:
+            self.interp.__dict__.update(saved)
+
+    def _startup(self, text: str) -> None:
+        """A ``$N`` line after a reset, answered ``>LINE:ok`` (not counted as an ack)."""
+        try:
+            self._begin(LineRun(text, self._gcode(text), echo=True), self.backend.now())
+        except GcodeError as exc:
+            self._refuse(exc, echo=text)
+
+    def _begin(self, run: LineRun, now: int) -> None:
+        self.pending = run
+        if self._advance(run, now):
+            self.pending = None
+
+    def _advance(self, run: LineRun, now: int) -> bool:
+        """Do what is due of the line's actions; True when it is answered."""
+        if self.hold or self.door or self.sleeping:
+            return False  # a hold holds the line being executed too
+        try:
+            while run.index < len(run.actions):
+                if not self._execute(run.actions[run.index], run, now):
+                    return False
+                run.index += 1
+                run.handed = False
+        except GcodeError as exc:
+            self._refuse(exc, echo=run.text if run.echo else None)
+            return True
+        self.write(f">{run.text}:{msg.GCODE_OK}" if run.echo else msg.GCODE_OK)
+        return True
+
+    def _execute(self, action: Action, run: LineRun, now: int) -> bool:
+        """One action; False while it waits (for queue room, the motion before it, time)."""
+        ex = self.executor
+        if self.check_mode:  # parsed and answered; only the parser's state moves on
+            if isinstance(action, SetOffset):
+                self._apply_offset(action)
+            elif isinstance(action, End):
+                self._program_end()
+            return True
+        if isinstance(action, Move):
+            if not self.blocks.room:
+                return False
+            self.blocks.push(action)
+            self.idle_since = None
+            ex.poll()
+            return True
         if isinstance(action, SetOutput):
-            self._report_duty(action)
-        self.queue.append(action)
-        self.idle_since = None
+            if not action.synchronized:
+                self._output(action)
+                return True
+            if not run.handed:
+                if not ex.committed():
+                    return False  # the motion before it is not all in the queues yet
+                self._output(action)  # the library makes it when the queues run dry
+                run.handed = True
+            return not self.engine.sync.active()
+        if isinstance(action, Dwell):
+            if run.dwell_until is None and run.dwell_left is None:
+                if ex.busy() or ex.moving():
+                    return False
+                run.dwell_until = now + int(action.seconds * self.backend.profile.ticks_per_s)
+            return run.dwell_until is not None and now >= run.dwell_until
+        if ex.busy() or ex.moving():  # G92, M0, M2: after the motion before them
+            return False
+        if isinstance(action, SetOffset):
+            self._apply_offset(action)
+        elif isinstance(action, Pause):
+            self.hold = self.paused = True
+            ex.hold()
+        elif isinstance(action, End):
+            self._program_end()
+        return True
 
+    def _apply_offset(self, action: SetOffset) -> None:
+        if action.offset != self.wco:
+            self.wco = action.offset
+            self.schedule.offsets_changed()
+
+    def _program_end(self) -> None:
+        self.ends += 1
+        self._set_overrides(100, 100, 100)
+        self.write(msg.GRBL_PGM_END)
+
+    def _refuse(self, exc: GcodeError, echo: str | None = None) -> None:
+        self.errors += 1
+        self.last_error = str(exc)
+        if str(exc):
+            self.write(msg.GRBL_MSG.format(text=exc))
+        if echo is not None:
+            self.write(f">{echo}:" + msg.GRBL_ERROR.format(code=exc.code))
+        else:
+            self.write(msg.GRBL_ERROR.format(code=exc.code))
+
+    # ------------------------------------------------------------- checks
     def _check(self, action: Action) -> None:
         """Refuse a block before it changes anything (called by the interpreter)."""
         if isinstance(action, SetOutput):
@@ -247,13 +480,13 @@ class GcodeMachine:
             name = f"{'Aout' if action.analog else 'Dout'}{action.number}"
             pin = (outputs.analog_pin if action.analog else outputs.digital_pin)(action.number)
             if pin == PIN_UNDEFINED:
-                raise GcodeError(msg.GCODE_ERR_NO_OUTPUT_PIN.format(
+                raise GcodeError(Err.PARAMETER_OUT_OF_RANGE, msg.GCODE_ERR_NO_OUTPUT_PIN.format(
                     name=name, profile=self.backend.profile.name,
                     setting=(160 if action.analog else 150) + action.number))
             used = outputs.pin_user(pin)
             if used is not None and used != name:
-                raise GcodeError(msg.GCODE_ERR_OUTPUT_PIN_USED.format(name=name, pin=pin,
-                                                                     user=used))
+                raise GcodeError(Err.PARAMETER_OUT_OF_RANGE, msg.GCODE_ERR_OUTPUT_PIN_USED.format(
+                    name=name, pin=pin, user=used))
         elif isinstance(action, Move):
             self._check_directions(action)
 
@@ -266,16 +499,18 @@ class GcodeMachine:
                 continue
             stepper = self.steppers[i]
             if quickstep_of(stepper) is not None:
-                raise GcodeError(msg.GCODE_ERR_QUICKSTEP_AXIS.format(letter=AXES[i]))
+                raise GcodeError(Err.INVALID_TARGET,
+                                 msg.GCODE_ERR_QUICKSTEP_AXIS.format(letter=AXES[i]))
             pin = stepper.get_direction_pin()
             if pin == PIN_UNDEFINED:
                 if t < s:
-                    raise GcodeError(msg.GCODE_ERR_NO_DIR_PIN.format(letter=AXES[i]))
+                    raise GcodeError(Err.INVALID_TARGET,
+                                     msg.GCODE_ERR_NO_DIR_PIN.format(letter=AXES[i]))
                 continue
             level = (t > s) == stepper.direction_pin_high_counts_up()
             other = seen.get(pin)
             if other is not None and other[1] != level:
-                raise GcodeError(msg.GCODE_ERR_SHARED_DIR.format(
+                raise GcodeError(Err.INVALID_TARGET, msg.GCODE_ERR_SHARED_DIR.format(
                     a=AXES[other[0]], b=AXES[i], pin=pin))
             seen[pin] = (i, level)
 
@@ -287,24 +522,23 @@ class GcodeMachine:
         else:
             res = outputs.digital(action.number, bool(action.value), action.synchronized)
         if res != OutputResult.OK:
-            raise GcodeError(self._output_problem(res, action.analog, action.number))
-        if action.analog and not action.synchronized:
+            raise GcodeError(Err.PARAMETER_OUT_OF_RANGE,
+                             self.output_problem(res, action.analog, action.number))
+        if action.analog:
             self._report_duty(action)
 
     def _report_duty(self, action: SetOutput) -> None:
         """M67/M68: the duty the timer really makes (the nearest count)."""
-        if not action.analog:
-            return
         setting = self.engine.outputs.frequency_setting(action.number)
-        if not isinstance(setting, PwmSetting):
+        if not isinstance(setting, PwmSetting):  # pragma: no cover - checked before
             return
         count = duty_count(setting.counts, action.value)
         self.write(msg.GCODE_DUTY.format(
             number=action.number, duty=count_percent(count, setting.counts), count=count,
             counts=setting.counts, hz=setting.frequency_hz))
 
-    def _output_problem(self, res: OutputResult, analog: bool, number: int,
-                        hz: float | None = None, pin: int | None = None) -> str:
+    def output_problem(self, res: OutputResult, analog: bool, number: int,
+                       hz: float | None = None, pin: int | None = None) -> str:
         outputs = self.engine.outputs
         name = f"{'Aout' if analog else 'Dout'}{number}"
         if pin is None:
@@ -330,65 +564,20 @@ class GcodeMachine:
             return msg.GCODE_ERR_TIMER_QUICKSTEP.format(name=name, timer=outputs.timer_name(number))
         return msg.GCODE_ERR_OUTPUT.format(name=name, code=res.name)
 
-    # ----------------------------------------------------------- execution
-    def poll(self) -> None:
-        """Feed the running move and start what the block queue allows, now."""
-        now = self.backend.now()
-        while True:
-            if self.motion is not None:
-                self.motion.feed()
-                if self.motion.error is not None:
-                    self._motion_failed(self.motion.error)
-                elif self.motion.done():
-                    self.motion = None
-            if self.dwell_until is not None:
-                if now < self.dwell_until:
-                    break
-                self.dwell_until = None
-            if not self.queue or not self._start(self.queue[0], now):
-                break
-            self.queue.popleft()
-        self._idle_drivers(now)
+    def restore_settings(self, startup: bool) -> None:
+        """``$RST=$`` / ``$RST=*``: the settings and the output pins as at the start."""
+        dollar_commands.restore_defaults(self.settings, startup)
+        outputs = self.engine.outputs
+        digital, analog, hz = self._output_defaults
+        for n in range(4):
+            outputs.set_digital_pin(n, digital[n])
+            outputs.set_analog_pin(n, analog[n])
+            outputs.set_frequency(n, hz[n])
+        self.interp.sync_position(self.positions())
 
-    def _start(self, head: Action, now: int) -> bool:
-        """Start the block at the head of the queue if its turn has come."""
-        busy = self.motion is not None or self.engine.sync.active()
-        if isinstance(head, SetOutput):
-            if self.motion is not None and not self.motion.fed:
-                return False
-            try:
-                self._output(head)
-            except GcodeError as exc:  # the pin was taken since the line was accepted
-                self.errors += 1
-                self.write(msg.GCODE_ERROR.format(reason=exc))
-            return True
-        if busy:
-            return False
-        if isinstance(head, Move):
-            self._enable_drivers()
-            run = MotionRun(self, head)
-            run.start_tick = now
-            run.begin()
-            self.motion_log.append((now, run.lead_ticks))
-            self.motion = run
-            self.moves += 1
-            if run.error is not None:
-                self._motion_failed(run.error)
-            return True
-        if isinstance(head, Dwell):
-            self.dwell_until = now + int(head.seconds * self.backend.profile.ticks_per_s)
-            return True
-        if isinstance(head, End):
-            self.ends += 1
-            return True
-        return True  # pragma: no cover - every action is one of the above
-
-    def _motion_failed(self, res: AqeResult) -> None:
-        """The library refused a command (a bug or a limit not checked): abort."""
-        self.write(msg.GCODE_MOTION_FAILED.format(code=res.name))
-        self.abort()
-
-    def _enable_drivers(self) -> None:
+    # ------------------------------------------------------------ drivers
+    def enable_drivers(self) -> None:
+        """Before a block starts (the executor asks)."""
         if not self.drivers_on:
             for s in self.steppers:
                 s.set_auto_enable(False)
@@ -396,168 +585,144 @@ class GcodeMachine:
             self.drivers_on = True
         self.idle_since = None
 
+    def _disable_drivers(self) -> None:
+        for s in self.steppers:
+            s.disable_outputs()
+        self.drivers_on = False
+        self.idle_since = None
+
     def _idle_drivers(self, now: int) -> None:
         delay = self.settings.idle_delay_ms
-        if not self.drivers_on or delay == KEEP_ENABLED or not self.idle():
+        if not self.drivers_on or delay == KEEP_ENABLED or self.executor.moving() or (
+                self.executor.busy() and not self.hold and not self.door):
             self.idle_since = None
             return
         if self.idle_since is None:
             self.idle_since = now
         if now - self.idle_since >= delay * self.backend.profile.ticks_per_ms:
-            for s in self.steppers:
-                s.disable_outputs()
-            self.drivers_on = False
-            self.idle_since = None
+            self._disable_drivers()
 
     def wake_tick(self) -> int | None:
         """When :meth:`poll` next has something to do (None: only input)."""
         b = self.backend
+        now = b.now()
         times = []
-        if self.motion is not None or self.engine.sync.active() or (
-                self.queue and self.dwell_until is None):
-            nxt = b.next_event_time()
-            times.append(b.now() + b.profile.fill_period_ticks if nxt is None else nxt)
-        if self.dwell_until is not None:
-            times.append(self.dwell_until)
-        if self.idle_since is not None:
-            times.append(self.idle_since + self.settings.idle_delay_ms * b.profile.ticks_per_ms)
-        elif self.drivers_on and self.settings.idle_delay_ms != KEEP_ENABLED and self.idle():
-            times.append(b.now())
-        return max(min(times), b.now()) if times else None
+        wake = self.executor.wake_tick()
+        if wake is not None:
+            times.append(wake)
+        run = self.pending
+        if run is not None and not (self.hold or self.door):
+            if run.dwell_until is not None:
+                times.append(run.dwell_until)
+            if run.handed or self.engine.sync.active():
+                nxt = b.next_event_time()
+                times.append(now + b.profile.fill_period_ticks if nxt is None else nxt)
+        if self.jog_cancel and self.executor.hold_state() == HoldState.HELD:
+            times.append(now)
+        if self._reading() and run is None and (self.rx.pending or self.startup_queue):
+            times.append(now)
+        if self.drivers_on and self.settings.idle_delay_ms != KEEP_ENABLED:
+            if self.idle_since is not None:
+                times.append(self.idle_since + self.settings.idle_delay_ms
+                             * b.profile.ticks_per_ms)
+            elif not self.executor.moving():
+                times.append(now)
+        return max(min(times), now) if times else None
 
     # ------------------------------------------------------- stop and reset
-    def abort(self) -> None:
-        """Alarm: stop at once, drop the queue and pending synchronized outputs."""
-        for s in self.steppers:
-            s.force_stop_and_new_position(s.get_current_position())
-        self.engine.outputs.cancel_pending()
-        had_work = not self.idle()
-        self._flush()
-        if had_work or self.motion_log:
-            self.alarm = True
-            self.write(msg.GCODE_ALARM_ABORT)
+    def _clear(self) -> None:
+        """Forget every line and block not yet done (the motion is stopped already)."""
+        self.blocks.clear()
+        self.rx.reset()
+        self.pending = None
+        self.startup_queue.clear()
+        self.hold = self.paused = self.door = self.jog_cancel = False
+        self.interp.sync_position(self.positions())
 
-    def _flush(self) -> None:
-        self.queue.clear()
-        self.motion = None
-        self.dwell_until = None
-        self.interp.sync_position(self._positions())
+    def _raise_alarm(self, code: int, reason: str) -> None:
+        self.alarm = code
+        self.alarms += 1
+        self.write(msg.GRBL_MSG.format(text=reason))
+        self.write(msg.GRBL_ALARM.format(code=code))
+
+    def abort(self) -> None:
+        """The console's Ctrl-C (an emergency stop): every axis stops at once, the
+        queue and the synchronized outputs not yet made are dropped, the outputs keep
+        their state; ALARM:3 (locked until ``$X``) when anything was under way."""
+        busy = self.executor.busy() or self.executor.moving() or self.pending is not None
+        self.executor.abort()
+        self.engine.outputs.cancel_pending()
+        self._clear()
+        if busy:
+            self._raise_alarm(Alarm.ABORT_CYCLE, msg.GRBL_ABORTED)
+        elif self.sleeping:  # as a reset would: awake, in alarm (position not trusted)
+            self.sleeping = False
+            self.alarm = self.alarm or Alarm.ABORT_CYCLE
+            self.write(msg.GRBL_UNLOCK_HINT)
+
+    def motion_failed(self, result: AqeResult) -> None:
+        """The library refused a queue command (a limit not checked): every axis stops,
+        ALARM:3 (the position is not trusted) until ``$X``."""
+        self.executor.abort()
+        self.engine.outputs.cancel_pending()
+        self._clear()
+        self._raise_alarm(Alarm.ABORT_CYCLE, msg.GCODE_MOTION_FAILED.format(code=result.name))
+
+    def unlock(self) -> None:
+        self.alarm = None
+        self.write(msg.GRBL_UNLOCKED)
+
+    def sleep(self) -> None:
+        """``$SLP`` (after its ``ok``): drivers off; only a reset leaves (into Alarm)."""
+        self._disable_drivers()
+        self.sleeping = True
+        self.write(msg.GRBL_SLEEPING)
 
     def soft_reset(self) -> None:
-        """Ctrl-X: stop at once, every output off, modal state as at power-on."""
-        for s in self.steppers:
-            s.force_stop_and_new_position(s.get_current_position())
+        """Ctrl-X: stop at once (ALARM:3 if anything was moving - the position is lost),
+        every output off, everything received and queued dropped, the parser and the
+        overrides as at power-on; the machine position is kept."""
+        moving = self.executor.moving() or self.executor.hold_state() == HoldState.STOPPING
+        self.executor.abort()
         self.engine.outputs.reset()
-        self._flush()
+        self._clear()
+        self._reset_state()
+        if self.sleeping:
+            self.sleeping = False
+            self.alarm = self.alarm or Alarm.ABORT_CYCLE  # position not trusted after sleep
+        if moving:
+            self._raise_alarm(Alarm.ABORT_CYCLE, msg.GRBL_RESET_MOVING)
+        self._banner()
+
+    def power_on(self) -> None:
+        """A host opened the port (an Arduino's DTR reset): as at power-on - stopped,
+        outputs off, machine position 0, drivers off; settings and ``$N`` lines kept."""
+        self.executor.abort()
+        self.engine.outputs.reset()
+        for s in self.steppers:
+            s.force_stop_and_new_position(0)
+        if self.drivers_on:
+            self._disable_drivers()
+        self._clear()
+        self._reset_state()
+        self.sleeping = False
+        self.alarm = None
+        self._banner()
+
+    def _reset_state(self) -> None:
         self.interp.reset()
-        self.alarm = False
+        self.interp.sync_position(self.positions())
+        self.wco = (0.0,) * self.axes
+        self.check_mode = False
+        self.feed_override = self.rapid_override = self.spindle_override = 100
+        self.executor.set_overrides(100, 100)
+        self.schedule.reset()
+        self.resets += 1
+
+    def _banner(self) -> None:
+        self.write("")
         self.write(msg.GCODE_BANNER)
-
-    # ------------------------------------------------------------ reports
-    def status_report(self) -> str:
-        """Grbl's ``?`` answer, with the user outputs added."""
-        pos = [s.get_current_position() / self.settings.steps_per_unit[i]
-               for i, s in enumerate(self.steppers)]
-        outputs = self.engine.outputs
-        dout = "".join(str(outputs.digital_applied(n)) for n in range(4))
-        aout = ",".join(f"{outputs.analog_applied(n)[0]:.2f}" for n in range(4))
-        feed = self.interp.feed or 0
-        wco = ""
-        if any(self.interp.offset):
-            wco = "|WCO:" + ",".join(f"{o:.3f}" for o in self.interp.offset)
-        return msg.GCODE_STATUS.format(state=self.state_name(),
-                                       pos=",".join(f"{p:.3f}" for p in pos),
-                                       feed=f"{feed:g}", wco=wco, dout=dout, aout=aout)
-
-    # ----------------------------------------------------------- $ commands
-    def _dollar(self, text: str) -> None:
-        body = "".join(text[1:].split()).upper()
-        if body == "":
-            self.write(msg.GCODE_HELP)
-            return
-        if body == "$":
-            for line in self.settings_lines():
-                self.write(line)
-            return
-        if body == "X":
-            if self.alarm:
-                self.alarm = False
-                self.write(msg.GCODE_UNLOCKED)
-            return
-        if body == "G":
-            self.write(msg.GCODE_MODES.format(
-                motion=self.interp.motion, distance=90 if self.interp.absolute else 91,
-                feed=f"{self.interp.feed or 0:g}"))
-            return
-        number, eq, value = body.partition("=")
-        if not eq or not number.isdigit():
-            raise GcodeError(msg.GCODE_ERR_DOLLAR.format(text=text))
-        try:
-            v = float(value)
-        except ValueError:
-            raise GcodeError(msg.GCODE_ERR_SETTING_VALUE.format(text=value or "?")) from None
-        if not math.isfinite(v):
-            raise GcodeError(msg.GCODE_ERR_SETTING_VALUE.format(text=value))
-        if not self.idle():
-            raise GcodeError(msg.GCODE_ERR_NOT_IDLE)
-        self.set_setting(int(number), v)
-
-    def set_setting(self, number: int, value: float) -> None:
-        """``$number=value`` (raises :class:`GcodeError`)."""
-        st = self.settings
-        if number == 1:
-            if value != int(value) or not 0 <= value <= 255:
-                raise GcodeError(msg.GCODE_ERR_SETTING_RANGE.format(n=number, range="0..255"))
-            st.idle_delay_ms = int(value)
-            return
-        axis = axis_setting(number)
-        if axis is not None:
-            base, i = axis
-            if i >= self.axes:
-                raise GcodeError(msg.GCODE_ERR_NO_SETTING.format(n=number))
-            if value <= 0:
-                raise GcodeError(msg.GCODE_ERR_SETTING_RANGE.format(n=number, range="> 0"))
-            target = {100: st.steps_per_unit, 110: st.max_rate, 120: st.acceleration}[base]
-            target[i] = value
-            if base == 100:
-                self.interp.sync_position(self._positions())
-            return
-        out = output_setting(number)
-        if out is None:
-            raise GcodeError(msg.GCODE_ERR_NO_SETTING.format(n=number))
-        base, n = out
-        outputs = self.engine.outputs
-        if base == 140:
-            res = outputs.set_frequency(n, value)
-            if res != OutputResult.OK:
-                raise GcodeError(self._output_problem(res, True, n, hz=value))
-            return
-        if value != int(value) or not 0 <= value < 128:
-            raise GcodeError(msg.GCODE_ERR_SETTING_RANGE.format(n=number, range="0..127"))
-        if base == 150:
-            res = outputs.set_digital_pin(n, int(value))
+        if self.alarm is not None:
+            self.write(msg.GRBL_UNLOCK_HINT)
         else:
-            res = outputs.set_analog_pin(n, int(value))
-        if res != OutputResult.OK:
-            raise GcodeError(self._output_problem(res, base == 160, n, pin=int(value)))
-
-    def settings_lines(self) -> list[str]:
-        st = self.settings
-        outputs = self.engine.outputs
-        lines = [msg.GCODE_SETTING.format(n=1, value=st.idle_delay_ms, what=SETTING_HELP[1])]
-        for base, values in ((100, st.steps_per_unit), (110, st.max_rate),
-                             (120, st.acceleration)):
-            for i in range(self.axes):
-                lines.append(msg.GCODE_SETTING.format(
-                    n=base + i, value=f"{values[i]:.3f}",
-                    what=f"{AXES[i]} {SETTING_HELP[base]}"))
-        for n in range(4):
-            lines.append(msg.GCODE_SETTING.format(n=140 + n, value=f"{outputs.frequency_hz(n):g}",
-                                                  what=f"Aout{n} {SETTING_HELP[140]}"))
-        for n in range(4):
-            lines.append(msg.GCODE_SETTING.format(n=150 + n, value=outputs.digital_pin(n),
-                                                  what=f"Dout{n} {SETTING_HELP[150]}"))
-        for n in range(4):
-            lines.append(msg.GCODE_SETTING.format(n=160 + n, value=outputs.analog_pin(n),
-                                                  what=f"Aout{n} {SETTING_HELP[160]}"))
-        return lines
+            self.startup_queue.extend(line for line in self.settings.startup if line)

@@ -1,10 +1,16 @@
-"""G-code lines -> blocks of words (RS274/NGC as Grbl reads it).
+"""G-code lines -> blocks of words (RS274/NGC as Grbl 1.1 reads it).
 
-A line is one block.  Letters are case-insensitive, spaces are ignored, ``(...)``
-and ``;`` comments are dropped, a leading ``N<n>`` line number is ignored, ``%``
-alone (a tape marker) is an empty line.  Every word is a letter and a real number.
-:func:`parse_line` raises :class:`GcodeError` with a one-line reason; the program
-answers it as ``error: <reason>`` (Grbl convention) and goes on.
+A line is one block.  Before it gets here Grbl's receive path has filtered it
+(:mod:`.grbl_rx`): no spaces or control characters, no ``(...)``/``;`` comments,
+no ``/``, letters upper case; :func:`parse_line` filters a raw line the same way
+(tests, the console).  Every word is a letter and a real number (an optional
+sign, digits, one decimal point: Grbl's ``read_float``; no exponent).
+
+:func:`parse_line` raises :class:`GcodeError` with Grbl's ``error:N`` number
+(:mod:`.codes`) and a one-line reason; the machine answers it as ``[MSG:reason]``
+then ``error:N`` and the session goes on.  Checks made here, as Grbl makes them
+while reading the words: letters (1, 20), numbers (2), negative F N P S T (4), a
+word twice (25), line numbers (27), G/M codes that are not whole numbers (23).
 """
 
 from __future__ import annotations
@@ -14,17 +20,29 @@ import re
 from dataclasses import dataclass, field
 
 from .. import messages as msg
+from .codes import Err
 
-MAX_LINE = 256  # characters of one block (Grbl: 80; longer lines are refused)
+MAX_LINE = 255  # characters of one block after filtering (Grbl_ESP32/FluidNC; Grbl AVR 79)
+MAX_LINE_NUMBER = 9_999_999  # Grbl's N range
 # the number after a letter: optional sign, digits with an optional point
 _NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)")
 AXES = "XYZABC"  # axis words, steppers 1..6
-_VALUE_WORDS = "FPEQN" + AXES  # letters that carry a value (not a command)
+# value words Grbl reads (A B C are axes when the machine has them); E and Q are
+# Grbl_ESP32's for M67/M68
+_VALUE_WORDS = "EFIJKLNPQRST" + AXES
 _KNOWN = "GM" + _VALUE_WORDS
+_NOT_NEGATIVE = "FNPST"
+#: G codes with a decimal part that exist (G92.1 here; G28.1 G30.1 G38.x G43.1 later)
+G_DECIMALS = {92.1, 28.1, 30.1, 38.2, 38.3, 38.4, 38.5, 43.1, 61.1}
 
 
 class GcodeError(ValueError):
-    """A line that cannot be executed; ``str()`` is the reason for ``error: ...``."""
+    """A line that cannot be executed: ``code`` is Grbl's error number, ``str()`` the
+    reason (printed as ``[MSG:reason]`` before ``error:N``)."""
+
+    def __init__(self, code: int, reason: str = "") -> None:
+        super().__init__(reason)
+        self.code = int(code)
 
 
 @dataclass
@@ -42,64 +60,70 @@ class Block:
 
 
 def strip_comments(line: str) -> str:
-    """Drop ``(...)`` and ``;`` comments (an unclosed ``(`` is an error)."""
+    """Drop ``(...)`` and ``;`` comments; an unclosed ``(`` eats the rest of the line
+    (Grbl reports nothing for it)."""
     out = []
-    depth = False
+    inside = False
     for ch in line:
-        if depth:
+        if inside:
             if ch == ")":
-                depth = False
+                inside = False
             continue
         if ch == "(":
-            depth = True
+            inside = True
             continue
         if ch == ";":
             break
         out.append(ch)
-    if depth:
-        raise GcodeError(msg.GCODE_ERR_COMMENT)
     return "".join(out)
+
+
+def filter_line(line: str) -> str:
+    """What Grbl's line assembly keeps of a raw line: no comments, no characters up to
+    the space, no ``/``, letters upper case."""
+    text = strip_comments(line)
+    return "".join(ch for ch in text if ord(ch) > 0x20 and ch != "/").upper()
 
 
 def parse_line(line: str) -> Block:
     """The words of one G-code line (raises :class:`GcodeError`)."""
-    if len(line) > MAX_LINE:
-        raise GcodeError(msg.GCODE_ERR_LONG.format(n=MAX_LINE))
-    text = strip_comments(line)
-    text = "".join(text.split()).upper()
+    text = filter_line(line)
+    if len(text) > MAX_LINE:
+        raise GcodeError(Err.OVERFLOW, msg.GCODE_ERR_LONG.format(n=MAX_LINE))
     block = Block(line)
-    if text in ("", "%"):
-        return block
-    if text.startswith("/"):  # block delete: the line is skipped
-        return block
     pos = 0
-    first = True
     while pos < len(text):
         letter = text[pos]
-        if not letter.isalpha():
-            raise GcodeError(msg.GCODE_ERR_EXPECTED_LETTER.format(text=text[pos:pos + 8]))
+        if not "A" <= letter <= "Z":
+            raise GcodeError(Err.EXPECTED_COMMAND_LETTER,
+                             msg.GCODE_ERR_EXPECTED_LETTER.format(text=text[pos:pos + 12]))
         m = _NUMBER.match(text, pos + 1)
         if m is None:
-            raise GcodeError(msg.GCODE_ERR_BAD_NUMBER.format(
-                letter=letter, text=text[pos + 1:pos + 9] or msg.GCODE_NOTHING))
+            raise GcodeError(Err.BAD_NUMBER_FORMAT, msg.GCODE_ERR_BAD_NUMBER.format(
+                letter=letter, text=text[pos:pos + 12]))
         value = float(m.group(0))
-        if not math.isfinite(value):
-            raise GcodeError(msg.GCODE_ERR_BAD_NUMBER.format(letter=letter, text=m.group(0)))
+        if not math.isfinite(value):  # pragma: no cover - the pattern has no exponent
+            raise GcodeError(Err.BAD_NUMBER_FORMAT, msg.GCODE_ERR_BAD_NUMBER.format(
+                letter=letter, text=text[pos:pos + 12]))
         pos = m.end()
+        word = f"{letter}{m.group(0)}"
         if letter not in _KNOWN:
-            raise GcodeError(msg.GCODE_ERR_UNKNOWN_WORD.format(word=f"{letter}{m.group(0)}"))
-        if letter == "N":
-            if not first:
-                raise GcodeError(msg.GCODE_ERR_LINE_NUMBER)
-        elif letter == "G":
-            block.g.append(value)
-        elif letter == "M":
-            block.m.append(value)
-        else:
-            if letter in block.values:
-                raise GcodeError(msg.GCODE_ERR_REPEATED.format(letter=letter))
-            block.values[letter] = value
-        first = False
+            raise GcodeError(Err.UNSUPPORTED_COMMAND,
+                             msg.GCODE_ERR_UNKNOWN_WORD.format(word=word))
+        if letter in "GM":
+            code = round(value, 4)
+            if code != int(code) and not (letter == "G" and code in G_DECIMALS):
+                raise GcodeError(Err.COMMAND_VALUE_NOT_INTEGER,
+                                 msg.GCODE_ERR_NOT_INTEGER.format(word=word))
+            (block.g if letter == "G" else block.m).append(code)
+            continue
+        if letter in _NOT_NEGATIVE and value < 0:
+            raise GcodeError(Err.NEGATIVE_VALUE, msg.GCODE_ERR_NEGATIVE.format(word=word))
+        if letter in block.values:
+            raise GcodeError(Err.WORD_REPEATED, msg.GCODE_ERR_REPEATED.format(letter=letter))
+        if letter == "N" and value > MAX_LINE_NUMBER:
+            raise GcodeError(Err.INVALID_LINE_NUMBER, msg.GCODE_ERR_LINE_NUMBER)
+        block.values[letter] = value
     return block
 
 

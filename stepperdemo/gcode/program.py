@@ -1,12 +1,19 @@
 """``stepperdemo gcode``: the G-code machine as a console program (``Program``).
 
 The program connects the first ``axes`` steppers of the profile's StepperDemo
-wiring (X, Y, Z ... = steppers 1, 2, 3 ...), prints a Grbl-style banner and answers
-every line.  Input arrives character by character (:meth:`GcodeProgram.feed`); a
-line ends at LF or CR.  ``?`` and Ctrl-X are real-time characters, handled when
-they arrive.  A scripted run (``stepperdemo gcode FILE``) takes the file's lines as
-fast as the block queue accepts them - as a sender streaming with ``ok`` flow
-control would - and ends when every line is taken and the machine is idle.
+wiring (X, Y, Z ... = steppers 1, 2, 3 ...; at most six, at most the profile's
+steppers), powers the Grbl machine on (banner) and answers as Grbl 1.1 does.
+
+* Interactive input (the console, a pty or TCP host) arrives as bytes
+  (:meth:`GcodeProgram.feed`): Grbl's receive path - real-time bytes act at once,
+  the rest goes through the 128-byte ring; a block ends at a line end (LF or CR).
+* A scripted run (``stepperdemo gcode FILE``) takes the file a line at a time, each
+  when the machine is ready to read the next (as a sender waiting for ``ok``);
+  comments are stripped first, as senders do, so a ``?`` or ``!`` in a comment does
+  not act.  It ends when every line is answered and the machine is at rest.
+
+:class:`RawGrbl` is the same program driven from Python on virtual time: bytes in,
+time on, output out (tests and the fuzzer).
 """
 
 from __future__ import annotations
@@ -17,11 +24,10 @@ from typing import Callable
 from fas import Engine
 from fas.backend import Backend
 
-from .. import messages as msg
 from ..demo.build import demo_build
 from ..program import EndReason, Program
-from .machine import RESET, STATUS, GcodeMachine
-from .parser import AXES
+from .machine import GcodeMachine
+from .parser import AXES, strip_comments
 from .settings import GcodeSettings
 
 DEFAULT_AXES = 3
@@ -34,8 +40,19 @@ COMPLETIONS = [
     ("M63", "Dout P off, synchronized"), ("M64", "Dout P on, at once"),
     ("M65", "Dout P off, at once"), ("M67", "Aout E duty Q%, synchronized"),
     ("M68", "Aout E duty Q%, at once"), ("M2", "end of program"), ("$$", "settings"),
-    ("$X", "unlock after an alarm"), ("?", "status"),
+    ("$J=", "jog: $J=G91 X10 F3000"), ("$X", "unlock after an alarm"),
+    ("?", "status"), ("!", "feed hold"), ("~", "resume"),
 ]
+#: control keys the console passes to the machine as real-time bytes
+CONTROL_KEYS = {"c-x": b"\x18"}
+
+
+def axes_for(backend: Backend, axes: int | None) -> int:
+    """Axes X Y Z ... on this profile: ``axes`` (default 3), at most the steppers of
+    StepperDemo's wiring and six."""
+    p = backend.profile
+    return max(1, min(axes or DEFAULT_AXES, p.max_steppers, len(demo_build(p).steppers),
+                      len(AXES)))
 
 
 class GcodeProgram(Program):
@@ -53,17 +70,14 @@ class GcodeProgram(Program):
         self.transcript = bytearray()
         self.engine = Engine(backend)
         p = backend.profile
-        self.axes = min(axes or DEFAULT_AXES, p.max_steppers, len(demo_build(p).steppers),
-                        len(AXES))
+        self.axes = axes_for(backend, axes)
         self.steppers: list = [None] * p.max_steppers
         self._settings = settings
         self._setup_lines = list(setup_lines or [])
         self.machine: GcodeMachine | None = None
-        self.rx = bytearray()  # interactive input not yet taken
-        self.lines_in: deque[str] = deque()  # complete lines waiting for the block queue
         self.script: deque[str] = deque()
+        self._sending = bytearray()  # the rest of a file's line not yet in the ring
         self.input_consumed_at: int | None = None
-        self._partial = bytearray()
         self._setup_done = False
 
     # ------------------------------------------------------------- output
@@ -79,9 +93,12 @@ class GcodeProgram(Program):
             return
         self._setup_done = True
         self.engine.init()
-        for i, cfg in enumerate(demo_build(self.profile).steppers[:self.axes]):
-            s = self.engine.stepper_connect_to_pin(cfg.step)
-            if s is None:  # pragma: no cover - the profile table guarantees the pins
+        p = self.profile
+        for i, cfg in enumerate(demo_build(p).steppers[:self.axes]):
+            # as StepperDemo connects them (ESP32 with ESP-IDF 5: the driver it names)
+            s = (self.engine.stepper_connect_to_pin(cfg.step, cfg.driver) if p.driver_select
+                 else self.engine.stepper_connect_to_pin(cfg.step))
+            if s is None:  # the profile has no more step generators for these pins
                 break
             s.set_direction_pin(cfg.direction, cfg.direction_high_counts_up,
                                 cfg.dir_change_delay_us)
@@ -92,75 +109,71 @@ class GcodeProgram(Program):
             self.steppers[i] = s
         axes = [s for s in self.steppers if s is not None]
         self.machine = GcodeMachine(self.engine, axes, self._write, self._settings)
-        self._write(msg.GCODE_BANNER)
+        self.machine.power_on()
         for line in self._setup_lines:  # command-line settings (--set), answered as lines
             self.machine.line(line)
 
+    def host_opened(self) -> None:
+        """A host opened the port: a reset, as an Arduino's DTR makes one."""
+        self.setup()
+        self.machine.power_on()
+
     # --------------------------------------------------------------- input
     def feed(self, text: str | bytes) -> None:
+        """Bytes from the console or a host, arriving now."""
+        self.setup()
         data = text.encode("utf-8") if isinstance(text, str) else bytes(text)
-        self.rx += data
+        self.machine.receive(data)
 
     def load_script(self, text: str) -> None:
         self.script = deque(text.splitlines())
+        self._sending.clear()
         self.input_consumed_at = None
 
     def input_pending(self) -> bool:
-        return bool(self.rx or self.lines_in or self.script)
-
-    def _take_input(self) -> None:
-        """Real-time characters at once; complete lines while the queue has room."""
+        """Input the machine would take now (not what a hold or sleep keeps waiting)."""
         m = self.machine
-        if self.rx:
-            data, self.rx = bytes(self.rx), bytearray()
-            for byte in data:
-                ch = chr(byte)
-                if ch == STATUS or byte == RESET:
-                    m.realtime(ch)
-                    if byte == RESET:
-                        self.lines_in.clear()
-                        self._partial.clear()
-                elif ch in "\r\n":
-                    self.lines_in.append(self._partial.decode("utf-8", "replace"))
-                    self._partial.clear()
-                else:
-                    self._partial.append(byte)
-        while m.can_take_line():
-            if self.lines_in:
-                line = self.lines_in.popleft()
-            elif self.script:
-                line = self._script_line(self.script.popleft())
-                if not line.strip():
-                    continue  # a blank line of a file: nothing to answer
-            else:
-                break
-            m.line(line)
-        if self.scripted and not self.script and self.input_consumed_at is None:
-            self.input_consumed_at = self.backend.now()
+        if m is None:
+            return bool(self.script)
+        return bool(self.script or self._sending) and m.can_read() or (
+            m.rx.pending > 0 and m.can_read())
 
-    def _script_line(self, line: str) -> str:
-        """A line of a file: its real-time characters act when the line is reached."""
-        rest = []
-        for ch in line:
-            if ch == STATUS or ord(ch) == RESET:
-                self.machine.realtime(ch)
-            else:
-                rest.append(ch)
-        return "".join(rest)
+    def _take_script(self) -> None:
+        """The next line of a file, when the machine would read it (comments stripped
+        first, as senders do), in pieces that fit Grbl's receive buffer."""
+        m = self.machine
+        while True:
+            if self._sending:
+                if not m.can_read() or not m.rx.free:
+                    break
+                piece = bytes(self._sending[:m.rx.free])
+                del self._sending[:len(piece)]
+                m.receive(piece)
+                m.poll()
+                continue
+            if not self.script or not m.can_take_line():
+                break
+            raw = self.script.popleft()
+            if not raw.strip():
+                continue  # a blank line of a file: nothing to answer
+            self._sending += strip_comments(raw).encode("utf-8", "replace") + b"\n"
+        if (self.scripted and not self.script and not self._sending
+                and self.input_consumed_at is None):
+            self.input_consumed_at = self.backend.now()
 
     # ---------------------------------------------------------------- time
     def loop_pass(self) -> None:
-        if not self._setup_done:
-            self.setup()
-        self._take_input()
+        self.setup()
         self.machine.poll()
+        self._take_script()
 
     def next_wake_tick(self) -> int | None:
         b = self.backend
         if not self._setup_done:
             return b.now()
         m = self.machine
-        if (self.rx or (self.lines_in or self.script) and m.can_take_line()):
+        if (self._sending and m.can_read() and m.rx.free) or (
+                self.script and m.can_take_line()):
             return b.now()
         return m.wake_tick()
 
@@ -178,8 +191,7 @@ class GcodeProgram(Program):
             self.loop_pass()
 
     def finished(self) -> bool:
-        return (self.input_consumed_at is not None and not self.lines_in and not self.rx
-                and self.machine.idle())
+        return self.input_consumed_at is not None and self.machine.idle()
 
     def run_script(self, line: str | bytes, *, firmware_end: bool = False,
                    max_ticks: int | None = None) -> EndReason:
@@ -200,7 +212,7 @@ class GcodeProgram(Program):
                 return EndReason.MAX_TIME
             wake = self.next_wake_tick()
             if wake is None:
-                return EndReason.IDLE  # pragma: no cover - finished() covers this
+                return EndReason.IDLE  # held (a feed hold, M0) with nothing to wake it
             target = min(max(wake, b.now() + 1), limit)
             b.app_wait_until(target)
             self.loop_pass()
@@ -208,9 +220,6 @@ class GcodeProgram(Program):
     def force_stop_all(self) -> None:
         if self.machine is not None:
             self.machine.abort()
-        self.lines_in.clear()
-        self.rx.clear()
-        self._partial.clear()
 
     # --------------------------------------------------- hosted by the console
     def mode_name(self) -> str:
@@ -219,13 +228,79 @@ class GcodeProgram(Program):
     def completions(self) -> list[tuple[str, str]]:
         return COMPLETIONS
 
+    def control_keys(self) -> dict[str, bytes]:
+        """Keys the console sends to the program as bytes (Ctrl-X: Grbl's soft reset)."""
+        return CONTROL_KEYS
+
     def toolbar_status(self) -> str:
         if self.machine is None:
             return ""
         axes = " ".join(f"{AXES[i]}{s.get_current_position()}"
                         for i, s in enumerate(self.machine.steppers))
-        return f"{axes} | queue {len(self.machine.queue)}"
+        return f"{axes} | queue {len(self.machine.blocks)}"
 
     def exit_code(self) -> int:
         """1 when any line was answered with an error."""
         return 1 if self.machine is not None and self.machine.errors else 0
+
+
+class RawGrbl:
+    """The G-code program as a Grbl controller on virtual time, driven from Python:
+    :meth:`send` bytes as a host would, :meth:`advance` the clock, :meth:`take`
+    what it answered.  The fuzzer's and the tests' entry point::
+
+        g = RawGrbl("atmega2560")
+        g.send(b"G1 X100 F6000\\n?")
+        g.advance(0.5)
+        out = g.take()          # b"...ok\\r\\n<Run|MPos:...>\\r\\n"
+    """
+
+    def __init__(self, arch: str = "atmega328p", axes: int | None = None, *,
+                 record: bool = False, settings: GcodeSettings | None = None) -> None:
+        from fas.sim import SimBackend
+
+        self.backend = SimBackend(arch, record=record)
+        self._out = bytearray()
+        self.program = GcodeProgram(self.backend, scripted=False, output=self._out.extend,
+                                    axes=axes, settings=settings)
+        self.program.setup()
+        self.machine: GcodeMachine = self.program.machine  # type: ignore[assignment]
+
+    @property
+    def ticks_per_s(self) -> int:
+        return self.backend.profile.ticks_per_s
+
+    def send(self, data: bytes) -> None:
+        """Bytes from the host, arriving at the present tick."""
+        self.program.feed(data)
+        self.program.loop_pass()
+
+    def advance(self, seconds: float) -> None:
+        """Let ``seconds`` of simulated time pass."""
+        self.program.run_until(self.backend.now() + int(seconds * self.ticks_per_s))
+
+    def advance_ticks(self, ticks: int) -> None:
+        self.program.run_until(self.backend.now() + ticks)
+
+    def settle(self, max_seconds: float = 600.0) -> bool:
+        """Run until the machine is at rest with nothing left to do (False: not within
+        ``max_seconds``, e.g. held)."""
+        limit = self.backend.now() + int(max_seconds * self.ticks_per_s)
+        while not self.machine.idle():
+            if self.backend.now() >= limit:
+                return False
+            wake = self.program.next_wake_tick()
+            if wake is None:
+                return False
+            self.program.run_until(min(max(wake, self.backend.now() + 1), limit))
+        return True
+
+    def take(self) -> bytes:
+        """What the controller printed since the last call."""
+        data = bytes(self._out)
+        self._out.clear()
+        return data
+
+    def open(self) -> None:
+        """A host opens the port (a reset)."""
+        self.program.host_opened()

@@ -1,16 +1,31 @@
-"""The G-code program's settings, Grbl style: ``$$`` lists them, ``$N=value`` sets one.
+"""The G-code program's settings, Grbl 1.1 style: ``$$`` lists them, ``$N=value`` sets one.
+
+``$$`` lists Grbl 1.1's numbers in its order (senders read ``$10``, ``$13``,
+``$100``-``$132`` ...) with the values this machine really has, then the project's
+own (``$140``-``$170``).  The axis groups always show X, Y and Z (senders expect
+three), and A, B, C when the machine has those axes.
 
 =========  ==========================================================  ===========
  setting    meaning                                                     default
 =========  ==========================================================  ===========
+ $0         step pulse, us (the chip's step generator makes it: fixed)  10
  $1         step idle delay, ms: drivers off this long after motion     25
             (255: keep them on)
+ $2-$6      step/dir/enable/limit/probe inversion masks (fixed)         0
+ $10        status report: 1 MPos (else WPos), +2 ``Bf:`` buffer state  3
+ $11 $12    junction deviation, arc tolerance (kept for issue 25)       0.010 0.002
+ $13        report inches (fixed: no inches)                            0
+ $20-$27    soft limits, hard limits, homing (no limit inputs: 0)       Grbl's
+ $30 $31    spindle max/min rpm (kept; no spindle yet)                  1000 0
+ $32        laser mode (needs a PWM spindle: 0)                         0
  $100-105   steps per unit, axes X Y Z A B C                            1 (steps)
  $110-115   maximum rate, units/min (also the G0 rate)                  600000
  $120-125   acceleration, units/s² (per axis)                           10000
+ $130-135   maximum travel, units (kept: no soft limits without homing) 200
  $140-143   PWM frequency of Aout0-3, Hz (seed 003 default)             5000
  $150-153   pin of Dout0-3                                              profile
  $160-163   pin of Aout0-3 (a PWM pin of the profile)                   profile
+ $170       status report shows the user outputs (``Dout:``/``Aout:``)  0
 =========  ==========================================================  ===========
 
 With the default of one step per unit, axis words and F are in steps and steps per
@@ -28,14 +43,19 @@ AXIS_COUNT = len(AXES)
 DEFAULT_STEPS_PER_UNIT = 1.0
 DEFAULT_MAX_RATE = 600_000.0  # units/min: 10 000 steps/s at one step per unit
 DEFAULT_ACCELERATION = 10_000.0  # units/s²
+DEFAULT_MAX_TRAVEL = 200.0  # units (Grbl's default)
 DEFAULT_IDLE_DELAY_MS = 25  # Grbl's $1
+DEFAULT_STATUS_MASK = 3  # MPos and Bf: (Grbl's default is 1; issue 24 wants Bf shown)
 KEEP_ENABLED = 255
 
-SETTING_HELP = {
-    1: "step idle delay, ms (255: drivers stay on)",
-    100: "steps per unit", 110: "maximum rate, units/min", 120: "acceleration, units/s^2",
-    140: "PWM frequency, Hz", 150: "digital output pin", 160: "analog output pin",
-}
+#: settings shown with Grbl's value that this machine cannot change: number -> value
+FIXED = {0: 10, 2: 0, 3: 0, 4: 0, 5: 0, 6: 0, 13: 0, 21: 0, 23: 0}
+#: settings kept and shown, used by nothing yet (issue 25: junction deviation, arcs,
+#: spindle; homing figures): number -> (default, decimals)
+KEPT = {11: (0.010, 3), 12: (0.002, 3), 24: (25.0, 3), 25: (500.0, 3), 26: (250.0, 0),
+        27: (1.0, 3), 30: (1000.0, 0), 31: (0.0, 0)}
+#: flags a machine without limit inputs or spindle can only keep at 0
+SWITCHES = (20, 22, 32)
 
 
 @dataclass
@@ -45,12 +65,24 @@ class GcodeSettings:
     max_rate: list[float] = field(default_factory=lambda: [DEFAULT_MAX_RATE] * AXIS_COUNT)
     acceleration: list[float] = field(
         default_factory=lambda: [DEFAULT_ACCELERATION] * AXIS_COUNT)
+    max_travel: list[float] = field(default_factory=lambda: [DEFAULT_MAX_TRAVEL] * AXIS_COUNT)
     idle_delay_ms: int = DEFAULT_IDLE_DELAY_MS
+    status_mask: int = DEFAULT_STATUS_MASK
+    report_outputs: bool = False  # $170
+    kept: dict[int, float] = field(
+        default_factory=lambda: {n: v for n, (v, _d) in KEPT.items()})
+    startup: list[str] = field(default_factory=lambda: ["", ""])  # $N0, $N1
+    build_info: str = ""  # $I=text
+
+    def axis_values(self, base: int) -> list[float]:
+        """The list behind ``$100``/``$110``/``$120``/``$130``."""
+        return {100: self.steps_per_unit, 110: self.max_rate, 120: self.acceleration,
+                130: self.max_travel}[base]
 
 
 def axis_setting(number: int) -> tuple[int, int] | None:
-    """``(base, axis)`` of an axis setting number ($100..$125), else None."""
-    for base in (100, 110, 120):
+    """``(base, axis)`` of an axis setting number ($100..$135), else None."""
+    for base in (100, 110, 120, 130):
         if base <= number < base + AXIS_COUNT:
             return base, number - base
     return None

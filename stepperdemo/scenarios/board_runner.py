@@ -11,6 +11,11 @@ asks for the stepper table.  What the text can show is checked:
 * ``transcript.contains`` / ``not_contains`` on the board's text;
 * the banner (F_CPU, TICKS_PER_S, Steppers) against the file's profile.
 
+The board is known before the first file: its start banner says its chip.  A file
+written for another chip (its profile's F_CPU, ticks per second or number of steppers
+differ from the banner's) is skipped with the reason, not run and failed: the folder of
+examples holds files for several chips.
+
 Pulse, direction and enable counts and times need the pins: not checked here.
 Whole-transcript references (``transcript.matches``) are of the firmware built with
 a built-in input line, not of the interactive firmware on a board: not checked.
@@ -37,8 +42,16 @@ from .. import messages as msg
 from ..front.board_link import BoardLink, SerialBoardLink, SimBoardLink
 from ..front.board_log import BoardLog
 from ..front.board_session import BOOT_WAIT_S, QUIET_S, BoardSession, End
-from ..watch.status_lines import STOP_STATE
-from .runner import EXIT_FAILED, EXIT_OK, EXIT_USAGE, Check, ScenarioResult, print_results
+from ..watch.status_lines import STOP_STATE, Banner
+from .runner import (
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_USAGE,
+    Check,
+    ScenarioResult,
+    print_results,
+    report_console,
+)
 from .scenario import Scenario, ScenarioError, load
 
 TABLE_WAIT_S = 10.0  # for the answer to the final "?"
@@ -94,14 +107,23 @@ class BoardResult:
     twin: list[TwinStepper] = field(default_factory=list)
 
 
-def run_side(session: BoardSession, sc: Scenario, *, reset: bool) -> SideRun:
-    """Reset (if asked), wait for the start, run the input, ask for the table."""
+def start_board(session: BoardSession, *, reset: bool) -> bool:
+    """Reset (if asked) and wait for the start; a board the open did not restart is
+    reset now.  True: its start banner came."""
     if reset:
         session.reset()
     restarted = session.wait_ready()
     if not restarted and not reset:  # the open did not restart it: reset it now
         session.reset()
         restarted = session.wait_ready()
+    return restarted
+
+
+def run_side(session: BoardSession, sc: Scenario, *, reset: bool,
+             started: bool | None = None) -> SideRun:
+    """Reset (if asked), wait for the start, run the input, ask for the table.
+    ``started``: the caller has just started the board (True: with a banner)."""
+    restarted = start_board(session, reset=reset) if started is None else started
     st = session.state
     completed, failed = st.tests_completed, st.tests_failed
     st.trace.clear()
@@ -176,9 +198,24 @@ def twin_of(sc: Scenario, board: SideRun, sim: SideRun) -> tuple[list[TwinSteppe
     return rows, checks
 
 
-def run_board_scenario(session: BoardSession, sc: Scenario, *, first: bool) -> BoardResult:
+def other_chip(sc: Scenario, banner: Banner) -> str | None:
+    """Why ``sc`` is not for the board of ``banner`` (its chip differs), or None (the
+    same chip, or the banner did not say)."""
+    p = get_profile(sc.profile)
+    board = (banner.f_cpu, banner.ticks_per_s, banner.steppers)
+    if None in board or board == (p.f_cpu, p.ticks_per_s, p.max_steppers):
+        return None
+    return msg.RUN_BOARD_OTHER_CHIP.format(
+        name=sc.name, profile=p.name, f_cpu=p.f_cpu, ticks=p.ticks_per_s,
+        steppers=p.max_steppers, board_f_cpu=banner.f_cpu, board_ticks=banner.ticks_per_s,
+        board_steppers=banner.steppers)
+
+
+def run_board_scenario(session: BoardSession, sc: Scenario, *, first: bool,
+                       started: bool | None = None) -> BoardResult:
+    """``started``: the board was started for this file (see :func:`run_side`)."""
     t0 = time.perf_counter()
-    board = run_side(session, sc, reset=not first)
+    board = run_side(session, sc, reset=not first, started=started)
     sim = run_side(BoardSession(SimBoardLink(sc.profile), quiet_s=session.quiet_s), sc,
                    reset=False)
     res = ScenarioResult(str(sc.path), sc.name, True, end=board.end, sim_s=board.seconds,
@@ -230,12 +267,15 @@ def main(args: argparse.Namespace, files: list[Path], missing: bool) -> int:
         return EXIT_USAGE
     err = Console(stderr=True)
     session = BoardSession(link, log=log, quiet_s=args.quiet_ms / 1000,
-                           boot_wait_s=args.boot_wait,
+                           boot_wait_s=args.boot_wait, lost_note=msg.BOARD_LOST_RUN,
                            notes=lambda text: err.print(Text(text, "cyan")))
     results: list[BoardResult] = []
     notes: list[str] = []
+    skipped = 0
     first = True
     try:
+        # the board first: its banner names its chip (files for others are skipped)
+        started: bool | None = start_board(session, reset=False)
         for f in files:
             try:
                 sc = load(f)
@@ -245,15 +285,22 @@ def main(args: argparse.Namespace, files: list[Path], missing: bool) -> int:
                 continue
             if (args.k and args.k not in sc.name) or (args.skip_long and sc.long):
                 continue
-            if sc.program != "demo":
-                notes.append(f"{sc.name}: " + msg.RUN_BOARD_SKIPPED.format(program=sc.program))
+            why = (f"{sc.name}: " + msg.RUN_BOARD_SKIPPED.format(program=sc.program)
+                   if sc.program != "demo" else other_chip(sc, session.state.banner))
+            if why is not None:
+                notes.append(why)
+                skipped += 1
                 continue
             if sc.transcript_ref is not None and msg.RUN_BOARD_MATCHES_NOTE not in notes:
                 notes.append(msg.RUN_BOARD_MATCHES_NOTE)
             err.print(Text(f"{sc.name}: {sc.input}", "bold"))
-            results.append(run_board_scenario(session, sc, first=first))
-            first = False
+            results.append(run_board_scenario(session, sc, first=first, started=started))
+            first, started = False, None
             if session.lost is not None:
+                break
+            silent = session.silent_reason()
+            if silent is not None:  # not StepperDemo: the other files would wait as long
+                notes.append(msg.RUN_BOARD_NO_ANSWER.format(port=args.board, why=silent))
                 break
     except KeyboardInterrupt:
         numbers, _ = session.stop_all()
@@ -269,10 +316,11 @@ def main(args: argparse.Namespace, files: list[Path], missing: bool) -> int:
                   sys.stdout, indent=1, default=str)
         sys.stdout.write("\n")
     else:
-        out = Console(soft_wrap=False)
+        out = report_console(Console)
         print_results([r.result for r in results], out, verbose=args.verbose)
         print_twin([t for r in results for t in r.twin], out)
         for text in [msg.RUN_BOARD_PINS_NOTE, *notes]:
             out.print(Text(text, "italic"))
-        out.print(msg.RUN_SUMMARY.format(total=len(results), failed=len(failed)))
+        out.print(msg.RUN_SUMMARY.format(total=len(results), failed=len(failed))
+                  + (msg.RUN_SUMMARY_SKIPPED.format(n=skipped) if skipped else ""))
     return EXIT_FAILED if failed or missing else EXIT_OK

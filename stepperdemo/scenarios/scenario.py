@@ -6,42 +6,55 @@ the format is documented in the README ("Scenario files").
 
 from __future__ import annotations
 
-import tomllib
+import re
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from fas.arch import PROFILES
 
+from ..demo.build import pin_config_problem
 from ..program import programs
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10: the same parser as a package (a dependency there, pyproject.toml)
+    import tomli as tomllib
 
 STEPPER_KEYS = {
     "position": int, "pulses": int, "dir_transitions": list, "enable_transitions": list,
     "enable_high_max_us": (int, float), "step_high_total_us": (int, float),
+    "step_high_max_us": (int, float),
 }
 TOLERANCE_KEYS = {
     "position": int, "pulses": int, "dir": int, "enable": int,
     "enable_high_us": (int, float), "step_high_total_pct": (int, float),
+    "step_high_total_us": (int, float), "step_high_max_us": (int, float),
 }
+KNOWN_DEVIATION_KEYS = {"measured": (int, float, str), "reason": str}
 TIMING_KEYS = {
     "steppers": list, "align": str, "median_us": (int, float), "max_us": (int, float),
     "duration_ratio": (int, float), "start_us": (int, float),
 }
 TOP_KEYS = {
-    "name": str, "description": str, "program": str, "profile": str, "input": str, "end": str,
+    "name": str, "description": str, "program": str, "profile": str, "input": str,
+    "input_file": str, "end": str,
     "max_time_s": (int, float), "long": bool, "reference": str, "justification": str,
     "steppers": dict, "timing": dict, "transcript": dict, "outputs": dict,
+    "pin_config": int, "known_deviation": dict,
 }
 # user outputs (issue 12): [outputs.Dout0] ... [outputs.Aout3]
 OUTPUT_KEYS = {
     "rises": int, "falls": int, "level": int, "first_change_s": (int, float),
     "first_change_after_step": list, "periods": int, "frequency_hz": (int, float),
     "duty_percent": (int, float), "duty_mean_percent": (int, float),
+    "duty_steps": list,
 }
 OUTPUT_TOLERANCE_KEYS = {
     "rises": int, "falls": int, "first_change_s": (int, float), "periods": int,
     "frequency_hz": (int, float), "duty_percent": (int, float),
-    "duty_mean_percent": (int, float),
+    "duty_mean_percent": (int, float), "duty_steps": (int, float),
 }
 OUTPUT_NAMES = tuple(f"Dout{i}" for i in range(4)) + tuple(f"Aout{i}" for i in range(4))
 
@@ -99,6 +112,10 @@ class Scenario:
     contains: list[str] = field(default_factory=list)
     not_contains: list[str] = field(default_factory=list)
     transcript_ref: Path | None = None  # whole transcript to match (scenarios.transcript)
+    pin_config: int | None = None  # StepperDemo's start-up prompt answered with this digit
+    pcnt_sync: tuple[str, int] | None = None  # (motor, tolerance): status lines vs counter
+    # checks not met yet, by check name: {"measured": value named by the file, "reason"}
+    known_deviations: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 def _check_types(path: Path, prefix: str, table: dict, schema: dict) -> None:
@@ -124,9 +141,19 @@ def load(path: Path | str) -> Scenario:
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(path, "-", f"not valid TOML: {exc}") from None
     _check_types(path, "", data, TOP_KEYS)
-    for key in ("name", "input"):
-        if key not in data:
-            raise ScenarioError(path, key, "missing (required)")
+    if "name" not in data:
+        raise ScenarioError(path, "name", "missing (required)")
+    if "input" not in data and "input_file" not in data:
+        raise ScenarioError(path, "input", "missing (required; or input_file)")
+    if "input" in data and "input_file" in data:
+        raise ScenarioError(path, "input", "give either input or input_file, not both")
+    if "input_file" in data:  # the input in a file of its own (a G-code program)
+        source = path.parent / data["input_file"]
+        try:
+            data["input"] = source.read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ScenarioError(path, "input_file",
+                                f"cannot read {source}: {exc.strerror or exc}") from None
     profile = data.get("profile", "atmega328p")
     if profile not in PROFILES:
         raise ScenarioError(path, "profile", f"unknown profile {profile!r}")
@@ -140,11 +167,28 @@ def load(path: Path | str) -> Scenario:
         raise ScenarioError(path, "end", "must be 'idle' or 'firmware'")
     if data.get("max_time_s", 1) <= 0:
         raise ScenarioError(path, "max_time_s", "must be positive")
+    pin_config = data.get("pin_config")
+    if pin_config is not None:
+        if program != "demo":
+            raise ScenarioError(path, "pin_config", "only StepperDemo (program = \"demo\") "
+                                "has pin configurations")
+        problem = pin_config_problem(PROFILES[profile], pin_config)
+        if problem is not None:
+            raise ScenarioError(path, "pin_config", problem.split(": ", 1)[1])
     sc = Scenario(path=path, name=data["name"], input=data["input"],
                   description=data.get("description", ""), program=program,
                   profile=profile, end=end,
                   max_time_s=float(data.get("max_time_s", 600.0)), long=data.get("long", False),
-                  justification=data.get("justification", ""))
+                  justification=data.get("justification", ""), pin_config=pin_config)
+    for what, entry in data.get("known_deviation", {}).items():
+        if not isinstance(entry, dict):
+            raise ScenarioError(path, f"known_deviation.{what}",
+                                "expected a table { measured = ..., reason = \"...\" }")
+        _check_types(path, f"known_deviation.{what}.", entry, KNOWN_DEVIATION_KEYS)
+        if "measured" not in entry:
+            raise ScenarioError(path, f"known_deviation.{what}.measured",
+                                "missing: name the value measured now")
+        sc.known_deviations[what] = dict(entry)
     if "reference" in data:
         ref = (path.parent / data["reference"]).resolve()
         if not ref.is_dir():
@@ -185,6 +229,13 @@ def load(path: Path | str) -> Scenario:
                                   or not isinstance(after[1], int) or after[1] < 0):
             raise ScenarioError(path, prefix + "first_change_after_step",
                                 'expected ["A".."F", step number]')
+        steps = values.get("duty_steps")
+        if steps is not None and not all(
+                isinstance(st, list) and len(st) == 2 and all(
+                    isinstance(x, (int, float)) and not isinstance(x, bool) for x in st)
+                for st in steps):
+            raise ScenarioError(path, prefix + "duty_steps",
+                                "expected [[duty percent, seconds], ...]")
         if values.get("level", 0) not in (0, 1):
             raise ScenarioError(path, prefix + "level", "expected 0 or 1")
         sc.outputs.append(OutputExpectation(name, values, tol))
@@ -215,9 +266,19 @@ def load(path: Path | str) -> Scenario:
                     raise ScenarioError(path, "transcript.matches", f"no such file: {ref}")
                 sc.transcript_ref = ref
                 continue
+            if key == "pcnt_sync":  # upstream's check_pcnt_sync (ESP32 hardware tests)
+                if (not isinstance(value, dict) or set(value) != {"motor", "tolerance"}
+                        or not isinstance(value["motor"], str)
+                        or not re.fullmatch(r"M\d+", value["motor"])
+                        or not isinstance(value["tolerance"], int)
+                        or isinstance(value["tolerance"], bool)):
+                    raise ScenarioError(path, "transcript.pcnt_sync",
+                                        'expected { motor = "M1", tolerance = 66 }')
+                sc.pcnt_sync = (value["motor"], value["tolerance"])
+                continue
             if key not in ("contains", "not_contains"):
-                raise ScenarioError(path, f"transcript.{key}",
-                                    "unknown key (known: contains, not_contains, matches)")
+                raise ScenarioError(path, f"transcript.{key}", "unknown key (known: "
+                                    "contains, not_contains, matches, pcnt_sync)")
             if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
                 raise ScenarioError(path, f"transcript.{key}", "expected a list of strings")
         sc.contains = list(tr.get("contains", []))

@@ -77,3 +77,32 @@ def read_reference(path: Path) -> str:
     if path.suffix == ".gz":
         data = gzip.decompress(data)
     return data.decode("utf-8")
+
+
+PCNT_MODULO = 32767  # the counter runs -32767..32767 (p7,-32767,32767)
+
+
+def pcnt_sync_problems(transcript: str, motor: str, tolerance: int) -> list[str]:
+    """Upstream's pulse-counter check of its ESP32 hardware tests: every status line of
+    ``motor`` (``M1: @pos [pcnt] ...``) has the position within ``tolerance`` steps of the
+    counter, modulo 32767, and every stepper-table line (``>> M1: @pos [pcnt]``) has
+    them equal.  The lines that break the rule, empty if none."""
+    digit = re.escape(motor[1])  # as upstream: the motor's first digit
+    running = re.compile(rf"^M[{digit}]:\s+@(-?\d+)\s+\[(-?\d+)\]")
+    selected = re.compile(rf"^>> {re.escape(motor)}:\s+@(-?\d+)\s+\[(-?\d+)\]")
+    problems = []
+    for raw in re.split(r"[\r\n]+", transcript):
+        line = raw.strip()
+        for pattern, exact in ((running, False), (selected, True)):
+            m = pattern.match(line)
+            if not m:
+                continue
+            api = int(m.group(1)) % PCNT_MODULO
+            pcnt = int(m.group(2))
+            if pcnt < 0:
+                pcnt += PCNT_MODULO
+            delta = abs(api - pcnt)
+            delta = min(delta, PCNT_MODULO - delta)
+            if (delta != 0) if exact else (tolerance < delta < PCNT_MODULO - tolerance):
+                problems.append(f"{line} (position {api}, counter {pcnt})")
+    return problems

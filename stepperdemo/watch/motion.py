@@ -17,7 +17,7 @@ deviations, a clean run has none.
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import IO
 
@@ -27,10 +27,13 @@ from fas.sim.channel import ENTRY_RESTART, ENTRY_START, SimChannel
 from fas.sim.trace import IRQ_BLOCKED
 
 from ..demo.build import DemoStepper, demo_build
+from .ramp_rates import phase_rates
+from .thinning import PlotSamples
 
 GAP_FACTOR = 4  # an interval longer than this many times the last regular one is a gap
 ACC_WINDOWS_PER_S = 100  # acceleration: speed change between windows of >= 10 ms
-PLOT_POINTS = 4000  # samples kept per stepper for plots (thinned by halving)
+SHORT_MOTION_WINDOWS = 3  # a motion shorter than this many windows: .ramp_rates instead
+PLOT_POINTS = 4000  # samples kept per stepper for plots (.thinning: per time bucket)
 CSV_HEADER = "time_us,stepper,direction,position,tick\n"
 
 
@@ -60,6 +63,15 @@ def demo_wiring(profile: Profile) -> list[Wiring]:
     return [Wiring.from_demo(i, cfg) for i, cfg in enumerate(demo_build(profile).steppers)]
 
 
+def shared_step_pins(wiring: Sequence[Wiring]) -> set[int]:
+    """Step pins that are another stepper's direction or enable pin too (StepperDemo on
+    an ESP32 wires M12's step pin 26 as the enable pin of M1, M7 and M13): a rise
+    there is a step only when the stepper's channel has a pulse planned for it."""
+    roles = {p for w in wiring for p in (w.direction, w.enable_low, w.enable_high)
+             if p is not None}
+    return {w.step for w in wiring} & roles
+
+
 class ChannelCounts:
     """A channel's counts at the moment a recording ended: the report of a finished
     recording does not count what the channel did afterwards."""
@@ -80,8 +92,12 @@ class StepperMotion:
     """Figures of one stepper, fed edge by edge in global time order."""
 
     def __init__(self, wiring: Wiring, ticks_per_s: int, levels: dict[int, int],
-                 position: int = 0, csv: IO[str] | None = None) -> None:
+                 position: int = 0, csv: IO[str] | None = None,
+                 clock: Callable[[], int] | None = None) -> None:
+        """``clock``: the simulated time, for a stepper whose step pin is shared (when
+        a queue entry was taken up: no pulse of it comes earlier)."""
         self.wiring = wiring
+        self.clock = clock
         self.tps = ticks_per_s
         self.levels = levels  # shared pin levels of the stream (dir/enable lookups)
         self.csv = csv
@@ -113,9 +129,13 @@ class StepperMotion:
         self.dev_early = 0
         self.dev_max_late = 0
         self.dev_max_early = 0
-        self.acc_max = 0.0
-        self.dec_max = 0.0
+        self.acc_max: float | None = None  # None: nothing to measure it from
+        self.dec_max: float | None = None
         self._win_ticks = max(1, ticks_per_s // ACC_WINDOWS_PER_S)
+        # the rising edges of the motion under way while it is short (None: it is not),
+        # and what its windows found meanwhile (used only if it turns out long)
+        self._short: list[int] | None = None
+        self._short_rates: tuple[float | None, float | None] = (None, None)
         self._win: list[int] | None = None  # [start tick, intervals, sign]
         self._prev_win: tuple[float, float] | None = None  # (signed speed, mid tick)
         self.dir_changes = 0
@@ -125,11 +145,18 @@ class StepperMotion:
         self.enable_to_step: list[int] = []  # one per driver activation followed by a step
         self._enable_edge: int | None = None
         self.steps_disabled = 0
-        self.samples: list[tuple[int, int, float]] = []  # (tick, position, speed steps/s)
+        # (tick, position, speed steps/s) for plots, thinned per time bucket keeping
+        # the extremes of the speed and the ends of every standstill
+        self.plot = PlotSamples(PLOT_POINTS, key=2)
         self.entry_steps: dict[int, int] = {}  # planned period -> steps (QuickStep plateaus)
         self.entries_taken = 0
-        self._stride = 1
-        self._since_sample = 0
+        # channel pulse index after the last pulse of the entries taken up by the time
+        # of the edge at hand (None: not known, the channel ran when bound): on a step
+        # pin shared with another role a rise beyond it is not a step.  The entries
+        # taken up later than that edge wait in pending_ends: (tick, end).
+        self.planned_end: int | None = 0
+        self.pending_ends: deque[tuple[int, int]] = deque()
+        self._in_pulse = False
 
     # --------------------------------------------------------------- channel
     def bind(self, channel: SimChannel) -> None:
@@ -138,6 +165,7 @@ class StepperMotion:
             self.index = channel.pulses + (self.index - self.channel.pulses)
         else:
             self.index = channel.pulses
+        self.planned_end = None if channel.is_running() else self.index
         self.channel = channel
         self.base = {"pulses": channel.pulses, "dry": channel.dry,
                      "missed_compares": channel.missed_compares, "starts": channel.starts}
@@ -146,11 +174,14 @@ class StepperMotion:
     def resume(self, channel: SimChannel | None, base: dict[str, int],
                others: list[tuple[SimChannel, dict[str, int]]], index: int,
                cur_ticks: int | None,
-               entries: Sequence[tuple[int, int, int, int]] = ()) -> None:
+               entries: Sequence[tuple[int, int, int, int]] = (),
+               planned_end: int | None = None,
+               pending_ends: Sequence[tuple[int, int]] = ()) -> None:
         """Continue where an earlier part of the run left off (a replay from the head
         of a bounded recording): the channel and its counts at that point, the pulse
-        index of the next rising edge, the period in force and the entries taken up
-        from there on - without listening to the channel."""
+        index of the next rising edge, the period in force, the entries taken up
+        from there on and where the pulses planned so far end - without listening to
+        the channel."""
         self.channel = channel
         self.base = base
         self.others = others
@@ -158,6 +189,8 @@ class StepperMotion:
         self.cur_ticks = cur_ticks
         for e in entries:
             self.entry(*e)
+        self.planned_end = planned_end  # (what the entries said, as of the head)
+        self.pending_ends = deque(pending_ends)
 
     def unbind(self) -> None:
         for ch in [self.channel] + [c for c, _ in self.others]:
@@ -166,6 +199,10 @@ class StepperMotion:
 
     def entry(self, kind: int, index: int, ticks: int, steps: int) -> None:
         self.plan.append((kind, index, ticks, steps))
+        if self.clock is not None:  # a shared step pin: this entry's pulses come later
+            self.pending_ends.append((self.clock(), index + steps))
+        elif self.planned_end is None or index + steps > self.planned_end:
+            self.planned_end = index + steps
         if steps:
             self.entry_steps[ticks] = self.entry_steps.get(ticks, 0) + steps
             self.entries_taken += 1
@@ -202,6 +239,27 @@ class StepperMotion:
         if not was_enabled and self.enabled():
             self.enables += 1
             self._enable_edge = t
+
+    def shared_edge(self, t: int, level: int) -> bool:
+        """An edge on a step pin that also serves another role: is it this stepper's
+        (a rise the channel has a pulse planned for, or the fall after it)?  If so it
+        is taken; False: it is the other role's."""
+        if level:
+            pending = self.pending_ends
+            while pending and pending[0][0] <= t:
+                end = pending.popleft()[1]
+                if self.planned_end is None or end > self.planned_end:
+                    self.planned_end = end
+            end = self.planned_end
+            if end is not None and self.index >= end:
+                return False
+            self._in_pulse = True
+        elif not self._in_pulse:
+            return False
+        else:
+            self._in_pulse = False
+        self.step_run((t,), bytes((level,)))
+        return True
 
     def step_run(self, times: Sequence[int], levels: bytes) -> None:
         rise = self._rise
@@ -253,21 +311,32 @@ class StepperMotion:
         prev = self.last_rise
         speed = 0.0
         if prev is None or self.new_motion:
-            if prev is not None:
-                self._sample(prev, self.position - (1 if up else -1), 0.0, force=True)
+            before = self.position - (1 if up else -1)
+            if prev is not None:  # the last motion ended at its last pulse
+                self.plot.add((prev, before, 0.0))
+            self.plot.add((t, before, 0.0))  # standing at the old position until now
             self.motions += 1
             self._close_window(prev)
+            self._end_motion()
+            self._short = [t]
             self._prev_win = None
             self.last_interval = None
         else:
             interval = t - prev
             self._period(interval)
             ref = self.last_interval
+            short = self._short
+            if short is not None:
+                if t - short[0] < SHORT_MOTION_WINDOWS * self._win_ticks:
+                    short.append(t)
+                else:
+                    self._long_motion()
             if ref is not None and interval > GAP_FACTOR * ref:
                 self.gaps += 1
                 self.gap_max = max(self.gap_max, interval)
                 self._win = None
                 self._prev_win = None
+                self._long_motion()  # (the windows' figures, not a slope across the gap)
             else:
                 self._window(prev, t, 1 if up else -1)
                 self.last_interval = interval
@@ -287,7 +356,7 @@ class StepperMotion:
             self._enable_edge = None
         if not self.enabled():
             self.steps_disabled += 1
-        self._sample(t, self.position, speed, force=speed == 0.0)
+        self.plot.add((t, self.position, speed))
         if self.csv is not None:
             self.csv.write(f"{t * 1_000_000 / self.tps:.4f},{self.wiring.number},"
                            f"{1 if up else -1},{self.position},{t}\n")
@@ -343,26 +412,44 @@ class StepperMotion:
             acc = -abs(speed - prev[0]) / dt
         else:
             acc = (abs(speed) - abs(prev[0])) / dt
-        if acc > self.acc_max:
+        if self._short is not None:  # held until the motion is known to be long
+            a, d = self._short_rates
+            self._short_rates = ((max(a or 0.0, acc) if acc > 0 else a),
+                                 (max(d or 0.0, -acc) if acc < 0 else d))
+        else:
+            self._rates(acc if acc > 0 else None, -acc if acc < 0 else None)
+
+    def _rates(self, acc: float | None, dec: float | None) -> None:
+        if acc is not None and (self.acc_max is None or acc > self.acc_max):
             self.acc_max = acc
-        elif -acc > self.dec_max:
-            self.dec_max = -acc
+        if dec is not None and (self.dec_max is None or dec > self.dec_max):
+            self.dec_max = dec
+
+    def _long_motion(self) -> None:
+        """The motion under way is not short (or has a gap): its windows count."""
+        if self._short is not None:
+            self._short = None
+            self._rates(*self._short_rates)
+            self._short_rates = (None, None)
+
+    def _end_motion(self) -> None:
+        """A motion ended: a short one is measured by its step times (.ramp_rates)."""
+        if self._short is not None:
+            self._rates(*phase_rates(self._short, self.tps))
+            self._short = None
+            self._short_rates = (None, None)
 
     # ------------------------------------------------------------ plot data
-    def _sample(self, t: int, pos: int, speed: float, force: bool = False) -> None:
-        self._since_sample += 1
-        if not force and self._since_sample < self._stride:
-            return
-        self._since_sample = 0
-        self.samples.append((t, pos, speed))
-        if len(self.samples) > PLOT_POINTS:
-            self.samples = self.samples[::2]
-            self._stride *= 2
+    @property
+    def samples(self) -> list[tuple[int, int, float]]:
+        """The plot samples (tick, position, speed in steps/s), in time order."""
+        return self.plot.samples()
 
     def finish(self, end_tick: int) -> None:
         self._close_window(self.last_rise)
-        if self.last_rise is not None and (not self.samples or self.samples[-1][2] != 0.0):
-            self.samples.append((self.last_rise, self.position, 0.0))
+        self._end_motion()
+        if self.last_rise is not None:  # the last motion ends at its last pulse
+            self.plot.add((self.last_rise, self.position, 0.0))
         self.unbind()
         if self.channel is not None and not isinstance(self.channel, ChannelCounts):
             self.channel = ChannelCounts(self.channel)
@@ -398,10 +485,15 @@ class MotionAnalysis:
         self.csv = csv
         if csv is not None:
             csv.write(CSV_HEADER)
+        # step pins that are another stepper's direction or enable pin too: their edges
+        # are sorted by the plans of the channels
+        self._shared = shared_step_pins(wiring)
+        clock = backend.now if live else None
         self.steppers = [
             StepperMotion(w, self.tps, self.levels,
                           positions[i] if positions is not None and i < len(positions)
-                          and positions[i] is not None else 0, csv)
+                          and positions[i] is not None else 0, csv,
+                          clock if w.step in self._shared else None)
             for i, w in enumerate(wiring)]
         self._by_step = {m.wiring.step: m for m in self.steppers}
         self._by_dir: dict[int, list[StepperMotion]] = {}
@@ -431,14 +523,23 @@ class MotionAnalysis:
     def edge_run(self, pin: int, times: Sequence[int], levels: bytes) -> None:
         m = self._by_step.get(pin)
         if m is not None and m.channel is not None:
+            if pin in self._shared:
+                for t, lv in zip(times, levels, strict=True):
+                    if not m.shared_edge(t, lv):
+                        self._pin_edges(pin, (t,), bytes((lv,)))
+                return
             m.step_run(times, levels)
             return
-        if m is not None:  # no stepper on this pin: something else drives it (an output)
+        if m is not None and pin not in self._shared:  # no channel: an output drives it
             self.levels[pin] = levels[-1] if levels else self.levels.get(pin, 0)
             return
         if pin == IRQ_BLOCKED:
             self._irq(times, levels)
             return
+        self._pin_edges(pin, times, levels)
+
+    def _pin_edges(self, pin: int, times: Sequence[int], levels: bytes) -> None:
+        """Edges of a direction or enable pin (or of another pin: its level only)."""
         dirs = self._by_dir.get(pin)
         enables = self._by_enable.get(pin)
         for t, lv in zip(times, levels, strict=True):

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import sys
 import tempfile
 from collections.abc import Sequence
 from typing import IO
@@ -166,13 +167,15 @@ class Observers:
         return self.end_tick if self.end_tick is not None else max(self.stream.last_tick,
                                                                     self.backend.now())
 
-    def export_vcd(self, path: str) -> int:
-        """Copy the VCD recorded so far to ``path``; returns the number of edges in it."""
+    def export_vcd(self, path: str, timescale: str | None = None) -> tuple[int, int]:
+        """Copy the VCD recorded so far to ``path``, in another ``timescale`` if one is
+        given; returns the number of edges in it and how many of them have no width
+        (``VcdWriter.zero_width``)."""
         if self.vcd is None or not self.vcd_path:
             raise ValueError("no VCD is being recorded")
         self.flush()
-        self.vcd.copy_to(path, self.now_tick())
-        return self.vcd.changes
+        zero = self.vcd.copy_to(path, self.now_tick(), timescale)
+        return self.vcd.changes, zero
 
     def edges(self) -> int:
         return self.stream.edges_out
@@ -195,7 +198,7 @@ def attach(backend: SimBackend, *, vcd: str | None = None, csv: str | None = Non
 # ----------------------------------------------------------- command line
 # the options themselves live in .options (the command line loads them without the
 # recorders); from_arguments/finish_arguments use them
-from .options import add_arguments, check_arguments, wanted  # noqa: E402,F401
+from .options import add_arguments, check_arguments, vcd_unit, wanted  # noqa: E402,F401
 
 
 def from_arguments(backend: SimBackend, args: argparse.Namespace,
@@ -205,22 +208,28 @@ def from_arguments(backend: SimBackend, args: argparse.Namespace,
         return None
     return attach(backend, vcd=args.vcd, csv=args.steps_csv,
                   analyse=bool(args.report or args.plot or args.steps_csv),
-                  timescale=getattr(args, "vcd_timescale", None), extra_signals=extra_signals)
+                  timescale=vcd_unit(getattr(args, "vcd_timescale", None)),
+                  extra_signals=extra_signals)
 
 
 def finish_arguments(obs: Observers, args: argparse.Namespace, app=None,
-                     title: str = "") -> list[str]:
-    """Finish recording, write the plot; returns the report lines to print (maybe none)."""
+                     title: str = "") -> tuple[list[str], str | None]:
+    """Finish recording, write the plot; returns the report lines to print (maybe none)
+    and the problem with the plot file (None: written, or none asked for)."""
     from . import plots, report
 
     obs.finish()
+    if obs.vcd is not None and obs.vcd.zero_width:  # said where the file is named
+        print(msg.VCD_ZERO_WIDTH.format(path=args.vcd, n=obs.vcd.zero_width,
+                                        unit=obs.vcd.timescale), file=sys.stderr)
     out: list[str] = []
+    problem = None
     if args.plot:
-        size = plots.parse_size(args.plot_size)
-        plots.write_png(plots.series_of(obs), args.plot, size, title=title,
-                        outputs=plots.outputs_of(obs))
+        problem = plots.write_png_or_problem(
+            plots.series_of(obs), args.plot, plots.parse_size(args.plot_size),
+            title=plots.plot_title(title), outputs=plots.outputs_of(obs))
     if args.report:
         out.extend(report.report_lines(obs, positions=report.library_positions(app)))
         if app is not None:
             out.extend(app.watch_report())  # the program's own figures
-    return out
+    return out, problem

@@ -16,7 +16,9 @@ from fas.arch import Profile
 from fas.codes import PIN_UNDEFINED
 from fas.output_figures import output_figures
 
-PLOT_POINTS = 2000  # samples kept per output for plots (thinned by halving)
+from .thinning import PlotSamples
+
+PLOT_POINTS = 2000  # samples kept per output for plots (.thinning: per time bucket)
 
 
 @dataclass(frozen=True)
@@ -61,9 +63,8 @@ class OutputTrace:
         self.duty_max: float | None = None
         self.last_period: int | None = None
         self.last_duty: float | None = None
-        self.samples: list[tuple[int, float]] = []  # (tick, level 0/1 or duty %)
-        self._stride = 1
-        self._since = 0
+        # (tick, level 0/1 or duty %) for plots, thinned per time bucket
+        self.plot = PlotSamples(PLOT_POINTS, key=1)
 
     def edges(self, times: Sequence[int], levels: bytes) -> None:
         for t, lv in zip(times, levels, strict=True):
@@ -71,7 +72,7 @@ class OutputTrace:
                 continue
             if self.first_edge is None:
                 self.first_edge = t
-                self._sample(t, self._value(), force=True)
+                self.plot.add((t, self._value()))
             self.last_edge = t
             self.level = lv
             if lv:
@@ -88,7 +89,7 @@ class OutputTrace:
                 self._high_since = None
                 self._fall = t
             if not self.out.analog:
-                self._sample(t, float(lv), force=True)
+                self.plot.add((t, float(lv)))
 
     def _value(self) -> float:
         return float(self.level) * (100.0 if self.out.analog else 1.0)
@@ -110,17 +111,12 @@ class OutputTrace:
             self.duty_min = duty
         if self.duty_max is None or duty > self.duty_max:
             self.duty_max = duty
-        self._sample(rise, duty)
+        self.plot.add((rise, duty))
 
-    def _sample(self, t: int, value: float, force: bool = False) -> None:
-        self._since += 1
-        if not force and self._since < self._stride:
-            return
-        self._since = 0
-        self.samples.append((t, value))
-        if len(self.samples) > PLOT_POINTS:
-            self.samples = self.samples[::2]
-            self._stride *= 2
+    @property
+    def samples(self) -> list[tuple[int, float]]:
+        """The plot samples (tick, level or duty %), in time order."""
+        return self.plot.samples()
 
     def finish(self, end_tick: int) -> None:
         if self._high_since is not None:
@@ -134,7 +130,7 @@ class OutputTrace:
                 value = self.last_duty if self.last_duty is not None else self._value()
             else:
                 value = float(self.level)
-            self.samples.append((end_tick, value))
+            self.plot.add((end_tick, value))
 
     @property
     def used(self) -> bool:
@@ -168,3 +164,44 @@ class OutputAnalysis:
     def finish(self, end_tick: int) -> None:
         for tr in self.outputs:
             tr.finish(end_tick)
+
+
+def duty_steps(times: Sequence[int], levels: bytes, end_tick: int,
+               close: float = 0.1) -> list[tuple[float, int, int]]:
+    """A PWM pin's waveform as steps of one duty: ``(mean duty %, periods, ticks)`` per
+    run of consecutive periods whose duties are within ``close`` percentage points of
+    the run's first (a high time between two whole ticks alternates).  A period is
+    rise to rise; the last one before the output stops (stays low longer than a
+    period) counts with the length of the one before it."""
+    rises = [t for t, lv in zip(times, levels, strict=True) if lv]
+    falls = [t for t, lv in zip(times, levels, strict=True) if not lv]
+    periods: list[tuple[int, int]] = []  # (period, high)
+    fi = 0
+    for i, rise in enumerate(rises):
+        while fi < len(falls) and falls[fi] <= rise:
+            fi += 1
+        fall = falls[fi] if fi < len(falls) else None
+        if i + 1 < len(rises):
+            nxt = rises[i + 1]
+        elif periods and fall is not None and end_tick - rise > periods[-1][0]:
+            nxt = rise + periods[-1][0]  # stopped after this period
+        else:
+            break
+        if fall is None or fall > nxt:
+            break
+        periods.append((nxt - rise, fall - rise))
+    steps: list[tuple[float, int, int]] = []
+    first = high_sum = length = count = 0
+    for period, high in periods:
+        duty = 100.0 * high / period
+        if count and abs(duty - first) > close:
+            steps.append((100.0 * high_sum / length, count, length))
+            high_sum = length = count = 0
+        if not count:
+            first = duty
+        high_sum += high
+        length += period
+        count += 1
+    if count:
+        steps.append((100.0 * high_sum / length, count, length))
+    return steps

@@ -8,7 +8,10 @@ PNG needs matplotlib (the optional extra ``plot``).
 from __future__ import annotations
 
 import importlib.util
+import os
 import re
+import tempfile
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -72,11 +75,58 @@ def outputs_of(obs: Observers) -> list[OutputSeries]:
     return out
 
 
+MIN_SIDE, MAX_SIDE = 200, 10_000  # pixels a side of a PNG plot
+MAX_PIXELS = 40_000_000  # (a 10000x4000 image: 160 MB while matplotlib draws it)
+FORMATS = (".png", ".svg", ".pdf")  # what --plot and /plot write, by the file's suffix
+TITLE_WIDTH = 100  # characters a title line; longer titles wrap
+TITLE_LINES = 3  # at most; a longer title keeps its beginning and its end
+
+
 def parse_size(text: str) -> tuple[int, int] | None:
-    m = re.fullmatch(r"\s*(\d{2,5})\s*[xX]\s*(\d{2,5})\s*", text or "")
+    """``"1200x800"`` -> (1200, 800); None if it is not WxH within the bounds."""
+    m = re.fullmatch(r"\s*(\d{1,9})\s*[xX]\s*(\d{1,9})\s*", text or "")
     if not m:
         return None
-    return int(m.group(1)), int(m.group(2))
+    w, h = int(m.group(1)), int(m.group(2))
+    if not (MIN_SIDE <= w <= MAX_SIDE and MIN_SIDE <= h <= MAX_SIDE) or w * h > MAX_PIXELS:
+        return None
+    return w, h
+
+
+def path_problem(path: str) -> str | None:
+    """Why a plot cannot be written to ``path`` (checked before a run), or None."""
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix not in FORMATS:
+        return msg.PLOT_BAD_FORMAT.format(path=path, formats=", ".join(FORMATS))
+    folder = os.path.dirname(path) or "."
+    if not os.path.isdir(folder):
+        return msg.OBSERVE_FILE_ERROR.format(path=path, error=msg.PLOT_NO_FOLDER.format(
+            folder=folder))
+    if os.path.isdir(path):
+        return msg.OBSERVE_FILE_ERROR.format(path=path, error=msg.PLOT_IS_FOLDER)
+    try:  # can a file be made there? (root passes every permission check: try it)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        return msg.OBSERVE_FILE_ERROR.format(path=path, error=exc.strerror or exc)
+    return None
+
+
+def plot_title(text: str) -> str:
+    """A title for the figure: wrapped at :data:`TITLE_WIDTH`; beyond
+    :data:`TITLE_LINES` lines its beginning and its end with " ... " between."""
+    flat = " ".join(text.split())
+    lines = textwrap.wrap(flat, TITLE_WIDTH)
+    if len(lines) <= TITLE_LINES:
+        return "\n".join(lines)
+    room = TITLE_WIDTH - 4  # for the " ..." / "... " marks
+    words = flat.split(" ")
+    tail: list[str] = []
+    while words and len(" ".join([words[-1], *tail])) <= room:
+        tail.insert(0, words.pop())
+    end = " ".join(tail) if tail else flat[-room:]
+    head = textwrap.wrap(flat, room)[:TITLE_LINES - 1]
+    return "\n".join([*head[:-1], head[-1] + " ...", "... " + end])
 
 
 # --------------------------------------------------------------- terminal
@@ -163,16 +213,25 @@ class PlotExtraMissing(RuntimeError):
     pass
 
 
+DPI = 100
+
+
 def write_png(series: Sequence[Series], path: str, size: tuple[int, int] = (1200, 800),
               title: str = "", outputs: Sequence[OutputSeries] = ()) -> None:
     """Position and speed over time, one line per stepper, as a PNG of ``size`` pixels;
     with ``outputs`` a third panel: Dout levels (offset per output) and Aout duty."""
+    figure(series, size, title, outputs).savefig(path, dpi=DPI)
+
+
+def figure(series: Sequence[Series], size: tuple[int, int] = (1200, 800), title: str = "",
+           outputs: Sequence[OutputSeries] = ()):
+    """The matplotlib figure of :func:`write_png`."""
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise PlotExtraMissing(msg.PLOT_EXTRA_MISSING) from exc
-    dpi = 100
+    dpi = DPI
     fig = Figure(figsize=(size[0] / dpi, size[1] / dpi), dpi=dpi, layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(3 if outputs else 2, 1, sharex=True)
@@ -197,11 +256,26 @@ def write_png(series: Sequence[Series], path: str, size: tuple[int, int] = (1200
         ax_out.legend(loc="best")
     for ax in (ax_pos, ax_speed):
         ax.grid(True, alpha=0.3)
-        if series:
-            ax.legend(loc="best")
+    if series:  # one legend for both panels: the steppers are the same in each
+        ax_pos.legend(loc="best")
     if not series:
         ax_pos.text(0.5, 0.5, msg.PLOT_NO_DATA, ha="center", va="center",
                     transform=ax_pos.transAxes)
     if title:
         fig.suptitle(title)
-    fig.savefig(path, dpi=dpi)
+    return fig
+
+
+def write_png_or_problem(series: Sequence[Series], path: str,
+                         size: tuple[int, int] | None = (1200, 800), title: str = "",
+                         outputs: Sequence[OutputSeries] = ()) -> str | None:
+    """:func:`write_png`; a file that cannot be written is a one-line problem (None:
+    written)."""
+    problem = path_problem(path)
+    if problem is not None:
+        return problem
+    try:
+        write_png(series, path, size or (1200, 800), title=title, outputs=outputs)
+    except (OSError, ValueError, MemoryError) as exc:
+        return msg.OBSERVE_FILE_ERROR.format(path=path, error=exc)
+    return None

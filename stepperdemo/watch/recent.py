@@ -30,7 +30,7 @@ from fas.sim.channel import ENTRY_START, SimChannel
 from fas.sim.trace import EdgeStream, VcdWriter, pin_levels
 
 from .. import messages as msg
-from .motion import ChannelCounts, MotionAnalysis, Wiring, demo_wiring
+from .motion import ChannelCounts, MotionAnalysis, Wiring, demo_wiring, shared_step_pins
 from .observe import recorded_signals
 from .outputs import OutputAnalysis
 
@@ -95,6 +95,13 @@ class _Track:
         self.ticks = array("q")
         self.steps = array("q")
         self.p0 = 0  # the first entry not before the head
+        # a step pin shared with another role (motion.shared_step_pins): the pulse number
+        # after the last pulse of the entries taken up by the head (None: not known, the
+        # channel ran when bound) - rises beyond it are the other role's; the entries
+        # taken up later: (tick, end)
+        self.shared = False
+        self.planned: int | None = 0
+        self.pending: deque[tuple[int, int]] = deque()
         # channel counts where they changed: (pulse number, channel no, dry, missed,
         # starts) - the counts before the entry at that pulse number took effect
         self.counts: deque[tuple[int, int, int, int, int]] = deque()
@@ -109,13 +116,18 @@ class _Track:
         else:
             base = channel.pulses
             self.counts.append((0, 0) + counts[1:])
+            if channel.is_running():
+                self.planned = None
         self.chans.append((channel, base, counts))
         return len(self.chans) - 1
 
-    def note(self, no: int, kind: int, index: int, ticks: int, steps: int) -> None:
-        """The channel took up a queue entry."""
+    def note(self, no: int, kind: int, index: int, ticks: int, steps: int,
+             tick: int = 0) -> None:
+        """The channel took up a queue entry (at ``tick``)."""
         ch, base, _ = self.chans[no]
         r = index - base
+        if self.shared:
+            self.pending.append((tick, r + steps))
         self.kinds.append(kind)
         self.firsts.append(r)
         self.ticks.append(ticks)
@@ -164,7 +176,24 @@ class _Track:
         entries = list(zip(self.kinds[p:], self.firsts[p:], self.ticks[p:], self.steps[p:],
                            strict=True))
         channel, base = bases[-1]
-        return channel, base, bases[:-1], self.r, self.cur_ticks, entries
+        return (channel, base, bases[:-1], self.r, self.cur_ticks, entries, self.planned,
+                list(self.pending))
+
+    def shared_rises(self, times: Sequence[int], levels: bytearray, a: int, b: int) -> int:
+        """Of the rises of a shared step pin in ``levels[a:b]``, the steps (the head
+        moves over them, taking up the entries due)."""
+        pending, steps = self.pending, 0
+        for i in range(a, b):
+            if not levels[i]:
+                continue
+            t = times[i]
+            while pending and pending[0][0] <= t:
+                end = pending.popleft()[1]
+                if self.planned is None or end > self.planned:
+                    self.planned = end
+            if self.planned is None or self.r + steps < self.planned:
+                steps += 1
+        return steps
 
     def nbytes(self) -> int:
         return sum(a.buffer_info()[1] * a.itemsize
@@ -228,6 +257,8 @@ class RecentTrace:
         self.tracks = [_Track(w, positions[i] if i < len(positions) and positions[i] is not None
                               else 0) for i, w in enumerate(self.wiring)]
         self._by_step = {t.wiring.step: t for t in self.tracks}
+        for pin in shared_step_pins(self.wiring):
+            self._by_step[pin].shared = True
         self.chunks: deque[_Chunk] = deque()
         self._chunk: _Chunk | None = None
         self.held = 0  # edges kept
@@ -311,8 +342,10 @@ class RecentTrace:
         first = not tr.chans
         no = tr.bind(channel)
 
+        now = self.backend.now
+
         def note(kind: int, index: int, ticks: int, steps: int) -> None:
-            tr.note(no, kind, index, ticks, steps)
+            tr.note(no, kind, index, ticks, steps, now())
 
         channel.entry_listeners.append(note)
         self._listeners.append((channel, note))
@@ -382,7 +415,8 @@ class RecentTrace:
                 continue
             tr = by_step.get(pin)
             if tr is not None and tr.bound:
-                rises = lv.count(1, a, b)
+                rises = (tr.shared_rises(c.times, lv, a, b) if tr.shared
+                         else lv.count(1, a, b))
                 tr.r += rises
                 tr.position += rises if tr.up(levels) else -rises
             levels[pin] = lv[b - 1]
@@ -435,18 +469,20 @@ class RecentTrace:
         outputs.finish(view.end_tick)
         return view
 
-    def export_vcd(self, path: str) -> int:
-        """Write the kept edges as a VCD file; returns the number of edges in it
-        (OSError if the file cannot be written)."""
+    def export_vcd(self, path: str, timescale: str | None = None) -> tuple[int, int]:
+        """Write the kept edges as a VCD file in ``timescale`` (None: exact); returns the
+        number of edges in it and how many of them have no width at that unit
+        (``VcdWriter.zero_width``; OSError if the file cannot be written)."""
         self.flush()
         end = self.now_tick()
         with open(path, "w", encoding="ascii", newline="\n", buffering=1 << 20) as f:
             writer = VcdWriter(f, self.signals, self.profile.ticks_per_s,
                                start_tick=self.head_tick, initial=self.head_levels,
+                               timescale=timescale,
                                comment=msg.VCD_COMMENT.format(profile=self.profile.name))
             self._replay([writer], lambda _pin: None)
             writer.close(end)
-        return writer.changes
+        return writer.changes, writer.zero_width
 
 
 __all__ = ["RecentTrace", "RecordedWindow", "MAX_EDGES", "CHUNK_EDGES", "bound_seconds"]

@@ -50,8 +50,8 @@ def _stepper_lines(m: StepperMotion, tps: int, library: int | None) -> list[str]
     if m.period_min is not None:
         lines.append(msg.REPORT_PERIOD.format(min=us(m.period_min), median=us(m.period_median()),
                                               max=us(m.period_max)))
-        lines.append(msg.REPORT_SPEED.format(speed=tps / m.period_min, acc=m.acc_max,
-                                             dec=m.dec_max))
+        lines.append(msg.REPORT_SPEED.format(speed=tps / m.period_min, acc=_rate(m.acc_max),
+                                             dec=_rate(m.dec_max)))
     if m.dev_compared and not m.dev_late and not m.dev_early:
         lines.append(msg.REPORT_DEVIATION_NONE.format(compared=m.dev_compared))
     elif m.dev_compared:
@@ -75,6 +75,11 @@ def _stepper_lines(m: StepperMotion, tps: int, library: int | None) -> list[str]
         enables=m.enables, min=us(min(delays) if delays else None),
         max=us(max(delays) if delays else None), disabled=m.steps_disabled))
     return lines
+
+
+def _rate(value: float | None) -> str:
+    """steps/s^2, or "-" where the pulses did not show it (one step, a constant rate)."""
+    return msg.REPORT_NONE if value is None else f"{value:.0f}"
 
 
 def _output_lines(obs: Observers, tps: int) -> list[str]:

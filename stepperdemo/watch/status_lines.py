@@ -60,6 +60,31 @@ _TABLE_LINE = re.compile(
     + r"|\s*$)")
 _WAIT_MS = re.compile(r"^-?\d+" + re.escape(_text(msg.WAIT_MS)) + "$")
 _BANNER_PREFIX = msg.BANNER_VERSION.split(msg.VERSION)[0]  # "StepperDemo Version "
+# what StepperDemo answers to its commands: a line that is one of these (or begins
+# with one that takes a value) is the firmware's; the usage text is not among them
+_ANSWER_TEXTS = frozenset(_text(t).rstrip() for t in (
+    msg.TOGGLE_MOTOR_INFO, msg.TOGGLE_USAGE_INFO, msg.ENTER_TEST_MODE,
+    msg.ENTER_CONFIG_MODE, msg.EXIT_TO_MAIN_MENU, msg.OUTPUT_DRIVER_ON,
+    msg.OUTPUT_DRIVER_OFF, msg.OUTPUT_DRIVER_AUTO, msg.STOP, msg.KEEP_RUNNING,
+    msg.RUN_FORWARD, msg.RUN_BACKWARD, msg.IMMEDIATE_STOP, msg.UPDATE_SPEED_ACCELERATION,
+    msg.BLOCKING_WAIT, msg.STOPPED, msg.TEST_DIRECT_DRIVE, msg.STEPPED_FORWARD,
+    msg.STEPPED_BACKWARD, msg.WAIT_COMPLETE, msg.RUN_TESTS, msg.FAILED_STATUS,
+    msg.PASS_STATUS, msg.TEST_COMPLETED, msg.ERROR_INVALID_VALUE, msg.ENTER_GCODE_MODE,
+    *msg.MOVE_RESULT.values()))
+_ANSWER_PREFIXES = tuple(_text(t) for t in (
+    msg.SELECT_STEPPER, msg.SET_ACCELERATION_TO, msg.SET_SPEED_TO_US, msg.SET_SPEED_TO_HZ,
+    msg.SET_SPEED_TO_MILLI_HZ, msg.MOVE_STEPS, msg.MOVE_TO_POSITION, msg.RETURN_CODE,
+    msg.SET_POSITION, msg.SET_ENABLE_TIME, msg.SET_DISABLE_TIME, msg.LINEAR_ACCELERATION,
+    msg.JUMP_START, msg.UNKNOWN_COMMAND, msg.SELECT_TEST_SEQUENCE, msg.PRESS_NUMBER_TO_SELECT,
+    msg.BANNER_F_CPU, msg.BANNER_TICKS, msg.BANNER_STEPPERS))
+
+
+def is_answer(line: str) -> bool:
+    """Is ``line`` (without its line end) one StepperDemo prints in answer to a command?
+    (Status lines, table rows and the banner are read on their own.)"""
+    text = line.rstrip()
+    return text in _ANSWER_TEXTS or text.startswith(_ANSWER_PREFIXES) or bool(
+        _WAIT_MS.match(text))
 
 
 @dataclass
@@ -237,6 +262,7 @@ class BoardState:
     steppers: dict[int, StepperView] = field(default_factory=dict)
     trace: StatusTrace = field(default_factory=StatusTrace)
     last_line: str = ""
+    answers: int = 0  # lines StepperDemo would print (a banner, a status line, an answer)
 
     # ------------------------------------------------------------ queries
     def stepper(self, number: int) -> StepperView:
@@ -277,7 +303,7 @@ class BoardState:
     def _restart(self, version: str) -> None:
         """The start banner: the board is back at power-on (the trace stays)."""
         fresh = BoardState(resets=self.resets + 1, trace=self.trace,
-                           banner=Banner(version=version))
+                           banner=Banner(version=version), answers=self.answers)
         self.__dict__.update(fresh.__dict__)
 
     def feed(self, line: str, t_s: float) -> str | None:
@@ -285,6 +311,12 @@ class BoardState:
         ``reset``, ``status``, ``table``, ``spin``, ``stopped``, ``unknown``,
         ``test_done``, ``direct_drive`` or None."""
         prev, self.last_line = self.last_line, line
+        kind = self._feed(line, prev, t_s)
+        if kind is not None or is_answer(line):
+            self.answers += 1
+        return kind
+
+    def _feed(self, line: str, prev: str, t_s: float) -> str | None:
         entries = parse_status(line)
         if entries is not None:
             self.trace.status(t_s, entries)

@@ -4,8 +4,15 @@ On the simulation ``/plot`` and ``/report`` read the pins; a board running the
 original firmware only prints a status line every 100 ms while a stepper runs.
 These are the same plots (position and the planned speed ``v=`` over time) and a
 report of what the lines can tell: how long each stepper ran, its positions, peak
-speed, acceleration between lines, the ramp states seen, and the pauses in which
-the board printed nothing (a ``W`` spinning, ``T``, a long print).
+speed, acceleration, the ramp states seen, and the pauses in which the board
+printed nothing (a ``W`` spinning, ``T``, a long print).
+
+Acceleration is the least-squares slope of ``v=`` against the time the lines
+arrived, over each stretch of lines in one ramp state (``ACC`` up, ``RED`` down):
+a line reaches the host late or early by its USB adapter's latency and the board's
+prints, and the slope over a stretch averages that out, where the change between
+two successive lines (as before) took a line that came 50 ms early as twice the
+acceleration.
 """
 
 from __future__ import annotations
@@ -18,7 +25,8 @@ from .plots import Series
 from .status_lines import STOP_STATE, Sample, StatusTrace
 
 GAP_S = 0.25  # between status lines while running: the board was busy
-MIN_DT_S = 0.05  # acceleration only from lines at least this far apart
+MIN_FIT_LINES = 3  # lines of one ramp state a slope needs
+RAMP_UP, RAMP_DOWN = "ACC", "RED"  # the firmware's ramp states (messages.RAMP_STATE_TEXT)
 
 
 def series_of(trace: StatusTrace, t0_s: float = 0.0) -> list[Series]:
@@ -42,17 +50,38 @@ def _runs(samples: list[Sample]) -> list[list[Sample]]:
     return [r for r in runs if r]
 
 
-def _acceleration(run: list[Sample]) -> tuple[float, float]:
-    acc = dec = 0.0
-    known = [s for s in run if s.speed_known]
-    for a, b in pairwise(known):
-        dt = b.t_s - a.t_s
-        if dt < MIN_DT_S or dt > GAP_S:
+def _acceleration(run: list[Sample]) -> tuple[float | None, float | None]:
+    """(acceleration, deceleration) of a run: the steepest slope of an ACC stretch and
+    of a RED stretch (None: no stretch long enough)."""
+    acc: float | None = None
+    dec: float | None = None
+    stretch: list[Sample] = []
+    for s in [*run, None]:
+        if (s is not None and stretch and s.speed_known and s.state == stretch[-1].state
+                and s.t_s - stretch[-1].t_s <= GAP_S):
+            stretch.append(s)
             continue
-        change = (abs(b.speed_sps) - abs(a.speed_sps)) / dt
-        acc = max(acc, change)
-        dec = max(dec, -change)
+        if len(stretch) >= MIN_FIT_LINES and stretch[0].state in (RAMP_UP, RAMP_DOWN):
+            slope = _slope([(x.t_s, abs(x.speed_sps)) for x in stretch])
+            if stretch[0].state == RAMP_UP and slope > 0:
+                acc = slope if acc is None else max(acc, slope)
+            elif stretch[0].state == RAMP_DOWN and slope < 0:
+                dec = -slope if dec is None else max(dec, -slope)
+        stretch = [s] if s is not None and s.speed_known else []
     return acc, dec
+
+
+def _slope(points: list[tuple[float, float]]) -> float:
+    n = len(points)
+    mt = sum(t for t, _ in points) / n
+    mv = sum(v for _, v in points) / n
+    stt = sum((t - mt) ** 2 for t, _ in points)
+    return sum((t - mt) * (v - mv) for t, v in points) / stt if stt else 0.0
+
+
+def _most(values: list[float | None]) -> str:
+    known = [v for v in values if v is not None]
+    return f"{max(known):.0f}" if known else msg.REPORT_NONE
 
 
 def report_lines(trace: StatusTrace, source: str) -> list[str]:
@@ -77,14 +106,11 @@ def report_lines(trace: StatusTrace, source: str) -> list[str]:
         lines.append(msg.STATUS_REPORT_POSITION.format(start=first, end=last,
                                                        net=last - first, final=final))
         runs = _runs(samples)
-        acc = dec = 0.0
-        gaps = 0
-        for run in runs:
-            a, d = _acceleration(run)
-            acc, dec = max(acc, a), max(dec, d)
-            gaps += sum(1 for x, y in pairwise(run) if y.t_s - x.t_s > GAP_S)
+        rates = [_acceleration(run) for run in runs]
+        gaps = sum(1 for run in runs for x, y in pairwise(run) if y.t_s - x.t_s > GAP_S)
         peak = max(abs(s.speed_sps) for s in status)
-        lines.append(msg.STATUS_REPORT_SPEED.format(speed=peak, acc=acc, dec=dec))
+        lines.append(msg.STATUS_REPORT_SPEED.format(
+            speed=peak, acc=_most([a for a, _ in rates]), dec=_most([d for _, d in rates])))
         states = Counter(s.state for s in status)
         lines.append(msg.STATUS_REPORT_RAMP.format(
             states=", ".join(f"{name} {n}" for name, n in states.most_common())))

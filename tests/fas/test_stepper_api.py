@@ -240,6 +240,22 @@ def test_move_by_acceleration_and_keep_running():
     run_until_idle(backend, s)
 
 
+def test_move_by_acceleration_0_without_a_speed_keeps_the_speed_undefined():
+    """moveByAcceleration(0) sets both speeds through setSpeedInTicks(): a period of 0
+    (not running) and an undefined speed (0 ticks) are refused there, so the speed
+    stays undefined and the next move answers MOVE_ERR_SPEED_IS_UNDEFINED."""
+    backend, _, s = make()
+    assert s.move_by_acceleration(0) == MoveResult.OK
+    assert s.get_speed_in_ticks() == 0 and s.get_acceleration() == 1
+    assert s.move(100) == MoveResult.ERR_SPEED_IS_UNDEFINED
+    backend.run_for_ms(100)
+    assert rising(backend, 9) == [] and s.get_current_position() == 0
+    # with a speed, a0 at rest keeps it (the period 0 is refused, not taken)
+    s.set_speed_in_us(250)
+    s.move_by_acceleration(0)
+    assert s.get_speed_in_us() == 250 and s.move(10) == MoveResult.OK
+
+
 def test_keep_running_turns_a_move_into_a_run():
     backend, _, s = make()
     s.set_speed_in_us(100)
@@ -416,3 +432,31 @@ def test_switching_auto_enable_on_while_steps_are_queued_enables_the_driver_at_o
     backend.run_for_ms(50)
     times, levels = backend.recorder.pin_edges(6)
     assert levels[-1] == 0 and len(rising(backend, 9)) > n
+
+
+# ------------------------------------------------------- milli-Hz as uint32_t
+def test_milli_hz_getters_compute_in_uint32_t_as_the_cpp():
+    """getMaxSpeedInMilliHz()/getCurrentSpeedInMilliHz(): ((uint32_t)250 *
+    TICKS_PER_S) / ticks * 4.  On the SAM Due (21 MHz) 250 * TICKS_PER_S is
+    5 250 000 000 and wraps to 955 032 704; / 420 * 4 = 9 095 548, not 50 000 000.
+    getSpeedInMilliHz() (divForMilliHz, rounded) wraps the same way: 9 095 550."""
+    _, _, s = make("sam_due")
+    assert s.get_max_speed_in_ticks() == 420
+    assert s.get_max_speed_in_milli_hz() == 9_095_548
+    assert s.get_max_speed_in_hz() == 50_000 and s.get_max_speed_in_us() == 20
+    assert s.set_speed_in_hz(50_000) == 0 and s.get_speed_in_ticks() == 420
+    assert s.get_speed_in_milli_hz() == 9_095_550
+    _, _, a = make("atmega328p")  # 250 * 16 MHz fits: no wrap
+    assert a.get_max_speed_in_ticks() == 320 and a.get_max_speed_in_milli_hz() == 50_000_000
+
+
+def test_current_speed_in_milli_hz_wraps_on_the_sam_due_both_ways():
+    backend, _, s = make("sam_due", dir_pin=18, enable_pin=26)
+    s.set_speed_in_hz(50_000)
+    s.set_acceleration(1_000_000)
+    s.run_forward()
+    backend.run_for_ms(300)
+    assert s.get_current_speed_in_milli_hz() == 9_095_548
+    s.run_backward()
+    backend.run_for_ms(600)
+    assert s.get_current_speed_in_milli_hz() == -9_095_548

@@ -252,7 +252,7 @@ def test_issue173_force_stop_then_set_position_clears_the_target():
 
 
 # --------------------------------------------------------------------- Issue208
-def test_issue208_speed_is_monotone_while_speeding_up_and_reversing():
+def _issue208():
     sk = Sketch()
     sk.print("Init\r\n")
     sk.engine.init()
@@ -290,18 +290,38 @@ def test_issue208_speed_is_monotone_while_speeding_up_and_reversing():
     sk.signal(not errors)
     sk.print("PASS\r\n")
     sk.delay(1000)  # then the chip halts, in the middle of the deceleration
+    return sk, errors
+
+
+@pytest.fixture(scope="module")
+def issue208():
+    return _issue208()
+
+
+def test_issue208_speed_is_monotone_while_speeding_up_and_reversing(issue208):
+    """expect.txt: every count exactly, StepA's within its "~~120/120/5/700"."""
+    sk, errors = issue208
     c = sk.counts()
     assert not errors
-    # expect.txt: 234999 pulses (+-120), position 37271 (+-200), DirA 0/1 exactly.
-    # Measured here: 234,9xx pulses; position 37001, 270 short of upstream's figure:
-    # the chip halts 1 s into the final deceleration, and our reversal from +36.8 kHz
-    # runs ~4.5 ms ahead of the firmware's (its direction edge at 7.3715 s against
-    # 7.3760 s in the AVR simulator) - a timing-model difference listed in the
-    # coverage document; the pulse count is inside upstream's tolerance.
-    assert abs(c["StepA"][0] - 234999) <= 120
-    assert abs(sk.position(STEP_A, DIR_A) - 37271) <= 300
-    assert c["DirA"] == (0, 1) and c["EnableA"] == (0, 0)
-    assert c["StepB"] == (2, 2)
+    assert abs(c["StepA"][0] - 234999) <= 120 and abs(c["StepA"][1] - 234999) <= 120
+    assert c["DirA"] == (0, 1) and c["DirB"] == (1, 0)
+    assert c["EnableA"] == (0, 0) and c["EnableB"] == (0, 0)
+    assert c["StepB"] == (2, 2) and sk.position(STEP_B, DIR_B) == 2
+    # Position[A]=37271~200: the chip halts 1 s into the final deceleration, so where
+    # the reversal lies decides it (measured here: 37271)
+    assert abs(sk.position(STEP_A, DIR_A) - 37271) <= 200
+
+
+@pytest.mark.xfail(strict=True, reason="measured Max High 3 us, Total High 895933 us; upstream "
+                   "9 +- 5 us, 923729 +- 700 us: every pulse of the model lasts 3.81 us "
+                   "(issue 23 item 2)")
+def test_issue208_pulse_high_time_as_upstream(issue208):
+    """expect.txt: StepA "Max High=9us Total High=923729us~~120/120/5/700"."""
+    sk, _ = issue208
+    sk.settle()
+    a = pin_activity(sk.backend, STEP_A)
+    assert abs(int(a.high_max_us) - 9) <= 5
+    assert abs(int(a.high_total_us) - 923729) <= 700
 
 
 # --------------------------------------------------------------------- Issue250
@@ -350,7 +370,8 @@ def test_issue250_30us_interrupt_blocks_lose_no_step():
 
 
 # --------------------------------------------------------------------- Issue280
-def test_issue280_new_acceleration_while_stopping_still_stops():
+@pytest.fixture(scope="module")
+def issue280():
     sk = Sketch()
     sk.engine.init()
     s = sk.stepper(STEP_A, DIR_A, EN_A)
@@ -370,23 +391,35 @@ def test_issue280_new_acceleration_while_stopping_still_stops():
         sk.delay(10)
     sk.print(f"{s.get_current_speed_in_us()}\r\n")
     err = err or s.is_running()
-    assert not err
     sk.print(f"Reached Position={s.get_current_position()}\r\n")
     s.move_to(0, blocking=True)
     sk.delay(100)
+    return sk, err
+
+
+def test_issue280_new_acceleration_while_stopping_still_stops(issue280):
+    """expect.txt, every figure exact: the counts met here."""
+    sk, err = issue280
     c = sk.counts()
+    assert not err
     assert sk.position(STEP_A, DIR_A) == 0
-    # expect.txt: 33872 pulses, exactly.  We make 33992 (+0.35 %); FastAccelStepper
-    # 1.2.7 built here and run in Debian's simavr made 33983, so upstream's figure
-    # belongs to its own compiler/simulator versions (the shared conformance notes
-    # the same ~0.2-0.4 % spread).  Transitions are exact.
-    assert abs(c["StepA"][0] - 33872) <= 33872 * 4 // 1000
     assert c["StepA"][0] == c["StepA"][1]
-    assert c["DirA"] == (0, 1)
-    # expect.txt: EnableA 3/2 - the driver was switched off between the stop and
-    # moveTo(0).  Whether a ramp task (and so the auto-disable) runs in that gap
-    # depends on where the stop falls on the sketch's 10 ms polling grid: the
-    # firmware's stop ended ~8 ms before its next poll, ours 3.1 ms (the last step
-    # lies 120 pulses later, see above), too short for a task run.  Listed in the
-    # coverage document.
-    assert c["EnableA"] in ((3, 2), (2, 1))
+    assert c["DirA"] == (0, 1) and c["DirB"] == (0, 0)
+    assert c["EnableB"] == (0, 0) and c["StepB"] == (0, 0)
+
+
+@pytest.mark.xfail(strict=True, reason="measured 33976 pulses, upstream 33872 +- 0 "
+                   "(FastAccelStepper 1.2.7 built here and run in Debian's simavr: 33983)")
+def test_issue280_pulse_count_as_upstream(issue280):
+    sk, _ = issue280
+    assert sk.counts()["StepA"] == (33872, 33872)
+
+
+@pytest.mark.xfail(strict=True, reason="measured EnableA 2/1, upstream 3/2 +- 0: whether a ramp "
+                   "task auto-disables the driver between the stop and moveTo(0) depends on "
+                   "where the stop falls on the sketch's 10 ms polling grid (issue 23)")
+def test_issue280_enable_transitions_as_upstream(issue280):
+    """expect.txt: EnableA 3*L->H, 2*H->L - the driver was switched off between the stop
+    and moveTo(0)."""
+    sk, _ = issue280
+    assert sk.counts()["EnableA"] == (3, 2)

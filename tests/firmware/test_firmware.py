@@ -233,8 +233,10 @@ def test_step_edges_agree_with_the_python_device(line):
 
 def test_user_outputs_of_a_gcode_program_on_the_device():
     """Issue 12's acceptance program on the Uno: Dout0 (pin 2) synchronized between the
-    moves, Dout1 (pin 4) at once, Aout1 (pin 11, timer 2) at 23.87 % - the nearest
-    count, 61 of 256 at 7812.5 Hz (timer 2's TOP is fixed, prescaler 8)."""
+    moves, Dout1 (pin 4) at once when its line is read - after M63 has changed (a
+    synchronized output holds the parser, issue 24) - Aout1 (pin 11, timer 2) at
+    23.87 % - the nearest count, 61 of 256 at 7812.5 Hz (timer 2's TOP is fixed,
+    prescaler 8)."""
     from stepperdemo.program import make_program
 
     program = ("G1 X2000 F600000\nM62 P0\nG1 X0\nM63 P0\nM64 P1\nM67 E1 Q23.87\nG4 P0.05\n"
@@ -251,7 +253,7 @@ def test_user_outputs_of_a_gcode_program_on_the_device():
     d0 = list(zip(*tr.edges(2), strict=True))
     assert [lv for _, lv in d0] == [1, 0]
     assert steps[1999] < d0[0][0] < steps[2000] and d0[1][0] > steps[-1]
-    assert tr.rising(4)[0] < steps[0]  # M64: at once
+    assert tr.rising(4)[0] >= d0[1][0]  # M64: at once, read after M63 has changed
     times, levels = tr.edges(11)
     assert times[0] > d0[1][0]  # M67 E1 (immediate) comes after the motion before it
     # 61 of 256 counts of 8 cycles high in a period of 2048 (the timer's own edges are

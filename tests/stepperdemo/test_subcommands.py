@@ -102,3 +102,34 @@ def test_the_command_line_and_the_gcode_program_do_not_import_each_other():
         assert not any(m.startswith("stepperdemo.gcode") for m in _imports(path)), path
     for path in (ROOT / "stepperdemo" / "gcode").glob("*.py"):
         assert "stepperdemo.front.cli" not in _imports(path), path
+
+
+def _help(capsys, *argv: str) -> str:
+    with pytest.raises(SystemExit) as end:
+        main([*argv, "--help"])
+    assert end.value.code == 0
+    return capsys.readouterr().out
+
+
+def test_no_help_text_speaks_of_our_issues_or_seeds(capsys):
+    # a user reads --help; "issue 15" and "seed 002" are the project's notes, not theirs
+    import re
+
+    for argv in ((), *((name,) for name in SUBCOMMANDS)):
+        text = _help(capsys, *argv)
+        assert not re.search(r"\b(issue|seed)s? ?\d", text, re.IGNORECASE), (argv, text)
+
+
+def test_a_hosted_program_lists_only_the_options_that_apply_to_it(capsys):
+    demo_only = ("--firmware-end", "--test-mode-wait", "--board", "--log", "--quiet-ms",
+                 "--boot-wait")
+    demo = _help(capsys)
+    assert all(option in demo for option in demo_only)
+    winder = _help(capsys, "winder")
+    assert [option for option in demo_only if option in winder] == []
+    assert "--port" in winder and "--vcd" in winder
+    with pytest.raises(SystemExit) as end:  # and argparse refuses them
+        main(["winder", "--board", "/dev/null", "-c", "status"])
+    assert end.value.code == 2
+    assert "unrecognized arguments: --board" in capsys.readouterr().err
+    assert main(["winder", "-c", "move 1 10 w100", "--lf"]) == 0  # the defaults stand in

@@ -132,4 +132,10 @@ def test_scripted_run_ends_with_code_5_when_the_device_goes(device):
     finally:
         end(host, END_S)
     assert host.returncode == 5
-    assert "stepperdemo: device lost:" in err
+    lines = err.splitlines()
+    assert lines[-1].startswith("stepperdemo: device lost:")
+    assert "/reconnect" not in err  # (a console command: not in a scripted run)
+    # the device's counters are from its last report before the loss, and say so
+    assert lines[1] == ("the device's figures below are its last report, from before the "
+                        "connection ended")
+    assert lines[0].startswith("link: ") and " rtt 0 us;" not in lines[0]

@@ -176,3 +176,23 @@ def test_restart_switches_user_outputs_off():
     b.run_for_ms(5)
     assert b.read_pin(pin_d) == 0 and not b.machine.outputs.waves
     assert b.read_pin(pin_a) == 0
+
+
+def test_sam_due_milli_hz_status_and_stopped_line_wrap_as_the_cpp():
+    """On the SAM Due (TICKS_PER_S 21 MHz) the firmware's milli-Hz figures are
+    computed in uint32_t and wrap: the status line while coasting at the fastest
+    period (420 ticks) shows getCurrentSpeedInMilliHz() = 9095548, the stepper
+    table after the stop getSpeedInMilliHz() = 9095550 (divForMilliHz rounds)."""
+    app, reason = run("M1 A1000000 H50000 R100000 W", arch="sam_due")
+    t = text(app)
+    assert reason == EndReason.IDLE
+    assert "v=9095548mSteps/s COAST" in t and "50000000" not in t
+    assert ">> M1: @100000 acceleration  [steps/s^2]=1000000 speed [mstep/s]=9095550" in t
+
+
+def test_a0_without_a_speed_then_r_answers_speed_undefined_and_does_not_move():
+    app, reason = run("M1 a0 R100 W", record=True)
+    t = text(app)
+    assert "Move steps 100\r\nERROR speed is not defined\n" in t
+    assert app.steppers[0].get_current_position() == 0
+    assert app.backend.recorder.rising(9) == []

@@ -125,8 +125,12 @@ def test_interrupt_block_at_25khz_keeps_every_step_but_takes_longer():
     assert len(a) == len(b) == 20000
     dur_e = (a[-1] - a[0]) / 16000
     dur = (b[-1] - b[0]) / 16000
-    assert abs(dur - 822.7) < 1  # firmware: 823 ms from first to last step
-    assert abs(dur_e - 1150) < 25  # firmware: 1150 ms
+    # the firmware (sequences/reference/d36, d35): 822.68275 ms and 1150.362876 ms from
+    # first to last step; without `e` within 1 us (upstream's evaluation reports whole
+    # us), with `e` within one 4.1 ms timer wrap per `e` window the run spans (five):
+    # issue 23's acceptance rule, gaps per window within +-1 of the firmware's
+    assert abs(dur - 822.68275) <= 0.001
+    assert abs(dur_e - 1150.362876) <= 5 * 4.096
     gaps = [(y - x) / 16 for x, y in zip(a, a[1:], strict=False) if y - x > 16000]
     assert gaps and all(4000 < g < 4200 for g in gaps)  # ~4.1 ms timer wraps
     pins = with_e.backend.machine.pins

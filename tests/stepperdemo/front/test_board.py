@@ -6,6 +6,7 @@ clock (:class:`SimBoardLink`): deterministic, no wall clock."""
 from __future__ import annotations
 
 import asyncio
+import re
 
 import pytest
 
@@ -354,3 +355,60 @@ def test_run_side_waits_for_the_final_table_of_a_slow_board(tmp_path):
     assert s.wait_ready()
     side = board_runner.run_side(s, load(str(path)), reset=False)
     assert side.end == "idle" and side.positions[1] == 500
+
+
+class _JitteryLink(SimBoardLink):
+    """The simulated board behind a USB adapter: what it prints reaches the host in
+    bursts, each up to ``jitter_s`` late (seeded)."""
+
+    def __init__(self, jitter_s: float, seed: int = 26) -> None:
+        super().__init__()
+        import random
+
+        self.jitter_s = jitter_s
+        self.rng = random.Random(seed)
+        self._held = bytearray()
+        self._release_at: float | None = None
+
+    def read(self, timeout_s: float) -> bytes:
+        self._held += super().read(timeout_s)
+        if self._held and self._release_at is None:
+            self._release_at = self.now() + self.rng.uniform(0, self.jitter_s)
+        if self._release_at is None or self.now() < self._release_at:
+            return b""
+        out = bytes(self._held)
+        self._held.clear()
+        self._release_at = None
+        return out
+
+
+@pytest.mark.parametrize("acc", [500, 1000, 2000])
+def test_status_line_acceleration_is_the_pins_despite_arrival_jitter(acc, tmp_path):
+    """Issue 26: the board report said 3762 steps/s^2 for A <= 2000 - the change
+    between two lines over their arrival times, which USB latency scatters.  With 60 ms
+    of jitter the slope over each ramp stays within 2 x jitter / ramp time of the slope
+    the pins of the same run show (the step rate over the rise and over the fall)."""
+    import csv
+
+    from stepperdemo.watch import observe
+    from stepperdemo.watch.ramp_rates import phase_rates
+
+    jitter = 0.06
+    link = _JitteryLink(jitter)
+    s = BoardSession(link)
+    assert s.wait_ready()
+    pins = observe.attach(link.board.backend, csv=str(tmp_path / "steps.csv"))
+    steps = 4 * acc  # a triangle, about 2 s up and 2 s down ...
+    assert s.run_script(f"M1 A{acc} V100 R{steps}", 60) == End.IDLE
+    pins.finish()
+    with open(tmp_path / "steps.csv") as f:
+        ticks = [int(row["tick"]) for row in csv.DictReader(f)]
+    assert len(ticks) == steps
+    pin_acc, pin_dec = phase_rates(ticks, link.profile.ticks_per_s)
+    ramp_s = (steps / acc) ** 0.5  # ... half the steps each way: t = sqrt(2 * s/2 / a)
+    tol = 2 * jitter / ramp_s
+    report = status_report.report_lines(s.state.trace, "jittery")
+    got = re.search(r"acceleration up to (\d+), deceleration up to (\d+)", report[3])
+    assert got, report
+    assert float(got.group(1)) == pytest.approx(pin_acc, rel=tol)
+    assert float(got.group(2)) == pytest.approx(pin_dec, rel=tol)

@@ -87,3 +87,24 @@ def test_detail_table_drops_columns_without_values():
     head = next(ln for ln in _render([res], verbose=False) if ln.strip().startswith("check"))
     assert "expected" in head and "measured" in head
     assert "dev" not in head and "tol" not in head
+
+
+def test_pin_config_answers_the_esp32_prompt_and_bad_values_get_one_line():
+    """``--pin-config 1``: the Driver-Types wiring (ESP-IDF 5.3: RMT, I2S, MCPWM/PCNT)
+    without the 5 s wait; where there is no prompt, or no such configuration, one line."""
+    proc = stepperdemo("--arch", "esp32_idf5", "--pin-config", "1", "-c", "M3 A1000 V100 R50 W")
+    out, err = proc.communicate(timeout=120)
+    text = out.decode()
+    assert proc.returncode == 0 and err == b""
+    assert "Press number to select, else 0\r\nUsing config 1: Driver-Types\r\n" in text
+    table = [ln for ln in text.splitlines() if ln.startswith((">> M", "   M"))][-3:]
+    assert [ln.rsplit(" ", 1)[1] for ln in table] == ["RMT", "I2S_DIRECT", "MCPWM_PCNT"]
+    assert table[2].startswith(">> M3: @50 ")
+    for args, problem in ((("--pin-config", "1"), "offers no pin configurations"),
+                          (("--arch", "esp32", "--pin-config", "2"),
+                           "offers 0 (Test-HW), 1 (Driver-Types)")):
+        proc = stepperdemo(*args, "-c", "M1")
+        out, err = proc.communicate(timeout=120)
+        lines = err.decode().splitlines()
+        assert proc.returncode == 2 and out == b"" and len(lines) == 1
+        assert problem in lines[0] and "Traceback" not in lines[0]

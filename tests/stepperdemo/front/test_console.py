@@ -102,3 +102,53 @@ def test_toolbar_moves_on_while_nobody_types(tmp_path):
     assert all("running 0" in s and " normal mode " in s for s in idle)
     assert len(seen["moving"]) >= 3 and all("running 1" in s for s in seen["moving"])
     assert "running 0" in seen["after"][-1]  # the move ended: the toolbar says so
+
+
+def test_toolbar_sees_the_short_moves_of_test_sequence_01(tmp_path):
+    """Sequence 01 moves 53 steps in ~14 ms once a second: a toolbar drawn 4 times a
+    second almost never saw it running (issue 26).  It now counts a stepper that moved
+    since the last draw, and says that a test runs."""
+    seen: list[str] = []
+
+    async def script(inp, clock, console):
+        inp.send_text("t\r")
+        await settle()
+        inp.send_text("M1 01 R\r")
+        await settle()
+        console.toolbar_shown.clear()
+        await wait(clock, 3.0)
+        seen.extend(console.toolbar_shown)
+
+    console, _ = run_session(script, tmp_path, redraw_postpone_s=None)
+    assert len(seen) >= 9
+    assert all(" test mode | M1 | test running |" in s for s in seen)
+    moved = [s for s in seen if "running 1" in s]
+    assert len(moved) >= 2  # one per second of the sequence, at least
+    assert console.app.steppers[0].get_current_position() != 0
+
+
+def test_toolbar_lists_question_mark_once_with_what_it_does_in_the_mode():
+    from stepperdemo.front.console import toolbar_hints
+
+    normal = [("M<n>", "stepper"), ("?", "usage and stepper table"), ("I", "toggle")]
+    assert toolbar_hints(normal) == "M<n>  ?  I  /help"
+    gcode = [(f"G{n}", "") for n in range(12)] + [("?", "status"), ("x", "leave")]
+    assert toolbar_hints(gcode).endswith("G11  ? status  /help")
+    assert toolbar_hints([("A", "a")]) == "A  /help"
+
+
+def test_toolbar_of_each_mode(tmp_path):
+    async def script(inp, clock, console):
+        for line in ("", "c", "x", "g"):
+            inp.send_text(line + "\r")
+            await settle()
+            await wait(clock, 0.3)
+            console.toolbar_shown.clear()
+            text = "".join(t for _, t in console.toolbar())
+            hints[console.app.mode_name()] = text.split(" | ")[-1]
+
+    hints: dict[str, str] = {}
+    run_session(script, tmp_path, redraw_postpone_s=None)
+    assert hints["normal"].count("?") == 1 and hints["normal"].endswith("A<accel>  /help")
+    assert hints["config"].count("?") == 1
+    assert hints["gcode"].endswith("M68  ? status  /help") and "usage" not in hints["gcode"]

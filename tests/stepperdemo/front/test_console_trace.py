@@ -64,7 +64,8 @@ def test_trace_on_records_from_now_and_off_unsubscribes(console, tmp_path):
     console.handle_line(f"/vcd {full}")
     vcd = read_vcd(str(full))
     assert len(vcd.rising("StepA")) == 300
-    assert vcd.times[0] >= int(0.49 * 16_000_000) * 625  # from /trace on, not from boot
+    assert vcd.timescale == "1 us"  # the console's unit: PulseView opens it at once
+    assert vcd.times[0] >= 490_000  # from /trace on, not from boot
     n = len(console.lines)
     console.handle_line("/report")
     text = "\n".join(said(console, n))
@@ -111,7 +112,12 @@ def test_bad_arguments_and_arch_switch(console, tmp_path):
     assert console.lines[-1] == "/trace: on, off or recent"
     console.handle_line("/trace on")
     console.handle_line("/vcd")
-    assert console.lines[-1] == "/vcd: give a file name"
+    assert console.lines[-1] == ("/vcd: give a file name and, if you like, a time unit: "
+                                 "/vcd FILE [1us|100ns|exact]")
+    console.handle_line(f"/vcd {tmp_path}/x.vcd 3us")
+    assert console.lines[-1] == ("/vcd: '3us' is no VCD time unit: give 1, 10 or 100 and s, "
+                                 "ms, us, ns, ps or fs, e.g. 1us, or exact")
+    assert not (tmp_path / "x.vcd").exists()
     console.handle_line(f"/vcd {tmp_path}/missing/dir/x.vcd")
     assert console.lines[-1].startswith("cannot write")
     spool = console.trace.observers.vcd_path

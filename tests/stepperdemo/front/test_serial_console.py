@@ -1,5 +1,7 @@
 """The console on a device: one line when the device is lost, /reconnect, /link."""
 
+import os
+
 from prompt_toolkit.output import DummyOutput
 
 from fas.device.loopback import Loopback
@@ -24,16 +26,35 @@ def test_lost_device_is_one_line_and_reconnect_restores_the_session(tmp_path):
         _run(console, 300)
         lost = [line for line in console.lines if line.startswith("device lost")]
         assert len(lost) == 1 and "/reconnect" in lost[0]
-        # the console keeps running: commands are still taken and answered
-        console.handle_line("?")
-        _run(console, 100)
-        assert console.lines[-1].startswith("   M2: @")
+        assert not console.app.steppers[0].is_running()
+        # the console keeps running: its own commands are answered; StepperDemo's wait
+        # for the device (issue 26: a move was answered OK and "ran" for ever)
+        for line in ("?", "R100"):
+            n = len(console.lines)
+            console.handle_line(line)
+            _run(console, 300)
+            assert console.lines[n:] == [
+                f"no device ({lb.backend.lost_reason}) - /reconnect first; the line was "
+                "not sent"]
+        n = len(console.lines)
+        console.handle_line("/estop")
+        assert console.lines[n:] == [
+            f"emergency stop: no device ({lb.backend.lost_reason}) - nothing sent; a device "
+            "that loses its host stops by its watchdog; /reconnect"]
+        n = len(console.lines)
+        console.handle_line("/link")  # the device's figures: said to be from before
+        assert console.lines[n + 1] == ("the device's figures below are its last report, "
+                                        "from before the connection ended")
+        assert " rtt 0 us;" not in console.lines[n]  # the last round trip measured
         assert not console.app.steppers[0].is_running()
         lb.replug()
         console.handle_line("/reconnect")
         assert console.lines[-1].startswith("device back on")
         pos = console.app.steppers[0].get_current_position()
         assert pos == lb.device.position(0) > 0
+        console.handle_line("?")  # taken again
+        _run(console, 100)
+        assert console.lines[-1].startswith("   M2: @")
         console.handle_line("R-100")
         console.handle_line("W")
         _run(console, 1500)
@@ -92,3 +113,26 @@ def test_console_driver_runs_the_program_while_the_device_clock_runs(tmp_path):
                                                    "to stop"):]
         assert not any(line.startswith("M1: @") for line in waited[:waited.index("STOPPED")])
         assert console.app.steppers[0].get_current_position() == 2000
+
+
+def test_a_move_given_after_the_loss_does_not_run_for_ever():
+    """The library on a lost device (a program that moves by itself, not by typed
+    input): what cannot start is dropped at the next task run - the stepper stands
+    where it stood, no status lines with an undefined speed for ever."""
+    with Loopback() as lb:
+        backend = lb.backend
+        console = Console(backend=backend, output=DummyOutput(), history=os.devnull)
+        console.handle_line("M1 A1000 V100 R100 W")
+        _run(console, 1000)
+        assert console.app.steppers[0].get_current_position() == 100
+        lb.unplug()
+        _run(console, 300)
+        stepper = console.app.steppers[0]
+        assert stepper.move(100) == 0  # (the request is taken: FastAccelStepper's API)
+        n = len(console.lines)
+        _run(console, 1000)
+        assert not stepper.is_running()
+        assert stepper.get_current_position() == 100
+        status = [line for line in console.lines[n:] if line.startswith("M1: @")]
+        assert len(status) <= 1  # (the one after the drop: it stands, no ramp state)
+        assert not any(state in line for line in status for state in ("ACC", "COAST", "RED"))

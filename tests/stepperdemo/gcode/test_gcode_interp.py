@@ -2,7 +2,7 @@
 
 import pytest
 
-from stepperdemo.gcode.interp import Dwell, End, Interpreter, Move, SetOutput
+from stepperdemo.gcode.interp import Dwell, End, Interpreter, Move, Pause, SetOffset, SetOutput
 from stepperdemo.gcode.parser import GcodeError, parse_line
 from stepperdemo.gcode.settings import GcodeSettings
 
@@ -20,55 +20,65 @@ def run(it: Interpreter, line: str):
 
 def test_words_ignore_case_spaces_comments_and_line_numbers():
     b = parse_line("n10 g1x 10.5 (move) y-2 ; the rest")
-    assert b.g == [1.0] and b.values == {"X": 10.5, "Y": -2.0}
-    assert parse_line("%").empty and parse_line("  ").empty and parse_line("/G1 X9").empty
+    assert b.g == [1.0] and b.values == {"N": 10.0, "X": 10.5, "Y": -2.0}
+    assert parse_line("  ").empty and parse_line("/G1 X9").values == {"X": 9.0}
     assert parse_line("G1X.5").values == {"X": 0.5}
+    assert parse_line("G1 X1 (open").values == {"X": 1.0}  # Grbl: no error for it
 
 
-@pytest.mark.parametrize("line, reason", [
-    ("G1 X1 X2", "word X twice in one line"),
-    ("G1 Xabc", "X needs a number"),
-    ("G1 X", "X needs a number"),
-    ("S1000", "unknown word S1000"),
-    ("G1 X1 (open", "comment not closed"),
-    ("G1 X1 N10", "N (line number) must come first"),
-    ("1 X5", "expected a letter"),
-    ("X" + "1" * 300, "line longer than 256"),
-])
-def test_malformed_lines_are_refused_with_a_reason(line, reason):
+def code_of(line: str, axes: int = 3) -> tuple[int, str]:
     with pytest.raises(GcodeError) as exc:
-        run(interp(), line)
-    assert reason in str(exc.value)
+        run(interp(axes), line)
+    return exc.value.code, str(exc.value)
 
 
-@pytest.mark.parametrize("line, reason", [
-    ("G2 X1", "unsupported command G2"),
-    ("M3", "unsupported command M3"),
-    ("G20", "G20 (inches) is not supported"),
-    ("G0 G1 X1", "G0 and G1 in one line"),
-    ("G90 G91", "G90 and G91 in one line"),
-    ("M62 M63 P1", "M62 and M63 in one line"),
-    ("G1 X10", "undefined feed rate"),
-    ("G1 X10 F0", "F must be positive"),
-    ("G4", "G4 needs P"),
-    ("G4 P-1", "must not be negative"),
-    ("M62", "M62 needs P"),
-    ("M65 P4", "output P4 out of range (0..3)"),
-    ("M63 P1.5", "out of range"),
-    ("M67 E1", "M67 needs Q"),
-    ("M68 Q5", "M68 needs E"),
-    ("M67 E-1 Q5", "output E-1 out of range"),
-    ("G1 X1 F100 P3", "unused word(s): P"),
-    ("Q5", "unused word(s): Q"),
-    ("G4 M62 P0", "P used by both G4 and M62"),
-    ("G92 G1 X5", "G92 and G1 both want the axis words"),
-    ("G92", "G92 needs axis words"),
-    ("A10", "axis A: no stepper 4"),
+@pytest.mark.parametrize("line, code, reason", [
+    ("G1 X1 X2", 25, "word X twice in one line"),
+    ("G1 Xabc", 2, "X needs a number"),
+    ("G1 X", 2, "X needs a number"),
+    ("HELLO WORLD", 2, "H needs a number: 'HELLOWORLD' is not G-code"),
+    ("%", 1, "expected a letter at '%'"),
+    ("1 X5", 1, "expected a letter"),
+    ("D5", 20, "unknown word D5"),
+    ("G1 F-5", 4, "F-5 must not be negative"),
+    ("N99999999 G0", 27, "line number"),
+    ("G1.5 X1", 23, "G1.5 needs a whole number"),
+    ("M62.5 P1", 23, "M62.5 needs a whole number"),
+    ("T300", 38, "tool T300 above T255"),
 ])
-def test_invalid_blocks_are_refused(line, reason):
-    with pytest.raises(GcodeError) as exc:
-        run(interp(), line)
-    assert reason in str(exc.value)
+def test_malformed_lines_are_refused_with_grbls_number(line, code, reason):
+    assert code_of(line)[0] == code
+    assert reason in code_of(line)[1]
+
+
+@pytest.mark.parametrize("line, code, reason", [
+    ("G2 X1 Y1 I5", 20, "G2 (arc) is not supported yet"),
+    ("M3 S1000", 20, "unsupported command M3"),
+    ("G20", 20, "G20 (inches) is not supported"),
+    ("G0 G1 X1", 21, "G0 and G1 in one line"),
+    ("G90 G91", 21, "G90 and G91 in one line"),
+    ("M62 M63 P1", 21, "M62 and M63 in one line"),
+    ("G1 X10", 22, "undefined feed rate"),
+    ("G1 X10 F0", 22, "undefined feed rate"),
+    ("G4", 28, "G4 needs P"),
+    ("G4 P-1", 4, "must not be negative"),
+    ("M62", 28, "M62 needs P"),
+    ("M65 P4", 39, "output P4 out of range (0..3)"),
+    ("M63 P1.5", 39, "out of range"),
+    ("M67 E1", 28, "M67 needs Q"),
+    ("M68 Q5", 28, "M68 needs E"),
+    ("M67 E-1 Q5", 39, "output E-1 out of range"),
+    ("G1 X1 F100 P3", 36, "unused word(s): P"),
+    ("Q5", 36, "unused word(s): Q"),
+    ("G1 X1 F100 I5", 36, "unused word(s): I"),
+    ("G4 M62 P0", 28, "P used by both G4 and M62"),
+    ("G92 G1 X5", 24, "G92 and G1 both want the axis words"),
+    ("G92", 26, "G92 needs axis words"),
+    ("A10", 20, "axis A: no stepper 4"),
+])
+def test_invalid_blocks_are_refused_with_grbls_number(line, code, reason):
+    got, text = code_of(line)
+    assert (got, reason in text) == (code, True), text
 
 
 def test_a_refused_block_changes_no_modal_state():
@@ -100,7 +110,7 @@ def test_steps_per_unit_rounds_to_the_nearest_step():
 def test_g92_sets_the_current_position_as_an_offset():
     it = interp()
     run(it, "G0 X100")
-    assert run(it, "G92 X0") == []
+    assert [type(a) for a in run(it, "G92 X0")] == [SetOffset]
     (m,) = run(it, "G0 X10")  # work 10 = machine 110
     assert m.target == (110, 0, 0)
     assert it.work_position([110, 0, 0]) == [10.0, 0.0, 0.0]
@@ -113,6 +123,7 @@ def test_actions_come_in_execution_order():
     it = interp()
     acts = run(it, "G1 X5 F100 M62 P1 M2")
     assert [type(a) for a in acts] == [SetOutput, Move, End]
+    assert [type(a) for a in run(it, "G92 X0 M0")] == [SetOffset, Pause]
     out = acts[0]
     assert (out.analog, out.number, out.value, out.synchronized) == (False, 1, 1.0, True)
     acts = run(it, "G4 P0.25 M68 E2 Q150")
@@ -120,11 +131,11 @@ def test_actions_come_in_execution_order():
     assert acts[0].value == 150 and not acts[0].synchronized and acts[1].seconds == 0.25
 
 
-def test_end_of_program_resets_distance_mode_and_offsets():
+def test_end_of_program_resets_distance_mode_and_keeps_the_offsets_as_grbl():
     it = interp()
     run(it, "G91 G92 X5")
     run(it, "M30")
-    assert it.absolute and it.offset == [0.0, 0.0, 0.0] and it.motion == 1
+    assert it.absolute and it.offset == [-5.0, 0.0, 0.0] and it.motion == 1
 
 
 def test_the_check_hook_can_refuse_a_block_before_it_takes_effect():
@@ -132,9 +143,31 @@ def test_the_check_hook_can_refuse_a_block_before_it_takes_effect():
 
     def refuse(action):
         if isinstance(action, Move):
-            raise GcodeError("no")
+            raise GcodeError(33, "no")
 
     it.check = refuse
     with pytest.raises(GcodeError):
         run(it, "G91 G0 X5")
     assert it.absolute and it.position_steps == [0, 0, 0]
+
+
+def test_jogs_take_only_their_words_and_change_no_modal_state():
+    it = interp()
+    run(it, "G1 X5 F100")
+    move = it.jog(parse_line("G91 X10 Y-3 F3000"))
+    assert move.jog and move.target == (15, -3, 0) and move.feed == 3000
+    assert it.absolute and it.feed == 100 and it.motion == 1
+    assert it.jog(parse_line("G53 X0 Y0 F100")).target == (0, 0, 0)  # machine coordinates
+    for words, code in (("X1", 22), ("F100", 26), ("G1 X1 F100", 16), ("M3 X1 F9", 16),
+                        ("X1 F100 S5", 36), ("G20 X1 F1", 20)):
+        with pytest.raises(GcodeError) as exc:
+            it.jog(parse_line(words))
+        assert exc.value.code == code, words
+
+
+def test_spindle_speed_and_tool_are_kept_for_the_report():
+    it = interp()
+    assert run(it, "S1000 T3") == []
+    assert (it.spindle_speed, it.tool) == (1000, 3)
+    it.reset()
+    assert (it.spindle_speed, it.tool, it.feed, it.motion) == (0, 0, 0, 0)

@@ -2,6 +2,7 @@
 
 import json
 
+from rigs import ROOT
 from stepperdemo.front.cli import main
 from stepperdemo.scenarios.runner import EXIT_FAILED, EXIT_OK, run_file
 from stepperdemo.scenarios.scenario import ScenarioError, load
@@ -106,3 +107,92 @@ def test_each_move_alignment_splits_at_reversals_and_bounds_each_start_shift():
     assert c.max_abs_us == 0 and c.offset_us == 5096 - 1000  # each start moved by one slot
     assert compare_steps(ours, ref, "each_move").max_abs_us == 8192  # no directions: 1 move
     assert compare_steps(ours, ref, "absolute").max_abs_us == 8192
+
+
+KNOWN = """
+name = "known"
+input = "M1 A1000 V100 R300 W"
+[steppers.A]
+position = 301
+pulses = 300
+step_high_total_us = 1500
+step_high_max_us = 13
+tol = { step_high_total_us = 60, step_high_max_us = 5 }
+[known_deviation]
+"A position" = { measured = 300, reason = "a test of the mechanism" }
+"A pulse high max us" = { measured = 3 }
+"""
+
+
+def test_a_known_deviation_is_ok_while_it_is_there_and_fails_once_met(tmp_path, capsys):
+    res = run_file(write(tmp_path, "known.toml", KNOWN))
+    assert [c.what for c in res.checks if not c.ok] == ["A pulse high total us"]
+    known = {c.what: c for c in res.checks if c.known}
+    assert set(known) == {"A position", "A pulse high max us"}
+    assert known["A position"].measured == 300 and known["A position"].named == 300
+    # absolute tolerances of the pulse high time, as upstream's expect.txt states them:
+    # 300 pulses of 3.81 us = 1143 us against 1500 +- 60; the longest 3 us against 13 +- 5
+    total = next(c for c in res.checks if c.what == "A pulse high total us")
+    assert total.measured == 1143 and total.tolerance == 60 and not total.ok
+    assert known["A pulse high max us"].measured == 3
+    assert main(["run", str(tmp_path / "known.toml")]) == EXIT_FAILED  # the total fails
+    assert "known" in capsys.readouterr().out
+    met = KNOWN.replace("position = 301", "position = 300").replace(
+        "step_high_total_us = 1500", "step_high_total_us = 1143")
+    res = run_file(write(tmp_path, "met.toml", met))
+    assert not res.ok  # strict: "A position" is met now
+    c = next(c for c in res.checks if c.what == "A position")
+    assert c.known and not c.ok
+    only_known = KNOWN.replace("step_high_total_us = 1500", "step_high_total_us = 1143")
+    assert main(["run", str(write(tmp_path, "only.toml", only_known))]) == EXIT_OK
+    assert "known deviation" in capsys.readouterr().out
+
+
+def test_a_known_deviation_must_name_an_existing_check_and_a_measured_value(tmp_path):
+    typo = GOOD + '[known_deviation]\n"A postion" = { measured = 3 }\n'
+    res = run_file(write(tmp_path, "typo.toml", typo))
+    assert not res.ok
+    assert any(c.what == "known deviation A postion" and not c.ok for c in res.checks)
+    bad = GOOD + '[known_deviation]\n"A position" = { reason = "no figure" }\n'
+    try:
+        load(write(tmp_path, "bad.toml", bad))
+    except ScenarioError as exc:
+        assert exc.key == "known_deviation.A position.measured"
+    else:
+        raise AssertionError("accepted a known deviation without its measured value")
+
+
+def test_pin_config_answers_the_start_up_prompt(tmp_path):
+    sc = GOOD.replace('input = "M1 A1000 V100 R300 W"',
+                      'profile = "esp32_idf5"\npin_config = 1\ninput = "M3 A1000 V100 R300 W"'
+                      ).replace("[steppers.A]", "[steppers.C]").replace(
+        '"Move steps 300"]', '"Move steps 300", "Using config 1: Driver-Types", '
+        '">> M3: @300 acceleration  [steps/s^2]=1000 speed [us/step]=100  MCPWM_PCNT"]')
+    res = run_file(write(tmp_path, "cfg.toml", sc))
+    assert res.ok, [c for c in res.checks if not c.ok]
+    assert res.sim_s < 5  # the digit was on the line: no 5 s wait
+    for text, key in (('pin_config = 1\nname = "x"\ninput = "M1"\n', "pin_config"),
+                      ('pin_config = 2\nprofile = "esp32"\nname = "x"\ninput = "M1"\n',
+                       "pin_config")):
+        try:
+            load(write(tmp_path, "badcfg.toml", text))
+        except ScenarioError as exc:
+            assert exc.key == key
+        else:
+            raise AssertionError(text)
+
+
+def test_pcnt_sync_is_upstreams_rule():
+    from stepperdemo.scenarios.transcript import pcnt_sync_problems
+
+    ok = ("M1: @1000 [1040] => 30000\r\nM1: @40000 [7260] => x\r\n"
+          ">> M1: @30000 [-2767] acceleration\r\nM2: @5 [900] other motor\r\n")
+    assert pcnt_sync_problems(ok, "M1", 66) == []  # 40000 % 32767 = 7233: 27 off
+    off = "M1: @1000 [1067] => 30000\r\n"
+    assert pcnt_sync_problems(off, "M1", 66) == [
+        "M1: @1000 [1067] => 30000 (position 1000, counter 1067)"]
+    assert pcnt_sync_problems(">> M1: @100 [99] acc\r\n", "M1", 66)  # the table: exact
+    # a run of the console: status lines while running and the table agree
+    res = run_file(ROOT / "sequences" / "upstream" / "esp32_seq_02_dt_m2.toml")
+    check = next(c for c in res.checks if c.what == "M2 position vs pulse counter")
+    assert check.ok and check.measured == "in sync"

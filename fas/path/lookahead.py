@@ -1,0 +1,244 @@
+"""The look-ahead queue: straight blocks and the speeds at their junctions.
+
+Each block is a straight segment from where the previous one ends to a target in
+steps.  When it is queued its figures are fixed (Grbl's ``plan_buffer_line``):
+
+* its length ``L`` in units and unit vector ``u`` (each axis's steps divided by its
+  steps per unit);
+* its acceleration and top rate: the largest along ``u`` that keeps every axis within
+  its own limit, ``min_i(limit_i / |u_i|)``; the nominal speed is the feed, at most
+  that rate;
+* the largest speed at the junction with the block before it, by *junction
+  deviation* ``d``: a circle tangent to both segments whose edge stays ``d`` from the
+  corner is taken at the centripetal acceleration the axes allow along the bisector,
+  ``v^2 = a_j * d * sin(theta/2) / (1 - sin(theta/2))`` (theta: the angle between
+  the segments, 180 degrees for a straight continuation); no more than either
+  block's nominal speed.  A block queued with nothing before it starts from rest.
+
+The entry speeds are then planned (Grbl's ``planner_recalculate``): a *reverse pass*
+from the newest block, which must be able to stop at its end, back to the first
+block whose plan cannot change any more, lets each block enter no faster than it can
+still slow down to the next block's entry; a *forward pass* from there lowers every
+entry that the block before cannot reach while accelerating.  Blocks up to the
+*planned* pointer are final: their entries are at the junction limit or reached at
+full acceleration, and no block queued later can raise them - the passes start there.
+
+The first block is the one being executed: :class:`fas.path.executor.Executor`
+shortens it (``remaining``) and sets its entry to the speed reached so far, and it
+reads the exit speed it must reach - the next block's entry - as it goes; that exit
+only rises as blocks are added, so what was executed stays feasible.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from .settings import MINIMUM_FEED, AxisLimits
+
+BIG = 1e30  # an unlimited speed squared (a straight continuation)
+COS_STRAIGHT = -0.999999  # cos(angle) below this: a straight continuation
+COS_REVERSAL = 0.999999  # above this: a full reversal (the junction speed is 0)
+
+
+class Block:
+    """One straight segment of the path (see the module text).  Speeds in units/s."""
+
+    __slots__ = ("start", "delta", "unit", "length", "remaining", "acceleration",
+                 "rapid_rate", "nominal_speed", "entry_sqr", "max_entry_sqr",
+                 "max_junction_sqr", "tag", "feed")
+
+    def __init__(self, start: tuple[int, ...], delta: tuple[int, ...],
+                 unit: tuple[float, ...], length: float, acceleration: float,
+                 rapid_rate: float, nominal_speed: float, tag: object,
+                 feed: float | None) -> None:
+        self.start = start  # steps, where the block begins
+        self.delta = delta  # steps per axis (signed)
+        self.unit = unit  # unit vector in units
+        self.length = length  # units
+        self.remaining = length  # units not executed yet (Grbl: block->millimeters)
+        self.acceleration = acceleration  # units/s^2 along the block
+        self.rapid_rate = rapid_rate  # units/s: every axis at its maximum rate or below
+        self.nominal_speed = nominal_speed  # units/s: the feed, at most the rapid rate
+        self.entry_sqr = 0.0  # planned entry speed squared
+        self.max_entry_sqr = 0.0
+        self.max_junction_sqr = 0.0
+        self.tag = tag  # the caller's (a G-code line number, a laser power)
+        self.feed = feed  # units/min as asked (None: rapid)
+
+    @property
+    def end(self) -> tuple[int, ...]:
+        return tuple(s + d for s, d in zip(self.start, self.delta, strict=True))
+
+    def __repr__(self) -> str:  # pragma: no cover - debugging aid
+        return (f"Block({self.delta}, L={self.length:.4g}, v={self.nominal_speed:.4g}, "
+                f"entry={math.sqrt(self.entry_sqr):.4g}, "
+                f"max={math.sqrt(self.max_entry_sqr):.4g})")
+
+
+def limit_along(limits: Sequence[float], unit: Sequence[float]) -> float:
+    """The largest value along ``unit`` that keeps every axis within ``limits[i]``."""
+    best = BIG
+    for lim, u in zip(limits, unit, strict=True):
+        if u != 0.0:
+            v = lim / abs(u)
+            if v < best:
+                best = v
+    return best
+
+
+class Lookahead:
+    """The queue of blocks and its speed planning (see the module text)."""
+
+    def __init__(self, axes: Sequence[AxisLimits], junction_deviation: float,
+                 size: int, top_rates: Sequence[float] | None = None) -> None:
+        """``top_rates``: the steppers' own top speeds in steps/s (their queues' limit),
+        which cap each axis's ``max_rate`` too."""
+        self.size = size
+        self.blocks: list[Block] = []
+        self.planned = 0  # blocks before this index (and its entry) are final
+        self.configure(axes, junction_deviation, top_rates)
+        self.prev_unit: tuple[float, ...] | None = None
+        self.prev_nominal = 0.0
+        self.recalculations = 0
+        self.pass_steps = 0  # blocks visited by both passes (the work planning did)
+
+    def configure(self, axes: Sequence[AxisLimits], junction_deviation: float,
+                  top_rates: Sequence[float] | None = None) -> None:
+        self.spu = tuple(a.steps_per_unit for a in axes)
+        rates = [a.max_rate / 60.0 for a in axes]
+        if top_rates is not None:
+            rates = [min(r, top / a.steps_per_unit)
+                     for r, top, a in zip(rates, top_rates, axes, strict=True)]
+        self.max_rate = tuple(rates)  # units/s per axis
+        self.accel = tuple(a.acceleration for a in axes)  # units/s^2 per axis
+        self.junction_deviation = junction_deviation
+
+    # ------------------------------------------------------------- queries
+    def __len__(self) -> int:
+        return len(self.blocks)
+
+    def full(self) -> bool:
+        return len(self.blocks) >= self.size
+
+    def first(self) -> Block | None:
+        return self.blocks[0] if self.blocks else None
+
+    def exit_sqr(self) -> float:
+        """The exit speed squared planned for the first block (the next one's entry)."""
+        return self.blocks[1].entry_sqr if len(self.blocks) > 1 else 0.0
+
+    def min_time(self) -> float:
+        """Seconds the queued blocks take at least (each at its nominal speed)."""
+        return sum(b.remaining / b.nominal_speed for b in self.blocks)
+
+    # ---------------------------------------------------------------- adding
+    def make_block(self, start: tuple[int, ...], delta: tuple[int, ...],
+                   feed: float | None, tag: object) -> Block | None:
+        """A block from ``start`` by ``delta`` steps at ``feed`` units/min (None: the
+        rapid rate); None for a block of no length.  Not queued yet (:meth:`add`)."""
+        spu = self.spu
+        d_units = [d / s for d, s in zip(delta, spu, strict=True)]
+        length = math.sqrt(sum(x * x for x in d_units))
+        if length == 0.0:
+            return None
+        unit = tuple(x / length for x in d_units)
+        acceleration = limit_along(self.accel, unit)
+        rapid = limit_along(self.max_rate, unit)
+        nominal = rapid if feed is None else min(max(feed, MINIMUM_FEED) / 60.0, rapid)
+        return Block(start, delta, unit, length, acceleration, rapid, nominal, tag, feed)
+
+    def add(self, block: Block) -> None:
+        """Queue ``block`` (there is room) and plan again."""
+        blocks = self.blocks
+        prev_unit = self.prev_unit
+        if not blocks or prev_unit is None:
+            block.max_junction_sqr = 0.0  # from rest
+        else:
+            block.max_junction_sqr = self.junction_sqr(prev_unit, block.unit)
+        nominal = block.nominal_speed
+        top = min(nominal, self.prev_nominal) if blocks else nominal
+        block.max_entry_sqr = min(top * top, block.max_junction_sqr)
+        block.entry_sqr = 0.0
+        self.prev_nominal = nominal
+        self.prev_unit = block.unit
+        blocks.append(block)
+        self.recalculate()
+
+    def junction_sqr(self, a: Sequence[float], b: Sequence[float]) -> float:
+        """The largest speed squared at the corner from direction ``a`` to ``b``."""
+        cos_theta = 0.0  # cosine of the angle between the segments (-1: straight on)
+        for x, y in zip(a, b, strict=True):
+            cos_theta -= x * y
+        if cos_theta > COS_REVERSAL:
+            return 0.0
+        if cos_theta < COS_STRAIGHT:
+            return BIG
+        bisector = [y - x for x, y in zip(a, b, strict=True)]
+        norm = math.sqrt(sum(v * v for v in bisector))
+        accel = limit_along(self.accel, [v / norm for v in bisector])
+        sin_half = math.sqrt(0.5 * (1.0 - cos_theta))
+        return accel * self.junction_deviation * sin_half / (1.0 - sin_half)
+
+    # -------------------------------------------------------------- planning
+    def recalculate(self) -> None:
+        """The reverse and the forward pass from the planned pointer on."""
+        blocks = self.blocks
+        last = len(blocks) - 1
+        planned = self.planned
+        if last <= planned:
+            return  # one block left to plan: the first stays as executed
+        self.recalculations += 1
+        cur = blocks[last]
+        cur.entry_sqr = min(cur.max_entry_sqr, 2.0 * cur.acceleration * cur.remaining)
+        i = last - 1
+        while i > planned:  # reverse: as fast as each can still slow down to the next
+            nxt = cur
+            cur = blocks[i]
+            if cur.entry_sqr != cur.max_entry_sqr:
+                e = nxt.entry_sqr + 2.0 * cur.acceleration * cur.remaining
+                cur.entry_sqr = e if e < cur.max_entry_sqr else cur.max_entry_sqr
+            i -= 1
+        nxt = blocks[planned]
+        for i in range(planned + 1, last + 1):  # forward: what acceleration reaches
+            cur = nxt
+            nxt = blocks[i]
+            if cur.entry_sqr < nxt.entry_sqr:
+                e = cur.entry_sqr + 2.0 * cur.acceleration * cur.remaining
+                if e < nxt.entry_sqr:
+                    nxt.entry_sqr = e
+                    planned = i  # full acceleration: nothing before can improve
+            if nxt.entry_sqr == nxt.max_entry_sqr:
+                planned = i  # at its junction's limit: the plan before it is final
+        self.pass_steps += 2 * (last - self.planned)
+        self.planned = planned
+
+    def replan_from_first(self) -> None:
+        """Plan every block again from the first (its entry or length changed in a way
+        the final plan did not foresee: a feed hold, a shortened exit)."""
+        self.planned = 0
+        self.recalculate()
+
+    # ---------------------------------------------------------------- taking
+    def pop_first(self) -> Block:
+        """The first block was executed to its end: drop it."""
+        block = self.blocks.pop(0)
+        self.planned = max(0, self.planned - 1)
+        if not self.blocks:
+            self.prev_unit = None  # a block queued now starts from rest
+        return block
+
+    def replace_first(self, block: Block) -> None:
+        """A feed hold stopped in the first block: ``block`` (the rest of it, from where
+        the axes stand) takes its place and everything is planned from rest."""
+        block.max_junction_sqr = 0.0
+        block.max_entry_sqr = 0.0
+        block.entry_sqr = 0.0
+        self.blocks[0] = block
+        self.replan_from_first()
+
+    def clear(self) -> None:
+        self.blocks.clear()
+        self.planned = 0
+        self.prev_unit = None
+        self.prev_nominal = 0.0

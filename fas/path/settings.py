@@ -1,0 +1,112 @@
+"""The figures of a path group (Grbl's ``$11``, ``$12``, ``$100``-``$125``) and the codes
+its calls return.
+
+Units: a group works in *units* of its own (millimetres for a G-code machine);
+``steps_per_unit`` turns them into each axis's steps.  With one step per unit (the
+default) lengths are steps, feeds steps per minute.  Rates are per minute and
+accelerations per second squared, as Grbl's settings are.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+#: look-ahead blocks (Grbl: 16 on the ATmega328P, where RAM is the limit).  The host
+#: keeps its blocks in its own memory, so the limit is the planning work per block
+#: (incremental: see :mod:`fas.path.lookahead`) and how much motion a cancel drops.
+#: 32 blocks hold the stopping distance of 1 000 mm/s^2 from 100 mm/s (5 mm) in
+#: segments of 0.16 mm, the shortest a CAM program commonly emits at that feed.
+DEFAULT_QUEUE_BLOCKS = 32
+DEFAULT_JUNCTION_DEVIATION = 0.01  # units ($11; Grbl's default 0.010 mm)
+DEFAULT_ARC_TOLERANCE = 0.002  # units ($12; Grbl's default 0.002 mm)
+MINIMUM_FEED = 1.0  # units/min: a slower feed is raised to this (Grbl's MINIMUM_FEED_RATE)
+#: a group waits this long after its first block before it starts moving, unless it is
+#: flushed, its queue is full or it holds this much motion time already (more blocks
+#: may follow at once: a start from rest that the next block would have joined)
+DEFAULT_START_DELAY_MS = 50
+#: position error (steps) allowed for steps grouped into one command at an even period
+#: where the exact step times are not evenly spaced (accelerating, decelerating)
+GROUP_TOLERANCE_STEPS = 0.125
+
+
+@dataclass(frozen=True)
+class AxisLimits:
+    """One axis: ``steps_per_unit`` ($100), ``max_rate`` in units/min ($110; also the
+    rapid rate), ``acceleration`` in units/s^2 ($120)."""
+
+    steps_per_unit: float = 1.0
+    max_rate: float = 600_000.0
+    acceleration: float = 10_000.0
+
+    def problem(self) -> str | None:
+        """Why these figures cannot be used (None: they can)."""
+        for name in ("steps_per_unit", "max_rate", "acceleration"):
+            value = getattr(self, name)
+            if not (value > 0 and value < float("inf")):
+                return f"{name} must be a positive number, not {value!r}"
+        return None
+
+
+@dataclass(frozen=True)
+class PathSettings:
+    """The figures of one group: its axes (in the order of its steppers), the junction
+    deviation ($11) and the arc tolerance ($12) in units, and the look-ahead depth."""
+
+    axes: tuple[AxisLimits, ...] = field(default_factory=tuple)
+    junction_deviation: float = DEFAULT_JUNCTION_DEVIATION
+    arc_tolerance: float = DEFAULT_ARC_TOLERANCE
+    queue_blocks: int = DEFAULT_QUEUE_BLOCKS
+    start_delay_ms: int = DEFAULT_START_DELAY_MS
+
+    def problem(self, axes: int) -> str | None:
+        """Why these settings do not fit a group of ``axes`` axes (None: they do)."""
+        if len(self.axes) != axes:
+            return f"{len(self.axes)} axis limits for {axes} axes"
+        for i, a in enumerate(self.axes):
+            p = a.problem()
+            if p is not None:
+                return f"axis {i}: {p}"
+        if not 0 <= self.junction_deviation < float("inf"):
+            return "junction_deviation must be >= 0"
+        if not 0 < self.arc_tolerance < float("inf"):
+            return "arc_tolerance must be > 0"
+        if not 2 <= self.queue_blocks <= 1024:
+            return "queue_blocks must be 2 .. 1024"
+        if not 0 <= self.start_delay_ms <= 60_000:
+            return "start_delay_ms must be 0 .. 60000"
+        return None
+
+
+class PathResult(IntEnum):
+    """What a group's call did.  Positive values: not taken now, try again later."""
+
+    OK = 0
+    QUEUE_FULL = 1  # the look-ahead queue has no room: call again once a block ran
+    EMPTY_BLOCK = 2  # the target is where the path already ends: nothing queued
+    ERR_AXES = -1  # the target names a different number of axes
+    ERR_FEED = -2  # the feed is not a positive number
+    ERR_RANGE = -3  # a target position outside int32
+    ERR_NO_DIRECTION_PIN = -4  # an axis without a direction pin would have to go down
+    ERR_AXIS_BUSY = -5  # an axis moves on its own (its own planner): wait for it
+    ERR_AUTO_ENABLE = -6  # an axis uses auto enable (its enable delay would shift steps)
+    ERR_DIR_DELAY = -7  # an axis's driver pauses at a direction change (shifts steps)
+    ERR_SHARED_DIR_PIN = -8  # two axes of the group share a direction pin
+    ERR_SAME_STEPPER = -9  # a stepper named twice
+    ERR_NOT_ATTACHED = -10  # the group is not attached to its steppers
+    ERR_SETTINGS = -11  # the settings do not fit (PathSettings.problem says why)
+    ERR_RUNNING = -12  # only while the group is idle
+
+    @property
+    def retry(self) -> bool:
+        return self.value > 0
+
+
+class PathState(IntEnum):
+    """Where a group is (``PathGroup.state``)."""
+
+    IDLE = 0  # nothing queued, nothing moving
+    QUEUED = 1  # blocks wait for the start (start delay, or held)
+    RUNNING = 2  # moving along the path
+    HOLDING = 3  # a feed hold decelerates along the path
+    HELD = 4  # stopped by a feed hold; resume() goes on, cancel() drops the rest

@@ -1,0 +1,564 @@
+"""One axis of a path: its step times as FastAccelStepper queue commands.
+
+Axis ``i`` makes step ``j`` of a segment where the path reaches ``j * pitch`` (pitch:
+the segment's length over the axis's steps in it), at the tick the segment's final
+pieces give for that distance, rounded.  So at every instant each axis has made
+exactly the steps the path has passed (the position rounds down along the path: at
+most one step behind it), and every axis makes the last step of a segment at the
+segment's end tick - all on one tick.
+
+The steps become commands ``(ticks, steps, count_up)`` that run back to back from the
+run's common start tick, so that each step falls on its tick:
+
+* a *group* of steps at an even period, from a step at the command's start to the
+  tick of the step after the group (two commands when the span does not divide:
+  periods ``P`` and ``P + 1``, the longer last).  The group lasts at most
+  ``sqrt(8 * tol / a_axis)`` where the axis accelerates (its chord then stays within
+  ``tol`` steps of the exact times: :data:`fas.path.settings.GROUP_TOLERANCE_STEPS`),
+  at most 255 steps, and at least the profile's minimum command time;
+* a segment's last step only *begins* a group: the group goes on in the next segment
+  if the axis moves on in the same direction, else it is one step and a wait up to
+  the axis's next step (pauses where a wait exceeds 65535 ticks);
+* where the next step is not final yet (beyond the executor's horizon) the step gets
+  a *provisional* wait that ends at least one minimum command time before the
+  horizon; pauses fill the rest once the next step is known.  An axis that does not
+  move writes pauses, so that every queue of the group keeps its place in time.
+
+A step that cannot be placed on its tick (a command would be shorter than the minimum
+command time, or a period not a whole number where the two-command split is too
+short) is moved to the nearest tick a command allows; :class:`AxisStats` counts those
+(``shifted``, ``shift_max``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from enum import IntEnum
+from typing import TYPE_CHECKING
+
+from ..codes import AqeResult
+from .executor import Executor, Segment
+from .settings import GROUP_TOLERANCE_STEPS
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..planner import PlannerHost
+
+MAX_STEPS = 255  # a command's steps
+MAX_TICKS = 65535  # a command's ticks
+
+#: ``listener(tick, speed, tag)``: the path speed (units/min) of a command of a
+#: segment's dominant axis beginning at ``tick``; speed 0 where the path stops
+SpeedListener = Callable[[int, float, object], None]
+
+
+class Found(IntEnum):
+    STEP = 0  # the next step is final: (seq, j, tick)
+    UNKNOWN = 1  # the next step is not final yet
+    END = 2  # no more steps in this run
+
+
+class Wrote(IntEnum):
+    OK = 0  # commands written; go on
+    WAIT = 1  # nothing to write until more of the path is final
+    FULL = 2  # no room in the queue
+    ERROR = 3  # the queue refused a command for good
+
+
+class AxisStats:
+    """What one axis wrote."""
+
+    __slots__ = ("commands", "pauses", "steps", "shifted", "shift_max", "errors",
+                 "early_ends", "early_max")
+
+    def __init__(self) -> None:
+        self.commands = 0
+        self.pauses = 0
+        self.steps = 0
+        self.shifted = 0  # steps placed off their tick
+        self.shift_max = 0  # the largest distance from its tick (ticks)
+        self.errors = 0
+        self.early_ends = 0  # segments' last steps inside a group across segments ...
+        self.early_max = 0  # ... and the most ticks one came before its tick
+
+
+def split_ticks(ticks: int) -> list[int]:
+    """``ticks`` as command lengths of at most 65535 each (equal parts)."""
+    n = -(-ticks // MAX_TICKS)
+    base, extra = divmod(ticks, n)
+    return [base + 1] * extra + [base] * (n - extra)
+
+
+class AxisWriter:
+    """Writes one axis's commands for the path the executor made final."""
+
+    def __init__(self, axis: int, host: PlannerHost, executor: Executor) -> None:
+        self.axis = axis
+        self.host = host
+        self.queue = host.queue
+        self.ex = executor
+        p = host.profile
+        self.tps = p.ticks_per_s
+        self.min_cmd = p.min_cmd_ticks
+        #: a command at least this long keeps two task periods in the queue: a group
+        #: shorter than that may go on past a segment's last step (:meth:`_across`)
+        self.min_span = 4 * host.backend.task_period_ticks // host.queue.queue_len
+        self.tol = GROUP_TOLERANCE_STEPS
+        self.stats = AxisStats()
+        self.listener: SpeedListener | None = None
+        self.seq = 0  # the segment of the cursor ...
+        self.j = 0  # ... and its step (0: the segment's start)
+        self.pending = False  # step (seq, j) is final but not written yet
+        self.t_pend = 0  # ... its tick
+        self.w_end = 0  # the tick at which the written commands end
+        self.done = True  # nothing more to write in this run
+        self.up = True  # direction of the queue's end
+        self._deep = 0  # an entry taken up after this tick keeps the queue deep enough
+        #: the tick at which the channel takes up the last entry written (a pause at
+        #: its start, steps at their last): it must come after the next task run
+        self.last_start = 0
+        self.free = 0  # entries the queue takes (counted down while writing)
+
+    # ----------------------------------------------------------------- a run
+    def begin(self, start_tick: int, last_start: int) -> None:
+        """A run: the axis's commands go on from ``start_tick``; the entry queued last
+        is taken up by the channel at ``last_start``."""
+        self.seq = self.ex.first_seq
+        self.j = 0
+        self.pending = False
+        self.w_end = start_tick
+        self.last_start = last_start
+        self.done = False
+        self.up = self.queue.queue_end_count_up
+
+    def cursor_seq(self) -> int:
+        return self.seq
+
+    @property
+    def min_wait(self) -> int:
+        """The shortest command: a step and its wait, or a pause."""
+        return max(self.min_cmd, self.queue.max_speed_in_ticks)
+
+    # ---------------------------------------------------------------- writing
+    def fill(self, now: int, low_water: int) -> Wrote:
+        """Write what is final, while the queue has room.  A group that the horizon
+        cuts short, a provisional wait and pauses ahead wait for the next run while
+        the channel takes up the last entry more than ``low_water`` ticks after ``now``
+        (the next runs make more of the path final: longer commands); a channel that
+        takes up its last entry before more is written runs dry."""
+        if self.done:
+            return Wrote.OK
+        self._deep = now + low_water
+        q = self.queue
+        self.free = q.queue_len - q.queue_entries()
+        while True:
+            free = self.free
+            if free < 2:
+                return Wrote.FULL
+            if not self.pending:
+                found, seq, j, tick = self._next()
+                self.seq, self.j = seq, j
+                if found == Found.END:
+                    self.done = True
+                    return Wrote.OK
+                if found == Found.UNKNOWN:
+                    return self._pause_ahead(free)
+                self.t_pend = tick
+                self.pending = True
+            gap = self.t_pend - self.w_end
+            if gap:
+                if gap >= self.min_cmd:
+                    seg = self.ex.segment(self.seq)
+                    assert seg is not None
+                    res = self._pauses(gap, seg.ups[self.axis], free)
+                    if res != Wrote.OK:
+                        return res
+                    continue
+                self._shift(gap)  # too close for a pause (or late): the step moves
+                self.t_pend = self.w_end
+            res = self._step()
+            if res != Wrote.OK:
+                return res
+
+    def _next(self) -> tuple[Found, int, int, int]:
+        """The axis's next step after the cursor: ``(STEP, seq, j, tick)``; else
+        ``(UNKNOWN or END, seq, j, 0)`` with the place the cursor may move on to (past
+        the segments whose steps it has all made)."""
+        ex = self.ex
+        i = self.axis
+        seq, j = self.seq, self.j
+        seg = ex.segment(seq)
+        while seg is not None:
+            n = seg.steps[i]
+            if j < n:
+                if j < seg.known(i):
+                    return Found.STEP, seq, j + 1, seg.step_tick(i, j + 1)
+                if not seg.complete:
+                    return Found.UNKNOWN, seq, j, 0
+            elif not seg.complete:
+                return Found.UNKNOWN, seq, j, 0
+            seq += 1
+            j = 0
+            seg = ex.segment(seq)
+        return (Found.END if ex.final else Found.UNKNOWN), seq, j, 0
+
+    def _step(self) -> Wrote:
+        """Write the pending step (due at ``w_end``) with the steps it groups with."""
+        ex = self.ex
+        i = self.axis
+        seg = ex.segment(self.seq)
+        assert seg is not None
+        if seg.complete and self.j >= seg.known(i):  # the segment's last step
+            nxt = ex.segment(self.seq + 1)
+            if (nxt is not None and seg.end == seg.length and nxt.steps[i]
+                    and nxt.ups[i] == seg.ups[i] and nxt.known(i) >= 1):
+                self.seq += 1  # the same step is the start of the next segment
+                self.j = 0
+                seg = nxt
+            else:
+                return self._single(seg)
+        known = seg.known(i)
+        j0 = self.j
+        if known <= j0:
+            return self._provisional(seg)
+        pitch = seg.pitch[i]
+        t0 = self.w_end
+        min_cmd = self.min_cmd
+        t_lim, slowing = self._span_limit(seg, pitch, t0)
+        jmax = min(known, j0 + MAX_STEPS)
+        jh = int(seg.dist_at(t_lim) / pitch)
+        if jh > jmax:
+            jh = jmax
+        elif jh <= j0:
+            jh = j0 + 1
+        # the horizon, not the group's own limits, ends it
+        cut = jh >= known and not seg.complete
+        if not seg.complete:  # end a command's time before the horizon: what follows
+            # the group must not come out shorter than a command
+            back = int(seg.dist_at(ex.t - min_cmd) / pitch)
+            if back < jh:
+                cut = True
+                jh = back if back > j0 else j0 + 1
+        if cut and self.last_start > self._deep:
+            return Wrote.WAIT  # the queue is deep: the next run makes it longer
+        th = seg.step_tick(i, jh)
+        if th - t0 < min_cmd:  # too short for a command: take more steps
+            ahead = int(seg.dist_at(t0 + min_cmd) / pitch)
+            if ahead > jh:
+                jh = ahead if ahead < jmax else jmax
+                th = seg.step_tick(i, jh)
+            while th - t0 < min_cmd and jh < jmax:
+                jh += 1
+                th = seg.step_tick(i, jh)
+            if th - t0 < min_cmd and not seg.complete:
+                return Wrote.WAIT  # the steps that make it long enough are not final
+        n = seg.steps[i]
+        if seg.complete and jh < n and seg.end == seg.length:
+            tn = seg.end_tick
+            if tn - th < min_cmd:  # the rest up to the last step would be too short
+                if n - j0 <= MAX_STEPS:
+                    jh, th = n, tn
+                else:
+                    back = int(seg.dist_at(tn - min_cmd) / pitch)
+                    if j0 < back < jh:
+                        jh, th = back, seg.step_tick(i, back)
+        if jh == n and th - t0 < self.min_span and seg.complete and seg.end == seg.length:
+            res = self._across(seg, j0, t0)
+            if res is not None:
+                return res
+        return self._group(seg, jh - j0, th - t0, jh, th, slowing)
+
+    def _across(self, seg: Segment, j0: int, t0: int) -> Wrote | None:
+        """A group that would end at its segment's last step, too short to keep the
+        queue deep (tiny segments): it goes on into the segments after it while the
+        axis keeps its direction, and its steps are placed so that none comes after
+        its tick, nor more than ``tol`` steps before it (checked step by step).  The
+        segments' last steps inside it then come up to that much early - not on the
+        tick of the other axes' (counted in ``early_ends``).  None: no longer group."""
+        ex = self.ex
+        i = self.axis
+        up = seg.ups[i]
+        exact: list[int] = []  # ticks of the steps after the pending one ...
+        where: list[tuple[int, int]] = []  # ... and their (segment, step)
+        cur = seg
+        for j in range(j0 + 1, seg.steps[i] + 1):
+            exact.append(seg.step_tick(i, j))
+            where.append((seg.seq, j))
+        while exact[-1] - t0 < self.min_span and len(exact) < MAX_STEPS:
+            nxt = ex.segment(cur.seq + 1)
+            if (nxt is None or not nxt.steps[i] or nxt.ups[i] != up
+                    or not (cur.complete and cur.end == cur.length)):
+                break
+            known = nxt.known(i)
+            j = 0
+            while j < known and len(exact) < MAX_STEPS and exact[-1] - t0 < self.min_span:
+                j += 1
+                exact.append(nxt.step_tick(i, j))
+                where.append((nxt.seq, j))
+            if j < nxt.steps[i]:
+                break
+            cur = nxt
+        first_end = seg.steps[i] - j0  # steps up to this segment's last
+        while len(exact) > first_end:
+            cmds, placed = self._placement(t0, exact)
+            if cmds is not None:
+                break
+            exact.pop()
+            where.pop()
+        else:
+            return None
+        if self.free < len(cmds):
+            return Wrote.FULL
+        res = self._write_all(cmds, up, seg)
+        if res != Wrote.OK:
+            return res
+        st = self.stats
+        for k in range(len(exact) - 1):  # the segments' last steps inside the group
+            s_k, j_k = where[k]
+            end = ex.segment(s_k)
+            if end is not None and j_k == end.steps[i]:
+                st.early_ends += 1
+                st.early_max = max(st.early_max, exact[k] - placed[k])
+        self.seq, self.j = where[-1]
+        self.t_pend = exact[-1]
+        self.pending = True
+        return Wrote.OK
+
+    def _placement(self, t0: int, exact: list[int]
+                   ) -> tuple[list[tuple[int, int]] | None, list[int]]:
+        """Commands for a step at ``t0`` and the steps up to the last of ``exact``
+        (which starts the next command), each placed at or before its exact tick and
+        at most ``tol`` steps early; (None, []) where neither the even spread nor the
+        first interval's period does that."""
+        m = len(exact)
+        span = exact[-1] - t0
+        period, r = divmod(span, m)
+        candidates: list[tuple[list[tuple[int, int]], list[int]]] = []
+        if period >= self.queue.max_speed_in_ticks and period < MAX_TICKS:
+            a = m - r
+            if r == 0 or (self._legal(period, a) and self._legal(period + 1, r)):
+                placed = [t0 + k * period + max(0, k - a) for k in range(1, m)]
+                cmds = [(period, a)] + ([(period + 1, r)] if r else [])
+                if r == 0 or self._legal(period, a):
+                    candidates.append((cmds, placed))
+        first = exact[0] - t0
+        rest = span - (m - 1) * first
+        if (m > 1 and self.queue.max_speed_in_ticks <= first <= MAX_TICKS
+                and self._legal(first, m - 1) and self.min_wait <= rest <= MAX_TICKS):
+            candidates.append(([(first, m - 1), (rest, 1)],
+                               [t0 + k * first for k in range(1, m)]))
+        for cmds, placed in candidates:
+            prev = t0
+            ok = True
+            for k in range(m - 1):
+                late = placed[k] - exact[k]
+                if late > 0 or -late > self.tol * (exact[k] - prev):
+                    ok = False
+                    break
+                prev = exact[k]
+            if ok:
+                return cmds, placed
+        return None, []
+
+    def _span_limit(self, seg: Segment, pitch: float, t0: float) -> tuple[float, bool]:
+        """(the tick up to which a group from ``t0`` may go, whether the path slows
+        down there).  Grouped steps stay within ``tol`` steps of the exact positions:
+        where the path speeds up, their chord is off by ``a_axis tau^2 / 8`` at most;
+        where it slows down, steps at the first interval's period by
+        ``a_axis tau^2 / 2``; over a cruise they are exact, and the group may go on
+        into a change of speed after it as far as ``a_axis tau^2 / 2`` allows.  A
+        group does not reach from a part that slows down into one that does not, nor
+        back: its steps are placed early on one side and that side differs
+        (:meth:`_group`)."""
+        a = seg.accel / pitch  # steps/tick^2
+        pieces = seg.pieces
+        k = 0
+        while k < len(pieces) and pieces[k].t1 <= t0:
+            k += 1
+        if k == len(pieces):
+            return t0 + math.sqrt(2.0 * self.tol / a), False
+        slowing = pieces[k].a < 0.0
+        cruise_end = None
+        boundary = math.inf
+        for p in pieces[k:]:
+            if (p.a < 0.0) != slowing:
+                boundary = p.t0
+                break
+            if p.a == 0.0 and (cruise_end is not None or p is pieces[k]):
+                cruise_end = p.t1
+            elif p.a != 0.0 and cruise_end is not None:
+                break
+        if cruise_end is not None:
+            limit = cruise_end + math.sqrt(2.0 * self.tol / a)
+        else:
+            limit = t0 + math.sqrt((2.0 if slowing else 8.0) * self.tol / a)
+        return (limit if limit < boundary else boundary), slowing
+
+    def _group(self, seg: Segment, m: int, span: int, jh: int, th: int,
+               slowing: bool) -> Wrote:
+        """``m`` steps from ``w_end`` over ``span`` ticks; step ``jh`` at ``th``.
+
+        Each step of the group comes at its exact tick or before it, never after - so
+        an axis is never a whole step behind the path (its position rounds down along
+        the path).  While the path keeps its speed or speeds up, the step times are
+        concave and their chord lies before them: the steps are spread evenly (two
+        periods ``P``, ``P + 1`` where the span does not divide, the shorter first).
+        Where it slows down the chord would lie after them: the steps come at the
+        period of the group's first interval, the shortest, and the last waits for
+        the rest."""
+        i = self.axis
+        up = seg.ups[i]
+        cmds = None
+        if slowing and m > 1:
+            first = seg.step_tick(i, self.j + 1) - self.w_end
+            rest = span - (m - 1) * first
+            if (first >= self.queue.max_speed_in_ticks and first <= MAX_TICKS
+                    and self._legal(first, m - 1) and self.min_wait <= rest <= MAX_TICKS):
+                cmds = [(first, m - 1), (rest, 1)]
+        if cmds is None:
+            cmds = self._commands(span, m)
+        if cmds is None:  # slower than a command's period: one step and a wait
+            jh = self.j + 1
+            th = seg.step_tick(i, jh)
+            wait = max(th - self.w_end, self.min_wait)
+            cmds = [(t, 1 if k == 0 else 0) for k, t in enumerate(split_ticks(wait))]
+        if self.free < len(cmds):
+            return Wrote.FULL
+        res = self._write_all(cmds, up, seg)
+        if res != Wrote.OK:
+            return res
+        self.j = jh
+        self.t_pend = th
+        self.pending = True
+        return Wrote.OK
+
+    def _commands(self, span: int, m: int) -> list[tuple[int, int]] | None:
+        """Commands ``(ticks, steps)`` for ``m`` steps over ``span`` ticks (None: a
+        period beyond 65535 ticks)."""
+        lo = self.min_wait
+        if m == 1:
+            if span > MAX_TICKS:
+                return None
+            if span < lo:
+                return [(lo, 1)]
+            return [(span, 1)]
+        period, r = divmod(span, m)
+        if period > MAX_TICKS or (period == MAX_TICKS and r):
+            return None
+        floor = max(self.queue.max_speed_in_ticks, -(-self.min_cmd // m))
+        if period < floor:
+            return [(floor, m)]
+        if r == 0:
+            return [(period, m)]
+        a, b = m - r, r
+        if self._legal(period, a) and self._legal(period + 1, b):
+            return [(period, a), (period + 1, b)]
+        return [(period + (1 if 2 * r >= m else 0), m)]
+
+    def _legal(self, ticks: int, steps: int) -> bool:
+        duration = ticks * steps if steps > 1 else ticks
+        return duration >= self.min_cmd and ticks <= MAX_TICKS
+
+    def _single(self, seg: Segment) -> Wrote:
+        """The pending step is its segment's last and the axis does not go on in the
+        next segment the same way: one step, then wait for the next step."""
+        found, seq, j, tick = self._next()
+        if found == Found.UNKNOWN:
+            return self._provisional(seg)
+        i = self.axis
+        up = seg.ups[i]
+        if found == Found.END:
+            cmds = [(self.min_wait, 1)]  # the last step of the run: the queue runs out
+        else:
+            wait = tick - self.w_end
+            if wait < self.min_wait:
+                wait = self.min_wait
+            parts = split_ticks(wait)
+            cmds = [(t, 1 if k == 0 else 0) for k, t in enumerate(parts)]
+        if self.free < len(cmds):
+            return Wrote.FULL
+        if found == Found.END:
+            res = self._write_all(cmds, up, seg)
+            if res == Wrote.OK:
+                self.pending = False
+                self.done = True
+                if self.listener is not None and i == seg.dominant:
+                    self.listener(self.w_end, 0.0, seg.tag)
+            return res
+        nseg = self.ex.segment(seq)
+        assert nseg is not None
+        res = self._write_all(cmds[:1], up, seg)
+        if res == Wrote.OK and len(cmds) > 1:
+            res = self._write_all(cmds[1:], nseg.ups[i], seg)
+        if res != Wrote.OK:
+            return res
+        self.seq, self.j, self.t_pend = seq, j, tick
+        self.pending = True
+        return Wrote.OK
+
+    def _provisional(self, seg: Segment) -> Wrote:
+        """The pending step's successor is beyond the horizon: a wait that ends at least
+        one minimum command time before the horizon (pauses extend it later)."""
+        if self.last_start > self._deep:
+            return Wrote.WAIT  # the queue is deep: the next step may be final then
+        wait = int(self.ex.t) - self.min_cmd - self.w_end
+        if wait > MAX_TICKS:
+            wait = MAX_TICKS
+        if wait < self.min_wait:
+            return Wrote.WAIT
+        res = self._write_all([(wait, 1)], seg.ups[self.axis], seg)
+        if res == Wrote.OK:
+            self.pending = False
+        return res
+
+    def _pause_ahead(self, free: int) -> Wrote:
+        """No step is final: pauses up to one minimum command time before the horizon."""
+        gap = int(self.ex.t) - self.min_cmd - self.w_end
+        if gap < self.min_cmd or self.last_start > self._deep:
+            return Wrote.WAIT
+        parts = split_ticks(gap)[:free - 1]
+        return self._write_all([(t, 0) for t in parts], self.up, None)
+
+    def _pauses(self, gap: int, up: bool, free: int) -> Wrote:
+        parts = split_ticks(gap)
+        if len(parts) > free - 1:
+            return Wrote.FULL
+        return self._write_all([(t, 0) for t in parts], up, None)
+
+    def _shift(self, by: int) -> None:
+        st = self.stats
+        st.shifted += 1
+        if abs(by) > st.shift_max:
+            st.shift_max = abs(by)
+
+    def _write_all(self, cmds: list[tuple[int, int]], up: bool,
+                   seg: Segment | None) -> Wrote:
+        """Write ``cmds`` in direction ``up``; a command that makes steps of the
+        dominant axis of ``seg`` tells the speed listener."""
+        write = self.host.write
+        st = self.stats
+        listener = self.listener if seg is not None and seg.dominant == self.axis else None
+        for ticks, steps in cmds:
+            res = write(ticks, steps, up, False)
+            if res != AqeResult.OK:
+                if res.retry:
+                    return Wrote.FULL  # pragma: no cover - room was checked
+                st.errors += 1
+                self.host.report_abort(res, (ticks, steps, up))
+                return Wrote.ERROR
+            if listener is not None and steps and seg is not None:
+                listener(self.w_end, seg.speed_at(self.w_end) * self.tps * 60.0, seg.tag)
+            self.free -= 1
+            if steps > 1:
+                self.last_start = self.w_end + (steps - 1) * ticks
+                self.w_end += ticks * steps
+            else:
+                self.last_start = self.w_end
+                self.w_end += ticks
+            self.up = up
+            if steps:
+                st.commands += 1
+                st.steps += steps
+            else:
+                st.pauses += 1
+        return Wrote.OK

@@ -1,0 +1,293 @@
+"""A path group on a recording simulated chip, and what its pins say about the path.
+
+Everything here is measured from the recorded step and direction edges: the position
+of every axis at every instant at which one of them stepped (edges on one tick are
+one instant), its distance from the commanded polyline, step rates and accelerations
+per axis, the path speed at an instant.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from fas import Engine
+from fas.path import AxisLimits, PathGroup, PathResult, PathSettings
+from fas.sim import SimBackend
+from rigs.pins import steps_by_pins
+
+
+def make_group(profile: str = "atmega328p", axes: int = 2, *,
+               limits: AxisLimits | None = None, junction_deviation: float = 0.05,
+               arc_tolerance: float = 0.002, queue_blocks: int = 32,
+               record: bool = True, start_delay_ms: int = 50):
+    """(backend, engine, group, step pins, direction pins): ``axes`` steppers on the
+    first step pin of the profile's first channels, joined into a path group."""
+    backend = SimBackend(profile, record=record)
+    engine = Engine(backend)
+    engine.init()
+    p = backend.profile
+    pins = step_pins(p, axes)
+    dirs = dir_pins(p, axes)
+    steppers = []
+    for sp, dp in zip(pins, dirs, strict=True):
+        s = engine.stepper_connect_to_pin(sp)
+        assert s is not None
+        s.set_direction_pin(dp)
+        steppers.append(s)
+    limits = limits or AxisLimits(80.0, 6000.0, 500.0)
+    settings = PathSettings(axes=(limits,) * axes, junction_deviation=junction_deviation,
+                            arc_tolerance=arc_tolerance, queue_blocks=queue_blocks,
+                            start_delay_ms=start_delay_ms)
+    group = PathGroup(steppers, settings)
+    assert group.attach() == PathResult.OK
+    return backend, engine, group, pins, dirs
+
+
+def step_pins(profile, axes: int) -> list[int]:
+    """A step pin for each of ``axes`` steppers: the first of each channel's pins, or
+    successive pins of one group where any pin reaches any channel."""
+    groups = profile.step_pin_groups
+    if len(groups) >= axes:
+        return [g[0] for g in groups[:axes]]
+    return list(groups[0][:axes])
+
+
+def dir_pins(profile, axes: int) -> list[int]:
+    """Direction pins that are no step pin."""
+    taken = {pin for g in profile.step_pin_groups for pin in g}
+    return [pin for pin in range(20, 200) if pin not in taken][:axes]
+
+
+class Stream:
+    """A sender streaming targets into a group as its queue takes them (a G-code
+    sender waiting for ``ok``): :meth:`run` lets time pass while it keeps feeding."""
+
+    def __init__(self, backend, group: PathGroup, targets: Sequence[Sequence[int]],
+                 feed: float | None) -> None:
+        self.backend = backend
+        self.group = group
+        self.targets = list(targets)
+        self.feed = feed
+        self.sent = 0
+
+    def pump(self) -> None:
+        g = self.group
+        while self.sent < len(self.targets):
+            res = g.line(self.targets[self.sent], self.feed)
+            if res == PathResult.QUEUE_FULL:
+                return
+            assert res in (PathResult.OK, PathResult.EMPTY_BLOCK), res
+            self.sent += 1
+        g.flush()
+
+    def run(self, until=None, limit_s: float = 3600.0) -> bool:
+        """Feed and let time pass until ``until()`` (default: every target sent and the
+        group idle); False on timeout."""
+        b = self.backend
+        g = self.group
+        if until is None:
+            def until() -> bool:
+                return self.sent == len(self.targets) and g.is_idle()
+        deadline = b.now() + int(limit_s * b.profile.ticks_per_s)
+        self.pump()
+        while not until():
+            if b.now() >= deadline:
+                return False
+            b.wait_until(lambda: until() or (self.sent < len(self.targets)
+                                             and g.room() > 0), deadline - b.now())
+            self.pump()
+        return True
+
+
+def feed_all(backend, group: PathGroup, targets: Sequence[Sequence[int]],
+             feed: float | None, limit_s: float = 3600.0) -> None:
+    """Queue every target (waiting for room as a sender would), flush, run to idle."""
+    assert Stream(backend, group, targets, feed).run(limit_s=limit_s), "the path did not end"
+
+
+def axis_steps(backend, pins: Sequence[int], dirs: Sequence[int]) -> list[list[tuple[int, int]]]:
+    """Per axis: (tick, +1/-1) of every step."""
+    edges = backend.recorder.pin_edges
+    return [steps_by_pins(edges, sp, dp) for sp, dp in zip(pins, dirs, strict=True)]
+
+
+def instants(steps: Sequence[Sequence[tuple[int, int]]],
+             start: Sequence[int]) -> list[tuple[int, tuple[int, ...]]]:
+    """(tick, position of every axis) after each instant with a step."""
+    events = sorted((t, i, d) for i, ss in enumerate(steps) for t, d in ss)
+    pos = list(start)
+    out = []
+    k = 0
+    while k < len(events):
+        t = events[k][0]
+        while k < len(events) and events[k][0] == t:
+            pos[events[k][1]] += events[k][2]
+            k += 1
+        out.append((t, tuple(pos)))
+    return out
+
+
+def cheb_to_segment(p: Sequence[float], a: Sequence[float], b: Sequence[float]) -> float:
+    """The Chebyshev distance (the largest axis difference) from ``p`` to segment ab."""
+    d = [bi - ai for ai, bi in zip(a, b, strict=True)]
+    r = [pi - ai for pi, ai in zip(p, a, strict=True)]
+    cands = [0.0, 1.0]
+    n = len(d)
+    for i in range(n):
+        if d[i]:
+            cands.append(r[i] / d[i])
+        for j in range(i + 1, n):
+            for sgn in (1.0, -1.0):
+                den = d[i] - sgn * d[j]
+                if den:
+                    cands.append((r[i] - sgn * r[j]) / den)
+    best = math.inf
+    for s in cands:
+        if 0.0 <= s <= 1.0:
+            v = max(abs(r[i] - s * d[i]) for i in range(n))
+            if v < best:
+                best = v
+    return best
+
+
+def perp_to_segment(p: Sequence[float], a: Sequence[float], b: Sequence[float]) -> float:
+    """The Euclidean distance from ``p`` to segment ab."""
+    d = [bi - ai for ai, bi in zip(a, b, strict=True)]
+    r = [pi - ai for pi, ai in zip(p, a, strict=True)]
+    dd = sum(x * x for x in d)
+    s = 0.0 if dd == 0 else max(0.0, min(1.0, sum(x * y for x, y in zip(r, d, strict=True)) / dd))
+    return math.sqrt(sum((ri - s * di) ** 2 for ri, di in zip(r, d, strict=True)))
+
+
+def path_deviation(points: Sequence[tuple[int, tuple[int, ...]]],
+                   polyline: Sequence[Sequence[int]]) -> tuple[float, float]:
+    """The largest Chebyshev and Euclidean distance (steps) of the instants' positions
+    from the polyline (its vertices in steps: where the blocks end).  Every axis makes
+    its last step of a block on one tick, so the path is at a vertex at one instant:
+    the instants in between are measured against the segment between the vertex
+    reached last and the next one."""
+    verts = [tuple(polyline[0])]
+    for v in polyline[1:]:
+        if tuple(v) != verts[-1]:
+            verts.append(tuple(v))
+    worst_c = worst_e = 0.0
+    b = 0
+    last = len(verts) - 1
+    for _, p in points:
+        if b < last and p == verts[b + 1]:
+            b += 1
+            continue  # at the vertex: on the path
+        if b == last:
+            raise AssertionError(f"a step after the path's end: {p}")
+        a, e = verts[b], verts[b + 1]
+        worst_c = max(worst_c, cheb_to_segment(p, a, e))
+        worst_e = max(worst_e, perp_to_segment(p, a, e))
+    assert b == last, f"vertex {b + 1} of {last} was never reached exactly: {verts[b + 1]}"
+    return worst_c, worst_e
+
+
+def window_rates(ticks: Sequence[int], tps: int, window_s: float
+                 ) -> list[tuple[float, float]]:
+    """(time s, steps/s) of one axis's steps (one direction) over windows of about
+    ``window_s``: steps between two step times divided by their distance."""
+    out = []
+    k = 0
+    n = len(ticks)
+    w = window_s * tps
+    while k < n - 1:
+        j = k + 1
+        while j < n - 1 and ticks[j] - ticks[k] < w:
+            j += 1
+        span = ticks[j] - ticks[k]
+        if span > 0:
+            out.append(((ticks[k] + ticks[j]) / 2 / tps, (j - k) * tps / span))
+        k = j
+    return out
+
+
+def position_at(ticks: Sequence[int], t: float) -> float:
+    """An axis's position at tick ``t``, interpolated linearly between its steps (the
+    count of steps up to a step's tick is exact there)."""
+    import bisect
+    k = bisect.bisect_right(ticks, t)
+    if k == 0:
+        return 0.0
+    if k >= len(ticks):
+        return float(len(ticks))
+    t0, t1 = ticks[k - 1], ticks[k]
+    return k + (t - t1) / (t1 - t0) if t1 > t0 else float(k)
+
+
+def fit_speed(times: Sequence[float], xs: Sequence[float], at: float) -> float:
+    """The slope at ``at`` of the least-squares parabola through (times, xs)."""
+    n = len(times)
+    ts = [t - at for t in times]
+    s = [sum(t ** k for t in ts) for k in range(5)]
+    b = [sum(x * t ** k for x, t in zip(xs, ts, strict=True)) for k in range(3)]
+    m = [[s[0], s[1], s[2]], [s[1], s[2], s[3]], [s[2], s[3], s[4]]]
+    assert n >= 3
+    # solve m c = b (Cramer); the slope at ``at`` is c[1]
+    def det(a):
+        return (a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+                - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+                + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]))
+    d = det(m)
+    m1 = [[m[r][0], b[r], m[r][2]] for r in range(3)]
+    return det(m1) / d
+
+
+def axis_motion(steps: Sequence[tuple[int, int]]) -> tuple[list[int], list[int]]:
+    """(ticks, position after the step) of one axis's steps."""
+    pos = 0
+    ticks, xs = [], []
+    for t, d in steps:
+        pos += d
+        ticks.append(t)
+        xs.append(pos)
+    return ticks, xs
+
+
+def interp(ticks: Sequence[int], xs: Sequence[int], t: float) -> float:
+    """Position at tick ``t``, linear between the steps around it."""
+    import bisect
+    k = bisect.bisect_right(ticks, t)
+    if k == 0:
+        return float(xs[0] - (xs[1] - xs[0] if len(xs) > 1 else 1))
+    if k >= len(ticks):
+        return float(xs[-1])
+    t0, t1 = ticks[k - 1], ticks[k]
+    x0, x1 = xs[k - 1], xs[k]
+    return x0 + (x1 - x0) * (t - t0) / (t1 - t0)
+
+
+def max_accel(ticks: Sequence[int], xs: Sequence[int], t_from: int, t_to: int, tps: int,
+              window_s: float) -> tuple[float, float]:
+    """(largest |acceleration| in steps/s^2, largest |speed| in steps/s) of one axis
+    inside [t_from, t_to], from three of its steps about ``window_s`` apart: at a
+    step's tick its position is exact, so (with steps at ticks a < b < c)
+    ``2 ((x_c - x_b) / (t_c - t_b) - (x_b - x_a) / (t_b - t_a)) / (t_c - t_a)``
+    is off by at most ``4 e / W^2`` when each step is within ``e`` steps of its
+    exact time's position (and the speed ``(x_c - x_b) / (t_c - t_b)`` by ``2 e / W``).
+    The axis's own steps only: before its first step in the span it stood, or moved
+    as the block before."""
+    import bisect
+    w = int(window_s * tps)
+    worst_a = worst_v = 0.0
+    k0 = bisect.bisect_right(ticks, t_from)
+    k1 = bisect.bisect_left(ticks, t_to)
+    a = k0
+    while a < k1:
+        b = bisect.bisect_left(ticks, ticks[a] + w, a + 1, k1)
+        if b >= k1:
+            break
+        c = bisect.bisect_left(ticks, ticks[b] + w, b + 1, k1)
+        if c >= k1:
+            break
+        ta, tb, tc = (ticks[a] / tps, ticks[b] / tps, ticks[c] / tps)
+        v1 = (xs[b] - xs[a]) / (tb - ta)
+        v2 = (xs[c] - xs[b]) / (tc - tb)
+        worst_a = max(worst_a, abs(2 * (v2 - v1) / (tc - ta)))
+        worst_v = max(worst_v, abs(v1), abs(v2))
+        a = max(a + 1, bisect.bisect_left(ticks, ticks[a] + w // 4, a + 1, k1))
+    return worst_a, worst_v

@@ -1,0 +1,156 @@
+"""What moves, and the seam to what executes it.
+
+*What moves* is a :class:`BlockQueue` of straight segments (:class:`~.interp.Move`:
+start and target in steps per axis, a feed in units/min or rapid, a jog flag),
+filled by the G-code machine as lines are parsed - Grbl's planner buffer (15 blocks
+usable of 16, what ``Bf:`` reports).
+
+*How it is executed* is a :class:`MotionExecutor`: it takes blocks from the queue
+in order and turns them into each axis's FastAccelStepper queue commands, and it
+answers the real-time requests a Grbl controller must honour - a feed hold that
+decelerates along the path and a resume that goes on from there with no step lost,
+a jog cancel, feed and rapid overrides.  Today's executor,
+:class:`~.exact_stop.ExactStopExecutor`, starts and ends every block at rest; a
+look-ahead planner (issue 25) plugs in here as another executor reading the same
+queue - the machine (:mod:`.machine`) knows only this interface.
+
+An executor reaches the steppers through a :class:`MotionHost` (the machine).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections import deque
+from collections.abc import Iterator
+from enum import Enum
+from typing import TYPE_CHECKING, Protocol
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fas.backend import Backend
+    from fas.codes import AqeResult
+
+    from .interp import Move
+    from .settings import GcodeSettings
+
+BLOCKS = 15  # usable planner blocks (Grbl's BLOCK_BUFFER_SIZE 16, one kept empty)
+
+
+class BlockQueue:
+    """The blocks waiting for execution, oldest first (at most :data:`BLOCKS`)."""
+
+    def __init__(self, size: int = BLOCKS) -> None:
+        self.size = size
+        self._blocks: deque[Move] = deque()
+
+    def __len__(self) -> int:
+        return len(self._blocks)
+
+    def __iter__(self) -> Iterator[Move]:
+        return iter(self._blocks)
+
+    @property
+    def room(self) -> int:
+        return self.size - len(self._blocks)
+
+    def push(self, block: Move) -> None:
+        if not self.room:
+            raise OverflowError("block queue full")  # the machine checks room first
+        self._blocks.append(block)
+
+    def peek(self) -> Move | None:
+        return self._blocks[0] if self._blocks else None
+
+    def pop(self) -> Move:
+        return self._blocks.popleft()
+
+    def clear(self) -> None:
+        self._blocks.clear()
+
+
+class HoldState(Enum):
+    NONE = 0  # executing (or idle)
+    STOPPING = 1  # a hold decelerates (Grbl's Hold:1)
+    HELD = 2  # stopped by a hold, waiting for a resume (Hold:0)
+
+
+class MotionHost(Protocol):
+    """What an executor may use of the machine."""
+
+    backend: Backend
+    steppers: list  # fas.Stepper per axis
+    settings: GcodeSettings
+
+    def enable_drivers(self) -> None:
+        """The drivers are switched on (before a block starts)."""
+
+    def motion_failed(self, result: AqeResult) -> None:
+        """The library refused a queue command: the machine goes into alarm."""
+
+
+class MotionExecutor(ABC):
+    """Executes the blocks of a :class:`BlockQueue` (see the module text).
+
+    The machine calls :meth:`poll` whenever time has passed (and no later than
+    :meth:`wake_tick`); everything else is a request that takes effect at once or
+    at the next :meth:`poll`."""
+
+    def __init__(self, host: MotionHost, blocks: BlockQueue) -> None:
+        self.host = host
+        self.blocks = blocks
+
+    # ----------------------------------------------------------- driving
+    @abstractmethod
+    def poll(self) -> None:
+        """Start blocks, feed the queues, notice the end of blocks and holds - now."""
+
+    @abstractmethod
+    def wake_tick(self) -> int | None:
+        """When :meth:`poll` next has work (None: only a new block or request)."""
+
+    # ---------------------------------------------------------- requests
+    @abstractmethod
+    def hold(self) -> None:
+        """Feed hold: decelerate along the path to rest, keep the rest of the path."""
+
+    @abstractmethod
+    def resume(self) -> None:
+        """Cycle start after a hold: go on along the path from where it stopped."""
+
+    @abstractmethod
+    def discard(self) -> None:
+        """After a hold has stopped: drop the rest of the block in execution (a jog
+        cancel); the queue's blocks are the machine's to drop."""
+
+    @abstractmethod
+    def abort(self) -> None:
+        """Stop every axis at once (reset, alarm): nothing of the blocks is kept."""
+
+    @abstractmethod
+    def set_overrides(self, feed_percent: int, rapid_percent: int) -> None:
+        """Feed override (G1, not jogs) and rapid override (G0), from now on."""
+
+    # -------------------------------------------------------------- state
+    @abstractmethod
+    def hold_state(self) -> HoldState:
+        """Whether a hold is decelerating or has stopped."""
+
+    @abstractmethod
+    def current(self) -> Move | None:
+        """The block in execution (also while held)."""
+
+    @abstractmethod
+    def busy(self) -> bool:
+        """A block executes, is held, or waits in the queue."""
+
+    @abstractmethod
+    def moving(self) -> bool:
+        """An axis is stepping or about to (a reset now loses the position)."""
+
+    @abstractmethod
+    def committed(self) -> bool:
+        """Every block taken so far is in the steppers' queues, beyond any hold: a
+        synchronized output handed to the library now changes after all of it."""
+
+    @abstractmethod
+    def path_rate(self) -> float:
+        """The speed along the path now, units/min (``FS:``)."""

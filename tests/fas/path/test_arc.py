@@ -1,0 +1,139 @@
+"""Arc geometry (fas.path.arc): segments within the arc tolerance, exact end points,
+full circles, the planes, the R form and Grbl's error codes."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from fas.path.arc import (
+    ArcError,
+    Plane,
+    arc_center_from_radius,
+    arc_points,
+    arc_segments,
+    arc_travel,
+    check_arc_offsets,
+)
+
+
+def chord_sagitta(center, radius, a, b) -> float:
+    """How far the chord ab comes inside the circle at most (its midpoint)."""
+    mid = ((a[0] + b[0]) / 2, (a[1] + b[1]) / 2)
+    return radius - math.hypot(mid[0] - center[0], mid[1] - center[1])
+
+
+@pytest.mark.parametrize("radius,tol", [(1.0, 0.002), (10.0, 0.002), (50.0, 0.01),
+                                        (3.0, 0.1)])
+@pytest.mark.parametrize("clockwise", [True, False])
+def test_segments_stay_within_the_tolerance_and_end_exactly(radius, tol, clockwise):
+    start = (0.0, 0.0, 0.0)
+    target = (radius, radius, 0.0)  # a quarter (or three quarters) about (radius, 0)
+    offset = (radius, 0.0)
+    pts = arc_points(start, target, offset, Plane.XY, clockwise, tol)
+    assert pts[-1] == target  # exactly
+    center = (radius, 0.0)
+    prev = start
+    for p in pts:
+        assert chord_sagitta(center, radius, prev, p) <= tol + 1e-12
+        assert math.hypot(p[0] - center[0], p[1] - center[1]) == pytest.approx(radius)
+        prev = p
+    travel = arc_travel(start, target, offset, Plane.XY, clockwise)
+    assert travel == pytest.approx(-math.pi / 2 if clockwise else 3 * math.pi / 2)
+    assert len(pts) == max(1, arc_segments(radius, travel, tol))
+
+
+@pytest.mark.parametrize("radius,travel,tol", [(10.0, math.pi, 0.002), (1.0, 0.3, 0.002),
+                                               (50.0, 2 * math.pi, 0.01), (3.0, 1.5, 0.1)])
+def test_segment_count_is_grbls_or_one_more(radius, travel, tol):
+    grbl = math.floor(abs(0.5 * travel * radius) / math.sqrt(tol * (2 * radius - tol)))
+    n = arc_segments(radius, travel, tol)
+    assert n in (grbl, grbl + 1)
+    phi = travel / n
+    assert radius * (1 - math.cos(phi / 2)) <= tol + 1e-12  # n chords are within tol
+    if n > 1:
+        phi = travel / (n - 1)
+        assert radius * (1 - math.cos(phi / 2)) > tol  # n - 1 would not be
+
+
+def test_an_arc_within_the_tolerance_is_a_line():
+    assert arc_segments(0.0005, math.pi, 0.002) == 0
+    assert arc_points((0.0, 0.0), (0.001, 0.0), (0.0005, 0.0), Plane.XY, True,
+                      0.002) == [(0.001, 0.0)]
+
+
+def test_full_circle_when_the_target_is_the_start():
+    pts = arc_points((5.0, 0.0), (5.0, 0.0), (-5.0, 0.0), Plane.XY, False, 0.01)
+    assert pts[-1] == (5.0, 0.0)
+    assert len(pts) > 10
+    angles = [math.atan2(p[1], p[0]) for p in pts[:-1]]
+    assert angles[0] > 0  # counter-clockwise from +X
+    assert max(abs(a) for a in angles) > 3.0  # all the way round
+
+
+def test_helix_moves_the_linear_axis_in_proportion():
+    pts = arc_points((0.0, 0.0, 0.0), (0.0, 0.0, 3.0), (1.0, 0.0), Plane.XY, True, 0.001)
+    zs = [p[2] for p in pts]
+    assert zs == sorted(zs) and zs[-1] == 3.0
+    n = len(pts)
+    for k, z in enumerate(zs, start=1):
+        assert z == pytest.approx(3.0 * k / n)
+
+
+@pytest.mark.parametrize("plane,axes", [(Plane.XY, (0, 1, 2)), (Plane.ZX, (2, 0, 1)),
+                                        (Plane.YZ, (1, 2, 0))])
+def test_planes_turn_their_own_axes(plane, axes):
+    a0, a1, lin = axes
+    assert plane.axes == axes
+    start = [0.0, 0.0, 0.0]
+    target = [0.0, 0.0, 0.0]
+    target[a0] = 2.0  # half a turn about (1, 0) in the plane
+    offset = (1.0, 0.0)
+    pts = arc_points(tuple(start), tuple(target), offset, plane, False, 0.001)
+    assert pts[-1] == tuple(target)
+    for p in pts:
+        assert p[lin] == 0.0
+        assert math.hypot(p[a0] - 1.0, p[a1]) == pytest.approx(1.0)
+    # counter-clockwise from the first axis towards the second: through a1 < 0 first
+    assert pts[len(pts) // 2][a1] < 0
+
+
+@pytest.mark.parametrize("clockwise", [True, False])
+@pytest.mark.parametrize("radius", [5.0, -5.0, 7.5])
+def test_radius_form_agrees_with_the_center_form(clockwise, radius):
+    start, target = (0.0, 0.0), (6.0, 2.0)
+    err, offset = arc_center_from_radius(start, target, radius, Plane.XY, clockwise)
+    assert err == ArcError.OK
+    r = math.hypot(*offset)
+    assert r == pytest.approx(abs(radius))  # the centre is |R| from start and target
+    assert math.hypot(target[0] - start[0] - offset[0],
+                      target[1] - start[1] - offset[1]) == pytest.approx(abs(radius))
+    travel = arc_travel(start, target, offset, Plane.XY, clockwise)
+    assert (abs(travel) > math.pi) == (radius < 0)  # negative R: the long way round
+    assert (travel < 0) == clockwise
+    assert check_arc_offsets(start, target, offset, Plane.XY) == ArcError.OK
+    r_pts = arc_points(start, target, offset, Plane.XY, clockwise, 0.002)
+    # the same arc given by its centre as I/J (rounded as a program would write it)
+    ij = (round(offset[0], 4), round(offset[1], 4))
+    ij_pts = arc_points(start, target, ij, Plane.XY, clockwise, 0.002)
+    assert len(r_pts) == len(ij_pts)
+    for a, b in zip(r_pts, ij_pts, strict=True):
+        assert math.dist(a, b) < 1e-3
+
+
+def test_grbl_errors():
+    # R: target equal to the start (Grbl 33), radius too small (34)
+    assert arc_center_from_radius((1.0, 1.0), (1.0, 1.0), 5.0, Plane.XY, True)[0] == 33
+    assert arc_center_from_radius((0.0, 0.0), (10.0, 0.0), 4.9, Plane.XY, True)[0] == 34
+    assert arc_center_from_radius((0.0, 0.0), (10.0, 0.0), 5.0, Plane.XY, True)[0] == 0
+    # I/J/K: none in the plane (35); radii differing by more than 0.005 mm and 0.1 % (33)
+    assert check_arc_offsets((0, 0), (10, 0), (5, 0), Plane.XY,
+                             offset_in_plane=False) == ArcError.NO_OFFSETS_IN_PLANE
+    assert check_arc_offsets((0, 0), (10.004, 0), (5, 0), Plane.XY) == ArcError.OK
+    assert check_arc_offsets((0, 0), (10.02, 0), (5, 0), Plane.XY) == ArcError.INVALID_TARGET
+    # a large radius: 0.1 % of 1000 mm = 1 mm, but never more than 0.5 mm
+    assert check_arc_offsets((0, 0), (2000.4, 0), (1000, 0), Plane.XY) == ArcError.OK
+    assert check_arc_offsets((0, 0), (2000.6, 0), (1000, 0),
+                             Plane.XY) == ArcError.INVALID_TARGET
+    assert int(ArcError.ARC_RADIUS_ERROR) == 34  # the numbers Grbl prints as error:N
