@@ -50,6 +50,10 @@ class Case:
     kind: str
     text: bytes = b""
     chunks: tuple[tuple[int, bytes], ...] = ()
+    #: how a ``bytes`` case is sent to the G-code program: "" (all at once per chunk),
+    #: "count" (a sender that counts characters against Grbl's 128-byte buffer, at
+    #: serial speed) or "blast" (at serial speed without counting)
+    sender: str = ""
 
     @property
     def data(self) -> bytes:
@@ -59,7 +63,8 @@ class Case:
     def __str__(self) -> str:
         if self.kind == LINE:
             return repr(self.text)
-        return "bytes " + " ".join(f"{c!r}" + (f" +{w}ms" if w else "")
+        head = f"bytes ({self.sender} sender) " if self.sender else "bytes "
+        return head + " ".join(f"{c!r}" + (f" +{w}ms" if w else "")
                                    for w, c in self.chunks)
 
 

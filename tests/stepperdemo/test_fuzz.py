@@ -116,22 +116,6 @@ def test_raw_commands_then_a_reversing_move_on_the_sam_due():
 
 
 # ---- every program on every profile --------------------------------------------------
-# Crashes inside stepperdemo/gcode/ are recorded, not fixed here: that program is being
-# rewritten as a Grbl 1.1 interface (issue 24, branch i24-grbl).  A seeded run that ends
-# in one of them is an expected failure (and any other failure of the same run fails).
-GMODE_AXES_CRASH = ("the g mode on a profile with more than six StepperDemo steppers: "
-                    "IndexError in stepperdemo/gcode/machine.py on $$, ? or any move (six "
-                    "axis settings; issue 24 item 6)")
-SLOW_FEED_CRASH = ("a move whose slowest axis steps minutes apart: split_wait() in "
-                   "stepperdemo/gcode/line.py lists every 65535-tick wait - MemoryError "
-                   "after gigabytes, or a hang")
-KNOWN_GCODE_CRASHES = {
-    "IndexError [stepperdemo/gcode/machine.py": GMODE_AXES_CRASH,
-    "MemoryError [stepperdemo/gcode/line.py": SLOW_FEED_CRASH,
-}
-# the profiles where StepperDemo connects more than six steppers
-GMODE_CRASH_PROFILES = ("esp32", "esp32_idf5", "esp32_idf6", "esp32s3", "esp32s3_idf5",
-                        "esp32p4")
 RUNS = {"demo": 2, "gcode": 3, "winder": 5}  # per profile; more in CI, any with FUZZ_SCALE
 SCALE = int(os.environ.get("FUZZ_SCALE", "2" if os.environ.get("CI") else "1"))
 MAX_TIME_S = {"demo": 10.0, "gcode": 3.0, "winder": 3.0}  # simulated, per run
@@ -155,26 +139,15 @@ def memory_ceiling(extra_mb: int = 1500):
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
-def known_gcode_crash(res) -> str | None:
-    return next((why for sig, why in KNOWN_GCODE_CRASHES.items()
-                 if res.in_gcode and res.signature.startswith(sig)), None)
-
-
 @pytest.mark.parametrize("program,arch", [(p, a) for p, t in TARGETS.items()
                                           for a in t.profiles()])
 def test_seeded_runs_of_every_program_keep_the_invariants(program, arch):
-    failures, known = [], []
     with memory_ceiling():
         results = list(fuzz_program(program, RUNS[program] * SCALE, SEED, archs=(arch,),
                                     max_time_s=MAX_TIME_S[program]))
-    for run, res in results:
-        if not res.ok:
-            why = known_gcode_crash(res)
-            (known if why else failures).append((run, res, why))
+    failures = [(run, res) for run, res in results if not res.ok]
     assert not failures, "\n".join(f"run {run}: {res.describe()}: {res.violations[:2]}"
-                                    for run, res, _ in failures[:3])
-    if known:
-        pytest.xfail("; ".join(sorted({why for _, _, why in known})))
+                                    for run, res in failures[:3])
 
 
 def test_the_targets_cover_every_profile():
@@ -206,13 +179,7 @@ def _answers_settings_status_and_a_move(program: str, arch: str, script: str):
     assert x.get_current_position() - start == pins == 10
 
 
-GMODE_PROFILES = [
-    pytest.param(a, marks=pytest.mark.xfail(strict=True, raises=IndexError,
-                                            reason=GMODE_AXES_CRASH))
-    if a in GMODE_CRASH_PROFILES else a for a in PROFILES]
-
-
-@pytest.mark.parametrize("arch", GMODE_PROFILES)
+@pytest.mark.parametrize("arch", list(PROFILES))
 def test_every_profiles_g_mode_answers_settings_status_and_a_move(arch):
     _answers_settings_status_and_a_move("demo", arch,
                                         "g\n$$\n?\n$100=1\nG91\nG1 X10 F6000\n?\nx\n")
@@ -223,7 +190,6 @@ def test_every_profiles_gcode_program_answers_settings_status_and_a_move(arch):
     _answers_settings_status_and_a_move("gcode", arch, "$$\n?\n$100=1\nG91\nG1 X10 F6000\n?")
 
 
-@pytest.mark.xfail(strict=True, reason=SLOW_FEED_CRASH)
 def test_a_very_slow_feed_is_answered_without_exhausting_memory():
     # the G-code program in a process of its own, with 600 MB of address space: the
     # move (X steps 6e5 s apart) is answered and the chip runs a second of it
