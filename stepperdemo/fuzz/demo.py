@@ -38,7 +38,7 @@ from ..demo.build import demo_build
 from ..demo.command_table import CommandTable, Mode
 from ..scenarios.evaluate import position_from_pins, rising_edges
 from .common import LINE, MAX_COMMAND_STEPS, Case, FuzzResult
-from .gcode import STATUS, gcode_lines
+from .gcode import CTRL_X, REALTIME, SCENES, gcode_lines
 
 PROGRAM = "demo"
 
@@ -168,14 +168,19 @@ def _normal_tokens(rng: random.Random, most: int) -> list[str]:
 
 
 def gmode_line(rng: random.Random, arch: str = "atmega328p") -> str:
-    """A visit to the ``g`` mode: normal commands, ``g``, G-code lines (``?`` among
-    them), mostly ``x`` alone to leave, normal commands."""
+    """A visit to the ``g`` mode: normal commands, ``g``, G-code lines (Grbl's
+    real-time bytes and bytes >= 0x80 among them, as latin-1 characters), mostly
+    ``x`` alone to leave, normal commands."""
     eol = rng.choice(["\n", "\n", "\r", "\r\n"])
     lines = gcode_lines(rng, 6)
     if rng.random() < 0.3:
+        lines[1:1] = [item.format(m="G1 X20 Y-10 F3000") for item in rng.choice(SCENES)
+                      if not item.startswith("RT:")]
+    for _ in range(rng.choice([0, 0, 1, 2, 3])):
         k = rng.randrange(len(lines))
         at = rng.randint(0, len(lines[k]))
-        lines[k] = lines[k][:at] + STATUS.decode() + lines[k][at:]
+        extra = rng.choice([*REALTIME, bytes([rng.randrange(0x80, 0x100)])]).decode("latin-1")
+        lines[k] = lines[k][:at] + extra + lines[k][at:]
     text = " ".join([*_normal_tokens(rng, 4), "g"]) + eol + eol.join(lines) + eol
     if rng.random() < 0.85:
         text += "x" + eol + " ".join(_normal_tokens(rng, 3))
@@ -188,7 +193,7 @@ def demo_case(rng: random.Random, arch: str = "atmega328p") -> Case:
     if r < 0.2:
         return Case(LINE, raw_line(rng))
     if r < 0.4:
-        return Case(LINE, gmode_line(rng, arch).encode())
+        return Case(LINE, gmode_line(rng, arch).encode("latin-1"))
     return Case(LINE, grammar_line(rng, arch=arch).encode())
 
 
@@ -293,7 +298,8 @@ class _Tracker:
 def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 20.0,
                probe_session: bool = True) -> FuzzResult:
     data = line.encode("utf-8") if isinstance(line, str) else bytes(line)
-    res = FuzzResult(data, arch, PROGRAM, Case(LINE, data))
+    res = FuzzResult(data, arch, PROGRAM, Case(LINE, data),
+                     lines=len(re.split(rb"\r\n|\r|\n", data.rstrip(b"\r\n"))))
     backend = SimBackend(arch, record=True)
     max_ticks = int(max_time_s * backend.profile.ticks_per_s)
     try:
@@ -345,6 +351,12 @@ def _probe(app: StepperDemo, max_ticks: int, res: FuzzResult) -> None:
     leave = _LEAVE.get(app.mode)
     if leave is not None:
         end = app.run_script(leave, max_ticks=max_ticks)
+        if app.mode == Mode.GCODE:  # held or asleep: a sender's resume, then its reset
+            for out in (b"~" + _LEAVE[Mode.GCODE], CTRL_X + _LEAVE[Mode.GCODE]):
+                leave = out
+                end = app.run_script(leave, max_ticks=max_ticks)
+                if app.mode != Mode.GCODE:
+                    break
         if app.mode != Mode.NORMAL:
             res.violations.append(f"probe: {leave!r} did not leave the {app.mode_name()} mode "
                                   f"(ended {end.name.lower()})")

@@ -300,3 +300,17 @@ def test_a_seeded_sender_stream_through_the_pty_endpoint():
     assert stats, out
     assert int(stats.group(2)) == 0 and int(stats.group(3)) == host.high, (out, host.high)
     assert len(host.stretches) >= 2 and sum(s[0] for s in host.stretches) >= 40
+
+
+@pytest.mark.parametrize("arch", ["esp32", "sam_due"])
+def test_settings_are_plain_numbers_for_any_frequency(arch):
+    # found by fuzzing: $$ printed $141=1e+06 after $141=1000000 (a sender's $N=value
+    # parser reads no exponent)
+    s, res = _sender(arch)
+    assert _answers(s, b"$141=1000000\n") == ["ok"]
+    mark = len(s.transcript)
+    assert _answers(s, b"$$\n") == ["ok"]
+    settings = bytes(s.transcript[mark:]).decode().split("\r\n")
+    assert "$141=1000000" in settings
+    check_output(res, bytes(s.transcript))
+    assert res.ok, res.violations
