@@ -1,13 +1,18 @@
 """Fuzz every console program on every profile: random input, invariants after every run.
 
-    python bench/fuzz.py [--program demo|gcode|winder|all ...] [--lines N] [--seed S]
-                         [--jobs J] [--arch NAME ...] [--max-time S] [--replay RUN]
+    python bench/fuzz.py [--program demo|gcode|winder|all[=RUNS] ...] [--runs N]
+                         [--seed S] [--jobs J] [--arch NAME ...] [--max-time S]
+                         [--replay RUN]
 
-``--lines N`` runs in all, shared equally by the programs; each program's runs take
-its profiles in turn (StepperDemo and G-code: every profile of ``fas/arch.py``; the
-winder: the profiles that host it - the others are checked to refuse it with one
-line).  Run k of a program is made from (seed, program, k) alone: ``--replay k`` with
-one ``--program`` runs it again and prints everything it broke.
+``--runs N`` runs in all, shared equally by the programs (``--program gcode=8000
+demo=2000`` gives a program its own number); each program's runs take its profiles in
+turn (StepperDemo and G-code: every profile of ``fas/arch.py``; the winder: the
+profiles that host it - the others are checked to refuse it with one line).  A run is
+one input: a StepperDemo line (its ``g`` mode visits several lines), a G-code file of
+a few lines or a sender's stream of lines and real-time bytes, a winder command line;
+the input lines are counted.  Run k of a program is made from (seed, program, k)
+alone: ``--replay k`` with one ``--program`` runs it again and prints everything it
+broke.
 
 Prints per program the runs, input lines, failures (exceptions - those that passed
 through ``stepperdemo/gcode/`` counted apart - and violated invariants), wall time
@@ -94,9 +99,12 @@ def _report(program: str, failures: list, seed: int) -> None:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--program", nargs="+", default=["all"],
-                    choices=[*TARGETS, "all"], help="the programs to fuzz (default: all)")
-    ap.add_argument("--lines", type=int, default=1000, help="runs in all (one input each)")
+    ap.add_argument("--program", nargs="+", default=["all"], metavar="NAME[=RUNS]",
+                    help=f"the programs to fuzz: {', '.join(TARGETS)} or all (default), "
+                    "each with its own number of runs if given")
+    ap.add_argument("--runs", "--lines", type=int, default=1000, dest="runs",
+                    help="runs in all (one input each), shared by the programs "
+                    "without a number of their own")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--arch", nargs="+", help="only these profiles (default: every profile "
@@ -107,7 +115,15 @@ def main() -> int:
     ap.add_argument("--run-timeout", type=int, default=120, help="wall seconds per run")
     ap.add_argument("--replay", type=int, metavar="RUN", help="run RUN again, in full")
     args = ap.parse_args()
-    programs = list(TARGETS) if "all" in args.program else list(dict.fromkeys(args.program))
+    asked: dict[str, int | None] = {}
+    for item in args.program:
+        name, _, runs = item.partition("=")
+        if name not in (*TARGETS, "all") or (runs and not runs.isdigit()):
+            ap.error(f"--program {item}: a program ({', '.join(TARGETS)}, all), "
+                     "optionally =RUNS")
+        for one in (TARGETS if name == "all" else [name]):
+            asked[one] = int(runs) if runs else None
+    programs = list(asked)
 
     if args.replay is not None:
         if len(programs) != 1:
@@ -121,16 +137,18 @@ def main() -> int:
         return 0 if res.ok else 1
 
     t_all = time.perf_counter()
-    share, extra = divmod(args.lines, len(programs))
+    shared = [p for p in programs if asked[p] is None]
+    share, extra = divmod(args.runs, max(1, len(shared)))
     totals = {"runs": 0, "lines": 0, "exceptions": 0, "in_gcode": 0, "failures": 0}
     all_failures: list[tuple[str, list]] = []
     refusal_problems = []
-    for k, program in enumerate(programs):
+    for program in programs:
         target = TARGETS[program]
         archs = tuple(args.arch) if args.arch else target.profiles()
         if program == "winder" and args.arch:
             archs = tuple(a for a in archs if a in target.profiles())
-        n = share + (1 if k < extra else 0)
+        n = asked[program] if asked[program] is not None else (
+            share + (1 if shared.index(program) < extra else 0))
         if not archs or not n:
             continue
         size = CHUNK[program]
@@ -150,7 +168,8 @@ def main() -> int:
         in_gcode = sum(1 for f in failures if f[3] is not None and f[2])
         print(f"{program:7s} {len(archs):2d} profiles {runs:7d} runs {lines:7d} lines  "
               f"{len(failures)} failures ({exceptions} exceptions, {in_gcode} of them through "
-              f"stepperdemo/gcode/)  {wall:7.1f} s wall  {runs / wall:6.1f} runs/s", flush=True)
+              f"stepperdemo/gcode/)  {wall:7.1f} s wall  {runs / wall:6.1f} runs/s "
+              f"{lines / wall:6.1f} lines/s", flush=True)
         if program == "winder" and not args.arch:
             refusing = refusing_profiles()
             refusal_problems = [r for r in (check_refusal(a) for a in refusing) if not r.ok]
@@ -173,7 +192,7 @@ def main() -> int:
     print(f"{t['runs']} runs, {t['lines']} input lines, {t['failures']} failures "
           f"({t['exceptions']} exceptions: {t['in_gcode']} through stepperdemo/gcode/, "
           f"{t['exceptions'] - t['in_gcode']} elsewhere), {wall:.1f} s wall "
-          f"({t['runs'] / wall:.0f} runs/s, seed {args.seed})")
+          f"({t['runs'] / wall:.0f} runs/s, {t['lines'] / wall:.0f} lines/s, seed {args.seed})")
     return 1 if t["failures"] or refusal_problems else 0
 
 

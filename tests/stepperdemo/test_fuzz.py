@@ -4,6 +4,7 @@ a small seeded amount on every profile that hosts them; ``bench/fuzz.py`` runs m
 
 import contextlib
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -17,7 +18,7 @@ from fas.arch import PROFILES
 from fas.sim import SimBackend
 from stepperdemo.fuzz import TARGETS, check_line, fuzz, fuzz_program, grammar_line, raw_line
 from stepperdemo.fuzz.common import BYTES, LINE, Case, FuzzResult, PinTracker, StepTrack
-from stepperdemo.fuzz.gcode import check_gcode, responses, status_reports
+from stepperdemo.fuzz.gcode import REPORT, SETTING_LINE, check_gcode, responses, status_reports
 from stepperdemo.fuzz.winder import check_refusal, check_winder, refusing_profiles
 from stepperdemo.program import make_program
 
@@ -173,6 +174,11 @@ def _answers_settings_status_and_a_move(program: str, arch: str, script: str):
     text = bytes(app.transcript)
     assert b"$1=" in text or b"$100=" in text, text[-400:]
     assert status_reports(text) >= 2, text[-400:]
+    lines = text.decode("latin-1").replace("\r", "").split("\n")
+    reports = [ln for ln in lines if ln.startswith("<")]
+    assert all(REPORT.match(r) for r in reports), reports  # Grbl's form, three axes at least
+    settings = [ln for ln in lines if re.match(r"\$\d+=", ln)]
+    assert len(settings) > 20 and all(SETTING_LINE.match(ln) for ln in settings), settings
     assert responses(text).count("ok") >= 4, text[-400:]  # $$, $100=1, G91, the move
     pins = StepTrack(backend, x.get_step_pin(), x.get_direction_pin(),
                      x.direction_pin_high_counts_up()).final
@@ -255,3 +261,19 @@ def test_the_pin_check_catches_a_library_that_disagrees_with_its_pins():
                                  "300 + declared 0")
     s1.force_stop_and_new_position(0)  # a new position: declared, not a claim
     assert len(res.violations) == 2
+
+
+def test_bench_fuzz_runs_every_program_and_replays_a_run():
+    # what users run: bench/fuzz.py with a number of runs per program, then a replay
+    run = subprocess.run([sys.executable, "bench/fuzz.py", "--program", "gcode=4", "demo=2",
+                          "winder=2", "--max-time", "2", "--jobs", "1", "--seed", "5"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    assert re.search(r"^gcode +27 profiles +4 runs +\d+ lines +0 failures", run.stdout, re.M)
+    assert re.search(r"^8 runs, \d+ input lines, 0 failures \(0 exceptions", run.stdout, re.M)
+    n = len(refusing_profiles())
+    assert f"refused with one line on {n} of {n} other profiles" in run.stdout
+    replay = subprocess.run([sys.executable, "bench/fuzz.py", "--program", "gcode", "--seed",
+                             "5", "--replay", "3", "--max-time", "2"], cwd=ROOT,
+                            capture_output=True, text=True, timeout=300)
+    assert replay.returncode == 0 and replay.stdout.startswith("[gcode "), replay.stdout
