@@ -36,9 +36,19 @@ from fas.sim import SimBackend
 from ..demo.app import StepperDemo
 from ..demo.build import demo_build
 from ..demo.command_table import CommandTable, Mode
+from ..gcode.demo_mode import EXIT_LINE
 from ..scenarios.evaluate import position_from_pins, rising_edges
-from .common import LINE, MAX_COMMAND_STEPS, Case, FuzzResult
-from .gcode import CTRL_X, REALTIME, SCENES, gcode_lines
+from .common import BYTES, LINE, MAX_COMMAND_STEPS, Case, FuzzResult
+from .gcode import (
+    CTRL_X,
+    REALTIME,
+    SCENES,
+    Sender,
+    check_output,
+    gcode_lines,
+    grbl_stream,
+    stream,
+)
 
 PROGRAM = "demo"
 
@@ -187,20 +197,92 @@ def gmode_line(rng: random.Random, arch: str = "atmega328p") -> str:
     return text
 
 
+def gmode_stream(rng: random.Random) -> Case:
+    """A sender's stream into the ``g`` mode (StepperDemo on a serial line, as
+    ``device --pty --console`` then ``g``): the G-code target's streams, without the
+    line that leaves the mode (``x`` alone)."""
+    case = grbl_stream(rng)
+    chunks = tuple((w, d) for w, d in case.chunks
+                   if bytes(b for b in d if 0x20 < b < 0x7F and b not in b"!?~").upper()
+                   != EXIT_LINE.encode())
+    return Case(BYTES, chunks=chunks or ((0, b"$$\n"),), sender=case.sender)
+
+
 def demo_case(rng: random.Random, arch: str = "atmega328p") -> Case:
-    """A StepperDemo input: noise, a ``g`` mode visit, or a grammar line."""
+    """A StepperDemo input: noise, a ``g`` mode visit, a sender's stream into the ``g``
+    mode, or a grammar line."""
     r = rng.random()
     if r < 0.2:
         return Case(LINE, raw_line(rng))
-    if r < 0.4:
+    if r < 0.35:
         return Case(LINE, gmode_line(rng, arch).encode("latin-1"))
+    if r < 0.45:
+        return gmode_stream(rng)
     return Case(LINE, grammar_line(rng, arch=arch).encode())
 
 
 def check_demo(case: Case, arch: str = "atmega328p", max_time_s: float = 20.0) -> FuzzResult:
+    if case.kind == BYTES:
+        return check_gmode_stream(case, arch, max_time_s)
     res = check_line(case.text, arch, max_time_s)
     res.case = case
     return res
+
+
+def check_gmode_stream(case: Case, arch: str = "atmega328p",
+                       max_time_s: float = 20.0) -> FuzzResult:
+    """StepperDemo on a serial line: ``g``, then a sender's stream with the G-code
+    target's checks (:func:`stepperdemo.fuzz.gcode.stream`), then ``x`` back to the
+    normal mode, whose ``?`` lists every stepper at the library's position; the
+    motion invariants of :func:`check_line` over the whole run."""
+    res = FuzzResult(case.data, arch, PROGRAM, case)
+    backend = SimBackend(arch, record=True)
+    tps = backend.profile.ticks_per_s
+    try:
+        app = StepperDemo(backend, scripted=False, pin_config=0)
+        tracker = _Tracker(app, backend)
+        app.setup()
+        tracker.attach()
+        app.feed(b"g\n")
+        app.run_until(backend.now() + tps // 20)
+        if app.mode != Mode.GCODE:
+            res.violations.append(f"'g' did not enter the g mode: {bytes(app.transcript)[-200:]!r}")
+            return res
+        limit = backend.now() + int(max_time_s * tps)
+        sender = Sender(app, res, counting=case.sender == "count", limit=limit,
+                        machine=app.gcode.machine)
+        stream(sender, case)
+        check_output(res, _grbl_part(bytes(app.transcript)))
+        app.feed(b"\nx\n")
+        end = backend.now() + 2 * tps
+        while app.mode == Mode.GCODE and backend.now() < end:
+            app.run_until(backend.now() + tps // 100)
+        if app.mode != Mode.NORMAL:
+            res.violations.append(f"probe: 'x' did not leave the g mode "
+                                  f"(state {sender.machine.state_name()})")
+            return res
+        mark = len(app.transcript)
+        app.feed(b"?\n")
+        app.run_until(backend.now() + tps // 10)
+        new = bytes(app.transcript[mark:])
+        said = {int(n): int(p) for n, p in _TABLE_ROW.findall(new)}
+        want = {i + 1: s.get_current_position() for i, s in enumerate(app.steppers)
+                if s is not None}
+        if said != want:
+            res.violations.append(f"probe: '?' listed {said}, the library has {want}: "
+                                  f"{new[-300:]!r}")
+    except Exception as exc:  # the whole point: nothing may raise
+        res.record_exception(exc)
+        return res
+    res.violations += tracker.drifts
+    _check_motion(app, backend, tracker, res)
+    return res
+
+
+def _grbl_part(transcript: bytes) -> bytes:
+    """What the g mode printed: from its banner on (StepperDemo's texts before it)."""
+    at = transcript.find(b"Grbl ")
+    return transcript[transcript.rfind(b"\n", 0, at) + 1:] if at >= 0 else b""
 
 
 class _Tracker:

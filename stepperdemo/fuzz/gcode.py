@@ -36,8 +36,8 @@ Invariants (:func:`check_gcode`):
   as a sender does - exactly once each; a file run answers every line it read;
 * what it prints is what senders parse: printable ASCII lines; ``error:N`` with
   Grbl's numbers (1-39), ``ALARM:N`` (1-9); status reports ``<State|MPos:x,y,z|...>``
-  in one of Grbl's states with at least three axis values, at most one per ``?``
-  sent and at least one when a ``?`` was sent; ``$$`` lines plain ``$N=value``;
+  in one of Grbl's states with at least three axis values, one for each ``?`` sent
+  (the sender sends each on its own); ``$$`` lines plain ``$N=value``;
 * the session goes on: after the input ``?`` answers with a status report and, once
   out of a hold, sleep or alarm, ``$X``, ``$$`` and ``G4 P0`` one answer each;
 * each axis's position by the library equals the one counted from its step and
@@ -373,8 +373,11 @@ class Sender:
     sends bytes at 115 200 baud, reads the answers, and keeps the account the
     invariants are checked against."""
 
-    def __init__(self, program, res: FuzzResult, counting: bool, limit: int) -> None:
+    def __init__(self, program, res: FuzzResult, counting: bool, limit: int,
+                 machine=None) -> None:
         self.program = program
+        #: the Grbl controller behind the program (StepperDemo's g mode: its own)
+        self.machine = machine if machine is not None else program.machine
         self.backend = program.backend
         self.res = res
         self.counting = counting
@@ -385,7 +388,7 @@ class Sender:
         self.inflight: deque[int] = deque()  # bytes of each unanswered line
         self.sending = 0  # bytes of the line being sent not yet sent
         self.ticks_per_byte = max(1, int(self.backend.profile.ticks_per_ms / BYTES_PER_MS))
-        self.rx = program.machine.rx
+        self.rx = self.machine.rx
         # the stretch since the last reset or alarm
         self.lines = self.answers = 0
         self.after_cr = False
@@ -393,11 +396,26 @@ class Sender:
         self.dropped_at_start = self.rx.dropped
         self.high_sent = 0
         self.high_at_start = self.rx.dropped_high
-        self.statuses = 0  # '?' sent
+        self.statuses = 0  # '?' sent (each on its own: one status report each)
+        self.reports = 0
         self.last_state = ""
         self.stretches = 0
         self.total_lines = 0
         self.checking = True  # False: only to bring the machine to rest (the probe)
+        # the lines are counted as their bytes reach Grbl's receive path (after a
+        # serial buffer in between, StepperDemo's): a reset splits them exactly there
+        self._receive = self.machine.receive
+        self.machine.receive = self._arrive
+
+    def _arrive(self, data: bytes) -> None:
+        self.read()  # a banner or alarm printed since: the bytes belong to the next stretch
+        n, self.after_cr = line_ends(data, self.after_cr)
+        self.lines += n
+        self.total_lines += n
+        self._receive(data)
+
+    def detach(self) -> None:
+        self.machine.receive = self._receive
 
     # ------------------------------------------------------------- reading
     def read(self) -> None:
@@ -416,6 +434,7 @@ class Sender:
                 self._new_stretch(ln)
             elif ln.startswith("<"):
                 self.last_state = ln[1:].split("|", 1)[0]
+                self.reports += 1
 
     def _new_stretch(self, why: str) -> None:
         """A reset or an alarm: what was received and not yet read is gone; a sender
@@ -450,11 +469,14 @@ class Sender:
         for b in data:
             if b >= 0x80 and b not in GRBL_REALTIME:
                 self.high_sent += 1
-        n, self.after_cr = line_ends(data, self.after_cr)
-        self.lines += n
-        self.total_lines += n
         p.feed(data)
-        p.run_until(min(self.backend.now() + len(data) * self.ticks_per_byte, self.limit))
+        p.run_until(self.backend.now() + len(data) * self.ticks_per_byte)
+        # a program that takes its input a byte per loop pass (StepperDemo) takes it
+        # all before the next byte arrives
+        for _ in range(4 * len(data)):
+            if not p.input_pending():
+                break
+            p.run_until(self.backend.now() + self.ticks_per_byte)
         self.read()
 
     def send_realtime(self, data: bytes) -> None:
@@ -465,6 +487,21 @@ class Sender:
     def _room(self, size: int) -> bool:
         return not self.inflight or sum(self.inflight) + size <= RX_SIZE
 
+    def at_rest(self) -> bool:
+        """Only new input could make the controller do anything."""
+        return self.machine.wake_tick() is None and not self.program.input_pending()
+
+    def settle(self, limit: int) -> bool:
+        """Run until the controller rests or ``limit`` (True: it rests)."""
+        p = self.program
+        while not self.at_rest():
+            if self.backend.now() >= limit:
+                return False
+            wake = p.next_wake_tick()
+            now = self.backend.now()
+            p.run_until(min(now + 1 if wake is None else max(wake, now + 1), limit))
+        return True
+
     def wait_for_room(self, size: int) -> bool:
         """A counting sender waits until the line fits (False: it never did in time).
         A line held back by a hold or sleep is let go as a user does: ``~``, Ctrl-X."""
@@ -474,7 +511,7 @@ class Sender:
             if self.backend.now() >= self.limit:
                 return False
             wake = p.next_wake_tick()
-            if wake is None:  # nothing will happen by itself: ask, then act
+            if self.at_rest():  # nothing will happen by itself: ask, then act
                 if asked > 3:
                     return False
                 asked += 1
@@ -527,7 +564,7 @@ class Sender:
         does (``~``, Ctrl-X); a machine still busy at ``limit`` is reset (Ctrl-X).
         Returns the last state reported."""
         for _ in range(6):
-            settle(self.program, limit, self.res)
+            self.settle(limit)
             self.read()
             self.send_realtime(STATUS)
             state = self.last_state
@@ -536,14 +573,18 @@ class Sender:
             elif state == "Sleep" or self.backend.now() >= limit:
                 self.send_realtime(CTRL_X)
                 limit = self.backend.now() + self.backend.profile.ticks_per_s
-            elif self.program.next_wake_tick() is None and not self.program.input_pending():
+            elif self.at_rest():
                 return state
         return self.last_state
 
     def finish(self) -> None:
         """The checks of the whole stream."""
         self.read()
+        self.detach()
         self._close_stretch(exact=True)
+        if self.reports != self.statuses:
+            self.res.violations.append(f"{self.reports} status reports for {self.statuses} "
+                                       "'?' sent one at a time")
         high = self.rx.dropped_high - self.high_at_start
         if high != self.high_sent:
             self.res.violations.append(f"{self.high_sent} bytes >= 0x80 sent that are no "
@@ -573,6 +614,7 @@ def probe(program, limit: int, res: FuzzResult) -> None:
     sender.checking = False  # (what the case left behind may still be answered)
     program.feed(b"\n")  # ends a line left open by the input (it is answered or not)
     state = sender.come_to_rest(limit)
+    sender.detach()
     if not state:
         res.violations.append("probe: no status report on '?'")
         return
@@ -653,8 +695,16 @@ def _run_file(program, case: Case, limit: int, res: FuzzResult) -> None:
         program.feed(CTRL_X)  # a sender's reset
 
 
-def _run_sender(program, case: Case, limit: int, res: FuzzResult) -> None:
-    sender = Sender(program, res, counting=case.sender == "count", limit=limit)
+def _run_sender(program, case: Case, limit: int, res: FuzzResult, machine=None) -> None:
+    sender = Sender(program, res, counting=case.sender == "count", limit=limit,
+                    machine=machine)
+    stream(sender, case)
+
+
+def stream(sender: Sender, case: Case) -> None:
+    """Send a ``bytes`` case as its sender does, bring the controller to rest and
+    check the account (see :class:`Sender`)."""
+    program, res, limit = sender.program, sender.res, sender.limit
     for wait_ms, data in case.chunks:
         if program.backend.now() >= limit:
             break
