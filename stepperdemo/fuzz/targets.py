@@ -34,7 +34,7 @@ def _all_profiles() -> tuple[str, ...]:
 
 TARGETS: dict[str, Target] = {
     "demo": Target("demo", demo.demo_case, demo.check_demo, _all_profiles, 20.0),
-    "gcode": Target("gcode", gcode.gcode_case, gcode.check_gcode, _all_profiles, 10.0),
+    "gcode": Target("gcode", gcode.gcode_case, gcode.check_gcode, _all_profiles, 5.0),
     "winder": Target("winder", winder.winder_case, winder.check_winder,
                      winder.hosting_profiles, 4.0),
 }

@@ -314,3 +314,16 @@ def test_settings_are_plain_numbers_for_any_frequency(arch):
     assert "$141=1000000" in settings
     check_output(res, bytes(s.transcript))
     assert res.ok, res.violations
+
+
+@pytest.mark.parametrize("arch", list(PROFILES))
+def test_a_senders_stream_into_every_profiles_g_mode(arch):
+    # StepperDemo on a serial line (device --pty --console, then g): a seeded stream
+    # of the fuzzer's, every line answered once between resets, x leaves, ? after
+    from stepperdemo.fuzz.demo import check_gmode_stream, gmode_stream
+
+    rng = random.Random(f"g-mode {arch}")
+    for _ in range(2):
+        case = gmode_stream(rng)
+        res = check_gmode_stream(case, arch, max_time_s=3.0)
+        assert res.ok and res.lines >= 1, (str(case)[:300], res.violations[:3])
