@@ -41,6 +41,7 @@ from ..scenarios.evaluate import position_from_pins, rising_edges
 from .common import BYTES, LINE, MAX_COMMAND_STEPS, Case, FuzzResult
 from .gcode import (
     CTRL_X,
+    GRBL_REALTIME,
     REALTIME,
     SCENES,
     Sender,
@@ -202,10 +203,24 @@ def gmode_stream(rng: random.Random) -> Case:
     ``device --pty --console`` then ``g``): the G-code target's streams, without the
     line that leaves the mode (``x`` alone)."""
     case = grbl_stream(rng)
-    chunks = tuple((w, d) for w, d in case.chunks
-                   if bytes(b for b in d if 0x20 < b < 0x7F and b not in b"!?~").upper()
-                   != EXIT_LINE.encode())
-    return Case(BYTES, chunks=chunks or ((0, b"$$\n"),), sender=case.sender)
+    chunks = []
+    carry = b""  # what the chunks so far sent after their last line end or reset
+    for wait, data in case.chunks:
+        *pieces, rest = re.split(rb"[\r\n\x18]", carry + data)
+        if any(_grbl_text(p) == EXIT_LINE for p in pieces):
+            continue  # a line that leaves the g mode (a reset may have made it one)
+        chunks.append((wait, data))
+        carry = rest
+    return Case(BYTES, chunks=tuple(chunks) or ((0, b"$$\n"),), sender=case.sender)
+
+
+def _grbl_text(piece: bytes) -> str:
+    """A line as Grbl's receive path hands it over: no real-time bytes, nothing >= 0x80,
+    no spaces, control characters, '/' or comments, upper case."""
+    kept = bytes(b for b in piece if 0x20 < b < 0x7F and b not in GRBL_REALTIME
+                 and b != ord("/"))
+    kept = re.sub(rb"\([^)]*\)?", b"", kept.split(b";")[0])
+    return kept.decode("ascii").upper()
 
 
 def demo_case(rng: random.Random, arch: str = "atmega328p") -> Case:
@@ -253,6 +268,9 @@ def check_gmode_stream(case: Case, arch: str = "atmega328p",
                         machine=app.gcode.machine)
         stream(sender, case)
         check_output(res, _grbl_part(bytes(app.transcript)))
+        if app.mode != Mode.GCODE:
+            res.violations.append("the g mode was left during the stream (no 'x' line sent)")
+            return res
         # a line the sender left open (its end lost to a full buffer) ends before the x
         rest = Sender(app, res, counting=True, limit=backend.now() + int(max_time_s * tps),
                       machine=app.gcode.machine)

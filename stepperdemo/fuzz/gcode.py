@@ -344,9 +344,9 @@ def check_output(res: FuzzResult, out: bytes) -> None:
     for ln in _text_lines(out):
         if not ln:
             continue
-        # (Grbl keeps DEL in a line; our [MSG:...] reason may quote it)
-        if any(not 0x20 <= ord(c) < 0x7F for c in ln.replace("\x7f", "") if ln.startswith("[MSG:")
-               ) or (not ln.startswith("[MSG:") and any(not 0x20 <= ord(c) < 0x7F for c in ln)):
+        # (Grbl keeps DEL in a line: a [MSG:...] reason may quote it)
+        text = ln.replace("\x7f", "") if ln.startswith("[MSG:") else ln
+        if any(not 0x20 <= ord(c) < 0x7F for c in text):
             res.violations.append(f"output: not printable ASCII: {ln[:120]!r}")
             return
         m = ANSWER.match(ln)
