@@ -162,17 +162,19 @@ def test_isr_block_costs_one_timer_wrap_per_gap():
     rises = steps["A"]
     out, back = rises[:20000], rises[20000:]
     assert duration_s(out, tps) == pytest.approx(2.981, abs=0.0005)
-    assert duration_s(back, tps) == pytest.approx(3.141, abs=0.0005)
+    assert duration_s(back, tps) == pytest.approx(3.137, abs=0.0005)
     wrap = 65536  # the ATmega's 16-bit timer
 
-    def gaps(rises: list[int]) -> list[int]:  # intervals over 4x the one before
-        periods = [b - a for a, b in zip(rises, rises[1:], strict=False)]
-        return [p for q, p in zip(periods, periods[1:], strict=False) if p > 4 * q]
+    def wraps(rises: list[int]) -> list[int]:  # a wrap + at most 200 us: a missed compare
+        return [b - a for a, b in zip(rises, rises[1:], strict=False)
+                if wrap < b - a < wrap + 3200]
 
-    assert gaps(out) == []
-    assert len(gaps(back)) == 39
-    assert all(wrap < g and 4196 <= g * 1e6 / tps < 4200 for g in gaps(back))
-    assert (back[-1] - back[0]) - (out[-1] - out[0]) == 39 * wrap
+    assert wraps(out) == []
+    # each missed compare costs one wrap plus the step period (100 us); a chain of two
+    # comes where the compare after a wrap meets a blocked section again
+    assert len(wraps(back)) == 38
+    assert all(4196 <= g * 1e6 / tps < 4200 for g in wraps(back))
+    assert (back[-1] - back[0]) - (out[-1] - out[0]) == 38 * wrap
 
 
 def test_esp32_runs_at_200_khz():

@@ -11,8 +11,6 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import pytest
-
 from rigs import ROOT
 
 
@@ -192,11 +190,6 @@ def test_the_core_has_no_runtime_circle_through_quickstep_or_the_backend():
                    for m in graph["fas.channel"] | graph["fas.queue"])
 
 
-@pytest.mark.xfail(strict=True, reason="stepperdemo (measured after merging issue 22 "
-                   "items 1-7): one circle, demo <-> demo/testseq <-> gcode/demo_mode "
-                   "(18 modules: demo.app, command_registry, command_table, commands, "
-                   "direct_drive, quickstep, testseq and its seq01, 05-13, "
-                   "gcode.demo_mode); drop this mark once it is gone")
 def test_no_import_circle_crosses_a_folder_of_stepperdemo():
     graph = import_graph(ROOT, "stepperdemo")
     bad = folder_crossing_circles(ROOT, "stepperdemo")

@@ -20,8 +20,8 @@ class DeviceChannel(SimChannel):
         self.pulse_pos = 0  # exact position from the pulses made (survives any stop)
         self.underruns = 0
 
-    def _emit(self, first: int, width: int, count: int, period: int = 1) -> None:
+    def _made(self, count: int) -> None:
         q = self.q
         e = q.entries[q.read_idx % q.queue_len]
         self.pulse_pos = i32(self.pulse_pos + (count if e.count_up else -count))
-        super()._emit(first, width, count, period)
+        super()._made(count)

@@ -339,8 +339,15 @@ class PathGroup:
         """Every queue stops at once; each axis's position is where its pulses stopped."""
         for a in self.axes:
             q = a.queue
-            pos = q.current_position()
-            q.force_stop()
+            stop_now = getattr(q.channel, "stop_now", None)
+            if stop_now is not None:
+                # the simulated chip: a compare that raised the pin before the stop is a
+                # step even while its interrupt still waits for the CPU (issue 23)
+                pos = stop_now()
+                q.force_stop()
+            else:
+                pos = q.current_position()
+                q.force_stop()
             q.queue_end_pos = pos
 
     def _drop_all(self) -> None:

@@ -24,9 +24,12 @@ DEFAULT_WAIT_LIMIT_S = 3600
 class SimBackend(Backend):
     """Virtual time: ``run_for``/``run_until`` jump from event to event."""
 
-    def __init__(self, profile: Profile | str | None = None, record: bool = False) -> None:
+    def __init__(self, profile: Profile | str | None = None, record: bool = False,
+                 build: str | None = None) -> None:
         self.profile = get_profile(profile)
-        self.machine = Machine(self.profile)
+        # ``build``: the firmware build whose CPU costs the chip runs (fas.sim.builds)
+        self.machine = Machine(self.profile, build)
+        self.build = self.machine.build
         self.channels: list[SimChannel] = []
         self.recorder: EdgeRecorder | None = None
         if record:
@@ -74,8 +77,12 @@ class SimBackend(Backend):
         self.wake_task()
 
     def _schedule_task(self, index: int) -> None:
-        self._task_event = self.machine.schedule(self.tasks.time(index),
-                                                 lambda: self._task(index), PRIO_TASK, isr=True)
+        # the timer overflow interrupt: where interrupts contend (AVR) it is entered when
+        # the CPU is free and holds it until its sei
+        m = self.machine
+        enter = m.timing.fill_mask_entry_ticks if m.profile.irq_block_delays_steps else 0
+        self._task_event = m.schedule(self.tasks.time(index), lambda: self._task(index),
+                                      PRIO_TASK, isr=True, enter=enter)
         self.tasks.next = index
 
     def _task(self, index: int) -> None:
@@ -87,6 +94,13 @@ class SimBackend(Backend):
         may_stop = engine.may_stop_without_channel()
         m.in_task = True
         m.task_offset = p.fill_entry_ticks
+        per_entry = p.fill_queued_entry_ticks
+        if per_entry or p.fill_stepper_ticks:
+            for ch in self.channels:  # a running stepper's fill first sums its queue
+                if ch.running:
+                    q = ch.q
+                    queued = (q.next_write_idx - q.read_idx) & 0xFF
+                    m.task_offset += p.fill_stepper_ticks + per_entry * max(0, queued - 1)
         try:
             engine.manage_steppers()
         finally:
@@ -96,6 +110,9 @@ class SimBackend(Backend):
             m.task_offset = 0
             m.in_task = False
         m.stolen_ticks += cost
+        exit_ticks = p.fill_mask_exit_ticks
+        if exit_ticks and m.profile.irq_block_delays_steps:  # its exit: from cli to reti
+            m.mask(m.now + cost - exit_ticks, m.now + cost)
         self.task_runs += 1
         if may_stop or engine.may_stop_without_channel():
             m.activity += 1  # a stepper whose channel stands may have started or stopped

@@ -8,9 +8,20 @@ already passed (interrupts blocked by the application), the compare only matches
 after the 16-bit timer wraps: a gap of 4.1 ms, no lost step - exactly what the
 firmware shows under StepperDemo's `e`.
 
+The interrupt is entered when the CPU is free (:meth:`Machine.cpu_free_at`): the pin
+falls ``lat`` ticks after the entry and the next compare is written ``ocr`` ticks after
+that, so other interrupts that hold the CPU when the compare matches (``millis()``'s
+timer, the UART, the other channels' step interrupts, the ramp task's entry and exit,
+StepperDemo's blocked sections) stretch the pulse and can make the next compare be
+missed.  (``contention``: the AVR step channel; QuickStep's timer keeps its own rule.)
+
 Runs of pulses inside one entry are executed as a block (one event for up to 255
-steps); the block is split only when interrupts get blocked in its middle or when
-someone stops the channel.
+steps; one channel of a machine at a time); the block is split only when interrupts
+get blocked in its middle or when someone stops the channel.  The pulses of a block
+whose compare falls while another routine holds the CPU are found when the block ends
+(:meth:`Machine.held_requests`) and made as long as they were held - where someone
+watches the pins' edges (a recorder, a trace): their timing does not depend on it, and
+without such a sink the pin statistics count a block's pulses at their plain width.
 """
 
 from __future__ import annotations
@@ -25,6 +36,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..queue import QueueEntry, StepperQueue
 
 RESTART_TICKS = 10  # the step ISR's "do it immediately" delay after the queue ran dry
+# no routine keeps a step interrupt of a block of pulses waiting this long (the longest
+# chain of other routines: timer 0, the UART, the ramp task's exit, another step interrupt)
+LATE_ENTRY = 512
 
 # kinds of entry notes (``SimChannel.entry_listeners``): which entry the channel works on
 ENTRY_START = 0  # first entry after the channel was started (a new motion)
@@ -39,12 +53,20 @@ class SimChannel(QueueChannel):
         self.q = queue
         self.pins = machine.pins
         self.step_pin = queue.step_pin
-        self.lat = machine.timing.isr_latency(queue.index)
-        self.wrap = machine.timing.timer_wrap_ticks
+        timing = machine.timing
+        self.lat = timing.isr_latency(queue.index)
+        self.wrap = timing.timer_wrap_ticks
         self.start_ticks = p.queue_start_ticks
         self.prio = PRIO_STEP_ISR + queue.index
-        self.isr_ticks = machine.timing.isr_duration_ticks  # CPU of one step interrupt
+        self.isr_ticks = timing.isr_duration(queue.index)  # CPU of one step interrupt
+        # ... one that takes up the next queue entry (the pending single one's: cost)
+        self.isr_next_ticks = self.isr_ticks + timing.isr_next_entry_ticks
+        self.cost = self.isr_next_ticks
         self.irq_sensitive = p.irq_block_delays_steps
+        # the interrupt is requested at the compare and entered when the CPU is free;
+        # it writes the next compare ``ocr`` ticks after it cleared the pin
+        self.contention = bool(self.irq_sensitive and timing.isr_ocr_ticks)
+        self.ocr = timing.isr_ocr_ticks if self.contention else 0
         self.running = False
         self.no_more = False
         self.mode_one = False
@@ -62,6 +84,8 @@ class SimChannel(QueueChannel):
         # step interrupts of blocks that ran (each block's last one is an event of its
         # own and not counted here): the loop loses their CPU time (Machine.consume)
         self.block_isrs_done = 0
+        self._entry_req = -1  # _entry_of: the request it answered last, and its entry
+        self._entry_tick = 0
         self.precounted = 0  # the pending single pulse was already counted by sync()
         self.pulse_counter: PulseCounter | None = None
         self.detached = False
@@ -96,11 +120,14 @@ class SimChannel(QueueChannel):
             self.m.cancel(self._start_event)
             self._start_event = None
         self.running = True
-        self.m.activity += 1
+        m = self.m
+        m.activity += 1
         self.no_more = False
         self.starts += 1
         e = q.entries[q.read_idx % q.queue_len]
-        t = self.m.cpu_now()
+        if m.in_task:  # the ramp task starts the queue after its fill
+            m.task_offset += m.timing.fill_start_ticks
+        t = m.cpu_now()
         if e.toggle_dir:
             self._toggle_dir(t)
         if e.steps and self.entry_guard is not None and self.entry_guard(e):
@@ -255,14 +282,23 @@ class SimChannel(QueueChannel):
         m = self.m
         if m.in_task:  # planning one command costs the ramp task CPU time
             q = self.q
-            steps = q.entries[(q.next_write_idx - 1) % q.queue_len].total_steps
+            wp = q.next_write_idx
+            e = q.entries[(wp - 1) % q.queue_len]
+            steps = e.total_steps
             p = m.timing
             if steps == 0:
                 m.task_offset += p.fill_pause_ticks
             elif steps == 1:
                 m.task_offset += p.fill_single_ticks
+            elif (p.fill_coast_cmd_ticks and ((wp - 1 - q.read_idx) & 0xFF)
+                  and q.entries[(wp - 2) % q.queue_len].ticks == e.ticks):
+                m.task_offset += p.fill_coast_cmd_ticks  # at the speed of the one before
             else:
                 m.task_offset += p.fill_cmd_ticks
+            if p.fill_cmd_mask_ticks and self.contention:
+                # the command is written to the queue with interrupts off
+                end = m.now + m.task_offset
+                m.mask(end - p.fill_cmd_mask_ticks, end)
 
     def step_pin_high(self) -> bool:
         """Is a step pulse on the pin at this very tick?"""
@@ -280,27 +316,116 @@ class SimChannel(QueueChannel):
         if pin & 0x80 == 0:
             self.pins.set(pin, 1 - self.pins.get(pin), t)
 
-    def _emit(self, first: int, width: int, count: int, period: int = 1) -> None:
+    def _made(self, count: int) -> None:
+        """``count`` pulses of the entry at the read index were made (every emission
+        passes here: a subclass that counts more, e.g. the device's position, hooks in)."""
         self.pulses += count
+
+    def _emit(self, first: int, width: int, count: int, period: int = 1) -> None:
+        self._made(count)
         if not self.detached:
             self.pins.pulses(self.step_pin, first, period, count, width)
 
     def _program(self, compare: int, e: QueueEntry) -> None:
         """Arm the compare at tick ``compare`` for entry ``e`` (the one at read_idx)."""
-        if self.mode_one and e.steps >= 2:
+        m = self.m
+        if self.mode_one and e.steps >= 2 and (not self.contention
+                                               or m.batch_channel in (None, self)):
             self.batch = True
             self.b_entry = e
             self.b_c0 = compare
             self.b_t = e.ticks
             self.b_n = e.steps
             self.b_counted = 0
-            last = compare + (e.steps - 1) * e.ticks + self.lat
-            self.event = self.m.schedule(last, self._batch_end, self.prio, isr=True)
+            last = compare + (e.steps - 1) * e.ticks
+            if self.contention:
+                m.batch_channel = self
+                self.cost = self.isr_next_ticks  # the last pulse's takes up the next entry
+                self.event = m.schedule(last, self._batch_end, self.prio,
+                                        enter=self.cost, owner=self)
+            else:
+                self.event = m.schedule(last + self.lat, self._batch_end, self.prio, isr=True)
         else:
             self.pending_compare = compare
             self.pending_pulse = self.mode_one
+            self._schedule_single(compare)
+
+    def _schedule_single(self, compare: int) -> None:
+        q = self.q
+        rp = q.read_idx
+        self.cost = (self.isr_ticks if rp != q.next_write_idx
+                     and q.entries[rp % q.queue_len].steps > 1 else self.isr_next_ticks)
+        if self.contention:
+            self.event = self.m.schedule(compare, self._single_isr, self.prio,
+                                         enter=self.cost, owner=self)
+        else:
             self.event = self.m.schedule(compare + self.lat, self._single_isr, self.prio,
                                          isr=True)
+
+    def _leave_batch(self) -> None:
+        self.batch = False
+        self._entry_req = -1
+        if self.m.batch_channel is self:
+            self.m.batch_channel = None
+
+    def _emit_block(self, j0: int, j1: int) -> None:
+        """Make pulses ``j0 <= j < j1`` of the running block: ``lat`` wide, longer where
+        the interrupt waited for the CPU."""
+        if j1 <= j0:
+            return
+        c0, t, lat = self.b_c0, self.b_t, self.lat
+        if self.contention and self.pins.sinks:
+            waits = self._block_delays(j0, j1)
+            if waits:
+                self._made(j1 - j0)
+                if not self.detached:
+                    self.pins.pulses_waiting(self.step_pin, c0 + j0 * t, t, j1 - j0, lat,
+                                             [(j - j0, d) for j, d in waits])
+                return
+        self._emit(c0 + j0 * t, lat, j1 - j0, t)
+
+    def _block_delays(self, j0: int, j1: int) -> list[tuple[int, int]]:
+        """``(j, ticks)`` for the pulses ``j0 <= j < j1`` of the running block whose
+        interrupt entered late, in order."""
+        m = self.m
+        c0, t = self.b_c0, self.b_t
+        out: list[tuple[int, int]] = []
+        for j in m.held_requests(c0, t, j0, j1):
+            c = c0 + j * t
+            free = m.cpu_free_at(c, self)
+            if free > c:
+                out.append((j, free - c))
+        return out
+
+    def block_isr_running_at(self, t: int) -> int | None:
+        """End of the step interrupt of the running block that holds the CPU at tick
+        ``t`` (its interrupt j is requested at ``b_c0 + j * b_t``; entered when the
+        CPU is free)."""
+        if not self.batch or t < self.b_c0:
+            return None
+        c0, period = self.b_c0, self.b_t
+        j = min((t - c0) // period, self.b_n - 2)
+        if j < 0:
+            return None
+        cost = self.isr_ticks
+        for k in (j, j - 1):
+            if k < 0:
+                break
+            c = c0 + k * period
+            if t - c >= cost + LATE_ENTRY:  # its interrupt is over, however late it came
+                break
+            entry = self._entry_of(c)
+            if entry <= t < entry + cost:
+                return entry + cost
+        return None
+
+    def _entry_of(self, c: int) -> int:
+        """When the interrupt requested at ``c`` by the running block is entered (the
+        last answer is kept: the machine asks about the same pulse again and again)."""
+        if c != self._entry_req:
+            self._entry_req = c
+            self._entry_tick = self.m.cpu_free_at(c, self)
+        return self._entry_tick
 
     def _count(self, n: int, dir_level: bool) -> None:
         if self.pulse_counter is not None and n > 0:
@@ -315,25 +440,39 @@ class SimChannel(QueueChannel):
             last_rise = c0 + (risen - 1) * t
             if now - last_rise < lat:
                 complete -= 1
-            if complete:
-                self._emit(c0, lat, complete, t)
+            self._emit_block(0, complete)
             if complete < risen:
                 self._emit(last_rise, max(now - last_rise, 1), 1)
             self._count(risen - self.b_counted, self.b_entry.dir_level)
         self.block_isrs_done += self._block_isrs_by(now)
-        self.batch = False
+        self._leave_batch()
 
     def _batch_end(self) -> None:
         """The interrupt after the block's last pulse: switch to the next entry."""
         self.event = None
-        self.m.stolen_ticks += self.isr_ticks
+        self.m.stolen_ticks += self.cost
         e = self.b_entry
         n, t, c0 = self.b_n, self.b_t, self.b_c0
         last_c = c0 + (n - 1) * t
         now = self.m.now
         lat = self.lat
-        if now - last_c == lat:  # on time: all n pulses alike
+        # entered now (contention: at or after its request): the pin falls lat later
+        fall = now + lat if self.contention else now
+        if fall - last_c == lat and not self.contention:  # on time: all n pulses alike
             self._emit(c0, lat, n, t)
+        elif self.contention:  # pulses whose interrupt waited are longer
+            # (found only where someone watches the pins' edges: their timing does not
+            # depend on it, and it costs a look at every block)
+            waits = self._block_delays(0, n - 1) if self.pins.sinks else []
+            if fall - last_c > lat:  # the last one stays high until its interrupt clears it
+                waits.append((n - 1, fall - last_c - lat))
+            self._made(n)
+            if self.detached:
+                pass
+            elif waits:
+                self.pins.pulses_waiting(self.step_pin, c0, t, n, lat, waits)
+            else:
+                self.pins.pulses(self.step_pin, c0, t, n, lat)
         else:  # held back: the last pulse stays high until the interrupt runs
             if n > 1:
                 self._emit(c0, lat, n - 1, t)
@@ -341,9 +480,9 @@ class SimChannel(QueueChannel):
         if self.pulse_counter is not None:
             self._count(n - self.b_counted, e.dir_level)
         self.block_isrs_done += n - 1
-        self.batch = False
+        self._leave_batch()
         e.steps = 1
-        self._isr(last_c, now)
+        self._isr(last_c, fall)
 
     def _block_isrs_by(self, t: int) -> int:
         """Step interrupts of the running block that ran by tick ``t`` (interrupt j runs
@@ -361,24 +500,13 @@ class SimChannel(QueueChannel):
             return self.block_isrs_done + self._block_isrs_by(t)
         return self.block_isrs_done
 
-    def block_isr_running_at(self, t: int, cost: int) -> int | None:
-        """End of the block's step interrupt that runs at tick ``t`` (``cost`` long)."""
-        if not self.batch:
-            return None
-        first = self.b_c0 + self.lat
-        if t < first:
-            return None
-        j = (t - first) // self.b_t
-        if j > self.b_n - 2:
-            return None
-        end = first + j * self.b_t + cost
-        return end if t < end else None
-
     def _single_isr(self) -> None:
         self.event = None
-        self.m.stolen_ticks += self.isr_ticks
+        self.m.stolen_ticks += self.cost
         c = self.pending_compare
         now = self.m.now
+        if self.contention:  # entered now: the pin falls lat later
+            now += self.lat
         if self.pending_pulse:
             self.pending_pulse = False
             self._emit(c, now - c, 1)
@@ -431,7 +559,7 @@ class SimChannel(QueueChannel):
         if self.entry_listeners and e is not self._noted:
             self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)
         compare = c + ticks  # (_arm, written out: this runs once per queue entry)
-        if compare <= now:
+        if compare <= now + self.ocr:
             compare = self._next_compare(compare, now)
         self._program(compare, e)
 
@@ -449,7 +577,7 @@ class SimChannel(QueueChannel):
         done = min(n - 1, (now - c0 - self.lat) // t + 1)  # the last stays for _batch_end
         if done <= 0:
             return
-        self._emit(c0, self.lat, done, t)
+        self._emit_block(0, done)
         if done > self.b_counted:
             self._count(done - self.b_counted, self.b_entry.dir_level)
             self.b_counted = 0
@@ -470,10 +598,14 @@ class SimChannel(QueueChannel):
         return None
 
     def _next_compare(self, compare: int, now: int) -> int:
-        if compare <= now:
+        """The tick at which the compare written by the interrupt that cleared the pin at
+        ``now`` matches: it writes it ``ocr`` ticks later; a value the timer has passed by
+        then matches only after the timer wraps."""
+        written = now + self.ocr
+        if compare <= written:
             if self.wrap:  # the timer matches the passed value only after it wraps
                 self.missed_compares += 1
-                compare += self.wrap * ((now - compare) // self.wrap + 1)
+                compare += self.wrap * ((written - compare) // self.wrap + 1)
             else:  # no wrap modelled: it matches at once, when the interrupt writes it
                 compare = now
         return compare
@@ -485,30 +617,32 @@ class SimChannel(QueueChannel):
         compare = self._next_compare(compare, now)
         self.pending_compare = compare
         self.pending_pulse = False
-        self.event = self.m.schedule(compare + self.lat, self._single_isr, self.prio, isr=True)
+        self._schedule_single(compare)
 
     def _on_block(self, start: int, end: int) -> None:
         """Interrupts are blocked from ``start`` (now) to ``end``: split a running block."""
         if not self.batch:
             return
         c0, t, n, lat = self.b_c0, self.b_t, self.b_n, self.lat
-        last_isr = c0 + (n - 1) * t + lat
+        # interrupts requested before the block entered before it (contention), or
+        # (without) those due before it ran
+        off = 1 if self.contention else lat
+        last_isr = c0 + (n - 1) * t + off
         if last_isr < start:
             return
-        done = 0 if start < c0 + lat else min(n - 1, (start - c0 - lat) // t + 1)
+        done = 0 if start < c0 + off else min(n - 1, (start - c0 - off) // t + 1)
         if done >= n - 1:
             return  # only the switching interrupt is left; it is simply held back
         self.m.cancel(self.event)
         e = self.b_entry
-        if done:
-            self._emit(c0, lat, done, t)
+        self._emit_block(0, done)
         if done > self.b_counted:
             self._count(done - self.b_counted, e.dir_level)
         self.precounted = max(0, self.b_counted - done)
         self.block_isrs_done += done
-        self.batch = False
+        self._leave_batch()
         e.steps = n - done
         compare = c0 + done * t
         self.pending_compare = compare
         self.pending_pulse = True
-        self.event = self.m.schedule(compare + lat, self._single_isr, self.prio, isr=True)
+        self._schedule_single(compare)

@@ -5,6 +5,15 @@ event to event.  Interrupt-driven events (step compare interrupts, the periodic 
 task) can be held back while the application blocks interrupts (StepperDemo's `e`):
 they run when the block ends, in hardware priority order.
 
+On a chip whose step pulses are ended by an interrupt routine (AVR), interrupts contend
+for the CPU: an event scheduled with ``enter=`` is the request of an interrupt (its flag
+set); it is entered once no routine holds the CPU with interrupts off
+(:meth:`Machine.cpu_free_at`: a blocked section of the loop, a routine entered before -
+another step interrupt, the ramp task's entry and exit -, ``millis()``'s timer
+interrupt, the UART's transmit interrupt, the step interrupts of a channel's block of
+pulses).  Requests pending when the CPU frees enter one after another in priority
+order (lowest vector first), each holding the CPU ``enter`` ticks.
+
 The machine also keeps the pieces of the chip that the application sees: pin levels
 (:class:`PinBank`), ``millis()`` (Arduino's timer-0 bookkeeping), the console UART
 and CPU time taken away from the main loop by interrupt routines.
@@ -13,9 +22,11 @@ and CPU time taken away from the main loop by interrupt routines.
 from __future__ import annotations
 
 import heapq
+from bisect import bisect_left, bisect_right
 from typing import Callable, Protocol
 
 from ..arch import Profile
+from .builds import check_build
 from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after
 from .outputs import SimOutputs
 from .pins import PinBank
@@ -53,21 +64,36 @@ class CpuSource(Protocol):
         ...
 
 
-class Event:
-    __slots__ = ("time", "prio", "fn", "cancelled", "isr")
+class BatchSource(Protocol):
+    """The channel whose block of pulses runs as one event (one at a time per machine,
+    :attr:`Machine.batch_channel`)."""
 
-    def __init__(self, time: int, prio: int, fn: Callable[[], None], isr: bool) -> None:
+    def block_isr_running_at(self, t: int) -> int | None:
+        """End of its step interrupt that holds the CPU at tick ``t`` (None: none)."""
+        ...
+
+
+class Event:
+    __slots__ = ("time", "prio", "fn", "cancelled", "isr", "enter", "owner")
+
+    def __init__(self, time: int, prio: int, fn: Callable[[], None], isr: bool,
+                 enter: int = 0, owner: object = None) -> None:
         self.time = time
         self.prio = prio
         self.fn = fn
         self.cancelled = False
         self.isr = isr
+        # > 0: an interrupt request entered once the CPU is free (Machine.cpu_free_at);
+        # the routine then holds the CPU this long with interrupts off
+        self.enter = enter
+        self.owner = owner  # the channel whose interrupt it is (its own block: no obstacle)
 
 
 class Machine:
-    def __init__(self, profile: Profile) -> None:
+    def __init__(self, profile: Profile, build: str | None = None) -> None:
         self.profile = profile
-        self.timing = sim_timing(profile)
+        self.build = check_build(build)  # the firmware build (fas.sim.builds)
+        self.timing = sim_timing(profile, build)
         self.now = 0
         # the pending events as a heap of (tick, priority, order, event), the earliest
         # first (cancelled ones stay until they come up); read it, never write it
@@ -77,7 +103,8 @@ class Machine:
         self.pins = PinBank()
         self.outputs = SimOutputs(self.pins)  # user outputs: digital pins, PWM waves
         self.uart = Uart(self.timing.uart_byte_ticks, self.timing.uart_tx_buffer)
-        self.irq_blocked_until = 0
+        # the last blocked section [from, until) (none yet: far in the past)
+        self.irq_blocked_from = self.irq_blocked_until = -(1 << 62)
         self.irq_block_windows = 0
         self.irq_blocked_ticks = 0
         self.block_listeners: list[Callable[[int, int], None]] = []
@@ -100,13 +127,29 @@ class Machine:
         self._clock_key: tuple[int, int, int, int] | None = None  # the state it holds for
         # the last answer of tick_at_millis (ms, tick)
         self._tick_at_ms: tuple[int | None, int] = (None, 0)
+        # interrupt contention (events with ``enter``): the routines entered as events,
+        # as [start, end) with interrupts off, in order (step interrupts, the ramp task's
+        # entry), and the ramp task's exits (known once the task ran)
+        # no blocked section, routine entered as an event or ramp task's exit holds the
+        # CPU from this tick on (cpu_free_at's quick answer); timer 0's first overflow
+        self._quiet_from = -(1 << 62)
+        self._millis_first = 1 << 62
+        self.isr_starts: list[int] = []
+        self.isr_ends: list[int] = []
+        self.exit_starts: list[int] = []
+        self.exit_ends: list[int] = []
+        self.batch_channel: BatchSource | None = None  # its pulses' interrupts are no events
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
-                 isr: bool = False) -> Event:
+                 isr: bool = False, enter: int = 0, owner: object = None) -> Event:
+        """An event at tick ``time``.  ``isr``: an interrupt, held back while the loop
+        blocks interrupts.  ``enter`` > 0: an interrupt requested at ``time`` and entered
+        when the CPU is free (it then holds it ``enter`` ticks; the event's function runs
+        at the entry)."""
         if time < self.now:
             time = self.now
-        ev = Event(time, prio, fn, isr)
+        ev = Event(time, prio, fn, isr or enter > 0, enter, owner)
         self._seq += 1
         heapq.heappush(self.events, (time, prio, self._seq, ev))
         return ev
@@ -130,21 +173,49 @@ class Machine:
         heap = self.events
         pop = heapq.heappop
         activity = self.activity
+        timing = self.timing
+        uart_cost, ms_ov, ms_cost = (timing.uart_isr_ticks, timing.millis_overflow_ticks,
+                                     timing.millis_isr_ticks)
         while heap and heap[0][0] <= t:
             time, prio, _, ev = pop(heap)
             if ev.cancelled:
                 continue
-            if ev.isr and time < self.irq_blocked_until:
-                # interrupt pending until the block ends; then in priority order
-                ev.time = self.irq_blocked_until
-                self._seq += 1
-                heapq.heappush(heap, (ev.time, prio, self._seq, ev))
-                continue
+            if ev.isr:
+                if ev.enter:  # requested now: entered once the CPU is free
+                    bc = self.batch_channel
+                    loads = self.uart.loads
+                    if ((bc is None or bc is ev.owner) and time >= self._quiet_from
+                            and (not loads or time >= loads[-1] + uart_cost)
+                            and (time < self._millis_first
+                                 or (time - self._millis_phase) % ms_ov >= ms_cost)):
+                        free = time  # (cpu_free_at's common case, written out)
+                    else:
+                        free = self.cpu_free_at(time, ev.owner)
+                    if free > time:  # pending; those pending then enter in priority order
+                        ev.time = free
+                        self._seq += 1
+                        heapq.heappush(heap, (free, prio, self._seq, ev))
+                        continue
+                elif time < self.irq_blocked_until:
+                    # interrupt pending until the block ends; then in priority order
+                    ev.time = self.irq_blocked_until
+                    self._seq += 1
+                    heapq.heappush(heap, (ev.time, prio, self._seq, ev))
+                    continue
             if time > self.now:
                 if stop_on_activity and self.activity != activity:
                     heapq.heappush(heap, (time, prio, _, ev))
                     return True
                 self.now = time
+            if ev.enter:  # (enter_isr, written out: this runs for every step interrupt)
+                starts = self.isr_starts
+                if len(starts) > 4096:
+                    self._forget_isrs()
+                end = time + ev.enter
+                starts.append(time)
+                self.isr_ends.append(end)
+                if end > self._quiet_from:
+                    self._quiet_from = end
             self.events_run += 1
             stolen = self.stolen_ticks
             ev.fn()
@@ -173,6 +244,141 @@ class Machine:
             return False
         self.run_until(t)
         return True
+
+    # ------------------------------------------------- interrupt contention
+    def enter_isr(self, t: int, cost: int) -> None:
+        """A routine entered as an event at tick ``t`` holds the CPU ``cost`` ticks."""
+        starts = self.isr_starts
+        if len(starts) > 4096:  # forget what no block of pulses can still ask about
+            self._forget_isrs()
+        starts.append(t)
+        self.isr_ends.append(t + cost)
+        if t + cost > self._quiet_from:
+            self._quiet_from = t + cost
+
+    def mask(self, start: int, end: int) -> None:
+        """Interrupts are off in ``[start, end)`` (the ramp task's exit), known ahead."""
+        if len(self.exit_starts) > 1024:
+            self._forget_isrs()
+        self.exit_starts.append(start)
+        self.exit_ends.append(end)
+        if end > self._quiet_from:
+            self._quiet_from = end
+
+    def _forget_isrs(self) -> None:
+        keep = self.now
+        bc = self.batch_channel
+        if bc is not None:
+            keep = min(keep, getattr(bc, "b_c0", keep))
+        for starts, ends in ((self.isr_starts, self.isr_ends),
+                             (self.exit_starts, self.exit_ends)):
+            i = bisect_left(ends, keep)
+            if i > 64:
+                del starts[:i - 64]
+                del ends[:i - 64]
+
+    def cpu_free_at(self, t: int, asker: object = None) -> int:
+        """The first tick at or after ``t`` at which no routine holds the CPU with
+        interrupts off: the loop's blocked section (`e`), a routine entered as an event
+        or the ramp task's exit, ``millis()``'s timer interrupt, the UART's transmit
+        interrupt, and the step interrupts of the block of pulses of a channel other
+        than ``asker``.  (Also for ticks in the past: a block of pulses asks for its
+        pulses when it ends.)"""
+        timing = self.timing
+        bc = self.batch_channel
+        if bc is asker:
+            bc = None
+        # the common case first: nothing has interrupts off at t
+        if bc is None and t >= self._quiet_from:
+            loads = self.uart.loads
+            if ((not loads or t >= loads[-1] + timing.uart_isr_ticks)
+                    and (t < self._millis_first or (t - self._millis_phase)
+                         % timing.millis_overflow_ticks >= timing.millis_isr_ticks)):
+                return t
+        ms_cost = timing.millis_isr_ticks if self._millis_started else 0
+        ms_ov = timing.millis_overflow_ticks
+        ms_phase = self._millis_phase
+        ms_first = ms_phase + ms_ov
+        uart_cost = timing.uart_isr_ticks
+        loads = self.uart.loads
+        bfrom, buntil = self.irq_blocked_from, self.irq_blocked_until
+        blocked_end = buntil + timing.sei_ticks
+        starts, ends = self.isr_starts, self.isr_ends
+        xs, xe = self.exit_starts, self.exit_ends
+        while True:
+            t0 = t
+            if bfrom <= t < blocked_end:
+                t = blocked_end
+            if starts and t < ends[-1]:
+                i = bisect_right(starts, t) - 1
+                if i >= 0 and t < ends[i]:
+                    t = ends[i]
+            if xs and t < xe[-1]:
+                i = bisect_right(xs, t) - 1
+                if i >= 0 and t < xe[i]:
+                    t = xe[i]
+            # timer 0 and the UART (lower priority than the step compares): they hold the
+            # CPU when they began with interrupts on (one held back by a blocked section
+            # runs after the step interrupts pending at its end)
+            if ms_cost and t >= ms_first:
+                into = (t - ms_phase) % ms_ov
+                if into < ms_cost and not bfrom <= t - into <= buntil:
+                    t += ms_cost - into
+            if uart_cost and loads and t < loads[-1] + uart_cost:
+                i = bisect_right(loads, t) - 1
+                if i >= 0 and t < loads[i] + uart_cost and not bfrom <= loads[i] <= buntil:
+                    t = loads[i] + uart_cost
+            if bc is not None:
+                end = bc.block_isr_running_at(t)
+                if end is not None and end > t:
+                    t = end
+            if t == t0:
+                return t
+
+    def held_requests(self, c0: int, period: int, j0: int, j1: int) -> list[int]:
+        """The requests ``c0 + j * period`` (``j0 <= j < j1``) of a block of pulses that
+        fall in a section with interrupts off (timer 0, the UART, a routine entered as
+        an event, the ramp task's exit): only these can have waited, and only for these
+        :meth:`cpu_free_at` is asked.  In order, without repeats.
+        (Written out for speed: this runs for every block of pulses.)"""
+        lo, hi = c0 + j0 * period, c0 + (j1 - 1) * period
+        found: list[int] = []
+        timing = self.timing
+        cost = timing.millis_isr_ticks
+        if cost and self._millis_started:
+            ov = timing.millis_overflow_ticks
+            first = self._millis_phase + ov
+            s = first + max(0, -(-(lo - cost + 1 - first) // ov)) * ov
+            while s <= hi:
+                j = j0 if s <= lo else -(-(s - c0) // period)
+                if j < j1 and c0 + j * period < s + cost:
+                    found.append(j)
+                s += ov
+        cost = timing.uart_isr_ticks
+        loads = self.uart.loads
+        if cost and loads and loads[-1] + cost > lo:
+            i = bisect_right(loads, lo - cost)
+            n = len(loads)
+            while i < n and loads[i] <= hi:
+                s = loads[i]
+                j = j0 if s <= lo else -(-(s - c0) // period)
+                if j < j1 and c0 + j * period < s + cost:
+                    found.append(j)
+                i += 1
+        for starts, ends in ((self.isr_starts, self.isr_ends),
+                             (self.exit_starts, self.exit_ends)):
+            if ends and ends[-1] > lo:
+                i = bisect_right(ends, lo)
+                n = len(starts)
+                while i < n and starts[i] <= hi:
+                    s = starts[i]
+                    j = j0 if s <= lo else -(-(s - c0) // period)
+                    if j < j1 and c0 + j * period < ends[i]:
+                        found.append(j)
+                    i += 1
+        if len(found) > 1:
+            found = sorted(set(found))
+        return found
 
     # ------------------------------------------------------- CPU and time
     def cpu_now(self) -> int:
@@ -315,10 +521,20 @@ class Machine:
         return self.isr_clock().resume_wait()
 
     def block_interrupts(self, ticks: int) -> None:
-        """The main loop runs ``ticks`` with interrupts disabled (busy wait)."""
+        """The main loop runs ``ticks`` with interrupts disabled (busy wait).  Where
+        interrupts contend, the loop gets to its ``cli`` only once no routine holds the
+        CPU and none is pending (those requested before run first)."""
+        if self.profile.irq_block_delays_steps:
+            while True:
+                free = self.cpu_free_at(self.now)
+                if free == self.now:
+                    break
+                self.run_until(free)
         start, end = self.now, self.now + ticks
         if end > self.irq_blocked_until:
             self.irq_blocked_until = end
+            self.irq_blocked_from = start
+            self._quiet_from = max(self._quiet_from, end + self.timing.sei_ticks)
         self.irq_block_windows += 1
         self.irq_blocked_ticks += ticks
         self.uart.interrupts_blocked(start, end)
@@ -330,6 +546,8 @@ class Machine:
         """Arduino's start-up has just started timer 0, the source of ``millis()``."""
         self._millis_phase = self.now
         self._millis_started = True
+        if self.timing.millis_isr_ticks:
+            self._millis_first = self.now + self.timing.millis_overflow_ticks
         self._clock = None  # its interrupts begin
         self._tick_at_ms = (None, 0)
 

@@ -112,6 +112,31 @@ class PinBank:
             for sink in self.sinks:
                 sink.edges(pin, times, levels)
 
+    def pulses_waiting(self, pin: int, first: int, period: int, count: int, width: int,
+                       longer: list[tuple[int, int]]) -> None:
+        """:meth:`pulses`, where pulse ``j`` of each ``(j, extra)`` of ``longer`` (in
+        order, ``j < count``) is ``extra`` ticks longer (its interrupt waited for the CPU)."""
+        rise = self.rise
+        rise[pin] = rise.get(pin, 0) + count
+        fall = self.fall
+        fall[pin] = fall.get(pin, 0) + count
+        total = self.high_total
+        total[pin] = total.get(pin, 0) + count * width + sum(extra for _, extra in longer)
+        longest = width + max(extra for _, extra in longer)
+        if longest > self.high_max.get(pin, 0):
+            self.high_max[pin] = longest
+        self.level[pin] = 0
+        if self.sinks:
+            times = [0] * (2 * count)
+            end = first + count * period
+            times[0::2] = range(first, end, period)
+            times[1::2] = range(first + width, end + width, period)
+            for j, extra in longer:
+                times[2 * j + 1] += extra
+            levels = b"\x01\x00" * count
+            for sink in self.sinks:
+                sink.edges(pin, times, levels)
+
     def waveform(self, pin: int, times: list[int], levels: bytes) -> None:
         """A run of edges of one pin (a PWM timer's), in time order, alternating levels."""
         level = self.level.get(pin, 0)

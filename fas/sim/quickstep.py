@@ -62,8 +62,10 @@ class QuickStepChannel(SimChannel, OrderChannel):
         self.clock = clock
         self.lat = p.pulse_ticks
         self.start_ticks = p.start_ticks
-        self.isr_ticks = p.step_isr_ticks
+        self.isr_ticks = self.isr_next_ticks = self.cost = p.step_isr_ticks
         self.irq_sensitive = True
+        self.contention = False  # its timer's own rule: events at the pulse's end
+        self.ocr = 0
         if self._on_block not in machine.block_listeners:
             machine.block_listeners.append(self._on_block)
         self.trailing = False  # waiting for the end of the finished order's last interval

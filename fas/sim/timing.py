@@ -19,7 +19,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ..arch import Profile
+from ..arch import ATMEGA2560, ATMEGA2560_VARIANTS, Profile
+from .builds import check_build
 
 
 @dataclass(frozen=True)
@@ -27,8 +28,9 @@ class SimTiming:
     """The simulated chip's timing (ticks of its profile)."""
 
     timer_wrap_ticks: int  # compare timer width: a missed compare waits one wrap (0: none)
-    # compare match -> ISR clears the step pin (the pulse width), per channel; the last
-    # figure stands for the channels after it
+    # step interrupt entered -> it clears the step pin, per channel (the pulse width of a
+    # compare whose interrupt is entered at once); the last figure stands for the
+    # channels after it
     isr_latency_ticks: tuple[int, ...]
     isr_duration_ticks: int  # CPU time of one step interrupt (taken from the loop)
     fill_entry_ticks: int  # periodic task start -> first command computed
@@ -49,10 +51,47 @@ class SimTiming:
     uart_rx_buffer: int
     millis_overflow_ticks: int  # Arduino timer0 overflow period (millis() source)
     millis_isr_ticks: int = 0  # Arduino's timer-0 overflow interrupt (millis())
+    # --- interrupt contention (AVR: the step interrupt ends the pulse) ---
+    # the step interrupt writes the next compare this long after it cleared the pin (a
+    # value the timer has passed by then matches only after the timer wraps)
+    isr_ocr_ticks: int = 0
+    # CPU time of one step interrupt per channel, entry to return (empty: all take
+    # isr_duration_ticks); the last figure stands for the channels after it
+    isr_duration_by_channel: tuple[int, ...] = ()
+    # the ramp task (timer overflow interrupt) runs with interrupts enabled except for
+    # its entry (until its sei) and its exit (from its cli)
+    fill_mask_entry_ticks: int = 0
+    fill_mask_exit_ticks: int = 0
+    # ... and for this long when it writes a command to the queue
+    fill_cmd_mask_ticks: int = 0
+    # the ramp task's work for each running stepper before its first command ...
+    fill_stepper_ticks: int = 0
+    # ... where it first sums the ticks of its queued entries (all but the running
+    # one): this much per entry
+    fill_queued_entry_ticks: int = 0
+    # the step interrupt takes this much more CPU when it takes up the next queue entry
+    isr_next_entry_ticks: int = 0
+    # a command at the speed of the one before (the ramp coasts; 0: as fill_cmd_ticks)
+    fill_coast_cmd_ticks: int = 0
+    # the ramp task starts a stopped queue after its fill
+    fill_start_ticks: int = 0
+    # CPU time of one write call to the console's serial driver beyond char_ticks per
+    # character (the ATmega32U4's USB CDC driver)
+    console_call_ticks: int = 0
+    # interrupts pending when the loop's blocked section ends enter after the
+    # instruction that follows its sei
+    sei_ticks: int = 0
 
     def isr_latency(self, channel: int) -> int:
-        """The step pulse width of queue ``channel``."""
+        """The step pulse width of queue ``channel`` when its interrupt enters at once."""
         table = self.isr_latency_ticks
+        return table[min(channel, len(table) - 1)]
+
+    def isr_duration(self, channel: int) -> int:
+        """CPU time of one step interrupt of queue ``channel``."""
+        table = self.isr_duration_by_channel
+        if not table:
+            return self.isr_duration_ticks
         return table[min(channel, len(table) - 1)]
 
 
@@ -71,7 +110,7 @@ def avr_uart_byte_ticks(f_cpu: int, baud: int, sim_bits: int = 10) -> int:
 
 AVR_TIMING = SimTiming(
     timer_wrap_ticks=65536,
-    isr_latency_ticks=(61, 73, 73),
+    isr_latency_ticks=(61, 71, 71),
     isr_duration_ticks=120,
     fill_entry_ticks=2436,
     fill_cmd_ticks=2367,
@@ -87,11 +126,50 @@ AVR_TIMING = SimTiming(
     uart_rx_buffer=63,  # HardwareSerial: a 64-byte ring keeps one slot free
     millis_overflow_ticks=64 * 256,
     millis_isr_ticks=96,
+    isr_ocr_ticks=29,
+    isr_duration_by_channel=(120, 146, 146),
+    fill_mask_entry_ticks=50,
+    fill_mask_exit_ticks=41,
+    sei_ticks=1,
 )
 
+# the default build with the library's SIMAVR_TIME_MEASUREMENT (upstream's timing
+# tests): the step interrupt sets a port bit on entry (sbi, before it clears the step pin)
+# and toggles it before it returns
+AVR_TIME_MEASUREMENT_TIMING = replace(AVR_TIMING, isr_latency_ticks=(62, 73, 73),
+                                      isr_duration_by_channel=(126, 152, 152))
+
+# the build of the runs e01-e18 (fas.sim.builds): the library's code takes fewer cycles
+AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=326,
+                       fill_start_ticks=597 + 1250,
+                       fill_pause_ticks=1259, fill_single_ticks=1817, fill_cmd_ticks=2060,
+                       fill_coast_cmd_ticks=1600, fill_queued_entry_ticks=100,
+                       isr_next_entry_ticks=24, isr_duration_by_channel=(120, 135, 135))
+
 # ATmega32U4: Serial is the USB CDC port, output costs no UART time (the AVR simulator
-# has no USB host, so the firmware's prints return at once)
-AVR_USB_TIMING = replace(AVR_TIMING, char_ticks=40, uart_byte_ticks=0)
+# has no USB host, so the firmware's prints return at once): a write call to the CDC
+# driver costs 112 ticks (its checks), and its larger start-up code starts timer 0 2000
+# ticks later than on the ATmega328P (both measured on the runs e15/e16)
+AVR_USB_TIMING = replace(AVR_TIMING, char_ticks=40, uart_byte_ticks=0,
+                         boot_ticks=AVR_TIMING.boot_ticks + 2000, console_call_ticks=112)
+AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
+                           boot_ticks=AVR_USB_TIMING.boot_ticks,
+                           console_call_ticks=AVR_USB_TIMING.console_call_ticks,
+                           fill_entry_ticks=575)
+
+# ATmega2560: a 3-byte program counter makes calls, interrupt entries and returns
+# longer.  Its step interrupts take 127 ticks (channel A) and 142 (B, C), timer 0's 97
+# (measured on the runs e13/e14, the only ones of this chip); the pin falls 5 ticks later
+# than on the ATmega328P (one more cycle to enter, the extra pushes of its prologue)
+AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76),
+                          isr_duration_by_channel=(127, 142, 142), millis_isr_ticks=97)
+# ... in the build of the runs e13/e14
+AVR_MEGA_E_TIMING = replace(AVR_E_TIMING, fill_entry_ticks=517, fill_stepper_ticks=376,
+                            fill_start_ticks=200, fill_single_ticks=2292,
+                            fill_pause_ticks=1420, fill_cmd_ticks=2600, fill_coast_cmd_ticks=2020,
+                            isr_latency_ticks=AVR_MEGA_TIMING.isr_latency_ticks,
+                            isr_duration_by_channel=AVR_MEGA_TIMING.isr_duration_by_channel,
+                            millis_isr_ticks=AVR_MEGA_TIMING.millis_isr_ticks)
 
 ESP32_TIMING = SimTiming(
     timer_wrap_ticks=0,
@@ -135,6 +213,8 @@ SAM_TIMING = SimTiming(
 PICO_TIMING = replace(ESP32_TIMING, uart_byte_ticks=0, char_ticks=8,
                       millis_overflow_ticks=16000)
 
+MEGA_NAMES = tuple(p.name for p in (ATMEGA2560, *ATMEGA2560_VARIANTS))
+
 BY_FAMILY: dict[str, SimTiming] = {
     "avr": AVR_TIMING,
     "esp32": ESP32_TIMING,
@@ -145,12 +225,26 @@ BY_FAMILY: dict[str, SimTiming] = {
 
 BY_PROFILE: dict[str, SimTiming] = {
     "atmega32u4": AVR_USB_TIMING,
+    **{name: AVR_MEGA_TIMING for name in MEGA_NAMES},
 }
 
 
-def sim_timing(profile: Profile) -> SimTiming:
-    """The simulated timing of ``profile``: its own entry, else its family's."""
-    timing = BY_PROFILE.get(profile.name) or BY_FAMILY.get(profile.family)
+# the builds that differ from the default build (fas.sim.builds), by profile name or
+# family, as in BY_PROFILE / BY_FAMILY
+BY_BUILD: dict[str, dict[str, SimTiming]] = {
+    "d_time_measurement": {"atmega328p": AVR_TIME_MEASUREMENT_TIMING},
+    "e": {"atmega328p": AVR_E_TIMING, "atmega32u4": AVR_USB_E_TIMING,
+          **{name: AVR_MEGA_E_TIMING for name in MEGA_NAMES}},
+}
+
+
+def sim_timing(profile: Profile, build: str | None = None) -> SimTiming:
+    """The simulated timing of ``profile`` in firmware ``build`` (None: the default
+    build): the build's entry for the profile or its family, else the profile's own
+    entry, else its family's."""
+    variant = BY_BUILD.get(check_build(build), {})
+    timing = (variant.get(profile.name) or variant.get(profile.family)
+              or BY_PROFILE.get(profile.name) or BY_FAMILY.get(profile.family))
     if timing is None:
         raise ValueError(f"no simulated timing for profile {profile.name!r} "
                          f"(family {profile.family!r}): add it to fas/sim/timing.py")

@@ -542,7 +542,12 @@ static int serve_pty(double speed, const char *link)
     double behind_max = 0;
     int rc = 0;
     uint8_t buf[4096];
+    /* whoever started us (stepperdemo device --simavr, a shell) going away ends the
+     * run: killed outright, it cannot stop us, and an orphan would run for ever */
+    pid_t parent = getppid();
     while (!stopping) {
+        if (getppid() != parent)
+            break;
         double now = wall_s();
         uint64_t target = c0 + (uint64_t)((now - t0) * hz);
         ssize_t r;

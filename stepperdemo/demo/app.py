@@ -58,7 +58,12 @@ class StepperDemo(LoopProgram):
         # "Unknown command" there)
         self.test_mode_wait = test_mode_wait
         self.restarts = 0
-        self.build = demo_build(self.profile)
+        # the firmware build the simulated chip runs (fas.sim.builds; None elsewhere)
+        self.firmware_build: str | None = getattr(backend, "build", None)
+        self.build = demo_build(self.profile, self.firmware_build)
+        self._timing = sim_timing(self.profile, self.firmware_build)
+        # a write call to the console's serial driver (USB CDC: not nothing)
+        self._call_ticks = self._timing.console_call_ticks
         self._reset_state()
         self.rx: deque[int] = deque()
         self.script = b""
@@ -116,7 +121,9 @@ class StepperDemo(LoopProgram):
             data = bytes(text)
         if scan is None:
             if data:
-                self.backend.console_write(data)
+                call = self._call_ticks  # one write call for the whole text
+                self.backend.console_write(data, [call] + [0] * (len(data) - 1)
+                                           if call else None)
         else:
             self._print_from_table(data, scan)
         if not data:
@@ -143,6 +150,7 @@ class StepperDemo(LoopProgram):
             b.app_spend(rest)
             return
         share, extra = divmod(rest, n)
+        share += self._call_ticks  # the table's text goes out a character per call
         b.console_write(data, [share + 1] * extra + [share] * (n - extra))
 
     def lookup(self, text: str) -> None:
@@ -167,6 +175,9 @@ class StepperDemo(LoopProgram):
     def println(self, text: str | bytes = "") -> None:
         if not text and self.build.print_call_ticks:
             self.backend.app_spend(self.build.print_call_ticks)  # println("")
+        if text and self._call_ticks and not (isinstance(text, str)
+                                              and text + msg.CRLF in msg.TABLE_SCAN):
+            self.backend.app_spend(self._call_ticks)  # println(x): print(x), then "\r\n"
         if isinstance(text, str):
             self.print(text + msg.CRLF)
         else:
@@ -190,9 +201,10 @@ class StepperDemo(LoopProgram):
             return
         self._setup_started = True
         b = self.backend
-        boot = sim_timing(self.profile).boot_ticks
+        timing = self._timing
+        boot = timing.boot_ticks
         if self.script_loaded:  # the built-in line is start-up data copied at reset
-            boot += len(self.script) * sim_timing(self.profile).boot_script_byte_ticks
+            boot += len(self.script) * timing.boot_script_byte_ticks
         b.app_spend(boot)
         b.app_started()
         b.app_spend(self.build.setup_head_ticks)
@@ -414,8 +426,20 @@ class StepperDemo(LoopProgram):
     def usage(self) -> None:
         p = self.profile
         if self.mode == _NORMAL:
-            self.print(msg.usage_normal(esp32=p.family == "esp32", avr=p.family == "avr",
-                                        small=self.build.small_build))
+            text = msg.usage_normal(esp32=p.family == "esp32", avr=p.family == "avr",
+                                    small=self.build.small_build)
+            if (text in msg.TABLE_SCAN or not self.build.small_build
+                    or not self.build.msg_scan_byte_ticks):
+                self.print(text)
+            else:  # the small build's usage (ATmega32U4): from its own table, which is
+                # not counted; the full text's look-ups in proportion to its length
+                full = msg.TABLE_SCAN[msg.USAGE_NORMAL]
+                scan = tuple(x * len(text) // len(msg.USAGE_NORMAL) for x in full)
+                data = text.encode("utf-8")
+                self._print_from_table(data, scan)
+                self.transcript += data
+                if self.output is not None:
+                    self.output(data)
         elif self.build.small_build:
             pass  # the ATmega32U4 build has no test and config usage texts
         elif not self.scripted:
@@ -469,9 +493,11 @@ class StepperDemo(LoopProgram):
             self.in_buffer[self.write_ptr] = ch
             self.write_ptr = (self.write_ptr + 1) & 0xFF
 
+        path = 0  # CPU time of this pass's path beyond loop_pass_ticks
         if not take_input:
             pass
         elif self.pause_ms > 0:
+            path = self.build.loop_pause_ticks
             if ((b.millis() - self.pause_start) & 0xFFFFFFFF) >= self.pause_ms:
                 self.pause_ms = 0
                 self.print(msg.WAIT_COMPLETE)
@@ -481,6 +507,10 @@ class StepperDemo(LoopProgram):
             c = self.in_buffer[self.read_ptr]
             self.read_ptr = (self.read_ptr + 1) & 0xFF
             if c not in (0x20, 0x0A, 0x0D):
+                # taken where the firmware takes it: before the rest of the pass (its
+                # `e` block included), as a command's cost (_spend_command)
+                if self.build.loop_char_ticks:
+                    b.app_spend(self.build.loop_char_ticks)
                 if len(self.out_buffer) == 255:
                     self.out_buffer.clear()
                 self.out_buffer.append(c)
@@ -503,7 +533,9 @@ class StepperDemo(LoopProgram):
 
         ms = b.millis()
         if self.simulate_digital_read_error:
-            b.stray_read(tuple([s.get_step_pin() for s in self.steppers if s is not None]))
+            pins = tuple([s.get_step_pin() for s in self.steppers if s is not None])
+            b.stray_read(pins)
+            path += len(pins) * self.build.loop_stray_read_ticks
         if self.simulate_blocked_isr and (ms & 0xFF) < 0x40:
             b.block_interrupts(self.build.irq_block_ticks)
 
@@ -513,7 +545,15 @@ class StepperDemo(LoopProgram):
         elif self.mode == _GCODE:  # issue 12: G-code answers, it prints no status
             self.gcode.poll()
         else:
-            running = self.any_running()
+            running = False
+            build = self.build
+            for s in self.steppers:  # running |= stepper[i]->isRunning(), for each
+                if s is not None:
+                    if s.is_running():
+                        running = True
+                        path += build.loop_running_stepper_ticks
+                    else:
+                        path += build.loop_idle_stepper_ticks
             if running and ((ms - self.last_time) & 0xFFFFFFFF) >= 100:
                 if self.verbose:
                     self.output_info(True)
@@ -523,7 +563,7 @@ class StepperDemo(LoopProgram):
                 if self.usage_info:
                     self.usage()
             self.stopped = not running
-        b.app_spend(self.build.loop_pass_ticks)
+        b.app_spend(self.build.loop_pass_ticks + path)
 
     def _spend_command(self, cmd: bytes) -> None:
         """CPU time of parsing and executing a command, without its prints."""

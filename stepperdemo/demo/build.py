@@ -36,6 +36,7 @@ from fas.arch import (
     Profile,
 )
 from fas.codes import PIN_UNDEFINED, FasDriver
+from fas.sim.builds import check_build
 
 from .. import messages as msg
 
@@ -78,6 +79,13 @@ class DemoBuild:
     setup_head_ticks: int = 0  # setup() entry -> first character of the banner
     setup_steppers_ticks: int = 0  # engine.init() -> first stepper's pins configured
     loop_pass_ticks: int = 0  # one pass of loop() without output
+    # ... plus, per path (docs/timing-model.md): isRunning() of each connected stepper
+    # in the normal mode (a running one answers at once, an idle one asks its queue)
+    loop_running_stepper_ticks: int = 0
+    loop_idle_stepper_ticks: int = 0
+    loop_pause_ticks: int = 0  # a pass during `w<ms>`: it compares millis()
+    loop_char_ticks: int = 0  # a pass that takes an input character (not a command end)
+    loop_stray_read_ticks: int = 0  # `r`: a digitalRead() of a step pin, per pin
     msg_scan_byte_ticks: int = 0  # the message table: one byte read
     msg_lookup_ticks: int = 0  # ... one look-up (call overhead)
     print_digit_ticks: int = 0  # printing a number: one 32-bit division per digit
@@ -112,7 +120,9 @@ AVR_COSTS = DemoBuild(
         "N": 319, "O": 319, "Q": 140, "I": 140, "W": 148, "+": 150, "-": 150, "?": 0,
         "t": 0, "c": 0, "x": 0, "d": 1451,
     },
-    irq_block_ticks=100 * 16,
+    # noInterrupts(); delayMicroseconds(100); interrupts(): the AVR core's busy loop of
+    # 4 cycles per round, 4 rounds per us less 5 for the call, plus cli and sei
+    irq_block_ticks=4 * (4 * 100 - 5) + 2,
 )
 
 # ESP32 and the Pico: not measured on a firmware run, estimates
@@ -305,6 +315,35 @@ BY_PROFILE: dict[str, DemoBuild] = {
 }
 
 
+# the firmware builds whose StepperDemo costs differ from the default build's
+# (fas.sim.builds), by profile name
+BY_BUILD: dict[str, dict[str, DemoBuild]] = {
+    "e": {"atmega328p": replace(ATMEGA328P_BUILD, loop_pass_ticks=220, setup_head_ticks=1450,
+                                loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
+                                loop_char_ticks=5, loop_stray_read_ticks=81,
+                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106}),
+          **{p.name: replace(_mega(p), loop_pass_ticks=300, loop_running_stepper_ticks=10,
+                             loop_idle_stepper_ticks=40, loop_char_ticks=5,
+                             cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106})
+             for p in (ATMEGA2560, *ATMEGA2560_VARIANTS)},
+          "atmega32u4": replace(ATMEGA32U4_BUILD, loop_pass_ticks=248,
+                                loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
+                                loop_char_ticks=5,
+                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 105})},
+}
+
+
+def demo_build(profile: Profile, firmware: str | None = None) -> DemoBuild:
+    """StepperDemo's build for ``profile``, in firmware build ``firmware``
+    (:mod:`fas.sim.builds`; None: the default build)."""
+    build = BY_BUILD.get(check_build(firmware), {}).get(profile.name) or BY_PROFILE.get(
+        profile.name)
+    if build is None:
+        raise ValueError(f"no StepperDemo build for profile {profile.name!r}: "
+                         "add it to stepperdemo/demo/build.py")
+    return build
+
+
 def pin_config_problem(profile: Profile, index: int) -> str | None:
     """Why ``index`` cannot answer this build's start-up prompt, or None."""
     configs = demo_build(profile).configs
@@ -314,12 +353,3 @@ def pin_config_problem(profile: Profile, index: int) -> str | None:
         names = ", ".join(f"{i} ({c.name})" for i, c in enumerate(configs))
         return msg.PIN_CONFIG_RANGE.format(index=index, arch=profile.name, names=names)
     return None
-
-
-def demo_build(profile: Profile) -> DemoBuild:
-    """StepperDemo's build for ``profile``."""
-    build = BY_PROFILE.get(profile.name)
-    if build is None:
-        raise ValueError(f"no StepperDemo build for profile {profile.name!r}: "
-                         "add it to stepperdemo/demo/build.py")
-    return build

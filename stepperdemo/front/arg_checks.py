@@ -1,15 +1,17 @@
-"""Numbers on the command line that ``float()`` lets through but nothing can run with.
+"""Arguments that argparse lets through but nothing can run with.
 
 argparse turns ``--speed nan``, ``--max-time inf`` or ``--speed -2`` into floats; the
-front ends would then divide by zero, run time backwards or overflow.  Every program
-and subcommand checks its numbers here, before anything starts, and says what it
-takes in one line (exit code 2).
+front ends would then divide by zero, run time backwards or overflow.  A ``--link`` in
+a folder that does not exist cannot be made once the pty is open.  Every program and
+subcommand checks these here, before anything starts, and says what it takes in one
+line (exit code 2).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 
 from .. import messages as msg
 
@@ -41,4 +43,17 @@ def number_problem(args: argparse.Namespace) -> str | None:
             return problem
     if getattr(args, "speed", None) is not None:
         return speed_problem(args.speed)
+    return None
+
+
+def link_problem(path: str | None) -> str | None:
+    """``--link PATH``: a symbolic link can be made there (its folder exists, no folder
+    is in its place); None when it can, or when no link is asked for."""
+    if not path:
+        return None
+    folder = os.path.dirname(path) or "."
+    if not os.path.isdir(folder):
+        return msg.LINK_NO_FOLDER.format(path=path, folder=folder)
+    if os.path.isdir(path) and not os.path.islink(path):
+        return msg.LINK_IS_FOLDER.format(path=path)
     return None

@@ -9,6 +9,7 @@ import sys
 from typing import Sequence
 
 from fas.arch import PROFILES
+from fas.sim.builds import BUILDS
 
 from .. import messages as msg
 from ..subcommands import SUBCOMMANDS, help_lines, main_of
@@ -75,6 +76,9 @@ def build_parser(program: str = "demo") -> argparse.ArgumentParser:
                     help="architecture profile (default: atmega328p): " + ", ".join(PROFILES)
                     + " (ESP32 chips without a suffix: the oldest ESP-IDF upstream builds "
                     "them with; _idf5/_idf6: ESP-IDF 5.3 / 6)")
+    ap.add_argument("--build", default=None, choices=sorted(BUILDS), metavar="BUILD",
+                    help="the firmware build whose CPU costs the simulated chip runs "
+                         "(default: d): " + "; ".join(f"{k}: {v}" for k, v in BUILDS.items()))
     ap.add_argument("--max-time", type=float, default=3600.0, metavar="SECONDS",
                     help="give up a scripted run after this much simulated time "
                          "(default 3600 s; a W on a stepper that never stops ends here)")

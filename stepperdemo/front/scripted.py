@@ -51,7 +51,7 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
     if getattr(args, "board", None):  # issue 15: a board running the original StepperDemo
         from . import board
         return board.run_scripted(args, write)
-    backend = SimBackend(args.arch)
+    backend = SimBackend(args.arch, build=getattr(args, "build", None))
     if getattr(args, "test_mode_wait", False) and args.program == "demo":  # the demo's w
         args.program_options = {**getattr(args, "program_options", {}), "test_mode_wait": True}
     try:

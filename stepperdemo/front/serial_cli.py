@@ -335,11 +335,12 @@ def run_device(argv: Sequence[str]) -> int:
     from fas.serial import LinkClosed, Pty, RealClock, open_serial
     from fas.serial.stream import remove_link, set_link
 
-    from .arg_checks import speed_problem
+    from .arg_checks import link_problem, speed_problem
 
     args = device_parser().parse_args(argv)
     problem = speed_problem(args.speed) or (
-        "--watchdog-ms must be >= 0" if args.watchdog_ms < 0 else None)
+        "--watchdog-ms must be >= 0" if args.watchdog_ms < 0 else None) or link_problem(
+        args.link)
     if problem:
         print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE
@@ -527,7 +528,13 @@ def run_relay(argv: Sequence[str]) -> int:
     from fas.serial import LinkClosed, Pty, open_serial
     from fas.serial.stream import remove_link, set_link
 
+    from .arg_checks import link_problem
+
     args = relay_parser().parse_args(argv)
+    problem = link_problem(args.link)
+    if problem:
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
+        return EXIT_USAGE
     try:
         faults = Faults(drop=args.drop, corrupt=args.corrupt, dup=args.dup,
                         latency_ms=args.latency_ms, baud=args.baud, seed=args.seed,

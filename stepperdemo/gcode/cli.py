@@ -26,9 +26,13 @@ EXIT_USAGE = 2
 DESCRIPTION = f"""\
 A Grbl 1.1 controller on FastAccelStepper, for G-code senders and by hand: G0/G1
 straight lines whose axes start together, stay on the line and arrive together;
-G4 P<seconds>; G90/G91; G92/G92.1; M62/M63 P<n> digital output on/off after the
-motion before it, M64/M65 at once; M67/M68 E<n> Q<percent> PWM duty (synchronized /
-at once); M0 M2 M30.  A synchronized output or a dwell holds the parser (Grbl_ESP32).
+G2/G3 arcs (I/J/K or R, planes G17/G18/G19, segments within $12); G20/G21;
+G54-G59, G10 L2/L20, G92/G92.1, G43.1/G49, G53, G28/G30 (.1); G4 P<seconds>;
+G90/G91; M3/M4/M5 S spindle or laser ($32=1: Grbl's laser mode) and M7/M8/M9
+coolant on the user outputs the profile maps (docs/gcode.md); T, M6;
+M62/M63 P<n> digital output on/off after the motion before it, M64/M65 at once;
+M67/M68 E<n> Q<percent> PWM duty (synchronized / at once); M0 M2 M30.
+A synchronized output or a dwell holds the parser (Grbl_ESP32).
 Axes X Y Z A B C are steppers 1..6 of the profile's StepperDemo wiring.  Every line
 is answered 'ok' or 'error:N' (Grbl's numbers; the reason in a [MSG:...] line
 before it); after an error the program goes on (Grbl).  Real-time bytes act
@@ -45,6 +49,9 @@ commands on a device (see 'stepperdemo device').
 Settings ($$ lists them, $N=value or --set '$N=value' changes one):
   $1        step idle delay, ms (255 keeps the drivers on)     default {DEFAULT_IDLE_DELAY_MS}
   $10       status report: 1 MPos (else WPos) + 2 Bf:          default 3
+  $12       arc tolerance, units                               default 0.002
+  $30 $31   spindle speed S of full / of the least PWM duty    default 1000 0
+  $32       laser mode (M4 power follows the speed)            default 0
   $100-105  steps per unit, X Y Z A B C                        default {DEFAULT_STEPS_PER_UNIT:g}
   $110-115  maximum rate, units/min (also the G0 rate)         default {DEFAULT_MAX_RATE:g}
   $120-125  acceleration per axis, units/s^2                   default {DEFAULT_ACCELERATION:g}
@@ -100,6 +107,8 @@ def main(argv: Sequence[str]) -> int:
     if args.file is None and not serving and stdin_is_script():  # a pipe or a file: '-'
         args.file = "-"
     problem = arg_checks.number_problem(args)  # --max-time, --speed: finite, in range
+    if problem is None and args.pty:
+        problem = arg_checks.link_problem(args.link)
     if problem is None and args.axes < 1:
         problem = "--axes must be at least 1"
     elif problem is None and (args.pty or args.tcp) and args.file:
@@ -146,7 +155,10 @@ def scenario_program(path: str, text: str) -> str | None:
     """A scenario file given as G-code (issue 26): the problem to say, else None."""
     if not path.endswith(".toml"):
         return None
-    import tomllib
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # Python 3.10: tomli (a dependency there, pyproject.toml)
+        import tomli as tomllib
 
     try:
         data = tomllib.loads(text)
@@ -230,8 +242,13 @@ def run_endpoint(args: argparse.Namespace) -> int:
             lag=endpoint.lagged / backend.profile.ticks_per_s))
         print(msg.GCODE_ENDPOINT_POSITIONS.format(
             mpos=",".join(f"{v:.3f}" for v in m.machine_position()), state=m.state_name()))
+    problem = None
     if observers is not None:
-        for line in observe.finish_arguments(observers, args, app, title="gcode endpoint"):
+        lines, problem = observe.finish_arguments(observers, args, app, title="gcode endpoint")
+        for line in lines:
             print(line)
     sys.stdout.flush()
+    if problem is not None:  # checked before serving: a folder gone, a disk full since
+        print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
+        return EXIT_USAGE
     return 0

@@ -13,7 +13,7 @@ machine (auto enable off); leaving restores each stepper's auto enable.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from .. import messages as msg
 from .machine import GcodeMachine
@@ -21,7 +21,22 @@ from .parser import AXES
 from .settings import GcodeSettings
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..demo.app import StepperDemo
+    from fas import Engine, Stepper
+    from fas.backend import Backend
+
+
+class GcodeHost(Protocol):
+    """What the ``g`` mode uses of the program that hosts it (StepperDemo's app): its
+    steppers and engine, its printing, its failure count and the way back to its own
+    mode - the seam that keeps this module from importing the app."""
+
+    steppers: list[Stepper | None]
+    engine: Engine
+    backend: Backend
+    gcode_failures: int
+
+    def print(self, text: str | bytes) -> None: ...
+    def leave_gcode(self) -> None: ...
 
 EXIT_LINE = "X"  # "x" alone on a line, as the receive path hands it over
 
@@ -29,7 +44,7 @@ EXIT_LINE = "X"  # "x" alone on a line, as the receive path hands it over
 class DemoGcode:
     """The G-code machine inside StepperDemo's loop."""
 
-    def __init__(self, app: StepperDemo, settings: GcodeSettings | None = None) -> None:
+    def __init__(self, app: GcodeHost, settings: GcodeSettings | None = None) -> None:
         self.app = app
         steppers = [s for s in app.steppers if s is not None][:len(AXES)]
         self.auto_enable = [s.get_auto_enable() for s in steppers]

@@ -100,6 +100,8 @@ def dollar(m: GcodeMachine, text: str) -> Outcome:
         m.write(msg.GRBL_RESTORING)
         if what in ("$", "*"):
             m.restore_settings(startup=(what == "*"))
+        if what in ("#", "*"):
+            m.interp.clear_coordinates()  # G54-G59, G28, G30
         return m.soft_reset
     if first == "N":
         if body == "N":
@@ -197,10 +199,18 @@ def set_setting(m: GcodeMachine, number: int, value: float) -> None:
             return
         if number == 20:
             raise GcodeError(Err.SOFT_LIMIT_ERROR, msg.GCODE_ERR_SOFT_LIMITS)
-        if number == 32:
-            raise GcodeError(Err.SETTING_DISABLED_LASER, msg.GCODE_ERR_LASER)
         raise GcodeError(Err.INVALID_STATEMENT, msg.GCODE_ERR_HOMING.format(
             profile=m.backend.profile.name))
+    if number == 32:
+        if value not in (0, 1):
+            raise GcodeError(Err.INVALID_STATEMENT, msg.GCODE_ERR_SETTING_RANGE.format(
+                n=number, range="0 or 1"))
+        if value and m.tooling.spindle_output() is None:
+            raise GcodeError(Err.SETTING_DISABLED_LASER, msg.GCODE_ERR_LASER.format(
+                profile=m.backend.profile.name))
+    if number == 12 and value <= 0:
+        raise GcodeError(Err.INVALID_STATEMENT, msg.GCODE_ERR_SETTING_RANGE.format(
+            n=number, range="> 0"))
     if number in KEPT:
         st.kept[number] = value
         return

@@ -53,6 +53,7 @@ class TcpPort:
         self.address = self.server.getsockname()
         self.path = f"tcp://{self.address[0]}:{self.address[1]}"
         self.refused = 0
+        self._left = False  # the host went while being written to: not yet said
 
     def fileno_list(self) -> list:
         return [self.server] + ([self.client] if self.client is not None else [])
@@ -77,6 +78,9 @@ class TcpPort:
     def read(self) -> bytes | None:
         """What the host sent (b"": nothing now), or None while no host is connected.
         A host that has left is noticed before a new one is let in."""
+        if self._left:  # it went while answers were sent: say so before the next host
+            self._left = False
+            return None
         if self.client is None:
             self._accept()
             if self.client is None:
@@ -91,7 +95,9 @@ class TcpPort:
         if not data:  # the host closed the connection
             self._drop()
             return None
-        self._accept()
+        # no _accept() here: bytes may be the last a leaving host sent (its close is
+        # seen at the next read), and the one who connects next is then the next host;
+        # a second host is refused once this one is seen alive (nothing to read now)
         return data
 
     def _drop(self) -> None:
@@ -109,6 +115,7 @@ class TcpPort:
             return 0
         except OSError:
             self._drop()
+            self._left = True
             return 0
 
     def close(self) -> None:

@@ -34,7 +34,7 @@ from fas.codes import AqeResult
 
 from .interp import Move
 from .line import MAX_STEPS, MAX_TICKS, Limits, group_commands
-from .motion import BlockQueue, HoldState, MotionExecutor, MotionHost
+from .motion import BlockQueue, HoldState, MotionExecutor, MotionHost, SpeedListener
 from .timelaw import TimeLaw, ramp_to_rest, stop_from
 
 Command = tuple[int, int, bool]
@@ -111,6 +111,7 @@ class ExactStopExecutor(MotionExecutor):
         self.rapid_percent = 100
         self.runs: list[tuple[int, int]] = []  # (start tick, lead ticks) of every run
         self.holds: list[HoldRecord] = []
+        self.speed_listener: SpeedListener | None = None  # the laser hook (issue 25)
 
     # ------------------------------------------------------------- facts
     @property
@@ -367,8 +368,31 @@ class ExactStopExecutor(MotionExecutor):
                     a.pending.popleft()
                 if a.pending or a.finished or a.cur >= until:
                     break
+                start = a.cur
                 a.pending.extend(self._next(run, a))
+                if self.speed_listener is not None:
+                    self._tell_speed(run, a, start)
         return None
+
+    def set_speed_listener(self, fn: SpeedListener | None) -> bool:
+        self.speed_listener = fn
+        return True
+
+    def _tell_speed(self, run: Run, a: AxisFeed, start: int) -> None:
+        """The speed listener (laser mode): the path speed at each command of the
+        dominant axis just computed (``a.pending`` from ``start``), 0 at its end."""
+        if a is not max(run.axes, key=lambda x: x.n):
+            return
+        fn = self.speed_listener
+        assert fn is not None
+        tick = start
+        for ticks, steps, _up in a.pending:  # (empty before _next: only the new ones)
+            if steps:
+                t = (tick - run.origin) / self.tps
+                fn(tick, run.law.state_at(t)[1] * run.length * 60, run.block)
+            tick += ticks * steps if steps > 1 else ticks
+        if a.finished:
+            fn(a.cur, 0.0, run.block)
 
     def _tick(self, run: Run, a: AxisFeed, j: int) -> int | None:
         """Tick of the axis's step ``j`` (1..n) under the run's law (None: not in it)."""

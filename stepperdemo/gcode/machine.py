@@ -48,8 +48,10 @@ from .grbl_rx import (
     FEED_MINUS_10,
     FEED_PLUS_1,
     FEED_PLUS_10,
+    FLOOD_TOGGLE,
     HOLD,
     JOG_CANCEL,
+    MIST_TOGGLE,
     RAPID_25,
     RAPID_50,
     RAPID_100,
@@ -64,10 +66,24 @@ from .grbl_rx import (
     GrblReceiver,
     RxLine,
 )
-from .interp import Action, Dwell, End, Interpreter, Move, Pause, SetOffset, SetOutput
+from .interp import (
+    Action,
+    Dwell,
+    End,
+    Interpreter,
+    Move,
+    Pause,
+    Probe,
+    SetCoolant,
+    SetOffset,
+    SetOutput,
+    SetSpindle,
+)
 from .motion import BlockQueue, HoldState, MotionExecutor
 from .parser import AXES, GcodeError, parse_line
+from .probe import ProbeCycle
 from .settings import KEEP_ENABLED, GcodeSettings
+from .tooling import Tooling
 
 OVERRIDE_MIN, OVERRIDE_MAX = 10, 200  # feed and spindle override, percent
 _FEED_STEPS = {FEED_PLUS_10: 10, FEED_MINUS_10: -10, FEED_PLUS_1: 1, FEED_MINUS_1: -1}
@@ -105,6 +121,9 @@ class GcodeMachine:
         self.blocks = BlockQueue()
         self.executor: MotionExecutor = ExactStopExecutor(self, self.blocks)
         self.interp = Interpreter(self.axes, self.settings, check=self._check)
+        self.tooling = Tooling(self)  # spindle/laser and coolant outputs (issue 25)
+        self.executor.set_speed_listener(self.tooling.on_speed)  # laser mode
+        self.probe = ProbeCycle(self, self.tooling.map.probe)  # G38.x (issue 25)
         self.schedule = reports.ReportSchedule()
         self.alarm: int | None = None
         self.check_mode = False
@@ -232,7 +251,21 @@ class GcodeMachine:
             value = 100 if byte == SPINDLE_100 else (self.spindle_override
                                                       + _SPINDLE_STEPS[byte])
             self._set_overrides(spindle=min(OVERRIDE_MAX, max(OVERRIDE_MIN, value)))
-        # 0x9E spindle stop, 0xA0/0xA1 coolant toggles: no spindle or coolant yet
+        elif byte in (FLOOD_TOGGLE, MIST_TOGGLE):
+            self._toggle_coolant(byte == MIST_TOGGLE)
+        # 0x9E spindle stop (only in a hold, for a door's parking): not here
+
+    def _toggle_coolant(self, mist: bool) -> None:
+        """0xA0 / 0xA1: flood / mist coolant toggled at once (Idle, Run, Hold), the
+        modal state with it (as Grbl)."""
+        if self.state_name().split(":")[0] not in ("Idle", "Run", "Hold"):
+            return
+        it = self.interp
+        if mist:
+            it.mist = not it.mist
+        else:
+            it.flood = not it.flood
+        self.tooling.set_coolant(it.mist, it.flood)
 
     def feed_hold(self) -> None:
         """``!``: decelerate along the path and stop (Hold:1 -> Hold:0); a jog is
@@ -308,12 +341,17 @@ class GcodeMachine:
         if (self.feed_override, self.rapid_override, self.spindle_override) != old:
             self.schedule.overrides_changed()
             self.executor.set_overrides(self.feed_override, self.rapid_override)
+            if self.spindle_override != old[2]:
+                self.tooling.override_changed()
 
     # ----------------------------------------------------------------- lines
     def poll(self) -> None:
         """Everything that is due now: motion, the line in execution, new lines."""
         now = self.backend.now()
         self.executor.poll()
+        self.tooling.poll(now)
+        if (self.hold or self.door) and self.executor.hold_state() == HoldState.HELD:
+            self.tooling.hold_off()  # laser mode: no laser while held (Grbl)
         if self.jog_cancel and self.executor.hold_state() == HoldState.HELD:
             self._finish_jog_cancel()
         while True:
@@ -371,15 +409,13 @@ class GcodeMachine:
 
     def check_line(self, text: str) -> None:
         """Raise the error a G-code line would get, changing nothing (``$Nx=``)."""
-        saved = dict(self.interp.__dict__)
-        saved["position_steps"] = list(self.interp.position_steps)
-        saved["offset"] = list(self.interp.offset)
+        saved = self.interp.snapshot()
         try:
             if text.startswith("$"):
                 raise GcodeError(Err.INVALID_STATEMENT, msg.GCODE_ERR_STARTUP_DOLLAR)
             self.interp.interpret(parse_line(text))
         finally:
-            self.interp.__dict__.update(saved)
+            self.interp.restore(saved)
 
     def _startup(self, text: str) -> None:
         """A ``$N`` line after a reset, answered ``>LINE:ok`` (not counted as an ack)."""
@@ -416,7 +452,7 @@ class GcodeMachine:
             if isinstance(action, SetOffset):
                 self._apply_offset(action)
             elif isinstance(action, End):
-                self._program_end()
+                self._program_end(action, outputs=False)
             return True
         if isinstance(action, Move):
             if not self.blocks.room:
@@ -435,29 +471,41 @@ class GcodeMachine:
                 self._output(action)  # the library makes it when the queues run dry
                 run.handed = True
             return not self.engine.sync.active()
+        if isinstance(action, Probe):
+            return self.probe.execute(action)
         if isinstance(action, Dwell):
             if run.dwell_until is None and run.dwell_left is None:
                 if ex.busy() or ex.moving():
                     return False
                 run.dwell_until = now + int(action.seconds * self.backend.profile.ticks_per_s)
             return run.dwell_until is not None and now >= run.dwell_until
-        if ex.busy() or ex.moving():  # G92, M0, M2: after the motion before them
+        if ex.busy() or ex.moving():  # G92, M0, M2, M3..M9: after the motion before them
             return False
         if isinstance(action, SetOffset):
             self._apply_offset(action)
+        elif isinstance(action, SetSpindle):
+            self.tooling.poll(now)  # the laser's last changes first
+            self.tooling.set_spindle(action.state, action.speed)
+        elif isinstance(action, SetCoolant):
+            self.tooling.set_coolant(action.mist, action.flood)
         elif isinstance(action, Pause):
             self.hold = self.paused = True
             ex.hold()
         elif isinstance(action, End):
-            self._program_end()
+            self.tooling.poll(now)
+            self._program_end(action)
         return True
 
-    def _apply_offset(self, action: SetOffset) -> None:
-        if action.offset != self.wco:
+    def _apply_offset(self, action: SetOffset | End) -> None:
+        if action.offset and action.offset != self.wco:
             self.wco = action.offset
             self.schedule.offsets_changed()
 
-    def _program_end(self) -> None:
+    def _program_end(self, action: End, outputs: bool = True) -> None:
+        """M2/M30: G54's offset, spindle and coolant off (Grbl), overrides at 100 %."""
+        self._apply_offset(action)
+        if outputs:
+            self.tooling.all_off()
         self.ends += 1
         self._set_overrides(100, 100, 100)
         self.write(msg.GRBL_PGM_END)
@@ -475,6 +523,11 @@ class GcodeMachine:
     # ------------------------------------------------------------- checks
     def _check(self, action: Action) -> None:
         """Refuse a block before it changes anything (called by the interpreter)."""
+        if isinstance(action, Probe):
+            if not self.probe.available():
+                raise GcodeError(Err.UNSUPPORTED_COMMAND, msg.GCODE_ERR_NO_PROBE.format(
+                    code=f"G{action.code:g}", profile=self.backend.profile.name))
+            self._check_directions(action.move)
         if isinstance(action, SetOutput):
             outputs = self.engine.outputs
             name = f"{'Aout' if action.analog else 'Dout'}{action.number}"
@@ -619,6 +672,9 @@ class GcodeMachine:
                 times.append(now + b.profile.fill_period_ticks if nxt is None else nxt)
         if self.jog_cancel and self.executor.hold_state() == HoldState.HELD:
             times.append(now)
+        laser = self.tooling.wake_tick()
+        if laser is not None:
+            times.append(laser)
         if self._reading() and run is None and (self.rx.pending or self.startup_queue):
             times.append(now)
         if self.drivers_on and self.settings.idle_delay_ms != KEEP_ENABLED:
@@ -650,8 +706,10 @@ class GcodeMachine:
         queue and the synchronized outputs not yet made are dropped, the outputs keep
         their state; ALARM:3 (locked until ``$X``) when anything was under way."""
         busy = self.executor.busy() or self.executor.moving() or self.pending is not None
+        self.probe.cancel()
         self.executor.abort()
         self.engine.outputs.cancel_pending()
+        self.tooling.all_off()  # Grbl's mc_reset: spindle and coolant stop
         self._clear()
         if busy:
             self._raise_alarm(Alarm.ABORT_CYCLE, msg.GRBL_ABORTED)
@@ -663,10 +721,21 @@ class GcodeMachine:
     def motion_failed(self, result: AqeResult) -> None:
         """The library refused a queue command (a limit not checked): every axis stops,
         ALARM:3 (the position is not trusted) until ``$X``."""
+        self.probe.cancel()
         self.executor.abort()
         self.engine.outputs.cancel_pending()
+        self.tooling.all_off()
         self._clear()
         self._raise_alarm(Alarm.ABORT_CYCLE, msg.GCODE_MOTION_FAILED.format(code=result.name))
+
+    def probe_alarm(self, code: int, reason: str) -> None:
+        """A probe cycle failed (ALARM:4 touching at the start, ALARM:5 no contact):
+        every axis at rest, the queue and the lines waiting dropped, locked until $X."""
+        self.probe.cancel()
+        self.executor.abort()
+        self.blocks.clear()
+        self.interp.sync_position(self.positions())
+        self._raise_alarm(code, reason)
 
     def unlock(self) -> None:
         self.alarm = None
@@ -683,8 +752,10 @@ class GcodeMachine:
         every output off, everything received and queued dropped, the parser and the
         overrides as at power-on; the machine position is kept."""
         moving = self.executor.moving() or self.executor.hold_state() == HoldState.STOPPING
+        self.probe.cancel()
         self.executor.abort()
         self.engine.outputs.reset()
+        self.tooling.forget()
         self._clear()
         self._reset_state()
         if self.sleeping:
@@ -697,8 +768,10 @@ class GcodeMachine:
     def power_on(self) -> None:
         """A host opened the port (an Arduino's DTR reset): as at power-on - stopped,
         outputs off, machine position 0, drivers off; settings and ``$N`` lines kept."""
+        self.probe.cancel()
         self.executor.abort()
         self.engine.outputs.reset()
+        self.tooling.forget()
         for s in self.steppers:
             s.force_stop_and_new_position(0)
         if self.drivers_on:

@@ -21,9 +21,9 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from enum import Enum
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:  # pragma: no cover
     from fas.backend import Backend
@@ -33,6 +33,10 @@ if TYPE_CHECKING:  # pragma: no cover
     from .settings import GcodeSettings
 
 BLOCKS = 15  # usable planner blocks (Grbl's BLOCK_BUFFER_SIZE 16, one kept empty)
+
+#: the laser hook: ``fn(tick, speed units/min, move or None)`` - see
+#: :meth:`MotionExecutor.set_speed_listener`
+SpeedListener = Callable[[int, float, Any], None]
 
 
 class BlockQueue:
@@ -154,3 +158,12 @@ class MotionExecutor(ABC):
     @abstractmethod
     def path_rate(self) -> float:
         """The speed along the path now, units/min (``FS:``)."""
+
+    def set_speed_listener(self, fn: SpeedListener | None) -> bool:
+        """The laser hook (issue 25): ``fn(tick, speed, move)`` for every queue command
+        of the dominant axis (the one with the most steps) of each block, as the
+        command is written - ahead of time, with the tick at which it begins on the
+        pins - with the path speed from there in units/min (0 where the path stops)
+        and the block (the :class:`~.interp.Move`).  Grbl's M4 laser power follows it.
+        False: this executor has none."""
+        return False

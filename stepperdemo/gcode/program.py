@@ -39,7 +39,15 @@ COMPLETIONS = [
     ("G92", "set position (offset)"), ("M62", "Dout P on, synchronized"),
     ("M63", "Dout P off, synchronized"), ("M64", "Dout P on, at once"),
     ("M65", "Dout P off, at once"), ("M67", "Aout E duty Q%, synchronized"),
-    ("M68", "Aout E duty Q%, at once"), ("M2", "end of program"), ("$$", "settings"),
+    ("M68", "Aout E duty Q%, at once"),
+    ("G2", "arc clockwise: G2 X.. Y.. I.. J.. (or R..)"), ("G3", "arc counter-clockwise"),
+    ("G20", "inches"), ("G21", "millimetres"), ("G28", "to the stored position"),
+    ("G10 L20 P1", "set G54 so that here is X.. Y.."), ("G54", "work coordinates 1"),
+    ("G53", "this line in machine coordinates"), ("G43.1", "tool length offset Z.."),
+    ("M3", "spindle on at S"), ("M4", "spindle CCW; laser mode: power follows speed"),
+    ("M5", "spindle off"), ("M7", "mist coolant"), ("M8", "flood coolant"),
+    ("M9", "coolant off"),
+    ("M2", "end of program"), ("$$", "settings"),
     ("$J=", "jog: $J=G91 X10 F3000"), ("$X", "unlock after an alarm"),
     ("?", "status"), ("!", "feed hold"), ("~", "resume"),
 ]
@@ -238,6 +246,14 @@ class GcodeProgram(Program):
         axes = " ".join(f"{AXES[i]}{s.get_current_position()}"
                         for i, s in enumerate(self.machine.steppers))
         return f"{axes} | queue {len(self.machine.blocks)}"
+
+    def path_units(self) -> dict[int, float]:
+        """Steps per unit of each axis by its stepper number (M1 = X ...): ``--plot``
+        shows the feed along the path with it."""
+        if self.machine is None:
+            return {}
+        st = self.machine.settings
+        return {i + 1: st.steps_per_unit[i] for i in range(self.machine.axes)}
 
     def exit_code(self) -> int:
         """1 when any line was answered with an error."""

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from .interp import MM_PER_INCH
+from .parser import code_name
 from .settings import FIXED, KEPT, SWITCHES
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -82,7 +84,7 @@ def status_report(m: GcodeMachine) -> str:
         fields.append("WPos:" + axis_values([p - o for p, o in zip(mpos, wco, strict=True)]))
     if st.status_mask & 2:
         fields.append(f"Bf:{m.blocks.room},{m.rx.free}")
-    fields.append(f"FS:{m.executor.path_rate():.0f},0")
+    fields.append(f"FS:{m.executor.path_rate():.0f},{m.tooling.reported_speed():.0f}")
     show_wco, show_ov = m.schedule.fields(state.split(":")[0] in BUSY_STATES)
     if show_wco:
         fields.append("WCO:" + axis_values(wco))
@@ -97,30 +99,42 @@ def status_report(m: GcodeMachine) -> str:
 
 
 def parser_state(m: GcodeMachine) -> str:
-    """``$G``: the modal state in Grbl's order."""
+    """``$G``: the modal state in Grbl's order - motion, coordinate system, plane,
+    units, distance, feed mode, [M0/M2/M30], spindle, coolant, T, F, S."""
     it = m.interp
-    words = [f"G{it.motion}", "G54", f"G{it.plane}", "G21", "G90" if it.absolute else "G91",
-             "G94"]
+    words = [code_name("G", it.motion), f"G{54 + it.coord_select}", f"G{it.plane}",
+             "G20" if it.inches else "G21", "G90" if it.absolute else "G91",
+             "G93" if it.inverse_time else "G94"]
     if m.paused:
         words.append("M0")
-    words += ["M5", "M9", f"T{it.tool}", f"F{it.feed:.0f}", f"S{it.spindle_speed:.0f}"]
+    words.append(f"M{it.spindle}")
+    coolant = (["M7"] if it.mist else []) + (["M8"] if it.flood else [])
+    words += coolant or ["M9"]
+    feed = it.feed / MM_PER_INCH if it.inches and not it.inverse_time else it.feed
+    words += [f"T{it.tool}", f"F{feed:.0f}", f"S{it.spindle_speed:.0f}"]
     return "[GC:" + " ".join(words) + "]"
 
 
 def parameters(m: GcodeMachine) -> list[str]:
-    """``$#``: the coordinate systems (all zero: G10 comes with issue 25), G28/G30, the
-    G92 offset, the tool length offset and the last probe."""
-    zero = axis_values([0.0] * m.axes)
-    lines = [f"[G{n}:{zero}]" for n in range(54, 60)]
-    lines += [f"[G28:{zero}]", f"[G30:{zero}]", "[G92:" + axis_values(list(m.interp.offset))
-              + "]", "[TLO:0.000]", f"[PRB:{zero}:0]"]
+    """``$#``: G54-G59, G28, G30 (machine units), the G92 offset, the tool length
+    offset and the last probe (machine units, 1: it touched)."""
+    it = m.interp
+    c = it.coords
+    lines = [f"[G{54 + n}:{axis_values(c.systems[n])}]" for n in range(len(c.systems))]
+    lines += [f"[G28:{axis_values(c.g28)}]", f"[G30:{axis_values(c.g30)}]",
+              "[G92:" + axis_values(list(it.offset)) + "]", f"[TLO:{it.tlo:.3f}]",
+              m.probe.report()]
     return lines
 
 
 def build_info(m: GcodeMachine) -> list[str]:
     """``$I``: Grbl's version with our identity in the user string, and the options."""
+    # Grbl's option letters: V a variable (PWM) spindle, M mist coolant (M7)
+    mist = m.tooling.map.mist
+    options = ("V" if m.tooling.spindle_output() is not None else "") + (
+        "M" if mist is not None and m.tooling.role(False, mist) is not None else "")
     return [f"[VER:{GRBL_VERSION}:{m.settings.build_info or m.identity}]",
-            f"[OPT:,{m.blocks.size},{m.rx.ring_size}]"]
+            f"[OPT:{options},{m.blocks.size},{m.rx.ring_size}]"]
 
 
 def settings_lines(m: GcodeMachine) -> list[str]:

@@ -13,11 +13,12 @@ three), and A, B, C when the machine has those axes.
             (255: keep them on)
  $2-$6      step/dir/enable/limit/probe inversion masks (fixed)         0
  $10        status report: 1 MPos (else WPos), +2 ``Bf:`` buffer state  3
- $11 $12    junction deviation, arc tolerance (kept for issue 25)       0.010 0.002
+ $11        junction deviation (kept for the look-ahead executor)       0.010
+ $12        arc tolerance: G2/G3 segments stay this close, units        0.002
  $13        report inches (fixed: no inches)                            0
  $20-$27    soft limits, hard limits, homing (no limit inputs: 0)       Grbl's
- $30 $31    spindle max/min rpm (kept; no spindle yet)                  1000 0
- $32        laser mode (needs a PWM spindle: 0)                         0
+ $30 $31    spindle speed (S) of full / of the least duty (.tooling)    1000 0
+ $32        laser mode: 1 needs a spindle PWM output (.tooling)         0
  $100-105   steps per unit, axes X Y Z A B C                            1 (steps)
  $110-115   maximum rate, units/min (also the G0 rate)                  600000
  $120-125   acceleration, units/s² (per axis)                           10000
@@ -50,12 +51,12 @@ KEEP_ENABLED = 255
 
 #: settings shown with Grbl's value that this machine cannot change: number -> value
 FIXED = {0: 10, 2: 0, 3: 0, 4: 0, 5: 0, 6: 0, 13: 0, 21: 0, 23: 0}
-#: settings kept and shown, used by nothing yet (issue 25: junction deviation, arcs,
-#: spindle; homing figures): number -> (default, decimals)
+#: settings kept and shown (the arc tolerance, the spindle range and laser mode are
+#: read from here; the homing figures are only kept): number -> (default, decimals)
 KEPT = {11: (0.010, 3), 12: (0.002, 3), 24: (25.0, 3), 25: (500.0, 3), 26: (250.0, 0),
-        27: (1.0, 3), 30: (1000.0, 0), 31: (0.0, 0)}
-#: flags a machine without limit inputs or spindle can only keep at 0
-SWITCHES = (20, 22, 32)
+        27: (1.0, 3), 30: (1000.0, 0), 31: (0.0, 0), 32: (0.0, 0)}
+#: flags a machine without limit inputs can only keep at 0
+SWITCHES = (20, 22)
 
 
 @dataclass

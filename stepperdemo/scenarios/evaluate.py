@@ -216,3 +216,43 @@ def compare_steps(ours: list[float], ref: list[float], align: str = "absolute",
     return TimingComparison(len(ours), len(ref), statistics.median(devs) if devs else 0.0,
                             max(devs) if devs else 0.0, worst, dur_o, dur_r, offset,
                             ours[0] - ref[0] if n else 0.0)
+
+
+# --------------------------------------------------- `e`: the timer-wrap gaps
+GAP_US = 4000.0  # a step interval this long is a missed compare: the timer wrapped
+FAST_US = 2000.0  # ... when it comes between fast steps (not the slow start of a ramp)
+WINDOW_PERIOD_US = 256_000.0  # `e` blocks while millis() & 0xff < 0x40: every 256 ms ...
+WINDOW_SPAN_US = 72_000.0  # ... for 64 ms of millis() and the last block (+ margin)
+
+
+def wrap_gaps(times: Sequence[float]) -> list[float]:
+    """Start times (µs) of the ~4.1 ms gaps among rising step edges: an interval of
+    ``GAP_US`` or more next to intervals shorter than ``FAST_US`` (a compare missed
+    while interrupts were blocked; the 16-bit timer wrapped before it matched)."""
+    out = []
+    n = len(times)
+    for i in range(1, n - 1):
+        if times[i] - times[i - 1] < GAP_US:
+            continue
+        j = i - 1  # the nearest intervals that are no gaps, on both sides
+        while j >= 1 and times[j] - times[j - 1] >= GAP_US:
+            j -= 1
+        k = i + 1
+        while k < n and times[k] - times[k - 1] >= GAP_US:
+            k += 1
+        before = times[j] - times[j - 1] if j >= 1 else None
+        after = times[k] - times[k - 1] if k < n else None
+        if (before is not None and before < FAST_US) or (after is not None and after < FAST_US):
+            out.append(times[i - 1])
+    return out
+
+
+def gaps_per_window(gap_starts: Sequence[float]) -> dict[int, int]:
+    """Gaps per window of `e` (window k: the 256 ms period k, from its start to
+    ``WINDOW_SPAN_US`` after it), by window number; gaps outside windows are left out."""
+    out: dict[int, int] = {}
+    for g in gap_starts:
+        k = int(g // WINDOW_PERIOD_US)
+        if g - k * WINDOW_PERIOD_US < WINDOW_SPAN_US:
+            out[k] = out.get(k, 0) + 1
+    return out

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from fas.arch import PROFILES
+from fas.sim.builds import check_build
 
 from ..demo.build import pin_config_problem
 from ..program import programs
@@ -31,7 +32,9 @@ TOLERANCE_KEYS = {
     "position": int, "pulses": int, "dir": int, "enable": int,
     "enable_high_us": (int, float), "step_high_total_pct": (int, float),
     "step_high_total_us": (int, float), "step_high_max_us": (int, float),
+    "position_pct": (int, float), "pulses_pct": (int, float),
 }
+GAPS_KEYS = {"steppers": list, "per_window": int}
 KNOWN_DEVIATION_KEYS = {"measured": (int, float, str), "reason": str}
 TIMING_KEYS = {
     "steppers": list, "align": str, "median_us": (int, float), "max_us": (int, float),
@@ -41,8 +44,8 @@ TOP_KEYS = {
     "name": str, "description": str, "program": str, "profile": str, "input": str,
     "input_file": str, "end": str,
     "max_time_s": (int, float), "long": bool, "reference": str, "justification": str,
-    "steppers": dict, "timing": dict, "transcript": dict, "outputs": dict,
-    "pin_config": int, "known_deviation": dict,
+    "steppers": dict, "timing": dict, "transcript": dict, "outputs": dict, "build": str,
+    "gaps": dict, "pin_config": int, "known_deviation": dict,
 }
 # user outputs (issue 12): [outputs.Dout0] ... [outputs.Aout3]
 OUTPUT_KEYS = {
@@ -94,6 +97,14 @@ class TimingExpectation:
 
 
 @dataclass
+class GapsExpectation:
+    """The timer-wrap gaps of `e` per window, against the reference's step files."""
+
+    steppers: list[str]
+    per_window: int = 1  # tolerance on each window's count
+
+
+@dataclass
 class Scenario:
     path: Path
     name: str
@@ -101,6 +112,7 @@ class Scenario:
     description: str = ""
     program: str = "demo"  # the program the input is for (stepperdemo.program.programs)
     profile: str = "atmega328p"
+    build: str | None = None  # the firmware build (fas.sim.builds; None: the default)
     end: str = "idle"
     max_time_s: float = 600.0
     long: bool = False
@@ -112,6 +124,7 @@ class Scenario:
     contains: list[str] = field(default_factory=list)
     not_contains: list[str] = field(default_factory=list)
     transcript_ref: Path | None = None  # whole transcript to match (scenarios.transcript)
+    gaps: GapsExpectation | None = None
     pin_config: int | None = None  # StepperDemo's start-up prompt answered with this digit
     pcnt_sync: tuple[str, int] | None = None  # (motor, tolerance): status lines vs counter
     # checks not met yet, by check name: {"measured": value named by the file, "reason"}
@@ -167,6 +180,11 @@ def load(path: Path | str) -> Scenario:
         raise ScenarioError(path, "end", "must be 'idle' or 'firmware'")
     if data.get("max_time_s", 1) <= 0:
         raise ScenarioError(path, "max_time_s", "must be positive")
+    build = data.get("build")
+    try:
+        check_build(build)
+    except ValueError as exc:
+        raise ScenarioError(path, "build", str(exc)) from None
     pin_config = data.get("pin_config")
     if pin_config is not None:
         if program != "demo":
@@ -177,7 +195,7 @@ def load(path: Path | str) -> Scenario:
             raise ScenarioError(path, "pin_config", problem.split(": ", 1)[1])
     sc = Scenario(path=path, name=data["name"], input=data["input"],
                   description=data.get("description", ""), program=program,
-                  profile=profile, end=end,
+                  profile=profile, build=build, end=end,
                   max_time_s=float(data.get("max_time_s", 600.0)), long=data.get("long", False),
                   justification=data.get("justification", ""), pin_config=pin_config)
     for what, entry in data.get("known_deviation", {}).items():
@@ -255,6 +273,19 @@ def load(path: Path | str) -> Scenario:
                                     f"no steps_{letter}.tsv.gz in {sc.reference}")
         sc.timing = TimingExpectation(steppers, align, t.get("median_us"), t.get("max_us"),
                                       t.get("duration_ratio"), t.get("start_us"))
+    if "gaps" in data:
+        g = data["gaps"]
+        _check_types(path, "gaps.", g, GAPS_KEYS)
+        if sc.reference is None:
+            raise ScenarioError(path, "gaps", "needs 'reference' (the folder of steps files)")
+        letters = g.get("steppers", ["A"])
+        for letter in letters:
+            if not (sc.reference / f"steps_{letter}.tsv.gz").exists():
+                raise ScenarioError(path, "gaps.steppers",
+                                    f"no steps_{letter}.tsv.gz in {sc.reference}")
+        if g.get("per_window", 1) < 0:
+            raise ScenarioError(path, "gaps.per_window", "must not be negative")
+        sc.gaps = GapsExpectation(letters, g.get("per_window", 1))
     if "transcript" in data:
         tr = data["transcript"]
         for key, value in tr.items():

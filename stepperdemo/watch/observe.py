@@ -225,9 +225,12 @@ def finish_arguments(obs: Observers, args: argparse.Namespace, app=None,
     out: list[str] = []
     problem = None
     if args.plot:
+        series = plots.series_of(obs)
+        units = getattr(app, "path_units", None)  # G-code: the feed along the path too
+        feed = plots.path_feed(series, units()) if callable(units) else None
         problem = plots.write_png_or_problem(
-            plots.series_of(obs), args.plot, plots.parse_size(args.plot_size),
-            title=plots.plot_title(title), outputs=plots.outputs_of(obs))
+            series, args.plot, plots.parse_size(args.plot_size),
+            title=plots.plot_title(title), outputs=plots.outputs_of(obs), feed=feed)
     if args.report:
         out.extend(report.report_lines(obs, positions=report.library_positions(app)))
         if app is not None:

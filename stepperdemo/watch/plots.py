@@ -75,6 +75,46 @@ def outputs_of(obs: Observers) -> list[OutputSeries]:
     return out
 
 
+@dataclass
+class PathFeed:
+    """The feed along a path of several axes (G-code): units/min over time."""
+
+    t_s: list[float]
+    feed: list[float]
+
+
+def _speed_at(s: Series, t: float, k: int) -> float:
+    """The stepper's speed at ``t`` (linear between its samples; 0 outside them);
+    ``k`` is the index of the first sample at or after ``t``."""
+    if k >= len(s.t_s) or (k == 0 and t < s.t_s[0]):
+        return 0.0
+    if s.t_s[k] == t or k == 0:
+        return s.speed[k]
+    t0, t1 = s.t_s[k - 1], s.t_s[k]
+    return s.speed[k - 1] + (s.speed[k] - s.speed[k - 1]) * (t - t0) / (t1 - t0)
+
+
+def path_feed(series: Sequence[Series], units: dict[int, float]) -> PathFeed | None:
+    """The feed along the path, ``60 * sqrt(sum((v_i / steps_per_unit_i)^2))`` units/min,
+    at every sample time of the axes in ``units`` (stepper number -> steps per unit);
+    None when none of them moved."""
+    axes = [s for s in series if s.number in units and s.t_s]
+    if not axes:
+        return None
+    times = sorted({t for s in axes for t in s.t_s})
+    idx = [0] * len(axes)
+    feed = []
+    for t in times:
+        total = 0.0
+        for j, s in enumerate(axes):
+            while idx[j] < len(s.t_s) and s.t_s[idx[j]] < t:
+                idx[j] += 1
+            v = _speed_at(s, t, idx[j]) / units[s.number]
+            total += v * v
+        feed.append(60.0 * total ** 0.5)
+    return PathFeed(times, feed)
+
+
 MIN_SIDE, MAX_SIDE = 200, 10_000  # pixels a side of a PNG plot
 MAX_PIXELS = 40_000_000  # (a 10000x4000 image: 160 MB while matplotlib draws it)
 FORMATS = (".png", ".svg", ".pdf")  # what --plot and /plot write, by the file's suffix
@@ -217,14 +257,16 @@ DPI = 100
 
 
 def write_png(series: Sequence[Series], path: str, size: tuple[int, int] = (1200, 800),
-              title: str = "", outputs: Sequence[OutputSeries] = ()) -> None:
+              title: str = "", outputs: Sequence[OutputSeries] = (),
+              feed: PathFeed | None = None) -> None:
     """Position and speed over time, one line per stepper, as a PNG of ``size`` pixels;
-    with ``outputs`` a third panel: Dout levels (offset per output) and Aout duty."""
-    figure(series, size, title, outputs).savefig(path, dpi=DPI)
+    with ``outputs`` a panel of Dout levels (offset per output) and Aout duty; with
+    ``feed`` (G-code) a panel of the feed along the path."""
+    figure(series, size, title, outputs, feed).savefig(path, dpi=DPI)
 
 
 def figure(series: Sequence[Series], size: tuple[int, int] = (1200, 800), title: str = "",
-           outputs: Sequence[OutputSeries] = ()):
+           outputs: Sequence[OutputSeries] = (), feed: PathFeed | None = None):
     """The matplotlib figure of :func:`write_png`."""
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -234,8 +276,14 @@ def figure(series: Sequence[Series], size: tuple[int, int] = (1200, 800), title:
     dpi = DPI
     fig = Figure(figsize=(size[0] / dpi, size[1] / dpi), dpi=dpi, layout="constrained")
     FigureCanvasAgg(fig)
-    axes = fig.subplots(3 if outputs else 2, 1, sharex=True)
+    panels = 2 + bool(outputs) + (feed is not None)
+    axes = fig.subplots(panels, 1, sharex=True)
     ax_pos, ax_speed = axes[0], axes[1]
+    if feed is not None:
+        ax_feed = axes[2]
+        ax_feed.plot(feed.t_s, feed.feed, linewidth=1.2, color="black")
+        ax_feed.set_ylabel(msg.PLOT_TITLE_FEED)
+        ax_feed.grid(True, alpha=0.3)
     for s in series:
         ax_pos.plot(s.t_s, s.position, label=s.label, linewidth=1.2)
         ax_speed.plot(s.t_s, s.speed, label=s.label, linewidth=1.2)
@@ -243,7 +291,7 @@ def figure(series: Sequence[Series], size: tuple[int, int] = (1200, 800), title:
     ax_speed.set_ylabel(msg.PLOT_TITLE_SPEED)
     axes[-1].set_xlabel(msg.PLOT_AXIS_TIME)
     if outputs:
-        ax_out = axes[2]
+        ax_out = axes[-1]
         digital = [o for o in outputs if not o.analog]
         for i, o in enumerate(digital):  # 0/1 levels stacked above the duty range
             ax_out.step(o.t_s, [110 + 15 * i + 10 * v for v in o.value], where="post",
@@ -268,14 +316,16 @@ def figure(series: Sequence[Series], size: tuple[int, int] = (1200, 800), title:
 
 def write_png_or_problem(series: Sequence[Series], path: str,
                          size: tuple[int, int] | None = (1200, 800), title: str = "",
-                         outputs: Sequence[OutputSeries] = ()) -> str | None:
+                         outputs: Sequence[OutputSeries] = (),
+                         feed: PathFeed | None = None) -> str | None:
     """:func:`write_png`; a file that cannot be written is a one-line problem (None:
     written)."""
     problem = path_problem(path)
     if problem is not None:
         return problem
     try:
-        write_png(series, path, size or (1200, 800), title=title, outputs=outputs)
+        write_png(series, path, size or (1200, 800), title=title, outputs=outputs,
+                  feed=feed)
     except (OSError, ValueError, MemoryError) as exc:
         return msg.OBSERVE_FILE_ERROR.format(path=path, error=exc)
     return None

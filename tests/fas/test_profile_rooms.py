@@ -32,7 +32,24 @@ def test_the_atmega32u4_has_its_own_timing_beside_its_family():
     avr, usb = sim_timing(ATMEGA328P), sim_timing(get_profile("atmega32u4"))
     assert usb != avr
     assert (usb.char_ticks, usb.uart_byte_ticks) == (40, 0)
-    assert replace(usb, char_ticks=avr.char_ticks, uart_byte_ticks=avr.uart_byte_ticks) == avr
+    # its USB CDC driver costs a little per write call, its start-up code is larger;
+    # otherwise it is an ATmega328P
+    assert usb.console_call_ticks > 0 and usb.boot_ticks > avr.boot_ticks
+    assert replace(usb, char_ticks=avr.char_ticks, uart_byte_ticks=avr.uart_byte_ticks,
+                   console_call_ticks=0, boot_ticks=avr.boot_ticks) == avr
+
+
+def test_a_firmware_build_changes_only_the_figures_it_lists():
+    from fas.sim.builds import BUILDS
+    from fas.sim.timing import BY_BUILD
+
+    assert set(BY_BUILD) <= set(BUILDS)
+    assert sim_timing(ATMEGA328P, "d") is sim_timing(ATMEGA328P)
+    assert sim_timing(get_profile("esp32"), "e") is sim_timing(get_profile("esp32"))
+    e = sim_timing(ATMEGA328P, "e")
+    assert e.fill_entry_ticks < sim_timing(ATMEGA328P).fill_entry_ticks  # its code is leaner
+    with pytest.raises(ValueError, match="unknown firmware build 'x'"):
+        sim_timing(ATMEGA328P, "x")
 
 
 def test_a_variant_the_tables_do_not_list_times_as_its_family_and_has_no_extras():

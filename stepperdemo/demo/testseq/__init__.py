@@ -13,7 +13,7 @@ this value).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Callable, Protocol
 
 from ... import messages as msg
 from ..build import demo_build
@@ -21,13 +21,30 @@ from .rand import make_rand
 
 if TYPE_CHECKING:  # pragma: no cover
     from fas import Stepper
-
-    from ..app import StepperDemo
+    from fas.arch import Profile
+    from fas.backend import Backend
 
 TEST_STATE_ERROR = 0xFFFF
 PULSE_COUNTER_RAND_SEED = 135  # sequences 08 and 09 seed their random numbers with it
 
-Sequence = Callable[["StepperDemo", "Stepper", "SeqSlot", int], bool]
+
+
+class SeqHost(Protocol):
+    """What a sequence uses of the program that runs it (StepperDemo's app): its
+    chip, its backend and its printing - the seam that keeps the sequences from
+    importing the app."""
+
+    @property
+    def profile(self) -> Profile: ...
+    @property
+    def backend(self) -> Backend: ...
+    def print(self, text: str | bytes) -> None: ...
+    def println(self, text: str | bytes = "") -> None: ...
+    def print_number(self, value: int) -> None: ...
+    def println_number(self, value: int) -> None: ...
+
+
+Sequence = Callable[["SeqHost", "Stepper", "SeqSlot", int], bool]
 
 
 class SeqSlot:
@@ -84,7 +101,7 @@ def elapsed(now_ms: int, since_ms: int) -> int:
     return (now_ms - since_ms) & 0xFFFFFFFF
 
 
-def start_with_pulse_counter(app: StepperDemo, stepper: Stepper, slot: SeqSlot,
+def start_with_pulse_counter(app: SeqHost, stepper: Stepper, slot: SeqSlot,
                              time_ms: int) -> bool:
     """First state of sequences 08 and 09: seed the random numbers, attach pulse
     counter 7 (where the chip has one) and note the time.  True when the counter

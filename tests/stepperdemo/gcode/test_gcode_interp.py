@@ -52,9 +52,9 @@ def test_malformed_lines_are_refused_with_grbls_number(line, code, reason):
 
 
 @pytest.mark.parametrize("line, code, reason", [
-    ("G2 X1 Y1 I5", 20, "G2 (arc) is not supported yet"),
-    ("M3 S1000", 20, "unsupported command M3"),
-    ("G20", 20, "G20 (inches) is not supported"),
+    ("G2 X1 Y1 I5", 22, "undefined feed rate: G2 needs F"),
+    ("G64", 20, "unsupported command G64"),
+    ("M3 M5", 21, "M3 and M5 in one line"),
     ("G0 G1 X1", 21, "G0 and G1 in one line"),
     ("G90 G91", 21, "G90 and G91 in one line"),
     ("M62 M63 P1", 21, "M62 and M63 in one line"),
@@ -159,7 +159,7 @@ def test_jogs_take_only_their_words_and_change_no_modal_state():
     assert it.absolute and it.feed == 100 and it.motion == 1
     assert it.jog(parse_line("G53 X0 Y0 F100")).target == (0, 0, 0)  # machine coordinates
     for words, code in (("X1", 22), ("F100", 26), ("G1 X1 F100", 16), ("M3 X1 F9", 16),
-                        ("X1 F100 S5", 36), ("G20 X1 F1", 20)):
+                        ("X1 F100 S5", 36), ("G20 G21 X1 F1", 21)):
         with pytest.raises(GcodeError) as exc:
             it.jog(parse_line(words))
         assert exc.value.code == code, words

@@ -87,9 +87,9 @@ def test_diagonal_axes_start_together_stay_on_the_line_and_end_together():
 
 
 def test_every_line_is_answered_and_errors_do_not_stop_the_program():
-    backend, app, reason = run("G1 X100 F60000\nG1 X50 Q3\nM3 S1000\nG0 X0\n")
+    backend, app, reason = run("G1 X100 F60000\nG1 X50 Q3\nM3 S1000 M13\nG0 X0\n")
     assert lines(app) == ["ok", "[MSG:unused word(s): Q]", "error:36",
-                          "[MSG:unsupported command M3]", "error:20", "ok"]
+                          "[MSG:unsupported command M13]", "error:20", "ok"]
     assert app.exit_code() == 1
     assert app.steppers[0].get_current_position() == 0
     assert backend.recorder.rising(9)[-1] > 0 and len(backend.recorder.rising(9)) == 200

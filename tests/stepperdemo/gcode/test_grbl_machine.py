@@ -56,12 +56,13 @@ def test_bytes_at_or_above_0x80_never_enter_a_line_and_overlong_lines_are_error_
 
 def test_unknown_words_and_lines_in_alarm_answer_error_and_the_session_goes_on():
     g = grbl()
-    g.send(b"G1 X10 F600 W3\nhello world\nG2 X1 Y1 I5\nG0 X3\n")
+    g.send(b"G1 X10 F600 W3\nhello world\nG2 X1 Y1 R0.5 F9\nG0 X3\n")
     g.settle()
     assert lines(g.take()) == [
         "[MSG:unknown word W3]", "error:20",
         "[MSG:H needs a number: 'HELLOWORLD' is not G-code]", "error:2",
-        "[MSG:G2 (arc) is not supported yet: straight lines only (G0, G1)]", "error:20",
+        "[MSG:arc radius R0.5 is less than half the distance to the target (0.707107)]",
+        "error:34",
         "ok"]
     g.send(b"G0 X400\n")
     g.advance(0.01)
@@ -189,7 +190,7 @@ def test_jog_and_jog_cancel():
 
 @pytest.mark.parametrize("line, code", [
     ("$J=G91 X10", 22), ("$J=G91 F100", 26), ("$J=G91 G1 X1 F100", 16), ("$JX=1", 16),
-    ("$H", 5), ("$22=1", 3), ("$20=1", 10), ("$32=1", 17), ("$0=2", 6), ("$1=-1", 4),
+    ("$H", 5), ("$22=1", 3), ("$20=1", 10), ("$32=2", 3), ("$0=2", 6), ("$1=-1", 4),
     ("$Z", 2), ("$$$", 3), ("$RST=X", 3), ("$999=1", 3), ("$N5=G0", 3), ("$110=abc", 2),
 ])
 def test_dollar_commands_refused_with_grbls_number(line, code):
@@ -300,7 +301,7 @@ def test_startup_lines_run_after_a_reset_and_settings_persist():
     assert out[:2] == ["ok", "[MSG:X needs a number: 'X' is not G-code]"]
     assert out[2:6] == ["error:2", "$N0=G91", "$N1=", "ok"]
     assert out[6] == "[VER:1.1h.20190830:stepperdemo py-fas-0.1.0 atmega2560]"
-    assert out[7] == "[OPT:,15,128]"
+    assert out[7] == "[OPT:VM,15,128]"  # a PWM spindle and mist coolant (atmega2560)
     g.send(b"$100=80\n\x18")  # the reset comes first: the line in the ring is gone
     g.settle()
     assert g.machine.settings.steps_per_unit[0] == 1

@@ -1,0 +1,109 @@
+"""Interrupt contention on the AVR: a step pulse lasts as long as its interrupt waits.
+
+The compare hardware raises the step pin; the step interrupt lowers it ``lat`` ticks
+after it is entered and writes the next compare ``ocr`` ticks later.  It is entered once
+no routine holds the CPU with interrupts off; pending requests enter in priority order.
+"""
+
+from fas.arch import ATMEGA328P
+from fas.sim.machine import PRIO_STEP_ISR, PRIO_TASK, Machine
+from fas.sim.timing import sim_timing
+from rigs.sim import make
+
+T = sim_timing(ATMEGA328P)
+LAT_A, OCR, SEI = T.isr_latency(0), T.isr_ocr_ticks, T.sei_ticks
+BLOCK = 4 * (4 * 100 - 5) + 2  # StepperDemo's `e`: cli, delayMicroseconds(100), sei
+
+
+def test_requests_pending_at_the_end_of_a_block_enter_one_after_another_by_priority():
+    m = Machine(ATMEGA328P)
+    seen = []
+    # requested during the block: channel B first, then the ramp task, then channel A
+    m.schedule(50, lambda: seen.append(("B", m.now)), PRIO_STEP_ISR + 1, enter=146)
+    m.schedule(70, lambda: seen.append(("task", m.now)), PRIO_TASK, enter=50)
+    m.schedule(100, lambda: seen.append(("A", m.now)), PRIO_STEP_ISR, enter=120)
+    m.block_interrupts(BLOCK)  # [0, 1582)
+    m.run_until(5000)
+    end = BLOCK + SEI  # the instruction after sei runs first
+    assert seen == [("A", end), ("B", end + 120), ("task", end + 120 + 146)]
+
+
+def test_a_request_before_the_block_is_entered_before_it_and_delays_the_cli():
+    m = Machine(ATMEGA328P)
+    seen = []
+    m.schedule(100, lambda: seen.append(m.now), PRIO_STEP_ISR, enter=120)
+    m.run_until(100)
+    m.block_interrupts(BLOCK)  # the loop gets to its cli once the routine returned
+    assert seen == [100]
+    assert (m.irq_blocked_from, m.irq_blocked_until) == (220, 220 + BLOCK)
+
+
+def test_a_compare_while_timer_0_interrupts_waits_for_it():
+    backend, _, s = make()
+    m = backend.machine
+    backend.app_started()  # timer 0 runs: millis()
+    s.set_speed_in_us(40)
+    s.set_acceleration(1_000_000)
+    s.move(30000)
+    backend.run_for_ms(1000)
+    times, levels = backend.recorder.pin_edges(9)
+    first, ov, cost = m.tick_at_millis(0), T.millis_overflow_ticks, T.millis_isr_ticks
+    waited = on_time = 0
+    for rise, fall, level in zip(times, times[1:], levels, strict=False):
+        if not level:
+            continue
+        into = (rise - first) % ov
+        if rise > first + ov and into < cost:  # inside timer 0's routine
+            assert fall - rise == LAT_A + cost - into
+            waited += 1
+        elif fall - rise == LAT_A:
+            on_time += 1
+    assert waited > 100 and on_time > 20000
+
+
+def _steady(period_us: int):
+    """A stepper at constant speed; the machine stopped just after a rising edge."""
+    backend, _, s = make()
+    s.set_speed_in_us(period_us)
+    s.set_acceleration(1_000_000)
+    s.move(100_000)
+    backend.run_for_ms(200)
+    backend.channels[0].deliver_until(backend.now())  # a block of pulses reports at its end
+    edge = backend.recorder.rising(9)[-1]
+    backend.run_until(edge + 200)
+    return backend, s, edge
+
+
+def _block_before_compare(d: int, period_us: int = 100):
+    """A blocked section that begins ``d`` ticks before the next step's compare; the
+    high time of that step and the interval to the one after."""
+    backend, _, edge = _steady(period_us)
+    m = backend.machine
+    period = period_us * 16
+    c = edge + period
+    backend.run_until(c - d)
+    m.block_interrupts(BLOCK)
+    backend.run_for_ms(20)
+    times, levels = backend.recorder.pin_edges(9)
+    i = list(times).index(c)
+    return times[i + 1] - c, backend.recorder.rising(9)[i // 2 + 1] - c
+
+
+def test_the_pulse_lasts_to_the_end_of_the_block_and_the_next_compare_follows_its_write():
+    period = 1600  # 10 kHz
+    # the pin falls lat after the entry (block end + sei); the next compare is written
+    # ocr later: a value passed by then matches only after the 16-bit timer wrapped
+    # the block's start ``d`` ticks before the compare: missed while c + period is at or
+    # before the write, c - d + BLOCK + SEI + LAT_A + OCR
+    threshold = BLOCK + SEI + LAT_A + OCR - period
+    high, interval = _block_before_compare(threshold)
+    assert high == BLOCK - threshold + SEI + LAT_A
+    assert interval == period + 65536
+    high, interval = _block_before_compare(threshold + 1)
+    assert high == BLOCK - threshold - 1 + SEI + LAT_A
+    assert interval == period
+
+
+def test_a_compare_just_before_a_block_is_not_delayed():
+    high, interval = _block_before_compare(-1)  # the block begins the tick after the compare
+    assert high == LAT_A and interval == 1600
