@@ -107,7 +107,14 @@ DOLLAR_PLAIN = ["$", "$$", "$G", "$X", "$#", "$I", "$N", "$C", "$H", "$SLP", "$R
 MODAL = ["G90", "G91", "G21", "G20", "G17", "G18", "G19", "G54", "G55", "G94", "G93",
          "G61", "G64", "G80", "G92.1", "G28", "G30", "G2 X1 Y1 I1", "G3 X0 Y2 R1",
          "G38.2 X1", "G53 G0 X0", "G43.1 Z1", "G49", "G10 L20 P1 X0", "G90.1", "G91.1",
-         "M3 S1000", "M4 S500", "M5", "M7", "M8", "M9", "T2 M6", "S12000"]
+         "M3 S1000", "M4 S500", "M5", "M7", "M8", "M9", "T2 M6", "S12000",
+         # issue 25's words: arcs, planes, inches, inverse time, offsets, probing, laser
+         "G2 X10 Y0 I5 J0 F600", "G3 X0 Y0 R-5 F600", "G17 G2 X5 Y5 R5 F3000",
+         "G18 G3 X1 Z1 I1 K0 F600", "G19 G2 Y2 Z0 J1 K0 F600", "G2 X0 Y0 I0 J0 F600",
+         "G3 X1 Y1 R0.1 F600", "G2 X1 I0.5 F6000 P2", "G20 G0 X1", "G21", "G93 G1 X10 F2",
+         "G94", "G10 L2 P2 X5", "G55 G0 X1", "G59", "G28.1", "G30.1", "G28 X1",
+         "G38.2 Z-5 F100", "G38.3 X5 F100", "G38.4 Y1 F60", "G38.5 Z1 F60", "G43.1 Z2",
+         "M3 S12000", "M4 S500 G1 X5 F600", "$32=1", "$32=0", "M3 S0", "S-1", "$12=0.01"]
 MALFORMED = ["G", "X", "G1 X1 X2", "G1 (unclosed", "Q5", "G1 X1e3", "G1 X--1", "ZZZ",
              "G0 X1 G1 Y1", "G1 X.", "G1 X+-2", "(only a comment)", "; only a comment",
              "N10", "G1 N10 X1", "%", "/G0 X5", "g0x5", "G0 X5 (a) Y2 (b)", "G0 X5 ; tail",
