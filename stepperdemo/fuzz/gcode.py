@@ -30,10 +30,11 @@ Invariants (:func:`check_gcode`):
   (``rx.dropped_high`` counts exactly those sent); no byte is dropped for a full
   buffer while the sender counts (``rx.dropped`` stays 0 unless a line longer than the
   buffer was sent or the sender did not count);
-* every line is answered exactly once (``ok`` or ``error:N``): the line ends a sender
-  sent between two resets (a banner) or alarms are answered at most once each, and the
-  last stretch - with nothing dropped and the machine brought out of a hold or sleep
-  as a sender does - exactly once each; a file run answers every line it read;
+* every line is answered exactly once (``ok`` or ``error:N``): the line ends that
+  reached the receive path between two flushes of its buffer (a reset, an alarm that
+  aborts a cycle) are answered at most once each, and the last stretch - with nothing
+  dropped and the machine brought out of a hold or sleep as a sender does - exactly
+  once each; a file run answers every line it read;
 * what it prints is what senders parse: printable ASCII lines; ``error:N`` with
   Grbl's numbers (1-39), ``ALARM:N`` (1-9); status reports ``<State|MPos:x,y,z|...>``
   in one of Grbl's states with at least three axis values, one for each ``?`` sent
@@ -413,6 +414,15 @@ class Sender:
         # serial buffer in between, StepperDemo's): a reset splits them exactly there
         self._receive = self.machine.receive
         self.machine.receive = self._arrive
+        # a stretch ends where the receive buffer is flushed (a reset, an alarm that
+        # aborts a cycle): what it held is gone, what the sender sends next is new
+        self._flush = self.rx.reset
+        self.rx.reset = self._flushed
+
+    def _flushed(self) -> None:
+        self.read()  # the answers before the flush belong to the stretch it ends
+        self._new_stretch(self.machine.state_name())
+        self._flush()
 
     def _arrive(self, data: bytes) -> None:
         self.read()  # a banner or alarm printed since: the bytes belong to the next stretch
@@ -423,6 +433,7 @@ class Sender:
 
     def detach(self) -> None:
         self.machine.receive = self._receive
+        self.rx.reset = self._flush
 
     # ------------------------------------------------------------- reading
     def read(self) -> None:
@@ -437,8 +448,6 @@ class Sender:
                 self.answers += 1
                 if self.inflight:
                     self.inflight.popleft()
-            elif BANNER.match(ln) or ALARM.match(ln):
-                self._new_stretch(ln)
             elif ln.startswith("<"):
                 self.last_state = ln[1:].split("|", 1)[0]
                 self.reports += 1
@@ -446,7 +455,7 @@ class Sender:
     def _new_stretch(self, why: str) -> None:
         """A reset or an alarm: what was received and not yet read is gone; a sender
         starts counting again (the rest of a line under way counts anew)."""
-        self._close_stretch(exact=False, why=why)
+        self._close_stretch(exact=False, why=f"a flush in state {why}")
         self.inflight.clear()
         if self.sending:
             self.inflight.append(self.sending)
