@@ -71,16 +71,32 @@ class GearResult(IntEnum):
     ERR_SAME_STEPPER = -6
 
 
+class _Frame:
+    """The ratio a follower step was derived with and its origin: the error at a step
+    edge is ``m·(y - y_base) - n·(x - x_base)`` in m-ths of a step (x leader steps and
+    y follower steps since the gear's origin; the bases move at a ratio change)."""
+
+    __slots__ = ("n", "m", "tight_m", "x_base", "y_base")
+
+    def __init__(self, n: int, m: int, tight_m: int, x_base: int, y_base: int) -> None:
+        self.n = n
+        self.m = m
+        self.tight_m = tight_m  # the tight windows' tolerance (Gear._set_phase)
+        self.x_base = x_base
+        self.y_base = y_base
+
+
 class _Event:
     """A follower step: where y* changes (the leader pulse ``k``) and its window."""
 
-    __slots__ = ("tick", "k", "up", "y_before", "lo", "hi", "open_hi")
+    __slots__ = ("tick", "k", "up", "y_before", "frame", "lo", "hi", "open_hi")
 
-    def __init__(self, tick: int, k: int, up: bool, y_before: int) -> None:
+    def __init__(self, tick: int, k: int, up: bool, y_before: int, frame: _Frame) -> None:
         self.tick = tick
         self.k = k  # absolute index of the triggering leader pulse
         self.up = up
         self.y_before = y_before
+        self.frame = frame  # the ratio and origin it was derived with
         self.lo = 0
         self.hi = 0
         self.open_hi = True  # the window's end was cut by the known horizon
@@ -209,6 +225,7 @@ class Gear:
             self._x_base = self._x
             self._y_base = self._ystar
             self._open_span(self._pt[-1] + 1 if self._pt else self.engine.backend.now())
+        self._new_frame()
         return GearResult.OK
 
     def disengage(self) -> None:
@@ -284,6 +301,11 @@ class Gear:
         self._origin_tick: int = self.engine.backend.now()
         self.x0: int = self.leader.get_current_position()
         self.y0: int = self.follower.get_current_position()
+        self._new_frame()
+
+    def _new_frame(self) -> None:
+        """Follower steps derived from now on: the ratio and origin of now."""
+        self._frame = _Frame(self.n, self.m, self.tight_m, self._x_base, self._y_base)
 
     def _ingest(self, initial: bool = False) -> None:
         """Read the leader commands queued since the last look; derive follower steps.
@@ -352,6 +374,7 @@ class Gear:
                 skip_before: int | None) -> None:
         pt, px, events = self._pt, self._px, self._events
         n, m, h = self.n, self.m, self.h
+        frame = self._frame
         x_base, y_base = self._x_base, self._y_base
         x = self._x
         ystar = self._ystar
@@ -371,10 +394,10 @@ class Gear:
             px.append(x)
             if target != ystar:
                 up = target > ystar
-                events.append(_Event(t, k, up, ystar))
+                events.append(_Event(t, k, up, ystar, frame))
                 ystar += 1 if up else -1
                 while ystar != target:  # cannot happen for n <= m; kept for safety
-                    events.append(_Event(t, k, up, ystar))
+                    events.append(_Event(t, k, up, ystar, frame))
                     ystar += 1 if up else -1
             t += ticks
         self._x = x
@@ -416,16 +439,18 @@ class Gear:
         assert earliest is not None
         return earliest
 
-    def _window(self, ev: _Event, tol: int | None = None) -> tuple[int, int]:
+    def _window(self, ev: _Event, tight: bool = False) -> tuple[int, int]:
         """Ticks at which the follower may take step ``ev`` (both ends included) with
-        |m·y - n·x| <= ``tol`` (default ``m``: one step) at every edge."""
-        m, n = self.m, self.n
-        if tol is None:
-            tol = m
-        full = tol == m
-        yb = ev.y_before
+        |m·y - n·x| <= one step (``tight``: the tight tolerance) at every edge, x and
+        y counted from the origin of the ratio the step was derived with."""
+        fr = ev.frame
+        m, n = fr.m, fr.n
+        tol = fr.tight_m if tight else m
+        full = not tight
+        yb = ev.y_before - fr.y_base
         ya = yb + (1 if ev.up else -1)
-        myb, mya = m * yb, m * ya
+        # n·x_base taken into the y terms: the loops below compare with n·px[j] as is
+        myb, mya = m * yb + n * fr.x_base, m * ya + n * fr.x_base
         pt, px = self._pt, self._px
         i = ev.k - self._p0
         # later than its leader pulse: the leader pulses passed meanwhile see y_before,
@@ -559,10 +584,10 @@ class Gear:
         q = self.follower.queue
         return q.queue_len - q.queue_entries() >= entries
 
-    def _fit(self, t0: int, tol: int) -> tuple[tuple[int, int, int] | None, bool]:
+    def _fit(self, t0: int, tight: bool) -> tuple[tuple[int, int, int] | None, bool]:
         """The longest run from the first event at ``t0`` on an even grid inside the
-        windows of tolerance ``tol``: ((steps, lowest period, highest period) or None,
-        whether the known events ran out before the run had to end)."""
+        windows (``tight``: of the tight tolerance): ((steps, lowest period, highest
+        period) or None, whether the known events ran out before the run had to end)."""
         events = self._events
         ev0 = events[0]
         p = self.follower.queue.max_speed_in_ticks
@@ -574,7 +599,7 @@ class Gear:
                 return best, True
             if events[k - 1].up != ev0.up:
                 return best, False
-            lo, hi = self._window(events[k], tol)
+            lo, hi = self._window(events[k], tight)
             dlo = max(dlo, -(-(lo - t0) // k))
             dhi = min(dhi, (hi - t0) // k)
             if dlo > dhi:
@@ -593,16 +618,16 @@ class Gear:
         events = self._events
         ev0 = events[0]
         urgent = t0 - now <= self._urgent
-        best, ran_out = self._fit(t0, self.tight_m)
+        best, ran_out = self._fit(t0, True)
         good = best is not None and (ran_out or best[0] == MAX_STEPS
                                      or best[0] * best[1] >= self.tight_run_ticks)
         far = False
         if not good and len(events) >= 2:
             # the next step is further than one command reaches: a pulse and pauses
             # keep the steps on their leader pulses
-            far = self._window(events[1], self.tight_m)[0] - t0 > MAX_TICKS
+            far = self._window(events[1], True)[0] - t0 > MAX_TICKS
         if not good and not far:
-            best, ran_out = self._fit(t0, self.m)
+            best, ran_out = self._fit(t0, False)
         p = self.follower.queue.max_speed_in_ticks
         min_cmd = self.min_cmd_ticks
         if best is not None and not far:
@@ -622,7 +647,7 @@ class Gear:
             self._t_last = t0 + (k - 1) * d
             return True
         if len(events) >= 2:  # the next step cannot be reached by one command
-            lo1, hi1 = self._window(events[1], self.tight_m if far else self.m)
+            lo1, hi1 = self._window(events[1], far)
             t1 = min(max(events[1].tick, lo1), hi1)
             dmin1 = max(p, min_cmd)
             if t1 - t0 < dmin1:

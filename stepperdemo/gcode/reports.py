@@ -153,9 +153,15 @@ def settings_lines(m: GcodeMachine) -> list[str]:
         axis = st.axis_values(base)
         lines += [f"${base + i}={axis[i]:.3f}" for i in range(shown)]
     outputs = m.engine.outputs
-    lines += [f"${140 + n}={outputs.frequency_hz(n):g}" for n in range(4)]
+    lines += [f"${140 + n}={_plain(outputs.frequency_hz(n))}" for n in range(4)]
     lines += [f"${150 + n}={outputs.digital_pin(n)}" for n in range(4)]
     lines += [f"${160 + n}={outputs.analog_pin(n)}" for n in range(4)]
     lines.append(f"$170={int(st.report_outputs)}")
     lines.append(f"$171={st.motion}")
     return lines
+
+
+def _plain(value: float) -> str:
+    """A number as ``$$`` prints it: plain decimals, never an exponent (``1e+06``
+    breaks senders' ``$N=value`` parsers)."""
+    return f"{value:.3f}".rstrip("0").rstrip(".")

@@ -109,6 +109,8 @@ class Winder(LoopProgram):
         self.limit_stops: list[tuple[int, int, int]] = []
         self._switch_tick: dict[int, int] = {}
         self._later: list[str] = []  # lines held back to the end of a command or pass
+        # interlocked limit stops the backend reported, not yet acted on: (up, tick)
+        self._limit_hits: list[tuple[bool, int]] = []
         self.hw_limits = False  # the backend stops S2 at its limits (else: software)
 
     @staticmethod
@@ -267,6 +269,7 @@ class Winder(LoopProgram):
         now = b.now()
         if self.pause_until is not None and now >= self.pause_until:
             self.pause_until = None
+        self._take_limit_hits()  # (reported meanwhile) before the pots are looked at
         if now >= self.next_sample:
             if self._sampling():
                 self._sample()
@@ -290,14 +293,14 @@ class Winder(LoopProgram):
         return min(times) if times else None
 
     def next_wake_tick(self) -> int | None:
-        if not self._setup_done or self._runnable() or self._later:
+        if not self._setup_done or self._runnable() or self._later or self._limit_hits:
             return self.backend.now()
         wake = self._wake_time()
         return None if wake is None else max(wake, self.backend.now())
 
     def _advance(self, limit: int) -> None:
         b = self.backend
-        if not self._runnable() and not self._later:
+        if not self._runnable() and not self._later and not self._limit_hits:
             wake = self._wake_time()
             if wake is None or wake > limit:
                 b.app_wait_until(limit)
@@ -313,7 +316,7 @@ class Winder(LoopProgram):
 
     def finished(self) -> bool:
         return (self.input_consumed_at is not None and not self.pending
-                and self.pause_until is None and self.at_rest())
+                and self.pause_until is None and not self._limit_hits and self.at_rest())
 
     def script_consumed(self) -> bool:
         return self.input_consumed_at is not None and not self.pending
@@ -462,12 +465,27 @@ class Winder(LoopProgram):
             self._check_limits()  # at once, as a pin-change interrupt would
 
     def _on_limit(self, index: int, pin: int, position: int, tick: int) -> None:
-        """The backend stopped a stepper at a limit: the library follows suit."""
+        """The backend stopped a stepper at a limit: the library follows suit.
+
+        Interlocked, the backend stops S2 and S1 at one switch and reports them one
+        after the other; the winder then acts on the stop (:meth:`_after_limit`) once
+        all reports are in - at the end of the command, or first thing in the next
+        pass - so that it finds S1 where its pulses stopped, not where the library
+        had it before S1's report."""
         st = self.steppers[index]
         st.force_stop_and_new_position(position)
-        if index == 1:
-            up = pin == self.pin(fig.LIMIT_HIGH)
-            self._after_limit(up, tick, both=self.gear.engaged)
+        if index != 1:
+            return
+        up = pin == self.pin(fig.LIMIT_HIGH)
+        if self.gear.engaged:
+            self.gear.disengage()  # no S2 step is derived from S1 any more
+            self._limit_hits.append((up, tick))
+        else:
+            self._after_limit(up, tick, both=False)
+
+    def _take_limit_hits(self) -> None:
+        while self._limit_hits:
+            self._after_limit(*self._limit_hits.pop(0), both=True)
 
     def _check_limits(self) -> None:
         """The check in software (backends without limit switches, and a backstop)."""
@@ -521,6 +539,7 @@ class Winder(LoopProgram):
         self._later.append(text)
 
     def _say_later(self) -> None:
+        self._take_limit_hits()  # every report of a stop is in: act on it
         while self._later:
             self.say(self._later.pop(0))
 

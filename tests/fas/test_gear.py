@@ -207,3 +207,26 @@ def test_a_leader_timeline_that_moves_makes_the_gear_take_a_new_origin():
     sp = gear.spans[-1]
     worst, x, y = errors_by_pins(backend, 1, 2, sp.x0, sp.y0, since=sp.start)
     assert worst <= 1.0
+
+
+@pytest.mark.parametrize("n,m", [(7, 8), (2, 3), (3, 4), (1, 3)])
+def test_ratio_change_while_the_leader_accelerates(n, m):
+    # found by fuzzing the winder (`pots interlock 1 pot 1 1023 w100 ratio 7:8 w300`):
+    # after a ratio change the follower's step windows were taken around the old
+    # origin, so they shrank to the leader pulse itself; with the leader still
+    # accelerating no run of steps fitted them and the follower fell behind for good
+    backend, engine, s1, s2 = rig()
+    s1.set_acceleration(50000)
+    gear = Gear(engine, s1, s2)
+    gear.engage(1, 1)
+    s1.run_forward()
+    backend.run_for_ms(100)
+    assert gear.set_ratio(n, m) == GearResult.OK
+    sp = gear.spans[-1]
+    backend.run_for_ms(300)  # accelerating to 20 000 steps/s (0.4 s), then at full speed
+    s1.stop_move()
+    settle(backend, s1, s2)
+    worst, x, y = errors_by_pins(backend, n, m, sp.x0, sp.y0, since=sp.start)
+    assert worst <= 1.0
+    assert abs((y - sp.y0) - n * (x - sp.x0) / m) <= 1.0
+    assert gear.stats.late == 0

@@ -172,6 +172,19 @@ def test_interlocked_s2_running_into_a_limit_stops_both():
     assert not app.interlock
 
 
+
+def test_an_interlocked_limit_stop_reports_where_the_pins_stopped():
+    # found by fuzzing: the chip stops both steppers at the switch and reports both;
+    # the winder acted on S2's report before S1's and force-stopped S1 at the library's
+    # position of that moment - 3 steps short of where its pulses stopped - and said so
+    app, backend, _ = run("period 1 50 interlock 1 ratio 1:2 move 1 2000 w300 switch A3 1 w100")
+    stop = next(t for t in lines(app) if t.startswith("A3: S2 stopped at its upper limit"))
+    s1 = sum(d for _, d in steps(backend, S1_STEP, S1_DIR))
+    s2 = sum(d for _, d in steps(backend, S2_STEP, S2_DIR))
+    assert 0 < s1 < 2000  # stopped on the way
+    assert f"(S1 @{s1}, S2 @{s2})" in stop
+    assert [s.get_current_position() for s in app.steppers[:2]] == [s1, s2]
+
 # ---------------------------------------------------------------- control
 def test_link_control_is_sticky_until_pots():
     app, backend, _ = run("pots pot 1 800 w300 move 1 100 w600")

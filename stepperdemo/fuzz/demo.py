@@ -1,9 +1,12 @@
-"""Fuzzing the console: random input lines and the invariants every run must keep.
+"""Fuzzing StepperDemo: random input lines and the invariants every run must keep.
 
-:func:`grammar_line` makes StepperDemo lines from the command language (all three
-modes, extreme and malformed numbers, waits, mode switches); :func:`raw_line` makes
-noise (random bytes, control characters, long tokens, non-ASCII).  :func:`check_line`
-runs one line on virtual time and returns the violated invariants:
+:func:`grammar_line` makes StepperDemo lines from the command language (the normal,
+test and config modes, extreme and malformed numbers, waits, mode switches);
+:func:`gmode_line` enters the ``g`` mode and sends G-code lines
+(:func:`stepperdemo.fuzz.gcode.gcode_line`, ``?`` among them), then mostly leaves it;
+:func:`raw_line` makes noise (random bytes, control characters, long tokens,
+non-ASCII).  :func:`check_line` runs one line on virtual time and returns the violated
+invariants:
 
 * the run ends (input consumed and all at rest, or ``max_time`` reached) without an
   exception;
@@ -13,23 +16,42 @@ runs one line on virtual time and returns the violated invariants:
   disabled under auto enable; a configured direction-change delay is kept, and the
   direction never changes during a pulse; no queue holds more entries than its depth;
 * every rejected command printed exactly one error line, every accepted one none
-  beyond its own ``ERROR`` result.
+  beyond its own ``ERROR`` result;
+* the session goes on: after the input (and a console Ctrl-C if it still ran) the
+  mode it was left in is left with its own exit (``x``; ``x`` alone on a line in the
+  ``g`` mode), and ``?`` prints the stepper table with every stepper at the library's
+  position.
 """
 
 from __future__ import annotations
 
 import bisect
 import random
-from dataclasses import dataclass, field
+import re
 from itertools import pairwise
 
 from fas.codes import PIN_UNDEFINED
 from fas.sim import SimBackend
 
-from .demo.app import StepperDemo
-from .demo.build import demo_build
-from .demo.command_table import CommandTable
-from .scenarios.evaluate import position_from_pins, rising_edges
+from ..demo.app import StepperDemo
+from ..demo.build import demo_build
+from ..demo.command_table import CommandTable, Mode
+from ..gcode.demo_mode import EXIT_LINE
+from ..scenarios.evaluate import position_from_pins, rising_edges
+from .common import BYTES, LINE, MAX_COMMAND_STEPS, Case, FuzzResult
+from .gcode import (
+    CTRL_X,
+    GRBL_REALTIME,
+    REALTIME,
+    SCENES,
+    Sender,
+    check_output,
+    gcode_lines,
+    grbl_stream,
+    stream,
+)
+
+PROGRAM = "demo"
 
 NUMBERS = [0, 1, -1, 2, 7, 40, 100, 255, 256, 999, 1000, 4095, 4096, 32767, 32768, 65535,
            65536, 100000, 1000000, 2147483647, -2147483648, 2147483648, 99999999999,
@@ -137,16 +159,155 @@ def raw_line(rng: random.Random) -> bytes:
     return ("M1 A1000 V100 R1" + text + " R20 " + text + " W").encode("utf-8")
 
 
-@dataclass
-class FuzzResult:
-    line: bytes
-    arch: str
-    end: str = ""
-    violations: list[str] = field(default_factory=list)
+def _normal_tokens(rng: random.Random, most: int) -> list[str]:
+    """A few normal-mode commands without a mode switch (around a ``g`` mode visit)."""
+    out = []
+    for _ in range(rng.randint(0, most)):
+        c = rng.choice(NORMAL_NUMERIC.replace("w", "") + "MNFOSXW+-U")
+        if c == "M":
+            out.append(f"M{rng.choice([1, 2, 3])}")
+        elif c in NORMAL_NUMERIC:
+            num = _number(rng, fast=False)
+            if c in "VA" and rng.random() < 0.7:
+                num = str(rng.choice([40, 100, 250, 1000] if c == "V" else [1000, 10000, 100000]))
+            if c in "RP" and rng.random() < 0.7:
+                num = str(rng.randint(-500, 500))
+            out.append(c + num)
+        else:
+            out.append(c)
+    return out
 
-    @property
-    def ok(self) -> bool:
-        return not self.violations
+
+def gmode_line(rng: random.Random, arch: str = "atmega328p") -> str:
+    """A visit to the ``g`` mode: normal commands, ``g``, G-code lines (Grbl's
+    real-time bytes and bytes >= 0x80 among them, as latin-1 characters), mostly
+    ``x`` alone to leave, normal commands."""
+    eol = rng.choice(["\n", "\n", "\r", "\r\n"])
+    lines = gcode_lines(rng, 6)
+    if rng.random() < 0.3:
+        lines[1:1] = [item.format(m="G1 X20 Y-10 F3000") for item in rng.choice(SCENES)
+                      if not item.startswith("RT:")]
+    for _ in range(rng.choice([0, 0, 1, 2, 3])):
+        k = rng.randrange(len(lines))
+        at = rng.randint(0, len(lines[k]))
+        extra = rng.choice([*REALTIME, bytes([rng.randrange(0x80, 0x100)])]).decode("latin-1")
+        lines[k] = lines[k][:at] + extra + lines[k][at:]
+    text = " ".join([*_normal_tokens(rng, 4), "g"]) + eol + eol.join(lines) + eol
+    if rng.random() < 0.85:
+        text += "x" + eol + " ".join(_normal_tokens(rng, 3))
+    return text
+
+
+def gmode_stream(rng: random.Random) -> Case:
+    """A sender's stream into the ``g`` mode (StepperDemo on a serial line, as
+    ``device --pty --console`` then ``g``): the G-code target's streams, without the
+    line that leaves the mode (``x`` alone)."""
+    case = grbl_stream(rng)
+    chunks = []
+    carry = b""  # what the chunks so far sent after their last line end or reset
+    for wait, data in case.chunks:
+        *pieces, rest = re.split(rb"[\r\n\x18]", carry + data)
+        if any(_grbl_text(p) == EXIT_LINE for p in pieces):
+            continue  # a line that leaves the g mode (a reset may have made it one)
+        chunks.append((wait, data))
+        carry = rest
+    return Case(BYTES, chunks=tuple(chunks) or ((0, b"$$\n"),), sender=case.sender)
+
+
+def _grbl_text(piece: bytes) -> str:
+    """A line as Grbl's receive path hands it over: no real-time bytes, nothing >= 0x80,
+    no spaces, control characters, '/' or comments, upper case."""
+    kept = bytes(b for b in piece if 0x20 < b < 0x7F and b not in GRBL_REALTIME
+                 and b != ord("/"))
+    kept = re.sub(rb"\([^)]*\)?", b"", kept.split(b";")[0])
+    return kept.decode("ascii").upper()
+
+
+def demo_case(rng: random.Random, arch: str = "atmega328p") -> Case:
+    """A StepperDemo input: noise, a ``g`` mode visit, a sender's stream into the ``g``
+    mode, or a grammar line."""
+    r = rng.random()
+    if r < 0.2:
+        return Case(LINE, raw_line(rng))
+    if r < 0.35:
+        return Case(LINE, gmode_line(rng, arch).encode("latin-1"))
+    if r < 0.45:
+        return gmode_stream(rng)
+    return Case(LINE, grammar_line(rng, arch=arch).encode())
+
+
+def check_demo(case: Case, arch: str = "atmega328p", max_time_s: float = 20.0) -> FuzzResult:
+    if case.kind == BYTES:
+        return check_gmode_stream(case, arch, max_time_s)
+    res = check_line(case.text, arch, max_time_s)
+    res.case = case
+    return res
+
+
+def check_gmode_stream(case: Case, arch: str = "atmega328p",
+                       max_time_s: float = 20.0) -> FuzzResult:
+    """StepperDemo on a serial line: ``g``, then a sender's stream with the G-code
+    target's checks (:func:`stepperdemo.fuzz.gcode.stream`), then ``x`` back to the
+    normal mode, whose ``?`` lists every stepper at the library's position; the
+    motion invariants of :func:`check_line` over the whole run."""
+    res = FuzzResult(case.data, arch, PROGRAM, case)
+    backend = SimBackend(arch, record=True)
+    tps = backend.profile.ticks_per_s
+    try:
+        app = StepperDemo(backend, scripted=False, pin_config=0)
+        tracker = _Tracker(app, backend)
+        app.setup()
+        tracker.attach()
+        app.feed(b"g\n")
+        app.run_until(backend.now() + tps // 20)
+        if app.mode != Mode.GCODE:
+            res.violations.append(f"'g' did not enter the g mode: {bytes(app.transcript)[-200:]!r}")
+            return res
+        limit = backend.now() + int(max_time_s * tps)
+        sender = Sender(app, res, counting=case.sender == "count", limit=limit,
+                        machine=app.gcode.machine)
+        stream(sender, case)
+        check_output(res, _grbl_part(bytes(app.transcript)))
+        if app.mode != Mode.GCODE:
+            res.violations.append("the g mode was left during the stream (no 'x' line sent)")
+            return res
+        # a line the sender left open (its end lost to a full buffer) ends before the x
+        rest = Sender(app, res, counting=True, limit=backend.now() + int(max_time_s * tps),
+                      machine=app.gcode.machine)
+        rest.checking = False
+        app.feed(b"\n")
+        rest.come_to_rest(rest.limit)
+        rest.detach()
+        app.feed(b"x\n")
+        end = backend.now() + 2 * tps
+        while app.mode == Mode.GCODE and backend.now() < end:
+            app.run_until(backend.now() + tps // 100)
+        if app.mode != Mode.NORMAL:
+            res.violations.append(f"probe: 'x' did not leave the g mode "
+                                  f"(state {sender.machine.state_name()})")
+            return res
+        mark = len(app.transcript)
+        app.feed(b"?\n")
+        app.run_until(backend.now() + tps // 10)
+        new = bytes(app.transcript[mark:])
+        said = {int(n): int(p) for n, p in _TABLE_ROW.findall(new)}
+        want = {i + 1: s.get_current_position() for i, s in enumerate(app.steppers)
+                if s is not None}
+        if said != want:
+            res.violations.append(f"probe: '?' listed {said}, the library has {want}: "
+                                  f"{new[-300:]!r}")
+    except Exception as exc:  # the whole point: nothing may raise
+        res.record_exception(exc)
+        return res
+    res.violations += tracker.drifts
+    _check_motion(app, backend, tracker, res)
+    return res
+
+
+def _grbl_part(transcript: bytes) -> bytes:
+    """What the g mode printed: from its banner on (StepperDemo's texts before it)."""
+    at = transcript.find(b"Grbl ")
+    return transcript[transcript.rfind(b"\n", 0, at) + 1:] if at >= 0 else b""
 
 
 class _Tracker:
@@ -160,6 +321,11 @@ class _Tracker:
         self.dir_delay: dict[int, list[tuple[int, int, int]]] = {}
         self.detached: dict[int, bool] = {}
         self.since = 0  # the last restart of the chip (ESP32 `r`): pins count from here
+        self.drifts: list[str] = []  # force stops that kept a position the pins deny
+
+    def same_frame(self, i: int) -> bool:
+        """Do stepper i's pins count in the library's frame (see _check_motion)?"""
+        return not (_dir_frame_changed(self.app, self, i) or _step_pin_shared(self.app, i))
 
     def restarted(self) -> None:
         """The chip rebooted: new steppers, a new frame of reference for the pins."""
@@ -202,10 +368,18 @@ class _Tracker:
             tracker.offset[i] += s.get_current_position() - before
 
         def force_stop_and_new_position(new_pos):
+            before = s.get_current_position()
             orig_force(new_pos)
             pins = tracker.app.demo_steppers[i]
             physical = position_from_pins(backend, pins.step, s.get_direction_pin(),
                                           s.direction_pin_high_counts_up(), tracker.since)
+            if new_pos == before and tracker.same_frame(i):  # it claims to stop where it is
+                drift = (before - physical - tracker.offset[i] + 2**31) % 2**32 - 2**31
+                lag = 1 if s.queue.position_in_command else MAX_COMMAND_STEPS
+                if abs(drift) > lag:
+                    tracker.drifts.append(
+                        f"M{i + 1}: force stop keeping position {before}, but the pins "
+                        f"counted {physical} + declared {tracker.offset[i]}")
             tracker.offset[i] = s.get_current_position() - physical
 
         def set_auto_enable(value):
@@ -228,34 +402,37 @@ class _Tracker:
         s.set_direction_pin = set_direction_pin
 
 
-def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 20.0
-               ) -> FuzzResult:
+def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 20.0,
+               probe_session: bool = True) -> FuzzResult:
     data = line.encode("utf-8") if isinstance(line, str) else bytes(line)
-    res = FuzzResult(data, arch)
+    res = FuzzResult(data, arch, PROGRAM, Case(LINE, data),
+                     lines=len(re.split(rb"\r\n|\r|\n", data.rstrip(b"\r\n"))))
     backend = SimBackend(arch, record=True)
-    # `w<ms>` in test mode is an extension (the firmware answers "Unknown command"):
-    # switched on here so that test sequences get time to run between commands
-    app = StepperDemo(backend, scripted=True, test_mode_wait=True)
-    tracker = _Tracker(app, backend)
-    app.setup()
-    tracker.attach()
-    orig_restart = app.restart
-
-    def restart() -> None:
-        orig_restart()
-        tracker.restarted()
-
-    app.restart = restart
-    errors_seen: list[tuple[bytes, bool, int]] = []
-    app.command_table = _CountingTable(app.command_table, app.transcript, errors_seen)
+    max_ticks = int(max_time_s * backend.profile.ticks_per_s)
     try:
-        reason = app.run_script(data, max_ticks=int(max_time_s * backend.profile.ticks_per_s))
+        # `w<ms>` in test mode is an extension (the firmware answers "Unknown command"):
+        # switched on here so that test sequences get time to run between commands
+        app = StepperDemo(backend, scripted=True, test_mode_wait=True)
+        tracker = _Tracker(app, backend)
+        app.setup()
+        tracker.attach()
+        orig_restart = app.restart
+
+        def restart() -> None:
+            orig_restart()
+            tracker.restarted()
+
+        app.restart = restart
+        errors_seen: list[tuple[bytes, bool, int]] = []
+        app.command_table = _CountingTable(app.command_table, app.transcript, errors_seen)
+        reason = app.run_script(data, max_ticks=max_ticks)
         res.end = reason.name.lower()
+        if reason.name != "IDLE":
+            app.force_stop_all()  # the console's Ctrl-C
+        if probe_session:
+            _probe(app, max_ticks, res)
     except Exception as exc:  # the whole point: nothing may raise
-        import traceback
-        res.violations.append("exception: " + "".join(
-            traceback.format_exception_only(type(exc), exc)).strip())
-        res.violations.append(traceback.format_exc(limit=-3))
+        res.record_exception(exc)
         return res
     # an unknown command prints "Unknown command: <cmd>" once (after dispatch returns)
     unknown = app.transcript.count(b"Unknown command: ")
@@ -265,8 +442,41 @@ def check_line(line: bytes | str, arch: str = "atmega328p", max_time_s: float = 
     for cmd, ok, n in errors_seen:
         if ok and n > 1:
             res.violations.append(f"command {cmd!r} printed {n} error lines")
+    res.violations += tracker.drifts
     _check_motion(app, backend, tracker, res)
     return res
+
+
+_TABLE_ROW = re.compile(rb"M(\d+): @(-?\d+)")
+#: how each mode is left for the normal mode
+_LEAVE = {Mode.TEST: b"x", Mode.CONFIG: b"x", Mode.GCODE: b"\nx\n"}
+
+
+def _probe(app: StepperDemo, max_ticks: int, res: FuzzResult) -> None:
+    """The session goes on: back to the normal mode, ``?`` lists every stepper at the
+    library's position."""
+    leave = _LEAVE.get(app.mode)
+    if leave is not None:
+        end = app.run_script(leave, max_ticks=max_ticks)
+        if app.mode == Mode.GCODE:  # held or asleep: a sender's resume, then its reset
+            for out in (b"~" + _LEAVE[Mode.GCODE], CTRL_X + _LEAVE[Mode.GCODE]):
+                leave = out
+                end = app.run_script(leave, max_ticks=max_ticks)
+                if app.mode != Mode.GCODE:
+                    break
+        if app.mode != Mode.NORMAL:
+            res.violations.append(f"probe: {leave!r} did not leave the {app.mode_name()} mode "
+                                  f"(ended {end.name.lower()})")
+            return
+    mark = len(app.transcript)
+    end = app.run_script(b"?", max_ticks=max_ticks)
+    new = bytes(app.transcript[mark:])
+    said = {int(n): int(p) for n, p in _TABLE_ROW.findall(new)}
+    want = {i + 1: s.get_current_position() for i, s in enumerate(app.steppers)
+            if s is not None}
+    if end.name != "IDLE" or said != want:
+        res.violations.append(f"probe: '?' listed {said}, the library has {want} "
+                              f"(ended {end.name.lower()}): {new[-300:]!r}")
 
 
 _ERROR_MARKS = (b"ERROR", b"Unknown command")
