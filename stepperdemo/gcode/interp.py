@@ -346,8 +346,9 @@ class Interpreter:
         # P: dwell time, G10's system or digital output number - one of them
         uses_p = [name for name, used in (
             ("G4", nonmodal == 4.0), ("G10", nonmodal == 10.0),
-            (code_name("M", m_output or 0), m_output in (62.0, 63.0, 64.0, 65.0))) if used]
+            ("M", m_output in (62.0, 63.0, 64.0, 65.0))) if used]
         if len(uses_p) > 1:
+            uses_p = [code_name("M", m_output or 0) if n == "M" else n for n in uses_p]
             raise GcodeError(Err.VALUE_WORD_MISSING,
                              msg.GCODE_ERR_P_CONFLICT.format(a=uses_p[0], b=uses_p[1]))
 
