@@ -309,7 +309,7 @@ class Interpreter:
 
         The modal state changes only if the whole block is valid."""
         groups: dict[str, float] = {}
-        axis_command: str | None = None  # the code that takes the axis words
+        axis_command: float | None = None  # the G code that takes the axis words
         axis_kind = ""  # "motion", "non-modal", "tool length"
         for g in block.g:
             group = _G_GROUPS.get(g)
@@ -322,8 +322,9 @@ class Interpreter:
             if kind is not None:
                 if axis_command is not None:
                     raise GcodeError(Err.AXIS_COMMAND_CONFLICT, msg.GCODE_ERR_AXIS_CONFLICT
-                                     .format(a=axis_command, b=code_name("G", g)))
-                axis_command = code_name("G", g)
+                                     .format(a=code_name("G", axis_command),
+                                             b=code_name("G", g)))
+                axis_command = g
                 axis_kind = kind
         m_groups: dict[str, float] = {}
         for m in block.m:
