@@ -288,13 +288,18 @@ class Machine:
         bc = self.batch_channel
         if bc is asker:
             bc = None
-        # the common case first: nothing has interrupts off at t
-        if bc is None and t >= self._quiet_from:
+        # the common case first: nothing has interrupts off at t (but perhaps the step
+        # interrupt of another channel's block of pulses)
+        if t >= self._quiet_from:
             loads = self.uart.loads
             if ((not loads or t >= loads[-1] + timing.uart_isr_ticks)
                     and (t < self._millis_first or (t - self._millis_phase)
                          % timing.millis_overflow_ticks >= timing.millis_isr_ticks)):
-                return t
+                if bc is None:
+                    return t
+                end = bc.block_isr_running_at(t)
+                if end is None or end <= t:
+                    return t
         ms_cost = timing.millis_isr_ticks if self._millis_started else 0
         ms_ov = timing.millis_overflow_ticks
         ms_phase = self._millis_phase

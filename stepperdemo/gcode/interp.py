@@ -309,7 +309,7 @@ class Interpreter:
 
         The modal state changes only if the whole block is valid."""
         groups: dict[str, float] = {}
-        axis_command: str | None = None  # the code that takes the axis words
+        axis_command: float | None = None  # the G code that takes the axis words
         axis_kind = ""  # "motion", "non-modal", "tool length"
         for g in block.g:
             group = _G_GROUPS.get(g)
@@ -322,8 +322,9 @@ class Interpreter:
             if kind is not None:
                 if axis_command is not None:
                     raise GcodeError(Err.AXIS_COMMAND_CONFLICT, msg.GCODE_ERR_AXIS_CONFLICT
-                                     .format(a=axis_command, b=code_name("G", g)))
-                axis_command = code_name("G", g)
+                                     .format(a=code_name("G", axis_command),
+                                             b=code_name("G", g)))
+                axis_command = g
                 axis_kind = kind
         m_groups: dict[str, float] = {}
         for m in block.m:
@@ -346,8 +347,9 @@ class Interpreter:
         # P: dwell time, G10's system or digital output number - one of them
         uses_p = [name for name, used in (
             ("G4", nonmodal == 4.0), ("G10", nonmodal == 10.0),
-            (code_name("M", m_output or 0), m_output in (62.0, 63.0, 64.0, 65.0))) if used]
+            ("M", m_output in (62.0, 63.0, 64.0, 65.0))) if used]
         if len(uses_p) > 1:
+            uses_p = [code_name("M", m_output or 0) if n == "M" else n for n in uses_p]
             raise GcodeError(Err.VALUE_WORD_MISSING,
                              msg.GCODE_ERR_P_CONFLICT.format(a=uses_p[0], b=uses_p[1]))
 

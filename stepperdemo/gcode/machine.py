@@ -411,11 +411,11 @@ class GcodeMachine:
             self._refuse(exc)
 
     def _gcode(self, text: str) -> list[Action]:
-        state = self.state_name()
-        if state == "Alarm":
-            raise GcodeError(Err.SYSTEM_GC_LOCK, msg.GCODE_ERR_ALARM)
-        if state == "Jog":
-            raise GcodeError(Err.SYSTEM_GC_LOCK, msg.GCODE_ERR_JOGGING)
+        if not self.sleeping:  # (state_name()'s Alarm and Jog, without the rest)
+            if self.alarm is not None:
+                raise GcodeError(Err.SYSTEM_GC_LOCK, msg.GCODE_ERR_ALARM)
+            if not self.door and (self.jog_cancel or (not self.hold and self.jogging())):
+                raise GcodeError(Err.SYSTEM_GC_LOCK, msg.GCODE_ERR_JOGGING)
         return self.interp.interpret(parse_line(text))
 
     def check_line(self, text: str) -> None:

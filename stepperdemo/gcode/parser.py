@@ -32,6 +32,8 @@ AXES = "XYZABC"  # axis words, steppers 1..6
 _VALUE_WORDS = "EFIJKLNPQRST" + AXES
 _KNOWN = "GM" + _VALUE_WORDS
 _NOT_NEGATIVE = "FNPST"
+#: what Grbl's line assembly drops: characters up to the space, '/' (block delete)
+_DROPPED = re.compile(r"[\x00-\x20/]")
 #: G codes with a decimal part that exist (G92.1 here; G28.1 G30.1 G38.x G43.1 later)
 G_DECIMALS = {92.1, 28.1, 30.1, 38.2, 38.3, 38.4, 38.5, 43.1, 61.1}
 
@@ -62,6 +64,8 @@ class Block:
 def strip_comments(line: str) -> str:
     """Drop ``(...)`` and ``;`` comments; an unclosed ``(`` eats the rest of the line
     (Grbl reports nothing for it)."""
+    if "(" not in line and ";" not in line:
+        return line
     out = []
     inside = False
     for ch in line:
@@ -81,8 +85,7 @@ def strip_comments(line: str) -> str:
 def filter_line(line: str) -> str:
     """What Grbl's line assembly keeps of a raw line: no comments, no characters up to
     the space, no ``/``, letters upper case."""
-    text = strip_comments(line)
-    return "".join(ch for ch in text if ord(ch) > 0x20 and ch != "/").upper()
+    return _DROPPED.sub("", strip_comments(line)).upper()
 
 
 def parse_line(line: str) -> Block:
@@ -91,39 +94,43 @@ def parse_line(line: str) -> Block:
     if len(text) > MAX_LINE:
         raise GcodeError(Err.OVERFLOW, msg.GCODE_ERR_LONG.format(n=MAX_LINE))
     block = Block(line)
+    values = block.values
+    match = _NUMBER.match
     pos = 0
-    while pos < len(text):
+    end = len(text)
+    while pos < end:
         letter = text[pos]
         if not "A" <= letter <= "Z":
             raise GcodeError(Err.EXPECTED_COMMAND_LETTER,
                              msg.GCODE_ERR_EXPECTED_LETTER.format(text=text[pos:pos + 12]))
-        m = _NUMBER.match(text, pos + 1)
+        m = match(text, pos + 1)
         if m is None:
             raise GcodeError(Err.BAD_NUMBER_FORMAT, msg.GCODE_ERR_BAD_NUMBER.format(
                 letter=letter, text=text[pos:pos + 12]))
-        value = float(m.group(0))
+        number = m.group(0)
+        value = float(number)
         if not math.isfinite(value):  # pragma: no cover - the pattern has no exponent
             raise GcodeError(Err.BAD_NUMBER_FORMAT, msg.GCODE_ERR_BAD_NUMBER.format(
                 letter=letter, text=text[pos:pos + 12]))
         pos = m.end()
-        word = f"{letter}{m.group(0)}"
         if letter not in _KNOWN:
             raise GcodeError(Err.UNSUPPORTED_COMMAND,
-                             msg.GCODE_ERR_UNKNOWN_WORD.format(word=word))
-        if letter in "GM":
+                             msg.GCODE_ERR_UNKNOWN_WORD.format(word=letter + number))
+        if letter == "G" or letter == "M":
             code = round(value, 4)
             if code != int(code) and not (letter == "G" and code in G_DECIMALS):
                 raise GcodeError(Err.COMMAND_VALUE_NOT_INTEGER,
-                                 msg.GCODE_ERR_NOT_INTEGER.format(word=word))
+                                 msg.GCODE_ERR_NOT_INTEGER.format(word=letter + number))
             (block.g if letter == "G" else block.m).append(code)
             continue
-        if letter in _NOT_NEGATIVE and value < 0:
-            raise GcodeError(Err.NEGATIVE_VALUE, msg.GCODE_ERR_NEGATIVE.format(word=word))
-        if letter in block.values:
+        if value < 0 and letter in _NOT_NEGATIVE:
+            raise GcodeError(Err.NEGATIVE_VALUE,
+                             msg.GCODE_ERR_NEGATIVE.format(word=letter + number))
+        if letter in values:
             raise GcodeError(Err.WORD_REPEATED, msg.GCODE_ERR_REPEATED.format(letter=letter))
         if letter == "N" and value > MAX_LINE_NUMBER:
             raise GcodeError(Err.INVALID_LINE_NUMBER, msg.GCODE_ERR_LINE_NUMBER)
-        block.values[letter] = value
+        values[letter] = value
     return block
 
 
