@@ -190,8 +190,8 @@ class LookaheadExecutor(MotionExecutor):
             return now
         if self.busy() or self.moving():
             return now + b.task_period_ticks
-        if self.group.attached:
-            return now  # detach
+        if self.group.attached and self._hold == HoldState.NONE:
+            return now  # detach (as poll does: not while held - a resume goes on)
         return None
 
     def _retire(self) -> None:

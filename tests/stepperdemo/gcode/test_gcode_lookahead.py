@@ -259,3 +259,50 @@ def test_the_same_program_through_port_on_the_python_device():
     points = instants(steps, (0, 0))
     assert points[-1][1] == verts[-1] == tuple(m.positions())
     assert tracked_deviation(points, verts) <= 1.0
+
+
+@pytest.mark.parametrize("after", [b"\x18", b"~"])
+def test_a_door_during_a_jog_rests_in_door_until_input(after: bytes) -> None:
+    """A safety door (0x84) during a jog cancels it; once the axes stand the machine
+    sleeps in Door:0 until the host sends something (no wake-up at every tick: a run
+    that never ended on virtual time, and a Ctrl-X that found no banner on the pty),
+    then a reset answers with the banner / a resume goes back to Idle and a new jog runs."""
+    g = grbl()
+    g.send(b"$J=G91 X50 F3000\n")
+    g.advance(0.1)
+    assert g.machine.state_name() == "Jog"
+    g.send(b"\x84")
+    assert g.settle(1.0)
+    assert g.machine.state_name() == "Door:0"
+    # at rest: nothing due now (the drivers' idle delay, $1, is the one wake-up left)
+    wake = g.program.next_wake_tick()
+    assert wake is None or wake > g.backend.now()
+    passes = 0
+    loop_pass = g.program.loop_pass
+
+    def counted() -> None:
+        nonlocal passes
+        passes += 1
+        loop_pass()
+
+    g.program.loop_pass = counted  # type: ignore[method-assign]
+    g.advance(0.5)
+    assert passes <= 3
+    assert g.program.next_wake_tick() is None  # only input wakes it now
+    stopped = g.machine.positions()
+    assert g.machine.state_name() == "Door:0"
+    assert b"[MSG:Check Door]" in g.take()
+    g.send(after)
+    assert g.settle(1.0)
+    out = g.take()
+    if after == b"\x18":
+        assert b"Grbl 1.1h ['$' for help]" in out
+        assert b"ALARM" not in out  # nothing was moving
+    else:
+        assert out == b""
+    assert g.machine.state_name() == "Idle"
+    assert not g.machine.executor.group.attached
+    g.send(b"$J=G91 X-10 F3000\n")
+    assert g.settle(2.0)
+    assert g.take() == b"ok\r\n"
+    assert g.machine.positions()[0] == stopped[0] - 10 * SPU  # steps
