@@ -185,8 +185,31 @@ class StepperQueue:
         command_rate_ticks = ticks * steps if steps > 1 else ticks
         if command_rate_ticks < self.profile.min_cmd_ticks:
             return AqeResult.ERROR_TICKS_TOO_LOW
+        if steps > 1 and wp == self.read_idx and self._restart_loses_toggle(wp, count_up):
+            # the step interrupt restarts a queue that ran dry (its channel still runs
+            # out the last period) through its single-step path only: a longer entry
+            # there keeps its direction toggle until its last step.  The first step
+            # goes as an entry of its own, the direction changes before it.
+            first = max(ticks, self.profile.min_cmd_ticks)
+            res = self._append(wp, first, 1, count_up, False, first, bare)
+            if res != AQE_OK:
+                return res
+            wp = self.next_write_idx
+            steps -= 1
+            command_rate_ticks = ticks * steps if steps > 1 else ticks
+            if command_rate_ticks < self.profile.min_cmd_ticks:
+                ticks = self.profile.min_cmd_ticks  # (one step left, too short alone)
+                command_rate_ticks = ticks
 
         return self._append(wp, ticks, steps, count_up, start, command_rate_ticks, bare)
+
+    def _restart_loses_toggle(self, wp: int, count_up: bool) -> bool:
+        """An entry written now follows a queue that ran dry while its channel runs,
+        and turns the direction round."""
+        return (wp == self.read_idx and not self.ignore_commands
+                and self.dir_pin != PIN_UNDEFINED and (self.dir_pin & PIN_EXTERNAL_FLAG) == 0
+                and (count_up == self.dir_high_counts_up) != self.queue_end_dir
+                and self.channel.is_running())
 
     def _append(self, wp: int, ticks: int, steps: int, count_up: bool, start: bool,
                 duration: int, bare: bool = False) -> AqeResult:

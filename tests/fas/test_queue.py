@@ -3,7 +3,7 @@
 from fas import Engine
 from fas.codes import AqeResult
 from fas.sim import SimBackend
-from rigs.sim import make, periods, rising, run_until_idle
+from rigs.sim import make, periods, pin_position, rising, run_until_idle
 
 
 def test_raw_commands_run_tick_exact():
@@ -103,3 +103,20 @@ def test_set_position_after_commands_completed_renumbers_everything():
     assert s.get_current_position() == before + 900
     run_until_idle(backend, s)
     assert s.get_current_position() == 1000
+
+
+def test_an_entry_after_the_queue_ran_dry_turns_round_before_its_first_step():
+    # found by fuzzing the winder: the traverse wrote 50 steps up while the queue the
+    # gear left behind had just run dry (the channel running out the last period of
+    # one step down); the step interrupt restarts such a queue by its single-step path
+    # only, so the 50 steps went out down, the direction turning before the last one
+    backend, _, s = make(auto_enable=False)
+    s.enable_outputs()
+    assert s.add_queue_entry(20000, 1, False, start=True) == AqeResult.OK
+    q = s.queue
+    assert backend.wait_until(lambda: q.read_idx == q.next_write_idx, 100_000)
+    assert s.is_queue_running()  # dry, the channel still runs out its last period
+    assert s.add_queue_entry(16000, 10, True, start=False) == AqeResult.OK
+    run_until_idle(backend, s)
+    assert len(rising(backend, 9)) == 11
+    assert pin_position(backend, 9, 5) == 9 == s.get_current_position()

@@ -12,6 +12,8 @@ import pytest
 from fas.sim import SimBackend
 from rigs.pins import ratio_error, steps_by_pins
 from stepperdemo.front.cli import main as cli_main
+from stepperdemo.fuzz.common import LINE, Case
+from stepperdemo.fuzz.winder import check_winder
 from stepperdemo.program import EndReason, make_program
 from stepperdemo.winder import figures as fig
 from stepperdemo.winder.app import Winder, WinderError
@@ -184,6 +186,19 @@ def test_an_interlocked_limit_stop_reports_where_the_pins_stopped():
     assert 0 < s1 < 2000  # stopped on the way
     assert f"(S1 @{s1}, S2 @{s2})" in stop
     assert [s.get_current_position() for s in app.steppers[:2]] == [s1, s2]
+
+def test_a_traverse_written_as_the_released_followers_queue_runs_dry_turns_s2_round():
+    # found by fuzzing (bench/fuzz.py --program winder --seed 25 --replay 2976): S2
+    # followed S1 down; 'traverse' took it over just as the gear's last step down had
+    # gone out, the queue dry with its last period still running.  The traverse's
+    # first command (50 steps up) went out down but for its last step, and every
+    # position the library gave for S2 from then on was ~100 steps off its pins
+    text = (b"interlock 1 pots pot 1 300 w20 ratio 65535:65535 w20 pot 2 462 w20 pot 2 512 w20"
+            b"\tinterlock 1\tratio 1:2\tswitch A2 on\tratio 1:3\ttraverse 2000 100"
+            b"\ttraverse 500 100\tmove 1 65535\tw400")
+    res = check_winder(Case(LINE, text=text), max_time_s=4.0)
+    assert res.ok, res.violations
+
 
 # ---------------------------------------------------------------- control
 def test_link_control_is_sticky_until_pots():
