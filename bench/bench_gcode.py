@@ -155,16 +155,9 @@ def la_setup(motion: int) -> list[str]:
             + [f"$12{i}={bp.ACCEL}" for i in range(2)] + [f"$11={bp.JUNCTION}", f"$171={motion}"])
 
 
-def la_lines(segments: int) -> list[str]:
-    import bench_path as bp
-
-    return [f"G1 X{p[0]:.4f} Y{p[1]:.4f} F{f:g}" for p, f in bp.cam_program(segments)]
-
-
-def la_run(lines: list[str], motion: int, record: bool, corners: bool = False) -> dict:
-    """The program through the G-code machine: motion time, CPU time, the blocks
-    (targets in steps, feed) and, traced, the step and direction edges."""
-    backend = SimBackend(LA_ARCH, record=record)
+def la_program(backend, motion: int) -> tuple:
+    """The two-axis G-code program on ``backend``, set up, and the list its machine's
+    block queue appends every block to (targets in steps, feed) as it is pushed."""
     app = make_program("gcode", backend, scripted=True, output=lambda d: None, axes=2,
                        setup_lines=la_setup(motion))
     app.setup()
@@ -177,6 +170,21 @@ def la_run(lines: list[str], motion: int, record: bool, corners: bool = False) -
         push(block)
 
     m.blocks.push = recording_push  # type: ignore[method-assign]
+    return app, moves
+
+
+def la_lines(segments: int) -> list[str]:
+    import bench_path as bp
+
+    return [f"G1 X{p[0]:.4f} Y{p[1]:.4f} F{f:g}" for p, f in bp.cam_program(segments)]
+
+
+def la_run(lines: list[str], motion: int, record: bool, corners: bool = False) -> dict:
+    """The program through the G-code machine: motion time, CPU time, the blocks
+    (targets in steps, feed) and, traced, the step and direction edges."""
+    backend = SimBackend(LA_ARCH, record=record)
+    app, moves = la_program(backend, motion)
+    m = app.machine
     #: id(move) -> (planned speed at its end units/s, the tick it ends)
     exits: dict[int, tuple[float, int]] = {}
     trim = path_executor.Executor.trim
@@ -421,18 +429,8 @@ def device_run(lines: list[str], device: str, baud: int) -> dict:
     with Loopback(device=device, baud=baud, **kw) as lb:
         b = lb.backend
         tps = b.profile.ticks_per_s
-        app = make_program("gcode", b, scripted=True, output=lambda d: None, axes=2,
-                           setup_lines=la_setup(0))
-        app.setup()
+        app, moves = la_program(b, 0)
         m = app.machine
-        moves: list = []
-        push = m.blocks.push
-
-        def recording_push(block) -> None:
-            moves.append(block)
-            push(block)
-
-        m.blocks.push = recording_push  # type: ignore[method-assign]
         ends: dict[int, int] = {}
         trim = path_executor.Executor.trim
 

@@ -49,3 +49,13 @@ def end(proc: subprocess.Popen, timeout_s: float) -> tuple[str, str]:
     if proc.poll() is None:
         proc.send_signal(signal.SIGTERM)
     return proc.communicate(timeout=timeout_s)
+
+
+def first_serial_line(host, timeout_s: float) -> bytes:
+    """The first non-empty line a port opened with pyserial (``timeout=timeout_s``)
+    receives, without its line end."""
+    while True:
+        line = host.readline()
+        assert line.endswith(b"\n"), f"no line within {timeout_s} s: {line!r}"
+        if line.strip():
+            return line.rstrip(b"\r\n")

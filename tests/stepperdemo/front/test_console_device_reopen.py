@@ -10,18 +10,13 @@ import re
 import pytest
 import serial
 
-from rigs.processes import end, read_line, spawn
+from rigs.processes import end, first_serial_line, read_line, spawn
 
 WAIT_S = 60  # limit of every wait (never reached when it works)
 
 
 def first_line(host: serial.Serial) -> bytes:
-    """The first non-empty line the device sends this host."""
-    while True:
-        line = host.readline()
-        assert line.endswith(b"\n"), f"no line within {WAIT_S} s: {line!r}"
-        if line.strip():
-            return line.rstrip(b"\r\n")
+    return first_serial_line(host, WAIT_S)
 
 
 def test_a_host_that_closes_and_opens_the_pty_at_once_restarts_the_firmware():
