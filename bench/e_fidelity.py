@@ -41,7 +41,9 @@ one of the run's common pitches: the overflow lies between the two block starts)
 ``--starts``) and prints, per window, the range of gap counts the model makes and
 whether the firmware's count lies in it: how far a window's count is set by the phase
 of the loop's pass at the window's start, which the model does not keep (it skips idle
-passes and takes up the loop at the overflow).
+passes and takes up the loop at the overflow).  ``--start-shift T1,T2,...`` moves the
+first step of the n-th queue start a ramp task makes by Tn ticks (negative: earlier) in
+those runs: what a first step the model places off the firmware's does to the windows.
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from fas.sim import SimBackend  # noqa: E402
+from fas.sim.channel import SimChannel  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.scenarios.evaluate import (  # noqa: E402
     gaps_per_window,
@@ -294,8 +297,29 @@ PHASE_SPAN_TICKS = 500  # the firmware's window starts scatter over ~530 ticks (
 PHASE_STEP_TICKS = 25
 
 
-def phase(conf: Path, cases: list[str]) -> int:
-    """Per window: the gap counts over the window start's phase, and the firmware's."""
+def phase(conf: Path, cases: list[str], start_shifts: tuple[int, ...] = ()) -> int:
+    """Per window: the gap counts over the window start's phase, and the firmware's
+    (``start_shifts``: ticks added before the n-th queue start of a ramp task)."""
+    plain_start = SimChannel.start
+    made: dict[int, int] = {}
+
+    def shifted_start(ch: SimChannel) -> None:
+        q = ch.q
+        if ch.m.in_task and not ch.running and q.read_idx != q.next_write_idx:
+            n = made.get(id(ch.m), 0)
+            made[id(ch.m)] = n + 1
+            if n < len(start_shifts):
+                ch.m.task_offset += start_shifts[n]
+        plain_start(ch)
+
+    SimChannel.start = shifted_start  # type: ignore[method-assign]
+    try:
+        return _phase(conf, cases)
+    finally:
+        SimChannel.start = plain_start  # type: ignore[method-assign]
+
+
+def _phase(conf: Path, cases: list[str]) -> int:
     for case in cases:
         folder = conf / case
         inp = (folder / "input.txt").read_text().strip()
@@ -393,13 +417,17 @@ def main(argv: list[str] | None = None) -> int:
                     "beside model, and timer 0's phase read from the blocks")
     ap.add_argument("--phase", action="store_true",
                     help="gap counts per window over the phase of the window's start")
+    ap.add_argument("--start-shift", default="",
+                    help="with --phase: ticks added to the first step of the 1st, 2nd, "
+                    "... queue start of a ramp task, comma-separated")
     args = ap.parse_args(argv)
     conf = Path(args.conformance)
     e_cases = args.cases or [c for c in CASES if c.startswith("e")]
     if args.starts:
         return starts(conf, e_cases)
     if args.phase:
-        return phase(conf, e_cases)
+        shifts = tuple(int(x) for x in args.start_shift.split(",") if x.strip())
+        return phase(conf, e_cases, shifts)
     if args.pulses:
         return pulses(conf, args.cases or [c for c in CASES if c.startswith("e")])
     if args.holdout:
