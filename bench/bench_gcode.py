@@ -359,6 +359,52 @@ def jd_speed(u: tuple[float, float], w: tuple[float, float], accel: float, d: fl
     return math.sqrt(a_j * d * sin_half / (1.0 - sin_half))
 
 
+def blend_figures(moves: list, exits: dict, spu: float, accel: float) -> dict:
+    """The corner blend of docs/path-planner.md (designed, not executed) at every
+    junction that turns, at the speed executed there: the velocity goes from ``v u``
+    to ``v w`` at ``a_j`` along ``w - u`` (every axis within its limit by
+    construction); its length along each block ``v^2 |w - u| / (2 a_j)``, how far
+    inside the corner it passes ``v^2 |w - u|^2 / (8 a_j)`` (steps), whether it fits
+    in half of both blocks, and where an axis turns round inside it."""
+    worst = 0.0
+    worst_jd = 0.0
+    turning = too_long = too_long_jd = reversals = 0
+    fit = 1.0  # the lowest share of its speed a junction keeps if its blend must fit
+    for k in range(len(moves) - 1):
+        a, b = moves[k], moves[k + 1]
+        if id(a) not in exits:
+            continue
+        da = [(a.target[i] - a.start[i]) / spu for i in range(2)]
+        db = [(b.target[i] - b.start[i]) / spu for i in range(2)]
+        la, lb = math.hypot(*da), math.hypot(*db)
+        u = (da[0] / la, da[1] / la)
+        w = (db[0] / lb, db[1] / lb)
+        diff = (w[0] - u[0], w[1] - u[1])
+        n = math.hypot(*diff)
+        if n < 2e-3:  # straight on (cos > 0.999998): no blend
+            continue
+        v = exits[id(a)][0]
+        if v <= 0.0:
+            continue  # a stop: nothing to blend
+        turning += 1
+        a_j = min(accel / abs(c / n) for c in diff if c)
+        length = v * v * n / (2 * a_j)
+        inside = v * v * n * n / (8 * a_j) * spu
+        worst = max(worst, inside)
+        limited = v < 0.99 * min(a.feed, b.feed) / 60
+        if limited:
+            worst_jd = max(worst_jd, inside)
+        if length > la / 2 or length > lb / 2:
+            too_long += 1
+            too_long_jd += limited
+            fit = min(fit, math.sqrt(a_j * min(la, lb) / n) / v)
+        if any(u[i] * w[i] < 0 for i in range(2)):
+            reversals += 1
+    return {"turning": turning, "inside": worst, "inside_jd": worst_jd,
+            "too_long": too_long, "too_long_jd": too_long_jd, "fit": fit,
+            "reversals": reversals}
+
+
 def lookahead_section(segments: int, repeat: int) -> None:
     import bench_path as bp
 
@@ -448,6 +494,14 @@ def lookahead_section(segments: int, repeat: int) -> None:
     if errs:
         print(f"  planned speed at {len(errs)} junctions limited by junction deviation: "
               f"{min(errs):+.4%} .. {max(errs):+.4%} of the formula")
+    bl = blend_figures(moves, exits, bp.SPU, bp.ACCEL)
+    print(f"  corner blend (designed, not executed; docs/path-planner.md) at the "
+          f"{bl['turning']} junctions that turn, at the speeds executed: inside the "
+          f"corner by {bl['inside']:.3f} steps at most ({bl['inside_jd']:.3f} where junction "
+          f"deviation limits; $11 = {bp.JUNCTION * bp.SPU:.2f} steps), {bl['too_long']} "
+          f"longer than half a block ({bl['too_long_jd']} of them where junction deviation "
+          f"limits; fitting them keeps {bl['fit']:.1%} of the speed at least), "
+          f"{bl['reversals']} with an axis turning round in it")
 
 
 def device_run(lines: list[str], device: str, baud: int) -> dict:
