@@ -9,6 +9,11 @@ and the duty it asks for), the lateness is the time from that tick to the moment
 chip's PWM unit is given that duty (0 when it has it already); the duty shows from the
 timer's next period after that.  Printed: the largest lateness, the PWM period, and how
 many commands came later than one period.
+
+``--device``: the same program through ``--port`` (``rigs/laser.py``) on the Python
+device at 115 200 baud and on our firmware in simavr at 115 200 and 1 000 000 baud: for
+every duty change (OutputAt) not replaced before it could show, how many PWM periods
+after the first one that begins after its tick the Uno's pin 11 shows it.
 """
 
 from __future__ import annotations
@@ -73,11 +78,29 @@ def lateness(arch: str, executor: str) -> dict[str, float]:
             "later_than_a_period": late}
 
 
+def on_devices() -> None:
+    from rigs.laser import run
+
+    for device, baud in (("python", 115200), ("simavr", 115200), ("simavr", 1_000_000)):
+        r = run(device, baud)
+        checks = r.checks()
+        late = [c for c in checks if c[3] != 0]
+        worst = max((c[2] + c[3] * r.period - c[0] for c in checks if c[3] >= 0), default=0)
+        print(f"{device:6s} {baud:>7} baud: {len(checks)} changes checked, {len(late)} late "
+              f"(never shown: {sum(c[3] < 0 for c in late)}), the latest shows "
+              f"{worst / 16000:.3f} ms after its tick (PWM period {r.period / 16000:.3f} ms),"
+              f" rejected {r.counters['rejected']}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--arch", default="atmega2560")
     ap.add_argument("--executor", default="both", choices=("lookahead", "exact_stop", "both"))
+    ap.add_argument("--device", action="store_true", help="the runs through --port")
     a = ap.parse_args()
+    if a.device:
+        on_devices()
+        return
     for ex in ("lookahead", "exact_stop") if a.executor == "both" else (a.executor,):
         r = lateness(a.arch, ex)
         print(f"{a.arch} {ex:10s}: {r['commands']} duty changes, latest "
