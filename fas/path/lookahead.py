@@ -44,16 +44,23 @@ COS_REVERSAL = 0.999999  # above this: a full reversal (the junction speed is 0)
 class Block:
     """One straight segment of the path (see the module text).  Speeds in units/s."""
 
-    __slots__ = ("start", "delta", "unit", "length", "remaining", "acceleration",
-                 "rapid_rate", "nominal_speed", "entry_sqr", "max_entry_sqr",
-                 "max_junction_sqr", "tag", "feed", "override")
+    __slots__ = ("start", "delta", "origin", "span", "unit", "length", "remaining",
+                 "acceleration", "rapid_rate", "nominal_speed", "entry_sqr",
+                 "max_entry_sqr", "max_junction_sqr", "tag", "feed", "override")
 
     def __init__(self, start: tuple[int, ...], delta: tuple[int, ...],
                  unit: tuple[float, ...], length: float, acceleration: float,
                  rapid_rate: float, nominal_speed: float, tag: object,
-                 feed: float | None, override: bool = True) -> None:
-        self.start = start  # steps, where the block begins
-        self.delta = delta  # steps per axis (signed)
+                 feed: float | None, override: bool = True,
+                 origin: tuple[float, ...] | None = None,
+                 span: tuple[float, ...] | None = None) -> None:
+        self.start = start  # steps, where the axes stand as the block begins
+        self.delta = delta  # steps per axis (signed) the axes make in it
+        #: the path itself (steps, not rounded) where it runs between steps (an
+        #: arc's chord ends): it begins at ``origin`` and goes ``span``, each axis on
+        #: the last step the path passed (:func:`pin_after`); None: ``start``, ``delta``
+        self.origin = origin
+        self.span = span
         self.unit = unit  # unit vector in units
         self.length = length  # units
         self.remaining = length  # units not executed yet (Grbl: block->millimeters)
@@ -75,6 +82,20 @@ class Block:
         return (f"Block({self.delta}, L={self.length:.4g}, v={self.nominal_speed:.4g}, "
                 f"entry={math.sqrt(self.entry_sqr):.4g}, "
                 f"max={math.sqrt(self.max_entry_sqr):.4g})")
+
+
+def pin_after(pin: int, x0: float, x1: float) -> int:
+    """Where an axis stands once the path has gone from ``x0`` to ``x1`` (steps, along
+    one axis) with the axis at ``pin`` (within a step of ``x0``): each step is made
+    where the path reaches it, so the axis is on the last whole step the path has
+    passed, less than one step behind it (or, after a turn, less than one ahead)."""
+    if x1 > x0:
+        k = math.floor(x1)
+        return k if k > pin else pin
+    if x1 < x0:
+        k = math.ceil(x1)
+        return k if k < pin else pin
+    return pin
 
 
 def limit_along(limits: Sequence[float], unit: Sequence[float]) -> float:
@@ -137,12 +158,17 @@ class Lookahead:
 
     # ---------------------------------------------------------------- adding
     def make_block(self, start: tuple[int, ...], delta: tuple[int, ...],
-                   feed: float | None, tag: object, override: bool = True) -> Block | None:
+                   feed: float | None, tag: object, override: bool = True,
+                   origin: tuple[float, ...] | None = None,
+                   span: tuple[float, ...] | None = None) -> Block | None:
         """A block from ``start`` by ``delta`` steps at ``feed`` units/min (None: the
         rapid rate); None for a block of no length.  Not queued yet (:meth:`add`).
-        ``override``: the overrides (:meth:`set_overrides`) scale its speed."""
+        ``override``: the overrides (:meth:`set_overrides`) scale its speed.
+        ``origin``, ``span``: the path's own start and travel in steps where it runs
+        between steps (:class:`Block`); its length and direction are theirs."""
         spu = self.spu
-        d_units = [d / s for d, s in zip(delta, spu, strict=True)]
+        d_units = [d / s for d, s in zip(delta if span is None else span, spu,
+                                         strict=True)]
         length = math.sqrt(sum(x * x for x in d_units))
         if length == 0.0:
             return None
@@ -150,7 +176,7 @@ class Lookahead:
         acceleration = limit_along(self.accel, unit)
         rapid = limit_along(self.max_rate, unit)
         block = Block(start, delta, unit, length, acceleration, rapid, rapid, tag, feed,
-                      override)
+                      override, origin, span)
         block.nominal_speed = self.nominal(block)
         return block
 

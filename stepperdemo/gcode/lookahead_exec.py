@@ -232,7 +232,8 @@ class LookaheadExecutor(MotionExecutor):
         for move in islice(blocks, self.handed, None):
             if g.room() <= 0:
                 break
-            res = g.line(move.target, None if move.rapid else move.feed, tag=move,
+            res = g.line(move.target if move.exact is None else move.exact,
+                         None if move.rapid else move.feed, tag=move,
                          override=not move.jog)
             if res == PathResult.QUEUE_FULL:
                 break
