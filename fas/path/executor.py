@@ -79,11 +79,12 @@ class Segment:
 
     Per axis: ``steps[i]`` steps (``ups[i]``: upwards), ``pitch[i]`` units of path
     per step of the axis's travel; step ``j`` is due where the path reaches
-    ``(j - phase[i]) * pitch[i]`` - where it reaches the step's position.  A block
-    between whole steps has ``phase`` 0 (step ``j`` at ``j * pitch``, the last at the
-    end); a path from or to a point between steps (an arc's chord ends) has the
-    axis's offset from its start step along the travel (``-1 < phase < 1``), and its
-    last step at the end only where the path ends on a step (``on_end[i]``)."""
+    ``(j - phase[i]) * pitch[i]``.  A block between whole steps has ``phase`` 0 (step
+    ``j`` at ``j * pitch``, the last at the end).  A path from or to a point between
+    steps (an arc's chord ends): an axis whose end is a whole step makes each step
+    where the path reaches it (the last on the end, ``on_end[i]``), else where the
+    path is half a step before it - the axis on the step nearest to the path; the
+    phase holds the axis's offset from its start step along the travel."""
 
     __slots__ = ("seq", "block", "start", "steps", "ups", "pitch", "phase", "on_end",
                  "length", "accel",
@@ -106,11 +107,15 @@ class Segment:
             assert origin is not None
             self.pitch = tuple(block.length / abs(x) if n else 0.0
                                for n, x in zip(self.steps, block.span, strict=True))
-            self.phase = tuple((x0 - p0 if d > 0 else p0 - x0) if d else 0.0
-                               for x0, p0, d in zip(origin, block.start, block.delta,
-                                                    strict=True))
+            # an axis ending on a whole step steps where the path reaches each whole
+            # step (its last on the end); else where it reaches each half step
             self.on_end = tuple(abs(x0 + x - p0 - d) < 1e-9 for x0, x, p0, d in zip(
                 origin, block.span, block.start, block.delta, strict=True))
+            self.phase = tuple(((x0 - p0 if d > 0 else p0 - x0) + (0.0 if whole else 0.5))
+                               if d else 0.0
+                               for x0, p0, d, whole in zip(origin, block.start,
+                                                           block.delta, self.on_end,
+                                                           strict=True))
         self.accel = block.acceleration / (ticks_per_s * ticks_per_s)  # units/tick^2
         self.pieces: list[Piece] = []
         self.s_done = 0.0  # final up to this distance ...

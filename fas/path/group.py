@@ -243,9 +243,9 @@ class PathGroup:
         (None: the rapid rate - every axis at most its ``max_rate``); ``override``
         False: the feed and rapid overrides leave it alone (a jog).  A target between
         steps (an arc's chord end, not rounded) is a point the path goes through:
-        each axis stands on the last step the path passed there, less than a step
-        from it (:func:`fas.path.lookahead.pin_after`); a target on whole steps ends
-        there exactly."""
+        each axis stands on the step nearest to it, within half a step of the path
+        on the way (:func:`fas.path.lookahead.pin_after`); a target on whole steps ends
+        there exactly, every axis's last step on the block's end tick."""
         if not self.attached:
             return PathResult.ERR_NOT_ATTACHED
         if self.lookahead.full():
@@ -270,8 +270,9 @@ class PathGroup:
             ints = tuple(int(t) for t in target)
             exact = tuple(float(t) for t in ints)
             path: tuple[float, ...] | None = None
-        else:
-            exact = tuple(float(t) for t in target)
+        else:  # (a point within a billionth of a step of a whole step is on it)
+            exact = tuple(float(round(t)) if abs(t - round(t)) < 1e-9 else float(t)
+                          for t in target)
             ints = tuple(pin_after(p, x0, x1)
                          for p, x0, x1 in zip(start, origin, exact, strict=True))
             path = tuple(x1 - x0 for x1, x0 in zip(exact, origin, strict=True))

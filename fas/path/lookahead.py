@@ -57,8 +57,9 @@ class Block:
         self.start = start  # steps, where the axes stand as the block begins
         self.delta = delta  # steps per axis (signed) the axes make in it
         #: the path itself (steps, not rounded) where it runs between steps (an
-        #: arc's chord ends): it begins at ``origin`` and goes ``span``, each axis on
-        #: the last step the path passed (:func:`pin_after`); None: ``start``, ``delta``
+        #: arc's chord ends): it begins at ``origin`` and goes ``span``, each axis
+        #: ending on the step nearest to the path's end (:func:`pin_after`); None:
+        #: ``start``, ``delta``
         self.origin = origin
         self.span = span
         self.unit = unit  # unit vector in units
@@ -86,14 +87,14 @@ class Block:
 
 def pin_after(pin: int, x0: float, x1: float) -> int:
     """Where an axis stands once the path has gone from ``x0`` to ``x1`` (steps, along
-    one axis) with the axis at ``pin`` (within a step of ``x0``): each step is made
-    where the path reaches it, so the axis is on the last whole step the path has
-    passed, less than one step behind it (or, after a turn, less than one ahead)."""
+    one axis) with the axis at ``pin`` (within a step of ``x0``): on the step nearest
+    to ``x1`` - on ``x1`` itself where it is a whole step - unless that lies behind
+    ``pin`` (a turn within half a step: the axis waits)."""
     if x1 > x0:
-        k = math.floor(x1)
+        k = math.floor(x1 + 0.5)
         return k if k > pin else pin
     if x1 < x0:
-        k = math.ceil(x1)
+        k = math.ceil(x1 - 0.5)
         return k if k < pin else pin
     return pin
 

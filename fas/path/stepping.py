@@ -1,11 +1,13 @@
 """One axis of a path: its step times as FastAccelStepper queue commands.
 
-Axis ``i`` makes step ``j`` of a segment where the path reaches that step's position
-(``(j - phase) * pitch``: :class:`fas.path.executor.Segment`), at the tick the
-segment's final pieces give for that distance, rounded.  So at every instant each
-axis has made exactly the steps the path has passed (the position rounds down along
-the path: less than one step behind it), and every axis makes the last step of a
-segment that ends on a step at the segment's end tick - all on one tick.
+Axis ``i`` makes step ``j`` of a segment at distance ``(j - phase) * pitch``
+(:class:`fas.path.executor.Segment`): where the path reaches the step's position, or
+half a step before it in a segment that ends between steps (an arc's chord), at the
+tick the segment's final pieces give for that distance, rounded.  So at every instant
+each axis has made exactly the steps the path has passed (the position rounds down
+along the path: less than one step behind it; to the nearest step towards a point
+between steps), and every axis makes the last step of a segment that ends on a step
+at the segment's end tick - all on one tick.
 
 The steps become commands ``(ticks, steps, count_up)`` that run back to back from the
 run's common start tick, so that each step falls on its tick:

@@ -9,6 +9,7 @@ import random
 import pytest
 
 from fas.path.arc import Plane, arc_center_from_radius
+from fas.path.settings import GROUP_TOLERANCE_STEPS
 from fas.pwm import duty_count
 from stepperdemo.gcode.interp import Interpreter, Move
 from stepperdemo.gcode.parser import parse_line
@@ -103,19 +104,35 @@ def test_arc_ends_exactly_and_stays_within_the_tolerance_plus_a_step_on_the_pins
     path = path_from_pins(g)
     worst = max(abs(math.dist((x / SPU, y / SPU), centre) - r) for _t, (x, y) in path)
     # the issue's bound: $12 (the chords) + one step (every axis within a step of the
-    # path), at every step of either axis
+    # path; half a step inside the arc), at every step of either axis
     assert worst <= tol + 1 / SPU, worst
     assert len(path) > 100
 
 
 def test_arc_radius_error_within_the_tolerance_plus_one_step():
-    """Measured at every step of either axis: 0.0139 mm = $12 + 0.95 steps (before the
+    """Measured at every step of either axis: 0.0125 mm = $12 + 0.84 steps, in the last
+    chord, where each axis steps where the path reaches each whole step to end on the
+    target; inside the arc the axes stand on the step nearest to the path (before the
     chord ends went unrounded into the path: 0.0188 mm = $12 + 1.34 steps)."""
     g = grbl()
     send(g, "G2 X20 Y0 I10 J0 F3000\n")
-    worst = max(abs(math.dist((x / SPU, y / SPU), (10.0, 0.0)) - 10.0)
-                for _t, (x, y) in path_from_pins(g))
+    path = path_from_pins(g)
+    worst = max(abs(math.dist((x / SPU, y / SPU), (10.0, 0.0)) - 10.0) for _t, (x, y) in path)
     assert worst <= 0.002 + 1 / SPU, worst * SPU
+    # inside the arc (before the last chord, a step's angle before it): each axis within
+    # half a step of the path, or up to GROUP_TOLERANCE_STEPS more where steps grouped
+    # while the path speeds up come early - on the radius at most sqrt 2 times that
+    it = Interpreter(3, g.machine.settings)
+    moves = [a for a in it.interpret(parse_line("G2 X20 Y0 I10 J0 F3000")) if isinstance(a, Move)]
+    last = moves[-2].exact
+    assert last is not None
+    turned = lambda x, y: math.atan2(y, x - 10.0 * SPU)  # noqa: E731 - from +pi down to 0
+    inside = [(x, y) for _t, (x, y) in path
+              if turned(x, y) > turned(last[0], last[1]) + 1 / (10.0 * SPU)]
+    assert len(inside) > 0.9 * len(path)
+    bound = 0.002 + (0.5 + GROUP_TOLERANCE_STEPS) * math.sqrt(2) / SPU
+    inner = max(abs(math.dist((x / SPU, y / SPU), (10.0, 0.0)) - 10.0) for x, y in inside)
+    assert inner <= bound, inner * SPU
 
 
 def test_the_long_r_arc_goes_the_long_way():
