@@ -81,10 +81,11 @@ class Segment:
     per step of the axis's travel; step ``j`` is due where the path reaches
     ``(j - phase[i]) * pitch[i]``.  A block between whole steps has ``phase`` 0 (step
     ``j`` at ``j * pitch``, the last at the end).  A path from or to a point between
-    steps (an arc's chord ends): an axis whose end is a whole step makes each step
-    where the path reaches it (the last on the end, ``on_end[i]``), else where the
-    path is half a step before it - the axis on the step nearest to the path; the
-    phase holds the axis's offset from its start step along the travel."""
+    steps, or one the path goes on through (an arc's chord ends): an axis whose end is
+    a whole step of a block that ends there makes each step where the path reaches it
+    (the last on the end, ``on_end[i]``), else where the path is half a step before it
+    - the axis on the step nearest to the path; the phase holds the axis's offset
+    from its start step along the travel."""
 
     __slots__ = ("seq", "block", "start", "steps", "ups", "pitch", "phase", "on_end",
                  "length", "accel",
@@ -108,9 +109,12 @@ class Segment:
             self.pitch = tuple(block.length / abs(x) if n else 0.0
                                for n, x in zip(self.steps, block.span, strict=True))
             # an axis ending on a whole step steps where the path reaches each whole
-            # step (its last on the end); else where it reaches each half step
-            self.on_end = tuple(abs(x0 + x - p0 - d) < 1e-9 for x0, x, p0, d in zip(
-                origin, block.span, block.start, block.delta, strict=True))
+            # step (its last on the end); else, or where the path goes on through
+            # the end, where it is half a step before each
+            through = block.through
+            self.on_end = tuple(not through and abs(x0 + x - p0 - d) < 1e-9
+                                for x0, x, p0, d in zip(origin, block.span, block.start,
+                                                        block.delta, strict=True))
             self.phase = tuple(((x0 - p0 if d > 0 else p0 - x0) + (0.0 if whole else 0.5))
                                if d else 0.0
                                for x0, p0, d, whole in zip(origin, block.start,

@@ -238,14 +238,17 @@ class PathGroup:
         return self.lookahead.size - len(self.lookahead)
 
     def line(self, target: Sequence[float], feed: float | None = None, *,
-             tag: object = None, override: bool = True) -> PathResult:
+             tag: object = None, override: bool = True,
+             through: bool = False) -> PathResult:
         """Queue a straight move to ``target`` (steps per axis) at ``feed`` units/min
         (None: the rapid rate - every axis at most its ``max_rate``); ``override``
         False: the feed and rapid overrides leave it alone (a jog).  A target between
         steps (an arc's chord end, not rounded) is a point the path goes through:
         each axis stands on the step nearest to it, within half a step of the path
         on the way (:func:`fas.path.lookahead.pin_after`); a target on whole steps ends
-        there exactly, every axis's last step on the block's end tick."""
+        there exactly, every axis's last step on the block's end tick.  ``through``:
+        the path goes on through ``target`` (an arc's chord end, whole steps or not):
+        every axis on the step nearest to the path all the way."""
         if not self.attached:
             return PathResult.ERR_NOT_ATTACHED
         if self.lookahead.full():
@@ -266,7 +269,7 @@ class PathGroup:
         start = tuple(self.position)
         origin = tuple(self.exact)
         whole = all(x == p for x, p in zip(origin, start, strict=True))
-        if whole and all(t == int(t) for t in target):  # from steps to steps
+        if whole and not through and all(t == int(t) for t in target):  # steps to steps
             ints = tuple(int(t) for t in target)
             exact = tuple(float(t) for t in ints)
             path: tuple[float, ...] | None = None
@@ -281,7 +284,7 @@ class PathGroup:
             if d < 0 and not a.host.has_direction_pin():
                 return PathResult.ERR_NO_DIRECTION_PIN
         block = self.lookahead.make_block(start, delta, feed, tag, override,
-                                          None if path is None else origin, path)
+                                          None if path is None else origin, path, through)
         if block is None:
             return PathResult.EMPTY_BLOCK
         was_empty = not self.lookahead.blocks and not self.run_active
@@ -298,8 +301,8 @@ class PathGroup:
                    tag: object = None, override: bool = True,
                    rounded: bool = True) -> PathResult:
         """:meth:`line` to a target in units (each axis rounded to its nearest step,
-        as Grbl's planner does; ``rounded`` False: the point itself - an arc's chord
-        end the path goes through)."""
+        as Grbl's planner does; ``rounded`` False: the point itself, an arc's chord
+        end the path goes on through - :meth:`line`'s ``through``)."""
         if len(target) != len(self.settings.axes):
             return PathResult.ERR_AXES
         steps = []
@@ -308,7 +311,7 @@ class PathGroup:
             if not math.isfinite(x) or not INT32_MIN <= x <= INT32_MAX:
                 return PathResult.ERR_RANGE
             steps.append(round(x) if rounded else x)
-        return self.line(steps, feed, tag=tag, override=override)
+        return self.line(steps, feed, tag=tag, override=override, through=not rounded)
 
     def set_overrides(self, feed_percent: float, rapid_percent: float) -> None:
         """Grbl's feed override (blocks with a feed) and rapid override (rapid blocks),
@@ -671,11 +674,12 @@ class PathGroup:
             end = tuple(pin_after(p, x0, x1)
                         for p, x0, x1 in zip(start, origin, exact, strict=True))
             delta = tuple(e - s for e, s in zip(end, start, strict=True))
-            whole = all(x == p for x, p in zip(origin + exact, start + end, strict=True))
+            whole = not b.through and all(
+                x == p for x, p in zip(origin + exact, start + end, strict=True))
             span = None if whole else tuple(x1 - x0 for x1, x0 in zip(exact, origin,
                                                                     strict=True))
             nb = la.make_block(start, delta, b.feed, b.tag, b.override,
-                               None if whole else origin, span)
+                               None if whole else origin, span, b.through)
             if nb is None:
                 continue
             la.add(nb)

@@ -44,7 +44,8 @@ COS_REVERSAL = 0.999999  # above this: a full reversal (the junction speed is 0)
 class Block:
     """One straight segment of the path (see the module text).  Speeds in units/s."""
 
-    __slots__ = ("start", "delta", "origin", "span", "unit", "length", "remaining",
+    __slots__ = ("start", "delta", "origin", "span", "through", "unit", "length",
+                 "remaining",
                  "acceleration", "rapid_rate", "nominal_speed", "entry_sqr",
                  "max_entry_sqr", "max_junction_sqr", "tag", "feed", "override")
 
@@ -53,7 +54,7 @@ class Block:
                  rapid_rate: float, nominal_speed: float, tag: object,
                  feed: float | None, override: bool = True,
                  origin: tuple[float, ...] | None = None,
-                 span: tuple[float, ...] | None = None) -> None:
+                 span: tuple[float, ...] | None = None, through: bool = False) -> None:
         self.start = start  # steps, where the axes stand as the block begins
         self.delta = delta  # steps per axis (signed) the axes make in it
         #: the path itself (steps, not rounded) where it runs between steps (an
@@ -62,6 +63,9 @@ class Block:
         #: ``start``, ``delta``
         self.origin = origin
         self.span = span
+        #: the path goes on through its end (an arc's chord end): every axis stands
+        #: on the step nearest to the path all the way, its last step not on the end
+        self.through = through
         self.unit = unit  # unit vector in units
         self.length = length  # units
         self.remaining = length  # units not executed yet (Grbl: block->millimeters)
@@ -161,12 +165,14 @@ class Lookahead:
     def make_block(self, start: tuple[int, ...], delta: tuple[int, ...],
                    feed: float | None, tag: object, override: bool = True,
                    origin: tuple[float, ...] | None = None,
-                   span: tuple[float, ...] | None = None) -> Block | None:
+                   span: tuple[float, ...] | None = None,
+                   through: bool = False) -> Block | None:
         """A block from ``start`` by ``delta`` steps at ``feed`` units/min (None: the
         rapid rate); None for a block of no length.  Not queued yet (:meth:`add`).
         ``override``: the overrides (:meth:`set_overrides`) scale its speed.
         ``origin``, ``span``: the path's own start and travel in steps where it runs
-        between steps (:class:`Block`); its length and direction are theirs."""
+        between steps (:class:`Block`); its length and direction are theirs;
+        ``through``: :attr:`Block.through`."""
         spu = self.spu
         d_units = [d / s for d, s in zip(delta if span is None else span, spu,
                                          strict=True)]
@@ -177,7 +183,7 @@ class Lookahead:
         acceleration = limit_along(self.accel, unit)
         rapid = limit_along(self.max_rate, unit)
         block = Block(start, delta, unit, length, acceleration, rapid, rapid, tag, feed,
-                      override, origin, span)
+                      override, origin, span, through)
         block.nominal_speed = self.nominal(block)
         return block
 

@@ -234,6 +234,7 @@ class LookaheadExecutor(MotionExecutor):
                 break
             res = g.line(move.target if move.exact is None else move.exact,
                          None if move.rapid else move.feed, tag=move,
+                         through=move.exact is not None,
                          override=not move.jog)
             if res == PathResult.QUEUE_FULL:
                 break

@@ -412,6 +412,31 @@ def test_every_step_within_tolerance_plus_one_step_of_the_circle():
     assert group.stats.underruns == 0
 
 
+def test_a_path_through_points_keeps_each_axis_on_the_nearest_step():
+    """``through``: the path goes on through the point (an arc's chord end) - every axis
+    stands on the step nearest to the path, also where the point happens to lie on a
+    whole step (Y 5.0 here); the last block ends on its target, every axis's last step
+    on one tick."""
+    from rigs.path import Stream, perp_to_segment
+
+    backend, engine, group, pins, dirs = make_group(limits=LIMITS)
+    a, b, end = (0.0, 0.0), (400.3, 5.0), (800, 30)
+    assert group.line(b, 3000.0, through=True) == PathResult.OK
+    assert group.line(end, 3000.0) == PathResult.OK
+    assert group.position == [800, 30]
+    assert Stream(backend, group, [], 3000.0).run()
+    steps = axis_steps(backend, pins, dirs)
+    ins = instants(steps, (0, 0))
+    assert ins[-1][1] == end
+    assert steps[0][-1][0] == steps[1][-1][0]  # the last steps on one tick
+    first = [p for _t, p in ins if p[0] <= 399]  # the pins in the first block
+    assert len(first) > 390
+    # each axis within half a step (+ early grouped steps while speeding up): Y, the
+    # slow axis, would lag up to a whole step into the whole step Y 5 without it
+    worst = max(perp_to_segment(p, a, b) for p in first)
+    assert worst <= (0.5 + GROUP_TOLERANCE_STEPS) * math.sqrt(2), worst
+
+
 # ---------------------------------------------------------------- joining
 def test_join_refusals():
     from fas import Engine

@@ -135,6 +135,44 @@ def test_arc_radius_error_within_the_tolerance_plus_one_step():
     assert inner <= bound, inner * SPU
 
 
+@pytest.mark.parametrize("seed", [1, 2])
+def test_random_arcs_stay_within_the_tolerance_plus_a_step_and_end_exactly(seed):
+    """Arcs of random centre, sweep, direction, feed and `$12`, their targets in mm
+    (whole micrometres, so not on whole steps nor quite on the circle): inside the arc
+    each axis within half a step of the path (+ GROUP_TOLERANCE_STEPS where grouped
+    steps come early); the last chord ends on the target rounded to steps, so there
+    the target's own distance from the circle comes on top of `$12` + 1 step."""
+    rnd = random.Random(seed)
+    for _ in range(4):
+        r = rnd.choice([1.0, 3.0, 10.0])
+        a0 = rnd.uniform(0, 2 * math.pi)
+        a1 = a0 + rnd.uniform(-2 * math.pi, 2 * math.pi)
+        c = (-r * math.cos(a0), -r * math.sin(a0))  # from X0 Y0
+        tx, ty = round(c[0] + r * math.cos(a1), 3), round(c[1] + r * math.sin(a1), 3)
+        tol = rnd.choice([0.002, 0.01])
+        line = (f"G{2 if a1 < a0 else 3} X{tx} Y{ty} I{c[0]:.4f} J{c[1]:.4f} "
+                f"F{rnd.choice([600, 3000, 6000])}")
+        g = grbl()
+        assert send(g, f"$12={tol}\n{line}\n") == ["ok", "ok"], line
+        it = Interpreter(3, g.machine.settings)
+        moves = [a for a in it.interpret(parse_line(line)) if isinstance(a, Move)]
+        assert g.machine.positions() == list(moves[-1].target)  # end point exact
+        centre = (round(c[0], 4) * SPU, round(c[1], 4) * SPU)
+        radius = math.hypot(*centre)
+        def off(p, centre=centre, radius=radius):  # steps off the circle
+            return abs(math.dist(p, centre) - radius)
+
+        path = [p for _t, p in path_from_pins(g)]
+        last = moves[-2].exact if len(moves) > 1 else None
+        assert last is not None
+        # the steps before the pins come within a step of the last chord's start
+        k = next(i for i, p in enumerate(path) if math.dist(p, last[:2]) <= 1.5)
+        inside = max(map(off, path[:k]), default=0.0)
+        assert inside <= tol * SPU + (0.5 + GROUP_TOLERANCE_STEPS) * math.sqrt(2), line
+        target_off = off(moves[-1].target[:2])
+        assert max(map(off, path)) <= tol * SPU + 1 + target_off, line
+
+
 def test_the_long_r_arc_goes_the_long_way():
     it = Interpreter(3, GcodeSettings(steps_per_unit=[SPU] * 6))
     short = [a for a in it.interpret(parse_line("G3 X7.5 Y-2.5 R5 F3000"))]
