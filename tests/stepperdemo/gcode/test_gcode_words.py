@@ -135,6 +135,26 @@ def test_arc_radius_error_within_the_tolerance_plus_one_step():
     assert inner <= bound, inner * SPU
 
 
+def test_a_feed_hold_inside_an_arc_resumes_it_on_the_same_circle():
+    """The hold stops between chord ends; the blocks go back into the queue from where
+    the axes stand, through the same points (``through``) - still within `$12` + one
+    step, the end exact."""
+    g = grbl()
+    g.send(b"G2 X20 Y0 I10 J0 F3000\n")
+    g.advance(0.3)
+    g.send(b"!")
+    g.advance(1.0)
+    assert status(g).startswith("<Hold:0")
+    held = g.machine.positions()
+    assert 0 < held[0] < 1600 and held[1] > 0  # on the way, above the centre
+    g.send(b"~")
+    assert g.settle()
+    assert g.machine.positions() == [1600, 0, 0]
+    worst = max(abs(math.dist((x / SPU, y / SPU), (10.0, 0.0)) - 10.0)
+                for _t, (x, y) in path_from_pins(g))
+    assert worst <= 0.002 + 1 / SPU, worst * SPU
+
+
 @pytest.mark.parametrize("seed", [1, 2])
 def test_random_arcs_stay_within_the_tolerance_plus_a_step_and_end_exactly(seed):
     """Arcs of random centre, sweep, direction, feed and `$12`, their targets in mm
