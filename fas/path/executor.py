@@ -81,11 +81,11 @@ class Segment:
     per step of the axis's travel; step ``j`` is due where the path reaches
     ``(j - phase[i]) * pitch[i]``.  A block between whole steps has ``phase`` 0 (step
     ``j`` at ``j * pitch``, the last at the end).  A path from or to a point between
-    steps, or one the path goes on through (an arc's chord ends): an axis whose end is
-    a whole step of a block that ends there makes each step where the path reaches it
-    (the last on the end, ``on_end[i]``), else where the path is half a step before it
-    - the axis on the step nearest to the path; the phase holds the axis's offset
-    from its start step along the travel."""
+    steps, or one the path goes on through (an arc's chord ends): each step where the
+    path is half a step before it - the axis on the step nearest to the path; the
+    phase holds the axis's offset from its start step along the travel - but where
+    the block ends on a whole step of the axis, its last step comes on the end
+    (``on_end[i]``: all axes' last steps on one tick there)."""
 
     __slots__ = ("seq", "block", "start", "steps", "ups", "pitch", "phase", "on_end",
                  "length", "accel",
@@ -108,18 +108,15 @@ class Segment:
             assert origin is not None
             self.pitch = tuple(block.length / abs(x) if n else 0.0
                                for n, x in zip(self.steps, block.span, strict=True))
-            # an axis ending on a whole step steps where the path reaches each whole
-            # step (its last on the end); else, or where the path goes on through
-            # the end, where it is half a step before each
+            # each step where the path is half a step before it; an axis ending on a
+            # whole step of a block that ends there makes its last on the end
             through = block.through
             self.on_end = tuple(not through and abs(x0 + x - p0 - d) < 1e-9
                                 for x0, x, p0, d in zip(origin, block.span, block.start,
                                                         block.delta, strict=True))
-            self.phase = tuple(((x0 - p0 if d > 0 else p0 - x0) + (0.0 if whole else 0.5))
-                               if d else 0.0
-                               for x0, p0, d, whole in zip(origin, block.start,
-                                                           block.delta, self.on_end,
-                                                           strict=True))
+            self.phase = tuple(((x0 - p0 if d > 0 else p0 - x0) + 0.5) if d else 0.0
+                               for x0, p0, d in zip(origin, block.start, block.delta,
+                                                    strict=True))
         self.accel = block.acceleration / (ticks_per_s * ticks_per_s)  # units/tick^2
         self.pieces: list[Piece] = []
         self.s_done = 0.0  # final up to this distance ...
@@ -138,6 +135,8 @@ class Segment:
         if self.complete and self.end == self.length:
             return n
         k = int(self.s_done / self.pitch[axis] + self.phase[axis]) if n else 0
+        if self.on_end[axis] and self.block.span is not None:
+            n -= 1  # the last step comes on the end, the others half a step before
         return k if k < n else n
 
     def steps_by(self, axis: int, s: float) -> int:

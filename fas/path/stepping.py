@@ -2,12 +2,12 @@
 
 Axis ``i`` makes step ``j`` of a segment at distance ``(j - phase) * pitch``
 (:class:`fas.path.executor.Segment`): where the path reaches the step's position, or
-half a step before it in a segment that ends between steps (an arc's chord), at the
-tick the segment's final pieces give for that distance, rounded.  So at every instant
-each axis has made exactly the steps the path has passed (the position rounds down
-along the path: less than one step behind it; to the nearest step towards a point
-between steps), and every axis makes the last step of a segment that ends on a step
-at the segment's end tick - all on one tick.
+half a step before it in a segment from or to a point between steps (an arc's
+chords), at the tick the segment's final pieces give for that distance, rounded.  So
+at every instant each axis has made exactly the steps the path has passed (the
+position rounds down along the path: less than one step behind it; to the nearest
+step in an arc's chords), and every axis makes the last step of a segment that ends
+on a step at the segment's end tick - all on one tick.
 
 The steps become commands ``(ticks, steps, count_up)`` that run back to back from the
 run's common start tick, so that each step falls on its tick:

@@ -393,9 +393,9 @@ def test_arcs_on_the_pins():
 
 def test_every_step_within_tolerance_plus_one_step_of_the_circle():
     """The chord ends as they are (between steps), not rounded: every axis stands on the
-    step nearest to the path (on the last one passed in the chord that ends on the
-    target), so every step is within the tolerance + one step of the circle (measured
-    0.8 + 0.87; with the vertices rounded to steps, as in the test above, 0.8 + 1.40)."""
+    step nearest to the path (but its last step, on the end tick), so every step is
+    within the tolerance + one step of the circle (measured 0.8 + 0.68; with the
+    vertices rounded to steps, as in the test above, 0.8 + 1.40)."""
     from fas.path import Plane, arc_points
 
     tol = 0.01
