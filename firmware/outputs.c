@@ -236,6 +236,9 @@ void outputs_cancel(void)
 }
 
 static inline __attribute__((always_inline)) void timer2_timed(void);
+/* timer2_timed from the main loop, interrupts off: its registers are saved in a frame
+ * of its own, which no interrupt can stack on (the stack is short) */
+static __attribute__((noinline)) void timer2_now(void);
 
 /* The session's last timed change (OutputAt or OutputNext): an OutputNext is the next
  * change of the same output, `after` ticks after it.  NEXT_NONE: none yet. */
@@ -304,7 +307,7 @@ static void timed_add(uint8_t flags, uint8_t pin, uint32_t value, uint32_t at)
          * it is past (its flag may be cleared already, by the interrupt for an earlier
          * change), and the next one would make it show a period late */
         if (unit <= PWM_OC2A)
-            timer2_timed();
+            timer2_now();
         if (timed_count)
             TIMSK2 |= _BV(TOIE2);
     }
@@ -360,6 +363,11 @@ static inline __attribute__((always_inline)) void timer2_timed(void)
         timed_first = (uint8_t)((i + 1) % TIMED_SLOTS);
         timed_count--;
     }
+}
+
+static void timer2_now(void)
+{
+    timer2_timed();
 }
 
 ISR(TIMER2_OVF_vect)
