@@ -651,7 +651,9 @@ class SerialBackend(Backend):
             link.entries_by_ns = None
             return
         frame_ns = (FRAME_OVERHEAD + link.payload) * link.byte_ns
-        link.entries_by_ns = self.sync.ns_at(self._timed_wait[0][0]) - frame_ns
+        tick_ns = self.sync.ns_at(self._timed_wait[0][0])
+        link.entries_by_ns = tick_ns - frame_ns
+        link.entries_hold_end_ns = tick_ns  # (past its tick it is late anyway)
 
     # ------------------------------------------------------- inputs (issue 13)
     def _features(self) -> int:

@@ -136,6 +136,7 @@ class HostLink:
         # queued behind entries (None: no limit)
         self.line_free_ns = 0
         self.entries_by_ns: int | None = None
+        self.entries_hold_end_ns = 0  # ... and held no longer than until this time
         # (for that estimate a byte takes a quarter longer than the baud says: a busy
         # device may take bytes slower - the firmware in simavr takes ~100 000 baud of
         # a 117 647-baud line while its interrupts compete)
@@ -250,6 +251,8 @@ class HostLink:
         (``framed``: payload bytes already in the frame being made)."""
         if self.entries_by_ns is None or not ENTRY_BASE <= enc[0] < ENTRY_BASE + MAX_STEPPERS:
             return False
+        if now >= self.entries_hold_end_ns:
+            return False  # (the change is late anyway: the motion is not held for it)
         frame = FRAME_OVERHEAD + framed + len(enc)
         return max(self.line_free_ns, now) + frame * self._slow_byte_ns > self.entries_by_ns
 

@@ -149,14 +149,16 @@ def test_a_timed_change_overtakes_only_the_entries_not_yet_framed():
 
 def test_entries_wait_while_the_line_must_stay_clear_for_timed_changes():
     """``entries_by_ns``: no entry is framed that would keep the line busy past it
-    (at the baud's pace, a quarter slower); other messages go; None lifts it."""
+    (at the baud's pace, a quarter slower) until ``entries_hold_end_ns``; other messages
+    go; None lifts it."""
     from fas.serial.protocol import OutputAt
 
     clock = Clock()
     wire = Wire()
     link = HostLink(wire, clock, window=9, max_payload=32, baud=115200)
     e = Entry(0, 0, 1, 1000, False, True, True, True)
-    link.entries_by_ns = 1 * MS  # a 10-byte frame takes 0.87 ms at 115 200 baud
+    link.entries_by_ns, link.entries_hold_end_ns = 1 * MS, 3 * MS
+    # (a 10-byte frame takes 0.87 ms at 115 200 baud)
     link.send(e)
     link.flush()
     assert _messages(wire) == []  # 0.87 ms * 1.25 > 1 ms
@@ -167,6 +169,10 @@ def test_entries_wait_while_the_line_must_stay_clear_for_timed_changes():
     link.send(OutputAt(1, 1, 11, 10, 5000), overtake_entries=True)
     link.flush()  # the line is busy until ~1.1 ms: the change goes, the entry waits
     assert _messages(wire) == [OutputAt]
+    clock.t = 3 * MS  # the waiting change's tick: late anyway, the entries go
+    link.flush()
+    assert _messages(wire) == [Entry]
+    link.send(e)
     link.entries_by_ns = None
     link.flush()
     assert _messages(wire) == [Entry]
