@@ -12,8 +12,11 @@ many commands came later than one period.
 
 ``--device``: the same program through ``--port`` (``rigs/laser.py``) on the Python
 device at 115 200 baud and on our firmware in simavr at 115 200 and 1 000 000 baud: for
-every duty change (OutputAt) not replaced before it could show, how many PWM periods
-after the first one that begins after its tick the Uno's pin 11 shows it.
+every duty change the laser asked for that a later one does not replace before it
+could show, how many PWM periods after the first one that begins after its tick the
+Uno's pin 11 shows it (asked: the laser's changes; sent: those that went on the line,
+OutputAt or OutputNext - the host leaves out a change that a later one replaces in
+the same PWM period of the device).
 """
 
 from __future__ import annotations
@@ -86,7 +89,8 @@ def on_devices() -> None:
         checks = r.checks()
         late = [c for c in checks if c[3] != 0]
         worst = max((c[2] + c[3] * r.period - c[0] for c in checks if c[3] >= 0), default=0)
-        print(f"{device:6s} {baud:>7} baud: {len(checks)} changes checked, {len(late)} late "
+        print(f"{device:6s} {baud:>7} baud: {len(r.asked)} asked, {len(r.sent)} sent, "
+              f"{len(checks)} checked, {len(late)} late "
               f"(never shown: {sum(c[3] < 0 for c in late)}), the latest shows "
               f"{worst / 16000:.3f} ms after its tick (PWM period {r.period / 16000:.3f} ms),"
               f" rejected {r.counters['rejected']}")

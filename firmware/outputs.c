@@ -65,6 +65,42 @@ void outputs_init(void)
     TIMSK0 = _BV(TOIE0);
 }
 
+/* PwmGrid reports: bit per PWM unit whose period grid is to be sent (after an
+ * OutputPwm), and those put in the frame being sent */
+static uint8_t grid_due, grid_put;
+
+uint8_t outputs_grid_due(void)
+{
+    return grid_due;
+}
+
+uint8_t outputs_grid_put(uint8_t *p, uint8_t room)
+{
+    uint8_t n = 0;
+    grid_put = 0;
+    for (uint8_t u = 0; u < PWM_UNITS; u++) {
+        if (!(grid_due & (1u << u)) || n + SIZE_PWM_GRID > room)
+            continue;
+        uint8_t t = u <= PWM_OC2A;  /* period_origin / period_log2: [1] timer 2, [0] timer 0 */
+        uint8_t sreg = irq_save();
+        uint32_t origin = period_origin[t];
+        irq_restore(sreg);
+        p[n] = M_PWM_GRID;
+        p[n + 1] = pgm_read_byte(&pwm_pin[u]);
+        put_u32(p + n + 2, origin);
+        put_u32(p + n + 6, 1UL << period_log2[t]);
+        n += SIZE_PWM_GRID;
+        grid_put |= 1u << u;
+    }
+    return n;
+}
+
+void outputs_grid_sent(void)
+{
+    grid_due &= (uint8_t)~grid_put;
+    grid_put = 0;
+}
+
 static int8_t unit_of(uint8_t pin)
 {
     for (uint8_t u = 0; u < PWM_UNITS; u++)
@@ -154,6 +190,7 @@ void outputs_pwm(const uint8_t *m)
         return;
     }
     pwm_on |= 1u << unit;
+    grid_due |= 1u << unit;  /* the host learns where the periods begin (PwmGrid) */
     duty((uint8_t)unit, count);
 }
 
@@ -198,15 +235,50 @@ void outputs_cancel(void)
     timed_count = 0;  /* (one byte: the interrupts see it at once) */
 }
 
+static inline __attribute__((always_inline)) void timer2_timed(void);
+/* timer2_timed from the main loop, interrupts off: its registers are saved in a frame
+ * of its own, which no interrupt can stack on (the stack is short) */
+static __attribute__((noinline)) void timer2_now(void);
+
+/* The session's last timed change (OutputAt or OutputNext): an OutputNext is the next
+ * change of the same output, `after` ticks after it.  NEXT_NONE: none yet. */
+#define NEXT_NONE 0xFF
+static uint32_t next_at;
+static uint8_t next_flags = NEXT_NONE, next_pin;
+
+static void timed_add(uint8_t flags, uint8_t pin, uint32_t value, uint32_t at);
+
+void outputs_session(void)
+{
+    next_flags = NEXT_NONE;
+}
+
 void outputs_at(const uint8_t *m)
 {
-    uint8_t flags = m[1], pin = m[3];
-    uint32_t value = get_u32(m + 4), at = get_u32(m + 8);
-    uint8_t unit = UNIT_DIGITAL;
+    uint8_t flags = m[1];
     if (flags & T_CANCEL) {
         outputs_cancel();
         return;
     }
+    next_flags = flags;
+    next_pin = m[3];
+    next_at = get_u32(m + 8);
+    timed_add(flags, next_pin, get_u32(m + 4), next_at);
+}
+
+void outputs_next(const uint8_t *m)
+{
+    if (next_flags == NEXT_NONE) {
+        counters.rejected++;  /* no timed change in this session to count from */
+        return;
+    }
+    next_at += get_u16(m + 3);
+    timed_add(next_flags, next_pin, get_u16(m + 1), next_at);
+}
+
+static void timed_add(uint8_t flags, uint8_t pin, uint32_t value, uint32_t at)
+{
+    uint8_t unit = UNIT_DIGITAL;
     if (flags & O_ANALOG) {
         int8_t u = unit_of(pin);
         if (u < 0 || !(pwm_on & (1u << u))) {
@@ -231,9 +303,13 @@ void outputs_at(const uint8_t *m)
         timed[i].unit = unit;
         timed[i].pin = pin;
         timed_count++;
-        /* (an overflow flag left from before runs the interrupt at once: it then finds
-         * where in the period the timer is, as at any other time) */
-        TIMSK2 |= _BV(TOIE2);
+        /* one due in the running period is written now: the overflow that would write
+         * it is past (its flag may be cleared already, by the interrupt for an earlier
+         * change), and the next one would make it show a period late */
+        if (unit <= PWM_OC2A)
+            timer2_now();
+        if (timed_count)
+            TIMSK2 |= _BV(TOIE2);
     }
     irq_restore(sreg);
 }
@@ -287,6 +363,11 @@ static inline __attribute__((always_inline)) void timer2_timed(void)
         timed_first = (uint8_t)((i + 1) % TIMED_SLOTS);
         timed_count--;
     }
+}
+
+static void timer2_now(void)
+{
+    timer2_timed();
 }
 
 ISR(TIMER2_OVF_vect)

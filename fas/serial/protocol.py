@@ -687,6 +687,38 @@ class OutputAt(Message):
         return bool(self.flags & O_ANALOG)
 
 
+@register
+@dataclass(frozen=True, slots=True)
+class OutputNext(Message):
+    """The next timed output change of the output the previous :class:`OutputAt` or
+    ``OutputNext`` of the session named (its flags and pin): ``value`` made at device
+    tick ``that one's at + after`` - 5 bytes instead of 12, so that a dense run of
+    changes (the laser's power while the path decelerates) fits a 115 200-baud line.
+    Only to a device with ``F_TIMED_OUTPUTS``; with no timed change before it in the
+    session the device refuses it (section 16)."""
+
+    CODE: ClassVar[int] = 0x24
+    FMT: ClassVar[struct.Struct] = _fmt("HH")
+    value: int
+    after: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class PwmGrid(Message):
+    """The PWM periods of ``pin`` on the device clock (after an OutputPwm, a device with
+    ``F_TIMED_OUTPUTS``): they begin at ``origin + k * period`` (mod 2^32);
+    ``period`` 0: not a whole number of ticks (no grid).  A timed change at ``at``
+    shows from the period after the one that contains ``at``, so of the changes that
+    fall in one period only the last shows: the host need not send the others."""
+
+    CODE: ClassVar[int] = 0x87
+    FMT: ClassVar[struct.Struct] = _fmt("BII")
+    pin: int
+    origin: int
+    period: int
+
+
 # --- inputs and limit switches (issue 13; docs/serial-protocol.md section 18) -------
 W_OFF = 0  # WatchInput.mode: stop watching the pin
 W_DIGITAL = 1  # digital input, no pull-up
