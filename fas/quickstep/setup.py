@@ -49,7 +49,8 @@ def quickstep_of(stepper: HasPlanner) -> QuickStepPlanner | None:
     """The stepper's QuickStep planner while it runs QuickStep (else None): its FIFO,
     plateaus and moves that may wait for room."""
     planner = stepper.planner
-    return planner if isinstance(planner, QuickStepPlanner) else None
+    # (isinstance, without the ABC's check: no class is registered as one)
+    return planner if QuickStepPlanner in type(planner).__mro__ else None
 
 
 def clock_of(engine: EngineLike) -> QuickStepClock:
