@@ -250,9 +250,10 @@ class PathGroup:
             return PathResult.ERR_AXES
         if feed is not None and not (feed > 0 and math.isfinite(feed)):
             return PathResult.ERR_FEED
-        ints = tuple(int(t) for t in target)
-        if any(not INT32_MIN <= t <= INT32_MAX for t in ints):
-            return PathResult.ERR_RANGE
+        ints = tuple([int(t) for t in target])
+        for t in ints:
+            if not INT32_MIN <= t <= INT32_MAX:
+                return PathResult.ERR_RANGE
         for a in self.axes:
             if a.base.is_active():  # the stepper's own planner has motion to plan
                 return PathResult.ERR_AXIS_BUSY
@@ -260,7 +261,7 @@ class PathGroup:
             self._sync_position()
             self._configure_lookahead()
         start = tuple(self.position)
-        delta = tuple(t - s for t, s in zip(ints, start, strict=True))
+        delta = tuple([t - s for t, s in zip(ints, start, strict=True)])
         for d, a in zip(delta, self.axes, strict=True):
             if d < 0 and not a.host.has_direction_pin():
                 return PathResult.ERR_NO_DIRECTION_PIN
@@ -482,16 +483,23 @@ class PathGroup:
         now = self._now()
         backend = self.axes[0].host.backend  # (a device: plus the link's lead)
         low_water = 2 * backend.task_period_ticks + backend.planning_extra_ticks
-        for w in self.writers:
-            if w.fill(now, low_water) == Wrote.ERROR:
+        error = Wrote.ERROR
+        writers = self.writers
+        for w in writers:
+            if w.fill(now, low_water) == error:
                 self.stats.errors += 1
                 self.abort()
                 return
+        keep = writers[0].cursor_seq()  # the first segment an axis is still in ...
+        for w in writers:
+            seq = w.cursor_seq()
+            if seq < keep:
+                keep = seq
         ex = self.executor
-        keep = min(w.cursor_seq() for w in self.writers)
         for seg in ex.segments:  # ... and the segment the axes are in now
             if seg.t_done >= now:
-                keep = min(keep, seg.seq)
+                if seg.seq < keep:
+                    keep = seg.seq
                 break
         ex.trim(keep)
 
