@@ -10,7 +10,7 @@ figure); asked again while QuickStep runs, it changes depth and plateaus.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Protocol, TypeVar
+from typing import TYPE_CHECKING, Protocol, TypeVar, cast
 
 from .clock import QsConfigResult, QuickStepClock
 from .orders import MAX_DEPTH, MIN_DEPTH, OrderQueue
@@ -50,7 +50,9 @@ def quickstep_of(stepper: HasPlanner) -> QuickStepPlanner | None:
     plateaus and moves that may wait for room."""
     planner = stepper.planner
     # (isinstance, without the ABC's check: no class is registered as one)
-    return planner if QuickStepPlanner in type(planner).__mro__ else None
+    if QuickStepPlanner in type(planner).__mro__:
+        return cast(QuickStepPlanner, planner)
+    return None
 
 
 def clock_of(engine: EngineLike) -> QuickStepClock:
