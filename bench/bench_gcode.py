@@ -22,12 +22,14 @@
    (blocks/s, target >= 20 000), the job's duration with look-ahead against the
    exact-stop executor (``$171=1``; target <= half), from the pins: the largest
    Chebyshev distance of the axes from the commanded polyline at every step (target
-   <= 1 step), each axis's top rate and acceleration (positions interpolated between
-   step edges, rate over 2 ms, acceleration as the second difference over 20 ms)
-   against $110/$120, the feed across the raster's collinear joints (X over 16 steps
-   around each joint, away from the line ends), and the planned speed at every
-   junction that junction deviation limits against Grbl's formula
-   ``v^2 = a_j d sin(theta/2) / (1 - sin(theta/2))`` computed here from the geometry.
+   <= 1 step), each axis's top rate (positions interpolated between step edges, over
+   2 ms) and acceleration against $110/$120 (the acceleration as a divided
+   difference over three of the axis's step edges at least 20 ms - and 10 ms -
+   apart, where the position is exact: :func:`rate_and_accel`), the feed across the
+   raster's collinear joints (X over 16 steps around each joint, away from the line
+   ends), and the planned speed at every junction that junction deviation limits
+   against Grbl's formula ``v^2 = a_j d sin(theta/2) / (1 - sin(theta/2))`` computed
+   here from the geometry.
 5. Issue 25, on a device (``--device-only``): the same program through ``--port`` on
    the Python device and on our firmware in simavr, at 115 200 and 1 000 000 baud, on
    the loopback's virtual clock: motion time, underruns, late starts, rejected
@@ -39,6 +41,7 @@ from __future__ import annotations
 
 import argparse
 import bisect
+import itertools
 import math
 import os
 import sys
@@ -143,9 +146,14 @@ def traced_pwm(seconds: float, path: str, memory: bool) -> dict:
 # ------------------------------------------------------------ issue 25
 LA_ARCH = "atmega328p"
 ACC_WINDOW_MS = 20
-#: what steps up to 1/8 step early (the path planner's grouping) can add to a second
-#: difference over the window: 4 * 0.125 / h^2, steps/s^2
-ACC_RESOLUTION = 4 * 0.125 / (ACC_WINDOW_MS * 1e-3) ** 2
+#: what steps up to 1/8 step early (the path planner's grouping) can add to the divided
+#: difference over step edges at least the window apart (rate_and_accel): 2 e / W^2,
+#: steps/s^2 (the position at a step's tick is exact otherwise: no interpolation)
+ACC_EARLY_STEPS = 0.125
+
+
+def acc_resolution(window_ms: int) -> float:
+    return 2 * ACC_EARLY_STEPS / (window_ms * 1e-3) ** 2
 
 
 def la_setup(motion: int) -> list[str]:
@@ -291,27 +299,49 @@ def interpolated(steps: list[tuple[int, int]], grid: list[int]) -> list[float]:
     return out
 
 
-def rate_and_accel(steps: list[tuple[int, int]], tps: int,
-                   corners: list[int]) -> tuple[float, float, float]:
-    """Top speed (steps/s, over 2 ms) and acceleration (steps/s^2, second difference
-    over 20 ms) from one axis's signed step edges: everywhere, and away from the
-    ``corners`` (ticks of junctions that turn, where Grbl's model changes
-    each axis's speed at once by what junction deviation allows)."""
+def rate_and_accel(steps: list[tuple[int, int]], tps: int, corners: list[int],
+                   window_ms: int = ACC_WINDOW_MS) -> tuple[float, float, float]:
+    """Top speed (steps/s, over 2 ms) and acceleration (steps/s^2) from one axis's
+    signed step edges: everywhere, and away from the ``corners`` (ticks of junctions
+    that turn, where Grbl's model changes each axis's speed at once by what junction
+    deviation allows).
+
+    The acceleration is a divided difference over three of the axis's own step
+    edges, about the window apart: for every step b, a = the last step at least the
+    window before it, c = the first at least the window after it, and
+    ``2 ((x_c - x_b) / (t_c - t_b) - (x_b - x_a) / (t_b - t_a)) / (t_c - t_a)``.  At
+    a step's tick the axis's position is exact (no interpolation between edges, no
+    model of a reversal), and for a motion whose velocity is continuous this is a
+    weighted mean of its acceleration (a non-negative kernel), so it never exceeds
+    the largest |acceleration|; a velocity jump Dv between a and c adds up to
+    2 Dv / (t_c - t_a).  Steps placed up to e = 1/8 step early (grouping) make it off
+    by at most 2 e / W^2 (:func:`acc_resolution`)."""
     t0, t1 = steps[0][0], steps[-1][0]
-    dt = tps // 1000  # 1 ms grid
+    dt = tps // 1000  # 1 ms grid for the speed
     grid = list(range(t0 - 20 * dt, t1 + 20 * dt, dt))
     x = interpolated(steps, grid)
     top = max(abs(x[i + 1] - x[i - 1]) / (2e-3) for i in range(1, len(x) - 1))
-    h = ACC_WINDOW_MS
-    margin = 5 * dt  # a position interpolated across a junction's step feels it too
+    ticks = [t for t, _ in steps]
+    xs = list(itertools.accumulate(d for _, d in steps))
+    w = window_ms * tps // 1000
+    margin = 5 * dt
     acc = acc_away = 0.0
-    for i in range(h, len(x) - h):
-        a = abs(x[i + h] - 2 * x[i] + x[i - h]) / (h * 1e-3) ** 2
-        acc = max(acc, a)
-        k = bisect.bisect_left(corners, grid[i - h] - margin)
-        if k < len(corners) and corners[k] <= grid[i + h] + margin:
+    n = len(ticks)
+    for b in range(n):
+        a = bisect.bisect_right(ticks, ticks[b] - w) - 1
+        c = bisect.bisect_left(ticks, ticks[b] + w)
+        if a < 0 or c >= n:
             continue
-        acc_away = max(acc_away, a)
+        ta, tb, tc = ticks[a], ticks[b], ticks[c]
+        v = 2 * ((xs[c] - xs[b]) / (tc - tb) - (xs[b] - xs[a]) / (tb - ta)) / (tc - ta)
+        v = abs(v) * tps * tps
+        if v > acc:
+            acc = v
+        k = bisect.bisect_left(corners, ta - margin)
+        if k < len(corners) and corners[k] <= tc + margin:
+            continue
+        if v > acc_away:
+            acc_away = v
     return top, acc, acc_away
 
 
@@ -327,6 +357,52 @@ def jd_speed(u: tuple[float, float], w: tuple[float, float], accel: float, d: fl
     a_j = min(accel / abs(c / norm) for c in (bx, by) if c)
     sin_half = math.sqrt(0.5 * (1.0 - cos_theta))
     return math.sqrt(a_j * d * sin_half / (1.0 - sin_half))
+
+
+def blend_figures(moves: list, exits: dict, spu: float, accel: float) -> dict:
+    """The corner blend of docs/path-planner.md (designed, not executed) at every
+    junction that turns, at the speed executed there: the velocity goes from ``v u``
+    to ``v w`` at ``a_j`` along ``w - u`` (every axis within its limit by
+    construction); its length along each block ``v^2 |w - u| / (2 a_j)``, how far
+    inside the corner it passes ``v^2 |w - u|^2 / (8 a_j)`` (steps), whether it fits
+    in half of both blocks, and where an axis turns round inside it."""
+    worst = 0.0
+    worst_jd = 0.0
+    turning = too_long = too_long_jd = reversals = 0
+    fit = 1.0  # the lowest share of its speed a junction keeps if its blend must fit
+    for k in range(len(moves) - 1):
+        a, b = moves[k], moves[k + 1]
+        if id(a) not in exits:
+            continue
+        da = [(a.target[i] - a.start[i]) / spu for i in range(2)]
+        db = [(b.target[i] - b.start[i]) / spu for i in range(2)]
+        la, lb = math.hypot(*da), math.hypot(*db)
+        u = (da[0] / la, da[1] / la)
+        w = (db[0] / lb, db[1] / lb)
+        diff = (w[0] - u[0], w[1] - u[1])
+        n = math.hypot(*diff)
+        if n < 2e-3:  # straight on (cos > 0.999998): no blend
+            continue
+        v = exits[id(a)][0]
+        if v <= 0.0:
+            continue  # a stop: nothing to blend
+        turning += 1
+        a_j = min(accel / abs(c / n) for c in diff if c)
+        length = v * v * n / (2 * a_j)
+        inside = v * v * n * n / (8 * a_j) * spu
+        worst = max(worst, inside)
+        limited = v < 0.99 * min(a.feed, b.feed) / 60
+        if limited:
+            worst_jd = max(worst_jd, inside)
+        if length > la / 2 or length > lb / 2:
+            too_long += 1
+            too_long_jd += limited
+            fit = min(fit, math.sqrt(a_j * min(la, lb) / n) / v)
+        if any(u[i] * w[i] < 0 for i in range(2)):
+            reversals += 1
+    return {"turning": turning, "inside": worst, "inside_jd": worst_jd,
+            "too_long": too_long, "too_long_jd": too_long_jd, "fit": fit,
+            "reversals": reversals}
 
 
 def lookahead_section(segments: int, repeat: int) -> None:
@@ -370,11 +446,14 @@ def lookahead_section(segments: int, repeat: int) -> None:
             corners.append(ends[k])
     corners.sort()
     for i, name in enumerate("XY"):
-        top, acc, away = rate_and_accel(axes[i], tps, corners)
-        print(f"  {name}: top rate {top / bp.SPU * 60:.0f} mm/min (limit {bp.MAX_RATE:.0f}); "
-              f"acceleration {away / bp.SPU:.0f} mm/s^2 away from the {len(corners)} "
-              f"junctions that turn, {acc / bp.SPU:.0f} with them (limit {bp.ACCEL:.0f}; "
-              f"resolution +-{ACC_RESOLUTION / bp.SPU:.0f})")
+        for w in (ACC_WINDOW_MS, ACC_WINDOW_MS // 2):
+            top, acc, away = rate_and_accel(axes[i], tps, corners, w)
+            rate = (f"top rate {top / bp.SPU * 60:.0f} mm/min (limit {bp.MAX_RATE:.0f}); "
+                    if w == ACC_WINDOW_MS else " " * 3)
+            print(f"  {name}: {rate}acceleration over step edges >= {w} ms apart "
+                  f"{away / bp.SPU:.1f} mm/s^2 away from the {len(corners)} junctions "
+                  f"that turn, {acc / bp.SPU:.1f} with them (limit {bp.ACCEL:.0f}; "
+                  f"resolution +{acc_resolution(w) / bp.SPU:.1f})")
     # the raster's collinear joints: X speed over 16 steps around each
     xs = [t for t, _ in axes[0]]
     ratios = []
@@ -415,6 +494,14 @@ def lookahead_section(segments: int, repeat: int) -> None:
     if errs:
         print(f"  planned speed at {len(errs)} junctions limited by junction deviation: "
               f"{min(errs):+.4%} .. {max(errs):+.4%} of the formula")
+    bl = blend_figures(moves, exits, bp.SPU, bp.ACCEL)
+    print(f"  corner blend (designed, not executed; docs/path-planner.md) at the "
+          f"{bl['turning']} junctions that turn, at the speeds executed: inside the "
+          f"corner by {bl['inside']:.3f} steps at most ({bl['inside_jd']:.3f} where junction "
+          f"deviation limits; $11 = {bp.JUNCTION * bp.SPU:.2f} steps), {bl['too_long']} "
+          f"longer than half a block ({bl['too_long_jd']} of them where junction deviation "
+          f"limits; fitting them keeps {bl['fit']:.1%} of the speed at least), "
+          f"{bl['reversals']} with an axis turning round in it")
 
 
 def device_run(lines: list[str], device: str, baud: int) -> dict:

@@ -6,6 +6,7 @@ position and pulse count with the firmware's, and per 256 ms window of `e` the n
 of ~4.1 ms gaps (a step compare missed, the 16-bit timer wrapped) in both.
 
     python3 bench/e_fidelity.py [--conformance DIR] [--build NAME] [--windows] [CASE ...]
+    python3 bench/e_fidelity.py --holdout | --pulses | --starts | --phase [CASE ...]
 
 Acceptance (issue 23): position and pulses within max(10 steps, 0.5 %) of the
 firmware's, each window's gap count within 1.  The firmware build of a folder: the
@@ -28,6 +29,21 @@ its pin high to the block's end; their extra time is summed from the blocks and 
 step rises of each side - and the rest, whose mean per pulse (ticks) is the plain pulse
 width plus what the other interrupts add: the figure the step interrupt's latency
 (``SimTiming.isr_latency_ticks``) is read from, apart from where the blocks fall.
+
+``--starts`` measures where each `e` window begins: its first block after the
+timer-0 overflow that makes ``millis()`` a multiple of 256 (the model's overflow tick),
+firmware beside model, and the phase of timer 0 itself, read from the pitches between
+two blocks that carry timer 0's interrupt (a pitch one ``millis_isr_ticks`` longer than
+one of the run's common pitches: the overflow lies between the two block starts).
+
+``--phase`` runs each case again with the first block of every window moved later by
+0, 25, ... ``PHASE_SPAN_TICKS`` (the firmware's window starts scatter over that much,
+``--starts``) and prints, per window, the range of gap counts the model makes and
+whether the firmware's count lies in it: how far a window's count is set by the phase
+of the loop's pass at the window's start, which the model does not keep (it skips idle
+passes and takes up the loop at the overflow).  ``--start-shift T1,T2,...`` moves the
+first step of the n-th queue start a ramp task makes by Tn ticks (negative: earlier) in
+those runs: what a first step the model places off the firmware's does to the windows.
 """
 
 from __future__ import annotations
@@ -45,6 +61,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from fas.sim import SimBackend  # noqa: E402
+from fas.sim.channel import SimChannel  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.scenarios.evaluate import (  # noqa: E402
     gaps_per_window,
@@ -221,6 +238,129 @@ def pulses(conf: Path, cases: list[str]) -> int:
     return 0
 
 
+def window_firsts(blocks: list[tuple[int, int]]) -> list[int]:
+    """The first block of each `e` window (ticks): a block after 50 ms without one."""
+    out = []
+    for i, (a, _) in enumerate(blocks):
+        if i == 0 or a - blocks[i - 1][1] > 50_000 * TICKS_PER_US:
+            out.append(a)
+    return out
+
+
+def timer0_phase(blocks: list[tuple[int, int]], isr: int, period: int) -> tuple[int, int, int]:
+    """(pitches carrying timer 0's interrupt, lowest, highest phase mod ``period``):
+    the ticks at which every such pitch's stretch - from its block's start to the next
+    block's start - holds the overflow."""
+    pitches = [blocks[i + 1][0] - blocks[i][1] for i in range(len(blocks) - 1)]
+    common = {p for p, _ in Counter(p for p in pitches if p < 1000).most_common(3)}
+    hits = [0] * period
+    n = 0
+    for i, p in enumerate(pitches):
+        if p in common or not any(p - isr + k in common for k in (-1, 0, 1)):
+            continue
+        n += 1
+        for t in range(blocks[i][0], blocks[i + 1][0]):
+            hits[t % period] += 1
+    top = max(hits)
+    where = [k for k in range(period) if hits[k] == top]
+    return n, where[0], where[-1]
+
+
+def starts(conf: Path, cases: list[str]) -> int:
+    """Window starts after the model's timer-0 overflow, and timer 0's phase."""
+    print("| case | board | first block after the overflow, fw (ticks) | model | timer 0's "
+          "overflow mod 16384: fw range / model |")
+    print("| --- " * 5 + "|")
+    for case in cases:
+        folder = conf / case
+        fw = firmware_blocks(folder)
+        if not fw:
+            continue
+        ours: list[tuple[int, int]] = []
+        backend = run_model((folder / "input.txt").read_text().strip(),
+                            PROFILE.get(case, "atmega328p"), build_of(case), ours)
+        m = backend.machine
+        ov = m.timing.millis_overflow_ticks
+        rel: tuple[list[int], list[int]] = ([], [])
+        for side, blocks in zip(rel, (fw, ours), strict=True):
+            for a in window_firsts(blocks):
+                k = round(a / (256_000 * TICKS_PER_US))
+                side.append(a - backend.tick_at_millis(256 * k))
+        _, lo, hi = timer0_phase(fw, m.timing.millis_isr_ticks, ov)
+        phase = m.tick_at_millis(1) % ov
+        print(f"| {case} | {PROFILE.get(case, 'atmega328p')} | {' '.join(map(str, rel[0]))} "
+              f"| {' '.join(map(str, rel[1]))} | {lo}-{hi} / {phase} |")
+    return 0
+
+
+PHASE_SPAN_TICKS = 500  # the firmware's window starts scatter over ~530 ticks (--starts)
+PHASE_STEP_TICKS = 25
+
+
+def phase(conf: Path, cases: list[str], start_shifts: tuple[int, ...] = ()) -> int:
+    """Per window: the gap counts over the window start's phase, and the firmware's
+    (``start_shifts``: ticks added before the n-th queue start of a ramp task)."""
+    plain_start = SimChannel.start
+    made: dict[int, int] = {}
+
+    def shifted_start(ch: SimChannel) -> None:
+        q = ch.q
+        if ch.m.in_task and not ch.running and q.read_idx != q.next_write_idx:
+            n = made.get(id(ch.m), 0)
+            made[id(ch.m)] = n + 1
+            if n < len(start_shifts):
+                ch.m.task_offset += start_shifts[n]
+        plain_start(ch)
+
+    SimChannel.start = shifted_start  # type: ignore[method-assign]
+    try:
+        return _phase(conf, cases)
+    finally:
+        SimChannel.start = plain_start  # type: ignore[method-assign]
+
+
+def _phase(conf: Path, cases: list[str]) -> int:
+    for case in cases:
+        folder = conf / case
+        inp = (folder / "input.txt").read_text().strip()
+        profile = PROFILE.get(case, "atmega328p")
+        counts: dict[str, dict[int, set[int]]] = {}
+        fw_win: dict[str, dict[int, int]] = {}
+        for shift in range(0, PHASE_SPAN_TICKS + 1, PHASE_STEP_TICKS):
+            backend = SimBackend(profile, record=True, build=build_of(case))
+            m = backend.machine
+            block = backend.block_interrupts
+            last = [-(1 << 62)]
+
+            def delayed(ticks: int, m=m, block=block, last=last, shift=shift) -> None:
+                if m.now - last[0] > 50_000 * TICKS_PER_US:
+                    m.consume(shift)  # the loop reaches its check later in the pass
+                block(ticks)
+                last[0] = m.now
+
+            backend.block_interrupts = delayed  # type: ignore[method-assign]
+            make_program("demo", backend, scripted=True).run_script(inp, firmware_end=True)
+            for sp in stepper_pins(backend.profile):
+                ref_path = folder / f"steps_{sp.letter}.tsv.gz"
+                if not ref_path.exists():
+                    continue
+                if sp.letter not in fw_win:
+                    fw_win[sp.letter] = gaps_per_window(wrap_gaps(read_reference_track(
+                        ref_path)[0]))
+                w = gaps_per_window(wrap_gaps(step_times_us(backend, sp.step)))
+                per = counts.setdefault(sp.letter, {})
+                for k in set(w) | set(fw_win[sp.letter]) | set(per):
+                    per.setdefault(k, set()).add(w.get(k, 0))
+        for letter, per in counts.items():
+            cells = []
+            for k in sorted(per):
+                lo, hi, f = min(per[k]), max(per[k]), fw_win[letter].get(k, 0)
+                cells.append(f"{f} in {lo}-{hi}" if lo <= f <= hi else f"{f} NOT in {lo}-{hi}")
+            print(f"{case} {letter}: firmware's count per window against the model's over "
+                  f"0-{PHASE_SPAN_TICKS} ticks: {'; '.join(cells)}")
+    return 0
+
+
 def case_rows(conf: Path, case: str, build: str | None = None) -> list[dict]:
     """One row per stepper that moved in the firmware run: figures of both."""
     folder = conf / case
@@ -272,8 +412,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pulses", action="store_true",
                     help="pulse-high totals: the part the blocks add and the plain "
                     "pulses' mean per pulse, firmware beside model")
+    ap.add_argument("--starts", action="store_true",
+                    help="each window's first block after the timer-0 overflow, firmware "
+                    "beside model, and timer 0's phase read from the blocks")
+    ap.add_argument("--phase", action="store_true",
+                    help="gap counts per window over the phase of the window's start")
+    ap.add_argument("--start-shift", default="",
+                    help="with --phase: ticks added to the first step of the 1st, 2nd, "
+                    "... queue start of a ramp task, comma-separated")
     args = ap.parse_args(argv)
     conf = Path(args.conformance)
+    e_cases = args.cases or [c for c in CASES if c.startswith("e")]
+    if args.starts:
+        return starts(conf, e_cases)
+    if args.phase:
+        shifts = tuple(int(x) for x in args.start_shift.split(",") if x.strip())
+        return phase(conf, e_cases, shifts)
     if args.pulses:
         return pulses(conf, args.cases or [c for c in CASES if c.startswith("e")])
     if args.holdout:

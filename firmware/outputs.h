@@ -17,7 +17,12 @@ void outputs_pwm(const uint8_t *msg);
 void outputs_set(const uint8_t *msg);
 /* OutputCancel: drop the synchronized changes not made yet */
 void outputs_cancel(void);
-/* Make the synchronized changes that wait, if every queue is idle. */
+/* OutputAt: flags u8, number u8, pin u8, value u32, at u32 - a change at device tick
+ * `at` (T_CANCEL: drop those not made yet); at most TIMED_SLOTS wait.  Timer 2's
+ * interrupts make its outputs' changes; outputs_poll the others. */
+void outputs_at(const uint8_t *msg);
+/* Make the timed changes of the main loop that are due, and the synchronized changes
+ * that wait if every queue is idle. */
 void outputs_poll(void);
 
 #endif

@@ -25,6 +25,7 @@ static const uint8_t sizes[] PROGMEM = {
     [M_OUTPUT_PWM - SIZES_FIRST] = 15,
     [M_OUTPUT_SET - SIZES_FIRST] = 8,
     [M_OUTPUT_CANCEL - SIZES_FIRST] = 1,
+    [M_OUTPUT_AT - SIZES_FIRST] = 12,
     [M_WATCH_INPUT - SIZES_FIRST] = 4,
     [M_LIMIT - SIZES_FIRST] = 6,
     [M_SET_INPUT - SIZES_FIRST] = 5,

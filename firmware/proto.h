@@ -30,6 +30,7 @@
 #define M_OUTPUT_PWM 0x20      /* number, pin u8; clock_div, counts, count u32 */
 #define M_OUTPUT_SET 0x21      /* flags, number, pin u8; value u32 */
 #define M_OUTPUT_CANCEL 0x22   /* - */
+#define M_OUTPUT_AT 0x23       /* flags, number, pin u8; value u32, at u32 (device tick) */
 #define M_WATCH_INPUT 0x30     /* pin, mode, period_ms (section 18) */
 #define M_LIMIT 0x31           /* stepper, pin, level, flags, stop_mask */
 #define M_SET_INPUT 0x32       /* pin u8, value u16, flags u8: a simulated device's world */
@@ -64,6 +65,7 @@
 /* Ident features: optional message families */
 #define F_INPUTS 0x0001        /* section 18: inputs, limit switches, Started */
 #define F_SIM_INPUTS 0x0002    /* SetInput: the inputs are a simulation's (simavr) */
+#define F_TIMED_OUTPUTS 0x0004 /* OutputAt: timed output changes (section 16) */
 
 /* WatchInput modes, Limit flags, SetInput flags */
 #define W_OFF 0

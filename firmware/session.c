@@ -437,7 +437,7 @@ static void ident(void)
     *p++ = SLOT_PAYLOAD;
     p = put_u16(p, ident_watchdog_ms);
     p = put_u16(p, FW_MIN_CMD_TICKS_DIV);
-    p = put_u16(p, F_INPUTS | (inputs_simulated ? F_SIM_INPUTS : 0));
+    p = put_u16(p, F_INPUTS | F_TIMED_OUTPUTS | (inputs_simulated ? F_SIM_INPUTS : 0));
     static const char name[] PROGMEM = FW_NAME;
     *p++ = sizeof name - 1;
     memcpy_P(p, name, sizeof name - 1);

@@ -293,6 +293,32 @@ def max_accel(ticks: Sequence[int], xs: Sequence[int], t_from: int, t_to: int, t
     return worst_a, worst_v
 
 
+def edge_accel(ticks: Sequence[int], xs: Sequence[int], tps: int,
+               window_s: float) -> tuple[float, int]:
+    """(largest |acceleration| in steps/s^2, the tick of its middle step) of one axis
+    over its whole motion, corners included: for every step b, a = the last step at
+    least ``window_s`` before it, c = the first at least ``window_s`` after it, and
+    the divided difference of :func:`max_accel`.  The position at a step's tick is
+    exact, so for a motion with a continuous velocity this is a weighted mean of its
+    acceleration (never above the largest); a velocity jump Dv between a and c adds
+    up to 2 Dv / (t_c - t_a).  Steps up to ``e`` steps early make it off by at most
+    2 e / W^2."""
+    import bisect
+    w = int(window_s * tps)
+    n = len(ticks)
+    worst, at = 0.0, 0
+    for b in range(n):
+        a = bisect.bisect_right(ticks, ticks[b] - w) - 1
+        c = bisect.bisect_left(ticks, ticks[b] + w)
+        if a < 0 or c >= n:
+            continue
+        ta, tb, tc = ticks[a], ticks[b], ticks[c]
+        v = abs(2 * ((xs[c] - xs[b]) / (tc - tb) - (xs[b] - xs[a]) / (tb - ta)) / (tc - ta))
+        if v > worst:
+            worst, at = v, tb
+    return worst * tps * tps, at
+
+
 def tracked_deviation(points: Sequence[tuple[int, tuple[int, ...]]],
                       polyline: Sequence[Sequence[int]], window: int = 3) -> float:
     """The largest Chebyshev distance (steps) of the instants' positions from the

@@ -1,7 +1,8 @@
 """User outputs of the device (``firmware/outputs.c``, docs/serial-protocol.md section 16).
 
-PWM timers, output changes made at once or - synchronized - once every queue has run
-dry, and the cancel of those not made yet.  The chip's PWM units and its rule for
+PWM timers, output changes made at once, at a device tick (timed: OutputAt, at most
+``TIMED_SLOTS`` waiting) or - synchronized - once every queue has run dry, and the
+cancel of those not made yet.  The chip's PWM units and its rule for
 synchronized changes are the simulated machine's (:class:`fas.sim.SimBackend`).
 """
 
@@ -11,7 +12,17 @@ from ..arch import Profile
 from ..backend import OutputChange
 from ..output_figures import PwmTimer, output_figures
 from ..pwm import PwmSetting
-from ..serial.protocol import Message, OutputCancel, OutputPwm, OutputSet
+from ..serial.protocol import (
+    F_TIMED_OUTPUTS,
+    T_CANCEL,
+    TIMED_SLOTS,
+    Message,
+    OutputAt,
+    OutputCancel,
+    OutputPwm,
+    OutputSet,
+    tick_diff32,
+)
 from .board import Board
 from .queues import Handler
 
@@ -34,18 +45,40 @@ class DeviceOutputs:
         self.board = board
 
     def handlers(self) -> dict[type[Message], Handler]:
-        return {OutputPwm: self.message, OutputSet: self.message, OutputCancel: self.message}
+        return {OutputPwm: self.message, OutputSet: self.message, OutputCancel: self.message,
+                OutputAt: self.timed}
+
+    def timed(self, m: Message) -> None:
+        """OutputAt: the change at device tick ``at`` by the chip's timer (a tick past: at
+        once); more than ``TIMED_SLOTS`` waiting, or a device without the family: rejected."""
+        assert isinstance(m, OutputAt)
+        board = self.board
+        sim = board.sim
+        if not board.features & F_TIMED_OUTPUTS:
+            board.reject()
+            return
+        if m.flags & T_CANCEL:
+            sim.cancel_timed_outputs()
+            return
+        if sim.timed_waiting() >= TIMED_SLOTS:
+            board.reject()
+            return
+        now = board.machine.now
+        at = now + tick_diff32(m.at, now & 0xFFFFFFFF)
+        sim.timed_output(OutputChange(m.analog, m.number, m.pin, m.value if m.analog else
+                                      (1 if m.value else 0)), at)
 
     def cancel(self) -> None:
-        """Drop the synchronized changes not made yet; outputs stay as they are."""
+        """Drop the synchronized and timed changes not made yet; outputs stay as they are."""
         self.board.sim.cancel_sync_outputs()
+        self.board.sim.cancel_timed_outputs()
 
     def message(self, m: Message) -> None:
         """PWM timers, output changes at once or after every queue ran dry, cancel."""
         board = self.board
         sim = board.sim
         if isinstance(m, OutputCancel):
-            sim.cancel_sync_outputs()
+            self.cancel()
             return
         if isinstance(m, OutputPwm):
             timer = pwm_timer_for(board.profile, m.number, m.pin)

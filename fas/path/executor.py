@@ -82,10 +82,18 @@ class Piece:
 class Segment:
     """A block as the axes execute it: its geometry and the pieces made final so far.
 
-    Per axis: ``steps[i]`` steps (``ups[i]``: upwards) of ``pitch[i]`` units of path
-    each; step ``j`` is due where the path reaches ``j * pitch[i]``."""
+    Per axis: ``steps[i]`` steps (``ups[i]``: upwards), ``pitch[i]`` units of path
+    per step of the axis's travel; step ``j`` is due where the path reaches
+    ``(j - phase[i]) * pitch[i]``.  A block between whole steps has ``phase`` 0 (step
+    ``j`` at ``j * pitch``, the last at the end).  A path from or to a point between
+    steps, or one the path goes on through (an arc's chord ends): each step where the
+    path is half a step before it - the axis on the step nearest to the path; the
+    phase holds the axis's offset from its start step along the travel - but where
+    the block ends on a whole step of the axis, its last step comes on the end
+    (``on_end[i]``: all axes' last steps on one tick there)."""
 
-    __slots__ = ("seq", "block", "start", "steps", "ups", "pitch", "length", "accel",
+    __slots__ = ("seq", "block", "start", "steps", "ups", "pitch", "phase", "on_end",
+                 "length", "accel",
                  "pieces", "s_done", "t_start", "t_done", "complete", "end", "end_tick",
                  "dominant", "tag")
 
@@ -96,8 +104,25 @@ class Segment:
         delta = block.delta
         self.steps = steps = tuple([abs(d) for d in delta])
         self.ups = tuple([d > 0 for d in delta])
-        self.length = length = block.length
-        self.pitch = tuple([length / n if n else 0.0 for n in steps])
+        self.length = block.length
+        if block.span is None:  # from a step to a step
+            self.pitch = tuple(block.length / n if n else 0.0 for n in self.steps)
+            self.phase: tuple[float, ...] = (0.0,) * len(self.steps)
+            self.on_end: tuple[bool, ...] = (True,) * len(self.steps)
+        else:
+            origin = block.origin
+            assert origin is not None
+            self.pitch = tuple(block.length / abs(x) if n else 0.0
+                               for n, x in zip(self.steps, block.span, strict=True))
+            # each step where the path is half a step before it; an axis ending on a
+            # whole step of a block that ends there makes its last on the end
+            through = block.through
+            self.on_end = tuple(not through and abs(x0 + x - p0 - d) < 1e-9
+                                for x0, x, p0, d in zip(origin, block.span, block.start,
+                                                        block.delta, strict=True))
+            self.phase = tuple(((x0 - p0 if d > 0 else p0 - x0) + 0.5) if d else 0.0
+                               for x0, p0, d in zip(origin, block.start, block.delta,
+                                                    strict=True))
         self.accel = block.acceleration / (ticks_per_s * ticks_per_s)  # units/tick^2
         self.pieces: list[Piece] = []
         self.s_done = 0.0  # final up to this distance ...
@@ -114,8 +139,15 @@ class Segment:
         n = self.steps[axis]
         if self.complete and self.end == self.length:
             return n
-        k = int(self.s_done / self.pitch[axis]) if n else 0
+        k = int(self.s_done / self.pitch[axis] + self.phase[axis]) if n else 0
+        if self.on_end[axis] and self.block.span is not None:
+            n -= 1  # the last step comes on the end, the others half a step before
         return k if k < n else n
+
+    def steps_by(self, axis: int, s: float) -> int:
+        """The index of ``axis``'s last step due at or before distance ``s`` (may lie
+        beyond the segment's steps)."""
+        return int(s / self.pitch[axis] + self.phase[axis])
 
     def time_at(self, s: float) -> float:
         """The time (ticks) at distance ``s`` (at most ``s_done``)."""
@@ -144,9 +176,10 @@ class Segment:
         """The tick of ``axis``'s step ``j`` (0: the segment's start)."""
         if j == 0:
             return int(self.t_start + 0.5)
-        if j == self.steps[axis] and self.complete and self.end == self.length:
+        if (j == self.steps[axis] and self.complete and self.end == self.length
+                and self.on_end[axis]):
             return self.end_tick
-        return int(self.time_at(j * self.pitch[axis]) + 0.5)
+        return int(self.time_at((j - self.phase[axis]) * self.pitch[axis]) + 0.5)
 
     def __repr__(self) -> str:  # pragma: no cover - debugging aid
         return (f"Segment(#{self.seq} {self.block.delta}, done {self.s_done:.4g}/"

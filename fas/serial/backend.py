@@ -32,6 +32,7 @@ reports, so the axes keep their coordinates.
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable
 
 from ..arch import Profile
@@ -56,7 +57,9 @@ from .outputs import OutputState
 from .protocol import (
     F_INPUTS,
     F_SIM_INPUTS,
+    F_TIMED_OUTPUTS,
     MAX_PAYLOAD,
+    TIMED_SLOTS,
     DeviceStatus,
     EmergencyStop,
     Halt,
@@ -118,6 +121,10 @@ class SerialBackend(Backend):
                                    link_planning_ms=link_planning_ms)
         self.reports = DeviceReports()
         self.outputs = OutputState()
+        # timed output changes (section 16): waiting to be sent (host tick, change), and
+        # the host ticks of those sent whose tick has not come (the device's slots)
+        self._timed_wait: deque[tuple[int, OutputChange]] = deque()
+        self._timed_sent: list[int] = []
         self.inputs = InputState()
         self.tasks = TaskSchedule()  # the ramp task's runs (attach_engine)
         self.listeners: list[Listener] = []
@@ -398,6 +405,9 @@ class SerialBackend(Backend):
         for ch in self.channels:
             if ch.halt is not None and now_ns >= ch.halt.next_ns:
                 ch.resend_halt(now_ns)
+        if self._timed_wait and self._timed_sent and min(self._timed_sent) <= self.now():
+            self._send_timed()
+            link.flush()
 
     def _run_until(self, tick: int, pred: Callable[[], bool] | None = None) -> bool:
         """Let host time reach ``tick`` (or ``pred()`` hold): link, ramp task, waiting."""
@@ -429,6 +439,8 @@ class SerialBackend(Backend):
         for ch in self.channels:
             if ch.halt is not None:
                 t = min(t, ch.halt.next_ns)
+        if self._timed_wait and self._timed_sent:  # a device slot comes free
+            t = min(t, self.sync.ns_at(min(self._timed_sent)))
         return t
 
     # ---------------------------------------------------------- ramp task
@@ -553,6 +565,41 @@ class SerialBackend(Backend):
 
     def cancel_sync_outputs(self) -> None:
         self.send(self.outputs.cancel())
+
+    def timed_output(self, change: OutputChange, tick: int) -> bool:
+        """OutputAt at the device tick of host tick ``tick`` (a device with
+        ``F_TIMED_OUTPUTS``): at most ``TIMED_SLOTS`` wait on the device, the next are
+        sent as slots come free (docs/serial-protocol.md, section 16)."""
+        if not self.connected or not self._features() & F_TIMED_OUTPUTS:
+            return False
+        self._timed_wait.append((tick, change))
+        self._send_timed()
+        link = self.link
+        if self._task_tick is None and link is not None and self.connected:
+            link.flush()  # (the ramp task flushes what it sends at its end)
+        return True
+
+    def cancel_timed_outputs(self) -> None:
+        self._timed_wait.clear()
+        if self._timed_sent:
+            self._timed_sent.clear()
+            if self.connected and self._features() & F_TIMED_OUTPUTS:
+                self.send(self.outputs.timed_cancel())
+
+    def _send_timed(self) -> None:
+        """Send waiting timed changes while the device has slots for them."""
+        if not self.connected:
+            self._timed_wait.clear()  # a new session replays the outputs' last state
+            self._timed_sent.clear()
+            return
+        now = self.now()
+        sent = self._timed_sent = [t for t in self._timed_sent if t > now]
+        wait = self._timed_wait
+        while wait and len(sent) < TIMED_SLOTS:
+            tick, change = wait.popleft()
+            self.send(self.outputs.timed(change, self.sync.device_tick32(tick)))
+            if tick > now:
+                sent.append(tick)
 
     # ------------------------------------------------------- inputs (issue 13)
     def _features(self) -> int:

@@ -10,7 +10,17 @@ from __future__ import annotations
 
 from ..backend import OutputChange
 from ..pwm import PwmSetting
-from .protocol import O_ANALOG, O_SYNCHRONIZED, Message, OutputCancel, OutputPwm, OutputSet, Pin
+from .protocol import (
+    O_ANALOG,
+    O_SYNCHRONIZED,
+    T_CANCEL,
+    Message,
+    OutputAt,
+    OutputCancel,
+    OutputPwm,
+    OutputSet,
+    Pin,
+)
 
 
 class OutputState:
@@ -40,6 +50,16 @@ class OutputState:
         """The change; its state is what a new session makes at once."""
         self.outputs[(change.analog, change.number)] = self._message(change, 0)
         return self._message(change, O_SYNCHRONIZED if synchronized else 0)
+
+    def timed(self, change: OutputChange, device_tick: int) -> OutputAt:
+        """The change at ``device_tick``; its state is what a new session makes at once."""
+        self.outputs[(change.analog, change.number)] = self._message(change, 0)
+        return OutputAt(O_ANALOG if change.analog else 0, change.number, change.pin,
+                        change.value, device_tick & 0xFFFFFFFF)
+
+    @staticmethod
+    def timed_cancel() -> OutputAt:
+        return OutputAt(T_CANCEL, 0, 0, 0, 0)
 
     @staticmethod
     def _message(change: OutputChange, flags: int) -> OutputSet:

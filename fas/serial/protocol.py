@@ -662,6 +662,31 @@ class OutputCancel(Message):
     FMT: ClassVar[struct.Struct] = _fmt("")
 
 
+T_CANCEL = 0x80  # OutputAt flags: drop every timed change not made yet (other fields unused)
+TIMED_SLOTS = 8  # timed changes a device holds waiting for their tick (section 16)
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class OutputAt(Message):
+    """A timed output change: ``value`` as in :class:`OutputSet` (flags ``O_ANALOG``),
+    made at device tick ``at`` by the device's clock (a tick already past: at once);
+    ``T_CANCEL``: drop the timed changes not made yet.  Only to a device with
+    ``F_TIMED_OUTPUTS``; it holds up to ``TIMED_SLOTS``."""
+
+    CODE: ClassVar[int] = 0x23
+    FMT: ClassVar[struct.Struct] = _fmt("BBBII")
+    flags: int
+    number: int
+    pin: int
+    value: int
+    at: int
+
+    @property
+    def analog(self) -> bool:
+        return bool(self.flags & O_ANALOG)
+
+
 # --- inputs and limit switches (issue 13; docs/serial-protocol.md section 18) -------
 W_OFF = 0  # WatchInput.mode: stop watching the pin
 W_DIGITAL = 1  # digital input, no pull-up
@@ -673,6 +698,7 @@ S_ANALOG = 0x01  # SetInput.flags: a pot's value 0..1023 (else a level 0/1)
 # Ident.features: the optional message families a device understands (section 5)
 F_INPUTS = 0x0001  # section 18: WatchInput, Limit; Input, LimitHit, Started
 F_SIM_INPUTS = 0x0002  # SetInput: the device's inputs are a simulation's (section 18)
+F_TIMED_OUTPUTS = 0x0004  # OutputAt: timed output changes (section 16)
 
 
 @register

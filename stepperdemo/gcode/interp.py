@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from fas.path.arc import (
@@ -113,6 +113,9 @@ class Move:
     line: str
     jog: bool = False
     laser: Laser | None = None  # laser mode: the power of this move (None: leave it)
+    #: an arc's chord end as it is, in steps (not rounded: ``target`` rounds it) - the
+    #: point the path goes through; None: ``target``
+    exact: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -526,14 +529,17 @@ class Interpreter:
                 steps = list(move.target)
                 position = target
                 continue
-            for point in points:
+            last = len(points) - 1
+            for k, point in enumerate(points):
                 t = self._steps(list(point))
                 if t != steps:
                     actions.append(Move(tuple(t), tuple(steps), rapid,
                                         None if rapid else move_feed, block.line,
                                         laser=None if power is None else
                                         (Laser(power.dynamic, 0.0, move_feed) if rapid
-                                         else power)))
+                                         else power),
+                                        exact=None if k == last else
+                                        self._exact_steps(point)))
                     steps = t
             position = list(target)
 
@@ -704,6 +710,13 @@ class Interpreter:
             else:
                 target[i] = self.position[i] + v
         return target
+
+    def _exact_steps(self, point: Sequence[float]) -> tuple[float, ...]:
+        """A point in steps, not rounded (an arc's chord end; in range: its rounding
+        passed :meth:`_steps`).  Kept to 1/1024 step so that one arc given by R and
+        by I/J/K goes through the same points in spite of the last bits."""
+        return tuple(round(v * spu * 1024.0) / 1024.0
+                     for v, spu in zip(point, self.settings.steps_per_unit, strict=False))
 
     def _steps(self, target: list[float]) -> list[int]:
         out = []

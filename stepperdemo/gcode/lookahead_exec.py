@@ -234,7 +234,9 @@ class LookaheadExecutor(MotionExecutor):
         for move in islice(blocks, self.handed, None):
             if g.room() <= 0:
                 break
-            res = g.line(move.target, None if move.rapid else move.feed, tag=move,
+            res = g.line(move.target if move.exact is None else move.exact,
+                         None if move.rapid else move.feed, tag=move,
+                         through=move.exact is not None,
                          override=not move.jog)
             if res == PathResult.QUEUE_FULL:
                 break

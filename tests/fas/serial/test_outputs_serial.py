@@ -5,9 +5,14 @@ import pytest
 from fas import Engine
 from fas.device.loopback import Loopback
 from fas.outputs import OutputResult
+from fas.pwm import duty_count
 from fas.serial.protocol import (
+    F_TIMED_OUTPUTS,
     O_ANALOG,
     O_SYNCHRONIZED,
+    T_CANCEL,
+    TIMED_SLOTS,
+    OutputAt,
     OutputCancel,
     OutputPwm,
     OutputSet,
@@ -24,6 +29,8 @@ TPS = 16_000_000
     OutputSet(O_ANALOG | O_SYNCHRONIZED, 3, 14, 4095),
     OutputSet(0, 0, 32, 1),
     OutputCancel(),
+    OutputAt(O_ANALOG, 1, 11, 128, 2**32 - 1),
+    OutputAt(T_CANCEL, 0, 0, 0, 0),
 ])
 def test_output_messages_round_trip(message):
     data = message.encode()
@@ -36,6 +43,7 @@ def test_output_set_sizes_and_flags():
     assert len(m.encode()) == 8 and m.analog and m.synchronized
     assert len(OutputPwm(0, 0, 0, 0, 0).encode()) == 15
     assert len(OutputCancel().encode()) == 1
+    assert len(OutputAt(O_ANALOG, 1, 11, 128, 5).encode()) == 12
 
 
 def test_gcode_acceptance_program_on_the_device():
@@ -103,3 +111,50 @@ def test_outputs_keep_their_state_across_a_new_session():
         assert dev.machine.outputs.level(23, dev.machine.now) == 1
         assert dev.machine.outputs.count(5, dev.machine.now) == 4096
         assert lb.backend.device_counters()["rejected"] == 0
+
+
+def test_timed_outputs_are_made_at_their_ticks_on_the_device_beyond_its_slots():
+    """OutputAt: 3 x TIMED_SLOTS changes 2 ms apart, given at once: the host sends them
+    as the device's slots come free; each is made at its own tick there, none is
+    refused.  (An OutputAt takes ~1 ms of a 115 200 baud line: changes much closer
+    than that cannot all travel.)"""
+    with Loopback("atmega328p", record=True) as lb:
+        e = Engine(lb.backend)
+        e.init()
+        b = lb.backend
+        assert b.ident.features & F_TIMED_OUTPUTS
+        assert e.outputs.analog(1, 0.0, synchronized=False) == OutputResult.OK
+        b.app_wait_until(b.now() + TPS // 100)
+        made: list[tuple[int, int]] = []
+        lb.device.board.sim.output_listeners.append(lambda ch, t: made.append((t, ch.value)))
+        start = b.now() + TPS // 50
+        ticks = [start + k * TPS * 2 // 1000 for k in range(3 * TIMED_SLOTS)]
+        for k, tick in enumerate(ticks):
+            assert e.outputs.analog(1, k + 1.0, synchronized=False, at=tick) == OutputResult.OK
+        b.app_wait_until(ticks[-1] + TPS // 100)
+        assert e.outputs.poll_timed(b.now()) == len(ticks)
+        assert b.device_counters()["rejected"] == 0
+        counts = e.outputs.analog_state(1).setting.counts
+        assert [v for _t, v in made] == [duty_count(counts, k + 1.0)
+                                         for k in range(len(ticks))]
+        for (t_got, _v), tick in zip(made, ticks, strict=True):
+            assert t_got & 0xFFFFFFFF == b.sync.device_tick32(tick)
+        assert e.outputs.analog_applied(1)[0] == float(len(ticks))
+
+
+def test_a_device_without_timed_outputs_gets_them_when_the_host_polls():
+    with Loopback("atmega328p", record=True) as lb:
+        lb.device.features = lb.device.features & ~F_TIMED_OUTPUTS
+        lb.backend.reconnect()
+        e = Engine(lb.backend)
+        e.init()
+        b = lb.backend
+        assert not b.ident.features & F_TIMED_OUTPUTS
+        at = b.now() + TPS // 100
+        assert e.outputs.analog(1, 25.0, synchronized=False, at=at) == OutputResult.OK
+        assert e.outputs.next_timed_tick() == at
+        b.app_wait_until(at)
+        assert e.outputs.analog_applied(1)[0] == 0.0  # not made before the poll
+        assert e.outputs.poll_timed(b.now()) == 1
+        assert e.outputs.analog_applied(1)[0] == 25.0
+        assert b.settle() and b.device_counters()["rejected"] == 0
