@@ -66,7 +66,12 @@ class Piece:
         return s if s < self.s1 else self.s1
 
     def speed_at(self, t: float) -> float:
-        tau = min(max(t - self.t0, 0.0), self.t1 - self.t0)
+        tau = t - self.t0  # (min(max(tau, 0.0), t1 - t0), written out)
+        if tau < 0.0:
+            tau = 0.0
+        span = self.t1 - self.t0
+        if span < tau:
+            tau = span
         return self.v0 + self.a * tau
 
     def __repr__(self) -> str:  # pragma: no cover - debugging aid
@@ -96,8 +101,9 @@ class Segment:
         self.seq = seq
         self.block = block
         self.start = block.start
-        self.steps = tuple(abs(d) for d in block.delta)
-        self.ups = tuple(d > 0 for d in block.delta)
+        delta = block.delta
+        self.steps = steps = tuple([abs(d) for d in delta])
+        self.ups = tuple([d > 0 for d in delta])
         self.length = block.length
         if block.span is None:  # from a step to a step
             self.pitch = tuple(block.length / n if n else 0.0 for n in self.steps)
@@ -125,8 +131,7 @@ class Segment:
         self.complete = False  # every piece is final
         self.end = block.length  # where the path ends in it (a feed hold: earlier)
         self.end_tick = 0  # the tick of ``end`` once complete
-        steps = self.steps
-        self.dominant = max(range(len(steps)), key=steps.__getitem__)
+        self.dominant = steps.index(max(steps))  # (the first of the largest)
         self.tag = block.tag
 
     def known(self, axis: int) -> int:

@@ -474,10 +474,14 @@ class PathGroup:
             self.axes[0].host.wake()
 
     def _horizon(self, now: int) -> float:
-        host = self.axes[0].host
-        fp = max(a.host.settings.forward_planning_ticks for a in self.axes)
-        return float(now + fp + host.backend.planning_extra_ticks
-                     + host.backend.task_period_ticks)
+        axes = self.axes
+        fp = axes[0].host.settings.forward_planning_ticks
+        for a in axes:
+            f = a.host.settings.forward_planning_ticks
+            if f > fp:
+                fp = f
+        backend = axes[0].host.backend
+        return float(now + fp + backend.planning_extra_ticks + backend.task_period_ticks)
 
     def run_task(self) -> None:
         """The group's part of one periodic task (from the lead axis's fill)."""
@@ -506,16 +510,23 @@ class PathGroup:
         now = self._now()
         backend = self.axes[0].host.backend  # (a device: plus the link's lead)
         low_water = 2 * backend.task_period_ticks + backend.planning_extra_ticks
-        for w in self.writers:
-            if w.fill(now, low_water) == Wrote.ERROR:
+        error = Wrote.ERROR
+        writers = self.writers
+        for w in writers:
+            if w.fill(now, low_water) == error:
                 self.stats.errors += 1
                 self.abort()
                 return
+        keep = writers[0].cursor_seq()  # the first segment an axis is still in ...
+        for w in writers:
+            seq = w.cursor_seq()
+            if seq < keep:
+                keep = seq
         ex = self.executor
-        keep = min(w.cursor_seq() for w in self.writers)
         for seg in ex.segments:  # ... and the segment the axes are in now
             if seg.t_done >= now:
-                keep = min(keep, seg.seq)
+                if seg.seq < keep:
+                    keep = seg.seq
                 break
         ex.trim(keep)
 
@@ -611,7 +622,7 @@ class PathGroup:
     def _underrun(self) -> bool:
         """A queue ran dry inside the run (its commands came too late): the axes left
         their common timeline.  Stop at once and plan the rest again from rest."""
-        for w, a in zip(self.writers, self.axes, strict=True):
+        for w, a in zip(self.writers, self.axes, strict=False):  # (one writer per axis)
             if not w.done and a.queue.is_queue_empty():
                 self.stats.underruns += 1
                 self._stop_axes_now()

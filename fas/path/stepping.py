@@ -217,7 +217,8 @@ class AxisWriter:
         i = self.axis
         seg = ex.segment(self.seq)
         assert seg is not None
-        if seg.complete and self.j >= seg.known(i):  # the segment's last step
+        known = seg.known(i)
+        if seg.complete and self.j >= known:  # the segment's last step
             nxt = ex.segment(self.seq + 1)
             if (nxt is not None and seg.end == seg.length and nxt.steps[i]
                     and nxt.ups[i] == seg.ups[i] and nxt.known(i) >= 1
@@ -229,11 +230,11 @@ class AxisWriter:
                 self.seq += 1
                 self.j = 0
                 seg = nxt
+                known = seg.known(i)
             else:
                 # a joint between steps: the step and a wait up to the next segment's
                 # first step, whose steps then follow their own spacing
                 return self._single(seg)
-        known = seg.known(i)
         j0 = self.j
         if known <= j0:
             return self._provisional(seg)
@@ -241,7 +242,9 @@ class AxisWriter:
         t0 = self.w_end
         min_cmd = self.min_cmd
         t_lim, slowing = self._span_limit(seg, pitch, t0)
-        jmax = min(known, j0 + MAX_STEPS)
+        jmax = j0 + MAX_STEPS
+        if known < jmax:
+            jmax = known
         jh = seg.steps_by(i, seg.dist_at(t_lim))
         if jh > jmax:
             jh = jmax
@@ -557,9 +560,10 @@ class AxisWriter:
         write = self.host.write
         st = self.stats
         listener = self.listener if seg is not None and seg.dominant == self.axis else None
+        ok = AqeResult.OK
         for ticks, steps in cmds:
             res = write(ticks, steps, up, False)
-            if res != AqeResult.OK:
+            if res != ok:
                 if res.retry:
                     return Wrote.FULL  # pragma: no cover - room was checked
                 st.errors += 1

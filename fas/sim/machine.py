@@ -198,11 +198,17 @@ class Machine:
                 if ev.enter:  # requested now: entered once the CPU is free
                     bc = self.batch_channel
                     loads = self.uart.loads
-                    if ((bc is None or bc is ev.owner) and time >= self._quiet_from
+                    if (time >= self._quiet_from
                             and (not loads or time >= loads[-1] + uart_cost)
                             and (time < self._millis_first
                                  or (time - self._millis_phase) % ms_ov >= ms_cost)):
-                        free = time  # (cpu_free_at's common case, written out)
+                        # (cpu_free_at's common case, written out)
+                        if bc is None or bc is ev.owner:
+                            free = time
+                        else:
+                            end = bc.block_isr_running_at(time)
+                            free = (time if end is None or end <= time
+                                    else self.cpu_free_at(time, ev.owner))
                     else:
                         free = self.cpu_free_at(time, ev.owner)
                     if free > time:  # pending; those pending then enter in priority order
