@@ -22,7 +22,6 @@ moves between chord ends rounded to steps).
 from __future__ import annotations
 
 import argparse
-import bisect
 import math
 import os
 import random
@@ -33,6 +32,7 @@ if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
 from fas.path.arc import Plane, arc_center_from_radius  # noqa: E402
+from rigs.gcode import path_from_pins  # noqa: E402
 from stepperdemo.gcode.interp import Interpreter, Move  # noqa: E402
 from stepperdemo.gcode.parser import parse_line  # noqa: E402
 from stepperdemo.gcode.program import RawGrbl  # noqa: E402
@@ -48,24 +48,9 @@ ARCS = [  # (line, centre in mm) from X0 Y0
 ]
 
 
-def pins_path(g: RawGrbl) -> list[tuple[int, int]]:
+def pins_path(g: RawGrbl) -> list[tuple[int, ...]]:
     """(X, Y) in steps after every step of either axis, from the pins."""
-    rec = g.backend.recorder
-    events = []
-    for i, s in enumerate(g.machine.steppers[:2]):
-        dir_ticks, dir_levels = rec.pin_edges(s.get_direction_pin())
-        up_high = s.direction_pin_high_counts_up()
-        for t in rec.rising(s.get_step_pin()):
-            k = bisect.bisect_right(dir_ticks, t) - 1
-            level = dir_levels[k] if k >= 0 else 0
-            events.append((t, i, 1 if bool(level) == up_high else -1))
-    events.sort()
-    pos = [0, 0]
-    out = []
-    for _t, i, d in events:
-        pos[i] += d
-        out.append((pos[0], pos[1]))
-    return out
+    return [p for _t, p in path_from_pins(g)]
 
 
 def run_arc(line: str, centre: tuple[float, float], tol: float, exact_stop: bool) -> dict:

@@ -11,6 +11,7 @@ import pytest
 from fas.path.arc import Plane, arc_center_from_radius
 from fas.path.settings import GROUP_TOLERANCE_STEPS
 from fas.pwm import duty_count
+from rigs.gcode import path_from_pins
 from stepperdemo.gcode.interp import Interpreter, Move
 from stepperdemo.gcode.parser import parse_line
 from stepperdemo.gcode.program import RawGrbl
@@ -44,26 +45,6 @@ def send(g: RawGrbl, text: str) -> list[str]:
 def status(g: RawGrbl) -> str:
     g.send(b"?")
     return lines(g.take())[-1]
-
-
-def path_from_pins(g: RawGrbl, axes: int = 2) -> list[tuple[int, tuple[int, ...]]]:
-    """(tick, position per axis) after every step, from the step and direction pins."""
-    rec = g.backend.recorder
-    events = []
-    for i, s in enumerate(g.machine.steppers[:axes]):
-        dir_ticks, dir_levels = rec.pin_edges(s.get_direction_pin())
-        up_high = s.direction_pin_high_counts_up()
-        for t in rec.rising(s.get_step_pin()):
-            k = bisect.bisect_right(dir_ticks, t) - 1
-            level = dir_levels[k] if k >= 0 else 0
-            events.append((t, i, 1 if bool(level) == up_high else -1))
-    events.sort()
-    pos = [0] * axes
-    out = []
-    for t, i, d in events:
-        pos[i] += d
-        out.append((t, tuple(pos)))
-    return out
 
 
 # --------------------------------------------------------------------------- arcs
