@@ -27,6 +27,7 @@ without such a sink the pin statistics count a block's pulses at their plain wid
 from __future__ import annotations
 
 from collections.abc import Callable
+from heapq import heappush
 from typing import TYPE_CHECKING
 
 from ..channel import PulseCounter, QueueChannel
@@ -409,24 +410,29 @@ class SimChannel(QueueChannel):
         """End of the step interrupt of the running block that holds the CPU at tick
         ``t`` (its interrupt j is requested at ``b_c0 + j * b_t``; entered when the
         CPU is free)."""
-        if not self.batch or t < self.b_c0:
+        if not self.batch:
             return None
-        c0, period = self.b_c0, self.b_t
+        c0 = self.b_c0
+        if t < c0:
+            return None
+        period = self.b_t
         j = (t - c0) // period
         if j > self.b_n - 2:
             j = self.b_n - 2
         if j < 0:
             return None
         cost = self.isr_ticks
-        for k in (j, j - 1):
-            if k < 0:
-                break
-            c = c0 + k * period
+        c = c0 + j * period
+        for _ in range(2 if j else 1):  # pulse j, then j - 1
             if t - c >= cost + LATE_ENTRY:  # its interrupt is over, however late it came
-                break
-            entry = self._entry_of(c)
+                return None
+            if c != self._entry_req:  # (_entry_of, written out)
+                self._entry_req = c
+                self._entry_tick = self.m.cpu_free_at(c, self)
+            entry = self._entry_tick
             if entry <= t < entry + cost:
                 return entry + cost
+            c -= period
         return None
 
     def _entry_of(self, c: int) -> int:
@@ -512,19 +518,22 @@ class SimChannel(QueueChannel):
 
     def _single_isr(self) -> None:
         self.event = None
-        self.m.stolen_ticks += self.cost
+        m = self.m
+        m.stolen_ticks += self.cost
         c = self.pending_compare
-        now = self.m.now
+        now = m.now
         if self.contention:  # entered now: the pin falls lat later
             now += self.lat
         if self.pending_pulse:
             self.pending_pulse = False
-            self._emit(c, now - c, 1)
+            self._made(1)  # (_emit, written out: this runs for every single pulse)
+            if not self.detached:
+                self.pins.pulse(self.step_pin, c, now - c)
             q = self.q
             if self.precounted:
                 self.precounted -= 1
-            elif q.read_idx != q.next_write_idx:
-                self._count(1, q.entries[q.read_idx % q.queue_len].dir_level)
+            elif q.read_idx != q.next_write_idx and self.pulse_counter is not None:
+                self.pulse_counter.count(1, q.entries[q.read_idx % q.queue_len].dir_level)
         self._isr(c, now)
 
     def _isr(self, c: int, now: int) -> None:
@@ -542,7 +551,36 @@ class SimChannel(QueueChannel):
         e = q.entries[rp % q.queue_len]
         ticks = e.ticks
         was_dry = self.no_more
-        if e.steps > 1:
+        steps = e.steps
+        if steps > 2:
+            # the entry goes on with at least two pulses left (the common case of a
+            # channel that cannot run a block: _program and _schedule_single written out)
+            e.steps = steps - 1
+            self.mode_one = True
+            if self.entry_listeners and e is not self._noted:
+                self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)
+            compare = c + ticks
+            if compare <= now + self.ocr:
+                compare = self._next_compare(compare, now)
+            m = self.m
+            if self.contention:
+                bc = m.batch_channel
+                if bc is None or bc is self:
+                    self._program(compare, e)
+                    return
+                self.pending_compare = compare
+                self.pending_pulse = True
+                cost = self.cost = self.isr_ticks
+                if compare < m.now:
+                    compare = m.now
+                ev = self.event = Event(compare, self.prio, self._single_isr, True, cost,
+                                        self)
+                m.seq += 1
+                heappush(m.events, (compare, self.prio, m.seq, ev))
+                return
+            self._program(compare, e)
+            return
+        if steps > 1:
             e.steps -= 1
             self.mode_one = True
         else:
