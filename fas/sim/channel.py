@@ -552,10 +552,11 @@ class SimChannel(QueueChannel):
         ticks = e.ticks
         was_dry = self.no_more
         steps = e.steps
-        if steps > 2:
-            # the entry goes on with at least two pulses left (the common case of a
-            # channel that cannot run a block: _program and _schedule_single written out)
-            e.steps = steps - 1
+        if steps > 1:
+            # the entry goes on (_program and _schedule_single written out for a single
+            # pulse: this runs for every pulse of a channel beside a block of pulses)
+            steps -= 1
+            e.steps = steps
             self.mode_one = True
             if self.entry_listeners and e is not self._noted:
                 self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)
@@ -563,47 +564,55 @@ class SimChannel(QueueChannel):
             if compare <= now + self.ocr:
                 compare = self._next_compare(compare, now)
             m = self.m
-            if self.contention:
+            contention = self.contention
+            if steps > 1:
+                if not contention:
+                    self._program(compare, e)  # a block of pulses
+                    return
                 bc = m.batch_channel
                 if bc is None or bc is self:
                     self._program(compare, e)
                     return
-                self.pending_compare = compare
-                self.pending_pulse = True
-                cost = self.cost = self.isr_ticks
+                cost = self.isr_ticks
+            else:
+                cost = self.isr_next_ticks
+            self.pending_compare = compare
+            self.pending_pulse = True
+            self.cost = cost
+            if contention:
                 if compare < m.now:
                     compare = m.now
-                ev = self.event = Event(compare, self.prio, self._single_isr, True, cost,
-                                        self)
-                m.seq += 1
-                heappush(m.events, (compare, self.prio, m.seq, ev))
-                return
-            self._program(compare, e)
-            return
-        if steps > 1:
-            e.steps -= 1
-            self.mode_one = True
-        else:
-            if self.no_more:
-                self.no_more = False
-                if e.steps != 0:
-                    ticks = RESTART_TICKS
+                ev = Event(compare, self.prio, self._single_isr, cost > 0, cost, self)
             else:
-                rp = (rp + 1) & 0xFF
-                q.read_idx = rp
-                if rp == wp:
-                    self.no_more = True
-                    self.dry += 1
-                    self.mode_one = False
-                    self._arm_single(c + ticks, now, e)
-                    return
-                e = q.entries[rp % q.queue_len]
-            if e.toggle_dir:
-                self._toggle_dir(now)
-            if e.steps and self.entry_guard is not None and self.entry_guard(e):
-                self._halt()
+                compare += self.lat
+                if compare < m.now:
+                    compare = m.now
+                ev = Event(compare, self.prio, self._single_isr, True, 0, None)
+            self.event = ev
+            m.seq += 1
+            heappush(m.events, (compare, self.prio, m.seq, ev))
+            return
+        # the entry's last pulse (or a pause): take up the next entry
+        if self.no_more:
+            self.no_more = False
+            if e.steps != 0:
+                ticks = RESTART_TICKS
+        else:
+            rp = (rp + 1) & 0xFF
+            q.read_idx = rp
+            if rp == wp:
+                self.no_more = True
+                self.dry += 1
+                self.mode_one = False
+                self._arm_single(c + ticks, now, e)
                 return
-            self.mode_one = e.steps != 0
+            e = q.entries[rp % q.queue_len]
+        if e.toggle_dir:
+            self._toggle_dir(now)
+        if e.steps and self.entry_guard is not None and self.entry_guard(e):
+            self._halt()
+            return
+        self.mode_one = e.steps != 0
         if self.entry_listeners and e is not self._noted:
             self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)
         compare = c + ticks  # (_arm, written out: this runs once per queue entry)
