@@ -11,12 +11,13 @@ beyond $12 (the issue's target: $12 + 1 step); "inside" is the part before the p
 come within 1.5 steps of the last chord's start (each axis on the step nearest to the
 path there), "last" the last chord (each axis less than a step behind the path, to end
 on the target on one tick), "end" the target's own distance from the circle in whole
-steps, "forced" the point the end rule forces: just before the end tick every axis
-that makes its last step on it (each that moves in the last chord; the end exact)
-stands a step before the target - that point is set by the target and the directions
-the arc ends in, so where it lies beyond $12 + 1 step no placement of the steps meets
-that bound.  Both executors: look-ahead (the default) and the exact stop ($171=1, which
-moves between chord ends rounded to steps).
+steps, "forced" the farthest of the points the end rule forces: just before the end
+tick every axis that makes its last step on it (each that moves in the last chord; the
+end exact) stands a step before the target, and between the steps on that tick some
+do - points set by the target and the directions the arc ends in, so where one lies
+beyond $12 + 1 step no placement of the steps meets that bound.  Both executors:
+look-ahead (the default) and the exact stop ($171=1, which moves between chord ends
+rounded to steps).
 
 1. The four arcs of the tests (a half, a quarter, a full circle, a long R arc).
 2. ``--random`` arcs (seeded): centre, sweep, direction, feed, $12 at random, their
@@ -84,18 +85,13 @@ def run_arc(line: str, centre: tuple[float, float], tol: float, exact_stop: bool
         k = next((i for i, p in enumerate(path) if p == moves[-2].target[:2]), len(path))
     events = path_from_pins(g)
     end = events[-1][0]
-    last_dir: dict[int, tuple[int, int]] = {}  # axis: (tick, direction) of its last step
-    prev = (0, 0)
-    for t, p in events:
-        for i in range(2):
-            if p[i] != prev[i]:
-                last_dir[i] = (t, p[i] - prev[i])
-        prev = p
-    target = moves[-1].target[:2]
-    forced = tuple(x - last_dir[i][1] if i in last_dir and last_dir[i][0] == end else x
-                   for i, x in enumerate(target))
+    # the end rule's points: where the axes stand just before the end tick and between
+    # the steps on it (the target less some of the last steps made on it)
+    forced = [p for _t, p in events if _t < end][-1:] + [p for _t, p in events
+                                                         if _t == end][:-1]
     return {"worst": max(map(off, path)), "inside": max(map(off, path[:k]), default=0.0),
-            "last": max(map(off, path[k:]), default=0.0), "forced": off(forced),
+            "last": max(map(off, path[k:]), default=0.0),
+            "forced": max(map(off, forced), default=0.0),
             "end": off(moves[-1].target), "exact": g.machine.positions()[:2]
             == list(moves[-1].target[:2]), "tol": tol}
 
@@ -144,18 +140,16 @@ def main() -> None:
             beyond = [x["worst"] - x["tol"] * SPU for x in res]
             inside = [x["inside"] - x["tol"] * SPU for x in res]
             last = [x["last"] - x["tol"] * SPU - x["end"] for x in res]
-            free = [b for b, x in zip(beyond, res, strict=True)
-                    if x["forced"] <= x["tol"] * SPU + 1]
-            forced = [(b, x["forced"] - x["tol"] * SPU) for b, x in zip(beyond, res, strict=True)
-                      if x["forced"] > x["tol"] * SPU + 1]
             print(f"2. {len(res)} random arcs (seed {args.seed}), {name}: beyond $12 "
                   f"worst {max(beyond):.2f} steps; inside the arc {max(inside):.2f}; "
                   f"last chord minus the target's own distance {max(last):.2f}; "
                   f"ends exact {sum(x['exact'] for x in res)}/{len(res)}")
-            print(f"   the whole path of the {len(free)} whose end rule's point lies within "
-                  f"$12 + 1: worst {max(free, default=0.0):.2f}; the {len(forced)} whose "
-                  f"point lies beyond: worst / its point "
-                  + ", ".join(f"{b:.2f}/{f:.2f}" for b, f in forced))
+            at_end = [b for b, x in zip(beyond, res, strict=True) if x["worst"] == x["forced"]]
+            other = [b for b, x in zip(beyond, res, strict=True) if x["worst"] != x["forced"]]
+            over = sum(x["forced"] - x["tol"] * SPU > 1 for x in res)
+            print(f"   worst at a point the end rule forces in {len(at_end)} arcs (worst "
+                  f"{max(at_end, default=0.0):.2f}; such a point beyond $12 + 1 in {over}); "
+                  f"elsewhere in {len(other)} (worst {max(other, default=0.0):.2f})")
 
 
 if __name__ == "__main__":
