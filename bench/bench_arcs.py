@@ -9,8 +9,9 @@ direction pins just after the step - where two axes step on one tick, also betwe
 them): the largest distance from the circle minus the radius, in mm and in steps
 beyond $12 (the issue's target: $12 + 1 step); "inside" is the part before the pins
 come within 1.5 steps of the last chord's start (each axis on the step nearest to the
-path there), "last" the last chord (each axis less than a step behind the path, to end
-on the target on one tick), "end" the target's own distance from the circle in whole
+path there), "last" the last block (each axis less than a step behind the path, to end
+on the target on one tick; where the interpreter cuts the last chord - fas.path.arc's
+arc_end_cut - the part after the cut), "end" the target's own distance from the circle in whole
 steps, "forced" the farthest of the points the end rule forces: just before the end
 tick every axis that makes its last step on it (each that moves in the last chord; the
 end exact) stands a step before the target, and between the steps on that tick some
