@@ -9,10 +9,16 @@ direction pins just after the step - where two axes step on one tick, also betwe
 them): the largest distance from the circle minus the radius, in mm and in steps
 beyond $12 (the issue's target: $12 + 1 step); "inside" is the part before the pins
 come within 1.5 steps of the last chord's start (each axis on the step nearest to the
-path there), "last" the last chord (each axis less than a step behind the path, to end
-on the target on one tick), "end" the target's own distance from the circle in whole
-steps.  Both executors: look-ahead (the default) and the exact stop ($171=1, which
-moves between chord ends rounded to steps).
+path there), "last" the last block (each axis less than a step behind the path, to end
+on the target on one tick; where the interpreter cuts the last chord - fas.path.arc's
+arc_end_cut - the part after the cut), "end" the target's own distance from the circle in whole
+steps, "forced" the farthest of the points the end rule forces: just before the end
+tick every axis that makes its last step on it (each that moves in the last chord; the
+end exact) stands a step before the target, and between the steps on that tick some
+do - points set by the target and the directions the arc ends in, so where one lies
+beyond $12 + 1 step no placement of the steps meets that bound.  Both executors:
+look-ahead (the default) and the exact stop ($171=1, which moves between chord ends
+rounded to steps).
 
 1. The four arcs of the tests (a half, a quarter, a full circle, a long R arc).
 2. ``--random`` arcs (seeded): centre, sweep, direction, feed, $12 at random, their
@@ -78,8 +84,15 @@ def run_arc(line: str, centre: tuple[float, float], tol: float, exact_stop: bool
                  len(path))
     if exact_stop and len(moves) > 1:  # its chords end on the rounded points
         k = next((i for i, p in enumerate(path) if p == moves[-2].target[:2]), len(path))
+    events = path_from_pins(g)
+    end = events[-1][0]
+    # the end rule's points: where the axes stand just before the end tick and between
+    # the steps on it (the target less some of the last steps made on it)
+    forced = [p for _t, p in events if _t < end][-1:] + [p for _t, p in events
+                                                         if _t == end][:-1]
     return {"worst": max(map(off, path)), "inside": max(map(off, path[:k]), default=0.0),
             "last": max(map(off, path[k:]), default=0.0),
+            "forced": max(map(off, forced), default=0.0),
             "end": off(moves[-1].target), "exact": g.machine.positions()[:2]
             == list(moves[-1].target[:2]), "tol": tol}
 
@@ -88,7 +101,8 @@ def show(label: str, res: dict) -> None:
     tol = res["tol"] * SPU
     print(f"  {label:44s} {res['worst'] / SPU * 1000:6.2f} um = $12 + "
           f"{res['worst'] - tol:5.2f} steps (inside {res['inside'] - tol:5.2f}, last "
-          f"{res['last'] - tol:5.2f}, end {res['end']:4.2f}); end exact: {res['exact']}")
+          f"{res['last'] - tol:5.2f}, end {res['end']:4.2f}, forced {res['forced'] - tol:5.2f}); "
+          f"end exact: {res['exact']}")
 
 
 def random_arcs(n: int, seed: int) -> list[tuple[str, tuple[float, float], float]]:
@@ -131,6 +145,12 @@ def main() -> None:
                   f"worst {max(beyond):.2f} steps; inside the arc {max(inside):.2f}; "
                   f"last chord minus the target's own distance {max(last):.2f}; "
                   f"ends exact {sum(x['exact'] for x in res)}/{len(res)}")
+            at_end = [b for b, x in zip(beyond, res, strict=True) if x["worst"] == x["forced"]]
+            other = [b for b, x in zip(beyond, res, strict=True) if x["worst"] != x["forced"]]
+            over = sum(x["forced"] - x["tol"] * SPU > 1 for x in res)
+            print(f"   worst at a point the end rule forces in {len(at_end)} arcs (worst "
+                  f"{max(at_end, default=0.0):.2f}; such a point beyond $12 + 1 in {over}); "
+                  f"elsewhere in {len(other)} (worst {max(other, default=0.0):.2f})")
 
 
 if __name__ == "__main__":

@@ -18,6 +18,11 @@ proportion: a helix.
   vector - not with Grbl's small-angle rotation and its correction every 12 segments,
   which saves an 8-bit CPU its ``sin``/``cos``; the host has them cheap, and there is
   no drift to correct.  The last segment ends on the target exactly.
+* **End.**  A block ending on whole steps ends every axis moving in it on its end
+  tick: just before it the axes stand on the target less each one's last step, a
+  point the target and the directions fix.  Where that lies beyond the tolerance + one
+  step (a target rounded to steps off the circle), :func:`arc_end_cut` gives a point on
+  the last chord that makes the slower axis end before (a caller's extra chord end).
 * **Full circle.**  A start equal to the target (in the plane) with I/J/K is a full
   turn (Grbl's rule: the angle ``0`` from ``atan2`` becomes ``2 pi``).
 * **Errors** (Grbl's status codes, :class:`ArcError`): R with the target equal to the
@@ -157,3 +162,52 @@ def arc_points(start: Sequence[float], target: Sequence[float],
             points.append(tuple(p))
     points.append(tuple(float(v) for v in target))
     return points
+
+
+def arc_end_cut(last: Sequence[float], target: Sequence[int], centre: tuple[float, float],
+                radius: float, band: float, plane: Plane) -> tuple[float, ...] | None:
+    """A point on an arc's last chord where to end the block before the last, so that
+    the chord's slower in-plane axis makes its last step where the path is half a step
+    before it (as inside the arc) rather than on the end tick - or None: no cut.
+
+    Everything in steps: ``last`` the last chord's start (a chord end as it is),
+    ``target`` its end in whole steps, the circle's ``centre`` and ``radius`` in the
+    plane (equal steps per unit on its two axes), ``band`` the distance from the circle
+    the steps are to keep (``$12`` + one step).  A block that ends on whole steps ends
+    every axis moving in it on its end tick, so just before that tick the axes stand
+    on the target less each one's last step - a point set by the target and the
+    directions the arc ends in.  Where the target lies off the circle (its rounding to
+    steps) that point can lie beyond ``band``, whatever the placement of the steps
+    before it.  The cut is made there only, and only where it helps: both in-plane axes
+    move in the last chord, the point without the slower axis's last step lies
+    nearer the circle, and the slower axis passes its last half step before the faster
+    one passes its own - the cut comes between the two, so that the slower axis stands
+    on its target from the cut on (no step in the last block) and the faster has its
+    last step still ahead (the last block is not empty).  The cut lies on the chord:
+    the path is the same, the look-ahead keeps the feed through it."""
+    a0, a1, _ = plane.axes
+    plane_axes = (a0, a1)
+
+    def off(p: Sequence[float]) -> float:
+        return abs(math.hypot(p[0] - centre[0], p[1] - centre[1]) - radius)
+
+    span = {a: target[a] - last[a] for a in plane_axes}
+    if any(math.floor(last[a] + 0.5) == target[a] for a in plane_axes):
+        return None  # an axis without a step in the last chord: nothing forced by it
+    d = {a: 1 if span[a] > 0 else -1 for a in plane_axes}
+    # before the end tick: the target less both last steps; on it, between the two
+    # steps (one tick, in either order): the target less one of them
+    forced = max(off([target[a] - d[a] * (b & (1 << n) != 0) for n, a in
+                      enumerate(plane_axes)]) for b in (1, 2, 3))
+    if forced <= band:
+        return None
+    minor, major = sorted(plane_axes, key=lambda a: abs(span[a]))
+    kept = [target[a] - (d[a] if a == major else 0) for a in plane_axes]
+    if off(kept) >= forced:
+        return None
+    u_minor = (target[minor] - 0.5 * d[minor] - last[minor]) / span[minor]
+    u_major = (target[major] - 0.5 * d[major] - last[major]) / span[major]
+    if not 0.0 < u_minor < u_major < 1.0:
+        return None
+    u = 0.5 * (u_minor + u_major)
+    return tuple(x0 + u * (x1 - x0) for x0, x1 in zip(last, target, strict=True))

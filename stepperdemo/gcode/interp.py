@@ -48,6 +48,7 @@ from fas.path.arc import (
     ArcError,
     Plane,
     arc_center_from_radius,
+    arc_end_cut,
     arc_points,
     arc_segments,
     arc_travel,
@@ -521,6 +522,8 @@ class Interpreter:
                                                                        strict=False))
                 if power is not None:
                     power = Laser(power.dynamic, power.speed, move_feed)
+            if arc is not None and probe is None:
+                points = self._cut_arc_end(position, points, arc)
             if probe is not None:
                 move = Move(tuple(self._steps(target)), tuple(steps), False, move_feed,
                             block.line)
@@ -717,6 +720,27 @@ class Interpreter:
         by I/J/K goes through the same points in spite of the last bits."""
         return tuple(round(v * spu * 1024.0) / 1024.0
                      for v, spu in zip(point, self.settings.steps_per_unit, strict=False))
+
+    def _cut_arc_end(self, start: Sequence[float], points: list[tuple[float, ...]],
+                     arc: tuple) -> list[tuple[float, ...]]:
+        """The arc's points with one more on its last chord where the end rule would
+        force a point beyond `$12` + one step (:func:`fas.path.arc.arc_end_cut`; a
+        plane whose two axes have equal steps per unit)."""
+        offset, plane, _clockwise, tolerance = arc
+        a0, a1, _lin = plane.axes
+        spu = self.settings.steps_per_unit
+        if len(points) < 2 or spu[a0] != spu[a1]:
+            return points
+        k = spu[a0]
+        centre = ((start[a0] + offset[0]) * k, (start[a1] + offset[1]) * k)
+        last = self._exact_steps(points[-2])
+        target = self._steps(list(points[-1]))
+        cut = arc_end_cut(last, target, centre, math.hypot(*offset) * k, tolerance * k + 1.0,
+                          plane)
+        if cut is None:
+            return points
+        units = tuple(v / s for v, s in zip(cut, spu, strict=False))
+        return [*points[:-1], units, points[-1]]
 
     def _steps(self, target: list[float]) -> list[int]:
         out = []

@@ -11,6 +11,7 @@ from fas.path.arc import (
     ArcError,
     Plane,
     arc_center_from_radius,
+    arc_end_cut,
     arc_points,
     arc_segments,
     arc_travel,
@@ -137,3 +138,47 @@ def test_grbl_errors():
     assert check_arc_offsets((0, 0), (2000.6, 0), (1000, 0),
                              Plane.XY) == ArcError.INVALID_TARGET
     assert int(ArcError.ARC_RADIUS_ERROR) == 34  # the numbers Grbl prints as error:N
+
+
+# the arc of tests/stepperdemo/gcode/test_gcode_words.py's OFF_CIRCLE in steps (80/mm):
+# its last chord from a point on the circle to the target rounded to steps, 0.49 step
+# inside the circle; ending -X and -Y
+OFF_CENTRE = (-0.3557 * 80, 9.9937 * 80)
+OFF_RADIUS = math.hypot(*OFF_CENTRE)
+OFF_LAST = (-817.958984375, 928.6787109375)  # the last chord's start (on the circle)
+OFF_TARGET = (-822, 897)
+
+
+def _off(p):
+    return abs(math.dist(p[:2], OFF_CENTRE) - OFF_RADIUS)
+
+
+def test_arc_end_cut_where_both_last_steps_on_the_end_tick_would_leave_the_band():
+    band = 0.16 + 1.0  # $12 = 0.002 mm and one step
+    assert _off((-821, 898)) > band  # the target less both last steps
+    cut = arc_end_cut(OFF_LAST + (0.0,), OFF_TARGET + (0,), OFF_CENTRE, OFF_RADIUS, band,
+                      Plane.XY)
+    assert cut is not None and len(cut) == 3
+    # on the chord, where X (the slower axis) has passed its last half step and Y has not
+    u = (cut[1] - OFF_LAST[1]) / (OFF_TARGET[1] - OFF_LAST[1])
+    assert cut[0] == pytest.approx(OFF_LAST[0] + u * (OFF_TARGET[0] - OFF_LAST[0]))
+    assert cut[0] < OFF_TARGET[0] + 0.5  # X past -821.5: on -822, its target, from here
+    assert cut[1] > OFF_TARGET[1] + 0.5  # Y short of 897.5: its last step still ahead
+    assert _off((-822, 898)) <= band  # the target less Y's last step alone
+
+
+def test_arc_end_cut_only_where_it_is_needed_and_helps():
+    band = 0.16 + 1.0
+    args = (OFF_CENTRE, OFF_RADIUS)
+    # a wider band: the end rule's points lie within it - no cut
+    assert arc_end_cut(OFF_LAST, OFF_TARGET, *args, 2.0, Plane.XY) is None
+    # X without a step in the last chord: nothing to release
+    assert arc_end_cut((-821.8, 928.7), OFF_TARGET, *args, band, Plane.XY) is None
+    # an arc on the circle ending on whole steps (the half circle's end at (1600, 0)):
+    # its end rule's points lie within the band
+    assert arc_end_cut((1599.36, 32.0), (1600, 0), (800.0, 0.0), 800.0, band,
+                       Plane.XY) is None
+    # the other planes: the plane's own two axes (ZX: Z first, then X)
+    cut = arc_end_cut((928.6787109375, 0.0, -817.958984375), (897, 0, -822),
+                      OFF_CENTRE, OFF_RADIUS, band, Plane.ZX)
+    assert cut is not None and round(cut[2]) == -822 and cut[0] > 897.5
