@@ -56,7 +56,10 @@ queued entries it summed per running stepper (all but the running one, as the li
 (whose ticks the library multiplies by their steps), and the commands it planned.  Its
 last line fits, over the tasks that plan commands, the firmware's pitch minus the
 model's against the one-step entries summed: what such an entry costs the firmware
-beside the model's ``fill_queued_entry_ticks``.
+beside the model's ``fill_queued_entry_ticks``.  A last line fits all the cases given
+together against the one-step entries summed, the one-step commands and the other
+commands planned (plus a constant), leaving out tasks ``POOLED_OUTLIER_TICKS`` off the
+first fit (a command planned a task apart).
 """
 
 from __future__ import annotations
@@ -347,7 +350,9 @@ def tasks(conf: Path, cases: list[str]) -> int:
     """Per ramp task inside a window: the firmware's pitch across it beside the model's,
     and what the model's task summed and planned."""
     plain_task, plain_added = SimBackend._task, SimChannel.entry_added  # noqa: SLF001
-    log: list[list[int]] = []  # per task: tick, one-step entries, longer entries, commands
+    # per task: tick, one-step entries, longer entries, commands, commands of one step
+    log: list[list[int]] = []
+    pooled: list[tuple[int, int, int, int]] = []
 
     def task(self: SimBackend, index: int) -> None:
         ones = longer = 0
@@ -359,12 +364,15 @@ def tasks(conf: Path, cases: list[str]) -> int:
                         longer += 1
                     else:
                         ones += 1
-        log.append([self.machine.now, ones, longer, 0])
+        log.append([self.machine.now, ones, longer, 0, 0])
         plain_task(self, index)
 
     def added(ch: SimChannel) -> None:
         if ch.m.in_task and log:
             log[-1][3] += 1
+            q = ch.q
+            if q.entries[(q.next_write_idx - 1) % q.queue_len].total_steps == 1:
+                log[-1][4] += 1  # a command of one step
         plain_added(ch)
 
     SimBackend._task = task  # type: ignore[method-assign]  # noqa: SLF001
@@ -379,7 +387,8 @@ def tasks(conf: Path, cases: list[str]) -> int:
             ours: list[tuple[int, int]] = []
             run_model((folder / "input.txt").read_text().strip(),
                       PROFILE.get(case, "atmega328p"), build_of(case), ours)
-            _tasks_table(case, fw, ours, log)
+            pooled += _tasks_table(case, fw, ours, log)
+        _pooled_fit(pooled)
     finally:
         SimBackend._task = plain_task  # type: ignore[method-assign]  # noqa: SLF001
         SimChannel.entry_added = plain_added  # type: ignore[method-assign]
@@ -387,14 +396,19 @@ def tasks(conf: Path, cases: list[str]) -> int:
 
 
 def _tasks_table(case: str, fw: list[tuple[int, int]], ours: list[tuple[int, int]],
-                 log: list[list[int]]) -> None:
+                 log: list[list[int]]) -> list[tuple[int, int, int, int]]:
+    """Print the case's tasks; return (one-step entries summed, commands of one step,
+    longer commands, fw - model) of each paired task that plans commands."""
     cf, cm = _crossings(fw), _crossings(ours)
     rows = []
-    for t, ones, longer, cmds in log:
+    planned = []
+    for t, ones, longer, cmds, singles in log:
         pm = _crossing_at(cm, t, 0)
         pf = _crossing_at(cf, t, 600)  # the firmware's task may start up to ~250 later
         if pm is not None and pf is not None:
             rows.append((t, pf, pm, ones, longer, cmds))
+            if cmds:
+                planned.append((ones, singles, cmds - singles, pf - pm))
     print(f"{case}: {len(rows)} tasks inside windows (tick, pitch fw / model, fw - model, "
           "entries summed: one-step / longer, commands planned); those with one-step "
           "entries summed:")
@@ -406,7 +420,7 @@ def _tasks_table(case: str, fw: list[tuple[int, int]], ours: list[tuple[int, int
            if cmds and abs(pf - pm) < 1500]  # larger: a command planned a task apart
     n = len(fit)
     if n < 2:
-        return
+        return planned
     sx = sum(x for x, _ in fit)
     sy = sum(y for _, y in fit)
     sxx = sum(x * x for x, _ in fit)
@@ -416,6 +430,49 @@ def _tasks_table(case: str, fw: list[tuple[int, int]], ours: list[tuple[int, int
         slope = (n * sxy - sx * sy) / den
         print(f"    fit over {n} tasks that plan commands: fw - model = "
               f"{(sy - slope * sx) / n:+.0f} {slope:+.1f} per one-step entry summed")
+    return planned
+
+
+POOLED_OUTLIER_TICKS = 1000  # a larger residual: a command planned a task apart
+
+
+def _solve(a: list[list[float]], b: list[float]) -> list[float] | None:
+    """Solve the small linear system a x = b (Gauss-Jordan, partial pivoting)."""
+    n = len(b)
+    m = [row[:] + [b[i]] for i, row in enumerate(a)]
+    for c in range(n):
+        p = max(range(c, n), key=lambda r: abs(m[r][c]))
+        if abs(m[p][c]) < 1e-9:
+            return None
+        m[c], m[p] = m[p], m[c]
+        for r in range(n):
+            if r != c:
+                f = m[r][c] / m[c][c]
+                m[r] = [x - f * y for x, y in zip(m[r], m[c], strict=True)]
+    return [m[i][n] / m[i][i] for i in range(n)]
+
+
+def _pooled_fit(rows: list[tuple[int, int, int, int]]) -> None:
+    """Least squares over the tasks of all cases given that plan commands: fw - model
+    against the one-step entries summed, the commands of one step and the longer
+    commands planned (plus a constant); rows whose residual exceeds
+    POOLED_OUTLIER_TICKS (a command planned a task apart) are dropped and the fit redone
+    once."""
+    def fit(use: list[tuple[int, int, int, int]]) -> list[float] | None:
+        xs = [(o, s, lg, 1) for o, s, lg, _ in use]
+        ata = [[sum(x[i] * x[j] for x in xs) for j in range(4)] for i in range(4)]
+        aty = [sum(x[i] * r[3] for x, r in zip(xs, use, strict=True)) for i in range(4)]
+        return _solve(ata, aty)
+
+    sol = fit([r for r in rows if abs(r[3]) < 5 * POOLED_OUTLIER_TICKS])
+    if sol is None:
+        return
+    kept = [r for r in rows if abs(r[3] - (sol[0] * r[0] + sol[1] * r[1] + sol[2] * r[2]
+                                            + sol[3])) < POOLED_OUTLIER_TICKS]
+    sol = fit(kept) or sol
+    print(f"pooled fit over {len(kept)} of {len(rows)} tasks that plan commands: fw - model"
+          f" = {sol[0]:+.1f} per one-step entry summed {sol[1]:+.1f} per command of one "
+          f"step {sol[2]:+.1f} per other command (a pause or more steps) {sol[3]:+.0f}")
 
 
 PHASE_SPAN_TICKS = 500  # the firmware's window starts scatter over ~530 ticks (--starts)
