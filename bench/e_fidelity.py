@@ -7,6 +7,7 @@ of ~4.1 ms gaps (a step compare missed, the 16-bit timer wrapped) in both.
 
     python3 bench/e_fidelity.py [--conformance DIR] [--build NAME] [--windows] [CASE ...]
     python3 bench/e_fidelity.py --holdout | --pulses | --starts | --phase [CASE ...]
+    python3 bench/e_fidelity.py --first-steps | --tasks [CASE ...]
 
 Acceptance (issue 23): position and pulses within max(10 steps, 0.5 %) of the
 firmware's, each window's gap count within 1.  The firmware build of a folder: the
@@ -44,6 +45,21 @@ of the loop's pass at the window's start, which the model does not keep (it skip
 passes and takes up the loop at the overflow).  ``--start-shift T1,T2,...`` moves the
 first step of the n-th queue start a ramp task makes by Tn ticks (negative: earlier) in
 those runs: what a first step the model places off the firmware's does to the windows.
+
+``--first-steps`` prints each stepper's first step, firmware beside model (ticks off).
+
+``--tasks`` compares the pitch between two blocks across each ramp task (the task plus
+the rest of the loop's pass) with the model's, task by task (paired where the model's
+task falls between the two blocks of both), beside what the model's task did: the
+queued entries it summed per running stepper (all but the running one, as the library's
+``ticksInQueue()``), split into entries of one step or a pause and entries of more steps
+(whose ticks the library multiplies by their steps), and the commands it planned.  Its
+last line fits, over the tasks that plan commands, the firmware's pitch minus the
+model's against the one-step entries summed: what such an entry costs the firmware
+beside the model's ``fill_queued_entry_ticks``.  A last line fits all the cases given
+together against the one-step entries summed, the one-step commands and the other
+commands planned (plus a constant), leaving out tasks ``POOLED_OUTLIER_TICKS`` off the
+first fit (a command planned a task apart).
 """
 
 from __future__ import annotations
@@ -293,6 +309,172 @@ def starts(conf: Path, cases: list[str]) -> int:
     return 0
 
 
+def first_steps(conf: Path, cases: list[str]) -> int:
+    """Each stepper's first step: firmware beside model."""
+    print("| case | pin | first step fw (us) | model (us) | off (ticks) |")
+    print("| --- " * 5 + "|")
+    for case in cases:
+        folder = conf / case
+        backend = run_model((folder / "input.txt").read_text().strip(),
+                            PROFILE.get(case, "atmega328p"), build_of(case))
+        for sp in stepper_pins(backend.profile):
+            path = folder / f"steps_{sp.letter}.tsv.gz"
+            if not path.exists():
+                continue
+            fw, ours = read_reference_track(path)[0], step_times_us(backend, sp.step)
+            if fw and ours:
+                off = round((ours[0] - fw[0]) * TICKS_PER_US)
+                print(f"| {case} | {sp.letter} | {fw[0]:.3f} | {ours[0]:.3f} | {off:+d} |")
+    return 0
+
+
+TASK_CROSSING = (1700, 32768)  # a pitch between two blocks across a ramp task (ticks)
+
+
+def _crossings(blocks: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """(end of the block before, start of the block after) of every pitch across a task."""
+    return [(blocks[i][1], blocks[i + 1][0]) for i in range(len(blocks) - 1)
+            if TASK_CROSSING[0] <= blocks[i + 1][0] - blocks[i][1] < TASK_CROSSING[1]]
+
+
+def _crossing_at(crossings: list[tuple[int, int]], t: int, early: int) -> int | None:
+    """The pitch of the crossing whose stretch holds tick ``t`` (``early`` ticks of
+    slack before its first block's end), or None."""
+    i = bisect.bisect_right(crossings, (t + early, 1 << 62)) - 1
+    if i >= 0 and crossings[i][0] - early <= t < crossings[i][1]:
+        return crossings[i][1] - crossings[i][0]
+    return None
+
+
+def tasks(conf: Path, cases: list[str]) -> int:
+    """Per ramp task inside a window: the firmware's pitch across it beside the model's,
+    and what the model's task summed and planned."""
+    plain_task, plain_added = SimBackend._task, SimChannel.entry_added  # noqa: SLF001
+    # per task: tick, one-step entries, longer entries, commands, commands of one step
+    log: list[list[int]] = []
+    pooled: list[tuple[int, int, int, int]] = []
+
+    def task(self: SimBackend, index: int) -> None:
+        ones = longer = 0
+        for ch in self.channels:
+            if ch.running:
+                q = ch.q
+                for k in range(1, (q.next_write_idx - q.read_idx) & 0xFF):
+                    if q.entries[(q.read_idx + k) % q.queue_len].total_steps > 1:
+                        longer += 1
+                    else:
+                        ones += 1
+        log.append([self.machine.now, ones, longer, 0, 0])
+        plain_task(self, index)
+
+    def added(ch: SimChannel) -> None:
+        if ch.m.in_task and log:
+            log[-1][3] += 1
+            q = ch.q
+            if q.entries[(q.next_write_idx - 1) % q.queue_len].total_steps == 1:
+                log[-1][4] += 1  # a command of one step
+        plain_added(ch)
+
+    SimBackend._task = task  # type: ignore[method-assign]  # noqa: SLF001
+    SimChannel.entry_added = added  # type: ignore[method-assign]
+    try:
+        for case in cases:
+            folder = conf / case
+            fw = firmware_blocks(folder)
+            if not fw:
+                continue
+            log.clear()
+            ours: list[tuple[int, int]] = []
+            run_model((folder / "input.txt").read_text().strip(),
+                      PROFILE.get(case, "atmega328p"), build_of(case), ours)
+            pooled += _tasks_table(case, fw, ours, log)
+        _pooled_fit(pooled)
+    finally:
+        SimBackend._task = plain_task  # type: ignore[method-assign]  # noqa: SLF001
+        SimChannel.entry_added = plain_added  # type: ignore[method-assign]
+    return 0
+
+
+def _tasks_table(case: str, fw: list[tuple[int, int]], ours: list[tuple[int, int]],
+                 log: list[list[int]]) -> list[tuple[int, int, int, int]]:
+    """Print the case's tasks; return (one-step entries summed, commands of one step,
+    longer commands, fw - model) of each paired task that plans commands."""
+    cf, cm = _crossings(fw), _crossings(ours)
+    rows = []
+    planned = []
+    for t, ones, longer, cmds, singles in log:
+        pm = _crossing_at(cm, t, 0)
+        pf = _crossing_at(cf, t, 600)  # the firmware's task may start up to ~250 later
+        if pm is not None and pf is not None:
+            rows.append((t, pf, pm, ones, longer, cmds))
+            if cmds:
+                planned.append((ones, singles, cmds - singles, pf - pm))
+    print(f"{case}: {len(rows)} tasks inside windows (tick, pitch fw / model, fw - model, "
+          "entries summed: one-step / longer, commands planned); those with one-step "
+          "entries summed:")
+    for t, pf, pm, ones, longer, cmds in rows:
+        if ones:
+            print(f"    {t / 16000:9.3f} ms  {pf:6d} / {pm:6d}  {pf - pm:+6d}  "
+                  f"{ones:2d} / {longer:2d}  {cmds}")
+    fit = [(ones, pf - pm) for _, pf, pm, ones, _, cmds in rows
+           if cmds and abs(pf - pm) < 1500]  # larger: a command planned a task apart
+    n = len(fit)
+    if n < 2:
+        return planned
+    sx = sum(x for x, _ in fit)
+    sy = sum(y for _, y in fit)
+    sxx = sum(x * x for x, _ in fit)
+    sxy = sum(x * y for x, y in fit)
+    den = n * sxx - sx * sx
+    if den:
+        slope = (n * sxy - sx * sy) / den
+        print(f"    fit over {n} tasks that plan commands: fw - model = "
+              f"{(sy - slope * sx) / n:+.0f} {slope:+.1f} per one-step entry summed")
+    return planned
+
+
+POOLED_OUTLIER_TICKS = 1000  # a larger residual: a command planned a task apart
+
+
+def _solve(a: list[list[float]], b: list[float]) -> list[float] | None:
+    """Solve the small linear system a x = b (Gauss-Jordan, partial pivoting)."""
+    n = len(b)
+    m = [row[:] + [b[i]] for i, row in enumerate(a)]
+    for c in range(n):
+        p = max(range(c, n), key=lambda r: abs(m[r][c]))
+        if abs(m[p][c]) < 1e-9:
+            return None
+        m[c], m[p] = m[p], m[c]
+        for r in range(n):
+            if r != c:
+                f = m[r][c] / m[c][c]
+                m[r] = [x - f * y for x, y in zip(m[r], m[c], strict=True)]
+    return [m[i][n] / m[i][i] for i in range(n)]
+
+
+def _pooled_fit(rows: list[tuple[int, int, int, int]]) -> None:
+    """Least squares over the tasks of all cases given that plan commands: fw - model
+    against the one-step entries summed, the commands of one step and the longer
+    commands planned (plus a constant); rows whose residual exceeds
+    POOLED_OUTLIER_TICKS (a command planned a task apart) are dropped and the fit redone
+    once."""
+    def fit(use: list[tuple[int, int, int, int]]) -> list[float] | None:
+        xs = [(o, s, lg, 1) for o, s, lg, _ in use]
+        ata = [[sum(x[i] * x[j] for x in xs) for j in range(4)] for i in range(4)]
+        aty = [sum(x[i] * r[3] for x, r in zip(xs, use, strict=True)) for i in range(4)]
+        return _solve(ata, aty)
+
+    sol = fit([r for r in rows if abs(r[3]) < 5 * POOLED_OUTLIER_TICKS])
+    if sol is None:
+        return
+    kept = [r for r in rows if abs(r[3] - (sol[0] * r[0] + sol[1] * r[1] + sol[2] * r[2]
+                                            + sol[3])) < POOLED_OUTLIER_TICKS]
+    sol = fit(kept) or sol
+    print(f"pooled fit over {len(kept)} of {len(rows)} tasks that plan commands: fw - model"
+          f" = {sol[0]:+.1f} per one-step entry summed {sol[1]:+.1f} per command of one "
+          f"step {sol[2]:+.1f} per other command (a pause or more steps) {sol[3]:+.0f}")
+
+
 PHASE_SPAN_TICKS = 500  # the firmware's window starts scatter over ~530 ticks (--starts)
 PHASE_STEP_TICKS = 25
 
@@ -417,6 +599,11 @@ def main(argv: list[str] | None = None) -> int:
                     "beside model, and timer 0's phase read from the blocks")
     ap.add_argument("--phase", action="store_true",
                     help="gap counts per window over the phase of the window's start")
+    ap.add_argument("--first-steps", action="store_true",
+                    help="each stepper's first step, firmware beside model")
+    ap.add_argument("--tasks", action="store_true",
+                    help="pitches across each ramp task, firmware beside model, with "
+                    "the entries the model's task summed and the commands it planned")
     ap.add_argument("--start-shift", default="",
                     help="with --phase: ticks added to the first step of the 1st, 2nd, "
                     "... queue start of a ramp task, comma-separated")
@@ -430,6 +617,10 @@ def main(argv: list[str] | None = None) -> int:
     e_cases = args.cases or [c for c in CASES if c.startswith("e")]
     if args.starts:
         return starts(conf, e_cases)
+    if args.first_steps:
+        return first_steps(conf, e_cases)
+    if args.tasks:
+        return tasks(conf, e_cases)
     if args.phase:
         shifts = tuple(int(x) for x in args.start_shift.split(",") if x.strip())
         return phase(conf, e_cases, shifts)
