@@ -31,15 +31,12 @@ from heapq import heappush
 from typing import TYPE_CHECKING
 
 from ..channel import PulseCounter, QueueChannel
-from .machine import PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
+from .machine import LATE_ENTRY, PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..queue import QueueEntry, StepperQueue
 
 RESTART_TICKS = 10  # the step ISR's "do it immediately" delay after the queue ran dry
-# no routine keeps a step interrupt of a block of pulses waiting this long (the longest
-# chain of other routines: timer 0, the UART, the ramp task's exit, another step interrupt)
-LATE_ENTRY = 512
 
 # kinds of entry notes (``SimChannel.entry_listeners``): which entry the channel works on
 ENTRY_START = 0  # first entry after the channel was started (a new motion)

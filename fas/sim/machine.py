@@ -27,7 +27,7 @@ from typing import Callable, Protocol
 
 from ..arch import Profile
 from .builds import check_build
-from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after
+from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after, running_end
 from .outputs import SimOutputs
 from .pins import PinBank
 from .timing import sim_timing
@@ -77,6 +77,9 @@ class BatchSource(Protocol):
 # one of them may still begin (behind the routines running then; a blocked section is
 # known on its own)
 LATE_ISR_SLACK = 1024
+# no routine keeps a step interrupt of a block of pulses waiting this long (the longest
+# chain of other routines: timer 0, the UART, the ramp task's exit, another step interrupt)
+LATE_ENTRY = 512
 
 
 class Event:
@@ -203,12 +206,23 @@ class Machine:
                             and (time < self._millis_first
                                  or (time - self._millis_phase) % ms_ov >= ms_cost)):
                         # (cpu_free_at's common case, written out)
-                        if bc is None or bc is ev.owner:
+                        if bc is None or bc is ev.owner or not bc.batch or time < bc.b_c0:
                             free = time
                         else:
-                            end = bc.block_isr_running_at(time)
-                            free = (time if end is None or end <= time
-                                    else self.cpu_free_at(time, ev.owner))
+                            # (block_isr_running_at's quick answer written out: the
+                            # block's interrupt of this period is over, however late)
+                            c0 = bc.b_c0
+                            period = bc.b_t
+                            j = (time - c0) // period
+                            if j > bc.b_n - 2:
+                                j = bc.b_n - 2
+                            if (j < 0 or time - c0 - j * period
+                                    >= bc.isr_ticks + LATE_ENTRY):
+                                free = time
+                            else:
+                                end = bc.block_isr_running_at(time)
+                                free = (time if end is None or end <= time
+                                        else self.cpu_free_at(time, ev.owner))
                     else:
                         free = self.cpu_free_at(time, ev.owner)
                     if free > time:  # pending; those pending then enter in priority order
@@ -627,7 +641,26 @@ class Machine:
         return how long the routines running now still hold the CPU (the step
         interrupt of a block, the timer-0 overflow, the UART's transmit interrupt:
         :meth:`IsrClock.resume_wait`)."""
-        return self.isr_clock().resume_wait()
+        clock = self._clock
+        if clock is not None and self._clock_key == (self.events_run, self.seq,
+                                                     self.irq_block_windows, self.activity):
+            return clock.resume_wait()
+        # no clock holds (events ran while the loop waited): the same answer as a new
+        # clock's, without making one - most waits need none after it
+        self.stolen_ticks = 0
+        now = self.now
+        wait = self.busy_until - now
+        for first, period, last, cost in self.loop_trains():
+            end = running_end(now, first, period, last, cost)
+            if end is not None and end - now > wait:
+                wait = end - now
+        cost = self.timing.uart_isr_ticks
+        if cost:
+            loads = self.uart.loads
+            li = bisect_right(loads, now)
+            if li and loads[li - 1] > now - cost and loads[li - 1] + cost - now > wait:
+                wait = loads[li - 1] + cost - now
+        return wait
 
     def block_interrupts(self, ticks: int) -> None:
         """The main loop runs ``ticks`` with interrupts disabled (busy wait).  Where
