@@ -92,9 +92,11 @@ def filter_line(line: str) -> str:
     return _DROPPED.sub("", strip_comments(line)).upper()
 
 
-def parse_line(line: str) -> Block:
-    """The words of one G-code line (raises :class:`GcodeError`)."""
-    text = filter_line(line)
+def parse_line(line: str, filtered: bool = False) -> Block:
+    """The words of one G-code line (raises :class:`GcodeError`); ``filtered``: the
+    line comes from the receive path, which has filtered it already (the same
+    filter: :func:`filter_line` would leave it as it is)."""
+    text = line if filtered else filter_line(line)
     if len(text) > MAX_LINE:
         raise GcodeError(Err.OVERFLOW, msg.GCODE_ERR_LONG.format(n=MAX_LINE))
     block = Block(line)
