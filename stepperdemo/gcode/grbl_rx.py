@@ -162,7 +162,7 @@ class GrblReceiver:
         end = cr if lf < 0 or 0 <= cr < lf else lf
         if end < 0 or (self._last_cr and ring[0] == _LF):
             return None
-        chunk = bytes(ring[:end])
+        chunk = ring[:end]  # (a copy)
         if b"(" in chunk or b";" in chunk:
             return None
         kept = chunk.translate(_UPPER, _DROP)
@@ -170,10 +170,12 @@ class GrblReceiver:
         if len(kept) > room:
             self._overflow = True
             kept = kept[:max(room, 0)]
-        self._line += kept
         self._last_cr = ring[end] == _CR
         del ring[:end + 1]
-        line = RxLine(self._line.decode("ascii"), self._overflow)
+        if self._line:
+            self._line += kept
+            kept = self._line
+        line = RxLine(kept.decode("ascii"), self._overflow)
         self._line.clear()
         self._overflow = False
         self._comment = None

@@ -238,8 +238,9 @@ class LookaheadExecutor(MotionExecutor):
         else:
             self.host.enable_drivers()
         handed_any = False
+        la = g.lookahead
         for move in islice(blocks, self.handed, None):
-            if g.room() <= 0:
+            if la.size - len(la.blocks) <= 0:  # (the group's room)
                 break
             res = g.line(move.target if move.exact is None else move.exact,
                          None if move.rapid else move.feed, tag=move,
