@@ -50,6 +50,8 @@ class SimChannel(QueueChannel):
         self.m = machine
         self.q = queue
         self.pins = machine.pins
+        # _made is not extended by a subclass: a single pulse counts itself inline
+        self._made_plain = type(self)._made is SimChannel._made  # noqa: SLF001
         self.step_pin = queue.step_pin
         timing = machine.timing
         self.lat = timing.isr_latency(queue.index)
@@ -523,9 +525,29 @@ class SimChannel(QueueChannel):
             now += self.lat
         if self.pending_pulse:
             self.pending_pulse = False
-            self._made(1)  # (_emit, written out: this runs for every single pulse)
+            # (_emit and PinBank.pulse, written out: this runs for every single pulse)
+            if self._made_plain:
+                self.pulses += 1
+            else:
+                self._made(1)
             if not self.detached:
-                self.pins.pulse(self.step_pin, c, now - c)
+                pins = self.pins
+                pin = self.step_pin
+                width = now - c
+                rise = pins.rise
+                rise[pin] = rise.get(pin, 0) + 1
+                fall = pins.fall
+                fall[pin] = fall.get(pin, 0) + 1
+                total = pins.high_total
+                total[pin] = total.get(pin, 0) + width
+                high_max = pins.high_max
+                if width > high_max.get(pin, 0):
+                    high_max[pin] = width
+                pins.level[pin] = 0
+                if pins.sinks:
+                    times = [c, now]
+                    for sink in pins.sinks:
+                        sink.edges(pin, times, b"\x01\x00")
             q = self.q
             if self.precounted:
                 self.precounted -= 1

@@ -193,14 +193,16 @@ class Machine:
         timing = self.timing
         uart_cost, ms_ov, ms_cost = (self._uart_window, timing.millis_overflow_ticks,
                                      self._ms_window)
+        loads = self.uart.loads  # (changed in place only)
+        starts, ends = self.isr_starts, self.isr_ends  # (likewise)
         while heap and heap[0][0] <= t:
             time, prio, _, ev = pop(heap)
             if ev.cancelled:
                 continue
+            enter = ev.enter
             if ev.isr:
-                if ev.enter:  # requested now: entered once the CPU is free
+                if enter:  # requested now: entered once the CPU is free
                     bc = self.batch_channel
-                    loads = self.uart.loads
                     if (time >= self._quiet_from
                             and (not loads or time >= loads[-1] + uart_cost)
                             and (time < self._millis_first
@@ -241,13 +243,12 @@ class Machine:
                     heapq.heappush(heap, (time, prio, _, ev))
                     return True
                 self.now = time
-            if ev.enter:  # (enter_isr, written out: this runs for every step interrupt)
-                starts = self.isr_starts
+            if enter:  # (enter_isr, written out: this runs for every step interrupt)
                 if len(starts) > 4096:
                     self._forget_isrs()
-                end = time + ev.enter
+                end = time + enter
                 starts.append(time)
-                self.isr_ends.append(end)
+                ends.append(end)
                 if end > self._quiet_from:
                     self._quiet_from = end
             self.events_run += 1
