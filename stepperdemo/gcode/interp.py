@@ -613,14 +613,14 @@ class Interpreter:
         if scale != 1.0:
             words = [(i, v * scale) for i, v in words]
         offset = list(self.offset)
-        wco = self.work_offset(list(self.coords.systems[self.coord_select]), offset,
-                               self.tlo)
-        # (_target's, written out: not a machine position)
+        # (_target's and work_offset's, written out: not a machine position)
         position = self.position
         target = list(position)
         if self.absolute:
+            system = self.coords.systems[self.coord_select]
+            tlo = self.tlo
             for i, v in words:
-                target[i] = v + wco[i]
+                target[i] = v + (system[i] + offset[i] + (tlo if i == TLO_AXIS else 0.0))
         else:
             for i, v in words:
                 target[i] = position[i] + v
