@@ -361,14 +361,21 @@ class SimChannel(QueueChannel):
     def _schedule_single(self, compare: int) -> None:
         q = self.q
         rp = q.read_idx
-        self.cost = (self.isr_ticks if rp != q.next_write_idx
-                     and q.entries[rp % q.queue_len].steps > 1 else self.isr_next_ticks)
+        cost = self.cost = (self.isr_ticks if rp != q.next_write_idx
+                            and q.entries[rp % q.queue_len].steps > 1 else self.isr_next_ticks)
+        m = self.m  # (Machine.schedule, written out)
         if self.contention:
-            self.event = self.m.schedule(compare, self._single_isr, self.prio,
-                                         enter=self.cost, owner=self)
+            if compare < m.now:
+                compare = m.now
+            ev = Event(compare, self.prio, self._single_isr, cost > 0, cost, self)
         else:
-            self.event = self.m.schedule(compare + self.lat, self._single_isr, self.prio,
-                                         isr=True)
+            compare += self.lat
+            if compare < m.now:
+                compare = m.now
+            ev = Event(compare, self.prio, self._single_isr, True, 0, None)
+        self.event = ev
+        m.seq += 1
+        heappush(m.events, (compare, self.prio, m.seq, ev))
 
     def _leave_batch(self) -> None:
         self.batch = False

@@ -194,6 +194,8 @@ class Machine:
         uart_cost, ms_ov, ms_cost = (self._uart_window, timing.millis_overflow_ticks,
                                      self._ms_window)
         loads = self.uart.loads  # (changed in place only)
+        # timer 0 (start_millis runs from the application, never inside an event)
+        millis_first, millis_phase = self._millis_first, self._millis_phase
         starts, ends = self.isr_starts, self.isr_ends  # (likewise)
         while heap and heap[0][0] <= t:
             time, prio, _, ev = pop(heap)
@@ -205,8 +207,8 @@ class Machine:
                     bc = self.batch_channel
                     if (time >= self._quiet_from
                             and (not loads or time >= loads[-1] + uart_cost)
-                            and (time < self._millis_first
-                                 or (time - self._millis_phase) % ms_ov >= ms_cost)):
+                            and (time < millis_first
+                                 or (time - millis_phase) % ms_ov >= ms_cost)):
                         # (cpu_free_at's common case, written out)
                         if bc is None or bc is ev.owner or not bc.batch or time < bc.b_c0:
                             free = time
