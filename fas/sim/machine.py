@@ -66,7 +66,14 @@ class CpuSource(Protocol):
 
 class BatchSource(Protocol):
     """The channel whose block of pulses runs as one event (one at a time per machine,
-    :attr:`Machine.batch_channel`)."""
+    :attr:`Machine.batch_channel`): its block as :class:`BlockSource` has it (the event
+    loop answers the common case itself)."""
+
+    batch: bool
+    b_c0: int
+    b_t: int
+    b_n: int
+    isr_ticks: int
 
     def block_isr_running_at(self, t: int) -> int | None:
         """End of its step interrupt that holds the CPU at tick ``t`` (None: none)."""
