@@ -501,13 +501,14 @@ class PathGroup:
                                         seg.block if seg is not None else None,
                                         seg.s_done if seg is not None else 0.0)
         ex.commit(self._horizon(now))
-        self._write()
+        self._write(now)
         if (ex.final and all(w.done for w in self.writers)
                 and not any(a.queue.is_running() for a in self.axes)):
             self._finish_run()
 
-    def _write(self) -> None:
-        now = self._now()
+    def _write(self, now: int | None = None) -> None:
+        if now is None:
+            now = self._now()
         backend = self.axes[0].host.backend  # (a device: plus the link's lead)
         low_water = 2 * backend.task_period_ticks + backend.planning_extra_ticks
         error = Wrote.ERROR

@@ -133,6 +133,9 @@ class SimBackend(Backend):
         if self._engine is None:
             return
         tasks = self.tasks
+        nxt = tasks.next
+        if nxt is not None and nxt <= tasks.last + 1:
+            return  # the next slot is planned already (TaskSchedule.wake's common case)
         if tasks.wake(self.machine.now):
             self.machine.cancel(self._task_event)
             nxt = tasks.next

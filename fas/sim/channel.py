@@ -31,15 +31,12 @@ from heapq import heappush
 from typing import TYPE_CHECKING
 
 from ..channel import PulseCounter, QueueChannel
-from .machine import PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
+from .machine import LATE_ENTRY, PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..queue import QueueEntry, StepperQueue
 
 RESTART_TICKS = 10  # the step ISR's "do it immediately" delay after the queue ran dry
-# no routine keeps a step interrupt of a block of pulses waiting this long (the longest
-# chain of other routines: timer 0, the UART, the ramp task's exit, another step interrupt)
-LATE_ENTRY = 512
 
 # kinds of entry notes (``SimChannel.entry_listeners``): which entry the channel works on
 ENTRY_START = 0  # first entry after the channel was started (a new motion)
@@ -53,6 +50,8 @@ class SimChannel(QueueChannel):
         self.m = machine
         self.q = queue
         self.pins = machine.pins
+        # _made is not extended by a subclass: a single pulse counts itself inline
+        self._made_plain = type(self)._made is SimChannel._made  # noqa: SLF001
         self.step_pin = queue.step_pin
         timing = machine.timing
         self.lat = timing.isr_latency(queue.index)
@@ -362,14 +361,21 @@ class SimChannel(QueueChannel):
     def _schedule_single(self, compare: int) -> None:
         q = self.q
         rp = q.read_idx
-        self.cost = (self.isr_ticks if rp != q.next_write_idx
-                     and q.entries[rp % q.queue_len].steps > 1 else self.isr_next_ticks)
+        cost = self.cost = (self.isr_ticks if rp != q.next_write_idx
+                            and q.entries[rp % q.queue_len].steps > 1 else self.isr_next_ticks)
+        m = self.m  # (Machine.schedule, written out)
         if self.contention:
-            self.event = self.m.schedule(compare, self._single_isr, self.prio,
-                                         enter=self.cost, owner=self)
+            if compare < m.now:
+                compare = m.now
+            ev = Event(compare, self.prio, self._single_isr, cost > 0, cost, self)
         else:
-            self.event = self.m.schedule(compare + self.lat, self._single_isr, self.prio,
-                                         isr=True)
+            compare += self.lat
+            if compare < m.now:
+                compare = m.now
+            ev = Event(compare, self.prio, self._single_isr, True, 0, None)
+        self.event = ev
+        m.seq += 1
+        heappush(m.events, (compare, self.prio, m.seq, ev))
 
     def _leave_batch(self) -> None:
         self.batch = False
@@ -526,9 +532,29 @@ class SimChannel(QueueChannel):
             now += self.lat
         if self.pending_pulse:
             self.pending_pulse = False
-            self._made(1)  # (_emit, written out: this runs for every single pulse)
+            # (_emit and PinBank.pulse, written out: this runs for every single pulse)
+            if self._made_plain:
+                self.pulses += 1
+            else:
+                self._made(1)
             if not self.detached:
-                self.pins.pulse(self.step_pin, c, now - c)
+                pins = self.pins
+                pin = self.step_pin
+                width = now - c
+                rise = pins.rise
+                rise[pin] = rise.get(pin, 0) + 1
+                fall = pins.fall
+                fall[pin] = fall.get(pin, 0) + 1
+                total = pins.high_total
+                total[pin] = total.get(pin, 0) + width
+                high_max = pins.high_max
+                if width > high_max.get(pin, 0):
+                    high_max[pin] = width
+                pins.level[pin] = 0
+                if pins.sinks:
+                    times = [c, now]
+                    for sink in pins.sinks:
+                        sink.edges(pin, times, b"\x01\x00")
             q = self.q
             if self.precounted:
                 self.precounted -= 1

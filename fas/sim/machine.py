@@ -27,7 +27,7 @@ from typing import Callable, Protocol
 
 from ..arch import Profile
 from .builds import check_build
-from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after
+from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after, running_end
 from .outputs import SimOutputs
 from .pins import PinBank
 from .timing import sim_timing
@@ -66,7 +66,14 @@ class CpuSource(Protocol):
 
 class BatchSource(Protocol):
     """The channel whose block of pulses runs as one event (one at a time per machine,
-    :attr:`Machine.batch_channel`)."""
+    :attr:`Machine.batch_channel`): its block as :class:`BlockSource` has it (the event
+    loop answers the common case itself)."""
+
+    batch: bool
+    b_c0: int
+    b_t: int
+    b_n: int
+    isr_ticks: int
 
     def block_isr_running_at(self, t: int) -> int | None:
         """End of its step interrupt that holds the CPU at tick ``t`` (None: none)."""
@@ -77,6 +84,9 @@ class BatchSource(Protocol):
 # one of them may still begin (behind the routines running then; a blocked section is
 # known on its own)
 LATE_ISR_SLACK = 1024
+# no routine keeps a step interrupt of a block of pulses waiting this long (the longest
+# chain of other routines: timer 0, the UART, the ramp task's exit, another step interrupt)
+LATE_ENTRY = 512
 
 
 class Event:
@@ -190,25 +200,40 @@ class Machine:
         timing = self.timing
         uart_cost, ms_ov, ms_cost = (self._uart_window, timing.millis_overflow_ticks,
                                      self._ms_window)
+        loads = self.uart.loads  # (changed in place only)
+        # timer 0 (start_millis runs from the application, never inside an event)
+        millis_first, millis_phase = self._millis_first, self._millis_phase
+        starts, ends = self.isr_starts, self.isr_ends  # (likewise)
         while heap and heap[0][0] <= t:
             time, prio, _, ev = pop(heap)
             if ev.cancelled:
                 continue
+            enter = ev.enter
             if ev.isr:
-                if ev.enter:  # requested now: entered once the CPU is free
+                if enter:  # requested now: entered once the CPU is free
                     bc = self.batch_channel
-                    loads = self.uart.loads
                     if (time >= self._quiet_from
                             and (not loads or time >= loads[-1] + uart_cost)
-                            and (time < self._millis_first
-                                 or (time - self._millis_phase) % ms_ov >= ms_cost)):
+                            and (time < millis_first
+                                 or (time - millis_phase) % ms_ov >= ms_cost)):
                         # (cpu_free_at's common case, written out)
-                        if bc is None or bc is ev.owner:
+                        if bc is None or bc is ev.owner or not bc.batch or time < bc.b_c0:
                             free = time
                         else:
-                            end = bc.block_isr_running_at(time)
-                            free = (time if end is None or end <= time
-                                    else self.cpu_free_at(time, ev.owner))
+                            # (block_isr_running_at's quick answer written out: the
+                            # block's interrupt of this period is over, however late)
+                            c0 = bc.b_c0
+                            period = bc.b_t
+                            j = (time - c0) // period
+                            if j > bc.b_n - 2:
+                                j = bc.b_n - 2
+                            if (j < 0 or time - c0 - j * period
+                                    >= bc.isr_ticks + LATE_ENTRY):
+                                free = time
+                            else:
+                                end = bc.block_isr_running_at(time)
+                                free = (time if end is None or end <= time
+                                        else self.cpu_free_at(time, ev.owner))
                     else:
                         free = self.cpu_free_at(time, ev.owner)
                     if free > time:  # pending; those pending then enter in priority order
@@ -227,13 +252,12 @@ class Machine:
                     heapq.heappush(heap, (time, prio, _, ev))
                     return True
                 self.now = time
-            if ev.enter:  # (enter_isr, written out: this runs for every step interrupt)
-                starts = self.isr_starts
+            if enter:  # (enter_isr, written out: this runs for every step interrupt)
                 if len(starts) > 4096:
                     self._forget_isrs()
-                end = time + ev.enter
+                end = time + enter
                 starts.append(time)
-                self.isr_ends.append(end)
+                ends.append(end)
                 if end > self._quiet_from:
                     self._quiet_from = end
             self.events_run += 1
@@ -627,7 +651,26 @@ class Machine:
         return how long the routines running now still hold the CPU (the step
         interrupt of a block, the timer-0 overflow, the UART's transmit interrupt:
         :meth:`IsrClock.resume_wait`)."""
-        return self.isr_clock().resume_wait()
+        clock = self._clock
+        if clock is not None and self._clock_key == (self.events_run, self.seq,
+                                                     self.irq_block_windows, self.activity):
+            return clock.resume_wait()
+        # no clock holds (events ran while the loop waited): the same answer as a new
+        # clock's, without making one - most waits need none after it
+        self.stolen_ticks = 0
+        now = self.now
+        wait = self.busy_until - now
+        for first, period, last, cost in self.loop_trains():
+            end = running_end(now, first, period, last, cost)
+            if end is not None and end - now > wait:
+                wait = end - now
+        cost = self.timing.uart_isr_ticks
+        if cost:
+            loads = self.uart.loads
+            li = bisect_right(loads, now)
+            if li and loads[li - 1] > now - cost and loads[li - 1] + cost - now > wait:
+                wait = loads[li - 1] + cost - now
+        return wait
 
     def block_interrupts(self, ticks: int) -> None:
         """The main loop runs ``ticks`` with interrupts disabled (busy wait).  Where

@@ -114,7 +114,7 @@ class PinBank:
 
     def pulse(self, pin: int, first: int, width: int) -> None:
         """One pulse of ``width`` ticks rising at ``first`` (:meth:`pulses` of one: a
-        single step interrupt's pulse)."""
+        single step interrupt's pulse; SimChannel._single_isr has it written out)."""
         rise = self.rise
         rise[pin] = rise.get(pin, 0) + 1
         fall = self.fall

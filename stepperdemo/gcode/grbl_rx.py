@@ -21,7 +21,6 @@ and the line assembly of ``protocol.c``):
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 
 RX_SIZE = 128  # Grbl's RX_BUFFER_SIZE (what character-counting senders count against)
@@ -72,7 +71,7 @@ class GrblReceiver:
 
     def reset(self) -> None:
         """A soft reset: what was received and not yet parsed is gone."""
-        self._ring: deque[int] = deque()
+        self._ring = bytearray()  # (a bytearray: a line is found and cut at once)
         self._line = bytearray()
         self._overflow = False
         self._comment: int | None = None  # "(" or ";" while inside a comment
@@ -130,7 +129,7 @@ class GrblReceiver:
             if line is not None:
                 return line
         while ring:
-            c = ring.popleft()
+            c = ring.pop(0)
             if c in (_CR, _LF):
                 if c == _LF and self._last_cr:
                     self._last_cr = False
@@ -156,15 +155,14 @@ class GrblReceiver:
                 self._line.append(c - 0x20 if 0x61 <= c <= 0x7A else c)
         return None
 
-    def _whole_line(self, ring: deque[int]) -> RxLine | None:
+    def _whole_line(self, ring: bytearray) -> RxLine | None:
         """:meth:`take_line` at once for a line whose end is in the ring and which has
         no comment (what the byte loop makes of it); None: the byte loop's case."""
-        data = bytes(ring)
-        cr, lf = data.find(b"\r"), data.find(b"\n")
+        cr, lf = ring.find(b"\r"), ring.find(b"\n")
         end = cr if lf < 0 or 0 <= cr < lf else lf
-        if end < 0 or (self._last_cr and data[0] == _LF):
+        if end < 0 or (self._last_cr and ring[0] == _LF):
             return None
-        chunk = data[:end]
+        chunk = ring[:end]  # (a copy)
         if b"(" in chunk or b";" in chunk:
             return None
         kept = chunk.translate(_UPPER, _DROP)
@@ -172,10 +170,12 @@ class GrblReceiver:
         if len(kept) > room:
             self._overflow = True
             kept = kept[:max(room, 0)]
-        self._line += kept
-        self._ring = deque(data[end + 1:])
-        self._last_cr = data[end] == _CR
-        line = RxLine(self._line.decode("ascii"), self._overflow)
+        self._last_cr = ring[end] == _CR
+        del ring[:end + 1]
+        if self._line:
+            self._line += kept
+            kept = self._line
+        line = RxLine(kept.decode("ascii"), self._overflow)
         self._line.clear()
         self._overflow = False
         self._comment = None

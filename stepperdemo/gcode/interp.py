@@ -600,13 +600,13 @@ class Interpreter:
             if motion not in (0.0, 1.0):
                 return None
         axes = self.axes
-        words: dict[str, float] = {}
+        words: list[tuple[int, float]] = []  # (axis, value) of the axis words, in order
         feed = self.feed
         scale = MM_PER_INCH if self.inches else 1.0
         for letter, v in block.values.items():
             i = AXES.find(letter)
             if 0 <= i < axes:
-                words[letter] = v
+                words.append((i, v))
             elif letter == "F":
                 feed = v * scale
             elif letter != "N":
@@ -614,11 +614,19 @@ class Interpreter:
         if not words or (motion != 0 and feed <= 0) or self.laser_mode:
             return None
         if scale != 1.0:
-            words = {k: v * scale for k, v in words.items()}
+            words = [(i, v * scale) for i, v in words]
         offset = list(self.offset)
-        wco = self.work_offset(list(self.coords.systems[self.coord_select]), offset,
-                               self.tlo)
-        target = self._target(words, self.absolute, wco, machine=False)
+        # (_target's and work_offset's, written out: not a machine position)
+        position = self.position
+        target = list(position)
+        if self.absolute:
+            system = self.coords.systems[self.coord_select]
+            tlo = self.tlo
+            for i, v in words:
+                target[i] = v + (system[i] + offset[i] + (tlo if i == TLO_AXIS else 0.0))
+        else:
+            for i, v in words:
+                target[i] = position[i] + v
         steps = list(self.position_steps)
         actions: list[Action] = []
         rapid = motion == 0

@@ -83,6 +83,7 @@ class LookaheadExecutor(MotionExecutor):
         axes = len(host.steppers)
         self.group = PathGroup(host.steppers, path_settings(host.settings, axes, blocks.size))
         self.handed = 0  # blocks at the front of the block queue that the group has
+        self._queued = blocks.items  # (its deque: len() without a call, hot paths)
         self._hold = HoldState.NONE
         self._last: Move | None = None  # the block handed last
         self._errors = 0
@@ -110,7 +111,10 @@ class LookaheadExecutor(MotionExecutor):
         return self._last if g.busy() else None
 
     def busy(self) -> bool:
-        return len(self.blocks) > 0 or self.group.busy()
+        if self._queued:
+            return True
+        g = self.group
+        return g.run_active or bool(g.lookahead.blocks)  # (PathGroup.busy, written out)
 
     def moving(self) -> bool:
         return self.group.run_active or any(s.queue.is_running() for s in self.host.steppers)
@@ -186,9 +190,10 @@ class LookaheadExecutor(MotionExecutor):
     def wake_tick(self) -> int | None:
         b = self.host.backend
         now = b.now()
-        if self.handed < len(self.blocks) and self.group.room() > 0:
+        g = self.group
+        if self.handed < len(self._queued) and g.room() > 0:
             return now
-        if self.busy() or self.moving():
+        if self._queued or g.run_active or g.lookahead.blocks or self.moving():
             return now + b.task_period_ticks
         if self.group.attached and self._hold == HoldState.NONE:
             return now  # detach (as poll does: not while held - a resume goes on)
@@ -198,24 +203,26 @@ class LookaheadExecutor(MotionExecutor):
         """Blocks the group has made final leave the block queue (front first).  The
         group keeps its blocks in order, so the front is retired when the group no
         longer has it (before it there are at most blocks a hold put back)."""
-        blocks = self.blocks
+        queued = self._queued
         planned = self.group.lookahead.blocks
-        while self.handed and len(blocks):
-            front = blocks.peek()
+        while self.handed and queued:
+            front = queued[0]
+            if planned and planned[0].tag is front:
+                return  # (the common case: the group's first block)
             for b in planned:
                 if b.tag is front:
                     return
-            blocks.pop()
+            queued.popleft()
             self.handed -= 1
 
     def _hand(self) -> None:
         """Blocks not yet planned go to the group while it has room."""
-        g = self.group
-        blocks = self.blocks
-        queued = len(blocks)
+        queued = len(self._queued)
         if self.handed >= queued:
             self.handed = queued
             return
+        g = self.group
+        blocks = self.blocks
         if not g.busy():
             self._asked = self.host.backend.now()
             if not g.attached:
@@ -231,8 +238,9 @@ class LookaheadExecutor(MotionExecutor):
         else:
             self.host.enable_drivers()
         handed_any = False
+        la = g.lookahead
         for move in islice(blocks, self.handed, None):
-            if g.room() <= 0:
+            if la.size - len(la.blocks) <= 0:  # (the group's room)
                 break
             res = g.line(move.target if move.exact is None else move.exact,
                          None if move.rapid else move.feed, tag=move,

@@ -413,17 +413,17 @@ class GcodeMachine:
                 if outcome is not None:
                     outcome()
                 return
-            self._begin(LineRun(text, self._gcode(text)), now)
+            self._begin(LineRun(text, self._gcode(text, filtered=True)), now)
         except GcodeError as exc:
             self._refuse(exc)
 
-    def _gcode(self, text: str) -> list[Action]:
+    def _gcode(self, text: str, filtered: bool = False) -> list[Action]:
         if not self.sleeping:  # (state_name()'s Alarm and Jog, without the rest)
             if self.alarm is not None:
                 raise GcodeError(Err.SYSTEM_GC_LOCK, msg.GCODE_ERR_ALARM)
             if not self.door and (self.jog_cancel or (not self.hold and self.jogging())):
                 raise GcodeError(Err.SYSTEM_GC_LOCK, msg.GCODE_ERR_JOGGING)
-        return self.interp.interpret(parse_line(text))
+        return self.interp.interpret(parse_line(text, filtered))
 
     def check_line(self, text: str) -> None:
         """Raise the error a G-code line would get, changing nothing (``$Nx=``)."""
@@ -565,10 +565,13 @@ class GcodeMachine:
         """Two axes of one move on one direction pin must go the same way (and every
         moving axis must use FastAccelStepper's queue, not QuickStep's FIFO)."""
         seen: dict[int, tuple[int, bool]] = {}
-        for i, (t, s) in enumerate(zip(move.target, move.start, strict=True)):
+        target, start = move.target, move.start
+        steppers = self.steppers
+        for i in range(len(target)):  # (one per axis: target and start alike)
+            t, s = target[i], start[i]
             if t == s:
                 continue
-            stepper = self.steppers[i]
+            stepper = steppers[i]
             if quickstep_of(stepper) is not None:
                 raise GcodeError(Err.INVALID_TARGET,
                                  msg.GCODE_ERR_QUICKSTEP_AXIS.format(letter=AXES[i]))
@@ -677,32 +680,36 @@ class GcodeMachine:
         """When :meth:`poll` next has something to do (None: only input)."""
         b = self.backend
         now = b.now()
-        times = []
-        wake = self.executor.wake_tick()
-        if wake is not None:
-            times.append(wake)
+        # the earliest of the times below (None: none); written without a list - the
+        # loop asks after every periodic task
+        ex = self.executor
+        wake = ex.wake_tick()
         run = self.pending
         if run is not None and not (self.hold or self.door):
-            if run.dwell_until is not None:
-                times.append(run.dwell_until)
+            if run.dwell_until is not None and (wake is None or run.dwell_until < wake):
+                wake = run.dwell_until
             if run.handed or self.engine.sync.active():
                 nxt = b.next_event_time()
-                times.append(now + b.profile.fill_period_ticks if nxt is None else nxt)
-        if self.jog_cancel and self.executor.hold_state() == HoldState.HELD:
-            times.append(now)
+                t = now + b.profile.fill_period_ticks if nxt is None else nxt
+                if wake is None or t < wake:
+                    wake = t
+        if self.jog_cancel and ex.hold_state() == HoldState.HELD:
+            wake = now if wake is None or now < wake else wake
         laser = self.tooling.wake_tick()
-        if laser is not None:
-            times.append(laser)
+        if laser is not None and (wake is None or laser < wake):
+            wake = laser
         if self._reading() and run is None and (self.rx.pending or self.startup_queue):
-            times.append(now)
+            wake = now if wake is None or now < wake else wake
         if self.drivers_on and self.settings.idle_delay_ms != KEEP_ENABLED:
             if self.idle_since is not None:
-                times.append(self.idle_since + self.settings.idle_delay_ms
-                             * b.profile.ticks_per_ms)
-            elif not (self.executor.moving() or (self.executor.busy() and not self.hold
-                                                 and not self.door)):
-                times.append(now)  # the drivers' idle time begins now (_idle_drivers)
-        return max(min(times), now) if times else None
+                t = self.idle_since + self.settings.idle_delay_ms * b.profile.ticks_per_ms
+                if wake is None or t < wake:
+                    wake = t
+            elif not (ex.moving() or (ex.busy() and not self.hold and not self.door)):
+                wake = now if wake is None or now < wake else wake  # (_idle_drivers)
+        if wake is None:
+            return None
+        return wake if wake > now else now
 
     # ------------------------------------------------------- stop and reset
     def _clear(self) -> None:

@@ -59,6 +59,8 @@ class BlockQueue:
     def __init__(self, size: int = BLOCKS) -> None:
         self.size = size
         self._blocks: deque[Move] = deque()
+        #: the same deque, to read (hot paths take its length without a call)
+        self.items = self._blocks
 
     def __len__(self) -> int:
         return len(self._blocks)

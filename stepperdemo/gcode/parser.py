@@ -36,6 +36,8 @@ AXES = "XYZABC"  # axis words, steppers 1..6
 _VALUE_WORDS = "EFIJKLNPQRST" + AXES
 _KNOWN = "GM" + _VALUE_WORDS
 _NOT_NEGATIVE = "FNPST"
+#: value words :func:`_take_word` checks only for a sign and a repetition
+_PLAIN_WORDS = frozenset(_VALUE_WORDS) - {"N"}
 #: what Grbl's line assembly drops: characters up to the space, '/' (block delete)
 _DROPPED = re.compile(r"[\x00-\x20/]")
 #: G codes with a decimal part that exist (G92.1 here; G28.1 G30.1 G38.x G43.1 later)
@@ -92,15 +94,24 @@ def filter_line(line: str) -> str:
     return _DROPPED.sub("", strip_comments(line)).upper()
 
 
-def parse_line(line: str) -> Block:
-    """The words of one G-code line (raises :class:`GcodeError`)."""
-    text = filter_line(line)
+def parse_line(line: str, filtered: bool = False) -> Block:
+    """The words of one G-code line (raises :class:`GcodeError`); ``filtered``: the
+    line comes from the receive path, which has filtered it already (the same
+    filter: :func:`filter_line` would leave it as it is)."""
+    text = line if filtered else filter_line(line)
     if len(text) > MAX_LINE:
         raise GcodeError(Err.OVERFLOW, msg.GCODE_ERR_LONG.format(n=MAX_LINE))
     block = Block(line)
     if _WELL_FORMED.fullmatch(text):  # (the common case: the same checks, word by word)
+        values = block.values
         for letter, number in _WORD.findall(text):
-            _take_word(block, letter, number, float(number))
+            value = float(number)
+            # (_take_word's common case written out: a value word read the first time)
+            if (letter in _PLAIN_WORDS and letter not in values
+                    and (value >= 0 or letter not in _NOT_NEGATIVE)):
+                values[letter] = value
+            else:
+                _take_word(block, letter, number, value)
         return block
     match = _NUMBER.match
     pos = 0

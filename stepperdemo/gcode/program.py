@@ -152,10 +152,15 @@ class GcodeProgram(Program):
         m = self.machine
         while True:
             if self._sending:
-                if not m.can_read() or not m.rx.free:
+                free = m.rx.free
+                if not free or not m.can_read():
                     break
-                piece = bytes(self._sending[:m.rx.free])
-                del self._sending[:len(piece)]
+                if len(self._sending) <= free:  # (the common case: a line fits)
+                    piece = bytes(self._sending)
+                    self._sending.clear()
+                else:
+                    piece = bytes(self._sending[:free])
+                    del self._sending[:free]
                 m.receive(piece)
                 m.poll()
                 continue
