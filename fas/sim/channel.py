@@ -86,8 +86,8 @@ class SimChannel(QueueChannel):
         # step interrupts of blocks that ran (each block's last one is an event of its
         # own and not counted here): the loop loses their CPU time (Machine.consume)
         self.block_isrs_done = 0
-        self._entry_req = -1  # _entry_of: the request it answered last, and its entry
-        self._entry_tick = 0
+        self.entry_req = -1  # _entry_of: the request it answered last, and its entry
+        self.entry_tick = 0
         self.precounted = 0  # the pending single pulse was already counted by sync()
         self.pulse_counter: PulseCounter | None = None
         self.detached = False
@@ -381,7 +381,7 @@ class SimChannel(QueueChannel):
 
     def _leave_batch(self) -> None:
         self.batch = False
-        self._entry_req = -1
+        self.entry_req = -1
         if self.m.batch_channel is self:
             self.m.batch_channel = None
 
@@ -434,10 +434,10 @@ class SimChannel(QueueChannel):
         while True:  # pulse j, then j - 1
             if t - c >= cost + LATE_ENTRY:  # its interrupt is over, however late it came
                 return None
-            if c != self._entry_req:  # (_entry_of, written out)
-                self._entry_req = c
-                self._entry_tick = self.m.cpu_free_at(c, self)
-            entry = self._entry_tick
+            if c != self.entry_req:  # (_entry_of, written out)
+                self.entry_req = c
+                self.entry_tick = self.m.cpu_free_at(c, self)
+            entry = self.entry_tick
             if entry <= t < entry + cost:
                 return entry + cost
             if not j:
@@ -448,10 +448,10 @@ class SimChannel(QueueChannel):
     def _entry_of(self, c: int) -> int:
         """When the interrupt requested at ``c`` by the running block is entered (the
         last answer is kept: the machine asks about the same pulse again and again)."""
-        if c != self._entry_req:
-            self._entry_req = c
-            self._entry_tick = self.m.cpu_free_at(c, self)
-        return self._entry_tick
+        if c != self.entry_req:
+            self.entry_req = c
+            self.entry_tick = self.m.cpu_free_at(c, self)
+        return self.entry_tick
 
     def _count(self, n: int, dir_level: bool) -> None:
         if self.pulse_counter is not None and n > 0:
