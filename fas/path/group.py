@@ -258,8 +258,10 @@ class PathGroup:
             return PathResult.ERR_AXES
         if feed is not None and not (feed > 0 and math.isfinite(feed)):
             return PathResult.ERR_FEED
-        if any(not (math.isfinite(t) and INT32_MIN <= t <= INT32_MAX) for t in target):
-            return PathResult.ERR_RANGE
+        isfinite = math.isfinite
+        for t in target:
+            if not (isfinite(t) and INT32_MIN <= t <= INT32_MAX):
+                return PathResult.ERR_RANGE
         for a in self.axes:
             if a.base.is_active():  # the stepper's own planner has motion to plan
                 return PathResult.ERR_AXIS_BUSY
@@ -268,10 +270,13 @@ class PathGroup:
             self._configure_lookahead()
         start = tuple(self.position)
         origin = tuple(self.exact)
-        whole = all(x == p for x, p in zip(origin, start, strict=True))
-        if whole and not through and all(t == int(t) for t in target):  # steps to steps
-            ints = tuple(int(t) for t in target)
-            exact = tuple(float(t) for t in ints)
+        ints: tuple[int, ...] | None = None
+        if not through and origin == start:  # (same length: every axis on a whole step)
+            ints = tuple([int(t) for t in target])
+            if ints != tuple(target):  # (a target between steps)
+                ints = None
+        if ints is not None:  # steps to steps
+            exact = tuple([float(t) for t in ints])
             path: tuple[float, ...] | None = None
         else:  # (a point within a billionth of a step of a whole step is on it)
             exact = tuple(float(round(t)) if abs(t - round(t)) < 1e-9 else float(t)
@@ -279,7 +284,7 @@ class PathGroup:
             ints = tuple(pin_after(p, x0, x1)
                          for p, x0, x1 in zip(start, origin, exact, strict=True))
             path = tuple(x1 - x0 for x1, x0 in zip(exact, origin, strict=True))
-        delta = tuple(t - s for t, s in zip(ints, start, strict=True))
+        delta = tuple([t - s for t, s in zip(ints, start, strict=True)])
         for d, a in zip(delta, self.axes, strict=True):
             if d < 0 and not a.host.has_direction_pin():
                 return PathResult.ERR_NO_DIRECTION_PIN

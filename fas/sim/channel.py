@@ -52,6 +52,8 @@ class SimChannel(QueueChannel):
         self.pins = machine.pins
         # _made is not extended by a subclass: a single pulse counts itself inline
         self._made_plain = type(self)._made is SimChannel._made  # noqa: SLF001
+        # _isr is not replaced by a subclass: a single pulse goes on to the next inline
+        self._isr_plain = type(self)._isr is SimChannel._isr  # noqa: SLF001
         self.step_pin = queue.step_pin
         timing = machine.timing
         self.lat = timing.isr_latency(queue.index)
@@ -84,8 +86,8 @@ class SimChannel(QueueChannel):
         # step interrupts of blocks that ran (each block's last one is an event of its
         # own and not counted here): the loop loses their CPU time (Machine.consume)
         self.block_isrs_done = 0
-        self._entry_req = -1  # _entry_of: the request it answered last, and its entry
-        self._entry_tick = 0
+        self.entry_req = -1  # _entry_of: the request it answered last, and its entry
+        self.entry_tick = 0
         self.precounted = 0  # the pending single pulse was already counted by sync()
         self.pulse_counter: PulseCounter | None = None
         self.detached = False
@@ -379,7 +381,7 @@ class SimChannel(QueueChannel):
 
     def _leave_batch(self) -> None:
         self.batch = False
-        self._entry_req = -1
+        self.entry_req = -1
         if self.m.batch_channel is self:
             self.m.batch_channel = None
 
@@ -429,25 +431,27 @@ class SimChannel(QueueChannel):
             return None
         cost = self.isr_ticks
         c = c0 + j * period
-        for _ in range(2 if j else 1):  # pulse j, then j - 1
+        while True:  # pulse j, then j - 1
             if t - c >= cost + LATE_ENTRY:  # its interrupt is over, however late it came
                 return None
-            if c != self._entry_req:  # (_entry_of, written out)
-                self._entry_req = c
-                self._entry_tick = self.m.cpu_free_at(c, self)
-            entry = self._entry_tick
+            if c != self.entry_req:  # (_entry_of, written out)
+                self.entry_req = c
+                self.entry_tick = self.m.cpu_free_at(c, self)
+            entry = self.entry_tick
             if entry <= t < entry + cost:
                 return entry + cost
+            if not j:
+                return None
+            j = 0
             c -= period
-        return None
 
     def _entry_of(self, c: int) -> int:
         """When the interrupt requested at ``c`` by the running block is entered (the
         last answer is kept: the machine asks about the same pulse again and again)."""
-        if c != self._entry_req:
-            self._entry_req = c
-            self._entry_tick = self.m.cpu_free_at(c, self)
-        return self._entry_tick
+        if c != self.entry_req:
+            self.entry_req = c
+            self.entry_tick = self.m.cpu_free_at(c, self)
+        return self.entry_tick
 
     def _count(self, n: int, dir_level: bool) -> None:
         if self.pulse_counter is not None and n > 0:
@@ -523,6 +527,7 @@ class SimChannel(QueueChannel):
         return self.block_isrs_done
 
     def _single_isr(self) -> None:
+        ev = self.event  # the event running now (the channel's only one)
         self.event = None
         m = self.m
         m.stolen_ticks += self.cost
@@ -560,6 +565,41 @@ class SimChannel(QueueChannel):
                 self.precounted -= 1
             elif q.read_idx != q.next_write_idx and self.pulse_counter is not None:
                 self.pulse_counter.count(1, q.entries[q.read_idx % q.queue_len].dir_level)
+        if ev is not None and self.contention and self._isr_plain:
+            # (_isr's common case beside another channel's block of pulses, written out:
+            # the entry goes on with one more single pulse - its event is this one again)
+            q = self.q
+            rp = q.read_idx
+            if rp != q.next_write_idx:
+                e = q.entries[rp % q.queue_len]
+                steps = e.steps
+                compare = c + e.ticks
+                if steps > 1 and compare > now + self.ocr:
+                    bc = m.batch_channel
+                    if steps == 2:
+                        cost = self.isr_next_ticks
+                    elif bc is None or bc is self:
+                        cost = 0  # a block of pulses: _isr programs it
+                    else:
+                        cost = self.isr_ticks
+                    if cost:
+                        e.steps = steps - 1
+                        self.mode_one = True
+                        if self.entry_listeners and e is not self._noted:
+                            self._note_entry(ENTRY_RESTART if self.no_more else ENTRY_NEXT, e)
+                        self.pending_compare = compare
+                        self.pending_pulse = True
+                        self.cost = cost
+                        if compare < m.now:  # pragma: no cover - compare > now here
+                            compare = m.now
+                        ev.time = compare
+                        ev.isr = True
+                        ev.enter = cost
+                        ev.owner = self
+                        self.event = ev
+                        m.seq += 1
+                        heappush(m.events, (compare, self.prio, m.seq, ev))
+                        return
         self._isr(c, now)
 
     def _isr(self, c: int, now: int) -> None:

@@ -74,6 +74,9 @@ class BatchSource(Protocol):
     b_t: int
     b_n: int
     isr_ticks: int
+    # the request of its block that it answered last and that interrupt's entry
+    entry_req: int
+    entry_tick: int
 
     def block_isr_running_at(self, t: int) -> int | None:
         """End of its step interrupt that holds the CPU at tick ``t`` (None: none)."""
@@ -227,8 +230,14 @@ class Machine:
                             j = (time - c0) // period
                             if j > bc.b_n - 2:
                                 j = bc.b_n - 2
-                            if (j < 0 or time - c0 - j * period
-                                    >= bc.isr_ticks + LATE_ENTRY):
+                            c = c0 + j * period
+                            if j < 0 or time - c >= bc.isr_ticks + LATE_ENTRY:
+                                free = time
+                            elif (c == bc.entry_req and time >= bc.entry_tick + bc.isr_ticks
+                                  and (not j or time - c + period
+                                       >= bc.isr_ticks + LATE_ENTRY)):
+                                # (block_isr_running_at's answer from the entry it keeps:
+                                # interrupt j is over and j - 1's long ago)
                                 free = time
                             else:
                                 end = bc.block_isr_running_at(time)

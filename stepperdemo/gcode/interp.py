@@ -630,7 +630,7 @@ class Interpreter:
         steps = list(self.position_steps)
         actions: list[Action] = []
         rapid = motion == 0
-        t = self._steps(list(target))
+        t = self._steps(target)  # (reads it only)
         if t != steps:
             actions.append(Move(tuple(t), tuple(steps), rapid, None if rapid else feed,
                                 block.line, laser=None))
@@ -641,7 +641,7 @@ class Interpreter:
         self.feed = feed
         self.motion = motion
         self.offset = offset
-        self.position = list(target)
+        self.position = target  # (a list of its own)
         self.position_steps = steps
         self.program_end = False
         return actions
@@ -752,12 +752,14 @@ class Interpreter:
 
     def _steps(self, target: list[float]) -> list[int]:
         out = []
+        spu = self.settings.steps_per_unit
+        floor = math.floor
         for i, v in enumerate(target):
-            steps = v * self.settings.steps_per_unit[i]
+            steps = v * spu[i]
             if not -INT32 <= steps <= INT32:
                 raise GcodeError(Err.INVALID_TARGET, msg.GCODE_ERR_RANGE.format(
                     letter=AXES[i]))
-            out.append(int(math.floor(steps + 0.5)))
+            out.append(int(floor(steps + 0.5)))
         return out
 
     def _g10(self, values: dict[str, float], words: dict[str, float], coord_select: int,
