@@ -41,6 +41,10 @@ from .lookahead import limit_along
 
 #: |w - u| below this: straight on, nothing to blend (the look-ahead's COS_STRAIGHT)
 STRAIGHT = 2e-3
+#: an integer this close to a blend's exact end (steps) is reached at the end
+END_EPS = 1e-9
+#: a turn this close to either end of a motion (its share of the duration) is at it
+TURN_EPS = 1e-9
 
 
 @dataclass(frozen=True)
@@ -116,21 +120,25 @@ def fit_sqr(u: Sequence[float], w: Sequence[float], axis_accel: Sequence[float],
     return 2.0 * share * a_j * min(len_in, len_out) / n
 
 
-def axis_crossings(x0: float, v0: float, a: float, duration: float, p0: int
-                   ) -> tuple[list[tuple[float, int]], int]:
+def axis_crossings(x0: float, v0: float, a: float, duration: float, p0: int,
+                   x_end: float | None = None) -> tuple[list[tuple[float, int]], int]:
     """Axis steps of the motion ``x(t) = x0 + v0 t + a t^2 / 2`` (steps, seconds)
     over ``[0, duration]``, from the position ``p0`` (``|x0 - p0| < 1``, and
     ``p0 <= x0`` where it moves up, ``p0 >= x0`` where it moves down - the blocks'
     rounding): ``([(t, +1 or -1), ...], p)`` - each step at the time the position
     reaches the next integer in the direction of motion, and the position at the
     end.  Where the velocity changes sign inside, the motion is split there: the
-    turn itself makes no step."""
+    turn itself makes no step.  ``x_end``: the exact position at the end where the
+    caller knows it (a block's integer end): an integer reached there within
+    rounding is stepped on at the end."""
     out: list[tuple[float, int]] = []
     p = p0
     bounds = [0.0]
     if a != 0.0:
         t_turn = -v0 / a
-        if 0.0 < t_turn < duration:
+        # a turn at an end (an axis that stops at the corner, or starts there) is
+        # no turn inside: rounding must not cut a piece of no length off
+        if TURN_EPS * duration < t_turn < (1.0 - TURN_EPS) * duration:
             bounds.append(t_turn)
     bounds.append(duration)
     for k in range(len(bounds) - 1):
@@ -146,22 +154,63 @@ def axis_crossings(x0: float, v0: float, a: float, duration: float, p0: int
         w0 = max(s * va, 0.0)
         b = s * a
         span = tb - ta
+        last = k == len(bounds) - 2
         while True:
             gap = s * (p + s - xa)  # how far the next integer lies ahead
             if gap < 0.0:  # already past it (rounding at a piece's start)
                 gap = 0.0
             root = w0 * w0 + 2.0 * b * gap
-            if root < 0.0:
-                break  # the piece turns before it gets there
-            den = w0 + math.sqrt(root)
-            if den <= 0.0:
-                break
-            tau = 2.0 * gap / den
+            den = w0 + math.sqrt(root) if root > 0.0 else w0
+            tau = 2.0 * gap / den if den > 0.0 else math.inf
             if tau > span:
-                break
+                if last and x_end is not None and s * (x_end - (p + s)) >= -END_EPS:
+                    tau = span  # the end lies on that integer: rounding missed it
+                else:
+                    break
             p += s
             out.append((ta + tau, s))
     return out, p
+
+
+def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
+                 delta_out: Sequence[int], blend: Blend, spu: Sequence[float]
+                 ) -> list[tuple[int, list[tuple[float, int]], int]]:
+    """Each axis's steps around one blended corner, on the blocks' own step grid.
+
+    The block in goes from ``start_in`` by ``delta_in`` steps to the corner, the block
+    out on by ``delta_out``; each axis ``i`` (``spu[i]`` steps per unit) makes its
+    steps of the block in up to the blend's start, the blend's (times from the
+    blend's start, :func:`axis_crossings`), then those of the block out after the
+    first ones.  Per axis: ``(made_in, blend_steps, first_out)`` - how many of its
+    steps in the block in come before the blend (the block's rounding: the steps
+    whose point ``j * pitch`` the path has reached), the blend's steps, and how many
+    of its steps in the block out the blend has made (the block out's next step is
+    number ``first_out + 1``).  Needs the blend within both blocks."""
+    len_in = math.sqrt(sum((d / k) ** 2 for d, k in zip(delta_in, spu, strict=True)))
+    len_out = math.sqrt(sum((d / k) ** 2 for d, k in zip(delta_out, spu, strict=True)))
+    if not (blend.reach <= len_in and blend.reach <= len_out):
+        raise ValueError("the blend is longer than a block")
+    s_in = len_in - blend.reach  # where the blend begins on the block in
+    out: list[tuple[int, list[tuple[float, int]], int]] = []
+    for i, (x_s, d_in, d_out, k) in enumerate(
+            zip(start_in, delta_in, delta_out, spu, strict=True)):
+        n_in = abs(d_in)
+        made = min(n_in, int(s_in * n_in / len_in + 1e-12)) if n_in else 0
+        up_in = d_in > 0
+        p0 = x_s + (made if up_in else -made)
+        x0 = x_s + d_in * s_in / len_in
+        corner = x_s + d_in
+        x_end = corner + d_out * blend.reach / len_out
+        steps, p = axis_crossings(x0, blend.speed * blend.u[i] * k, blend.axis_accel(i) * k,
+                                  blend.duration, p0, x_end)
+        if d_out == 0:
+            first = 0 if p == corner else -1
+        else:
+            first = (p - corner) if d_out > 0 else (corner - p)
+        if first < 0 or first > abs(d_out):
+            raise ValueError("the blend ends off the block out's step grid")
+        out.append((made, steps, first))
+    return out
 
 
 def exit_window(v_sqr: float, rest: float, accel: float, zone: float

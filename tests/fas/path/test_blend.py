@@ -12,7 +12,8 @@ import random
 
 import pytest
 
-from fas.path.blend import axis_crossings, corner_blend, exit_window, fit_sqr
+from fas.path.blend import (axis_crossings, corner_blend, corner_steps, exit_window,
+                            fit_sqr)
 from rigs.path import edge_accel
 
 SPU = 80.0
@@ -198,6 +199,101 @@ def test_a_corner_through_a_blend_measures_within_the_acceleration_from_the_pins
         assert a >= 0.95 * abs(b.axis_accel(i)) * SPU  # it sees the blend
     worst = max(edge_accel(*axis_steps(i, False), tps, 0.02)[0] for i in range(2))
     assert worst > 1.2 * limit  # the jump, as executed today, is above it
+
+
+def corner_timeline(start, d_in, d_out, v, b):
+    """Per axis: the steps of a corner taken at constant speed v through the blend
+    (block in from its start, the blend, the block out to its end) as (t, +-1)."""
+    len_in = math.hypot(*(d / SPU for d in d_in))
+    len_out = math.hypot(*(d / SPU for d in d_out))
+    t_blend = (len_in - b.reach) / v
+    t_out = t_blend + b.duration
+    per = corner_steps(start, d_in, d_out, b, (SPU, SPU))
+    events = []
+    for i in range(2):
+        made, blend_steps, first = per[i]
+        ev = []
+        n_in, n_out = abs(d_in[i]), abs(d_out[i])
+        for j in range(1, made + 1):
+            ev.append((j * len_in / n_in / v, 1 if d_in[i] > 0 else -1))
+        ev += [(t_blend + t, d) for t, d in blend_steps]
+        for j in range(first + 1, n_out + 1):
+            ev.append((t_out + (j * len_out / n_out - b.reach) / v, 1 if d_out[i] > 0 else -1))
+        events.append(ev)
+    return events, t_blend, t_out, len_in, len_out
+
+
+def blended_position(i, t, start, d_in, d_out, v, b, t_blend, t_out, len_in, len_out):
+    u, w = b.u, b.w
+    if t <= t_blend:
+        return start[i] + u[i] * v * t * SPU
+    corner = start[i] + d_in[i]
+    if t <= t_out:
+        return corner + b.position(t - t_blend)[i] * SPU
+    return corner + (b.reach + v * (t - t_out)) * w[i] * SPU
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_corner_steps_keep_every_axis_within_a_step_of_the_blended_path(seed):
+    """Random corners on an 80 steps/mm grid (reversals, axes standing still on one
+    side, tiny blocks): the block in's steps, the blend's and the block out's from
+    where the blend left the axis make every axis's net steps the blocks' deltas,
+    never a whole step from the blended path, each step in the direction the axis
+    moves."""
+    rng = random.Random(seed)
+    checked = 0
+    while checked < 40:
+        start = (rng.randint(-50, 50), rng.randint(-50, 50))
+        d_in = (rng.randint(-40, 40), rng.randint(-40, 40))
+        d_out = (rng.randint(-40, 40), rng.randint(-40, 40))
+        if rng.random() < 0.3:
+            d_out = (0, d_out[1]) if rng.random() < 0.5 else (d_out[0], 0)
+        if d_in == (0, 0) or d_out == (0, 0):
+            continue
+        u = unit(d_in[0] / SPU, d_in[1] / SPU)
+        w = unit(d_out[0] / SPU, d_out[1] / SPU)
+        if -sum(x * y for x, y in zip(u, w, strict=True)) > 0.999999:
+            continue  # a reversal: a stop
+        len_in = math.hypot(*(d / SPU for d in d_in))
+        len_out = math.hypot(*(d / SPU for d in d_out))
+        cap = fit_sqr(u, w, (ACC, ACC), len_in, len_out)
+        v = min(junction_speed(u, w, ACC, rng.choice([0.01, 0.05, 0.2])), math.sqrt(cap))
+        b = corner_blend(u, w, v * rng.uniform(0.3, 1.0), (ACC, ACC))
+        if b is None:
+            continue
+        events, t_blend, t_out, li, lo = corner_timeline(start, d_in, d_out, b.speed, b)
+        t_end = t_out + (lo - b.reach) / b.speed
+        for i in range(2):
+            ev = events[i]
+            assert sum(d for _t, d in ev) == d_in[i] + d_out[i]
+            assert all(ev[k][0] <= ev[k + 1][0] + 1e-12 for k in range(len(ev) - 1))
+            p = start[i]
+            times = [t for t, _d in ev]
+            samples = sorted(times + [t_end * k / 400 for k in range(401)])
+            k = 0
+            for t in samples:
+                while k < len(ev) and ev[k][0] <= t:
+                    p += ev[k][1]
+                    k += 1
+                x = blended_position(i, t, start, d_in, d_out, b.speed, b, t_blend, t_out,
+                                     li, lo)
+                assert abs(x - p) < 1 + 1e-6, (seed, d_in, d_out, i, t, x, p)
+            for t, d in ev:
+                dt = 1e-9
+                x1 = blended_position(i, t - dt, start, d_in, d_out, b.speed, b, t_blend,
+                                      t_out, li, lo)
+                x2 = blended_position(i, t + dt, start, d_in, d_out, b.speed, b, t_blend,
+                                      t_out, li, lo)
+                assert d * (x2 - x1) >= -1e-9  # never against the motion
+        checked += 1
+
+
+def test_corner_steps_refuse_a_blend_longer_than_a_block():
+    u, w = (1.0, 0.0), (0.0, 1.0)
+    b = corner_blend(u, w, 40.0, (ACC, ACC))
+    assert b is not None and b.reach > 0.5
+    with pytest.raises(ValueError):
+        corner_steps((0, 0), (40, 0), (0, 40), b, (SPU, SPU))
 
 
 # ------------------------------------------------------------- the exits
