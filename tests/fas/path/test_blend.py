@@ -12,8 +12,7 @@ import random
 
 import pytest
 
-from fas.path.blend import (axis_crossings, corner_blend, corner_steps, exit_window,
-                            fit_sqr)
+from fas.path.blend import axis_crossings, corner_blend, corner_steps, exit_window, fit_sqr
 from rigs.path import edge_accel
 
 SPU = 80.0
