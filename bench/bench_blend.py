@@ -1,5 +1,5 @@
-"""The corner blend's cost, planned (issue 25; docs/path-planner.md, "Acceleration at
-corners"): bench_path's 10 000-segment program through the look-ahead planner, each
+"""The corner blend's cost, planned (issue 25; docs/path-planner.md, "Corners:
+blends"): bench_path's 10 000-segment program through the look-ahead planner, each
 block's time from its planned entry and exit, today and with every corner blended.
 
     python bench/bench_blend.py [--segments 10000] [--share 0.25 0.5]

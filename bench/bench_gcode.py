@@ -57,6 +57,7 @@ sys.path.insert(1, os.path.join(ROOT, "bench"))  # bench_path's program
 from fas.arch import PROFILES  # noqa: E402
 from fas.path import executor as path_executor  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
+from rigs.path import instants, path_as_run, timed_deviation  # noqa: E402
 from stepperdemo.demo.build import demo_build  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.watch import observe  # noqa: E402
@@ -195,13 +196,26 @@ def la_run(lines: list[str], motion: int, record: bool, corners: bool = False) -
     m = app.machine
     #: id(move) -> (planned speed at its end units/s, the tick it ends)
     exits: dict[int, tuple[float, int]] = {}
+    #: the corner blends executed: (corner in steps, its segment), in order
+    blends: list = []
+    mids: dict[int, int] = {}  # id(move) -> the middle of the blend at its end
+    seen: set[int] = set()  # segments' seq (unique across runs)
     trim = path_executor.Executor.trim
     if corners:
         def recording_trim(ex, keep_from: int) -> None:
             for seg in ex.segments:
-                if seg.seq < keep_from and seg.complete and seg.pieces:
+                if seg.seq >= keep_from or not seg.complete or seg.seq in seen:
+                    continue
+                seen.add(seg.seq)
+                if seg.blend:
+                    blends.append((seg.block.start, seg))
+                    mids[id(seg.tag)] = int((seg.t_start + seg.t_done) / 2)
+                elif seg.pieces:
                     last = seg.pieces[-1]
                     exits[id(seg.tag)] = ((last.v0 + last.a * (last.t1 - last.t0)) * ex.tps,
+                                          seg.end_tick)
+                else:  # all of it in the blends at its ends: at their speed
+                    exits[id(seg.tag)] = (blends[-1][1].b.speed if blends else 0.0,
                                           seg.end_tick)
             trim(ex, keep_from)
 
@@ -219,7 +233,8 @@ def la_run(lines: list[str], motion: int, record: bool, corners: bool = False) -
     end = max(st[-1] for st in steps) if steps else backend.now()
     start = m.motion_log[0][0]
     out = {"motion_s": (end - start) / tps, "cpu_s": cpu, "wall_s": wall, "moves": moves,
-           "exits": exits, "errors": m.errors, "executor": m.executor.kind,
+           "exits": exits, "blends": blends, "mids": mids, "errors": m.errors,
+           "executor": m.executor.kind,
            "positions": m.positions(), "backend": backend, "steppers": m.steppers}
     out["rtf"] = out["motion_s"] / cpu
     return out
@@ -360,7 +375,7 @@ def jd_speed(u: tuple[float, float], w: tuple[float, float], accel: float, d: fl
 
 
 def blend_figures(moves: list, exits: dict, spu: float, accel: float) -> dict:
-    """The corner blend of docs/path-planner.md (designed, not executed) at every
+    """The corner blend of docs/path-planner.md (executed) at every
     junction that turns, at the speed executed there: the velocity goes from ``v u``
     to ``v w`` at ``a_j`` along ``w - u`` (every axis within its limit by
     construction); its length along each block ``v^2 |w - u| / (2 a_j)``, how far
@@ -429,13 +444,19 @@ def lookahead_section(segments: int, repeat: int) -> None:
     axes = [signed_steps(backend, traced["steppers"][i], build.steppers[i]) for i in range(2)]
     moves = traced["moves"]
     verts = [moves[0].start] + [mv.target for mv in moves]
-    events = sorted([(t, 0, d) for t, d in axes[0]] + [(t, 1, d) for t, d in axes[1]])
     final = [sum(d for _, d in a) for a in axes]
     print(f"  traced: {traced['motion_s']:.3f} s, final position {final} (machine "
           f"{traced['positions']}, program {list(verts[-1])})")
-    ends = [traced["exits"][id(mv)][1] for mv in moves]
-    print(f"  largest distance from the commanded path: "
-          f"{path_deviation(events, verts, ends):.3f} steps (Chebyshev, at every step)")
+    ins = instants([[(t, d) for t, d in a] for a in axes], tuple(verts[0]))
+    run_path = path_as_run(verts, traced["blends"], ins, (bp.SPU, bp.SPU))
+    print(f"  largest distance from the path as run (the commanded path, its corners "
+          f"blended: {len(traced['blends'])} blends): "
+          f"{timed_deviation(ins, run_path, int(0.02 * tps)):.3f} steps (Chebyshev, at "
+          f"every step)")
+    # a junction's tick: where the block ends, or the middle of the blend there
+    mids, exits = traced["mids"], traced["exits"]
+    # (the run's last block: its segment ends with the run, not trimmed - not needed)
+    ends = [mids[id(mv)] if id(mv) in mids else exits[id(mv)][1] for mv in moves[:-1]]
     corners = []
     for k in range(len(moves) - 1):
         a, b = moves[k], moves[k + 1]
@@ -495,7 +516,7 @@ def lookahead_section(segments: int, repeat: int) -> None:
         print(f"  planned speed at {len(errs)} junctions limited by junction deviation: "
               f"{min(errs):+.4%} .. {max(errs):+.4%} of the formula")
     bl = blend_figures(moves, exits, bp.SPU, bp.ACCEL)
-    print(f"  corner blend (designed, not executed; docs/path-planner.md) at the "
+    print(f"  corner blends (docs/path-planner.md), from the geometry at the "
           f"{bl['turning']} junctions that turn, at the speeds executed: inside the "
           f"corner by {bl['inside']:.3f} steps at most ({bl['inside_jd']:.3f} where junction "
           f"deviation limits; $11 = {bp.JUNCTION * bp.SPU:.2f} steps), {bl['too_long']} "

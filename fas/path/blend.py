@@ -27,8 +27,9 @@ turns round inside the blend makes no step at the turn.
 The planner's side (:func:`exit_window`): with the blends, a block is a ramp between
 two zones of constant speed whose lengths grow with the junction speeds squared
 (``reach = k v^2``, :attr:`Blend.zone`), so what a block can reach is linear in the
-squared speeds again.  docs/path-planner.md ("Acceleration at corners") says what is
-executed today and what the executor and the stepping still need.
+squared speeds again.  docs/path-planner.md ("Corners: blends") says how the look-ahead
+plans with it, the executor makes it final (:class:`fas.path.executor.BlendSegment`) and
+the stepping writes its steps.
 """
 
 from __future__ import annotations
@@ -39,10 +40,13 @@ from dataclasses import dataclass
 
 from .lookahead import limit_along
 
-#: |w - u| below this: straight on, nothing to blend (the look-ahead's COS_STRAIGHT)
-STRAIGHT = 2e-3
+#: |w - u| below this: straight on, nothing to blend (any turn above it is blended:
+#: a velocity jump of v |w - u| would show in the acceleration from the pins)
+STRAIGHT = 1e-9
 #: an integer this close to a blend's exact end (steps) is reached at the end
 END_EPS = 1e-9
+#: exit_window's rounding: relative to the squared speeds (and to 1 for 1 - 2 a k)
+WINDOW_EPS = 1e-9
 #: a turn this close to either end of a motion (its share of the duration) is at it
 TURN_EPS = 1e-9
 
@@ -106,6 +110,17 @@ def corner_blend(u: Sequence[float], w: Sequence[float], speed: float,
     zone = n / (2.0 * a_j)
     return Blend(tuple(u), tuple(w), speed, a_j, duration, zone * speed * speed,
                  speed * duration * n / 8.0, zone)
+
+
+def zone_coefficient(u: Sequence[float], w: Sequence[float],
+                     axis_accel: Sequence[float]) -> float:
+    """``k``: a blend at this corner at speed ``v`` takes ``k v^2`` of each block
+    (units per (units/s)^2); 0 straight on."""
+    diff = [b - a for a, b in zip(u, w, strict=True)]
+    n = math.sqrt(sum(x * x for x in diff))
+    if n < STRAIGHT:
+        return 0.0
+    return n / (2.0 * limit_along(axis_accel, [x / n for x in diff]))
 
 
 def fit_sqr(u: Sequence[float], w: Sequence[float], axis_accel: Sequence[float],
@@ -173,7 +188,8 @@ def axis_crossings(x0: float, v0: float, a: float, duration: float, p0: int,
 
 
 def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
-                 delta_out: Sequence[int], blend: Blend, spu: Sequence[float]
+                 delta_out: Sequence[int], blend: Blend, spu: Sequence[float],
+                 made_in: Sequence[int] | None = None
                  ) -> list[tuple[int, list[tuple[float, int]], int]]:
     """Each axis's steps around one blended corner, on the blocks' own step grid.
 
@@ -195,7 +211,10 @@ def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
     for i, (x_s, d_in, d_out, k) in enumerate(
             zip(start_in, delta_in, delta_out, spu, strict=True)):
         n_in = abs(d_in)
-        made = min(n_in, int(s_in * n_in / len_in + 1e-12)) if n_in else 0
+        if made_in is not None:
+            made = made_in[i]  # the block in's rounding where its execution ended
+        else:
+            made = min(n_in, int(s_in * n_in / len_in + 1e-12)) if n_in else 0
         up_in = d_in > 0
         p0 = x_s + (made if up_in else -made)
         x0 = x_s + d_in * s_in / len_in
@@ -226,10 +245,11 @@ def exit_window(v_sqr: float, rest: float, accel: float, zone: float
         hi = min(hi, rest / zone)  # the zone fits
     lo = 0.0
     slope = 1.0 - two_a * zone  # e (1 - 2 a k) >= v^2 - 2 a rest: it can slow down
-    need = v_sqr - two_a * rest
-    if slope > 0.0:
+    # (rounding: an executor on its way to an exit meets the bound with equality)
+    need = v_sqr - two_a * rest - WINDOW_EPS * (v_sqr + two_a * rest)
+    if slope > WINDOW_EPS:
         lo = max(0.0, need / slope)
-    elif slope < 0.0:
+    elif slope < -WINDOW_EPS:
         hi = min(hi, need / slope)
     elif need > 0.0:
         return None

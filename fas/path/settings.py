@@ -48,6 +48,10 @@ class AxisLimits:
         return None
 
 
+#: corner blends (fas.path.blend): each within this share of either block
+BLEND_SHARE = 0.5
+
+
 @dataclass(frozen=True)
 class PathSettings:
     """The figures of one group: its axes (in the order of its steppers), the junction

@@ -4,8 +4,11 @@ Axis ``i`` makes step ``j`` of a segment where the path reaches ``j * pitch`` (p
 the segment's length over the axis's steps in it), at the tick the segment's final
 pieces give for that distance, rounded.  So at every instant each axis has made
 exactly the steps the path has passed (the position rounds down along the path: at
-most one step behind it), and every axis makes the last step of a segment at the
-segment's end tick - all on one tick.
+most one step behind it), and every axis makes the last step of a segment that ends
+at its block's end (a stop, a straight joint) at the segment's end tick - all on one
+tick.  A corner blend (:class:`fas.path.executor.BlendSegment`) has each axis's step
+ticks of its own: they are grouped as far as :meth:`AxisWriter._placement` allows, and
+the segment after it begins at the step the blend left each axis at.
 
 The steps become commands ``(ticks, steps, count_up)`` that run back to back from the
 run's common start tick, so that each step falls on its tick:
@@ -46,6 +49,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 MAX_STEPS = 255  # a command's steps
 MAX_TICKS = 65535  # a command's ticks
+#: a segment's last steps before a blend, up to this many, group with the blend's
+BLEND_LEAD = 16
 
 #: ``listener(tick, speed, tag)``: the path speed (units/min) of a command of a
 #: segment's dominant axis beginning at ``tick``; speed 0 where the path stops
@@ -177,7 +182,7 @@ class AxisWriter:
                 if gap >= self.min_wait:  # (a pause is refused below the top speed)
                     seg = self.ex.segment(self.seq)
                     assert seg is not None
-                    res = self._pauses(gap, seg.ups[self.axis], free)
+                    res = self._pauses(gap, seg.step_up(self.axis, self.j), free)
                     if res != Wrote.OK:
                         return res
                     continue
@@ -204,9 +209,13 @@ class AxisWriter:
                     return Found.UNKNOWN, seq, j, 0
             elif not seg.complete:
                 return Found.UNKNOWN, seq, j, 0
+            nxt = ex.segment(seq + 1)
+            if nxt is None:  # not made yet: stay at this one's end (a blend before
+                j = n  # the next may have made its first steps)
+                break
             seq += 1
-            j = 0
-            seg = ex.segment(seq)
+            seg = nxt
+            j = seg.first[i]
         return (Found.END if ex.final else Found.UNKNOWN), seq, j, 0
 
     def _step(self) -> Wrote:
@@ -215,9 +224,13 @@ class AxisWriter:
         i = self.axis
         seg = ex.segment(self.seq)
         assert seg is not None
+        if seg.blend:  # a corner blend: its steps grouped as far as they allow
+            return self._blend_group(seg)
         if seg.complete and self.j >= seg.known(i):  # the segment's last step
             nxt = ex.segment(self.seq + 1)
-            if (nxt is not None and seg.end == seg.length and nxt.steps[i]
+            if nxt is not None and nxt.blend:  # it goes on into the blend's steps
+                return self._blend_group(seg)
+            if (nxt is not None and not nxt.blend and seg.end == seg.length and nxt.steps[i]
                     and nxt.ups[i] == seg.ups[i] and nxt.known(i) >= 1):
                 self.seq += 1  # the same step is the start of the next segment
                 self.j = 0
@@ -228,6 +241,10 @@ class AxisWriter:
         j0 = self.j
         if known <= j0:
             return self._provisional(seg)
+        if seg.complete and seg.end != seg.length and known - j0 <= BLEND_LEAD:
+            nxt = ex.segment(self.seq + 1)
+            if nxt is not None and nxt.blend:
+                return self._blend_group(seg)  # the last steps with the blend's
         pitch = seg.pitch[i]
         t0 = self.w_end
         min_cmd = self.min_cmd
@@ -293,7 +310,7 @@ class AxisWriter:
             where.append((seg.seq, j))
         while exact[-1] - t0 < self.min_span and len(exact) < MAX_STEPS:
             nxt = ex.segment(cur.seq + 1)
-            if (nxt is None or not nxt.steps[i] or nxt.ups[i] != up
+            if (nxt is None or nxt.blend or not nxt.steps[i] or nxt.ups[i] != up
                     or not (cur.complete and cur.end == cur.length)):
                 break
             known = nxt.known(i)
@@ -326,6 +343,53 @@ class AxisWriter:
             if end is not None and j_k == end.steps[i]:
                 st.early_ends += 1
                 st.early_max = max(st.early_max, exact[k] - placed[k])
+        self.seq, self.j = where[-1]
+        self.t_pend = exact[-1]
+        self.pending = True
+        return Wrote.OK
+
+    def _blend_group(self, seg: Segment) -> Wrote:
+        """The pending step is in a corner blend or the last before one: it and the
+        next steps the same way up to the blend's last, up to the first step after
+        them (which starts the next command),
+        placed at or before their ticks and within ``tol`` steps (:meth:`_placement`);
+        one step and its wait where no group fits."""
+        ex = self.ex
+        i = self.axis
+        up = seg.step_up(i, self.j)
+        exact: list[int] = []
+        where: list[tuple[int, int]] = []
+        seq, j = self.seq, self.j
+        cur: Segment | None = seg
+        while cur is not None and len(exact) < MAX_STEPS:
+            if j < cur.known(i):
+                j += 1
+                exact.append(cur.step_tick(i, j))
+                where.append((seq, j))
+                if (seq != self.seq and not cur.blend) or cur.step_up(i, j) != up:
+                    break  # the first step after the blend's (or the other way): it
+                continue  # ends the group
+            if not cur.complete:
+                break  # the steps after are not final yet
+            seq += 1
+            cur = ex.segment(seq)
+            j = cur.first[i] if cur is not None else 0
+        if not exact:
+            return self._single(seg)
+        t0 = self.w_end
+        while len(exact) >= 2:
+            cmds, _placed = self._placement(t0, exact)
+            if cmds is not None:
+                break
+            exact.pop()
+            where.pop()
+        else:
+            return self._single(seg)
+        if self.free < len(cmds):
+            return Wrote.FULL
+        res = self._write_all(cmds, up, seg)
+        if res != Wrote.OK:
+            return res
         self.seq, self.j = where[-1]
         self.t_pend = exact[-1]
         self.pending = True
@@ -473,7 +537,7 @@ class AxisWriter:
         if found == Found.UNKNOWN:
             return self._provisional(seg)
         i = self.axis
-        up = seg.ups[i]
+        up = seg.step_up(i, self.j)
         if found == Found.END:
             cmds = [(self.min_wait, 1)]  # the last step of the run: the queue runs out
         else:
@@ -496,7 +560,7 @@ class AxisWriter:
         assert nseg is not None
         res = self._write_all(cmds[:1], up, seg)
         if res == Wrote.OK and len(cmds) > 1:
-            res = self._write_all(cmds[1:], nseg.ups[i], seg)
+            res = self._write_all(cmds[1:], nseg.step_up(i, j), seg)
         if res != Wrote.OK:
             return res
         self.seq, self.j, self.t_pend = seq, j, tick
@@ -513,7 +577,7 @@ class AxisWriter:
             wait = MAX_TICKS
         if wait < self.min_wait:
             return Wrote.WAIT
-        res = self._write_all([(wait, 1)], seg.ups[self.axis], seg)
+        res = self._write_all([(wait, 1)], seg.step_up(self.axis, self.j), seg)
         if res == Wrote.OK:
             self.pending = False
         return res
