@@ -353,7 +353,8 @@ class Executor:
                 exit2 = max(0.0, v * v - 2.0 * accel * rest) if not stop else 0.0
                 if not stop and k > 0.0:  # the corner at the slowest exit it allows
                     win = exit_window(v * v, rest, accel, k)
-                    if win is not None and win[0] > 0.0:
+                    if (win is not None and win[0] > 0.0
+                            and k * win[0] <= la.blocks[1].length):
                         exit2 = win[0]
                         phases = [(v, -accel, rest - k * exit2)]
                     else:
@@ -362,6 +363,8 @@ class Executor:
                 stop = False
                 vx2 = la.exit_sqr()
                 win = exit_window(v * v, rest, accel, k) if k > 0.0 else None
+                if win is not None and k * max(win[0], min(vx2, win[1])) > la.blocks[1].length:
+                    win = None  # its blend would not fit in the block out (an override)
                 if win is None:
                     k = 0.0  # (none: go on as without a blend)
                 if k > 0.0 and win is not None:
