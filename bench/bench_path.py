@@ -159,12 +159,13 @@ def planner_alone(program: list[tuple[tuple[int, int], float]]) -> dict[str, flo
 
 
 def today(arch: str, program: list[tuple[tuple[int, int], float]]) -> dict[str, float]:
-    """The program on today's G-code machine: every move from rest to rest."""
+    """The program on the G-code machine's exact-stop executor (``$171=1``): every move
+    from rest to rest."""
     from stepperdemo.program import make_program
 
     backend = SimBackend(arch)
     setup = [f"$10{i}={SPU}" for i in range(2)] + [f"$11{i}={MAX_RATE}" for i in range(2)] \
-        + [f"$12{i}={ACCEL}" for i in range(2)]
+        + [f"$12{i}={ACCEL}" for i in range(2)] + ["$171=1"]
     app = make_program("gcode", backend, scripted=True, output=lambda d: None, axes=2,
                        setup_lines=setup)
     lines = [f"G1 X{t[0] / SPU:.4f} Y{t[1] / SPU:.4f} F{f:g}" for t, f in program]
@@ -174,7 +175,7 @@ def today(arch: str, program: list[tuple[tuple[int, int], float]]) -> dict[str, 
     log = app.machine.motion_log
     tps = backend.profile.ticks_per_s
     return {"motion_s": (backend.now() - log[0][0]) / tps, "wall_s": wall,
-            "moves": app.machine.moves}
+            "moves": app.machine.lines, "executor": app.machine.executor.kind}
 
 
 def main() -> None:
@@ -206,8 +207,9 @@ def main() -> None:
           f"{r['motion_s'] / s['motion_s']:.1%} of it")
     if not args.skip_today:
         t = today(args.arch, program)
-        print(f"   today's G-code machine (rest to rest): {t['motion_s']:.3f} s of motion "
-              f"({t['wall_s']:.1f} s wall, {t['moves']} moves); look-ahead takes "
+        print(f"   the G-code machine's exact stop ($171=1, {t['executor']}): "
+              f"{t['motion_s']:.3f} s of motion ({t['wall_s']:.1f} s wall, {t['moves']} "
+              f"lines); look-ahead takes "
               f"{r['motion_s'] / t['motion_s']:.1%} of it")
 
 

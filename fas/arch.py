@@ -113,6 +113,12 @@ class Profile:
     # --- platform features (issue 17: parity with FastAccelStepper 1.2.7) ---
     family: str = "avr"  # avr, esp32, sam, rp2040, test
     timer_module: int = 0  # AVR: the 16-bit timer of the step channels (FAS_TIMER_MODULE)
+    # AVR: the step timer's compare vectors come after timer 0's overflow and the
+    # console UART's in the vector table (the Mega's timers 3, 4, 5: vectors 33-50,
+    # timer 0's overflow 24, USART0's 26-28), so when they are pending together
+    # millis() and the UART run first; timer 1's (the 328P, the 32U4, the Mega's
+    # timer 1) come before them
+    step_vectors_after_timer0: bool = False
     # SAM: each pin group is one PWM channel, usable once; queues are given out in order
     step_pin_channel_groups: bool = False
     # ESP32: the step generators, in the order DRIVER_DONT_CARE tries them
@@ -281,6 +287,7 @@ ATMEGA2560 = replace(
     serial_slot_payload=59,
     pin_ports=_MEGA_PORTS,
     timer_module=4,
+    step_vectors_after_timer0=True,
     notes="FAS_TIMER_MODULE=4",
 )
 
@@ -291,6 +298,7 @@ def _mega_timer(timer: int) -> Profile:
                    title=f"ATmega2560 (Arduino Mega), timer {timer}",
                    step_pin_groups=tuple((pin,) for pin in _MEGA_TIMER_PINS[timer]),
                    timer_module=timer,
+                   step_vectors_after_timer0=timer != 1,
                    notes=f"FAS_TIMER_MODULE={timer} (platformio build flag)")
 
 

@@ -219,6 +219,20 @@ class Backend(ABC):
     def cancel_sync_outputs(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """Drop synchronized changes not made yet (alarm)."""
 
+    # timed output (capability, issue 25's laser): a change made at a tick by the chip
+    def timed_output(self, change: OutputChange, tick: int) -> bool:
+        """Make ``change`` at tick ``tick`` of :meth:`now`'s clock where the outputs are
+        (a timer compare on the chip, the device's clock), not when the main loop gets
+        to it; a PWM duty then shows from the timer's next period, as with
+        :meth:`set_output`.  A tick already past: at once.  Changes of one output are
+        made in tick order.  False (the default): not offered - the caller makes the
+        change itself when the tick comes (:meth:`UserOutputs.poll_timed
+        <fas.outputs.UserOutputs.poll_timed>`)."""
+        return False
+
+    def cancel_timed_outputs(self) -> None:  # noqa: B027 - optional hook: does nothing by default
+        """Drop the timed changes whose tick has not come yet (they are not made)."""
+
     # --- hosting an application main loop (StepperDemo) beside the library ---
     def app_started(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """The application's ``setup()`` begins (Arduino has just started ``millis()``)."""

@@ -8,6 +8,12 @@ the outputs' table (``OutputFigures.user_digital_pins`` / ``.user_analog``), whi
   after all motion commanded before them has completed and before any motion
   commanded after them (:mod:`fas.sync` holds that motion back until then).
 * **Immediate** changes (M64/M65/M68) take effect at once.
+* **Timed** analog changes (``analog(..., at=tick)``, the laser's power at a queue
+  command's tick) are made at that tick where the outputs are - by the backend's timed
+  output (:meth:`fas.backend.Backend.timed_output`: a compare on the simulated chip, the
+  device's clock behind a serial link) when it offers one, else by
+  :meth:`UserOutputs.poll_timed` when the application polls after the tick.  What
+  :meth:`UserOutputs.analog_applied` reports follows at the poll either way.
 
 Analog values are a duty in percent, clamped to 0..100; each output has a frequency
 (default 5000 Hz, ``OutputFigures.pwm_default_hz``) that its timer turns into a setting
@@ -92,6 +98,8 @@ class UserOutputs:
         self._digital_applied = [0] * OUTPUTS
         self._analog_applied: list[tuple[float, int]] = [(0.0, 0)] * OUTPUTS
         self.changes = 0
+        # timed changes (at tick, change, made by the backend's timed output), by tick
+        self._timed: list[tuple[int, OutputChange, bool]] = []
         # fn(change) when a change is made (issued or applied)
         self.listeners: list[Callable[[OutputChange], None]] = []
 
@@ -255,8 +263,12 @@ class UserOutputs:
         return OutputResult.OK
 
     def analog(self, number: int, duty_percent: float,
-               synchronized: bool = True) -> OutputResult:
-        """Set Aout ``number`` to ``duty_percent`` (clamped 0..100; M67 sync, M68 immediate)."""
+               synchronized: bool = True, at: int | None = None) -> OutputResult:
+        """Set Aout ``number`` to ``duty_percent`` (clamped 0..100; M67 sync, M68 immediate).
+
+        ``at``: a timed change - made at that tick (of ``backend.now()``) where the
+        outputs are, by the backend's timed output when it offers one, else by
+        :meth:`poll_timed` when the tick has come (see the module text)."""
         if not 0 <= number < OUTPUTS:
             return OutputResult.ERR_NO_SUCH_OUTPUT
         if not isinstance(duty_percent, (int, float)) or math.isnan(duty_percent):
@@ -288,8 +300,52 @@ class UserOutputs:
         count = duty_count(setting.counts, duty)
         self._analog_percent[number] = duty
         self._analog_count[number] = count
-        self._issue(OutputChange(True, number, pin, count, setting, synchronized, duty))
+        change = OutputChange(True, number, pin, count, setting, synchronized and at is None,
+                              duty)
+        if at is None:
+            self._issue(change)
+        else:
+            self._issue_at(change, at)
         return OutputResult.OK
+
+    def _issue_at(self, change: OutputChange, at: int) -> None:
+        self.changes += 1
+        made = self._engine.backend.timed_output(change, at)
+        i = len(self._timed)
+        while i and self._timed[i - 1][0] > at:
+            i -= 1
+        self._timed.insert(i, (at, change, made))
+
+    def poll_timed(self, now: int) -> int:
+        """The timed changes whose tick has come: made now where the backend has no timed
+        output, and shown as applied (:meth:`analog_applied`, the listeners) either way.
+        Returns how many."""
+        k = 0
+        timed = self._timed
+        while k < len(timed) and timed[k][0] <= now:
+            k += 1
+        due, self._timed = timed[:k], timed[k:]
+        backend = self._engine.backend
+        for _at, change, made in due:
+            if not made:
+                backend.set_output(change)
+            self.applied(change)
+        return k
+
+    def next_timed_tick(self) -> int | None:
+        """The tick of the next timed change not yet shown as applied (None: none)."""
+        return self._timed[0][0] if self._timed else None
+
+    def cancel_timed(self) -> int:
+        """Drop the timed changes whose tick has not come (after :meth:`poll_timed`):
+        what is commanded is again what the outputs show.  Returns how many."""
+        dropped = len(self._timed)
+        if dropped:
+            self._engine.backend.cancel_timed_outputs()
+            self._timed.clear()
+            for n in range(OUTPUTS):
+                self._analog_percent[n], self._analog_count[n] = self._analog_applied[n]
+        return dropped
 
     def _issue(self, change: OutputChange) -> None:
         self.changes += 1
@@ -341,6 +397,7 @@ class UserOutputs:
     def reset(self) -> None:
         """Reset: drop pending changes, every output off at once."""
         self._engine.sync.cancel(drop_motion=True)
+        self.cancel_timed()
         for n in range(OUTPUTS):
             if self._digital_used[n]:
                 self._digital_level[n] = 0

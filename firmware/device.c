@@ -316,6 +316,12 @@ void device_sequenced(const uint8_t *m)
     case M_OUTPUT_CANCEL:
         outputs_cancel();
         break;
+    case M_OUTPUT_AT:
+        outputs_at(m);
+        break;
+    case M_OUTPUT_NEXT:
+        outputs_next(m);
+        break;
     case M_WATCH_INPUT:
         inputs_watch(m);
         break;

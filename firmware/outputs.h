@@ -17,7 +17,21 @@ void outputs_pwm(const uint8_t *msg);
 void outputs_set(const uint8_t *msg);
 /* OutputCancel: drop the synchronized changes not made yet */
 void outputs_cancel(void);
-/* Make the synchronized changes that wait, if every queue is idle. */
+/* OutputAt: flags u8, number u8, pin u8, value u32, at u32 - a change at device tick
+ * `at` (T_CANCEL: drop those not made yet); at most TIMED_SLOTS wait.  Timer 2's
+ * interrupts make its outputs' changes; outputs_poll the others. */
+void outputs_at(const uint8_t *msg);
+/* OutputNext: value u16, after u16 - the next change of the output of the session's
+ * last OutputAt / OutputNext, `after` ticks after it (none yet: rejected) */
+void outputs_next(const uint8_t *msg);
+/* A new session: no timed change yet for an OutputNext to count from. */
+void outputs_session(void);
+/* PwmGrid reports (after OutputPwm): anything to send; put what fits; sent. */
+uint8_t outputs_grid_due(void);
+uint8_t outputs_grid_put(uint8_t *p, uint8_t room);
+void outputs_grid_sent(void);
+/* Make the timed changes of the main loop that are due, and the synchronized changes
+ * that wait if every queue is idle. */
 void outputs_poll(void);
 
 #endif

@@ -30,6 +30,8 @@
 #define M_OUTPUT_PWM 0x20      /* number, pin u8; clock_div, counts, count u32 */
 #define M_OUTPUT_SET 0x21      /* flags, number, pin u8; value u32 */
 #define M_OUTPUT_CANCEL 0x22   /* - */
+#define M_OUTPUT_AT 0x23       /* flags, number, pin u8; value u32, at u32 (device tick) */
+#define M_OUTPUT_NEXT 0x24     /* value u16, after u16: the last timed change's output */
 #define M_WATCH_INPUT 0x30     /* pin, mode, period_ms (section 18) */
 #define M_LIMIT 0x31           /* stepper, pin, level, flags, stop_mask */
 #define M_SET_INPUT 0x32       /* pin u8, value u16, flags u8: a simulated device's world */
@@ -46,6 +48,7 @@
 #define M_STATUS 0x84          /* 17 bytes */
 #define M_DEVICE_STATUS 0x85   /* 48 bytes */
 #define M_NAK 0x86             /* expected u8, held u16 */
+#define M_PWM_GRID 0x87        /* pin u8, origin u32, period u32 (section 16) */
 #define M_PROGRESS 0x50        /* 0x50 | stepper: flags, index, steps_left, [pcnt i16] */
 #define M_INPUT 0xA0           /* pin u8, value u16, tick u32 */
 #define M_LIMIT_HIT 0xA1       /* stepper, pin, index u8, position i32, tick u32 */
@@ -56,6 +59,7 @@
 #define SIZE_STATUS 17
 #define SIZE_DEVICE_STATUS 48
 #define SIZE_NAK 4
+#define SIZE_PWM_GRID 10
 #define SIZE_PROGRESS_MAX 6
 #define SIZE_INPUT 8
 #define SIZE_LIMIT_HIT 12
@@ -64,6 +68,7 @@
 /* Ident features: optional message families */
 #define F_INPUTS 0x0001        /* section 18: inputs, limit switches, Started */
 #define F_SIM_INPUTS 0x0002    /* SetInput: the inputs are a simulation's (simavr) */
+#define F_TIMED_OUTPUTS 0x0004 /* OutputAt: timed output changes (section 16) */
 
 /* WatchInput modes, Limit flags, SetInput flags */
 #define W_OFF 0

@@ -11,6 +11,7 @@
 #include "inputs.h"
 #include "irq.h"
 #include "limits.h"
+#include "outputs.h"
 #include "proto.h"
 #include "session.h"
 #include "stepgen.h"
@@ -81,13 +82,14 @@ static uint8_t out_len;
 /* Reports of inputs, limit stops and queue starts (issue 13). */
 static uint8_t reports_due(void)
 {
-    return inputs_due() || limits_due() || device_started_due();
+    return inputs_due() || limits_due() || device_started_due() || outputs_grid_due();
 }
 
 static uint8_t reports_put(uint8_t *p, uint8_t room)
 {
     uint8_t n = limits_put(p, room);
     n += device_started_put(p + n, room - n);
+    n += outputs_grid_put(p + n, room - n);
     return n + inputs_put(p + n, room - n);
 }
 
@@ -95,6 +97,7 @@ static void reports_sent(void)
 {
     limits_sent();
     device_started_sent();
+    outputs_grid_sent();
     inputs_sent();
 }
 
@@ -232,6 +235,7 @@ static void hello(const uint8_t *m, uint32_t now)
         remember_nonce(nonce, now);
     nonce = n;
     device_halt_all(1);
+    outputs_session();  /* (OutputNext counts from the session's own timed changes) */
     limits_reset();  /* watches and limits belong to the session */
     inputs_reset();
     device_reset_reports();
@@ -437,7 +441,7 @@ static void ident(void)
     *p++ = SLOT_PAYLOAD;
     p = put_u16(p, ident_watchdog_ms);
     p = put_u16(p, FW_MIN_CMD_TICKS_DIV);
-    p = put_u16(p, F_INPUTS | (inputs_simulated ? F_SIM_INPUTS : 0));
+    p = put_u16(p, F_INPUTS | F_TIMED_OUTPUTS | (inputs_simulated ? F_SIM_INPUTS : 0));
     static const char name[] PROGMEM = FW_NAME;
     *p++ = sizeof name - 1;
     memcpy_P(p, name, sizeof name - 1);

@@ -3,7 +3,9 @@ they command in steps."""
 
 from __future__ import annotations
 
+import bisect
 import math
+from typing import Any
 
 SPU = 80  # steps/mm
 #: 80 steps/mm, 12 000 mm/min and 1 000 mm/s^2 per axis, junction deviation 0.01 mm
@@ -32,3 +34,21 @@ def cam_program() -> tuple[str, list[tuple[int, int]]]:
     return "\n".join(lines) + "\n", verts
 
 
+def path_from_pins(g: Any, axes: int = 2) -> list[tuple[int, tuple[int, ...]]]:
+    """(tick, position per axis) after every step, from the step and direction pins."""
+    rec = g.backend.recorder
+    events = []
+    for i, s in enumerate(g.machine.steppers[:axes]):
+        dir_ticks, dir_levels = rec.pin_edges(s.get_direction_pin())
+        up_high = s.direction_pin_high_counts_up()
+        for t in rec.rising(s.get_step_pin()):
+            k = bisect.bisect_right(dir_ticks, t) - 1
+            level = dir_levels[k] if k >= 0 else 0
+            events.append((t, i, 1 if bool(level) == up_high else -1))
+    events.sort()
+    pos = [0] * axes
+    out = []
+    for t, i, d in events:
+        pos[i] += d
+        out.append((t, tuple(pos)))
+    return out

@@ -349,6 +349,15 @@ def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
         if n == 0:
             out.append((ins[0][0] - 1 if ins else 0, tuple(float(c) for c in v)))
             continue
+        if any(c != round(c) for c in v):  # between steps (an arc's chord end): the
+            j = i  # first instant within a step of it (the axes never stand on it)
+            while j < len(ins) and max(abs(a - c) for a, c in zip(ins[j][1], v,
+                                                                  strict=True)) > 1.0:
+                j += 1
+            assert j < len(ins), f"vertex {v} never passed within a step"
+            out.append((ins[j][0], tuple(float(c) for c in v)))
+            i = j
+            continue
         while i < len(ins) and ins[i][1] != v:
             i += 1
         assert i < len(ins), f"vertex {v} neither reached nor blended"
@@ -398,6 +407,15 @@ def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
             while i < len(ins) and ins[i][0] <= t:
                 i += 1
             k += 1
+            continue
+        if any(c != round(c) for c in v):  # between steps (an arc's chord end): the
+            j = i  # first instant within a step of it (the axes never stand on it)
+            while j < len(ins) and max(abs(a - c) for a, c in zip(ins[j][1], v,
+                                                                  strict=True)) > 1.0:
+                j += 1
+            assert j < len(ins), f"vertex {v} never passed within a step"
+            out.append((ins[j][0], tuple(float(c) for c in v)))
+            i = j
             continue
         while i < len(ins) and ins[i][1] != v:
             i += 1

@@ -155,7 +155,10 @@ def test_every_strict_xfail_of_upstreams_sketches_is_listed():
     names = [f.name for f in tree.body if isinstance(f, ast.FunctionDef)
              and any("xfail" in ast.unparse(d) and "strict=True" in ast.unparse(d)
                      for d in f.decorator_list)]
-    assert len(names) >= 3
     doc = api_coverage.DOC.read_text()
     assert all(f"`{n}`" in doc for n in names), names
+    # ... and the document's table of them names no test that passes by now
+    section = doc.split("## Not met yet", 1)[1].split("Scenario files", 1)[0]
+    listed = re.findall(r"^\| `(test_\w+)` \|", section, re.M)
+    assert sorted(listed) == sorted(names), (listed, names)
     assert api_coverage.known_table() in doc

@@ -26,7 +26,7 @@ from collections.abc import Callable
 from ..arch import Profile, get_profile
 from ..queue import StepperQueue
 from ..serial.clock import RealClock, VirtualClock, Wire
-from ..serial.protocol import F_INPUTS, F_SIM_INPUTS, FrameDecoder, encode_frame
+from ..serial.protocol import F_INPUTS, F_SIM_INPUTS, F_TIMED_OUTPUTS, FrameDecoder, encode_frame
 from ..serial.stream import ByteStream, LinkClosed
 from ..sim.machine import Machine
 from ..sim.pins import EdgeRecorder
@@ -67,8 +67,9 @@ class Device:
             rx_slots=p.serial_rx_slots if rx_slots is None else rx_slots,
             slot_payload=p.serial_slot_payload, watchdog_ms=watchdog_ms, status_ms=status_ms)
         # optional message families (Ident): inputs, limits and Started (section 18);
-        # the inputs are this simulation's, so the host may set them (SetInput)
-        board.features = F_INPUTS | F_SIM_INPUTS
+        # the inputs are this simulation's, so the host may set them (SetInput); timed
+        # output changes (OutputAt, section 16)
+        board.features = F_INPUTS | F_SIM_INPUTS | F_TIMED_OUTPUTS
         self.stream: ByteStream | None = None
         self.in_wires: list[Wire] = []
         self.attach(stream)

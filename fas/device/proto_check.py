@@ -12,7 +12,8 @@ this module reads its sources and lists every place where they differ:
   ``S_*`` - each of them in both, with the same value;
 * ``proto.c`` - the size of every host message (its table, and the Entry rule);
 * ``frame.h`` - ``FRAME_OVERHEAD``, ``FRAME_MAX``, ``FRAME_MAX_PAYLOAD``, ``FRAME_SYNC``;
-* ``outputs.c`` - the OutputSet flags ``O_*``;
+* ``outputs.c`` - the OutputSet flags ``O_*``, the OutputAt flags ``T_*`` and
+  ``TIMED_SLOTS``;
 * ``device.h`` - ``struct counters``: DeviceStatus's counters in order and width.
 
 ``python -m fas.device.proto_check [FIRMWARE_DIR]`` prints the differences (exit 1 if
@@ -35,7 +36,7 @@ from ..serial.protocol import DEVICE_COUNTERS, Message
 
 FILES = ("proto.h", "proto.c", "frame.h", "outputs.c", "device.h")
 FLAG_GROUPS = ("E", "P", "D", "F", "W", "L", "S")  # proto.h's bit and mode groups
-OUTPUT_FLAGS = "O"  # outputs.c's
+OUTPUT_FLAGS = ("O", "T")  # outputs.c's
 # proto.h names whose Python constant is named otherwise
 ALIASES = {"SEQ_UNSEQUENCED": "UNSEQUENCED"}
 # macros of proto.h that are not part of the wire format
@@ -196,8 +197,9 @@ def check(src: Sources, messages: Iterable[type[Message]] | None = None) -> list
     _compare("frame.h", {k: v for k, v in f.items() if k in frame or k.startswith("FRAME_")},
              frame, problems)
     o = defines(src.outputs_c)
-    _compare("outputs.c", {k: v for k, v in o.items() if k.startswith("O_")},
-             _python_bits(OUTPUT_FLAGS), problems)
+    _compare("outputs.c", {k: v for k, v in o.items()
+                           if k.startswith(("O_", "T_")) or k == "TIMED_SLOTS"},
+             {**_python_bits(OUTPUT_FLAGS), "TIMED_SLOTS": protocol.TIMED_SLOTS}, problems)
 
     # device.h: DeviceStatus's counters
     _check_counters(src.device_h, problems)

@@ -226,6 +226,7 @@ class Session:
             self.queues.reset_stops()
             self.inputs.reset()
             self.limits.reset()
+            self.outputs.new_session()
             self.watchdog_ticks = board.ms_ticks(m.watchdog_ms or self.default_watchdog_ms)
             if m.report_ms:
                 self.report_ticks = board.ms_ticks(m.report_ms)

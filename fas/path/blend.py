@@ -189,7 +189,10 @@ def axis_crossings(x0: float, v0: float, a: float, duration: float, p0: int,
 
 def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
                  delta_out: Sequence[int], blend: Blend, spu: Sequence[float],
-                 made_in: Sequence[int] | None = None
+                 made_in: Sequence[int] | None = None,
+                 origin_in: Sequence[float] | None = None,
+                 span_in: Sequence[float] | None = None,
+                 span_out: Sequence[float] | None = None
                  ) -> list[tuple[int, list[tuple[float, int]], int]]:
     """Each axis's steps around one blended corner, on the blocks' own step grid.
 
@@ -201,15 +204,24 @@ def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
     steps in the block in come before the blend (the block's rounding: the steps
     whose point ``j * pitch`` the path has reached), the blend's steps, and how many
     of its steps in the block out the blend has made (the block out's next step is
-    number ``first_out + 1``).  Needs the blend within both blocks."""
-    len_in = math.sqrt(sum((d / k) ** 2 for d, k in zip(delta_in, spu, strict=True)))
-    len_out = math.sqrt(sum((d / k) ** 2 for d, k in zip(delta_out, spu, strict=True)))
+    number ``first_out + 1``).  Needs the blend within both blocks.  A block whose
+    path runs between steps (:class:`fas.path.lookahead.Block`'s ``origin``,
+    ``span``): the path is ``origin_in`` + ``span_in`` in, ``span_out`` out, the
+    corner on whole steps (the steps counted from ``start_in``, the axes' pins)."""
+    path_in = delta_in if span_in is None else span_in
+    path_out = delta_out if span_out is None else span_out
+    len_in = math.sqrt(sum((d / k) ** 2 for d, k in zip(path_in, spu, strict=True)))
+    len_out = math.sqrt(sum((d / k) ** 2 for d, k in zip(path_out, spu, strict=True)))
+    from_in = start_in if origin_in is None else origin_in
     if not (blend.reach <= len_in and blend.reach <= len_out):
         raise ValueError("the blend is longer than a block")
     s_in = len_in - blend.reach  # where the blend begins on the block in
     out: list[tuple[int, list[tuple[float, int]], int]] = []
     for i, (x_s, d_in, d_out, k) in enumerate(
             zip(start_in, delta_in, delta_out, spu, strict=True)):
+        x_p = from_in[i]  # the path's start, its travel in and out
+        dp_in = path_in[i]
+        dp_out = path_out[i]
         n_in = abs(d_in)
         if made_in is not None:
             made = made_in[i]  # the block in's rounding where its execution ended
@@ -217,9 +229,9 @@ def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
             made = min(n_in, int(s_in * n_in / len_in + 1e-12)) if n_in else 0
         up_in = d_in > 0
         p0 = x_s + (made if up_in else -made)
-        x0 = x_s + d_in * s_in / len_in
+        x0 = x_p + dp_in * s_in / len_in
         corner = x_s + d_in
-        x_end = corner + d_out * blend.reach / len_out
+        x_end = corner + dp_out * blend.reach / len_out
         steps, p = axis_crossings(x0, blend.speed * blend.u[i] * k, blend.axis_accel(i) * k,
                                   blend.duration, p0, x_end)
         if d_out == 0:

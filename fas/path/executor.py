@@ -67,7 +67,12 @@ class Piece:
         return s if s < self.s1 else self.s1
 
     def speed_at(self, t: float) -> float:
-        tau = min(max(t - self.t0, 0.0), self.t1 - self.t0)
+        tau = t - self.t0  # (min(max(tau, 0.0), t1 - t0), written out)
+        if tau < 0.0:
+            tau = 0.0
+        span = self.t1 - self.t0
+        if span < tau:
+            tau = span
         return self.v0 + self.a * tau
 
     def __repr__(self) -> str:  # pragma: no cover - debugging aid
@@ -78,10 +83,18 @@ class Piece:
 class Segment:
     """A block as the axes execute it: its geometry and the pieces made final so far.
 
-    Per axis: ``steps[i]`` steps (``ups[i]``: upwards) of ``pitch[i]`` units of path
-    each; step ``j`` is due where the path reaches ``j * pitch[i]``."""
+    Per axis: ``steps[i]`` steps (``ups[i]``: upwards), ``pitch[i]`` units of path
+    per step of the axis's travel; step ``j`` is due where the path reaches
+    ``(j - phase[i]) * pitch[i]``.  A block between whole steps has ``phase`` 0 (step
+    ``j`` at ``j * pitch``, the last at the end).  A path from or to a point between
+    steps, or one the path goes on through (an arc's chord ends): each step where the
+    path is half a step before it - the axis on the step nearest to the path; the
+    phase holds the axis's offset from its start step along the travel - but where
+    the block ends on a whole step of the axis, its last step comes on the end
+    (``on_end[i]``: all axes' last steps on one tick there)."""
 
-    __slots__ = ("seq", "block", "start", "steps", "ups", "pitch", "length", "accel",
+    __slots__ = ("seq", "block", "start", "steps", "ups", "pitch", "phase", "on_end",
+                 "length", "accel",
                  "pieces", "s_done", "t_start", "t_done", "complete", "end", "end_tick",
                  "dominant", "tag", "first")
 
@@ -91,10 +104,28 @@ class Segment:
         self.seq = seq
         self.block = block
         self.start = block.start
-        self.steps = tuple(abs(d) for d in block.delta)
-        self.ups = tuple(d > 0 for d in block.delta)
+        delta = block.delta
+        self.steps = steps = tuple([abs(d) for d in delta])
+        self.ups = tuple([d > 0 for d in delta])
         self.length = block.length
-        self.pitch = tuple(block.length / n if n else 0.0 for n in self.steps)
+        if block.span is None:  # from a step to a step
+            self.pitch = tuple(block.length / n if n else 0.0 for n in self.steps)
+            self.phase: tuple[float, ...] = (0.0,) * len(self.steps)
+            self.on_end: tuple[bool, ...] = (True,) * len(self.steps)
+        else:
+            origin = block.origin
+            assert origin is not None
+            self.pitch = tuple(block.length / abs(x) if n else 0.0
+                               for n, x in zip(self.steps, block.span, strict=True))
+            # each step where the path is half a step before it; an axis ending on a
+            # whole step of a block that ends there makes its last on the end
+            through = block.through
+            self.on_end = tuple(not through and abs(x0 + x - p0 - d) < 1e-9
+                                for x0, x, p0, d in zip(origin, block.span, block.start,
+                                                        block.delta, strict=True))
+            self.phase = tuple(((x0 - p0 if d > 0 else p0 - x0) + 0.5) if d else 0.0
+                               for x0, p0, d in zip(origin, block.start, block.delta,
+                                                    strict=True))
         self.accel = block.acceleration / (ticks_per_s * ticks_per_s)  # units/tick^2
         self.pieces: list[Piece] = []
         self.s_done = 0.0  # final up to this distance ...
@@ -103,8 +134,7 @@ class Segment:
         self.complete = False  # every piece is final
         self.end = block.length  # where the path ends in it (a feed hold: earlier)
         self.end_tick = 0  # the tick of ``end`` once complete
-        steps = self.steps
-        self.dominant = max(range(len(steps)), key=steps.__getitem__)
+        self.dominant = steps.index(max(steps))  # (the first of the largest)
         self.tag = block.tag
         #: per axis the steps a blend before it made already (the cursor starts there)
         self.first: tuple[int, ...] = (0,) * len(steps)
@@ -112,13 +142,20 @@ class Segment:
     def known(self, axis: int) -> int:
         """How many of ``axis``'s steps in this segment have a final time."""
         n = self.steps[axis]
-        if self.complete and self.end == self.length:
+        if not n or (self.complete and self.end == self.length):
             return n
-        k = int(self.s_done / self.pitch[axis]) if n else 0
+        k = int(self.s_done / self.pitch[axis] + self.phase[axis])
+        if self.on_end[axis] and self.block.span is not None:
+            n -= 1  # the last step comes on the end, the others half a step before
         f = self.first[axis]
         if k < f:
             k = f
         return k if k < n else n
+
+    def steps_by(self, axis: int, s: float) -> int:
+        """The index of ``axis``'s last step due at or before distance ``s`` (may lie
+        beyond the segment's steps)."""
+        return int(s / self.pitch[axis] + self.phase[axis])
 
     def step_up(self, axis: int, j: int) -> bool:
         """The direction of ``axis``'s step ``j``."""
@@ -151,9 +188,10 @@ class Segment:
         """The tick of ``axis``'s step ``j`` (0: the segment's start)."""
         if j == 0:
             return int(self.t_start + 0.5)
-        if j == self.steps[axis] and self.complete and self.end == self.length:
+        if (j == self.steps[axis] and self.complete and self.end == self.length
+                and self.on_end[axis]):
             return self.end_tick
-        return int(self.time_at(j * self.pitch[axis]) + 0.5)
+        return int(self.time_at((j - self.phase[axis]) * self.pitch[axis]) + 0.5)
 
     def __repr__(self) -> str:  # pragma: no cover - debugging aid
         return (f"Segment(#{self.seq} {self.block.delta}, done {self.s_done:.4g}/"
@@ -183,6 +221,8 @@ class BlendSegment(Segment):
         n = len(self.steps)
         self.pitch = (0.0,) * n
         self.first = (0,) * n
+        self.phase = (0.0,) * n
+        self.on_end = (True,) * n
         self.length = self.end = self.s_done = 2.0 * blend.reach
         self.accel = 0.0
         self.pieces: list[Piece] = []
@@ -429,7 +469,7 @@ class Executor:
         made = [seg.known(i) for i in axes]
         block = seg.block
         per = corner_steps(block.start, block.delta, nxt.delta, blend, self.lookahead.spu,
-                           made)
+                           made, block.origin, block.span, nxt.span)
         bseg = BlendSegment(self.next_seq, nxt, blend, per, self.t, self.tps, seg.dominant)
         bseg.tag = block.tag  # the corner ends the block in
         # the steps each axis's blocks would have made in the blend and did not

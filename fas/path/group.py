@@ -44,7 +44,7 @@ from ..codes import PIN_UNDEFINED
 from ..planner import PlannerChange
 from .axis import PLANNER_PATH, PathAxis
 from .executor import BlendSegment, Executor
-from .lookahead import Block, Lookahead
+from .lookahead import Block, Lookahead, pin_after
 from .settings import BLEND_SHARE, AxisLimits, PathResult, PathSettings, PathState
 from .stepping import MAX_TICKS, AxisStats, AxisWriter, SpeedListener, Wrote
 
@@ -98,7 +98,8 @@ class PathGroup:
         self._lead: PathAxis | None = None
         self.attached = False
         self.stats = PathStats()
-        self.position = [0] * n  # steps: where the queued path ends
+        self.position = [0] * n  # steps: where the axes stand at the queued path's end
+        self.exact = [0.0] * n  # ... and the path's end itself (between steps: an arc)
         self.lookahead = Lookahead(settings.axes, settings.junction_deviation,
                                    settings.queue_blocks, blend_share=BLEND_SHARE)
         self.backend: Backend | None = None
@@ -240,11 +241,18 @@ class PathGroup:
         """Blocks the look-ahead queue takes now."""
         return self.lookahead.size - len(self.lookahead)
 
-    def line(self, target: Sequence[int], feed: float | None = None, *,
-             tag: object = None, override: bool = True) -> PathResult:
+    def line(self, target: Sequence[float], feed: float | None = None, *,
+             tag: object = None, override: bool = True,
+             through: bool = False) -> PathResult:
         """Queue a straight move to ``target`` (steps per axis) at ``feed`` units/min
         (None: the rapid rate - every axis at most its ``max_rate``); ``override``
-        False: the feed and rapid overrides leave it alone (a jog)."""
+        False: the feed and rapid overrides leave it alone (a jog).  A target between
+        steps (an arc's chord end, not rounded) is a point the path goes through:
+        each axis stands on the step nearest to it, within half a step of the path
+        on the way (:func:`fas.path.lookahead.pin_after`); a target on whole steps ends
+        there exactly, every axis's last step on the block's end tick.  ``through``:
+        the path goes on through ``target`` (an arc's chord end, whole steps or not):
+        every axis on the step nearest to the path all the way."""
         if not self.attached:
             return PathResult.ERR_NOT_ATTACHED
         if self.lookahead.full():
@@ -254,8 +262,7 @@ class PathGroup:
             return PathResult.ERR_AXES
         if feed is not None and not (feed > 0 and math.isfinite(feed)):
             return PathResult.ERR_FEED
-        ints = tuple(int(t) for t in target)
-        if any(not INT32_MIN <= t <= INT32_MAX for t in ints):
+        if any(not (math.isfinite(t) and INT32_MIN <= t <= INT32_MAX) for t in target):
             return PathResult.ERR_RANGE
         for a in self.axes:
             if a.base.is_active():  # the stepper's own planner has motion to plan
@@ -264,16 +271,30 @@ class PathGroup:
             self._sync_position()
             self._configure_lookahead()
         start = tuple(self.position)
+        origin = tuple(self.exact)
+        whole = all(x == p for x, p in zip(origin, start, strict=True))
+        if whole and not through and all(t == int(t) for t in target):  # steps to steps
+            ints = tuple(int(t) for t in target)
+            exact = tuple(float(t) for t in ints)
+            path: tuple[float, ...] | None = None
+        else:  # (a point within a billionth of a step of a whole step is on it)
+            exact = tuple(float(round(t)) if abs(t - round(t)) < 1e-9 else float(t)
+                          for t in target)
+            ints = tuple(pin_after(p, x0, x1)
+                         for p, x0, x1 in zip(start, origin, exact, strict=True))
+            path = tuple(x1 - x0 for x1, x0 in zip(exact, origin, strict=True))
         delta = tuple(t - s for t, s in zip(ints, start, strict=True))
         for d, a in zip(delta, self.axes, strict=True):
             if d < 0 and not a.host.has_direction_pin():
                 return PathResult.ERR_NO_DIRECTION_PIN
-        block = self.lookahead.make_block(start, delta, feed, tag, override)
+        block = self.lookahead.make_block(start, delta, feed, tag, override,
+                                          None if path is None else origin, path, through)
         if block is None:
             return PathResult.EMPTY_BLOCK
         was_empty = not self.lookahead.blocks and not self.run_active
         self.lookahead.add(block)
         self.position = list(ints)
+        self.exact = list(exact)
         self.stats.blocks += 1
         if was_empty:
             self.first_block_tick = self._now()
@@ -281,9 +302,11 @@ class PathGroup:
         return PathResult.OK
 
     def line_units(self, target: Sequence[float], feed: float | None = None, *,
-                   tag: object = None, override: bool = True) -> PathResult:
+                   tag: object = None, override: bool = True,
+                   rounded: bool = True) -> PathResult:
         """:meth:`line` to a target in units (each axis rounded to its nearest step,
-        as Grbl's planner does)."""
+        as Grbl's planner does; ``rounded`` False: the point itself, an arc's chord
+        end the path goes on through - :meth:`line`'s ``through``)."""
         if len(target) != len(self.settings.axes):
             return PathResult.ERR_AXES
         steps = []
@@ -291,8 +314,8 @@ class PathGroup:
             x = v * a.steps_per_unit
             if not math.isfinite(x) or not INT32_MIN <= x <= INT32_MAX:
                 return PathResult.ERR_RANGE
-            steps.append(round(x))
-        return self.line(steps, feed, tag=tag, override=override)
+            steps.append(round(x) if rounded else x)
+        return self.line(steps, feed, tag=tag, override=override, through=not rounded)
 
     def set_overrides(self, feed_percent: float, rapid_percent: float) -> None:
         """Grbl's feed override (blocks with a feed) and rapid override (rapid blocks),
@@ -420,10 +443,15 @@ class PathGroup:
     def axis_positions_shifted(self, axis: PathAxis, delta: int) -> None:
         i = self.axes.index(axis)
         self.position[i] += delta
+        self.exact[i] += delta
         for b in self.lookahead.blocks:
             start = list(b.start)
             start[i] += delta
             b.start = tuple(start)
+            if b.origin is not None:
+                origin = list(b.origin)
+                origin[i] += delta
+                b.origin = tuple(origin)
 
     def current_speed(self) -> float:
         """The path speed now, units/min (0 at rest)."""
@@ -450,10 +478,14 @@ class PathGroup:
             self.axes[0].host.wake()
 
     def _horizon(self, now: int) -> float:
-        host = self.axes[0].host
-        fp = max(a.host.settings.forward_planning_ticks for a in self.axes)
-        return float(now + fp + host.backend.planning_extra_ticks
-                     + host.backend.task_period_ticks)
+        axes = self.axes
+        fp = axes[0].host.settings.forward_planning_ticks
+        for a in axes:
+            f = a.host.settings.forward_planning_ticks
+            if f > fp:
+                fp = f
+        backend = axes[0].host.backend
+        return float(now + fp + backend.planning_extra_ticks + backend.task_period_ticks)
 
     def run_task(self) -> None:
         """The group's part of one periodic task (from the lead axis's fill)."""
@@ -482,16 +514,23 @@ class PathGroup:
         now = self._now()
         backend = self.axes[0].host.backend  # (a device: plus the link's lead)
         low_water = 2 * backend.task_period_ticks + backend.planning_extra_ticks
-        for w in self.writers:
-            if w.fill(now, low_water) == Wrote.ERROR:
+        error = Wrote.ERROR
+        writers = self.writers
+        for w in writers:
+            if w.fill(now, low_water) == error:
                 self.stats.errors += 1
                 self.abort()
                 return
+        keep = writers[0].cursor_seq()  # the first segment an axis is still in ...
+        for w in writers:
+            seq = w.cursor_seq()
+            if seq < keep:
+                keep = seq
         ex = self.executor
-        keep = min(w.cursor_seq() for w in self.writers)
         for seg in ex.segments:  # ... and the segment the axes are in now
             if seg.t_done >= now:
-                keep = min(keep, seg.seq)
+                if seg.seq < keep:
+                    keep = seg.seq
                 break
         ex.trim(keep)
 
@@ -587,7 +626,7 @@ class PathGroup:
     def _underrun(self) -> bool:
         """A queue ran dry inside the run (its commands came too late): the axes left
         their common timeline.  Stop at once and plan the rest again from rest."""
-        for w, a in zip(self.writers, self.axes, strict=True):
+        for w, a in zip(self.writers, self.axes, strict=False):  # (one writer per axis)
             if not w.done and a.queue.is_queue_empty():
                 self.stats.underruns += 1
                 self._stop_axes_now()
@@ -638,15 +677,29 @@ class PathGroup:
         la.clear()
         self._end_run_now()
         self.position = list(pos)
+        self.exact = [float(p) for p in pos]
         self.first_block_tick = None
         for b in pending:
-            end = b.end
-            delta = tuple(e - s for e, s in zip(end, self.position, strict=True))
-            nb = la.make_block(tuple(self.position), delta, b.feed, b.tag, b.override)
+            if b.span is None:
+                exact = tuple(float(e) for e in b.end)
+            else:
+                assert b.origin is not None
+                exact = tuple(x0 + x for x0, x in zip(b.origin, b.span, strict=True))
+            start, origin = tuple(self.position), tuple(self.exact)
+            end = tuple(pin_after(p, x0, x1)
+                        for p, x0, x1 in zip(start, origin, exact, strict=True))
+            delta = tuple(e - s for e, s in zip(end, start, strict=True))
+            whole = not b.through and all(
+                x == p for x, p in zip(origin + exact, start + end, strict=True))
+            span = None if whole else tuple(x1 - x0 for x1, x0 in zip(exact, origin,
+                                                                    strict=True))
+            nb = la.make_block(start, delta, b.feed, b.tag, b.override,
+                               None if whole else origin, span, b.through)
             if nb is None:
                 continue
             la.add(nb)
             self.position = list(end)
+            self.exact = list(exact)
 
     def _sync_position(self) -> None:
         """The path begins where the axes' queues end."""
@@ -655,3 +708,4 @@ class PathGroup:
         else:
             self.position = [s.get_position_after_commands_completed()
                              for s in self.steppers]
+        self.exact = [float(p) for p in self.position]

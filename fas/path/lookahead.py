@@ -44,17 +44,29 @@ COS_REVERSAL = 0.999999  # above this: a full reversal (the junction speed is 0)
 class Block:
     """One straight segment of the path (see the module text).  Speeds in units/s."""
 
-    __slots__ = ("start", "delta", "unit", "length", "remaining", "acceleration",
-                 "rapid_rate", "nominal_speed", "entry_sqr", "max_entry_sqr",
-                 "max_junction_sqr", "tag", "feed", "override", "reserve_in",
-                 "reserve_out", "zone_out")
+    __slots__ = ("start", "delta", "origin", "span", "through", "unit", "length",
+                 "remaining",
+                 "acceleration", "rapid_rate", "nominal_speed", "entry_sqr",
+                 "max_entry_sqr", "max_junction_sqr", "tag", "feed", "override",
+                 "reserve_in", "reserve_out", "zone_out")
 
     def __init__(self, start: tuple[int, ...], delta: tuple[int, ...],
                  unit: tuple[float, ...], length: float, acceleration: float,
                  rapid_rate: float, nominal_speed: float, tag: object,
-                 feed: float | None, override: bool = True) -> None:
-        self.start = start  # steps, where the block begins
-        self.delta = delta  # steps per axis (signed)
+                 feed: float | None, override: bool = True,
+                 origin: tuple[float, ...] | None = None,
+                 span: tuple[float, ...] | None = None, through: bool = False) -> None:
+        self.start = start  # steps, where the axes stand as the block begins
+        self.delta = delta  # steps per axis (signed) the axes make in it
+        #: the path itself (steps, not rounded) where it runs between steps (an
+        #: arc's chord ends): it begins at ``origin`` and goes ``span``, each axis
+        #: ending on the step nearest to the path's end (:func:`pin_after`); None:
+        #: ``start``, ``delta``
+        self.origin = origin
+        self.span = span
+        #: the path goes on through its end (an arc's chord end): every axis stands
+        #: on the step nearest to the path all the way, its last step not on the end
+        self.through = through
         self.unit = unit  # unit vector in units
         self.length = length  # units
         self.remaining = length  # units not executed yet (Grbl: block->millimeters)
@@ -81,6 +93,33 @@ class Block:
         return (f"Block({self.delta}, L={self.length:.4g}, v={self.nominal_speed:.4g}, "
                 f"entry={math.sqrt(self.entry_sqr):.4g}, "
                 f"max={math.sqrt(self.max_entry_sqr):.4g})")
+
+
+def pin_after(pin: int, x0: float, x1: float) -> int:
+    """Where an axis stands once the path has gone from ``x0`` to ``x1`` (steps, along
+    one axis) with the axis at ``pin`` (within a step of ``x0``): on the step nearest
+    to ``x1`` - on ``x1`` itself where it is a whole step - unless that lies behind
+    ``pin`` (a turn within half a step: the axis waits)."""
+    if x1 > x0:
+        k = math.floor(x1 + 0.5)
+        return k if k > pin else pin
+    if x1 < x0:
+        k = math.ceil(x1 - 0.5)
+        return k if k < pin else pin
+    return pin
+
+
+def on_steps(block: Block) -> bool:
+    """Whether ``block`` ends in a corner a blend may take: on whole steps and not a
+    point the path goes on through (an arc's chord end, kept exact)."""
+    if block.through:
+        return False
+    if block.span is None:
+        return True
+    origin = block.origin
+    assert origin is not None
+    return all(abs(x0 + x - round(x0 + x)) < 1e-9
+               for x0, x in zip(origin, block.span, strict=True))
 
 
 def limit_along(limits: Sequence[float], unit: Sequence[float]) -> float:
@@ -146,12 +185,19 @@ class Lookahead:
 
     # ---------------------------------------------------------------- adding
     def make_block(self, start: tuple[int, ...], delta: tuple[int, ...],
-                   feed: float | None, tag: object, override: bool = True) -> Block | None:
+                   feed: float | None, tag: object, override: bool = True,
+                   origin: tuple[float, ...] | None = None,
+                   span: tuple[float, ...] | None = None,
+                   through: bool = False) -> Block | None:
         """A block from ``start`` by ``delta`` steps at ``feed`` units/min (None: the
         rapid rate); None for a block of no length.  Not queued yet (:meth:`add`).
-        ``override``: the overrides (:meth:`set_overrides`) scale its speed."""
+        ``override``: the overrides (:meth:`set_overrides`) scale its speed.
+        ``origin``, ``span``: the path's own start and travel in steps where it runs
+        between steps (:class:`Block`); its length and direction are theirs;
+        ``through``: :attr:`Block.through`."""
         spu = self.spu
-        d_units = [d / s for d, s in zip(delta, spu, strict=True)]
+        d_units = [d / s for d, s in zip(delta if span is None else span, spu,
+                                         strict=True)]
         length = math.sqrt(sum(x * x for x in d_units))
         if length == 0.0:
             return None
@@ -159,7 +205,7 @@ class Lookahead:
         acceleration = limit_along(self.accel, unit)
         rapid = limit_along(self.max_rate, unit)
         block = Block(start, delta, unit, length, acceleration, rapid, rapid, tag, feed,
-                      override)
+                      override, origin, span, through)
         block.nominal_speed = self.nominal(block)
         return block
 
@@ -215,13 +261,16 @@ class Lookahead:
         """Corner blends: the newest block keeps ``share`` of its length free at its
         end; the junction into ``block`` is capped so that its blend takes at most
         that share of either block, and the block before keeps the blend's largest
-        length ``k m`` only - a length that grows, so what is final stays final."""
+        length ``k m`` only - a length that grows, so what is final stays final.  The
+        path goes on through an arc's chord ends (``through``) and points between
+        steps exactly: no blend there, the junction as Grbl's (:func:`on_steps`)."""
         from .blend import zone_coefficient  # (blend uses limit_along from here)
 
         blocks = self.blocks
         k = 0.0
         prev_res = 0.0
-        if blocks and self.prev_unit is not None and block.max_junction_sqr > 0.0:
+        if (blocks and self.prev_unit is not None and block.max_junction_sqr > 0.0
+                and on_steps(blocks[-1])):
             prev = blocks[-1]
             k = zone_coefficient(prev.unit, block.unit, self.accel)
             if k > 0.0:

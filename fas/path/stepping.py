@@ -1,14 +1,16 @@
 """One axis of a path: its step times as FastAccelStepper queue commands.
 
-Axis ``i`` makes step ``j`` of a segment where the path reaches ``j * pitch`` (pitch:
-the segment's length over the axis's steps in it), at the tick the segment's final
-pieces give for that distance, rounded.  So at every instant each axis has made
-exactly the steps the path has passed (the position rounds down along the path: at
-most one step behind it), and every axis makes the last step of a segment that ends
-at its block's end (a stop, a straight joint) at the segment's end tick - all on one
-tick.  A corner blend (:class:`fas.path.executor.BlendSegment`) has each axis's step
-ticks of its own: they are grouped as far as :meth:`AxisWriter._placement` allows, and
-the segment after it begins at the step the blend left each axis at.
+Axis ``i`` makes step ``j`` of a segment at distance ``(j - phase) * pitch``
+(:class:`fas.path.executor.Segment`): where the path reaches the step's position, or
+half a step before it in a segment from or to a point between steps (an arc's
+chords), at the tick the segment's final pieces give for that distance, rounded.  So
+at every instant each axis has made exactly the steps the path has passed (the
+position rounds down along the path: less than one step behind it; to the nearest
+step in an arc's chords), and every axis makes the last step of a segment that ends
+on a step at the segment's end tick - all on one tick.  A corner blend
+(:class:`fas.path.executor.BlendSegment`) has each axis's step ticks of its own: they
+are grouped as far as :meth:`AxisWriter._placement` allows, and the segment after it
+begins at the step the blend left each axis at.
 
 The steps become commands ``(ticks, steps, count_up)`` that run back to back from the
 run's common start tick, so that each step falls on its tick:
@@ -226,18 +228,26 @@ class AxisWriter:
         assert seg is not None
         if seg.blend:  # a corner blend: its steps grouped as far as they allow
             return self._blend_group(seg)
-        if seg.complete and self.j >= seg.known(i):  # the segment's last step
+        known = seg.known(i)
+        if seg.complete and self.j >= known:  # the segment's last step
             nxt = ex.segment(self.seq + 1)
             if nxt is not None and nxt.blend:  # it goes on into the blend's steps
                 return self._blend_group(seg)
-            if (nxt is not None and not nxt.blend and seg.end == seg.length and nxt.steps[i]
-                    and nxt.ups[i] == seg.ups[i] and nxt.known(i) >= 1):
-                self.seq += 1  # the same step is the start of the next segment
+            if (nxt is not None and seg.end == seg.length and nxt.steps[i]
+                    and nxt.ups[i] == seg.ups[i] and nxt.known(i) >= 1
+                    and (seg.on_end[i]
+                         or nxt.step_tick(i, 1) - self.w_end < self.min_wait)):
+                # the same step is the start of the next segment (where the path
+                # goes on between steps: its first step is too close for a command
+                # of its own, and the pitches differ only by the turn at the joint)
+                self.seq += 1
                 self.j = 0
                 seg = nxt
+                known = seg.known(i)
             else:
+                # a joint between steps: the step and a wait up to the next segment's
+                # first step, whose steps then follow their own spacing
                 return self._single(seg)
-        known = seg.known(i)
         j0 = self.j
         if known <= j0:
             return self._provisional(seg)
@@ -249,8 +259,10 @@ class AxisWriter:
         t0 = self.w_end
         min_cmd = self.min_cmd
         t_lim, slowing = self._span_limit(seg, pitch, t0)
-        jmax = min(known, j0 + MAX_STEPS)
-        jh = int(seg.dist_at(t_lim) / pitch)
+        jmax = j0 + MAX_STEPS
+        if known < jmax:
+            jmax = known
+        jh = seg.steps_by(i, seg.dist_at(t_lim))
         if jh > jmax:
             jh = jmax
         elif jh <= j0:
@@ -259,7 +271,7 @@ class AxisWriter:
         cut = jh >= known and not seg.complete
         if not seg.complete:  # end a command's time before the horizon: what follows
             # the group must not come out shorter than a command
-            back = int(seg.dist_at(ex.t - min_cmd) / pitch)
+            back = seg.steps_by(i, seg.dist_at(ex.t - min_cmd))
             if back < jh:
                 cut = True
                 jh = back if back > j0 else j0 + 1
@@ -267,7 +279,7 @@ class AxisWriter:
             return Wrote.WAIT  # the queue is deep: the next run makes it longer
         th = seg.step_tick(i, jh)
         if th - t0 < min_cmd:  # too short for a command: take more steps
-            ahead = int(seg.dist_at(t0 + min_cmd) / pitch)
+            ahead = seg.steps_by(i, seg.dist_at(t0 + min_cmd))
             if ahead > jh:
                 jh = ahead if ahead < jmax else jmax
                 th = seg.step_tick(i, jh)
@@ -278,12 +290,12 @@ class AxisWriter:
                 return Wrote.WAIT  # the steps that make it long enough are not final
         n = seg.steps[i]
         if seg.complete and jh < n and seg.end == seg.length:
-            tn = seg.end_tick
+            tn = seg.step_tick(i, n)
             if tn - th < min_cmd:  # the rest up to the last step would be too short
                 if n - j0 <= MAX_STEPS:
                     jh, th = n, tn
                 else:
-                    back = int(seg.dist_at(tn - min_cmd) / pitch)
+                    back = seg.steps_by(i, seg.dist_at(tn - min_cmd))
                     if j0 < back < jh:
                         jh, th = back, seg.step_tick(i, back)
         if jh == n and th - t0 < self.min_span and seg.complete and seg.end == seg.length:
@@ -612,9 +624,10 @@ class AxisWriter:
         write = self.host.write
         st = self.stats
         listener = self.listener if seg is not None and seg.dominant == self.axis else None
+        ok = AqeResult.OK
         for ticks, steps in cmds:
             res = write(ticks, steps, up, False)
-            if res != AqeResult.OK:
+            if res != ok:
                 if res.retry:
                     return Wrote.FULL  # pragma: no cover - room was checked
                 st.errors += 1

@@ -10,7 +10,7 @@ figure); asked again while QuickStep runs, it changes depth and plateaus.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Protocol, TypeVar
+from typing import TYPE_CHECKING, Protocol, TypeVar, cast
 
 from .clock import QsConfigResult, QuickStepClock
 from .orders import MAX_DEPTH, MIN_DEPTH, OrderQueue
@@ -49,7 +49,10 @@ def quickstep_of(stepper: HasPlanner) -> QuickStepPlanner | None:
     """The stepper's QuickStep planner while it runs QuickStep (else None): its FIFO,
     plateaus and moves that may wait for room."""
     planner = stepper.planner
-    return planner if isinstance(planner, QuickStepPlanner) else None
+    # (isinstance, without the ABC's check: no class is registered as one)
+    if QuickStepPlanner in type(planner).__mro__:
+        return cast(QuickStepPlanner, planner)
+    return None
 
 
 def clock_of(engine: EngineLike) -> QuickStepClock:

@@ -32,6 +32,7 @@ reports, so the axes keep their coordinates.
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable
 
 from ..arch import Profile
@@ -56,7 +57,10 @@ from .outputs import OutputState
 from .protocol import (
     F_INPUTS,
     F_SIM_INPUTS,
+    F_TIMED_OUTPUTS,
+    FRAME_OVERHEAD,
     MAX_PAYLOAD,
+    TIMED_SLOTS,
     DeviceStatus,
     EmergencyStop,
     Halt,
@@ -65,6 +69,7 @@ from .protocol import (
     LimitHit,
     Message,
     Progress,
+    PwmGrid,
     Start,
     Started,
     Status,
@@ -118,6 +123,12 @@ class SerialBackend(Backend):
                                    link_planning_ms=link_planning_ms)
         self.reports = DeviceReports()
         self.outputs = OutputState()
+        # timed output changes (section 16): waiting to be sent (host tick, change), and
+        # the host ticks of those sent whose tick has not come (the device's slots)
+        self._timed_wait: deque[tuple[int, OutputChange, int]] = deque()  # (+ device tick)
+        self._timed_sent: list[int] = []
+        # the device's PWM periods by pin (PwmGrid): (origin, period) in device ticks
+        self.pwm_grids: dict[int, tuple[int, int]] = {}
         self.inputs = InputState()
         self.tasks = TaskSchedule()  # the ramp task's runs (attach_engine)
         self.listeners: list[Listener] = []
@@ -249,6 +260,7 @@ class SerialBackend(Backend):
     def _replay(self, link: HostLink, ident: Ident, adopt: bool) -> None:
         """A new session: the device learns what the host had set (pins, outputs, the
         queues, watched inputs and limits); the same device's positions are taken."""
+        self.pwm_grids.clear()  # (the device reports them again after the OutputPwm)
         for message in self.outputs.replay():
             link.send(message)
         for ch in self.channels:
@@ -332,6 +344,11 @@ class SerialBackend(Backend):
                 tick = self.sync.host_tick(m.tick)
                 if self.inputs.reported(m, tick):
                     self._notify_input(m.pin, m.value, tick)
+            elif isinstance(m, PwmGrid):
+                if m.period:
+                    self.pwm_grids[m.pin] = (m.origin, m.period)
+                else:
+                    self.pwm_grids.pop(m.pin, None)
             elif isinstance(m, Started):
                 ch = self._by_index.get(m.stepper)
                 if ch is not None:
@@ -398,6 +415,9 @@ class SerialBackend(Backend):
         for ch in self.channels:
             if ch.halt is not None and now_ns >= ch.halt.next_ns:
                 ch.resend_halt(now_ns)
+        if self._timed_wait and self._timed_sent and min(self._timed_sent) <= self.now():
+            self._send_timed()
+            link.flush()
 
     def _run_until(self, tick: int, pred: Callable[[], bool] | None = None) -> bool:
         """Let host time reach ``tick`` (or ``pred()`` hold): link, ramp task, waiting."""
@@ -429,6 +449,8 @@ class SerialBackend(Backend):
         for ch in self.channels:
             if ch.halt is not None:
                 t = min(t, ch.halt.next_ns)
+        if self._timed_wait and self._timed_sent:  # a device slot comes free
+            t = min(t, self.sync.ns_at(min(self._timed_sent)))
         return t
 
     # ---------------------------------------------------------- ramp task
@@ -477,12 +499,13 @@ class SerialBackend(Backend):
         self._by_index[queue.index] = ch
         return ch
 
-    def send(self, msg: Message) -> int:
-        """Queue a sequenced message for the device (0 while disconnected)."""
+    def send(self, msg: Message, *, overtake_entries: bool = False) -> int:
+        """Queue a sequenced message for the device (0 while disconnected);
+        ``overtake_entries``: see :meth:`HostLink.send`."""
         link = self.link
         if not self.connected or link is None:
             return 0
-        return link.send(msg)
+        return link.send(msg, overtake_entries=overtake_entries)
 
     def _send_and_flush(self, msg: Message) -> None:
         """A message that must not wait for the next ramp task's frame."""
@@ -553,6 +576,84 @@ class SerialBackend(Backend):
 
     def cancel_sync_outputs(self) -> None:
         self.send(self.outputs.cancel())
+
+    def timed_output(self, change: OutputChange, tick: int) -> bool:
+        """OutputAt at the device tick of host tick ``tick`` (a device with
+        ``F_TIMED_OUTPUTS``): at most ``TIMED_SLOTS`` wait on the device, the next are
+        sent as slots come free (docs/serial-protocol.md, section 16)."""
+        if not self.connected or not self._features() & F_TIMED_OUTPUTS:
+            return False
+        wait = self._timed_wait
+        device_tick = self.sync.device_tick32(tick)
+        if change.analog:
+            self._drop_replaced(change.pin, device_tick)
+        wait.append((tick, change, device_tick))
+        self._send_timed()
+        link = self.link
+        if self._task_tick is None and link is not None and self.connected:
+            link.flush()  # (the ramp task flushes what it sends at its end)
+        return True
+
+    def cancel_timed_outputs(self) -> None:
+        self._timed_wait.clear()
+        self._hold_entries()
+        if self._timed_sent:
+            self._timed_sent.clear()
+            if self.connected and self._features() & F_TIMED_OUTPUTS:
+                self.send(self.outputs.timed_cancel())
+
+    def _drop_replaced(self, pin: int, device_tick: int) -> None:
+        """A new analog change of ``pin`` at ``device_tick`` replaces the one waiting
+        (not sent) before it on that pin if both fall in one PWM period of the device
+        (PwmGrid): a period shows the duty in force at its start, so the earlier one
+        would never show - exactly the same pin either way (section 16)."""
+        grid = self.pwm_grids.get(pin)
+        if grid is None:
+            return
+        wait = self._timed_wait
+        for i in range(len(wait) - 1, -1, -1):
+            c = wait[i][1]
+            if c.analog and c.pin == pin:
+                origin, period = grid
+                if ((wait[i][2] - origin) & 0xFFFFFFFF) // period == \
+                        ((device_tick - origin) & 0xFFFFFFFF) // period:
+                    del wait[i]
+                return
+
+    def _send_timed(self) -> None:
+        """Send waiting timed changes while the device has slots for them."""
+        if not self.connected:
+            self._timed_wait.clear()  # a new session replays the outputs' last state
+            self._timed_sent.clear()
+            self._hold_entries()
+            return
+        now = self.now()
+        sent = self._timed_sent = [t for t in self._timed_sent if t > now]
+        wait = self._timed_wait
+        while wait and len(sent) < TIMED_SLOTS:
+            tick, change, device_tick = wait.popleft()
+            # (made at its own tick: it need not wait behind queue entries not yet
+            # framed - they have the link's planning time ahead of them)
+            self.send(self.outputs.timed(change, device_tick), overtake_entries=True)
+            if tick > now:
+                sent.append(tick)
+        self._hold_entries()
+
+    def _hold_entries(self) -> None:
+        """While timed changes wait for the device's slots, the link holds queue entries
+        back so that the line is free when the next of them goes (when a slot comes
+        free) and it arrives by its tick: entries carry the link's planning time ahead
+        of them, a timed change only what the slots allow (section 16)."""
+        link = self.link
+        if link is None:
+            return
+        if not self._timed_wait:
+            link.entries_by_ns = None
+            return
+        frame_ns = (FRAME_OVERHEAD + link.payload) * link.byte_ns
+        tick_ns = self.sync.ns_at(self._timed_wait[0][0])
+        link.entries_by_ns = tick_ns - frame_ns
+        link.entries_hold_end_ns = tick_ns  # (past its tick it is late anyway)
 
     # ------------------------------------------------------- inputs (issue 13)
     def _features(self) -> int:

@@ -28,10 +28,12 @@ from dataclasses import dataclass, fields
 
 from .clock import Clock
 from .protocol import (
+    ENTRY_BASE,
     FRAME_OVERHEAD,
     MAX_FRAME,
     MAX_PAYLOAD,
     MAX_RX_SLOTS,
+    MAX_STEPPERS,
     SEQ_MASK,
     SEQ_MOD,
     UNSEQUENCED,
@@ -127,6 +129,18 @@ class HostLink:
         self.pending: deque[tuple[int, bytes]] = deque()  # (mid, encoded) not yet framed
         self.next_mid = 1
         self.acked_mid = 0
+        # the line's own pace: when the bytes written so far will have left (estimated
+        # at the baud rate), and - while timed output changes wait for the device's
+        # slots (SerialBackend) - the time by which the line must be free of queue
+        # entries, so that the next of them, sent when a slot comes free, is not
+        # queued behind entries (None: no limit)
+        self.line_free_ns = 0
+        self.entries_by_ns: int | None = None
+        self.entries_hold_end_ns = 0  # ... and held no longer than until this time
+        # (for that estimate a byte takes a quarter longer than the baud says: a busy
+        # device may take bytes slower - the firmware in simavr takes ~100 000 baud of
+        # a 117 647-baud line while its interrupts compete)
+        self._slow_byte_ns = self.byte_ns * 5 // 4
         self.handler: Handler | None = None
         self.probe: Callable[[], None] | None = None  # sends a clock sample (backend)
         self._probes: dict[int, int] = {}  # stamp of a clock sample -> its write order
@@ -139,11 +153,27 @@ class HostLink:
         self.closed: str | None = None
 
     # ----------------------------------------------------------------- sending
-    def send(self, msg: Message) -> int:
-        """Queue a sequenced message; returns its message id."""
+    def send(self, msg: Message, *, overtake_entries: bool = False) -> int:
+        """Queue a sequenced message; returns its message id.
+
+        ``overtake_entries``: the message goes ahead of the queue entries waiting at the
+        end of the queue of messages not yet framed (never past any other message, nor
+        past another that overtook them): for a message whose effect does not depend on
+        its order with entries (a timed output change, made at its own tick).  Its id is
+        still a new one; the ids the link tracks (``acked_mid``) are those of messages
+        that are not entries, whose order stays as sent."""
         mid = self.next_mid
         self.next_mid += 1
-        self.pending.append((mid, msg.encode()))
+        enc = msg.encode()
+        pending = self.pending
+        i = len(pending)
+        if overtake_entries:
+            while i and ENTRY_BASE <= pending[i - 1][1][0] < ENTRY_BASE + MAX_STEPPERS:
+                i -= 1
+        if i == len(pending):
+            pending.append((mid, enc))
+        else:
+            pending.insert(i, (mid, enc))
         self.stats.messages_sent += 1
         return mid
 
@@ -196,9 +226,13 @@ class HostLink:
                 mid, enc = self.pending[0]
                 if payload and len(payload) + len(enc) > self.payload:
                     break
+                if self._entry_held(enc, len(payload), now):
+                    break
                 payload += enc
                 last_mid = mid
                 self.pending.popleft()
+            if not payload:
+                break  # (entries held back: see entries_by_ns)
             seq = self.next_seq
             self.next_seq = (seq + 1) % SEQ_MOD
             data = encode_frame(seq, bytes(payload))
@@ -211,6 +245,16 @@ class HostLink:
                 self._probe_mid = 0
                 if self.probe is not None:
                     self.probe()
+
+    def _entry_held(self, enc: bytes, framed: int, now: int) -> bool:
+        """A queue entry waits while it would keep the line busy past ``entries_by_ns``
+        (``framed``: payload bytes already in the frame being made)."""
+        if self.entries_by_ns is None or not ENTRY_BASE <= enc[0] < ENTRY_BASE + MAX_STEPPERS:
+            return False
+        if now >= self.entries_hold_end_ns:
+            return False  # (the change is late anyway: the motion is not held for it)
+        frame = FRAME_OVERHEAD + framed + len(enc)
+        return max(self.line_free_ns, now) + frame * self._slow_byte_ns > self.entries_by_ns
 
     def _timeout_ns(self) -> int:
         """Retransmission timeout of an open frame: the round trip plus the wire time of
@@ -244,7 +288,8 @@ class HostLink:
         self._order += 1
         self.stats.frames_sent += 1
         self.stats.bytes_sent += len(data)
-        self.last_tx_ns = self.clock.now_ns()
+        now = self.last_tx_ns = self.clock.now_ns()
+        self.line_free_ns = max(self.line_free_ns, now) + len(data) * self._slow_byte_ns
 
     # --------------------------------------------------------------- receiving
     def service(self) -> None:

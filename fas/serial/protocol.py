@@ -662,6 +662,63 @@ class OutputCancel(Message):
     FMT: ClassVar[struct.Struct] = _fmt("")
 
 
+T_CANCEL = 0x80  # OutputAt flags: drop every timed change not made yet (other fields unused)
+TIMED_SLOTS = 8  # timed changes a device holds waiting for their tick (section 16)
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class OutputAt(Message):
+    """A timed output change: ``value`` as in :class:`OutputSet` (flags ``O_ANALOG``),
+    made at device tick ``at`` by the device's clock (a tick already past: at once);
+    ``T_CANCEL``: drop the timed changes not made yet.  Only to a device with
+    ``F_TIMED_OUTPUTS``; it holds up to ``TIMED_SLOTS``."""
+
+    CODE: ClassVar[int] = 0x23
+    FMT: ClassVar[struct.Struct] = _fmt("BBBII")
+    flags: int
+    number: int
+    pin: int
+    value: int
+    at: int
+
+    @property
+    def analog(self) -> bool:
+        return bool(self.flags & O_ANALOG)
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class OutputNext(Message):
+    """The next timed output change of the output the previous :class:`OutputAt` or
+    ``OutputNext`` of the session named (its flags and pin): ``value`` made at device
+    tick ``that one's at + after`` - 5 bytes instead of 12, so that a dense run of
+    changes (the laser's power while the path decelerates) fits a 115 200-baud line.
+    Only to a device with ``F_TIMED_OUTPUTS``; with no timed change before it in the
+    session the device refuses it (section 16)."""
+
+    CODE: ClassVar[int] = 0x24
+    FMT: ClassVar[struct.Struct] = _fmt("HH")
+    value: int
+    after: int
+
+
+@register
+@dataclass(frozen=True, slots=True)
+class PwmGrid(Message):
+    """The PWM periods of ``pin`` on the device clock (after an OutputPwm, a device with
+    ``F_TIMED_OUTPUTS``): they begin at ``origin + k * period`` (mod 2^32);
+    ``period`` 0: not a whole number of ticks (no grid).  A timed change at ``at``
+    shows from the period after the one that contains ``at``, so of the changes that
+    fall in one period only the last shows: the host need not send the others."""
+
+    CODE: ClassVar[int] = 0x87
+    FMT: ClassVar[struct.Struct] = _fmt("BII")
+    pin: int
+    origin: int
+    period: int
+
+
 # --- inputs and limit switches (issue 13; docs/serial-protocol.md section 18) -------
 W_OFF = 0  # WatchInput.mode: stop watching the pin
 W_DIGITAL = 1  # digital input, no pull-up
@@ -673,6 +730,7 @@ S_ANALOG = 0x01  # SetInput.flags: a pot's value 0..1023 (else a level 0/1)
 # Ident.features: the optional message families a device understands (section 5)
 F_INPUTS = 0x0001  # section 18: WatchInput, Limit; Input, LimitHit, Started
 F_SIM_INPUTS = 0x0002  # SetInput: the device's inputs are a simulation's (section 18)
+F_TIMED_OUTPUTS = 0x0004  # OutputAt: timed output changes (section 16)
 
 
 @register

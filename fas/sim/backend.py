@@ -10,7 +10,7 @@ from ..pwm import PwmSetting
 from ..queue import StepperQueue
 from ..schedule import TaskSchedule
 from .channel import SimChannel
-from .machine import PRIO_TASK, Event, Machine
+from .machine import PRIO_PLAIN, PRIO_TASK, Event, Machine
 from .pins import EdgeRecorder
 from .printing import print_chars
 
@@ -51,6 +51,7 @@ class SimBackend(Backend):
         self._limits: dict[tuple[int, bool], tuple[int, int, tuple[int, ...]]] = {}
         self._sync_outputs: list[tuple[object, OutputChange]] = []  # waiting for idle queues
         self.output_listeners: list[Callable[[OutputChange, int], None]] = []  # (change, tick)
+        self._timed: list[Event] = []  # timed output changes whose tick has not come
         # QuickStep's timer interrupt load (fas.sim.quickstep)
         self._qs_load: TimerLoad | None = None
 
@@ -147,6 +148,7 @@ class SimBackend(Backend):
         self._qs_load = None
         self.channels = []
         self._sync_outputs.clear()
+        self.cancel_timed_outputs()
         m.cancel(self._task_event)
         self._task_event = None
         self.tasks.stop()
@@ -233,6 +235,31 @@ class SimBackend(Backend):
 
     def cancel_sync_outputs(self) -> None:
         self._sync_outputs.clear()
+
+    def timed_output(self, change: OutputChange, tick: int) -> bool:
+        """At ``tick`` the chip's timer makes the change (a compare, not the main loop:
+        a busy CPU does not delay it); a PWM duty shows from the next period."""
+        m = self.machine
+        t = max(tick, m.cpu_now())
+        holder: list[Event] = []
+
+        def make() -> None:
+            self._timed.remove(holder[0])
+            self._make(change, t)
+
+        ev = m.schedule(t, make, PRIO_PLAIN)
+        holder.append(ev)
+        self._timed.append(ev)
+        return True
+
+    def timed_waiting(self) -> int:
+        """Timed changes whose tick has not come."""
+        return len(self._timed)
+
+    def cancel_timed_outputs(self) -> None:
+        for ev in self._timed:
+            self.machine.cancel(ev)
+        self._timed.clear()
 
     def queues_idle(self) -> bool:
         """Every queue has executed all its commands and its timer stopped."""

@@ -20,6 +20,9 @@ BUILDS: dict[str, str] = {
     "d_time_measurement": "the default build with the library's SIMAVR_TIME_MEASUREMENT "
                           "(upstream's timing tests test_sd_04_timing_*)",
     "e": "the build of the conformance runs e01-e18 (the `e` injection during fast motion)",
+    "upstream_time_measurement": "FastAccelStepper 1.2.7's own simulator-tested sketches "
+                                 "(examples/Issue*, ExternalCall) as upstream builds them, "
+                                 "with SIMAVR_TIME_MEASUREMENT",
 }
 
 

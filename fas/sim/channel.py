@@ -412,7 +412,9 @@ class SimChannel(QueueChannel):
         if not self.batch or t < self.b_c0:
             return None
         c0, period = self.b_c0, self.b_t
-        j = min((t - c0) // period, self.b_n - 2)
+        j = (t - c0) // period
+        if j > self.b_n - 2:
+            j = self.b_n - 2
         if j < 0:
             return None
         cost = self.isr_ticks

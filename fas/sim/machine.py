@@ -73,6 +73,12 @@ class BatchSource(Protocol):
         ...
 
 
+# where timer 0 and the UART come before the step compares: how long after its request
+# one of them may still begin (behind the routines running then; a blocked section is
+# known on its own)
+LATE_ISR_SLACK = 1024
+
+
 class Event:
     __slots__ = ("time", "prio", "fn", "cancelled", "isr", "enter", "owner")
 
@@ -139,6 +145,14 @@ class Machine:
         self.exit_starts: list[int] = []
         self.exit_ends: list[int] = []
         self.batch_channel: BatchSource | None = None  # its pulses' interrupts are no events
+        # timer 0 and the UART come before the step compares in the vector table
+        # (Profile.step_vectors_after_timer0): one requested while a routine runs enters
+        # when it returns, before the step interrupts pending then - up to
+        # LATE_ISR_SLACK ticks after its request (the quick answers look that far)
+        self._late_isrs = profile.step_vectors_after_timer0
+        slack = LATE_ISR_SLACK if self._late_isrs else 0
+        self._ms_window = self.timing.millis_isr_ticks + slack
+        self._uart_window = self.timing.uart_isr_ticks + slack
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
@@ -174,8 +188,8 @@ class Machine:
         pop = heapq.heappop
         activity = self.activity
         timing = self.timing
-        uart_cost, ms_ov, ms_cost = (timing.uart_isr_ticks, timing.millis_overflow_ticks,
-                                     timing.millis_isr_ticks)
+        uart_cost, ms_ov, ms_cost = (self._uart_window, timing.millis_overflow_ticks,
+                                     self._ms_window)
         while heap and heap[0][0] <= t:
             time, prio, _, ev = pop(heap)
             if ev.cancelled:
@@ -184,11 +198,17 @@ class Machine:
                 if ev.enter:  # requested now: entered once the CPU is free
                     bc = self.batch_channel
                     loads = self.uart.loads
-                    if ((bc is None or bc is ev.owner) and time >= self._quiet_from
+                    if (time >= self._quiet_from
                             and (not loads or time >= loads[-1] + uart_cost)
                             and (time < self._millis_first
                                  or (time - self._millis_phase) % ms_ov >= ms_cost)):
-                        free = time  # (cpu_free_at's common case, written out)
+                        # (cpu_free_at's common case, written out)
+                        if bc is None or bc is ev.owner:
+                            free = time
+                        else:
+                            end = bc.block_isr_running_at(time)
+                            free = (time if end is None or end <= time
+                                    else self.cpu_free_at(time, ev.owner))
                     else:
                         free = self.cpu_free_at(time, ev.owner)
                     if free > time:  # pending; those pending then enter in priority order
@@ -292,9 +312,9 @@ class Machine:
         # interrupt of another channel's block of pulses)
         if t >= self._quiet_from:
             loads = self.uart.loads
-            if ((not loads or t >= loads[-1] + timing.uart_isr_ticks)
+            if ((not loads or t >= loads[-1] + self._uart_window)
                     and (t < self._millis_first or (t - self._millis_phase)
-                         % timing.millis_overflow_ticks >= timing.millis_isr_ticks)):
+                         % timing.millis_overflow_ticks >= self._ms_window)):
                 if bc is None:
                     return t
                 end = bc.block_isr_running_at(t)
@@ -322,14 +342,16 @@ class Machine:
                 i = bisect_right(xs, t) - 1
                 if i >= 0 and t < xe[i]:
                     t = xe[i]
+            if self._late_isrs:
+                t = self._after_late_isrs(t, bc)
             # timer 0 and the UART (lower priority than the step compares): they hold the
             # CPU when they began with interrupts on (one held back by a blocked section
             # runs after the step interrupts pending at its end)
-            if ms_cost and t >= ms_first:
+            elif ms_cost and t >= ms_first:
                 into = (t - ms_phase) % ms_ov
                 if into < ms_cost and not bfrom <= t - into <= buntil:
                     t += ms_cost - into
-            if uart_cost and loads and t < loads[-1] + uart_cost:
+            if uart_cost and loads and t < loads[-1] + uart_cost and not self._late_isrs:
                 i = bisect_right(loads, t) - 1
                 if i >= 0 and t < loads[i] + uart_cost and not bfrom <= loads[i] <= buntil:
                     t = loads[i] + uart_cost
@@ -340,6 +362,88 @@ class Machine:
             if t == t0:
                 return t
 
+    def _routines_end(self, t: int, bc: BatchSource | None) -> int:
+        """The first tick at or after ``t`` at which no routine entered before holds the
+        CPU: the loop's blocked section, a routine entered as an event, the ramp task's
+        exit, a step interrupt of the block of pulses ``bc``."""
+        bfrom, blocked_end = self.irq_blocked_from, self.irq_blocked_until + self.timing.sei_ticks
+        starts, ends = self.isr_starts, self.isr_ends
+        xs, xe = self.exit_starts, self.exit_ends
+        while True:
+            t0 = t
+            if bfrom <= t < blocked_end:
+                t = blocked_end
+            if starts and t < ends[-1]:
+                i = bisect_right(starts, t) - 1
+                if i >= 0 and t < ends[i]:
+                    t = ends[i]
+            if xs and t < xe[-1]:
+                i = bisect_right(xs, t) - 1
+                if i >= 0 and t < xe[i]:
+                    t = xe[i]
+            if bc is not None:
+                end = bc.block_isr_running_at(t)
+                if end is not None and end > t:
+                    t = end
+            if t == t0:
+                return t
+
+    def _timer0_runs(self, req: int, bc: BatchSource | None, uart: bool) -> int:
+        """Where timer 0's interrupt requested at ``req`` begins when it comes before
+        the step compares: once the routines running then have returned (a UART
+        interrupt running then too, when ``uart``)."""
+        timing = self.timing
+        cost = timing.uart_isr_ticks
+        loads = self.uart.loads
+        t = req
+        while True:
+            t = self._routines_end(t, bc)
+            if not (uart and cost and loads and t < loads[-1] + cost):
+                return t
+            i = bisect_right(loads, t) - 1
+            if i < 0 or t >= loads[i] + cost:
+                return t
+            t = loads[i] + cost
+
+    def _after_late_isrs(self, t: int, bc: BatchSource | None) -> int:
+        """``t``, or the end of timer 0's or the UART's interrupt running at ``t``, where
+        both come before the step compares (``Profile.step_vectors_after_timer0``): each
+        begins once the routines running at its request have returned, timer 0 before a
+        UART interrupt pending with it."""
+        timing = self.timing
+        cost = timing.millis_isr_ticks
+        if cost and self._millis_started and t >= self._millis_first:
+            ov = timing.millis_overflow_ticks
+            req = t - (t - self._millis_phase) % ov
+            for r in (req, req - ov):
+                if r >= self._millis_first and t - r < self._ms_window:
+                    begin = self._timer0_runs(r, bc, True)
+                    if begin <= t < begin + cost:
+                        return begin + cost
+        cost = timing.uart_isr_ticks
+        loads = self.uart.loads
+        if cost and loads and t < loads[-1] + self._uart_window:
+            i = bisect_right(loads, t) - 1
+            while i >= 0 and t - loads[i] < self._uart_window:
+                begin = loads[i]
+                while True:  # after the routines running then and timer 0 pending then
+                    b0 = begin
+                    begin = self._routines_end(begin, bc)
+                    ms = timing.millis_isr_ticks
+                    if ms and self._millis_started and begin >= self._millis_first:
+                        ov = timing.millis_overflow_ticks
+                        r = begin - (begin - self._millis_phase) % ov
+                        if r >= self._millis_first and begin - r < self._ms_window:
+                            m0 = self._timer0_runs(r, bc, False)
+                            if m0 <= begin < m0 + ms:
+                                begin = m0 + ms
+                    if begin == b0:
+                        break
+                if begin <= t < begin + cost:
+                    return begin + cost
+                i -= 1
+        return t
+
     def held_requests(self, c0: int, period: int, j0: int, j1: int) -> list[int]:
         """The requests ``c0 + j * period`` (``j0 <= j < j1``) of a block of pulses that
         fall in a section with interrupts off (timer 0, the UART, a routine entered as
@@ -349,7 +453,7 @@ class Machine:
         lo, hi = c0 + j0 * period, c0 + (j1 - 1) * period
         found: list[int] = []
         timing = self.timing
-        cost = timing.millis_isr_ticks
+        cost = self._ms_window if timing.millis_isr_ticks else 0
         if cost and self._millis_started:
             ov = timing.millis_overflow_ticks
             first = self._millis_phase + ov
@@ -359,7 +463,7 @@ class Machine:
                 if j < j1 and c0 + j * period < s + cost:
                     found.append(j)
                 s += ov
-        cost = timing.uart_isr_ticks
+        cost = self._uart_window if timing.uart_isr_ticks else 0
         loads = self.uart.loads
         if cost and loads and loads[-1] + cost > lo:
             i = bisect_right(loads, lo - cost)

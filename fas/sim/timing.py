@@ -159,6 +159,21 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
                        fill_coast_cmd_ticks=1600, fill_queued_entry_ticks=100,
                        isr_next_entry_ticks=24, isr_duration_by_channel=(120, 135, 135))
 
+# upstream's own simulator-tested sketches (FastAccelStepper 1.2.7's examples/Issue*,
+# built by its test suite with SIMAVR_TIME_MEASUREMENT): the step interrupt as in
+# d_time_measurement, the ramp task as in the build of the runs e01-e18 (its cost per
+# running stepper, per queued entry, per planned command; an idle task takes 27 us, not
+# the default build's 152).  Upstream's expect.txt traces the task from its entry to
+# its exit (FillISR, step interrupts inside it included): 175 782 us for Issue280 and
+# 1 209 943 us for Issue208; the model makes 187 755 / 1 242 566 us with these costs,
+# 233 016 / 1 630 530 with the default build's (docs/timing-model.md, "Builds")
+AVR_UPSTREAM_TM_TIMING = replace(
+    AVR_TIME_MEASUREMENT_TIMING,
+    **{name: getattr(AVR_E_TIMING, name) for name in (
+        "fill_entry_ticks", "fill_stepper_ticks", "fill_queued_entry_ticks", "fill_plan_ticks",
+        "fill_cmd_ticks", "fill_coast_cmd_ticks", "fill_single_ticks", "fill_pause_ticks",
+        "fill_bare_pause_ticks", "fill_start_ticks")})
+
 # ATmega32U4: Serial is the USB CDC port, output costs no UART time (the AVR simulator
 # has no USB host, so the firmware's prints return at once): a write call to the CDC
 # driver costs 112 ticks (its checks), and its larger start-up code starts timer 0 2000
@@ -261,6 +276,7 @@ BY_BUILD: dict[str, dict[str, SimTiming]] = {
     "d_time_measurement": {"atmega328p": AVR_TIME_MEASUREMENT_TIMING},
     "e": {"atmega328p": AVR_E_TIMING, "atmega32u4": AVR_USB_E_TIMING,
           **{name: AVR_MEGA_E_TIMING for name in MEGA_NAMES}},
+    "upstream_time_measurement": {"atmega328p": AVR_UPSTREAM_TM_TIMING},
 }
 
 

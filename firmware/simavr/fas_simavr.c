@@ -68,6 +68,9 @@
 #define REG_TCCR1B 0x81
 #define REG_OCR1AL 0x88
 #define REG_OCR1BL 0x8A
+#define REG_TCCR2A 0xB0
+#define REG_TCCR2B 0xB1
+#define REG_OCR2A 0xB3
 #define REG_UCSR0B 0xC1
 #define RXEN0_BIT 4
 #define REG_GPIOR0 0x3E
@@ -90,6 +93,8 @@ struct pin {
 static struct pin pins[PINS];
 static uint8_t oc[2];           /* OC1A, OC1B output flip-flops */
 static uint8_t tccr1a;          /* last value written */
+static uint8_t oc2a;            /* OC2A as timer 2's compare output makes it (pin 11) */
+static uint8_t tccr2a;          /* last value written */
 static uint64_t timer1_start;   /* cycle at which timer 1 began counting */
 static int timer1_started;
 
@@ -124,6 +129,19 @@ static void oc_pin_update(int ch, uint64_t cycle)
     pin_set(ch ? 10 : 9, level, cycle);
 }
 
+/* pin 11 (OC2A, PB3): timer 2's PWM while COM2A is connected, PORTB otherwise */
+static void oc2a_pin_update(uint64_t cycle)
+{
+    int level;
+    if (!((avr->data[REG_DDRB] >> 3) & 1))
+        level = 0;
+    else if ((tccr2a >> 6) & 3)
+        level = oc2a;
+    else
+        level = (avr->data[REG_PORTB] >> 3) & 1;
+    pin_set(11, level, cycle);
+}
+
 static int arduino_pin(char port, int bit)
 {
     switch (port) {
@@ -138,8 +156,8 @@ static void port_pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 {
     (void)irq;
     int pin = (int)(intptr_t)param;
-    if (pin == 9 || pin == 10)
-        return;  /* from the compare-output model instead */
+    if (pin == 9 || pin == 10 || pin == 11)
+        return;  /* from the compare-output models instead */
     pin_set(pin, (int)(value & 0xFF), avr->cycle);
 }
 
@@ -148,6 +166,7 @@ static void portb_write_hook(struct avr_irq_t *irq, uint32_t value, void *param)
     (void)irq; (void)value; (void)param;
     oc_pin_update(0, avr->cycle);
     oc_pin_update(1, avr->cycle);
+    oc2a_pin_update(avr->cycle);
 }
 
 /* The exact cycle of the compare match of channel ch that is being handled (the
@@ -186,6 +205,63 @@ static void tccr1a_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *p
     oc_pin_update(1, avr->cycle);
 }
 
+/* Timer 2's OC2A as the ATmega328P makes it in fast PWM (TOP 255, COM2A 2: set at
+ * BOTTOM, cleared at the match): simavr 1.6 takes an OCR2A write at once, where the
+ * chip holds it until BOTTOM (double-buffered), and lets PORTB writes drive PB3.  So
+ * the harness keeps its own counter: BOTTOM every 256 prescaled counts from the cycle
+ * the clock was started (the firmware zeroes TCNT2 then), the OCR2A value latched
+ * there, the pin set there and cleared (OCR2A + 1) counts later.  While COM2A is 0 the
+ * pin is PORTB's and the output flip-flop keeps its level (the datasheet: the compare
+ * unit acts on OC2A only in a compare output mode). */
+static const uint16_t timer2_prescalers[8] = {0, 1, 8, 32, 64, 128, 256, 1024};
+static uint32_t timer2_prescaler;  /* 0: stopped */
+
+static avr_cycle_count_t oc2a_match(struct avr_t *a, avr_cycle_count_t when, void *param)
+{
+    (void)a; (void)param;
+    oc2a = 0;
+    oc2a_pin_update(when);
+    return 0;
+}
+
+static avr_cycle_count_t timer2_bottom(struct avr_t *a, avr_cycle_count_t when, void *param)
+{
+    (void)a; (void)param;
+    if (!timer2_prescaler)
+        return 0;
+    uint32_t ocr = avr->data[REG_OCR2A];
+    if ((tccr2a >> 6) & 3) {  /* (disconnected, the flip-flop keeps its level) */
+        oc2a = 1;
+        oc2a_pin_update(when);
+        if (ocr < 255)
+            avr_cycle_timer_register(avr, when + (ocr + 1) * timer2_prescaler - avr->cycle,
+                                     oc2a_match, NULL);
+    }
+    return when + 256 * timer2_prescaler;
+}
+
+static void tccr2b_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *param)
+{
+    (void)a; (void)addr; (void)param;
+    uint32_t prescaler = timer2_prescalers[v & 7];
+    avr->data[REG_TCCR2B] = v;
+    if (prescaler == timer2_prescaler)
+        return;
+    avr_cycle_timer_cancel(avr, timer2_bottom, NULL);
+    avr_cycle_timer_cancel(avr, oc2a_match, NULL);
+    timer2_prescaler = prescaler;
+    if (prescaler)  /* (counting on from 0: the first BOTTOM a period from now) */
+        avr_cycle_timer_register(avr, 256 * prescaler, timer2_bottom, NULL);
+}
+
+static void tccr2a_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *param)
+{
+    (void)a; (void)addr; (void)param;
+    tccr2a = v;
+    avr->data[REG_TCCR2A] = v;
+    oc2a_pin_update(avr->cycle);
+}
+
 static void tccr1b_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *param)
 {
     (void)a; (void)addr; (void)param;
@@ -216,6 +292,8 @@ static void hook_pins(void)
                                               TIMER_IRQ_OUT_COMP + ch),
                                 comp_hook, (void *)(intptr_t)ch);
     avr_register_io_write(avr, REG_TCCR1A, tccr1a_write, NULL);
+    avr_register_io_write(avr, REG_TCCR2A, tccr2a_write, NULL);
+    avr_register_io_write(avr, REG_TCCR2B, tccr2b_write, NULL);
     avr_register_io_write(avr, REG_TCCR1B, tccr1b_write, NULL);
 }
 
@@ -635,6 +713,9 @@ static int chip_open(const char *elf, const char *mcu, uint32_t freq, const char
     memset(pins, 0, sizeof pins);
     memset(oc, 0, sizeof oc);
     tccr1a = 0;
+    tccr2a = 0;
+    oc2a = 0;
+    timer2_prescaler = 0;
     timer1_start = 0;
     timer1_started = 0;
     txq_head = txq_tail = 0;

@@ -535,7 +535,8 @@ class StepperDemo(LoopProgram):
         if self.simulate_digital_read_error:
             pins = tuple([s.get_step_pin() for s in self.steppers if s is not None])
             b.stray_read(pins)
-            path += len(pins) * self.build.loop_stray_read_ticks
+            # spent where they run: before the `e` check below (docs/timing-model.md)
+            b.app_spend(len(pins) * self.build.loop_stray_read_ticks)
         if self.simulate_blocked_isr and (ms & 0xFF) < 0x40:
             b.block_interrupts(self.build.irq_block_ticks)
 

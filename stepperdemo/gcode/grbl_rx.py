@@ -45,6 +45,11 @@ REALTIME = frozenset({RESET, STATUS, HOLD, RESUME, DOOR, JOG_CANCEL,
                       FLOOD_TOGGLE, MIST_TOGGLE})
 
 _CR, _LF = 0x0D, 0x0A
+#: bytes that ``receive`` does not simply store: the real-time commands and >= 0x80
+_NOT_STORED = bytes(sorted(REALTIME | set(range(0x80, 0x100))))
+#: what line assembly drops (up to the space, '/') and its upper-casing of a-z
+_DROP = bytes(range(0x21)) + b"/"
+_UPPER = bytes(c - 0x20 if 0x61 <= c <= 0x7A else c for c in range(256))
 
 
 @dataclass(frozen=True)
@@ -94,8 +99,17 @@ class GrblReceiver:
 
     def receive(self, data: bytes) -> list[int]:
         """Take bytes from the host; return the real-time commands among them, in order."""
-        commands = []
         ring = self._ring
+        if (isinstance(data, (bytes, bytearray))  # the common case: bytes to store
+                and len(data.translate(None, _NOT_STORED)) == len(data)):
+            room = self.ring_size - len(ring)
+            if len(data) <= room:
+                ring.extend(data)
+            else:
+                ring.extend(data[:max(room, 0)])
+                self.dropped += len(data) - max(room, 0)
+            return []
+        commands = []
         for b in data:
             if b in REALTIME:
                 commands.append(b)
@@ -111,6 +125,10 @@ class GrblReceiver:
         """Read from the ring up to the next line end; None while no line is complete
         (the characters read so far stay in the line being assembled)."""
         ring = self._ring
+        if ring and self._comment is None:
+            line = self._whole_line(ring)
+            if line is not None:
+                return line
         while ring:
             c = ring.popleft()
             if c in (_CR, _LF):
@@ -137,3 +155,28 @@ class GrblReceiver:
             else:
                 self._line.append(c - 0x20 if 0x61 <= c <= 0x7A else c)
         return None
+
+    def _whole_line(self, ring: deque[int]) -> RxLine | None:
+        """:meth:`take_line` at once for a line whose end is in the ring and which has
+        no comment (what the byte loop makes of it); None: the byte loop's case."""
+        data = bytes(ring)
+        cr, lf = data.find(b"\r"), data.find(b"\n")
+        end = cr if lf < 0 or 0 <= cr < lf else lf
+        if end < 0 or (self._last_cr and data[0] == _LF):
+            return None
+        chunk = data[:end]
+        if b"(" in chunk or b";" in chunk:
+            return None
+        kept = chunk.translate(_UPPER, _DROP)
+        room = self.line_max - len(self._line)
+        if len(kept) > room:
+            self._overflow = True
+            kept = kept[:max(room, 0)]
+        self._line += kept
+        self._ring = deque(data[end + 1:])
+        self._last_cr = data[end] == _CR
+        line = RxLine(self._line.decode("ascii"), self._overflow)
+        self._line.clear()
+        self._overflow = False
+        self._comment = None
+        return line

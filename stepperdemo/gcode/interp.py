@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from fas.path.arc import (
@@ -113,6 +113,9 @@ class Move:
     line: str
     jog: bool = False
     laser: Laser | None = None  # laser mode: the power of this move (None: leave it)
+    #: an arc's chord end as it is, in steps (not rounded: ``target`` rounds it) - the
+    #: point the path goes through; None: ``target``
+    exact: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -296,8 +299,8 @@ class Interpreter:
             system = self.coords.systems[self.coord_select]
         g92 = self.offset if offset is None else offset
         t = self.tlo if tlo is None else tlo
-        return tuple(system[i] + g92[i] + (t if i == TLO_AXIS else 0.0)
-                     for i in range(self.axes))
+        return tuple([system[i] + g92[i] + (t if i == TLO_AXIS else 0.0)
+                      for i in range(self.axes)])
 
     def work_position(self, steps: list[int]) -> list[float]:
         wco = self.work_offset()
@@ -308,6 +311,9 @@ class Interpreter:
         """The actions of one block, in execution order (raises :class:`GcodeError`).
 
         The modal state changes only if the whole block is valid."""
+        plain = self._plain_move(block)
+        if plain is not None:
+            return plain
         groups: dict[str, float] = {}
         axis_command: float | None = None  # the G code that takes the axis words
         axis_kind = ""  # "motion", "non-modal", "tool length"
@@ -523,14 +529,17 @@ class Interpreter:
                 steps = list(move.target)
                 position = target
                 continue
-            for point in points:
+            last = len(points) - 1
+            for k, point in enumerate(points):
                 t = self._steps(list(point))
                 if t != steps:
                     actions.append(Move(tuple(t), tuple(steps), rapid,
                                         None if rapid else move_feed, block.line,
                                         laser=None if power is None else
                                         (Laser(power.dynamic, 0.0, move_feed) if rapid
-                                         else power)))
+                                         else power),
+                                        exact=None if k == last else
+                                        self._exact_steps(point)))
                     steps = t
             position = list(target)
 
@@ -569,6 +578,61 @@ class Interpreter:
         self.program_end = m_flow in (2.0, 30.0)
         if self.program_end:
             self.end_of_program()
+        return actions
+
+    def _plain_move(self, block: Block) -> list[Action] | None:
+        """:meth:`interpret` of the commonest block - G0/G1 (or the modal G0/G1) with
+        axis words, perhaps F and N, no laser mode, no G93 - with the same actions,
+        checks and modal state; None for every other block (and where it would be an
+        error), which :meth:`interpret` then reads word by word."""
+        if block.m or self.inverse_time:
+            return None
+        g = block.g
+        if g:
+            if len(g) > 1 or g[0] not in (0.0, 1.0):
+                return None
+            motion = g[0]
+        else:
+            motion = self.motion
+            if motion not in (0.0, 1.0):
+                return None
+        axes = self.axes
+        words: dict[str, float] = {}
+        feed = self.feed
+        scale = MM_PER_INCH if self.inches else 1.0
+        for letter, v in block.values.items():
+            i = AXES.find(letter)
+            if 0 <= i < axes:
+                words[letter] = v
+            elif letter == "F":
+                feed = v * scale
+            elif letter != "N":
+                return None
+        if not words or (motion != 0 and feed <= 0) or self.laser_mode:
+            return None
+        if scale != 1.0:
+            words = {k: v * scale for k, v in words.items()}
+        offset = list(self.offset)
+        wco = self.work_offset(list(self.coords.systems[self.coord_select]), offset,
+                               self.tlo)
+        target = self._target(words, self.absolute, wco, machine=False)
+        steps = list(self.position_steps)
+        actions: list[Action] = []
+        rapid = motion == 0
+        t = self._steps(list(target))
+        if t != steps:
+            actions.append(Move(tuple(t), tuple(steps), rapid, None if rapid else feed,
+                                block.line, laser=None))
+            steps = t
+        if self.check is not None:
+            for action in actions:
+                self.check(action)
+        self.feed = feed
+        self.motion = motion
+        self.offset = offset
+        self.position = list(target)
+        self.position_steps = steps
+        self.program_end = False
         return actions
 
     def jog(self, block: Block) -> Move | None:
@@ -646,6 +710,13 @@ class Interpreter:
             else:
                 target[i] = self.position[i] + v
         return target
+
+    def _exact_steps(self, point: Sequence[float]) -> tuple[float, ...]:
+        """A point in steps, not rounded (an arc's chord end; in range: its rounding
+        passed :meth:`_steps`).  Kept to 1/1024 step so that one arc given by R and
+        by I/J/K goes through the same points in spite of the last bits."""
+        return tuple(round(v * spu * 1024.0) / 1024.0
+                     for v, spu in zip(point, self.settings.steps_per_unit, strict=False))
 
     def _steps(self, target: list[float]) -> list[int]:
         out = []

@@ -202,8 +202,9 @@ class LookaheadExecutor(MotionExecutor):
         planned = self.group.lookahead.blocks
         while self.handed and len(blocks):
             front = blocks.peek()
-            if planned and (planned[0].tag is front or any(b.tag is front for b in planned)):
-                return
+            for b in planned:
+                if b.tag is front:
+                    return
             blocks.pop()
             self.handed -= 1
 
@@ -211,8 +212,9 @@ class LookaheadExecutor(MotionExecutor):
         """Blocks not yet planned go to the group while it has room."""
         g = self.group
         blocks = self.blocks
-        self.handed = min(self.handed, len(blocks))
-        if self.handed >= len(blocks):
+        queued = len(blocks)
+        if self.handed >= queued:
+            self.handed = queued
             return
         if not g.busy():
             self._asked = self.host.backend.now()
@@ -232,7 +234,9 @@ class LookaheadExecutor(MotionExecutor):
         for move in islice(blocks, self.handed, None):
             if g.room() <= 0:
                 break
-            res = g.line(move.target, None if move.rapid else move.feed, tag=move,
+            res = g.line(move.target if move.exact is None else move.exact,
+                         None if move.rapid else move.feed, tag=move,
+                         through=move.exact is not None,
                          override=not move.jog)
             if res == PathResult.QUEUE_FULL:
                 break

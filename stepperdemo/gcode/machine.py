@@ -171,9 +171,16 @@ class GcodeMachine:
 
     def jogging(self) -> bool:
         cur = self.executor.current()
-        return (cur is not None and cur.jog) or any(b.jog for b in self.blocks) or (
-            self.pending is not None and any(isinstance(a, Move) and a.jog
-                                             for a in self.pending.actions))
+        if cur is not None and cur.jog:
+            return True
+        for b in self.blocks:  # (loops: this is asked before every line)
+            if b.jog:
+                return True
+        if self.pending is not None:
+            for a in self.pending.actions:
+                if isinstance(a, Move) and a.jog:
+                    return True
+        return False
 
     def state_name(self) -> str:
         if self.sleeping:

@@ -26,6 +26,10 @@ MAX_LINE = 255  # characters of one block after filtering (Grbl_ESP32/FluidNC; G
 MAX_LINE_NUMBER = 9_999_999  # Grbl's N range
 # the number after a letter: optional sign, digits with an optional point
 _NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)")
+#: a line of well-formed words only, and its words (letter, number): the words the
+#: loop of :func:`parse_line` reads, one after the other, from such a line
+_WELL_FORMED = re.compile(r"(?:[A-Z][+-]?(?:\d+\.?\d*|\.\d+))*")
+_WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))")
 AXES = "XYZABC"  # axis words, steppers 1..6
 # value words Grbl reads (A B C are axes when the machine has them); E and Q are
 # Grbl_ESP32's for M67/M68
@@ -94,7 +98,10 @@ def parse_line(line: str) -> Block:
     if len(text) > MAX_LINE:
         raise GcodeError(Err.OVERFLOW, msg.GCODE_ERR_LONG.format(n=MAX_LINE))
     block = Block(line)
-    values = block.values
+    if _WELL_FORMED.fullmatch(text):  # (the common case: the same checks, word by word)
+        for letter, number in _WORD.findall(text):
+            _take_word(block, letter, number, float(number))
+        return block
     match = _NUMBER.match
     pos = 0
     end = len(text)
@@ -113,25 +120,31 @@ def parse_line(line: str) -> Block:
             raise GcodeError(Err.BAD_NUMBER_FORMAT, msg.GCODE_ERR_BAD_NUMBER.format(
                 letter=letter, text=text[pos:pos + 12]))
         pos = m.end()
-        if letter not in _KNOWN:
-            raise GcodeError(Err.UNSUPPORTED_COMMAND,
-                             msg.GCODE_ERR_UNKNOWN_WORD.format(word=letter + number))
-        if letter == "G" or letter == "M":
-            code = round(value, 4)
-            if code != int(code) and not (letter == "G" and code in G_DECIMALS):
-                raise GcodeError(Err.COMMAND_VALUE_NOT_INTEGER,
-                                 msg.GCODE_ERR_NOT_INTEGER.format(word=letter + number))
-            (block.g if letter == "G" else block.m).append(code)
-            continue
-        if value < 0 and letter in _NOT_NEGATIVE:
-            raise GcodeError(Err.NEGATIVE_VALUE,
-                             msg.GCODE_ERR_NEGATIVE.format(word=letter + number))
-        if letter in values:
-            raise GcodeError(Err.WORD_REPEATED, msg.GCODE_ERR_REPEATED.format(letter=letter))
-        if letter == "N" and value > MAX_LINE_NUMBER:
-            raise GcodeError(Err.INVALID_LINE_NUMBER, msg.GCODE_ERR_LINE_NUMBER)
-        values[letter] = value
+        _take_word(block, letter, number, value)
     return block
+
+
+def _take_word(block: Block, letter: str, number: str, value: float) -> None:
+    """One word read: checked (Grbl's errors) and added to ``block``."""
+    if letter not in _KNOWN:
+        raise GcodeError(Err.UNSUPPORTED_COMMAND,
+                         msg.GCODE_ERR_UNKNOWN_WORD.format(word=letter + number))
+    if letter == "G" or letter == "M":
+        code = round(value, 4)
+        if code != int(code) and not (letter == "G" and code in G_DECIMALS):
+            raise GcodeError(Err.COMMAND_VALUE_NOT_INTEGER,
+                             msg.GCODE_ERR_NOT_INTEGER.format(word=letter + number))
+        (block.g if letter == "G" else block.m).append(code)
+        return
+    if value < 0 and letter in _NOT_NEGATIVE:
+        raise GcodeError(Err.NEGATIVE_VALUE,
+                         msg.GCODE_ERR_NEGATIVE.format(word=letter + number))
+    values = block.values
+    if letter in values:
+        raise GcodeError(Err.WORD_REPEATED, msg.GCODE_ERR_REPEATED.format(letter=letter))
+    if letter == "N" and value > MAX_LINE_NUMBER:
+        raise GcodeError(Err.INVALID_LINE_NUMBER, msg.GCODE_ERR_LINE_NUMBER)
+    values[letter] = value
 
 
 def code_name(letter: str, value: float) -> str:

@@ -20,14 +20,17 @@ not 0) the smallest duty the timer makes above 0, linear in between
 (:class:`~.interp.Laser`: 0 for G0 moves); the executor tells the path speed at every
 queue command it writes (``MotionExecutor.speed_listener``) and the duty is scheduled
 for that command's tick: M3 keeps S, M4 scales S by speed / programmed feed (0 when
-the path stops).  :meth:`Tooling.poll` makes the changes as their ticks come, so the
-duty follows each queue command within one PWM period (the timer takes a new duty at
-its next period).
+the path stops).  The change is a *timed output* at that tick
+(:meth:`fas.outputs.UserOutputs.analog` with ``at``): the backend makes it at the tick
+where the outputs are - a timer compare on the simulated chip, the device's clock
+behind ``--port`` - however busy the main loop is then, so the duty follows each queue
+command within one PWM period (the timer takes a new duty at its next period); a
+backend without timed outputs has them made by :meth:`Tooling.poll` as their ticks
+come.
 """
 
 from __future__ import annotations
 
-import bisect
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -40,7 +43,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from .machine import GcodeMachine
 
 RPM_MAX, RPM_MIN = 30, 31  # the settings
-MAX_SCHEDULED = 4096  # laser duty changes waiting for their tick (a queue's worth and more)
 
 
 @dataclass(frozen=True)
@@ -92,8 +94,7 @@ class Tooling:
         self.state = SPINDLE_OFF
         self.speed = 0.0  # S the spindle runs with (before the override)
         self.mist = self.flood = False
-        self._times: list[int] = []  # laser duty changes to make, by tick
-        self._duties: list[float] = []
+        self._scheduled = 0  # laser duty changes given to the outputs, tick not yet polled
         self.last_scheduled: float | None = None
         self.changes = 0  # duty changes made for the laser (figures, tests)
         # outputs this has switched on: only those does it switch off (M5, M9, M2,
@@ -232,27 +233,30 @@ class Tooling:
         if duty == self.last_scheduled:
             return
         self.last_scheduled = duty
-        if len(self._times) >= MAX_SCHEDULED:  # pragma: no cover - a queue is far shorter
-            self.poll(tick)
-        i = bisect.bisect_right(self._times, tick)
-        self._times.insert(i, tick)
-        self._duties.insert(i, duty)
+        n = self.spindle_output()
+        assert n is not None  # (checked above)
+        if duty == 0.0 and (True, n) not in self._driven:
+            return
+        if duty > 0.0:
+            self._driven.add((True, n))
+        else:
+            self._driven.discard((True, n))
+        self._scheduled += 1
+        self._outputs().analog(n, duty, synchronized=False, at=tick)
 
     def clear_schedule(self) -> None:
-        self._times.clear()
-        self._duties.clear()
+        """Drop the laser's changes whose tick has not come."""
+        self._outputs().cancel_timed()
+        self._scheduled = 0
         self.last_scheduled = None
 
     def poll(self, now: int) -> None:
-        """Make the laser duty changes whose tick has come."""
-        k = bisect.bisect_right(self._times, now)
-        if not k:
-            return
-        duty = self._duties[k - 1]
-        del self._times[:k]
-        del self._duties[:k]
-        self.changes += 1
-        self._set_duty(duty)
+        """The laser's changes whose tick has come are made (the backend's timed output
+        made them at their tick already; see the module text)."""
+        if self._scheduled:
+            made = self._outputs().poll_timed(now)
+            self._scheduled -= made
+            self.changes += made
 
     def wake_tick(self) -> int | None:
-        return self._times[0] if self._times else None
+        return self._outputs().next_timed_tick() if self._scheduled else None

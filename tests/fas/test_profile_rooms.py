@@ -97,7 +97,13 @@ def test_variants_are_their_base_with_the_figures_that_differ():
         v = get_profile(f"atmega2560_timer{timer}")
         assert v.timer_module == timer
         assert replace(v, name=mega.name, title=mega.title, step_pin_groups=mega.step_pin_groups,
-                       timer_module=4) == mega
+                       timer_module=4, step_vectors_after_timer0=True) == mega
+        # the vector table: timer 1's compares come before timer 0's overflow and
+        # USART0's, timers 3, 4, 5's after them
+        assert v.step_vectors_after_timer0 == (timer != 1)
+    assert mega.step_vectors_after_timer0
+    assert not get_profile("atmega328p").step_vectors_after_timer0
+    assert not get_profile("atmega32u4").step_vectors_after_timer0
     rp2350 = get_profile("rp2350")
     assert replace(rp2350, name="rp2040", title=get_profile("rp2040").title, f_cpu=133_000_000,
                    max_steppers=8, ram_bytes=270336) == get_profile("rp2040")

@@ -18,6 +18,7 @@ from fas.gear import Gear, GearResult
 from fas.serial.protocol import (
     F_INPUTS,
     F_SIM_INPUTS,
+    F_TIMED_OUTPUTS,
     L_CLEAR,
     L_UP,
     P_HALTED,
@@ -86,13 +87,13 @@ def _entry(stepper: int, index: int, steps: int = 10, up: bool = True,
 
 
 def test_ident_names_the_inputs_and_the_simulated_world(host):
-    assert _open(host).features == F_INPUTS | F_SIM_INPUTS
+    assert _open(host).features == F_INPUTS | F_SIM_INPUTS | F_TIMED_OUTPUTS
 
 
 def test_on_a_board_set_input_is_refused(elf, tmp_path):
     board = Board(elf, tmp_path / "trace.txt")
     try:
-        assert _open(board).features == F_INPUTS
+        assert _open(board).features == F_INPUTS | F_TIMED_OUTPUTS
         got = board.send(1, WatchInput(SWITCH, W_PULLUP, 0))
         assert _all(got, Input)[0].value == 1
         got = board.send(2, SetInput(SWITCH, 0, 0))

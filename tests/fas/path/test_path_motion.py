@@ -397,20 +397,73 @@ def test_arcs_on_the_pins():
     assert worst <= tol * SPU + 2
 
 
-@pytest.mark.xfail(strict=True, reason="measured 1.95 steps at some steps (r 10 mm, tol "
-                   "0.01 mm = 0.8 steps): chords 0.8 inside, vertices rounded to a step "
-                   "(up to 0.71), each axis up to one step behind along the chord")
+def test_blends_into_and_out_of_an_arc_between_steps_keep_its_chord_ends():
+    """A corner on whole steps next to an arc whose chord ends lie between steps: the
+    corners into the arc's first chord and out of its last are blended (the blend's
+    path there follows the chords themselves, not the axes' rounded pins), the chord
+    ends between steps are kept as they are (no blend there), every step within one
+    step of the path as run, the end exact."""
+    from fas.path import Plane, arc_points
+
+    tol = 0.01
+    backend, engine, group, pins, dirs = make_group(limits=LIMITS, arc_tolerance=tol,
+                                                    junction_deviation=0.01)
+    quarter = arc_points((5.0, 0.0), (10.0, 5.0), (0.0, 5.0), Plane.XY, False, tol)
+    arc = [tuple(v * SPU for v in p) for p in quarter]
+    assert any(v != round(v) for p in arc[:-1] for v in p)
+    targets = [(400.0, 0.0)] + arc + [(800.0, 1200.0)]
+    feed_all(backend, group, targets, 3000.0)
+    ins = instants(axis_steps(backend, pins, dirs), (0, 0))
+    assert ins[-1][1] == (800, 1200)
+    assert [c for c, _seg in group.blend_log] == [(400, 0), (800, 400)]
+    assert blended_dev(ins, group, [(0, 0)] + targets) <= 1.0
+    assert group.stats.underruns == 0
+
+
 def test_every_step_within_tolerance_plus_one_step_of_the_circle():
+    """The chord ends as they are (between steps), not rounded: every axis stands on the
+    step nearest to the path (but its last step, on the end tick), so every step is
+    within the tolerance + one step of the circle (measured 0.8 + 0.68; with the
+    vertices rounded to steps, as in the test above, 0.8 + 1.40)."""
     from fas.path import Plane, arc_points
 
     tol = 0.01
     backend, engine, group, pins, dirs = make_group(limits=LIMITS, arc_tolerance=tol,
                                                     junction_deviation=0.01)
     circle = arc_points((0.0, 0.0), (0.0, 0.0), (10.0, 0.0), Plane.XY, True, tol)
-    feed_all(backend, group, [tuple(round(v * SPU) for v in p) for p in circle], 3000.0)
+    points = [tuple(v * SPU for v in p) for p in circle]
+    assert any(v != round(v) for p in points for v in p)
+    feed_all(backend, group, points, 3000.0)
     ins = instants(axis_steps(backend, pins, dirs), (0, 0))
+    assert ins[-1][1] == (0, 0)  # the end point, exactly
     worst = max(abs(math.hypot(p[0] - 800, p[1]) - 800) for _t, p in ins)
     assert worst <= tol * SPU + 1
+    assert group.stats.underruns == 0
+
+
+def test_a_path_through_points_keeps_each_axis_on_the_nearest_step():
+    """``through``: the path goes on through the point (an arc's chord end) - every axis
+    stands on the step nearest to the path, also where the point happens to lie on a
+    whole step (Y 5.0 here); the last block ends on its target, every axis's last step
+    on one tick."""
+    from rigs.path import Stream, perp_to_segment
+
+    backend, engine, group, pins, dirs = make_group(limits=LIMITS)
+    a, b, end = (0.0, 0.0), (400.3, 5.0), (800, 30)
+    assert group.line(b, 3000.0, through=True) == PathResult.OK
+    assert group.line(end, 3000.0) == PathResult.OK
+    assert group.position == [800, 30]
+    assert Stream(backend, group, [], 3000.0).run()
+    steps = axis_steps(backend, pins, dirs)
+    ins = instants(steps, (0, 0))
+    assert ins[-1][1] == end
+    assert steps[0][-1][0] == steps[1][-1][0]  # the last steps on one tick
+    first = [p for _t, p in ins if p[0] <= 399]  # the pins in the first block
+    assert len(first) > 390
+    # each axis within half a step (+ early grouped steps while speeding up): Y, the
+    # slow axis, would lag up to a whole step into the whole step Y 5 without it
+    worst = max(perp_to_segment(p, a, b) for p in first)
+    assert worst <= (0.5 + GROUP_TOLERANCE_STEPS) * math.sqrt(2), worst
 
 
 # --------------------------------------------- acceleration at the corners

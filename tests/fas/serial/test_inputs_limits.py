@@ -14,6 +14,7 @@ from fas.gear import Gear, GearResult
 from fas.serial.protocol import (
     F_INPUTS,
     F_SIM_INPUTS,
+    F_TIMED_OUTPUTS,
     L_CLEAR,
     L_UP,
     S_ANALOG,
@@ -86,7 +87,7 @@ def test_a_simulated_device_takes_the_hosts_pots_and_switches():
     values come back from the device's pins (Input reports), not from the host."""
     with Loopback() as lb:
         b, dev = lb.backend, lb.device
-        assert b.ident.features == F_INPUTS | F_SIM_INPUTS
+        assert b.ident.features == F_INPUTS | F_SIM_INPUTS | F_TIMED_OUTPUTS
         b.watch_input(SWITCH, pullup=True)
         b.watch_input(POT, analog=True, period_ms=20)
         b.wait_until(lambda: b.read_input(POT) is not None, TPS // 10)

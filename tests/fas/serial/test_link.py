@@ -117,3 +117,62 @@ def test_frame_size_follows_the_line():
     link.loss_tx = 0.05
     link._fit_payload()  # noqa: SLF001 - the payload rule alone, without traffic
     assert link.payload == 32
+
+
+def _messages(wire: Wire) -> list[type]:
+    """The types of the messages written since the last call, in order."""
+    from fas.serial.protocol import decode_messages
+
+    got = [type(m) for _seq, payload in FrameDecoder().feed(bytes(wire.written))
+           for m in decode_messages(payload)]
+    wire.written.clear()
+    return got
+
+
+def test_a_timed_change_overtakes_only_the_entries_not_yet_framed():
+    """``overtake_entries``: ahead of the queue entries waiting at the end of the
+    messages not framed, never past another kind of message nor an earlier overtaker."""
+    from fas.serial.protocol import OutputAt, OutputNext, OutputPwm
+
+    link = HostLink(Wire(), Clock(), window=9, max_payload=5)
+    e = Entry(0, 0, 1, 1000, False, True, True, True)
+    for msg in (e, e, OutputPwm(1, 11, 64, 256, 0), e, e):
+        link.send(msg)
+    link.send(OutputAt(1, 1, 11, 10, 5000), overtake_entries=True)
+    link.send(OutputNext(11, 100), overtake_entries=True)
+    link.send(e)
+    order = [m[1][0] for m in link.pending]
+    assert order == [0x40, 0x40, 0x20, 0x23, 0x24, 0x40, 0x40, 0x40]
+    mids = [m[0] for m in link.pending]
+    assert mids[3:5] == [6, 7] and mids[5:7] == [4, 5]  # (ids stay those given)
+
+
+def test_entries_wait_while_the_line_must_stay_clear_for_timed_changes():
+    """``entries_by_ns``: no entry is framed that would keep the line busy past it
+    (at the baud's pace, a quarter slower) until ``entries_hold_end_ns``; other messages
+    go; None lifts it."""
+    from fas.serial.protocol import OutputAt
+
+    clock = Clock()
+    wire = Wire()
+    link = HostLink(wire, clock, window=9, max_payload=32, baud=115200)
+    e = Entry(0, 0, 1, 1000, False, True, True, True)
+    link.entries_by_ns, link.entries_hold_end_ns = 1 * MS, 3 * MS
+    # (a 10-byte frame takes 0.87 ms at 115 200 baud)
+    link.send(e)
+    link.flush()
+    assert _messages(wire) == []  # 0.87 ms * 1.25 > 1 ms
+    link.entries_by_ns = 2 * MS
+    link.flush()
+    assert _messages(wire) == [Entry]
+    link.send(e)
+    link.send(OutputAt(1, 1, 11, 10, 5000), overtake_entries=True)
+    link.flush()  # the line is busy until ~1.1 ms: the change goes, the entry waits
+    assert _messages(wire) == [OutputAt]
+    clock.t = 3 * MS  # the waiting change's tick: late anyway, the entries go
+    link.flush()
+    assert _messages(wire) == [Entry]
+    link.send(e)
+    link.entries_by_ns = None
+    link.flush()
+    assert _messages(wire) == [Entry]

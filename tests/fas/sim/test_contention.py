@@ -5,7 +5,7 @@ after it is entered and writes the next compare ``ocr`` ticks later.  It is ente
 no routine holds the CPU with interrupts off; pending requests enter in priority order.
 """
 
-from fas.arch import ATMEGA328P
+from fas.arch import ATMEGA328P, get_profile
 from fas.sim.machine import PRIO_STEP_ISR, PRIO_TASK, Machine
 from fas.sim.timing import sim_timing
 from rigs.sim import make
@@ -107,3 +107,27 @@ def test_the_pulse_lasts_to_the_end_of_the_block_and_the_next_compare_follows_it
 def test_a_compare_just_before_a_block_is_not_delayed():
     high, interval = _block_before_compare(-1)  # the block begins the tick after the compare
     assert high == LAT_A and interval == 1600
+
+
+def _behind_a_step_interrupt_and_timer_0(profile_name: str) -> list[tuple[str, int]]:
+    """Channel A's step interrupt runs [OV - 50, OV + 77); timer 0 overflows at OV, channel
+    B's compare comes at OV + 10: when is B entered?"""
+    m = Machine(get_profile(profile_name))
+    m.start_millis()  # at tick 0: timer 0 overflows every millis_overflow_ticks
+    ov = m.timing.millis_overflow_ticks
+    seen: list[tuple[str, int]] = []
+    m.schedule(ov - 50, lambda: seen.append(("A", m.now - ov)), PRIO_STEP_ISR, enter=127)
+    m.schedule(ov + 10, lambda: seen.append(("B", m.now - ov)), PRIO_STEP_ISR + 1, enter=142)
+    m.run_until(ov + 2000)
+    return seen
+
+
+def test_on_the_megas_timer_4_timer_0_enters_before_a_pending_step_interrupt():
+    """Vectors of the ATmega2560: timer 0's overflow (24) comes before timer 4's compares
+    (42-44), so its interrupt, requested while A's runs, enters when A's returns, and B's
+    after it.  On timer 1 (compares 18-20) timer 0 has the lower priority; the model
+    keeps its routine where it was requested (overlapping A's), B waits to its end."""
+    ms = sim_timing(get_profile("atmega2560")).millis_isr_ticks
+    a_end = -50 + 127
+    assert _behind_a_step_interrupt_and_timer_0("atmega2560") == [("A", -50), ("B", a_end + ms)]
+    assert _behind_a_step_interrupt_and_timer_0("atmega2560_timer1") == [("A", -50), ("B", ms)]
