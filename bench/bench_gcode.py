@@ -57,7 +57,7 @@ sys.path.insert(1, os.path.join(ROOT, "bench"))  # bench_path's program
 from fas.arch import PROFILES  # noqa: E402
 from fas.path import executor as path_executor  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
-from rigs.path import instants, path_as_run, timed_deviation  # noqa: E402
+from rigs.path import edge_accels, instants, path_as_run, timed_deviation  # noqa: E402
 from stepperdemo.demo.build import demo_build  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.watch import observe  # noqa: E402
@@ -338,18 +338,9 @@ def rate_and_accel(steps: list[tuple[int, int]], tps: int, corners: list[int],
     top = max(abs(x[i + 1] - x[i - 1]) / (2e-3) for i in range(1, len(x) - 1))
     ticks = [t for t, _ in steps]
     xs = list(itertools.accumulate(d for _, d in steps))
-    w = window_ms * tps // 1000
     margin = 5 * dt
     acc = acc_away = 0.0
-    n = len(ticks)
-    for b in range(n):
-        a = bisect.bisect_right(ticks, ticks[b] - w) - 1
-        c = bisect.bisect_left(ticks, ticks[b] + w)
-        if a < 0 or c >= n:
-            continue
-        ta, tb, tc = ticks[a], ticks[b], ticks[c]
-        v = 2 * ((xs[c] - xs[b]) / (tc - tb) - (xs[b] - xs[a]) / (tb - ta)) / (tc - ta)
-        v = abs(v) * tps * tps
+    for ta, _tb, tc, v in edge_accels(ticks, xs, tps, window_ms / 1000):
         if v > acc:
             acc = v
         k = bisect.bisect_left(corners, ta - margin)

@@ -422,6 +422,11 @@ def main(argv: list[str] | None = None) -> int:
                     "... queue start of a ramp task, comma-separated")
     args = ap.parse_args(argv)
     conf = Path(args.conformance)
+    missing = [c for c in (args.cases or CASES) if not (conf / c / "input.txt").is_file()]
+    if missing:
+        print(f"e_fidelity: no firmware run {', '.join(missing)} in {conf} "
+              "(give the conformance folder with --conformance DIR)", file=sys.stderr)
+        return 2
     e_cases = args.cases or [c for c in CASES if c.startswith("e")]
     if args.starts:
         return starts(conf, e_cases)

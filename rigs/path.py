@@ -9,7 +9,7 @@ per axis, the path speed at an instant.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 from fas import Engine
 from fas.path import AxisLimits, PathGroup, PathResult, PathSettings
@@ -294,20 +294,20 @@ def max_accel(ticks: Sequence[int], xs: Sequence[int], t_from: int, t_to: int, t
     return worst_a, worst_v
 
 
-def edge_accel(ticks: Sequence[int], xs: Sequence[int], tps: int,
-               window_s: float) -> tuple[float, int]:
-    """(largest |acceleration| in steps/s^2, the tick of its middle step) of one axis
-    over its whole motion, corners included: for every step b, a = the last step at
-    least ``window_s`` before it, c = the first at least ``window_s`` after it, and
-    the divided difference of :func:`max_accel`.  The position at a step's tick is
-    exact, so for a motion with a continuous velocity this is a weighted mean of its
+def edge_accels(ticks: Sequence[int], xs: Sequence[int], tps: int, window_s: float
+                ) -> Iterator[tuple[int, int, int, float]]:
+    """For every step b of one axis: (t_a, t_b, t_c, |acceleration| in steps/s^2) with
+    a = the last step at least ``window_s`` before it, c = the first at least
+    ``window_s`` after it, and the divided difference ``2 ((x_c - x_b)/(t_c - t_b) -
+    (x_b - x_a)/(t_b - t_a)) / (t_c - t_a)``.  The position at a step's tick is exact,
+    so for a motion with a continuous velocity this is a weighted mean of its
     acceleration (never above the largest); a velocity jump Dv between a and c adds
     up to 2 Dv / (t_c - t_a).  Steps up to ``e`` steps early make it off by at most
     2 e / W^2."""
     import bisect
-    w = int(window_s * tps)
+    w = round(window_s * tps)
     n = len(ticks)
-    worst, at = 0.0, 0
+    scale = tps * tps
     for b in range(n):
         a = bisect.bisect_right(ticks, ticks[b] - w) - 1
         c = bisect.bisect_left(ticks, ticks[b] + w)
@@ -315,9 +315,18 @@ def edge_accel(ticks: Sequence[int], xs: Sequence[int], tps: int,
             continue
         ta, tb, tc = ticks[a], ticks[b], ticks[c]
         v = abs(2 * ((xs[c] - xs[b]) / (tc - tb) - (xs[b] - xs[a]) / (tb - ta)) / (tc - ta))
+        yield ta, tb, tc, v * scale
+
+
+def edge_accel(ticks: Sequence[int], xs: Sequence[int], tps: int,
+               window_s: float) -> tuple[float, int]:
+    """(largest |acceleration| in steps/s^2, the tick of its middle step) of one axis
+    over its whole motion, corners included (:func:`edge_accels`)."""
+    worst, at = 0.0, 0
+    for _ta, tb, _tc, v in edge_accels(ticks, xs, tps, window_s):
         if v > worst:
             worst, at = v, tb
-    return worst * tps * tps, at
+    return worst, at
 
 
 def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],

@@ -27,6 +27,7 @@ without such a sink the pin statistics count a block's pulses at their plain wid
 from __future__ import annotations
 
 from collections.abc import Callable
+from heapq import heappush
 from typing import TYPE_CHECKING
 
 from ..channel import PulseCounter, QueueChannel
@@ -409,24 +410,29 @@ class SimChannel(QueueChannel):
         """End of the step interrupt of the running block that holds the CPU at tick
         ``t`` (its interrupt j is requested at ``b_c0 + j * b_t``; entered when the
         CPU is free)."""
-        if not self.batch or t < self.b_c0:
+        if not self.batch:
             return None
-        c0, period = self.b_c0, self.b_t
+        c0 = self.b_c0
+        if t < c0:
+            return None
+        period = self.b_t
         j = (t - c0) // period
         if j > self.b_n - 2:
             j = self.b_n - 2
         if j < 0:
             return None
         cost = self.isr_ticks
-        for k in (j, j - 1):
-            if k < 0:
-                break
-            c = c0 + k * period
+        c = c0 + j * period
+        for _ in range(2 if j else 1):  # pulse j, then j - 1
             if t - c >= cost + LATE_ENTRY:  # its interrupt is over, however late it came
-                break
-            entry = self._entry_of(c)
+                return None
+            if c != self._entry_req:  # (_entry_of, written out)
+                self._entry_req = c
+                self._entry_tick = self.m.cpu_free_at(c, self)
+            entry = self._entry_tick
             if entry <= t < entry + cost:
                 return entry + cost
+            c -= period
         return None
 
     def _entry_of(self, c: int) -> int:
@@ -512,19 +518,22 @@ class SimChannel(QueueChannel):
 
     def _single_isr(self) -> None:
         self.event = None
-        self.m.stolen_ticks += self.cost
+        m = self.m
+        m.stolen_ticks += self.cost
         c = self.pending_compare
-        now = self.m.now
+        now = m.now
         if self.contention:  # entered now: the pin falls lat later
             now += self.lat
         if self.pending_pulse:
             self.pending_pulse = False
-            self._emit(c, now - c, 1)
+            self._made(1)  # (_emit, written out: this runs for every single pulse)
+            if not self.detached:
+                self.pins.pulse(self.step_pin, c, now - c)
             q = self.q
             if self.precounted:
                 self.precounted -= 1
-            elif q.read_idx != q.next_write_idx:
-                self._count(1, q.entries[q.read_idx % q.queue_len].dir_level)
+            elif q.read_idx != q.next_write_idx and self.pulse_counter is not None:
+                self.pulse_counter.count(1, q.entries[q.read_idx % q.queue_len].dir_level)
         self._isr(c, now)
 
     def _isr(self, c: int, now: int) -> None:
@@ -542,30 +551,68 @@ class SimChannel(QueueChannel):
         e = q.entries[rp % q.queue_len]
         ticks = e.ticks
         was_dry = self.no_more
-        if e.steps > 1:
-            e.steps -= 1
+        steps = e.steps
+        if steps > 1:
+            # the entry goes on (_program and _schedule_single written out for a single
+            # pulse: this runs for every pulse of a channel beside a block of pulses)
+            steps -= 1
+            e.steps = steps
             self.mode_one = True
-        else:
-            if self.no_more:
-                self.no_more = False
-                if e.steps != 0:
-                    ticks = RESTART_TICKS
-            else:
-                rp = (rp + 1) & 0xFF
-                q.read_idx = rp
-                if rp == wp:
-                    self.no_more = True
-                    self.dry += 1
-                    self.mode_one = False
-                    self._arm_single(c + ticks, now, e)
+            if self.entry_listeners and e is not self._noted:
+                self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)
+            compare = c + ticks
+            if compare <= now + self.ocr:
+                compare = self._next_compare(compare, now)
+            m = self.m
+            contention = self.contention
+            if steps > 1:
+                if not contention:
+                    self._program(compare, e)  # a block of pulses
                     return
-                e = q.entries[rp % q.queue_len]
-            if e.toggle_dir:
-                self._toggle_dir(now)
-            if e.steps and self.entry_guard is not None and self.entry_guard(e):
-                self._halt()
+                bc = m.batch_channel
+                if bc is None or bc is self:
+                    self._program(compare, e)
+                    return
+                cost = self.isr_ticks
+            else:
+                cost = self.isr_next_ticks
+            self.pending_compare = compare
+            self.pending_pulse = True
+            self.cost = cost
+            if contention:
+                if compare < m.now:
+                    compare = m.now
+                ev = Event(compare, self.prio, self._single_isr, cost > 0, cost, self)
+            else:
+                compare += self.lat
+                if compare < m.now:
+                    compare = m.now
+                ev = Event(compare, self.prio, self._single_isr, True, 0, None)
+            self.event = ev
+            m.seq += 1
+            heappush(m.events, (compare, self.prio, m.seq, ev))
+            return
+        # the entry's last pulse (or a pause): take up the next entry
+        if self.no_more:
+            self.no_more = False
+            if e.steps != 0:
+                ticks = RESTART_TICKS
+        else:
+            rp = (rp + 1) & 0xFF
+            q.read_idx = rp
+            if rp == wp:
+                self.no_more = True
+                self.dry += 1
+                self.mode_one = False
+                self._arm_single(c + ticks, now, e)
                 return
-            self.mode_one = e.steps != 0
+            e = q.entries[rp % q.queue_len]
+        if e.toggle_dir:
+            self._toggle_dir(now)
+        if e.steps and self.entry_guard is not None and self.entry_guard(e):
+            self._halt()
+            return
+        self.mode_one = e.steps != 0
         if self.entry_listeners and e is not self._noted:
             self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)
         compare = c + ticks  # (_arm, written out: this runs once per queue entry)

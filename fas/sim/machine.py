@@ -105,7 +105,7 @@ class Machine:
         # first (cancelled ones stay until they come up); read it, never write it
         # (a print looks ahead for the next event's tick: fas.sim.printing)
         self.events: list[tuple[int, int, int, Event]] = []
-        self._seq = 0
+        self.seq = 0  # insertion counter: the heap's tie-break (a channel pushes events too)
         self.pins = PinBank()
         self.outputs = SimOutputs(self.pins)  # user outputs: digital pins, PWM waves
         self.uart = Uart(self.timing.uart_byte_ticks, self.timing.uart_tx_buffer)
@@ -164,8 +164,8 @@ class Machine:
         if time < self.now:
             time = self.now
         ev = Event(time, prio, fn, isr or enter > 0, enter, owner)
-        self._seq += 1
-        heapq.heappush(self.events, (time, prio, self._seq, ev))
+        self.seq += 1
+        heapq.heappush(self.events, (time, prio, self.seq, ev))
         return ev
 
     @staticmethod
@@ -213,14 +213,14 @@ class Machine:
                         free = self.cpu_free_at(time, ev.owner)
                     if free > time:  # pending; those pending then enter in priority order
                         ev.time = free
-                        self._seq += 1
-                        heapq.heappush(heap, (free, prio, self._seq, ev))
+                        self.seq += 1
+                        heapq.heappush(heap, (free, prio, self.seq, ev))
                         continue
                 elif time < self.irq_blocked_until:
                     # interrupt pending until the block ends; then in priority order
                     ev.time = self.irq_blocked_until
-                    self._seq += 1
-                    heapq.heappush(heap, (ev.time, prio, self._seq, ev))
+                    self.seq += 1
+                    heapq.heappush(heap, (ev.time, prio, self.seq, ev))
                     continue
             if time > self.now:
                 if stop_on_activity and self.activity != activity:
@@ -528,7 +528,7 @@ class Machine:
         (Written out for speed: this runs for every character a program prints.)"""
         if not self.cpu_sources:  # between events an IsrClock answers (fas.sim.loop_isrs)
             clock = self._clock  # (isr_clock(), written out)
-            key = (self.events_run, self._seq, self.irq_block_windows, self.activity)
+            key = (self.events_run, self.seq, self.irq_block_windows, self.activity)
             if clock is None or self._clock_key != key:
                 clock = self._clock = IsrClock(self)
                 self._clock_key = key
@@ -565,7 +565,7 @@ class Machine:
         A clock holds while no event ran or was scheduled, no interrupt-blocked window
         began and no channel started or stopped.  (With ``cpu_sources`` the machine
         counts every span itself: the clock answers only :meth:`resume_wait` then.)"""
-        key = (self.events_run, self._seq, self.irq_block_windows, self.activity)
+        key = (self.events_run, self.seq, self.irq_block_windows, self.activity)
         clock = self._clock
         if clock is None or self._clock_key != key:
             clock = self._clock = IsrClock(self)

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING
 
 from fas.codes import PIN_EXTERNAL_FLAG, PIN_UNDEFINED
 
+from ..program import make_program
 from ..scenarios.evaluate import rising_edges
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -310,3 +311,11 @@ class PinTracker:
             if (pos - physical - offset) & 0xFFFFFFFF:
                 self.res.violations.append(f"stepper {i + 1}: position {pos} but the pins "
                                            f"counted {physical} + declared {offset}")
+
+
+def start(name: str, backend: Backend, res: FuzzResult) -> tuple[Program, PinTracker]:
+    """Make program ``name`` on ``backend`` as a script, run its set-up (its steppers
+    exist from then on) and watch their pins against the library."""
+    program = make_program(name, backend, scripted=True)
+    program.run_until(backend.now())
+    return program, PinTracker(backend, program.steppers, res)

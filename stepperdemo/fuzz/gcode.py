@@ -53,8 +53,7 @@ from collections import deque
 
 from fas.sim import SimBackend
 
-from ..program import make_program
-from .common import BYTES, LINE, Case, FuzzResult, PinTracker, drive, noise, settle
+from .common import BYTES, LINE, Case, FuzzResult, drive, noise, settle, start
 
 PROGRAM = "gcode"
 AXIS_WORDS = "XYZABC"
@@ -654,9 +653,7 @@ def check_gcode(case: Case, arch: str = "atmega328p", max_time_s: float = 10.0,
     backend = SimBackend(arch, record=True)
     tps = backend.profile.ticks_per_s
     try:
-        program = make_program(PROGRAM, backend, scripted=True)
-        program.run_until(backend.now())  # set-up: the steppers exist from here on
-        tracker = PinTracker(backend, program.steppers, res)
+        program, tracker = start(PROGRAM, backend, res)
         limit = backend.now() + int(max_time_s * tps)
         mark = len(program.transcript)
         if case.kind == LINE:

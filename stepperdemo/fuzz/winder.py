@@ -33,7 +33,7 @@ from fas.sim import SimBackend
 from ..program import make_program
 from ..winder import figures as fig
 from ..winder.app import Winder, WinderError
-from .common import BYTES, LINE, Case, FuzzResult, PinTracker, StepTrack, drive, noise
+from .common import BYTES, LINE, Case, FuzzResult, PinTracker, StepTrack, drive, noise, start
 
 PROGRAM = "winder"
 
@@ -212,9 +212,7 @@ def check_winder(case: Case, arch: str = "atmega328p", max_time_s: float = 4.0,
     backend = SimBackend(arch, record=True)
     tps = backend.profile.ticks_per_s
     try:
-        winder = make_program(PROGRAM, backend, scripted=True)
-        winder.run_until(backend.now())
-        tracker = PinTracker(backend, winder.steppers, res)
+        winder, tracker = start(PROGRAM, backend, res)
         limit = backend.now() + int(max_time_s * tps)
         if case.kind == LINE:
             end = winder.run_script(case.text, max_ticks=limit - backend.now())

@@ -322,7 +322,7 @@ def test_issue208_longest_pulse_as_upstream(issue208):
     assert abs(int(pin_activity(sk.backend, STEP_A).high_max_us) - 9) <= 5
 
 
-@pytest.mark.xfail(strict=True, reason="measured Total High 915333 us; upstream 923729 +- 700 "
+@pytest.mark.xfail(strict=True, reason="measured Total High 915341 us; upstream 923729 +- 700 "
                    "us (issue 23 item 2: the pulses waiting behind other interrupts are "
                    "fewer or shorter than on the chip)")
 def test_issue208_pulse_high_time_as_upstream(issue208):
