@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING
 
 from ..codes import AqeResult
 from .executor import Executor, Segment
-from .settings import GROUP_TOLERANCE_STEPS
+from .settings import GROUP_TOLERANCE_STEPS, TURN_EXACT_S
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..planner import PlannerHost
@@ -111,6 +111,11 @@ class AxisWriter:
         #: shorter than that may go on past a segment's last step (:meth:`_across`)
         self.min_span = 4 * host.backend.task_period_ticks // host.queue.queue_len
         self.tol = GROUP_TOLERANCE_STEPS
+        #: steps before this tick are placed on their ticks: the axis turned round
+        #: less than TURN_EXACT_S ago (:meth:`_step`)
+        self.exact_until = 0
+        self.turn_ticks = round(TURN_EXACT_S * self.tps)
+        self.step_dir: bool | None = None  # the direction of the last step written
         self.stats = AxisStats()
         self.listener: SpeedListener | None = None
         self.seq = 0  # the segment of the cursor ...
@@ -226,6 +231,13 @@ class AxisWriter:
         i = self.axis
         seg = ex.segment(self.seq)
         assert seg is not None
+        # shortly after a turn no step early (TURN_EXACT_S): one step a command
+        up = seg.step_up(i, self.j)
+        if up != self.step_dir:
+            if self.step_dir is not None:
+                self.exact_until = self.w_end + self.turn_ticks
+            self.step_dir = up
+        self.tol = 0.0 if self.w_end < self.exact_until else GROUP_TOLERANCE_STEPS
         if seg.blend:  # a corner blend: its steps grouped as far as they allow
             return self._blend_group(seg)
         known = seg.known(i)
@@ -646,6 +658,10 @@ class AxisWriter:
             if steps:
                 st.commands += 1
                 st.steps += steps
+                if up != self.step_dir:  # a turn (a step not through _step)
+                    if self.step_dir is not None:
+                        self.exact_until = self.w_end + self.turn_ticks
+                    self.step_dir = up
             else:
                 st.pauses += 1
         return Wrote.OK
