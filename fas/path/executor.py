@@ -193,6 +193,25 @@ class Segment:
             return self.end_tick
         return int(self.time_at((j - self.phase[axis]) * self.pitch[axis]) + 0.5)
 
+    def step_ticks(self, axis: int, j0: int, j1: int) -> list[int]:
+        """The ticks of ``axis``'s steps ``j0`` to ``j1`` (>= 1), as :meth:`step_tick`."""
+        pitch = self.pitch[axis]
+        phase = self.phase[axis]
+        pieces = self.pieces
+        last = len(pieces) - 1
+        k = 0
+        out: list[int] = []
+        end = (j1 == self.steps[axis] and self.complete and self.end == self.length
+               and self.on_end[axis])
+        for j in range(j0, j1 if end else j1 + 1):
+            s = (j - phase) * pitch
+            while k <= last and s > pieces[k].s1:
+                k += 1
+            out.append(int((pieces[k].time_at(s) if k <= last else self.t_done) + 0.5))
+        if end:
+            out.append(self.end_tick)
+        return out
+
     def __repr__(self) -> str:  # pragma: no cover - debugging aid
         return (f"Segment(#{self.seq} {self.block.delta}, done {self.s_done:.4g}/"
                 f"{self.length:.4g}, t {self.t_start:.0f}..{self.t_done:.0f})")

@@ -53,6 +53,8 @@ MAX_STEPS = 255  # a command's steps
 MAX_TICKS = 65535  # a command's ticks
 #: a segment's last steps before a blend, up to this many, group with the blend's
 BLEND_LEAD = 16
+#: ... and a group through a blend goes on into up to this many steps after it
+BLEND_RUN = 32
 
 #: ``listener(tick, speed, tag)``: the path speed (units/min) of a command of a
 #: segment's dominant axis beginning at ``tick``; speed 0 where the path stops
@@ -373,86 +375,167 @@ class AxisWriter:
         return Wrote.OK
 
     def _blend_group(self, seg: Segment) -> Wrote:
-        """The pending step is in a corner blend or the last before one: it and the
-        next steps the same way up to the blend's last, up to the first step after
-        them (which starts the next command),
-        placed at or before their ticks and within ``tol`` steps (:meth:`_placement`);
-        one step and its wait where no group fits."""
+        """The pending step is in a corner blend or among the last ``BLEND_LEAD``
+        before one: it and the next steps the same way - through the blend's and on
+        into up to ``BLEND_RUN`` steps of the segment after it - up to the first step
+        that does not fit (which starts the next command), placed at or before their
+        ticks and within ``tol`` steps (:meth:`_placement`, the longest run that
+        fits); one step and its wait where no group fits.  An axis that speeds up
+        through the corner takes the blend's steps into the even spread of the steps
+        after it; one that slows down, into the period of the steps before it."""
         ex = self.ex
         i = self.axis
-        up = seg.step_up(i, self.j)
+        j0 = self.j
+        up = seg.step_up(i, j0)
+        chain = [seg]
+        if not seg.blend:
+            nxt = ex.segment(self.seq + 1)
+            assert nxt is not None and nxt.blend
+            chain.append(nxt)
+        out = ex.segment(chain[-1].seq + 1)  # the segment after the blend
+        if out is None:
+            cut = not ex.final
+        else:
+            chain.append(out)
+            cut = not out.complete and out.known(i) - out.first[i] < BLEND_RUN
+        if cut and self.last_start > self._deep:
+            return Wrote.WAIT  # the queue is deep: the next run makes the group longer
         exact: list[int] = []
-        where: list[tuple[int, int]] = []
-        seq, j = self.seq, self.j
-        cur: Segment | None = seg
-        while cur is not None and len(exact) < MAX_STEPS:
-            if j < cur.known(i):
-                j += 1
-                exact.append(cur.step_tick(i, j))
-                where.append((seq, j))
-                if (seq != self.seq and not cur.blend) or cur.step_up(i, j) != up:
-                    break  # the first step after the blend's (or the other way): it
-                continue  # ends the group
-            if not cur.complete:
-                break  # the steps after are not final yet
-            seq += 1
-            cur = ex.segment(seq)
-            j = cur.first[i] if cur is not None else 0
+        #: where each segment's steps begin in ``exact``: (index, seq, its step there)
+        spans: list[tuple[int, int, int]] = []
+        for cur in chain:
+            j = j0 if cur is seg else cur.first[i]
+            kn = cur.known(i)
+            if cur is out and kn > j + BLEND_RUN:
+                kn = j + BLEND_RUN
+            if j >= kn:
+                if not cur.complete:
+                    break  # the steps after are not final yet
+                continue
+            spans.append((len(exact), cur.seq, j + 1))
+            if cur.blend:
+                t0 = cur.t_start + 0.5
+                n = 0
+                turn = False
+                for d in cur.dirs[i][j:kn]:
+                    n += 1
+                    if d != up:  # the first step the other way ends it
+                        turn = True
+                        break
+                exact.extend([int(t0 + t) for t in cur.times[i][j:j + n]])
+                if turn:
+                    break
+            else:
+                if cur.ups[i] != up:
+                    kn = j + 1  # the first step the other way ends it
+                exact.extend(cur.step_ticks(i, j + 1, kn))
+                if cur.ups[i] != up or not cur.complete:
+                    break
+            if len(exact) >= MAX_STEPS:
+                del exact[MAX_STEPS:]
+                break
         if not exact:
             return self._single(seg)
         t0 = self.w_end
-        while len(exact) >= 2:
-            cmds, _placed = self._placement(t0, exact)
+        m = self._longest(t0, exact)
+        cmds = None
+        while m >= 2:  # (the estimate leaves out the periods' rounding: checked)
+            cmds, _placed = self._placement(t0, exact, m)
             if cmds is not None:
                 break
-            exact.pop()
-            where.pop()
-        else:
+            m -= 1
+        if cmds is None:
             return self._single(seg)
+        del exact[m:]
         if self.free < len(cmds):
             return Wrote.FULL
         res = self._write_all(cmds, up, seg)
         if res != Wrote.OK:
             return res
-        self.seq, self.j = where[-1]
+        last = len(exact) - 1
+        for at, sq, jf in reversed(spans):
+            if at <= last:
+                self.seq, self.j = sq, jf + last - at
+                break
         self.t_pend = exact[-1]
         self.pending = True
         return Wrote.OK
 
-    def _placement(self, t0: int, exact: list[int]
+    def _longest(self, t0: int, exact: list[int]) -> int:
+        """How many of ``exact`` a group from a step at ``t0`` reaches (its last one
+        starting the next command), as :meth:`_placement` places them but with
+        periods that need not be whole ticks: in one pass, step ``k`` at
+        ``t0 + k P`` fits where ``(e_k - tol (e_k - e_(k-1)) - t0) / k <= P <=
+        (e_k - t0) / k``; the even spread takes ``P = (e_m - t0) / m``, the first
+        interval's period ``P = e_1 - t0``.  At least 1."""
+        tol = self.tol
+        lo = -math.inf
+        hi = math.inf
+        first = exact[0] - t0
+        best = 1
+        prev = t0
+        k = 1
+        n = len(exact)
+        while k < n:
+            e = exact[k - 1]
+            d = e - t0
+            h = d / k
+            low = (d - tol * (e - prev)) / k
+            if h < hi:
+                hi = h
+            if low > lo:
+                lo = low
+            if lo > hi:
+                break
+            prev = e
+            k += 1
+            even = (exact[k - 1] - t0) / k
+            if lo <= even <= hi or lo <= first <= hi:
+                best = k
+        return best
+
+    def _placement(self, t0: int, exact: list[int], m: int = 0
                    ) -> tuple[list[tuple[int, int]] | None, list[int]]:
         """Commands for a step at ``t0`` and the steps up to the last of ``exact``
-        (which starts the next command), each placed at or before its exact tick and
-        at most ``tol`` steps early; (None, []) where neither the even spread nor the
-        first interval's period does that."""
-        m = len(exact)
-        span = exact[-1] - t0
+        (which starts the next command; ``m``: of its first ``m`` only), each placed
+        at or before its exact tick and at most ``tol`` steps early; (None, []) where
+        neither the even spread nor the first interval's period does that."""
+        if not m:
+            m = len(exact)
+        span = exact[m - 1] - t0
         period, r = divmod(span, m)
-        candidates: list[tuple[list[tuple[int, int]], list[int]]] = []
-        if period >= self.queue.max_speed_in_ticks and period < MAX_TICKS:
+        tol = self.tol
+        fastest = self.queue.max_speed_in_ticks
+        if fastest <= period < MAX_TICKS:
             a = m - r
             if r == 0 or (self._legal(period, a) and self._legal(period + 1, r)):
-                placed = [t0 + k * period + max(0, k - a) for k in range(1, m)]
-                cmds = [(period, a)] + ([(period + 1, r)] if r else [])
-                if r == 0 or self._legal(period, a):
-                    candidates.append((cmds, placed))
+                # step k (1..m-1) at t0 + k period + max(0, k - a)
+                prev = t0
+                t = t0
+                k = 1
+                while k < m:
+                    t += period if k <= a else period + 1
+                    e = exact[k - 1]
+                    if t > e or e - t > tol * (e - prev):
+                        break
+                    prev = e
+                    k += 1
+                else:
+                    return ([(period, a)] + ([(period + 1, r)] if r else []),
+                            [t0 + k * period + max(0, k - a) for k in range(1, m)])
         first = exact[0] - t0
         rest = span - (m - 1) * first
-        if (m > 1 and self.queue.max_speed_in_ticks <= first <= MAX_TICKS
+        if (m > 1 and fastest <= first <= MAX_TICKS
                 and self._legal(first, m - 1) and self.min_wait <= rest <= MAX_TICKS):
-            candidates.append(([(first, m - 1), (rest, 1)],
-                               [t0 + k * first for k in range(1, m)]))
-        for cmds, placed in candidates:
             prev = t0
-            ok = True
+            t = t0
             for k in range(m - 1):
-                late = placed[k] - exact[k]
-                if late > 0 or -late > self.tol * (exact[k] - prev):
-                    ok = False
-                    break
-                prev = exact[k]
-            if ok:
-                return cmds, placed
+                t += first
+                e = exact[k]
+                if t > e or e - t > tol * (e - prev):
+                    return None, []
+                prev = e
+            return [(first, m - 1), (rest, 1)], [t0 + k * first for k in range(1, m)]
         return None, []
 
     def _span_limit(self, seg: Segment, pitch: float, t0: float) -> tuple[float, bool]:
