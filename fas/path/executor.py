@@ -203,11 +203,28 @@ class Segment:
         out: list[int] = []
         end = (j1 == self.steps[axis] and self.complete and self.end == self.length
                and self.on_end[axis])
+        sqrt = math.sqrt
+        p = pieces[0] if pieces else None
         for j in range(j0, j1 if end else j1 + 1):
             s = (j - phase) * pitch
-            while k <= last and s > pieces[k].s1:
-                k += 1
-            out.append(int((pieces[k].time_at(s) if k <= last else self.t_done) + 0.5))
+            if p is not None and s > p.s1:
+                while k <= last and s > pieces[k].s1:
+                    k += 1
+                p = pieces[k] if k <= last else None
+            if p is None:
+                t = self.t_done
+            else:  # Piece.time_at written out
+                d = s - p.s0
+                if d <= 0.0:
+                    t = p.t0
+                else:
+                    v0 = p.v0
+                    root = v0 * v0 + 2.0 * p.a * d
+                    den = v0 + sqrt(root if root > 0.0 else 0.0)
+                    t = p.t0 + 2.0 * d / den if den > 0.0 else p.t1
+                    if t > p.t1:
+                        t = p.t1
+            out.append(int(t + 0.5))
         if end:
             out.append(self.end_tick)
         return out

@@ -28,15 +28,16 @@ DEFAULT_START_DELAY_MS = 50
 #: position error (steps) allowed for steps grouped into one command at an even period
 #: where the exact step times are not evenly spaced (accelerating, decelerating)
 GROUP_TOLERANCE_STEPS = 0.125
-#: for this long after an axis turns round (its first step the other way) its steps
-#: come on their own ticks, none early (seconds).  Early steps put an axis ahead of
-#: the path on the side it moves to, so across a turn their errors change sign; a
-#: divided difference over step edges >= W apart with one edge before the turn and
-#: one after would see up to 4 e / W^2 instead of the one-sided 2 e / W^2
-#: (rigs.path.edge_accels).  With the steps exact for W after the turn, the bound
-#: 2 e / W^2 holds at every step for every window W up to this (the acceptance
-#: measures at 20 ms).
-TURN_EXACT_S = 0.025
+#: for this long after an axis's last step before it turns round, its steps come on
+#: their own ticks, none early (seconds).  Early steps put an axis ahead of the path
+#: on the side it moves to, so across a turn their errors change sign: a divided
+#: difference over step edges >= W apart (rigs.path.edge_accels) with its middle
+#: edge b before the turn and its last c after would see up to 4 e / W^2 instead of
+#: the one-sided 2 e / W^2.  c is the first step at or after t_b + W <= (the last
+#: step before the turn) + W; with every step up to there exact (and the first step
+#: at or after it beginning a command, on its tick) the bound 2 e / W^2 holds at
+#: every step for every window W up to this one - the acceptance's 20 ms.
+TURN_EXACT_S = 0.020
 
 
 @dataclass(frozen=True)

@@ -118,6 +118,7 @@ class AxisWriter:
         self.exact_until = 0
         self.turn_ticks = round(TURN_EXACT_S * self.tps)
         self.step_dir: bool | None = None  # the direction of the last step written
+        self.step_last = 0  # ... and its tick
         self.stats = AxisStats()
         self.listener: SpeedListener | None = None
         self.seq = 0  # the segment of the cursor ...
@@ -149,6 +150,8 @@ class AxisWriter:
         """The run starts ``ticks`` later: the written commands end that much later."""
         self.w_end += ticks
         self.last_start += ticks
+        self.step_last += ticks
+        self.exact_until += ticks
         if self.pending:
             self.t_pend += ticks
 
@@ -237,7 +240,7 @@ class AxisWriter:
         up = seg.step_up(i, self.j)
         if up != self.step_dir:
             if self.step_dir is not None:
-                self.exact_until = self.w_end + self.turn_ticks
+                self.exact_until = self.step_last + self.turn_ticks
             self.step_dir = up
         self.tol = 0.0 if self.w_end < self.exact_until else GROUP_TOLERANCE_STEPS
         if seg.blend:  # a corner blend: its steps grouped as far as they allow
@@ -743,8 +746,9 @@ class AxisWriter:
                 st.steps += steps
                 if up != self.step_dir:  # a turn (a step not through _step)
                     if self.step_dir is not None:
-                        self.exact_until = self.w_end + self.turn_ticks
+                        self.exact_until = self.step_last + self.turn_ticks
                     self.step_dir = up
+                self.step_last = self.last_start
             else:
                 st.pauses += 1
         return Wrote.OK
