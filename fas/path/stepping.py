@@ -440,15 +440,10 @@ class AxisWriter:
         if not exact:
             return self._single(seg)
         t0 = self.w_end
-        m = self._longest(t0, exact)
-        cmds = None
-        while m >= 2:  # (the estimate leaves out the periods' rounding: checked)
-            cmds, _placed = self._placement(t0, exact, m)
-            if cmds is not None:
-                break
-            m -= 1
-        if cmds is None:
+        m, period = self._longest(t0, exact)
+        if m < 2:
             return self._single(seg)
+        cmds = [(period, m - 1), (exact[m - 1] - t0 - (m - 1) * period, 1)]
         del exact[m:]
         if self.free < len(cmds):
             return Wrote.FULL
@@ -464,21 +459,23 @@ class AxisWriter:
         self.pending = True
         return Wrote.OK
 
-    def _longest(self, t0: int, exact: list[int]) -> int:
+    def _longest(self, t0: int, exact: list[int]) -> tuple[int, int]:
         """How many of ``exact`` a group from a step at ``t0`` reaches (its last one
-        starting the next command), as :meth:`_placement` places them but with
-        periods that need not be whole ticks: in one pass, step ``k`` at
-        ``t0 + k P`` fits where ``(e_k - tol (e_k - e_(k-1)) - t0) / k <= P <=
-        (e_k - t0) / k``; the even spread takes ``P = (e_m - t0) / m``, the first
-        interval's period ``P = e_1 - t0``.  At least 1."""
+        starting the next command) with its steps at a whole period ``P``, the last
+        waiting for the rest: ``(m, P)``, ``m`` 1 where none.  Step ``k`` at ``t0 +
+        k P`` is at or before its tick and at most ``tol`` steps early where ``(e_k -
+        tol (e_k - e_(k-1)) - t0) / k <= P <= (e_k - t0) / k``: one pass narrows that
+        range step by step; ``P`` is its top, the latest placement."""
         tol = self.tol
         lo = -math.inf
         hi = math.inf
-        first = exact[0] - t0
-        best = 1
+        best = (1, 0)
         prev = t0
         k = 1
         n = len(exact)
+        fastest = self.queue.max_speed_in_ticks
+        min_wait = self.min_wait
+        min_cmd = self.min_cmd
         while k < n:
             e = exact[k - 1]
             d = e - t0
@@ -488,13 +485,15 @@ class AxisWriter:
                 hi = h
             if low > lo:
                 lo = low
-            if lo > hi:
+            period = int(hi)
+            if period < lo or period < fastest:
                 break
             prev = e
             k += 1
-            even = (exact[k - 1] - t0) / k
-            if lo <= even <= hi or lo <= first <= hi:
-                best = k
+            rest = exact[k - 1] - t0 - (k - 1) * period
+            if (min_wait <= rest <= MAX_TICKS and period <= MAX_TICKS
+                    and (k > 2 and period * (k - 1) >= min_cmd or period >= min_cmd)):
+                best = (k, period)
         return best
 
     def _placement(self, t0: int, exact: list[int], m: int = 0
