@@ -533,6 +533,36 @@ def test_every_axis_within_its_acceleration_from_the_pins_at_the_corners_too():
         assert a <= BENCH_LIMITS.acceleration * SPU + slack, (i, a / SPU, at / tps)
 
 
+def test_every_axis_within_its_acceleration_from_the_pins_where_it_turns_round():
+    """bench_path's first six circles (radius 4, 10, 16, 6, 12, 18 mm, all through
+    (0, 0), the direction flipping): where two of them meet Y turns round in a blend
+    at 0.27 mm/s.  Steps grouped early are early along the motion, so on the two
+    sides of a turn in opposite directions; the bound 2 e / W^2 holds there because
+    an axis's steps are on their ticks for TURN_EXACT_S after its last step before a
+    turn (1008.9 mm/s^2 without that, against 1000 + 7.8)."""
+    from fas.path import Plane, arc_points
+
+    radii = [4.0]
+    while len(radii) < 6:
+        radii.append(4.0 + (radii[-1] + 2.0) % 16.0)
+    pts: list[tuple[int, int]] = []
+    for r in radii:
+        for p in arc_points((0.0, 0.0), (0.0, 0.0), (r, 0.0), Plane.XY, len(pts) % 2 == 0,
+                            0.002):
+            pts.append((round(p[0] * SPU), round(p[1] * SPU)))
+    backend, engine, group, pins, dirs = make_group(limits=BENCH_LIMITS,
+                                                    junction_deviation=0.01)
+    feed_all(backend, group, pts, 3000.0)
+    steps = axis_steps(backend, pins, dirs)
+    assert instants(steps, (0, 0))[-1][1] == pts[-1]
+    tps = backend.profile.ticks_per_s
+    slack = 2 * GROUP_TOLERANCE_STEPS / ACC_WINDOW_S ** 2
+    for i in range(2):
+        tk, xs = axis_motion(steps[i])
+        a, at = edge_accel(tk, xs, tps, ACC_WINDOW_S)
+        assert a <= BENCH_LIMITS.acceleration * SPU + slack, (i, a / SPU, at / tps)
+
+
 # ---------------------------------------------------------------- joining
 def test_join_refusals():
     from fas import Engine
