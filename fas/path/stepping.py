@@ -8,9 +8,12 @@ at every instant each axis has made exactly the steps the path has passed (the
 position rounds down along the path: less than one step behind it; to the nearest
 step in an arc's chords), and every axis makes the last step of a segment that ends
 on a step at the segment's end tick - all on one tick.  A corner blend
-(:class:`fas.path.executor.BlendSegment`) has each axis's step ticks of its own: they
-are grouped as far as :meth:`AxisWriter._placement` allows, and the segment after it
-begins at the step the blend left each axis at.
+(:class:`fas.path.executor.BlendSegment`) has each axis's step ticks of its own: the
+last steps before it, its own and the first of the segment after it are grouped at
+one whole period with the last step waiting for the rest, as far as every step stays
+at or before its tick and within ``tol`` (:meth:`AxisWriter._blend_group`,
+:meth:`AxisWriter._longest`), and the segment after it begins at the step the blend
+left each axis at.
 
 The steps become commands ``(ticks, steps, count_up)`` that run back to back from the
 run's common start tick, so that each step falls on its tick:
@@ -28,6 +31,12 @@ run's common start tick, so that each step falls on its tick:
   a *provisional* wait that ends at least one minimum command time before the
   horizon; pauses fill the rest once the next step is known.  An axis that does not
   move writes pauses, so that every queue of the group keeps its place in time.
+
+Grouped steps come early along the motion, so across an axis's turn their errors
+change sign; for :data:`fas.path.settings.TURN_EXACT_S` after its last step before a
+turn the axis's steps come on their own ticks (``tol`` 0), so that its acceleration
+measured from the pins over step edges >= W apart stays within the limit + ``2 tol /
+W^2`` (W up to that time) at the turn too.
 
 A step that cannot be placed on its tick (a command would be shorter than the minimum
 command time, or a period not a whole number where the two-command split is too
