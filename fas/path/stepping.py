@@ -49,10 +49,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from enum import IntEnum
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from ..codes import AqeResult
-from .executor import Executor, Segment
+from .executor import BlendSegment, Executor, Segment
 from .settings import GROUP_TOLERANCE_STEPS, TURN_EXACT_S
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -426,15 +426,16 @@ class AxisWriter:
                 continue
             spans.append((len(exact), cur.seq, j + 1))
             if cur.blend:
-                t0 = cur.t_start + 0.5
+                bl = cast(BlendSegment, cur)
+                t0 = bl.t_start + 0.5
                 n = 0
                 turn = False
-                for d in cur.dirs[i][j:kn]:
+                for d in bl.dirs[i][j:kn]:
                     n += 1
                     if d != up:  # the first step the other way ends it
                         turn = True
                         break
-                exact.extend([int(t0 + t) for t in cur.times[i][j:j + n]])
+                exact.extend([int(t0 + t) for t in bl.times[i][j:j + n]])
                 if turn:
                     break
             else:
