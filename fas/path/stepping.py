@@ -61,7 +61,7 @@ if TYPE_CHECKING:  # pragma: no cover
 MAX_STEPS = 255  # a command's steps
 MAX_TICKS = 65535  # a command's ticks
 #: a segment's last steps before a blend, up to this many, group with the blend's
-BLEND_LEAD = 16
+BLEND_LEAD = 32
 #: ... and a group through a blend goes on into up to this many steps after it
 BLEND_RUN = 32
 
