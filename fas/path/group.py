@@ -101,7 +101,8 @@ class PathGroup:
         self.position = [0] * n  # steps: where the axes stand at the queued path's end
         self.exact = [0.0] * n  # ... and the path's end itself (between steps: an arc)
         self.lookahead = Lookahead(settings.axes, settings.junction_deviation,
-                                   settings.queue_blocks, blend_share=BLEND_SHARE)
+                                   settings.queue_blocks,
+                                   blend_share=BLEND_SHARE if settings.corner_blends else 0.0)
         self.backend: Backend | None = None
         self.tps = 1
         self.executor = Executor(self.lookahead, 1)
@@ -213,6 +214,7 @@ class PathGroup:
             return PathResult.ERR_RUNNING
         self.settings = settings
         self.lookahead.size = settings.queue_blocks
+        self.lookahead.blend_share = BLEND_SHARE if settings.corner_blends else 0.0
         self._configure_lookahead()
         return PathResult.OK
 

@@ -251,7 +251,9 @@ class AxisWriter:
             if self.step_dir is not None:
                 self.exact_until = self.step_last + self.turn_ticks
             self.step_dir = up
-        self.tol = 0.0 if self.w_end < self.exact_until else GROUP_TOLERANCE_STEPS
+        # (with corner blends only: at Grbl's junctions the velocity jumps at a turn)
+        self.tol = (0.0 if self.w_end < self.exact_until and ex.lookahead.blend_share
+                    else GROUP_TOLERANCE_STEPS)
         if seg.blend:  # a corner blend: its steps grouped as far as they allow
             return self._blend_group(seg)
         known = seg.known(i)
