@@ -20,9 +20,10 @@ from rigs.pins import steps_by_pins
 def make_group(profile: str = "atmega328p", axes: int = 2, *,
                limits: AxisLimits | None = None, junction_deviation: float = 0.05,
                arc_tolerance: float = 0.002, queue_blocks: int = 32,
-               record: bool = True, start_delay_ms: int = 50):
+               record: bool = True, start_delay_ms: int = 50, corner_blends: bool = False):
     """(backend, engine, group, step pins, direction pins): ``axes`` steppers on the
-    first step pin of the profile's first channels, joined into a path group."""
+    first step pin of the profile's first channels, joined into a path group
+    (``corner_blends``: PathSettings', off - Grbl's junctions - by default)."""
     backend = SimBackend(profile, record=record)
     engine = Engine(backend)
     engine.init()
@@ -38,7 +39,7 @@ def make_group(profile: str = "atmega328p", axes: int = 2, *,
     limits = limits or AxisLimits(80.0, 6000.0, 500.0)
     settings = PathSettings(axes=(limits,) * axes, junction_deviation=junction_deviation,
                             arc_tolerance=arc_tolerance, queue_blocks=queue_blocks,
-                            start_delay_ms=start_delay_ms)
+                            start_delay_ms=start_delay_ms, corner_blends=corner_blends)
     group = PathGroup(steppers, settings)
     assert group.attach() == PathResult.OK
     group.blend_log = group.executor.blends = []  # the blends: the path as run
@@ -423,7 +424,7 @@ def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
                                                                   strict=True)) > 1.0:
                 j += 1
             assert j < len(ins), f"vertex {v} never passed within a step"
-            out.append((ins[j][0], tuple(float(c) for c in v)))
+            out.append(ins[j][0])
             i = j
             continue
         while i < len(ins) and ins[i][1] != v:
@@ -432,6 +433,20 @@ def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
         out.append(ins[i][0])
         i += 1
     return out
+
+
+def commanded_deviation(ins: Sequence[tuple[int, tuple[int, ...]]],
+                        vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
+                        slack: int) -> float:
+    """With corner blends: the largest Chebyshev distance (steps) of the instants from
+    the *commanded* polyline (its corners not blended), each against the segments
+    within ``slack`` ticks of its time - a vertex's time the instant it is reached,
+    or the middle of the blend that takes it (:func:`blended_ticks`)."""
+    ticks = blended_ticks(vertices[1:], blends, ins)
+    path = [(float(ins[0][0] - 1), tuple(float(c) for c in vertices[0]))]
+    path += [(float(t), tuple(float(c) for c in v))
+             for t, v in zip(ticks, vertices[1:], strict=True)]
+    return timed_deviation(ins, path, slack)
 
 
 def tracked_deviation(points: Sequence[tuple[int, tuple[int, ...]]],

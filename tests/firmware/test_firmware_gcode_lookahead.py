@@ -14,7 +14,7 @@ import pytest
 from fas.device.loopback import Loopback
 from rigs.firmware import need_firmware
 from rigs.gcode import SETUP, cam_program
-from rigs.path import instants, path_as_run, timed_deviation
+from rigs.path import instants, tracked_deviation
 from rigs.pins import steps_by_pins
 from stepperdemo.program import make_program
 
@@ -31,8 +31,6 @@ def run_on_firmware() -> dict:
     text, verts = cam_program()
     with Loopback(device="simavr") as lb:
         app = make_program("gcode", lb.backend, scripted=True, axes=2, setup_lines=SETUP)
-        app.run_script("G21\n", max_ticks=TPS)  # the machine is made: record its blends
-        app.machine.executor.group.blend_log = blends = []
         app.run_script(text, max_ticks=120 * TPS)
         assert lb.backend.settle()
         m = app.machine
@@ -42,7 +40,7 @@ def run_on_firmware() -> dict:
                  steps_by_pins(trace.edges, S2_STEP, S2_DIR, ups[1])]
         return {"out": app.transcript.decode(), "machine": m, "verts": verts,
                 "counters": lb.backend.device_counters(), "steps": steps,
-                "positions": m.positions(), "blends": blends}
+                "positions": m.positions()}
 
 
 @pytest.fixture(scope="module")
@@ -61,9 +59,7 @@ def test_lookahead_program_through_port_on_the_firmware(firmware_run):
     assert counters["entries_lost"] == counters["entries_duplicated"] == 0
     points = instants(steps, (0, 0))
     assert points[-1][1] == verts[-1] == tuple(r["positions"])
-    # every axis within a step of the path as run (its corners blended)
-    path = path_as_run(verts, r["blends"], points, (80.0, 80.0))
-    assert timed_deviation(points, path, int(0.02 * TPS)) <= 1.0
+    assert tracked_deviation(points, verts) <= 1.0  # every axis within a step of the path
     # the look-ahead took the polygon near its feed: well under half the time of
     # stopping at each of its 90 vertices and 120 raster segments (each from rest to
     # rest at 1000 mm/s^2 takes at least 2 sqrt(L / 1000 mm/s^2))

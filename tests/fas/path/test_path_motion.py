@@ -21,15 +21,13 @@ from rigs.path import (
     Stream,
     axis_motion,
     axis_steps,
-    blended_ticks,
     edge_accel,
     feed_all,
     instants,
     interp,
     make_group,
     max_accel,
-    path_as_run,
-    timed_deviation,
+    path_deviation,
 )
 
 SPU = 80.0
@@ -47,18 +45,6 @@ def vertex_ticks(ins, vertices):
             k += 1
     assert k == len(vertices), f"vertex {vertices[k]} not reached at one instant"
     return out
-
-
-def blended_dev(ins, group, poly, stops=()) -> float:
-    """The largest Chebyshev distance (steps) of the instants from the path as run:
-    the polyline with each corner the executor blended replaced by its blend (and
-    ``stops``, (tick, point), where a feed hold stopped), each instant against the
-    path's pieces within 20 ms of its time."""
-    spu = [a.steps_per_unit for a in group.settings.axes]
-    tps = group.tps
-    path = sorted(path_as_run(poly, group.blend_log, ins, spu)
-                  + [(t, tuple(float(c) for c in p)) for t, p in stops])
-    return timed_deviation(ins, path, int(0.02 * tps))
 
 
 def limit_along(limit: float, unit) -> float:
@@ -79,18 +65,22 @@ def test_path_is_a_registered_planner_and_goes_back():
 # ----------------------------------------------------------- path geometry
 @pytest.mark.parametrize("profile", ["atmega328p", "atmega2560", "esp32", "esp32c3",
                                      "sam_due", "rp2040"])
-def test_square_within_one_step_and_every_corner_blended(profile):
+def test_square_within_one_step_and_every_corner_on_one_tick(profile):
     backend, engine, group, pins, dirs = make_group(profile, limits=LIMITS)
     feed_all(backend, group, SQUARE, 3000.0)
     steps = axis_steps(backend, pins, dirs)
     ins = instants(steps, (0, 0))
-    assert [c for c, _b in group.blend_log] == SQUARE[:3]  # each corner blended
-    assert blended_dev(ins, group, [(0, 0)] + SQUARE) <= 1.0
+    cheb, _ = path_deviation(ins, [(0, 0)] + SQUARE)  # every vertex at one instant
+    assert cheb <= 1.0
     assert [s.get_current_position() for s in group.steppers] == [0, 0]
     assert group.stats.runs == 1 and group.stats.underruns == 0  # no queue ever stopped
     for st in group.axis_stats():
         assert st.shifted == 0 and st.early_ends == 0
-    vertex_ticks(ins, SQUARE[-1:])  # the end: at one instant
+    # the axes that move on both sides of a corner step on its tick
+    ticks = vertex_ticks(ins, SQUARE)
+    for axis, (tk, _d) in enumerate((list(zip(*s, strict=True)) for s in steps)):
+        on_vertex = [t for t in ticks if t in set(tk)]
+        assert len(on_vertex) == 2, (axis, ticks)  # its two blocks' last steps
 
 
 @pytest.mark.parametrize("seed", [1, 2])
@@ -109,7 +99,8 @@ def test_random_3d_path_within_one_step(seed):
         pts.append(tuple(pos))
     feed_all(backend, group, pts, rnd.choice([600.0, 3000.0, 6000.0]))
     ins = instants(axis_steps(backend, pins, dirs), (0, 0, 0))
-    assert blended_dev(ins, group, [(0, 0, 0)] + pts) <= 1.0
+    cheb, _ = path_deviation(ins, [(0, 0, 0)] + pts)
+    assert cheb <= 1.0
     assert ins[-1][1] == pts[-1]
     assert group.stats.underruns == 0
 
@@ -126,6 +117,8 @@ def test_corner_speed_is_the_junction_deviation_formula(turn_deg):
     end = (3200 + round(3200 * u2[0]), round(3200 * u2[1]))
     feed_all(backend, group, [corner, end], 3000.0)
     steps = axis_steps(backend, pins, dirs)
+    ins = instants(steps, (0, 0))
+    t_corner = vertex_ticks(ins, [corner])[0]
     # Grbl: v^2 = a_j d sin(theta/2) / (1 - sin(theta/2)), theta the angle between the
     # segments, a_j the acceleration along the bisector
     cos_theta = -(u1[0] * u2[0] + u1[1] * u2[1])
@@ -135,16 +128,15 @@ def test_corner_speed_is_the_junction_deviation_formula(turn_deg):
     a_j = limit_along(LIMITS.acceleration, (bis[0] / n, bis[1] / n))
     v_j = math.sqrt(a_j * deviation * sin_half / (1 - sin_half))  # mm/s
     assert v_j < 50.0  # below the feed: the corner limits it
-    [(at, bseg)] = group.blend_log
-    assert at == corner
-    assert bseg.b.speed == pytest.approx(v_j, rel=0.01)
-    # from the pins: Y starts in the blend (exact: a command's first step), from rest
-    # at the blend's acceleration along Y: 1 step after sqrt(2 / a_y)
+    # Y starts at the corner: its first step (exact: a group's first) is where the path
+    # entered with v_j and accelerates at the second block's acceleration
     tps = backend.profile.ticks_per_s
-    a_y = bseg.b.axis_accel(1) * SPU  # steps/s^2
-    assert bseg.b.reach * u2[1] * SPU > 1  # Y's first step is inside the blend
-    first_y = steps[1][0][0]
-    assert abs(first_y - (bseg.t_start + math.sqrt(2 / a_y) * tps)) <= 2
+    first_y = next(t for t, _d in steps[1] if t > t_corner)
+    t1 = (first_y - t_corner) / tps
+    a2 = limit_along(LIMITS.acceleration, u2)
+    dy = 1 / SPU / u2[1]  # path length to Y's first step
+    v = (dy - a2 * t1 * t1 / 2) / t1
+    assert v == pytest.approx(v_j, rel=0.01)
 
 
 def test_rates_and_accelerations_from_the_pins_stay_within_each_axis():
@@ -161,8 +153,8 @@ def test_rates_and_accelerations_from_the_pins_stay_within_each_axis():
     feed_all(backend, group, pts, None)  # rapid: every block at an axis's limit
     steps = axis_steps(backend, pins, dirs)
     ins = instants(steps, (0, 0, 0))
-    assert blended_dev(ins, group, [(0, 0, 0)] + pts) <= 1.0
-    ticks = [ins[0][0] - 1] + blended_ticks(pts, group.blend_log, ins)
+    assert path_deviation(ins, [(0, 0, 0)] + pts)[0] <= 1.0
+    ticks = [ins[0][0] - 1] + vertex_ticks(ins, pts)
     tps = backend.profile.ticks_per_s
     w = 0.02
     e = GROUP_TOLERANCE_STEPS + 1 / 16
@@ -261,7 +253,7 @@ def test_feed_hold_stops_within_the_deceleration_distance(seglen):
     assert [s.get_current_position() for s in group.steppers] == list(pts[-1])
     ins = instants(axis_steps(backend, pins, dirs), (0, 0))
     k = sum(1 for p in pts if p[1] <= stop[1])  # the stop is a vertex of what ran
-    assert blended_dev(ins, group, [(0, 0)] + pts[:k] + [tuple(stop)] + pts[k:]) <= 1.0
+    assert path_deviation(ins, [(0, 0)] + pts[:k] + [tuple(stop)] + pts[k:])[0] <= 1.0
 
 
 def test_hold_before_the_start_and_blocks_added_while_held():
@@ -351,8 +343,6 @@ def test_speed_listener_reports_every_command_of_the_dominant_axis():
     assert heard[-1][1] == 0.0  # the path stops
     assert {tag for _t, _s, tag in heard} == {0, 1}
     assert len(heard) - 1 >= min(st.commands for st in group.axis_stats())
-    blends = group.blend_log
-    assert len(blends) == 1
     units = [(4000 / math.hypot(4000, 1000), 1000 / math.hypot(4000, 1000)),
              (1000 / math.hypot(1000, 4000), 4000 / math.hypot(1000, 4000))]
     checked = 0
@@ -362,8 +352,6 @@ def test_speed_listener_reports_every_command_of_the_dominant_axis():
         assert tick in tk  # a command begins with a step
         if tag2 != tag or nxt == heard[-1][0]:
             continue
-        if any(b.t_start - 1 <= nxt and tick <= b.t_done + 1 for _c, b in blends):
-            continue  # in the corner blend the axis's speed is not the path's times u
         n = sum(1 for t in tk if tick <= t < nxt)
         dt = (nxt - tick) / tps
         average = n / SPU / units[tag][axis] / dt * 60  # mm/min
@@ -391,33 +379,17 @@ def test_arcs_on_the_pins():
     ins = instants(axis_steps(backend, pins, dirs), (0, 0))
     assert ins[-1][1] == (1600, 0)  # the end point, exactly
     c, r = (10 * SPU, 0.0), 10 * SPU
-    # every step within one step of the chords as blended
-    assert blended_dev(ins, group, [(0, 0)] + targets) <= 1.0
+    # at every block end (a vertex: all its axes' last steps on one tick) the radius
+    # error is within the tolerance and the rounding to a step
+    ticks = vertex_ticks(ins, targets)
+    at = dict(ins)
+    for t in ticks:
+        p = at[t]
+        assert abs(math.hypot(p[0] - c[0], p[1] - c[1]) - r) <= tol * SPU + 1
+    # between them every step is within one step of the chords
+    assert path_deviation(ins, [(0, 0)] + targets)[0] <= 1.0
     worst = max(abs(math.hypot(p[0] - c[0], p[1] - c[1]) - r) for _t, p in ins)
     assert worst <= tol * SPU + 2
-
-
-def test_blends_into_and_out_of_an_arc_between_steps_keep_its_chord_ends():
-    """A corner on whole steps next to an arc whose chord ends lie between steps: the
-    corners into the arc's first chord and out of its last are blended (the blend's
-    path there follows the chords themselves, not the axes' rounded pins), the chord
-    ends between steps are kept as they are (no blend there), every step within one
-    step of the path as run, the end exact."""
-    from fas.path import Plane, arc_points
-
-    tol = 0.01
-    backend, engine, group, pins, dirs = make_group(limits=LIMITS, arc_tolerance=tol,
-                                                    junction_deviation=0.01)
-    quarter = arc_points((5.0, 0.0), (10.0, 5.0), (0.0, 5.0), Plane.XY, False, tol)
-    arc = [tuple(v * SPU for v in p) for p in quarter]
-    assert any(v != round(v) for p in arc[:-1] for v in p)
-    targets = [(400.0, 0.0)] + arc + [(800.0, 1200.0)]
-    feed_all(backend, group, targets, 3000.0)
-    ins = instants(axis_steps(backend, pins, dirs), (0, 0))
-    assert ins[-1][1] == (800, 1200)
-    assert [c for c, _seg in group.blend_log] == [(400, 0), (800, 400)]
-    assert blended_dev(ins, group, [(0, 0)] + targets) <= 1.0
-    assert group.stats.underruns == 0
 
 
 def test_every_step_within_tolerance_plus_one_step_of_the_circle():
@@ -491,16 +463,16 @@ def corner_run():
                                                     junction_deviation=0.01)
     pts = circles_of_chords(4)
     feed_all(backend, group, pts, 3000.0)
-    return backend, pts, axis_steps(backend, pins, dirs), group
+    return backend, pts, axis_steps(backend, pins, dirs)
 
 
 def test_circles_of_chords_within_one_step_and_each_axis_within_its_acceleration_inside_blocks():
     """The program of the strict xfail below: every step within one step of the chords,
     the end exact, and away from the junctions (inside each block) each axis's
     acceleration from the pins within the limit + the grouping's 2 e / W^2."""
-    backend, pts, steps, group = corner_run()
+    backend, pts, steps = corner_run()
     ins = instants(steps, (0, 0))
-    assert blended_dev(ins, group, [(0, 0)] + pts) <= 1.0
+    assert path_deviation(ins, [(0, 0)] + pts)[0] <= 1.0
     assert ins[-1][1] == pts[-1]
     tps = backend.profile.ticks_per_s
     slack = 2 * GROUP_TOLERANCE_STEPS / ACC_WINDOW_S ** 2
@@ -510,7 +482,7 @@ def test_circles_of_chords_within_one_step_and_each_axis_within_its_acceleration
         a, _v = max_accel(tk, xs, tk[0] - 1, tk[-1] + 1, tps, ACC_WINDOW_S)
         assert a > 0.5 * limit  # it measures something
     # one whole circle (r = 4 mm: no reversal in it) at the limit + slack
-    ticks = [ins[0][0] - 1] + blended_ticks(pts, group.blend_log, ins)
+    ticks = [ins[0][0] - 1] + vertex_ticks(ins, pts)
     last = len(circles_of_chords(1))
     for i in range(2):
         tk, xs = axis_motion(steps[i])
@@ -519,42 +491,16 @@ def test_circles_of_chords_within_one_step_and_each_axis_within_its_acceleration
         assert a <= limit + slack, (i, a / SPU)
 
 
+@pytest.mark.xfail(strict=True, reason="measured Y 1014.4 mm/s^2 (limit 1000, resolution "
+                   "+7.8) where the path turns back between two circles: junction "
+                   "deviation's velocity jump beside a ramp at the axis's full limit; no "
+                   "corner blend yet (docs/path-planner.md, Acceleration at corners)")
 def test_every_axis_within_its_acceleration_from_the_pins_at_the_corners_too():
     """Issue 25: no axis above its acceleration, measured from the pins.  For every
     step, a divided difference over the axis's step edges at least 20 ms before and
     after it (rigs.path.edge_accel: the position at an edge is exact; steps up to
     GROUP_TOLERANCE_STEPS early make it off by at most 2 e / W^2)."""
-    backend, pts, steps, _group = corner_run()
-    tps = backend.profile.ticks_per_s
-    slack = 2 * GROUP_TOLERANCE_STEPS / ACC_WINDOW_S ** 2
-    for i in range(2):
-        tk, xs = axis_motion(steps[i])
-        a, at = edge_accel(tk, xs, tps, ACC_WINDOW_S)
-        assert a <= BENCH_LIMITS.acceleration * SPU + slack, (i, a / SPU, at / tps)
-
-
-def test_every_axis_within_its_acceleration_from_the_pins_where_it_turns_round():
-    """bench_path's first six circles (radius 4, 10, 16, 6, 12, 18 mm, all through
-    (0, 0), the direction flipping): where two of them meet Y turns round in a blend
-    at 0.27 mm/s.  Steps grouped early are early along the motion, so on the two
-    sides of a turn in opposite directions; the bound 2 e / W^2 holds there because
-    an axis's steps are on their ticks for TURN_EXACT_S after its last step before a
-    turn (1008.9 mm/s^2 without that, against 1000 + 7.8)."""
-    from fas.path import Plane, arc_points
-
-    radii = [4.0]
-    while len(radii) < 6:
-        radii.append(4.0 + (radii[-1] + 2.0) % 16.0)
-    pts: list[tuple[int, int]] = []
-    for r in radii:
-        for p in arc_points((0.0, 0.0), (0.0, 0.0), (r, 0.0), Plane.XY, len(pts) % 2 == 0,
-                            0.002):
-            pts.append((round(p[0] * SPU), round(p[1] * SPU)))
-    backend, engine, group, pins, dirs = make_group(limits=BENCH_LIMITS,
-                                                    junction_deviation=0.01)
-    feed_all(backend, group, pts, 3000.0)
-    steps = axis_steps(backend, pins, dirs)
-    assert instants(steps, (0, 0))[-1][1] == pts[-1]
+    backend, pts, steps = corner_run()
     tps = backend.profile.ticks_per_s
     slack = 2 * GROUP_TOLERANCE_STEPS / ACC_WINDOW_S ** 2
     for i in range(2):
@@ -670,7 +616,6 @@ def test_the_same_path_on_a_serial_device():
         group = PathGroup(steppers, PathSettings(axes=(LIMITS, LIMITS),
                                                  junction_deviation=0.05))
         assert group.attach() == PathResult.OK
-        group.blend_log = group.executor.blends = []
         pts = [(800, 0), (800, 800), (1600, 300), (0, 0)]
         assert Stream(backend, group, pts, 3000.0).run(limit_s=60)
         assert backend.settle()
@@ -679,7 +624,7 @@ def test_the_same_path_on_a_serial_device():
         rec = dev.recorder
         steps = [steps_by_pins(rec.pin_edges, sp, dp) for sp, dp in zip(pins, dirs, strict=True)]
         ins = instants(steps, (0, 0))
-        assert blended_dev(ins, group, [(0, 0)] + pts) <= 1.0
+        assert path_deviation(ins, [(0, 0)] + pts)[0] <= 1.0
         assert group.stats.underruns == 0
 
 
@@ -719,7 +664,16 @@ def test_holds_and_resumes_at_random_moments():
     assert len(stops) > 20
     ins = instants(axis_steps(backend, pins, dirs), (0, 0))
     assert ins[-1][1] == pts[-1]
-    # the path as run: the vertices (reached, or blended) and the stop points
-    verts = [(0, 0)] + [p for k, p in enumerate(pts) if k == 0 or p != pts[k - 1]]
-    poly = verts
-    assert blended_dev(ins, group, poly, stops) <= 1.0
+    poly = [(0, 0)]  # the path as run: vertices and stop points in time order
+    vi = si = 0
+    for t, p in ins:
+        while si < len(stops) and stops[si][0] <= t:
+            if poly[-1] != stops[si][1]:
+                poly.append(stops[si][1])
+            si += 1
+        if vi < len(pts) and p == pts[vi]:
+            poly.append(pts[vi])
+            vi += 1
+            while vi < len(pts) and pts[vi] == pts[vi - 1]:  # a block of no length
+                vi += 1
+    assert path_deviation(ins, poly + pts[vi:])[0] <= 1.0
