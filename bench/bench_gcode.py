@@ -29,7 +29,11 @@
    raster's collinear joints (X over 16 steps around each joint, away from the line
    ends), and the planned speed at every junction that junction deviation limits
    against Grbl's formula ``v^2 = a_j d sin(theta/2) / (1 - sin(theta/2))`` computed
-   here from the geometry.
+   here from the geometry.  The look-ahead's figures come once per corner mode:
+   Grbl's junctions (``$172=0``, the default: the commanded polyline, each axis's
+   velocity jumping at a corner) and corner blends (``$172=1``: every axis within
+   its acceleration, the path up to $11 inside each corner - then also the distance
+   from the path as run and the blends' figures from the geometry).
 5. Issue 25, on a device (``--device-only``): the same program through ``--port`` on
    the Python device and on our firmware in simavr, at 115 200 and 1 000 000 baud, on
    the loopback's virtual clock: motion time, underruns, late starts, rejected
@@ -57,7 +61,13 @@ sys.path.insert(1, os.path.join(ROOT, "bench"))  # bench_path's program
 from fas.arch import PROFILES  # noqa: E402
 from fas.path import executor as path_executor  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
-from rigs.path import edge_accels  # noqa: E402
+from rigs.path import (  # noqa: E402
+    commanded_deviation,
+    edge_accels,
+    instants,
+    path_as_run,
+    timed_deviation,
+)
 from stepperdemo.demo.build import demo_build  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.watch import observe  # noqa: E402
@@ -157,18 +167,19 @@ def acc_resolution(window_ms: int) -> float:
     return 2 * ACC_EARLY_STEPS / (window_ms * 1e-3) ** 2
 
 
-def la_setup(motion: int) -> list[str]:
+def la_setup(motion: int, blends: bool = False) -> list[str]:
     import bench_path as bp
 
     return ([f"$10{i}={bp.SPU}" for i in range(2)] + [f"$11{i}={bp.MAX_RATE}" for i in range(2)]
-            + [f"$12{i}={bp.ACCEL}" for i in range(2)] + [f"$11={bp.JUNCTION}", f"$171={motion}"])
+            + [f"$12{i}={bp.ACCEL}" for i in range(2)]
+            + [f"$11={bp.JUNCTION}", f"$171={motion}", f"$172={int(blends)}"])
 
 
-def la_program(backend, motion: int) -> tuple:
+def la_program(backend, motion: int, blends: bool = False) -> tuple:
     """The two-axis G-code program on ``backend``, set up, and the list its machine's
     block queue appends every block to (targets in steps, feed) as it is pushed."""
     app = make_program("gcode", backend, scripted=True, output=lambda d: None, axes=2,
-                       setup_lines=la_setup(motion))
+                       setup_lines=la_setup(motion, blends))
     app.setup()
     m = app.machine
     moves: list = []
@@ -188,21 +199,36 @@ def la_lines(segments: int) -> list[str]:
     return [f"G1 X{p[0]:.4f} Y{p[1]:.4f} F{f:g}" for p, f in bp.cam_program(segments)]
 
 
-def la_run(lines: list[str], motion: int, record: bool, corners: bool = False) -> dict:
-    """The program through the G-code machine: motion time, CPU time, the blocks
-    (targets in steps, feed) and, traced, the step and direction edges."""
+def la_run(lines: list[str], motion: int, record: bool, corners: bool = False,
+           blends: bool = False) -> dict:
+    """The program through the G-code machine (``blends``: ``$172=1``): motion time,
+    CPU time, the blocks (targets in steps, feed) and, traced, the step and direction
+    edges."""
     backend = SimBackend(LA_ARCH, record=record)
-    app, moves = la_program(backend, motion)
+    app, moves = la_program(backend, motion, blends)
     m = app.machine
     #: id(move) -> (planned speed at its end units/s, the tick it ends)
     exits: dict[int, tuple[float, int]] = {}
+    #: the corner blends executed: (corner in steps, its segment), in order
+    blends: list = []
+    mids: dict[int, int] = {}  # id(move) -> the middle of the blend at its end
+    seen: set[int] = set()  # segments' seq (unique across runs)
     trim = path_executor.Executor.trim
     if corners:
         def recording_trim(ex, keep_from: int) -> None:
             for seg in ex.segments:
-                if seg.seq < keep_from and seg.complete and seg.pieces:
+                if seg.seq >= keep_from or not seg.complete or seg.seq in seen:
+                    continue
+                seen.add(seg.seq)
+                if seg.blend:
+                    blends.append((seg.block.start, seg))
+                    mids[id(seg.tag)] = int((seg.t_start + seg.t_done) / 2)
+                elif seg.pieces:
                     last = seg.pieces[-1]
                     exits[id(seg.tag)] = ((last.v0 + last.a * (last.t1 - last.t0)) * ex.tps,
+                                          seg.end_tick)
+                else:  # all of it in the blends at its ends: at their speed
+                    exits[id(seg.tag)] = (blends[-1][1].b.speed if blends else 0.0,
                                           seg.end_tick)
             trim(ex, keep_from)
 
@@ -220,7 +246,8 @@ def la_run(lines: list[str], motion: int, record: bool, corners: bool = False) -
     end = max(st[-1] for st in steps) if steps else backend.now()
     start = m.motion_log[0][0]
     out = {"motion_s": (end - start) / tps, "cpu_s": cpu, "wall_s": wall, "moves": moves,
-           "exits": exits, "errors": m.errors, "executor": m.executor.kind,
+           "exits": exits, "blends": blends, "mids": mids, "errors": m.errors,
+           "executor": m.executor.kind,
            "positions": m.positions(), "backend": backend, "steppers": m.steppers}
     out["rtf"] = out["motion_s"] / cpu
     return out
@@ -352,7 +379,7 @@ def jd_speed(u: tuple[float, float], w: tuple[float, float], accel: float, d: fl
 
 
 def blend_figures(moves: list, exits: dict, spu: float, accel: float) -> dict:
-    """The corner blend of docs/path-planner.md (designed, not executed) at every
+    """The corner blend of docs/path-planner.md (executed) at every
     junction that turns, at the speed executed there: the velocity goes from ``v u``
     to ``v w`` at ``a_j`` along ``w - u`` (every axis within its limit by
     construction); its length along each block ``v^2 |w - u| / (2 a_j)``, how far
@@ -398,36 +425,56 @@ def blend_figures(moves: list, exits: dict, spu: float, accel: float) -> dict:
 
 
 def lookahead_section(segments: int, repeat: int) -> None:
+    """Section 4, once per corner mode: Grbl's junctions (``$172=0``, the default) and
+    corner blends (``$172=1``)."""
     import bench_path as bp
 
     lines = la_lines(segments)
     print(f"look-ahead: {len(lines)} G-code lines (bench_path's program), {LA_ARCH}, "
           f"2 axes, 80 steps/mm, $11={bp.JUNCTION}")
-    runs = [la_run(lines, 0, record=False) for _ in range(repeat)]
-    r = min(runs, key=lambda x: x["cpu_s"])
-    print(f"  motion {r['motion_s']:.3f} s in {r['cpu_s']:.2f} s CPU ({r['wall_s']:.2f} s wall): "
-          f"{r['rtf']:.1f}x real time, {len(lines) / r['cpu_s']:.0f} lines/s "
-          f"(executor {r['executor']}, errors {r['errors']})")
     program = bp.steps_of(bp.cam_program(segments))
     p = min((bp.planner_alone(program) for _ in range(repeat)), key=lambda x: x["cpu_s"])
     print(f"  planner alone: {p['blocks_per_s']:.0f} blocks/s")
     t = la_run(lines, 1, record=False)
-    print(f"  exact stop ($171=1): motion {t['motion_s']:.3f} s ({t['executor']}); "
-          f"look-ahead takes {r['motion_s'] / t['motion_s']:.1%} of it")
-    traced = la_run(lines, 0, record=True, corners=True)
+    print(f"  exact stop ($171=1): motion {t['motion_s']:.3f} s ({t['executor']})")
+    for blends in (False, True):
+        lookahead_mode(lines, repeat, blends, t["motion_s"])
+
+
+def lookahead_mode(lines: list[str], repeat: int, blends: bool, exact_stop_s: float) -> None:
+    import bench_path as bp
+
+    print(f" corners: {'blends ($172=1)' if blends else 'Grbl junctions ($172=0, default)'}")
+    runs = [la_run(lines, 0, record=False, blends=blends) for _ in range(repeat)]
+    r = min(runs, key=lambda x: x["cpu_s"])
+    print(f"  motion {r['motion_s']:.3f} s in {r['cpu_s']:.2f} s CPU ({r['wall_s']:.2f} s wall): "
+          f"{r['rtf']:.1f}x real time, {len(lines) / r['cpu_s']:.0f} lines/s "
+          f"(executor {r['executor']}, errors {r['errors']}); "
+          f"{r['motion_s'] / exact_stop_s:.1%} of exact stop's motion")
+    traced = la_run(lines, 0, record=True, corners=True, blends=blends)
     backend = traced["backend"]
     tps = backend.profile.ticks_per_s
     build = demo_build(backend.profile)
     axes = [signed_steps(backend, traced["steppers"][i], build.steppers[i]) for i in range(2)]
     moves = traced["moves"]
     verts = [moves[0].start] + [mv.target for mv in moves]
-    events = sorted([(t, 0, d) for t, d in axes[0]] + [(t, 1, d) for t, d in axes[1]])
     final = [sum(d for _, d in a) for a in axes]
     print(f"  traced: {traced['motion_s']:.3f} s, final position {final} (machine "
           f"{traced['positions']}, program {list(verts[-1])})")
-    ends = [traced["exits"][id(mv)][1] for mv in moves]
+    ins = instants([[(t, d) for t, d in a] for a in axes], tuple(verts[0]))
+    slack = int(0.02 * tps)
     print(f"  largest distance from the commanded path: "
-          f"{path_deviation(events, verts, ends):.3f} steps (Chebyshev, at every step)")
+          f"{commanded_deviation(ins, verts, traced['blends'], slack):.3f} steps "
+          f"(Chebyshev, at every step; target <= 1)")
+    if blends:
+        run_path = path_as_run(verts, traced["blends"], ins, (bp.SPU, bp.SPU))
+        print(f"  largest distance from the path as run (the commanded path, its corners "
+              f"blended: {len(traced['blends'])} blends): "
+              f"{timed_deviation(ins, run_path, slack):.3f} steps (Chebyshev, at every step)")
+    # a junction's tick: where the block ends, or the middle of the blend there
+    mids, exits = traced["mids"], traced["exits"]
+    # (the run's last block: its segment ends with the run, not trimmed - not needed)
+    ends = [mids[id(mv)] if id(mv) in mids else exits[id(mv)][1] for mv in moves[:-1]]
     corners = []
     for k in range(len(moves) - 1):
         a, b = moves[k], moves[k + 1]
@@ -486,8 +533,10 @@ def lookahead_section(segments: int, repeat: int) -> None:
     if errs:
         print(f"  planned speed at {len(errs)} junctions limited by junction deviation: "
               f"{min(errs):+.4%} .. {max(errs):+.4%} of the formula")
+    if not blends:
+        return
     bl = blend_figures(moves, exits, bp.SPU, bp.ACCEL)
-    print(f"  corner blend (designed, not executed; docs/path-planner.md) at the "
+    print(f"  corner blends (docs/path-planner.md), from the geometry at the "
           f"{bl['turning']} junctions that turn, at the speeds executed: inside the "
           f"corner by {bl['inside']:.3f} steps at most ({bl['inside_jd']:.3f} where junction "
           f"deviation limits; $11 = {bp.JUNCTION * bp.SPU:.2f} steps), {bl['too_long']} "

@@ -20,9 +20,10 @@ from rigs.pins import steps_by_pins
 def make_group(profile: str = "atmega328p", axes: int = 2, *,
                limits: AxisLimits | None = None, junction_deviation: float = 0.05,
                arc_tolerance: float = 0.002, queue_blocks: int = 32,
-               record: bool = True, start_delay_ms: int = 50):
+               record: bool = True, start_delay_ms: int = 50, corner_blends: bool = False):
     """(backend, engine, group, step pins, direction pins): ``axes`` steppers on the
-    first step pin of the profile's first channels, joined into a path group."""
+    first step pin of the profile's first channels, joined into a path group
+    (``corner_blends``: PathSettings', off - Grbl's junctions - by default)."""
     backend = SimBackend(profile, record=record)
     engine = Engine(backend)
     engine.init()
@@ -38,9 +39,10 @@ def make_group(profile: str = "atmega328p", axes: int = 2, *,
     limits = limits or AxisLimits(80.0, 6000.0, 500.0)
     settings = PathSettings(axes=(limits,) * axes, junction_deviation=junction_deviation,
                             arc_tolerance=arc_tolerance, queue_blocks=queue_blocks,
-                            start_delay_ms=start_delay_ms)
+                            start_delay_ms=start_delay_ms, corner_blends=corner_blends)
     group = PathGroup(steppers, settings)
     assert group.attach() == PathResult.OK
+    group.blend_log = group.executor.blends = []  # the blends: the path as run
     return backend, engine, group, pins, dirs
 
 
@@ -326,6 +328,125 @@ def edge_accel(ticks: Sequence[int], xs: Sequence[int], tps: int,
         if v > worst:
             worst, at = v, tb
     return worst, at
+
+
+def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
+                ins: Sequence[tuple[int, tuple[int, ...]]], spu: Sequence[float],
+                samples: int = 8) -> list[tuple[float, tuple[float, ...]]]:
+    """The path as executed, with times: ``(tick, point)`` for each vertex - where the
+    executor blended it (``blends``: its record, in order) the blend's curve in
+    ``samples`` chords (off it by ``T^2 |a| / (8 samples^2)``, far below a step) at
+    their ticks, else the instant the axes reach it (the first vertex at the first
+    instant)."""
+    out: list[tuple[float, tuple[float, ...]]] = []
+    k = 0  # blends
+    i = 0  # instants
+    for n, v in enumerate(vertices):
+        v = tuple(v)
+        if n and k < len(blends) and tuple(blends[k][0]) == v:
+            seg = blends[k][1]
+            b = seg.b
+            for m in range(samples + 1):
+                tau = b.duration * m / samples
+                pos = b.position(tau)
+                out.append((seg.t_start + tau * seg.tps,
+                            tuple(c + x * f for c, x, f in zip(v, pos, spu, strict=True))))
+            t_mid = (seg.t_start + seg.t_done) / 2
+            while i < len(ins) and ins[i][0] <= t_mid:
+                i += 1
+            k += 1
+            continue
+        if n == 0:
+            out.append((ins[0][0] - 1 if ins else 0, tuple(float(c) for c in v)))
+            continue
+        if any(c != round(c) for c in v):  # between steps (an arc's chord end): the
+            j = i  # first instant within a step of it (the axes never stand on it)
+            while j < len(ins) and max(abs(a - c) for a, c in zip(ins[j][1], v,
+                                                                  strict=True)) > 1.0:
+                j += 1
+            assert j < len(ins), f"vertex {v} never passed within a step"
+            out.append((ins[j][0], tuple(float(c) for c in v)))
+            i = j
+            continue
+        while i < len(ins) and ins[i][1] != v:
+            i += 1
+        assert i < len(ins), f"vertex {v} neither reached nor blended"
+        out.append((ins[i][0], tuple(float(c) for c in v)))
+        i += 1
+    assert k == len(blends), f"blend {k} not on the path"
+    return out
+
+
+def timed_deviation(ins: Sequence[tuple[int, tuple[int, ...]]],
+                    path: Sequence[tuple[float, tuple[float, ...]]], slack: int) -> float:
+    """The largest Chebyshev distance (steps) of the instants from the path as run
+    (:func:`path_as_run`), each against the path's pieces within ``slack`` ticks of
+    its time."""
+    worst = 0.0
+    j0 = 0
+    n = len(path) - 1
+    for t, p in ins:
+        while j0 < n - 1 and path[j0 + 1][0] < t - slack:
+            j0 += 1
+        best = math.inf
+        j = j0
+        while j < n and path[j][0] <= t + slack:
+            d = cheb_to_segment(p, path[j][1], path[j + 1][1])
+            if d < best:
+                best = d
+            j += 1
+        if best == math.inf:
+            best = cheb_to_segment(p, path[min(j0, n - 1)][1], path[min(j0, n - 1) + 1][1])
+        worst = max(worst, best)
+    return worst
+
+
+def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
+                  ins: Sequence[tuple[int, tuple[int, ...]]]) -> list[int]:
+    """The tick of each vertex: the instant it is reached, or where a blend takes the
+    corner, the middle of the blend."""
+    out = []
+    k = 0
+    i = 0
+    for v in vertices:
+        v = tuple(v)
+        if k < len(blends) and tuple(blends[k][0]) == v:
+            seg = blends[k][1]
+            t = int((seg.t_start + seg.t_done) / 2)
+            out.append(t)
+            while i < len(ins) and ins[i][0] <= t:
+                i += 1
+            k += 1
+            continue
+        if any(c != round(c) for c in v):  # between steps (an arc's chord end): the
+            j = i  # first instant within a step of it (the axes never stand on it)
+            while j < len(ins) and max(abs(a - c) for a, c in zip(ins[j][1], v,
+                                                                  strict=True)) > 1.0:
+                j += 1
+            assert j < len(ins), f"vertex {v} never passed within a step"
+            out.append(ins[j][0])
+            i = j
+            continue
+        while i < len(ins) and ins[i][1] != v:
+            i += 1
+        assert i < len(ins), f"vertex {v} neither reached nor blended"
+        out.append(ins[i][0])
+        i += 1
+    return out
+
+
+def commanded_deviation(ins: Sequence[tuple[int, tuple[int, ...]]],
+                        vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
+                        slack: int) -> float:
+    """With corner blends: the largest Chebyshev distance (steps) of the instants from
+    the *commanded* polyline (its corners not blended), each against the segments
+    within ``slack`` ticks of its time - a vertex's time the instant it is reached,
+    or the middle of the blend that takes it (:func:`blended_ticks`)."""
+    ticks = blended_ticks(vertices[1:], blends, ins)
+    path = [(float(ins[0][0] - 1), tuple(float(c) for c in vertices[0]))]
+    path += [(float(t), tuple(float(c) for c in v))
+             for t, v in zip(ticks, vertices[1:], strict=True)]
+    return timed_deviation(ins, path, slack)
 
 
 def tracked_deviation(points: Sequence[tuple[int, tuple[int, ...]]],

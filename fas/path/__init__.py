@@ -5,6 +5,7 @@ junction deviation, feed hold, arcs (Grbl's planner on FastAccelStepper queues).
 * :mod:`fas.path.lookahead` - blocks, junction speeds, the reverse and forward passes;
 * :mod:`fas.path.executor` - the speed along the path made final piece by piece;
 * :mod:`fas.path.stepping` - each axis's steps as queue commands;
+* :mod:`fas.path.blend` - corners taken as blends at constant acceleration;
 * :mod:`fas.path.axis` - the per-stepper planner ``"path"`` (:mod:`fas.planners`);
 * :mod:`fas.path.arc` - arcs as straight segments within the arc tolerance.
 

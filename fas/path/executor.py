@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from .blend import Blend, corner_blend, corner_steps, exit_window
 from .lookahead import Block, Lookahead
 
 #: pieces shorter than this (ticks) are not cut off at the horizon: the next run
@@ -95,7 +96,9 @@ class Segment:
     __slots__ = ("seq", "block", "start", "steps", "ups", "pitch", "phase", "on_end",
                  "length", "accel",
                  "pieces", "s_done", "t_start", "t_done", "complete", "end", "end_tick",
-                 "dominant", "tag")
+                 "dominant", "tag", "first")
+
+    blend = False  # a BlendSegment: steps of its own per axis
 
     def __init__(self, seq: int, block: Block, t_start: float, ticks_per_s: int) -> None:
         self.seq = seq
@@ -133,21 +136,30 @@ class Segment:
         self.end_tick = 0  # the tick of ``end`` once complete
         self.dominant = steps.index(max(steps))  # (the first of the largest)
         self.tag = block.tag
+        #: per axis the steps a blend before it made already (the cursor starts there)
+        self.first: tuple[int, ...] = (0,) * len(steps)
 
     def known(self, axis: int) -> int:
         """How many of ``axis``'s steps in this segment have a final time."""
         n = self.steps[axis]
-        if self.complete and self.end == self.length:
+        if not n or (self.complete and self.end == self.length):
             return n
-        k = int(self.s_done / self.pitch[axis] + self.phase[axis]) if n else 0
+        k = int(self.s_done / self.pitch[axis] + self.phase[axis])
         if self.on_end[axis] and self.block.span is not None:
             n -= 1  # the last step comes on the end, the others half a step before
+        f = self.first[axis]
+        if k < f:
+            k = f
         return k if k < n else n
 
     def steps_by(self, axis: int, s: float) -> int:
         """The index of ``axis``'s last step due at or before distance ``s`` (may lie
         beyond the segment's steps)."""
         return int(s / self.pitch[axis] + self.phase[axis])
+
+    def step_up(self, axis: int, j: int) -> bool:
+        """The direction of ``axis``'s step ``j``."""
+        return self.ups[axis]
 
     def time_at(self, s: float) -> float:
         """The time (ticks) at distance ``s`` (at most ``s_done``)."""
@@ -181,9 +193,106 @@ class Segment:
             return self.end_tick
         return int(self.time_at((j - self.phase[axis]) * self.pitch[axis]) + 0.5)
 
+    def step_ticks(self, axis: int, j0: int, j1: int) -> list[int]:
+        """The ticks of ``axis``'s steps ``j0`` to ``j1`` (>= 1), as :meth:`step_tick`."""
+        pitch = self.pitch[axis]
+        phase = self.phase[axis]
+        pieces = self.pieces
+        last = len(pieces) - 1
+        k = 0
+        out: list[int] = []
+        end = (j1 == self.steps[axis] and self.complete and self.end == self.length
+               and self.on_end[axis])
+        sqrt = math.sqrt
+        p = pieces[0] if pieces else None
+        for j in range(j0, j1 if end else j1 + 1):
+            s = (j - phase) * pitch
+            if p is not None and s > p.s1:
+                while k <= last and s > pieces[k].s1:
+                    k += 1
+                p = pieces[k] if k <= last else None
+            if p is None:
+                t = self.t_done
+            else:  # Piece.time_at written out
+                d = s - p.s0
+                if d <= 0.0:
+                    t = p.t0
+                else:
+                    v0 = p.v0
+                    root = v0 * v0 + 2.0 * p.a * d
+                    den = v0 + sqrt(root if root > 0.0 else 0.0)
+                    t = p.t0 + 2.0 * d / den if den > 0.0 else p.t1
+                    if t > p.t1:
+                        t = p.t1
+            out.append(int(t + 0.5))
+        if end:
+            out.append(self.end_tick)
+        return out
+
     def __repr__(self) -> str:  # pragma: no cover - debugging aid
         return (f"Segment(#{self.seq} {self.block.delta}, done {self.s_done:.4g}/"
                 f"{self.length:.4g}, t {self.t_start:.0f}..{self.t_done:.0f})")
+
+
+class BlendSegment(Segment):
+    """A corner blend (:mod:`fas.path.blend`) as the axes execute it: complete when
+    made, each axis's steps at times of their own (and directions: an axis may turn
+    round in it).  Its distance figures are the blend's (the path it takes)."""
+
+    blend = True
+
+    def __init__(self, seq: int, block: Block, blend: Blend,
+                 per_axis: list[tuple[int, list[tuple[float, int]], int]],
+                 t_start: float, ticks_per_s: int, dominant: int) -> None:
+        # (Segment's figures set here: a blend has no distance of its own)
+        self.seq = seq
+        self.block = block  # the block out (the blend ends in it)
+        self.start = block.start
+        self.b = blend
+        self.tps = ticks_per_s
+        self.times = [[t * ticks_per_s for t, _d in steps] for _m, steps, _f in per_axis]
+        self.dirs = [[d > 0 for _t, d in steps] for _m, steps, _f in per_axis]
+        self.steps = tuple(len(x) for x in self.times)
+        self.ups = tuple(d[0] if d else block.delta[i] > 0 for i, d in enumerate(self.dirs))
+        n = len(self.steps)
+        self.pitch = (0.0,) * n
+        self.first = (0,) * n
+        self.phase = (0.0,) * n
+        self.on_end = (True,) * n
+        self.length = self.end = self.s_done = 2.0 * blend.reach
+        self.accel = 0.0
+        self.pieces: list[Piece] = []
+        self.t_start = t_start
+        self.t_done = t_start + blend.duration * ticks_per_s
+        self.complete = True
+        self.end_tick = int(self.t_done + 0.5)
+        self.dominant = dominant
+        self.tag = block.tag
+        self.saved: tuple[int, ...] = (0,) * n  # see Executor._blend
+
+    def known(self, axis: int) -> int:
+        return self.steps[axis]
+
+    def step_tick(self, axis: int, j: int) -> int:
+        if j == 0:
+            return int(self.t_start + 0.5)
+        return int(self.t_start + self.times[axis][j - 1] + 0.5)
+
+    def step_up(self, axis: int, j: int) -> bool:
+        d = self.dirs[axis]
+        return d[j - 1] if 0 < j <= len(d) else self.ups[axis]
+
+    def speed_at(self, t: float) -> float:
+        """Path speed (units/tick) at tick ``t``."""
+        tau = min(max((t - self.t_start) / self.tps, 0.0), self.b.duration)
+        return math.sqrt(sum(x * x for x in self.b.velocity(tau))) / self.tps
+
+    def dist_at(self, t: float) -> float:  # pragma: no cover - not asked of a blend
+        return self.s_done
+
+    def __repr__(self) -> str:  # pragma: no cover - debugging aid
+        return (f"BlendSegment(#{self.seq} v={self.b.speed:.4g} T={self.b.duration:.4g}, "
+                f"steps {self.steps}, t {self.t_start:.0f}..{self.t_done:.0f})")
 
 
 def trapezoid(v0: float, nominal: float, v_exit: float, accel: float,
@@ -249,6 +358,10 @@ class Executor:
         self.final = False  # the path ends at self.t: a stop with nothing after it
         self.holding = False
         self.stop_segment: Segment | None = None  # where a feed hold stopped
+        #: when a list: every corner blend made final, (corner in steps, its segment)
+        self.blends: list[tuple[tuple[int, ...], BlendSegment]] | None = None
+        #: a blend ended inside the next block: (where, each axis's first step)
+        self._enter: tuple[float, tuple[int, ...]] | None = None
 
     # ------------------------------------------------------------ a run
     def begin(self, t0: float) -> None:
@@ -260,6 +373,7 @@ class Executor:
         self.t = t0
         self.final = False
         self.stop_segment = None
+        self._enter = None
 
     def shift(self, ticks: int) -> None:
         """Move everything made final so far ``ticks`` later (a start that came later)."""
@@ -298,6 +412,9 @@ class Executor:
                     self.final = True  # nothing queued: the path ends (at rest)
                     break
                 seg = Segment(self.next_seq, block, self.t, tps)
+                if self._enter is not None:  # a blend before it: from its end on
+                    seg.s_done, seg.first = self._enter
+                    self._enter = None
                 self.next_seq += 1
                 self.segments.append(seg)
                 self.cur = seg
@@ -305,19 +422,46 @@ class Executor:
             rest = seg.length - seg.s_done
             v = self.v * tps  # units/s
             accel = block.acceleration
+            # the blend at the block's end takes k e of it (e: the exit squared)
+            k = block.zone_out if len(la.blocks) > 1 else 0.0
             if self.holding:
                 phases, stop = self._hold_phases(v, accel, rest)
                 exit2 = max(0.0, v * v - 2.0 * accel * rest) if not stop else 0.0
+                if not stop and k > 0.0:  # the corner at the slowest exit it allows
+                    win = exit_window(v * v, rest, accel, k)
+                    if (win is not None and win[0] > 0.0
+                            and k * win[0] <= la.blocks[1].length):
+                        exit2 = win[0]
+                        phases = [(v, -accel, rest - k * exit2)]
+                    else:
+                        k = 0.0
             else:
                 stop = False
                 vx2 = la.exit_sqr()
-                reach2 = v * v + 2.0 * accel * rest
-                if vx2 > reach2:  # the exit rose beyond what this block still reaches
-                    vx2 = reach2
-                    la.blocks[1].entry_sqr = reach2
-                    la.replan_from_first()
-                phases = trapezoid(v, block.nominal_speed, math.sqrt(vx2), accel, rest)
-                exit2 = max(vx2, v * v - 2.0 * accel * rest)
+                win = exit_window(v * v, rest, accel, k) if k > 0.0 else None
+                if win is not None and k * max(win[0], min(vx2, win[1])) > la.blocks[1].length:
+                    win = None  # its blend would not fit in the block out (an override)
+                if win is None:
+                    k = 0.0  # (none: go on as without a blend)
+                if k > 0.0 and win is not None:
+                    lo, hi = win
+                    if vx2 > hi:  # the exit rose beyond what this block still reaches
+                        vx2 = hi
+                        la.blocks[1].entry_sqr = hi
+                        la.replan_from_first()
+                    if vx2 < lo:
+                        vx2 = lo
+                    dist = rest - k * vx2
+                    phases = trapezoid(v, block.nominal_speed, math.sqrt(vx2), accel, dist)
+                    exit2 = vx2
+                else:
+                    reach2 = v * v + 2.0 * accel * rest
+                    if vx2 > reach2:  # the exit rose beyond what this block still reaches
+                        vx2 = reach2
+                        la.blocks[1].entry_sqr = reach2
+                        la.replan_from_first()
+                    phases = trapezoid(v, block.nominal_speed, math.sqrt(vx2), accel, rest)
+                    exit2 = max(vx2, v * v - 2.0 * accel * rest)
             done = self._take(seg, phases, horizon)
             if not done:
                 break
@@ -332,17 +476,47 @@ class Executor:
                 self.stop_segment = seg
                 self.v = 0.0
                 break
-            seg.s_done = seg.end = seg.length
+            blend = None
+            if k > 0.0 and exit2 > 0.0:
+                blend = corner_blend(block.unit, la.blocks[1].unit, math.sqrt(exit2),
+                                     la.accel)
+            if blend is None:
+                seg.s_done = seg.end = seg.length
+            else:
+                seg.end = seg.s_done  # the blend goes on from here
             la.pop_first()
             nxt = la.first()
             if nxt is not None:
                 nxt.entry_sqr = exit2
+            if blend is not None and nxt is not None:
+                self._blend(seg, nxt, blend)
         # the block being executed: what is left of it, entered at the speed reached
         seg = self.cur
         if seg is not None and not seg.complete:
             block = seg.block
-            block.remaining = seg.length - seg.s_done
+            left = seg.length - seg.s_done - block.reserve_out
+            block.remaining = left if left > 0.0 else 0.0
             block.entry_sqr = (self.v * tps) ** 2
+
+    def _blend(self, seg: Segment, nxt: Block, blend: Blend) -> None:
+        """The corner after ``seg`` as a blend into ``nxt``, final as a whole (the
+        block out final up to where the blend ends in it)."""
+        axes = range(len(seg.steps))
+        made = [seg.known(i) for i in axes]
+        block = seg.block
+        per = corner_steps(block.start, block.delta, nxt.delta, blend, self.lookahead.spu,
+                           made, block.origin, block.span, nxt.span)
+        bseg = BlendSegment(self.next_seq, nxt, blend, per, self.t, self.tps, seg.dominant)
+        bseg.tag = block.tag  # the corner ends the block in
+        # the steps each axis's blocks would have made in the blend and did not
+        bseg.saved = tuple(abs(d) - m + f - len(st)
+                           for d, (m, st, f) in zip(block.delta, per, strict=True))
+        if self.blends is not None:
+            self.blends.append((nxt.start, bseg))
+        self.next_seq += 1
+        self.segments.append(bseg)
+        self.t = bseg.t_done
+        self._enter = (blend.reach, tuple(f for _m, _s, f in per))
 
     def _take(self, seg: Segment, phases: Sequence[tuple[float, float, float]],
               horizon: float) -> bool:
@@ -401,6 +575,6 @@ class Executor:
     def speed_at(self, t: float) -> float:
         """Path speed (units/s) at tick ``t``, by the final pieces (0 outside them)."""
         for seg in self.segments:
-            if seg.t_start <= t <= seg.t_done and seg.pieces:
+            if seg.t_start <= t <= seg.t_done and (seg.pieces or seg.blend):
                 return seg.speed_at(t) * self.tps
         return 0.0

@@ -43,9 +43,9 @@ from typing import TYPE_CHECKING
 from ..codes import PIN_UNDEFINED
 from ..planner import PlannerChange
 from .axis import PLANNER_PATH, PathAxis
-from .executor import Executor
+from .executor import BlendSegment, Executor
 from .lookahead import Block, Lookahead, pin_after
-from .settings import AxisLimits, PathResult, PathSettings, PathState
+from .settings import BLEND_SHARE, AxisLimits, PathResult, PathSettings, PathState
 from .stepping import MAX_TICKS, AxisStats, AxisWriter, SpeedListener, Wrote
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -101,10 +101,14 @@ class PathGroup:
         self.position = [0] * n  # steps: where the axes stand at the queued path's end
         self.exact = [0.0] * n  # ... and the path's end itself (between steps: an arc)
         self.lookahead = Lookahead(settings.axes, settings.junction_deviation,
-                                   settings.queue_blocks)
+                                   settings.queue_blocks,
+                                   blend_share=BLEND_SHARE if settings.corner_blends else 0.0)
         self.backend: Backend | None = None
         self.tps = 1
         self.executor = Executor(self.lookahead, 1)
+        #: when a list: every corner blend executed, (corner in steps, its segment) -
+        #: what the path as run is measured against (tests, benches)
+        self.blend_log: list[tuple[tuple[int, ...], BlendSegment]] | None = None
         self.run_active = False
         self.holding = False  # a feed hold decelerates or holds
         self.held = False  # ... and the axes stand
@@ -157,6 +161,7 @@ class PathGroup:
         self.tps = p.ticks_per_s
         self.start_margin = p.fill_period_ticks
         self.executor = Executor(self.lookahead, self.tps)
+        self.executor.blends = self.blend_log
         self.writers = [AxisWriter(i, a.host, self.executor) for i, a in enumerate(axes)]
         for w in self.writers:
             w.listener = self._listener
@@ -209,6 +214,7 @@ class PathGroup:
             return PathResult.ERR_RUNNING
         self.settings = settings
         self.lookahead.size = settings.queue_blocks
+        self.lookahead.blend_share = BLEND_SHARE if settings.corner_blends else 0.0
         self._configure_lookahead()
         return PathResult.OK
 

@@ -47,7 +47,8 @@ class Block:
     __slots__ = ("start", "delta", "origin", "span", "through", "unit", "length",
                  "remaining",
                  "acceleration", "rapid_rate", "nominal_speed", "entry_sqr",
-                 "max_entry_sqr", "max_junction_sqr", "tag", "feed", "override")
+                 "max_entry_sqr", "max_junction_sqr", "tag", "feed", "override",
+                 "reserve_in", "reserve_out", "zone_out")
 
     def __init__(self, start: tuple[int, ...], delta: tuple[int, ...],
                  unit: tuple[float, ...], length: float, acceleration: float,
@@ -78,6 +79,11 @@ class Block:
         self.tag = tag  # the caller's (a G-code line number, a laser power)
         self.feed = feed  # units/min as asked (None: rapid)
         self.override = override  # the feed/rapid override applies (not to a jog)
+        # corner blends (fas.path.blend): the lengths kept for the blends at both
+        # ends (the passes ramp over the rest) and the blend's k at the end
+        self.reserve_in = 0.0
+        self.reserve_out = 0.0
+        self.zone_out = 0.0
 
     @property
     def end(self) -> tuple[int, ...]:
@@ -103,6 +109,19 @@ def pin_after(pin: int, x0: float, x1: float) -> int:
     return pin
 
 
+def on_steps(block: Block) -> bool:
+    """Whether ``block`` ends in a corner a blend may take: on whole steps and not a
+    point the path goes on through (an arc's chord end, kept exact)."""
+    if block.through:
+        return False
+    if block.span is None:
+        return True
+    origin = block.origin
+    assert origin is not None
+    return all(abs(x0 + x - round(x0 + x)) < 1e-9
+               for x0, x in zip(origin, block.span, strict=True))
+
+
 def limit_along(limits: Sequence[float], unit: Sequence[float]) -> float:
     """The largest value along ``unit`` that keeps every axis within ``limits[i]``."""
     best = BIG
@@ -118,10 +137,13 @@ class Lookahead:
     """The queue of blocks and its speed planning (see the module text)."""
 
     def __init__(self, axes: Sequence[AxisLimits], junction_deviation: float,
-                 size: int, top_rates: Sequence[float] | None = None) -> None:
+                 size: int, top_rates: Sequence[float] | None = None,
+                 blend_share: float = 0.0) -> None:
         """``top_rates``: the steppers' own top speeds in steps/s (their queues' limit),
-        which cap each axis's ``max_rate`` too."""
+        which cap each axis's ``max_rate`` too.  ``blend_share`` > 0: corners are
+        blended (fas.path.blend), each blend within that share of either block."""
         self.size = size
+        self.blend_share = blend_share
         self.blocks: list[Block] = []
         self.planned = 0  # blocks before this index (and its entry) are final
         self.configure(axes, junction_deviation, top_rates)
@@ -226,11 +248,52 @@ class Lookahead:
         nominal = block.nominal_speed
         top = min(nominal, self.prev_nominal) if blocks else nominal
         block.max_entry_sqr = min(top * top, block.max_junction_sqr)
+        share = self.blend_share
+        if share > 0.0:
+            self._reserve(block, share)
         block.entry_sqr = 0.0
         self.prev_nominal = nominal
         self.prev_unit = block.unit
         blocks.append(block)
         self.recalculate()
+
+    def _reserve(self, block: Block, share: float) -> None:
+        """Corner blends: the newest block keeps ``share`` of its length free at its
+        end; the junction into ``block`` is capped so that its blend takes at most
+        that share of either block, and the block before keeps the blend's largest
+        length ``k m`` only - a length that grows, so what is final stays final.  The
+        path goes on through an arc's chord ends (``through``) and points between
+        steps exactly: no blend there, the junction as Grbl's (:func:`on_steps`)."""
+        from .blend import zone_coefficient  # (blend uses limit_along from here)
+
+        blocks = self.blocks
+        k = 0.0
+        prev_res = 0.0
+        if (blocks and self.prev_unit is not None and block.max_junction_sqr > 0.0
+                and on_steps(blocks[-1])):
+            prev = blocks[-1]
+            k = zone_coefficient(prev.unit, block.unit, self.accel)
+            if k > 0.0:
+                fit = share * min(prev.length, block.length) / k
+                if block.max_junction_sqr > fit:
+                    block.max_junction_sqr = fit
+                if block.max_entry_sqr > fit:
+                    block.max_entry_sqr = fit
+            top = min(block.nominal_speed, prev.nominal_speed)
+            m = min(block.max_junction_sqr, top * top)
+            res = k * m  # (an override that raises the speeds: the executor's window)
+            prev.remaining += prev.reserve_out - res
+            prev.reserve_out = res
+            prev.zone_out = k
+            prev_res = res
+        elif blocks:
+            prev = blocks[-1]
+            prev.remaining += prev.reserve_out
+            prev.reserve_out = 0.0
+            prev.zone_out = 0.0
+        block.reserve_in = prev_res
+        block.reserve_out = share * block.length
+        block.remaining = block.length - block.reserve_in - block.reserve_out
 
     def junction_sqr(self, a: Sequence[float], b: Sequence[float]) -> float:
         """The largest speed squared at the corner from direction ``a`` to ``b``."""

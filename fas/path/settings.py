@@ -28,6 +28,18 @@ DEFAULT_START_DELAY_MS = 50
 #: position error (steps) allowed for steps grouped into one command at an even period
 #: where the exact step times are not evenly spaced (accelerating, decelerating)
 GROUP_TOLERANCE_STEPS = 0.125
+#: with corner blends on (PathSettings.corner_blends; at Grbl's junctions the axis's
+#: velocity jumps at a turn anyway): for this long after an axis's last step before
+#: it turns round, its steps come on their own ticks, none early (seconds).  Early
+#: steps put an axis ahead of the path on the side it moves to, so across a turn
+#: their errors change sign: a divided difference over step edges >= W apart
+#: (rigs.path.edge_accels) with its middle edge b before the turn and its last c
+#: after would see up to 4 e / W^2 instead of the one-sided 2 e / W^2.  c is the
+#: first step at or after t_b + W <= (the last step before the turn) + W; with every
+#: step up to there exact (and the first step at or after it beginning a command, on
+#: its tick) the bound 2 e / W^2 holds at every step for every window W up to this
+#: one - the acceptance's 20 ms.
+TURN_EXACT_S = 0.020
 
 
 @dataclass(frozen=True)
@@ -48,16 +60,28 @@ class AxisLimits:
         return None
 
 
+#: corner blends (fas.path.blend): each within this share of either block
+BLEND_SHARE = 0.5
+
+
 @dataclass(frozen=True)
 class PathSettings:
     """The figures of one group: its axes (in the order of its steppers), the junction
-    deviation ($11) and the arc tolerance ($12) in units, and the look-ahead depth."""
+    deviation ($11) and the arc tolerance ($12) in units, and the look-ahead depth.
+
+    ``corner_blends``: False (the default) runs Grbl's motion - the path is the
+    commanded polyline, each corner passed at its junction speed on one tick with
+    each axis's velocity jumping there; True takes every turning corner on whole
+    steps as a blend at constant acceleration (:mod:`fas.path.blend`): every axis
+    within its acceleration, the path up to ``junction_deviation`` inside the corner
+    (docs/path-planner.md, "Corners: blends")."""
 
     axes: tuple[AxisLimits, ...] = field(default_factory=tuple)
     junction_deviation: float = DEFAULT_JUNCTION_DEVIATION
     arc_tolerance: float = DEFAULT_ARC_TOLERANCE
     queue_blocks: int = DEFAULT_QUEUE_BLOCKS
     start_delay_ms: int = DEFAULT_START_DELAY_MS
+    corner_blends: bool = False
 
     def problem(self, axes: int) -> str | None:
         """Why these settings do not fit a group of ``axes`` axes (None: they do)."""

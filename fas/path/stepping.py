@@ -7,7 +7,13 @@ chords), at the tick the segment's final pieces give for that distance, rounded.
 at every instant each axis has made exactly the steps the path has passed (the
 position rounds down along the path: less than one step behind it; to the nearest
 step in an arc's chords), and every axis makes the last step of a segment that ends
-on a step at the segment's end tick - all on one tick.
+on a step at the segment's end tick - all on one tick.  A corner blend
+(:class:`fas.path.executor.BlendSegment`) has each axis's step ticks of its own: the
+last steps before it, its own and the first of the segment after it are grouped at
+one whole period with the last step waiting for the rest, as far as every step stays
+at or before its tick and within ``tol`` (:meth:`AxisWriter._blend_group`,
+:meth:`AxisWriter._longest`), and the segment after it begins at the step the blend
+left each axis at.
 
 The steps become commands ``(ticks, steps, count_up)`` that run back to back from the
 run's common start tick, so that each step falls on its tick:
@@ -26,6 +32,12 @@ run's common start tick, so that each step falls on its tick:
   horizon; pauses fill the rest once the next step is known.  An axis that does not
   move writes pauses, so that every queue of the group keeps its place in time.
 
+Grouped steps come early along the motion, so across an axis's turn their errors
+change sign; for :data:`fas.path.settings.TURN_EXACT_S` after its last step before a
+turn the axis's steps come on their own ticks (``tol`` 0), so that its acceleration
+measured from the pins over step edges >= W apart stays within the limit + ``2 tol /
+W^2`` (W up to that time) at the turn too.
+
 A step that cannot be placed on its tick (a command would be shorter than the minimum
 command time, or a period not a whole number where the two-command split is too
 short) is moved to the nearest tick a command allows; :class:`AxisStats` counts those
@@ -37,17 +49,21 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from enum import IntEnum
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from ..codes import AqeResult
-from .executor import Executor, Segment
-from .settings import GROUP_TOLERANCE_STEPS
+from .executor import BlendSegment, Executor, Segment
+from .settings import GROUP_TOLERANCE_STEPS, TURN_EXACT_S
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..planner import PlannerHost
 
 MAX_STEPS = 255  # a command's steps
 MAX_TICKS = 65535  # a command's ticks
+#: a segment's last steps before a blend, up to this many, group with the blend's
+BLEND_LEAD = 32
+#: ... and a group through a blend goes on into up to this many steps after it
+BLEND_RUN = 32
 
 #: ``listener(tick, speed, tag)``: the path speed (units/min) of a command of a
 #: segment's dominant axis beginning at ``tick``; speed 0 where the path stops
@@ -106,6 +122,12 @@ class AxisWriter:
         #: shorter than that may go on past a segment's last step (:meth:`_across`)
         self.min_span = 4 * host.backend.task_period_ticks // host.queue.queue_len
         self.tol = GROUP_TOLERANCE_STEPS
+        #: steps before this tick are placed on their ticks: the axis turned round
+        #: less than TURN_EXACT_S ago (:meth:`_step`)
+        self.exact_until = 0
+        self.turn_ticks = round(TURN_EXACT_S * self.tps)
+        self.step_dir: bool | None = None  # the direction of the last step written
+        self.step_last = 0  # ... and its tick
         self.stats = AxisStats()
         self.listener: SpeedListener | None = None
         self.seq = 0  # the segment of the cursor ...
@@ -137,6 +159,8 @@ class AxisWriter:
         """The run starts ``ticks`` later: the written commands end that much later."""
         self.w_end += ticks
         self.last_start += ticks
+        self.step_last += ticks
+        self.exact_until += ticks
         if self.pending:
             self.t_pend += ticks
 
@@ -179,7 +203,7 @@ class AxisWriter:
                 if gap >= self.min_wait:  # (a pause is refused below the top speed)
                     seg = self.ex.segment(self.seq)
                     assert seg is not None
-                    res = self._pauses(gap, seg.ups[self.axis], free)
+                    res = self._pauses(gap, seg.step_up(self.axis, self.j), free)
                     if res != Wrote.OK:
                         return res
                     continue
@@ -206,9 +230,13 @@ class AxisWriter:
                     return Found.UNKNOWN, seq, j, 0
             elif not seg.complete:
                 return Found.UNKNOWN, seq, j, 0
+            nxt = ex.segment(seq + 1)
+            if nxt is None:  # not made yet: stay at this one's end (a blend before
+                j = n  # the next may have made its first steps)
+                break
             seq += 1
-            j = 0
-            seg = ex.segment(seq)
+            seg = nxt
+            j = seg.first[i]
         return (Found.END if ex.final else Found.UNKNOWN), seq, j, 0
 
     def _step(self) -> Wrote:
@@ -217,9 +245,22 @@ class AxisWriter:
         i = self.axis
         seg = ex.segment(self.seq)
         assert seg is not None
+        # shortly after a turn no step early (TURN_EXACT_S): one step a command
+        up = seg.step_up(i, self.j)
+        if up != self.step_dir:
+            if self.step_dir is not None:
+                self.exact_until = self.step_last + self.turn_ticks
+            self.step_dir = up
+        # (with corner blends only: at Grbl's junctions the velocity jumps at a turn)
+        self.tol = (0.0 if self.w_end < self.exact_until and ex.lookahead.blend_share
+                    else GROUP_TOLERANCE_STEPS)
+        if seg.blend:  # a corner blend: its steps grouped as far as they allow
+            return self._blend_group(seg)
         known = seg.known(i)
         if seg.complete and self.j >= known:  # the segment's last step
             nxt = ex.segment(self.seq + 1)
+            if nxt is not None and nxt.blend:  # it goes on into the blend's steps
+                return self._blend_group(seg)
             if (nxt is not None and seg.end == seg.length and nxt.steps[i]
                     and nxt.ups[i] == seg.ups[i] and nxt.known(i) >= 1
                     and (seg.on_end[i]
@@ -238,6 +279,10 @@ class AxisWriter:
         j0 = self.j
         if known <= j0:
             return self._provisional(seg)
+        if seg.complete and seg.end != seg.length and known - j0 <= BLEND_LEAD:
+            nxt = ex.segment(self.seq + 1)
+            if nxt is not None and nxt.blend:
+                return self._blend_group(seg)  # the last steps with the blend's
         pitch = seg.pitch[i]
         t0 = self.w_end
         min_cmd = self.min_cmd
@@ -305,7 +350,7 @@ class AxisWriter:
             where.append((seg.seq, j))
         while exact[-1] - t0 < self.min_span and len(exact) < MAX_STEPS:
             nxt = ex.segment(cur.seq + 1)
-            if (nxt is None or not nxt.steps[i] or nxt.ups[i] != up
+            if (nxt is None or nxt.blend or not nxt.steps[i] or nxt.ups[i] != up
                     or not (cur.complete and cur.end == cur.length)):
                 break
             known = nxt.known(i)
@@ -343,40 +388,168 @@ class AxisWriter:
         self.pending = True
         return Wrote.OK
 
-    def _placement(self, t0: int, exact: list[int]
+    def _blend_group(self, seg: Segment) -> Wrote:
+        """The pending step is in a corner blend or among the last ``BLEND_LEAD``
+        before one: it and the next steps the same way - through the blend's and on
+        into up to ``BLEND_RUN`` steps of the segment after it - up to the first step
+        that does not fit (which starts the next command), placed at or before their
+        ticks and within ``tol`` steps (:meth:`_placement`, the longest run that
+        fits); one step and its wait where no group fits.  An axis that speeds up
+        through the corner takes the blend's steps into the even spread of the steps
+        after it; one that slows down, into the period of the steps before it."""
+        ex = self.ex
+        i = self.axis
+        j0 = self.j
+        up = seg.step_up(i, j0)
+        chain = [seg]
+        if not seg.blend:
+            nxt = ex.segment(self.seq + 1)
+            assert nxt is not None and nxt.blend
+            chain.append(nxt)
+        out = ex.segment(chain[-1].seq + 1)  # the segment after the blend
+        if out is None:
+            cut = not ex.final
+        else:
+            chain.append(out)
+            cut = not out.complete and out.known(i) - out.first[i] < BLEND_RUN
+        if cut and self.last_start > self._deep:
+            return Wrote.WAIT  # the queue is deep: the next run makes the group longer
+        exact: list[int] = []
+        #: where each segment's steps begin in ``exact``: (index, seq, its step there)
+        spans: list[tuple[int, int, int]] = []
+        for cur in chain:
+            j = j0 if cur is seg else cur.first[i]
+            kn = cur.known(i)
+            if cur is out and kn > j + BLEND_RUN:
+                kn = j + BLEND_RUN
+            if j >= kn:
+                if not cur.complete:
+                    break  # the steps after are not final yet
+                continue
+            spans.append((len(exact), cur.seq, j + 1))
+            if cur.blend:
+                bl = cast(BlendSegment, cur)
+                t0 = bl.t_start + 0.5
+                n = 0
+                turn = False
+                for d in bl.dirs[i][j:kn]:
+                    n += 1
+                    if d != up:  # the first step the other way ends it
+                        turn = True
+                        break
+                exact.extend([int(t0 + t) for t in bl.times[i][j:j + n]])
+                if turn:
+                    break
+            else:
+                if cur.ups[i] != up:
+                    kn = j + 1  # the first step the other way ends it
+                exact.extend(cur.step_ticks(i, j + 1, kn))
+                if cur.ups[i] != up or not cur.complete:
+                    break
+            if len(exact) >= MAX_STEPS:
+                del exact[MAX_STEPS:]
+                break
+        if not exact:
+            return self._single(seg)
+        t0 = self.w_end
+        m, period = self._longest(t0, exact)
+        if m < 2:
+            return self._single(seg)
+        cmds = [(period, m - 1), (exact[m - 1] - t0 - (m - 1) * period, 1)]
+        del exact[m:]
+        if self.free < len(cmds):
+            return Wrote.FULL
+        res = self._write_all(cmds, up, seg)
+        if res != Wrote.OK:
+            return res
+        last = len(exact) - 1
+        for at, sq, jf in reversed(spans):
+            if at <= last:
+                self.seq, self.j = sq, jf + last - at
+                break
+        self.t_pend = exact[-1]
+        self.pending = True
+        return Wrote.OK
+
+    def _longest(self, t0: int, exact: list[int]) -> tuple[int, int]:
+        """How many of ``exact`` a group from a step at ``t0`` reaches (its last one
+        starting the next command) with its steps at a whole period ``P``, the last
+        waiting for the rest: ``(m, P)``, ``m`` 1 where none.  Step ``k`` at ``t0 +
+        k P`` is at or before its tick and at most ``tol`` steps early where ``(e_k -
+        tol (e_k - e_(k-1)) - t0) / k <= P <= (e_k - t0) / k``: one pass narrows that
+        range step by step; ``P`` is its top, the latest placement."""
+        tol = self.tol
+        lo = -math.inf
+        hi = math.inf
+        best = (1, 0)
+        prev = t0
+        k = 1
+        n = len(exact)
+        fastest = self.queue.max_speed_in_ticks
+        min_wait = self.min_wait
+        min_cmd = self.min_cmd
+        while k < n:
+            e = exact[k - 1]
+            d = e - t0
+            h = d / k
+            low = (d - tol * (e - prev)) / k
+            if h < hi:
+                hi = h
+            if low > lo:
+                lo = low
+            period = int(hi)
+            if period < lo or period < fastest:
+                break
+            prev = e
+            k += 1
+            rest = exact[k - 1] - t0 - (k - 1) * period
+            if (min_wait <= rest <= MAX_TICKS and period <= MAX_TICKS
+                    and (k > 2 and period * (k - 1) >= min_cmd or period >= min_cmd)):
+                best = (k, period)
+        return best
+
+    def _placement(self, t0: int, exact: list[int], m: int = 0
                    ) -> tuple[list[tuple[int, int]] | None, list[int]]:
         """Commands for a step at ``t0`` and the steps up to the last of ``exact``
-        (which starts the next command), each placed at or before its exact tick and
-        at most ``tol`` steps early; (None, []) where neither the even spread nor the
-        first interval's period does that."""
-        m = len(exact)
-        span = exact[-1] - t0
+        (which starts the next command; ``m``: of its first ``m`` only), each placed
+        at or before its exact tick and at most ``tol`` steps early; (None, []) where
+        neither the even spread nor the first interval's period does that."""
+        if not m:
+            m = len(exact)
+        span = exact[m - 1] - t0
         period, r = divmod(span, m)
-        candidates: list[tuple[list[tuple[int, int]], list[int]]] = []
-        if period >= self.queue.max_speed_in_ticks and period < MAX_TICKS:
+        tol = self.tol
+        fastest = self.queue.max_speed_in_ticks
+        if fastest <= period < MAX_TICKS:
             a = m - r
             if r == 0 or (self._legal(period, a) and self._legal(period + 1, r)):
-                placed = [t0 + k * period + max(0, k - a) for k in range(1, m)]
-                cmds = [(period, a)] + ([(period + 1, r)] if r else [])
-                if r == 0 or self._legal(period, a):
-                    candidates.append((cmds, placed))
+                # step k (1..m-1) at t0 + k period + max(0, k - a)
+                prev = t0
+                t = t0
+                k = 1
+                while k < m:
+                    t += period if k <= a else period + 1
+                    e = exact[k - 1]
+                    if t > e or e - t > tol * (e - prev):
+                        break
+                    prev = e
+                    k += 1
+                else:
+                    return ([(period, a)] + ([(period + 1, r)] if r else []),
+                            [t0 + k * period + max(0, k - a) for k in range(1, m)])
         first = exact[0] - t0
         rest = span - (m - 1) * first
-        if (m > 1 and self.queue.max_speed_in_ticks <= first <= MAX_TICKS
+        if (m > 1 and fastest <= first <= MAX_TICKS
                 and self._legal(first, m - 1) and self.min_wait <= rest <= MAX_TICKS):
-            candidates.append(([(first, m - 1), (rest, 1)],
-                               [t0 + k * first for k in range(1, m)]))
-        for cmds, placed in candidates:
             prev = t0
-            ok = True
+            t = t0
             for k in range(m - 1):
-                late = placed[k] - exact[k]
-                if late > 0 or -late > self.tol * (exact[k] - prev):
-                    ok = False
-                    break
-                prev = exact[k]
-            if ok:
-                return cmds, placed
+                t += first
+                e = exact[k]
+                if t > e or e - t > tol * (e - prev):
+                    return None, []
+                prev = e
+            return [(first, m - 1), (rest, 1)], [t0 + k * first for k in range(1, m)]
         return None, []
 
     def _span_limit(self, seg: Segment, pitch: float, t0: float) -> tuple[float, bool]:
@@ -485,7 +658,7 @@ class AxisWriter:
         if found == Found.UNKNOWN:
             return self._provisional(seg)
         i = self.axis
-        up = seg.ups[i]
+        up = seg.step_up(i, self.j)
         if found == Found.END:
             cmds = [(self.min_wait, 1)]  # the last step of the run: the queue runs out
         else:
@@ -508,7 +681,7 @@ class AxisWriter:
         assert nseg is not None
         res = self._write_all(cmds[:1], up, seg)
         if res == Wrote.OK and len(cmds) > 1:
-            res = self._write_all(cmds[1:], nseg.ups[i], seg)
+            res = self._write_all(cmds[1:], nseg.step_up(i, j), seg)
         if res != Wrote.OK:
             return res
         self.seq, self.j, self.t_pend = seq, j, tick
@@ -525,7 +698,7 @@ class AxisWriter:
             wait = MAX_TICKS
         if wait < self.min_wait:
             return Wrote.WAIT
-        res = self._write_all([(wait, 1)], seg.ups[self.axis], seg)
+        res = self._write_all([(wait, 1)], seg.step_up(self.axis, self.j), seg)
         if res == Wrote.OK:
             self.pending = False
         return res
@@ -582,6 +755,11 @@ class AxisWriter:
             if steps:
                 st.commands += 1
                 st.steps += steps
+                if up != self.step_dir:  # a turn (a step not through _step)
+                    if self.step_dir is not None:
+                        self.exact_until = self.step_last + self.turn_ticks
+                    self.step_dir = up
+                self.step_last = self.last_start
             else:
                 st.pauses += 1
         return Wrote.OK

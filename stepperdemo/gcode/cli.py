@@ -61,6 +61,7 @@ Settings ($$ lists them, $N=value or --set '$N=value' changes one):
   $150-153  pin of Dout0-3, $160-163 pin of Aout0-3            default: profile table
   $170      status report shows Dout:/Aout:                    default 0
   $171      motion: 0 look-ahead, 1 stop at every block        default 0
+  $172      corners: 0 Grbl's junctions, 1 corner blends       default 0
 With one step per unit, X/Y/Z are in steps and F in steps per minute.
 
 exit codes: 0 ok, 1 a line was answered with an error, 2 bad arguments,

@@ -238,6 +238,12 @@ def set_setting(m: GcodeMachine, number: int, value: float) -> None:
                 n=number, range="0 or 1"))
         st.motion = int(value)
         return
+    if number == 172:  # corners: Grbl's junctions or blends (fas.path)
+        if value not in (0, 1):
+            raise GcodeError(Err.INVALID_STATEMENT, msg.GCODE_ERR_SETTING_RANGE.format(
+                n=number, range="0 or 1"))
+        st.corner_blends = bool(value)
+        return
     axis = axis_setting(number)
     if axis is not None:
         base, i = axis

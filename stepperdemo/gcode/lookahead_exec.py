@@ -54,7 +54,8 @@ def path_settings(st: GcodeSettings, axes: int, blocks: int) -> PathSettings:
                    for i in range(axes))
     tolerance = st.arc_tolerance if st.arc_tolerance > 0 else DEFAULT_ARC_TOLERANCE
     return PathSettings(axes=limits, junction_deviation=st.junction_deviation,
-                        arc_tolerance=tolerance, queue_blocks=max(2, blocks))
+                        arc_tolerance=tolerance, queue_blocks=max(2, blocks),
+                        corner_blends=st.corner_blends)
 
 
 def lookahead_fits(steppers: list) -> bool:

@@ -158,6 +158,7 @@ def settings_lines(m: GcodeMachine) -> list[str]:
     lines += [f"${160 + n}={outputs.analog_pin(n)}" for n in range(4)]
     lines.append(f"$170={int(st.report_outputs)}")
     lines.append(f"$171={st.motion}")
+    lines.append(f"$172={int(st.corner_blends)}")
     return lines
 
 

@@ -2,7 +2,7 @@
 
 ``$$`` lists Grbl 1.1's numbers in its order (senders read ``$10``, ``$13``,
 ``$100``-``$132`` ...) with the values this machine really has, then the project's
-own (``$140``-``$170``).  The axis groups always show X, Y and Z (senders expect
+own (``$140``-``$172``).  The axis groups always show X, Y and Z (senders expect
 three), and A, B, C when the machine has those axes.
 
 =========  ==========================================================  ===========
@@ -32,6 +32,10 @@ three), and A, B, C when the machine has those axes.
  $170       status report shows the user outputs (``Dout:``/``Aout:``)  0
  $171       motion: 0 look-ahead (``fas.path``), 1 exact stop at every   0
             block (issue 24's executor, for comparison)
+ $172       corners: 0 Grbl's junctions (the commanded polyline, each    0
+            axis's velocity jumps at a corner), 1 corner blends (every
+            axis within its acceleration, the path up to $11 inside
+            the corner; docs/path-planner.md "Corners: blends")
 =========  ==========================================================  ===========
 
 The machine executes its blocks with look-ahead (:mod:`.lookahead_exec`) unless
@@ -83,6 +87,7 @@ class GcodeSettings:
     status_mask: int = DEFAULT_STATUS_MASK
     report_outputs: bool = False  # $170
     motion: int = MOTION_LOOKAHEAD  # $171
+    corner_blends: bool = False  # $172: Grbl's junctions (0) or corner blends (1)
     kept: dict[int, float] = field(
         default_factory=lambda: {n: v for n, (v, _d) in KEPT.items()})
     startup: list[str] = field(default_factory=lambda: ["", ""])  # $N0, $N1

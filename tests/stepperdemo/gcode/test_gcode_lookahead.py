@@ -306,3 +306,93 @@ def test_a_door_during_a_jog_rests_in_door_until_input(after: bytes) -> None:
     assert g.settle(2.0)
     assert g.take() == b"ok\r\n"
     assert g.machine.positions()[0] == stopped[0] - 10 * SPU  # steps
+
+
+# ------------------------------------------------- $172: corner blends (opt-in)
+def test_172_switches_corner_blends_lists_persists_and_refuses_bad_values():
+    """``$172``: 0 Grbl's junctions (the default), 1 corner blends; ``$$`` lists it,
+    it is kept over a reset as the other settings, ``$RST=$`` restores 0, a value
+    other than 0 or 1 is Grbl's error:3 (a negative one error:4) and changes
+    nothing."""
+    g = grbl()
+    g.send(b"$$\n")
+    assert "$172=0" in g.take().decode().split("\r\n")
+    assert g.machine.settings.corner_blends is False
+    for bad, answer in ((b"2", "0 or 1]"), (b"0.5", "0 or 1]"), (b"-1", ">= 0]")):
+        g.send(b"$172=" + bad + b"\n")
+        assert g.settle()
+        err = "error:4" if bad == b"-1" else "error:3"  # Grbl's negative value: 4
+        assert g.take().decode().split("\r\n")[-3:] == [
+            "[MSG:$172 must be " + answer, err, ""]
+    g.send(b"$172=1\n")
+    assert g.settle()
+    assert g.take().decode().split("\r\n")[-2:] == ["ok", ""]
+    g.send(b"\x18")  # a reset keeps the settings
+    assert g.settle()
+    g.take()
+    g.send(b"$$\n")
+    assert "$172=1" in g.take().decode().split("\r\n")
+    g.send(b"G1 X20 F6000\nG1 Y20\n")
+    assert g.settle()
+    group = g.machine.executor.group
+    assert group.settings.corner_blends and group.lookahead.blend_share > 0.0
+    g.send(b"$RST=$\n")
+    assert g.settle()
+    g.take()
+    assert g.machine.settings.corner_blends is False
+
+
+def test_a_right_angle_corner_blended_with_172():
+    """``$172=1``: X 20 mm then Y 20 mm at F6000, $11=0.05, the corner's speed by
+    Grbl's formula, the acceleration along the bisector 500 / cos 45 deg:
+    v^2 = a_j d sin(45) / (1 - sin(45)).  The corner is a blend (docs/path-planner.md):
+    the velocity turns from v X to v Y at a_j along the bisector in T = v sqrt(2) / a_j,
+    each axis at 500 mm/s^2 in it.  Measured from the pins: X comes to rest at the
+    blend's end on its last step; Y leaves rest at the blend's start, its first step
+    (a command's first: exact) sqrt(2 / (500 * 80)) s later; so T and v = 500 T."""
+    g = run("G1 X20 F6000\nG1 Y20\n", setup="$11=0.05\n$172=1\n")
+    a_j = ACCEL / math.cos(math.pi / 4)
+    s = math.sin(math.pi / 4)
+    v = math.sqrt(a_j * 0.05 * s / (1 - s))  # 9.24 mm/s
+    xs, ys = g.backend.recorder.rising(X_STEP), g.backend.recorder.rising(Y_STEP)
+    assert len(g.machine.motion_log) == 1
+    t_end = xs[-1] / TPS
+    t_start = ys[0] / TPS - math.sqrt(2 / (ACCEL * SPU))
+    assert t_start < t_end  # Y leaves before X stands: the corner is blended
+    measured = ACCEL * (t_end - t_start)
+    assert abs(measured / v - 1) < 0.01, (measured, v)
+
+
+def test_the_same_program_through_port_on_the_python_device_with_blends():
+    """As above with ``$172=1``: one run, no underrun, every axis within one step of
+    the path as run (the commanded path, its corners blended) and within $11 + 1 step
+    of the commanded path (tests/fas/path/test_path_blends.py says why)."""
+    from fas.device.loopback import Loopback
+    from rigs.gcode import SETUP, cam_program
+    from rigs.path import commanded_deviation, instants, path_as_run, timed_deviation
+    from rigs.pins import steps_by_pins
+    from stepperdemo.program import make_program
+
+    text, verts = cam_program()
+    with Loopback(device="python", record=True) as lb:
+        app = make_program("gcode", lb.backend, scripted=True, axes=2,
+                           setup_lines=list(SETUP) + ["$172=1"])
+        app.run_script("G21\n", max_ticks=TPS)  # the machine is made: record its blends
+        app.machine.executor.group.blend_log = blends = []
+        app.run_script(text, max_ticks=120 * TPS)
+        assert lb.backend.settle()
+        m = app.machine
+        counters = lb.backend.device_counters()
+        edges = lb.device.recorder.pin_edges
+        ups = [s.direction_pin_high_counts_up() for s in m.steppers]
+        steps = [steps_by_pins(edges, 9, 5, ups[0]), steps_by_pins(edges, 10, 7, ups[1])]
+    assert "error" not in app.transcript.decode()
+    assert m.executor.kind == "lookahead" and len(m.motion_log) == 1
+    assert counters["underruns"] == counters["late_starts"] == counters["rejected"] == 0
+    assert blends  # the corners were blended
+    points = instants(steps, (0, 0))
+    assert points[-1][1] == verts[-1] == tuple(m.positions())
+    path = path_as_run(verts, blends, points, (SPU, SPU))
+    assert timed_deviation(points, path, int(0.02 * TPS)) <= 1.0
+    jd = m.settings.junction_deviation
+    assert commanded_deviation(points, verts, blends, int(0.02 * TPS)) <= jd * SPU + 1.0

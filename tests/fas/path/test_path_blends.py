@@ -1,0 +1,335 @@
+"""A path group with corner blends on (``PathSettings(corner_blends=True)``, G-code
+``$172=1``) on the simulated chip: every figure from the recorded pins.
+
+The default (Grbl's junctions: the commanded polyline, every corner on one tick) is
+tests/fas/path/test_path_motion.py.  Here every turning corner on whole steps is a
+blend at constant acceleration (fas.path.blend, docs/path-planner.md "Corners:
+blends"): every axis within one step of the path *as run* (the polyline with those
+corners blended, ``PathGroup.blend_log``), every axis within its acceleration from the
+pins at the corners too, and within ``$11`` + 1 step of the *commanded* polyline
+(test_the_blends_keep_every_axis_within_11_plus_one_step_of_the_commanded_path).
+
+Units: 80 steps/mm; feeds in mm/min.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+
+import pytest
+
+from fas.path import AxisLimits, PathResult, PathState
+from fas.path.settings import GROUP_TOLERANCE_STEPS
+from rigs.path import (
+    Stream,
+    axis_motion,
+    axis_steps,
+    blended_ticks,
+    commanded_deviation,
+    edge_accel,
+    feed_all,
+    instants,
+    make_group,
+    max_accel,
+    path_as_run,
+    timed_deviation,
+)
+
+SPU = 80.0
+LIMITS = AxisLimits(SPU, 6000.0, 500.0)  # 100 mm/s, 500 mm/s^2 per axis
+SQUARE = [(3200, 0), (3200, 3200), (0, 3200), (0, 0)]
+#: issue 25's program figures: 80 steps/mm, 1000 mm/s^2 and 12000 mm/min per axis
+BENCH_LIMITS = AxisLimits(SPU, 12000.0, 1000.0)
+ACC_WINDOW_S = 0.02  # step edges at least this far apart (rigs.path.edge_accel)
+SLACK = 2 * GROUP_TOLERANCE_STEPS / ACC_WINDOW_S ** 2  # the grouping's 2 e / W^2
+
+
+def blended(profile: str = "atmega328p", axes: int = 2, **kw):
+    """rigs.path.make_group with corner blends on."""
+    return make_group(profile, axes, corner_blends=True, **kw)
+
+
+def blended_dev(ins, group, poly, stops=()) -> float:
+    """The largest Chebyshev distance (steps) of the instants from the path as run:
+    the polyline with each corner the executor blended replaced by its blend (and
+    ``stops``, (tick, point), where a feed hold stopped), each instant against the
+    path's pieces within 20 ms of its time."""
+    spu = [a.steps_per_unit for a in group.settings.axes]
+    path = sorted(path_as_run(poly, group.blend_log, ins, spu)
+                  + [(t, tuple(float(c) for c in p)) for t, p in stops])
+    return timed_deviation(ins, path, int(0.02 * group.tps))
+
+
+def limit_along(limit: float, unit) -> float:
+    return min(limit / abs(u) for u in unit if u)
+
+
+def circles_of_chords(count: int) -> list[tuple[int, int]]:
+    """bench_path's circles: ``count`` circles of chords within 0.002 mm, radius 4, 6,
+    8 .. mm, all from (0, 0) (centre to the right), the direction chosen by the
+    number of chords so far - where it flips, the path turns back on itself."""
+    from fas.path import Plane, arc_points
+
+    pts: list[tuple[int, int]] = []
+    for k in range(count):
+        for p in arc_points((0.0, 0.0), (0.0, 0.0), (4.0 + 2 * k, 0.0), Plane.XY,
+                            len(pts) % 2 == 0, 0.002):
+            pts.append((round(p[0] * SPU), round(p[1] * SPU)))
+    return pts
+
+
+@pytest.fixture(scope="module")
+def corner_run():
+    """Four circles of chords at $11 = 0.01 mm (Grbl's default: 0.8 step) - the
+    program of test_path_motion's strict xfail at the corners."""
+    backend, engine, group, pins, dirs = blended(limits=BENCH_LIMITS,
+                                                 junction_deviation=0.01)
+    pts = circles_of_chords(4)
+    feed_all(backend, group, pts, 3000.0)
+    return backend, pts, axis_steps(backend, pins, dirs), group
+
+
+# ----------------------------------------------------------- the switch
+def test_blends_are_off_by_default_and_on_with_the_setting():
+    backend, engine, group, pins, dirs = make_group(limits=LIMITS)
+    assert group.settings.corner_blends is False
+    assert group.lookahead.blend_share == 0.0
+    feed_all(backend, group, SQUARE, 3000.0)
+    assert group.blend_log == []  # Grbl's junctions: no blend
+    settings = group.settings.__class__(axes=(LIMITS, LIMITS), corner_blends=True)
+    assert group.configure(settings) == PathResult.OK
+    assert group.lookahead.blend_share > 0.0
+    feed_all(backend, group, SQUARE[:2], 3000.0)
+    assert [c for c, _b in group.blend_log] == [SQUARE[0]]
+
+
+# ----------------------------------------------------------- path geometry
+@pytest.mark.parametrize("profile", ["atmega328p", "esp32", "rp2040"])
+def test_square_within_one_step_and_every_corner_blended(profile):
+    backend, engine, group, pins, dirs = blended(profile, limits=LIMITS)
+    feed_all(backend, group, SQUARE, 3000.0)
+    ins = instants(axis_steps(backend, pins, dirs), (0, 0))
+    assert [c for c, _b in group.blend_log] == SQUARE[:3]  # each corner blended
+    assert blended_dev(ins, group, [(0, 0)] + SQUARE) <= 1.0
+    assert ins[-1][1] == SQUARE[-1]
+    assert [s.get_current_position() for s in group.steppers] == [0, 0]
+    assert group.stats.runs == 1 and group.stats.underruns == 0
+    for st in group.axis_stats():
+        assert st.shifted == 0 and st.early_ends == 0
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_random_3d_path_within_one_step_of_the_path_as_run(seed):
+    rnd = random.Random(seed)
+    backend, engine, group, pins, dirs = blended("atmega2560", 3, limits=LIMITS)
+    pts = []
+    pos = [0, 0, 0]
+    for _ in range(25):
+        pos = [p + rnd.randint(-1500, 1500) for p in pos]
+        pts.append(tuple(pos))
+    feed_all(backend, group, pts, rnd.choice([600.0, 3000.0, 6000.0]))
+    ins = instants(axis_steps(backend, pins, dirs), (0, 0, 0))
+    assert blended_dev(ins, group, [(0, 0, 0)] + pts) <= 1.0
+    assert ins[-1][1] == pts[-1]
+    assert group.stats.underruns == 0
+
+
+def test_the_blends_keep_every_axis_within_11_plus_one_step_of_the_commanded_path(
+        corner_run):
+    """The blends' own figure against the COMMANDED polyline (issue 25 asks every axis
+    within 1 step of it; Grbl's junctions meet that, test_path_motion).  A blend passes
+    inside its corner by v T |w - u| / 8 = d sin(theta/2) (1 + sin(theta/2)) / 2 <= d
+    at the junction speed (fas.path.blend; less at a lower speed), d = $11 - a
+    Euclidean distance, so no axis is further than d from the polyline on the path as
+    run; the steps are within 1 step of that path (blended_dev).  Bound: $11 + 1 step
+    per axis (Chebyshev <= Euclidean).  Measured on four circles of chords at $11 =
+    0.01 mm = 0.8 step: 1.04 steps (Grbl's junctions: 0.94) - above the issue's 1
+    step, why blends are opt-in (docs/path-planner.md "Corners: blends"); on the
+    square at $11 = 0.05 mm = 4 steps: 2.0 steps (Grbl's junctions: 0)."""
+    backend, pts, steps, group = corner_run
+    ins = instants(steps, (0, 0))
+    tps = backend.profile.ticks_per_s
+    dev = commanded_deviation(ins, [(0, 0)] + pts, group.blend_log, int(0.02 * tps))
+    assert dev <= 0.01 * SPU + 1.0, dev
+    assert len(group.blend_log) > 0.9 * (len(pts) - 1)  # (nearly) every corner blended
+    # the square, $11 = 0.05 mm
+    backend, engine, group, pins, dirs = blended(limits=LIMITS, junction_deviation=0.05)
+    feed_all(backend, group, SQUARE, 3000.0)
+    ins = instants(axis_steps(backend, pins, dirs), (0, 0))
+    dev = commanded_deviation(ins, [(0, 0)] + SQUARE, group.blend_log, int(0.02 * tps))
+    assert dev <= 0.05 * SPU + 1.0, dev
+    assert dev > 1.0  # each blend passes 0.030 mm = 2.4 steps inside its corner
+
+
+@pytest.mark.parametrize("turn_deg", [45, 135])
+def test_corner_speed_is_the_junction_deviation_formula_through_the_blend(turn_deg):
+    backend, engine, group, pins, dirs = blended(limits=LIMITS, junction_deviation=0.05)
+    u1 = (1.0, 0.0)
+    a = math.radians(turn_deg)
+    u2 = (math.cos(a), math.sin(a))
+    corner = (3200, 0)
+    end = (3200 + round(3200 * u2[0]), round(3200 * u2[1]))
+    feed_all(backend, group, [corner, end], 3000.0)
+    steps = axis_steps(backend, pins, dirs)
+    cos_theta = -(u1[0] * u2[0] + u1[1] * u2[1])
+    sin_half = math.sqrt((1 - cos_theta) / 2)
+    bis = (u2[0] - u1[0], u2[1] - u1[1])
+    n = math.hypot(*bis)
+    a_j = limit_along(LIMITS.acceleration, (bis[0] / n, bis[1] / n))
+    v_j = math.sqrt(a_j * 0.05 * sin_half / (1 - sin_half))  # mm/s
+    assert v_j < 50.0  # below the feed: the corner limits it
+    [(at, bseg)] = group.blend_log
+    assert at == corner
+    assert bseg.b.speed == pytest.approx(v_j, rel=0.01)
+    # from the pins: Y starts in the blend (exact: a command's first step), from rest
+    # at the blend's acceleration along Y: 1 step after sqrt(2 / a_y)
+    tps = backend.profile.ticks_per_s
+    a_y = bseg.b.axis_accel(1) * SPU  # steps/s^2
+    assert bseg.b.reach * u2[1] * SPU > 1  # Y's first step is inside the blend
+    first_y = steps[1][0][0]
+    assert abs(first_y - (bseg.t_start + math.sqrt(2 / a_y) * tps)) <= 2
+
+
+def test_rates_and_accelerations_from_the_pins_stay_within_each_axis():
+    """As test_path_motion's (over windows of W = 20 ms inside each block, the
+    quantisation allowing 4 e / W^2 and 2 e / W), the blocks between the blends."""
+    limits = (AxisLimits(80.0, 6000.0, 500.0), AxisLimits(100.0, 4800.0, 300.0),
+              AxisLimits(400.0, 600.0, 100.0))
+    backend, engine, group, pins, dirs = blended("atmega2560", 3, limits=LIMITS)
+    assert group.configure(group.settings.__class__(axes=limits, corner_blends=True)
+                           ) == PathResult.OK
+    pts = [(8000, 0, 0), (8000, 6000, 2000), (0, 2000, 0), (4000, 4000, 4000)]
+    feed_all(backend, group, pts, None)
+    steps = axis_steps(backend, pins, dirs)
+    ins = instants(steps, (0, 0, 0))
+    assert len(group.blend_log) == 3
+    assert blended_dev(ins, group, [(0, 0, 0)] + pts) <= 1.0
+    ticks = [ins[0][0] - 1] + blended_ticks(pts, group.blend_log, ins)
+    tps = backend.profile.ticks_per_s
+    w = 0.02
+    e = GROUP_TOLERANCE_STEPS + 1 / 16
+    for i, lim in enumerate(limits):
+        tk, xs = axis_motion(steps[i])
+        a_max = lim.acceleration * lim.steps_per_unit
+        v_max = lim.max_rate / 60 * lim.steps_per_unit
+        peak_v = 0.0
+        for b in range(len(pts)):
+            a, v = max_accel(tk, xs, ticks[b], ticks[b + 1], tps, w)
+            assert a <= a_max + 4 * e / w ** 2, (i, b, a)
+            assert v <= v_max + 2 * e / w, (i, b, v)
+            peak_v = max(peak_v, v)
+        assert peak_v > 0.9 * v_max
+
+
+def test_blends_into_and_out_of_an_arc_between_steps_keep_its_chord_ends():
+    """A corner on whole steps next to an arc whose chord ends lie between steps: the
+    corners into the arc's first chord and out of its last are blended, the chord
+    ends between steps are kept (no blend there), every step within one step of the
+    path as run, the end exact."""
+    from fas.path import Plane, arc_points
+
+    tol = 0.01
+    backend, engine, group, pins, dirs = blended(limits=LIMITS, arc_tolerance=tol,
+                                                 junction_deviation=0.01)
+    quarter = arc_points((5.0, 0.0), (10.0, 5.0), (0.0, 5.0), Plane.XY, False, tol)
+    arc = [tuple(v * SPU for v in p) for p in quarter]
+    assert any(v != round(v) for p in arc[:-1] for v in p)
+    targets = [(400.0, 0.0)] + arc + [(800.0, 1200.0)]
+    feed_all(backend, group, targets, 3000.0)
+    ins = instants(axis_steps(backend, pins, dirs), (0, 0))
+    assert ins[-1][1] == (800, 1200)
+    assert [c for c, _seg in group.blend_log] == [(400, 0), (800, 400)]
+    assert blended_dev(ins, group, [(0, 0)] + targets) <= 1.0
+    assert group.stats.underruns == 0
+
+
+# --------------------------------------------- acceleration at the corners
+def test_circles_of_chords_within_one_step_of_the_path_as_run(corner_run):
+    backend, pts, steps, group = corner_run
+    ins = instants(steps, (0, 0))
+    assert blended_dev(ins, group, [(0, 0)] + pts) <= 1.0
+    assert ins[-1][1] == pts[-1]
+    assert len(group.blend_log) > 0.9 * (len(pts) - 1)
+
+
+def test_every_axis_within_its_acceleration_from_the_pins_at_the_corners_too(corner_run):
+    """Issue 25: no axis above its acceleration, measured from the pins (the divided
+    difference of rigs.path.edge_accel over step edges >= 20 ms apart, + 2 e / W^2) -
+    test_path_motion's strict xfail in the default mode (Grbl's junctions), met with
+    the blends."""
+    backend, pts, steps, _group = corner_run
+    tps = backend.profile.ticks_per_s
+    for i in range(2):
+        tk, xs = axis_motion(steps[i])
+        a, at = edge_accel(tk, xs, tps, ACC_WINDOW_S)
+        assert a <= BENCH_LIMITS.acceleration * SPU + SLACK, (i, a / SPU, at / tps)
+        assert a > 0.5 * BENCH_LIMITS.acceleration * SPU  # it measures something
+
+
+def test_every_axis_within_its_acceleration_from_the_pins_where_it_turns_round():
+    """bench_path's first six circles (radius 4, 10, 16, 6, 12, 18 mm, all through
+    (0, 0), the direction flipping): where two of them meet Y turns round in a blend
+    at 0.27 mm/s.  Steps grouped early are early along the motion, so on the two
+    sides of a turn in opposite directions; the bound 2 e / W^2 holds there because
+    an axis's steps are on their ticks for TURN_EXACT_S after its last step before a
+    turn (1008.9 mm/s^2 without that, against 1000 + 7.8)."""
+    from fas.path import Plane, arc_points
+
+    radii = [4.0]
+    while len(radii) < 6:
+        radii.append(4.0 + (radii[-1] + 2.0) % 16.0)
+    pts: list[tuple[int, int]] = []
+    for r in radii:
+        for p in arc_points((0.0, 0.0), (0.0, 0.0), (r, 0.0), Plane.XY, len(pts) % 2 == 0,
+                            0.002):
+            pts.append((round(p[0] * SPU), round(p[1] * SPU)))
+    backend, engine, group, pins, dirs = blended(limits=BENCH_LIMITS,
+                                                 junction_deviation=0.01)
+    feed_all(backend, group, pts, 3000.0)
+    steps = axis_steps(backend, pins, dirs)
+    assert instants(steps, (0, 0))[-1][1] == pts[-1]
+    tps = backend.profile.ticks_per_s
+    for i in range(2):
+        tk, xs = axis_motion(steps[i])
+        a, at = edge_accel(tk, xs, tps, ACC_WINDOW_S)
+        assert a <= BENCH_LIMITS.acceleration * SPU + SLACK, (i, a / SPU, at / tps)
+
+
+def test_holds_and_resumes_at_random_moments():
+    """A random path held and resumed at random moments: it ends exactly at its end,
+    every step within one step of the path as run - the blended polyline with each
+    hold's stop point."""
+    rnd = random.Random(3)
+    backend, engine, group, pins, dirs = blended(limits=LIMITS, junction_deviation=0.02,
+                                                 queue_blocks=8)
+    tps = backend.profile.ticks_per_s
+    pos = [0, 0]
+    pts = []
+    for _ in range(120):
+        scale = rnd.choice([2, 10, 60, 400])
+        pos = [pos[0] + rnd.randint(-scale, scale), pos[1] + rnd.randint(-scale, scale)]
+        pts.append(tuple(pos))
+    stream = Stream(backend, group, pts, 3000.0)
+    stops = []
+
+    def finished() -> bool:
+        return stream.sent == len(pts) and group.is_idle()
+
+    while not finished():
+        t = backend.now() + int(rnd.uniform(0.01, 0.3) * tps)
+        assert stream.run(until=lambda t=t: backend.now() >= t or finished(), limit_s=60)
+        if group.state == PathState.RUNNING:
+            group.hold()
+            assert stream.run(until=lambda: group.state == PathState.HELD, limit_s=5)
+            stops.append((backend.now(), tuple(s.get_current_position()
+                                               for s in group.steppers)))
+            if rnd.random() < 0.3:
+                stream.pump()
+            assert group.resume() == PathResult.OK
+    assert len(stops) > 20
+    ins = instants(axis_steps(backend, pins, dirs), (0, 0))
+    assert ins[-1][1] == pts[-1]
+    verts = [(0, 0)] + [p for k, p in enumerate(pts) if k == 0 or p != pts[k - 1]]
+    assert blended_dev(ins, group, verts, stops) <= 1.0
+    assert group.blend_log
