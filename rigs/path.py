@@ -108,6 +108,45 @@ def feed_all(backend, group: PathGroup, targets: Sequence[Sequence[int]],
     assert Stream(backend, group, targets, feed).run(limit_s=limit_s), "the path did not end"
 
 
+
+def random_path(rnd, count: int = 120) -> list[tuple[int, int]]:
+    """``count`` random 2-axis targets in steps, moves of 2 to 400 steps each."""
+    pos = [0, 0]
+    pts = []
+    for _ in range(count):
+        scale = rnd.choice([2, 10, 60, 400])
+        pos = [pos[0] + rnd.randint(-scale, scale), pos[1] + rnd.randint(-scale, scale)]
+        pts.append((pos[0], pos[1]))
+    return pts
+
+
+def run_with_random_holds(backend, group: PathGroup, pts: Sequence[Sequence[int]], rnd,
+                          feed: float = 3000.0) -> list[tuple[int, tuple[int, ...]]]:
+    """Stream ``pts`` to ``group``, holding it at random moments (10-300 ms apart) and
+    resuming it, some blocks queued while held; the (tick, position) of every hold's
+    stop."""
+    from fas.path import PathResult, PathState
+
+    tps = backend.profile.ticks_per_s
+    stream = Stream(backend, group, pts, feed)
+    stops: list[tuple[int, tuple[int, ...]]] = []
+
+    def finished() -> bool:
+        return stream.sent == len(pts) and group.is_idle()
+
+    while not finished():
+        t = backend.now() + int(rnd.uniform(0.01, 0.3) * tps)
+        assert stream.run(until=lambda t=t: backend.now() >= t or finished(), limit_s=60)
+        if group.state == PathState.RUNNING:
+            group.hold()
+            assert stream.run(until=lambda: group.state == PathState.HELD, limit_s=5)
+            stops.append((backend.now(), tuple(s.get_current_position()
+                                               for s in group.steppers)))
+            if rnd.random() < 0.3:
+                stream.pump()  # blocks queued while held
+            assert group.resume() == PathResult.OK
+    return stops
+
 def axis_steps(backend, pins: Sequence[int], dirs: Sequence[int]) -> list[list[tuple[int, int]]]:
     """Per axis: (tick, +1/-1) of every step."""
     edges = backend.recorder.pin_edges

@@ -537,7 +537,7 @@ class SimChannel(QueueChannel):
             now += self.lat
         if self.pending_pulse:
             self.pending_pulse = False
-            # (_emit and PinBank.pulse, written out: this runs for every single pulse)
+            # (_emit and PinBank.pulses of one pulse, written out: this runs for every single pulse)
             if self._made_plain:
                 self.pulses += 1
             else:

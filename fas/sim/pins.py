@@ -112,24 +112,6 @@ class PinBank:
             for sink in self.sinks:
                 sink.edges(pin, times, levels)
 
-    def pulse(self, pin: int, first: int, width: int) -> None:
-        """One pulse of ``width`` ticks rising at ``first`` (:meth:`pulses` of one: a
-        single step interrupt's pulse; SimChannel._single_isr has it written out)."""
-        rise = self.rise
-        rise[pin] = rise.get(pin, 0) + 1
-        fall = self.fall
-        fall[pin] = fall.get(pin, 0) + 1
-        total = self.high_total
-        total[pin] = total.get(pin, 0) + width
-        high_max = self.high_max
-        if width > high_max.get(pin, 0):
-            high_max[pin] = width
-        self.level[pin] = 0
-        if self.sinks:
-            times = [first, first + width]
-            for sink in self.sinks:
-                sink.edges(pin, times, b"\x01\x00")
-
     def pulses_waiting(self, pin: int, first: int, period: int, count: int, width: int,
                        longer: list[tuple[int, int]]) -> None:
         """:meth:`pulses`, where pulse ``j`` of each ``(j, extra)`` of ``longer`` (in

@@ -19,10 +19,9 @@ import random
 
 import pytest
 
-from fas.path import AxisLimits, PathResult, PathState
+from fas.path import AxisLimits, PathResult
 from fas.path.settings import GROUP_TOLERANCE_STEPS
 from rigs.path import (
-    Stream,
     axis_motion,
     axis_steps,
     blended_ticks,
@@ -33,6 +32,8 @@ from rigs.path import (
     make_group,
     max_accel,
     path_as_run,
+    random_path,
+    run_with_random_holds,
     timed_deviation,
 )
 
@@ -303,30 +304,8 @@ def test_holds_and_resumes_at_random_moments():
     rnd = random.Random(3)
     backend, engine, group, pins, dirs = blended(limits=LIMITS, junction_deviation=0.02,
                                                  queue_blocks=8)
-    tps = backend.profile.ticks_per_s
-    pos = [0, 0]
-    pts = []
-    for _ in range(120):
-        scale = rnd.choice([2, 10, 60, 400])
-        pos = [pos[0] + rnd.randint(-scale, scale), pos[1] + rnd.randint(-scale, scale)]
-        pts.append(tuple(pos))
-    stream = Stream(backend, group, pts, 3000.0)
-    stops = []
-
-    def finished() -> bool:
-        return stream.sent == len(pts) and group.is_idle()
-
-    while not finished():
-        t = backend.now() + int(rnd.uniform(0.01, 0.3) * tps)
-        assert stream.run(until=lambda t=t: backend.now() >= t or finished(), limit_s=60)
-        if group.state == PathState.RUNNING:
-            group.hold()
-            assert stream.run(until=lambda: group.state == PathState.HELD, limit_s=5)
-            stops.append((backend.now(), tuple(s.get_current_position()
-                                               for s in group.steppers)))
-            if rnd.random() < 0.3:
-                stream.pump()
-            assert group.resume() == PathResult.OK
+    pts = random_path(rnd)
+    stops = run_with_random_holds(backend, group, pts, rnd)
     assert len(stops) > 20
     ins = instants(axis_steps(backend, pins, dirs), (0, 0))
     assert ins[-1][1] == pts[-1]
