@@ -246,7 +246,7 @@ class AxisWriter:
         seg = ex.segment(self.seq)
         assert seg is not None
         # shortly after a turn no step early (TURN_EXACT_S): one step a command
-        up = seg.step_up(i, self.j)
+        up = seg.step_up(i, self.j) if seg.blend else seg.ups[i]
         if up != self.step_dir:
             if self.step_dir is not None:
                 self.exact_until = self.step_last + self.turn_ticks
@@ -283,9 +283,14 @@ class AxisWriter:
             nxt = ex.segment(self.seq + 1)
             if nxt is not None and nxt.blend:
                 return self._blend_group(seg)  # the last steps with the blend's
+        min_cmd = self.min_cmd
+        complete = seg.complete
+        if not complete:  # the steps end a command's time before the horizon
+            back = seg.steps_by(i, seg.dist_at(ex.t - min_cmd))
+            if back <= j0 and self.last_start > self._deep:
+                return Wrote.WAIT  # (cut at j0 + 1 below: the queue is deep)
         pitch = seg.pitch[i]
         t0 = self.w_end
-        min_cmd = self.min_cmd
         t_lim, slowing = self._span_limit(seg, pitch, t0)
         jmax = j0 + MAX_STEPS
         if known < jmax:
@@ -296,13 +301,12 @@ class AxisWriter:
         elif jh <= j0:
             jh = j0 + 1
         # the horizon, not the group's own limits, ends it
-        cut = jh >= known and not seg.complete
-        if not seg.complete:  # end a command's time before the horizon: what follows
-            # the group must not come out shorter than a command
-            back = seg.steps_by(i, seg.dist_at(ex.t - min_cmd))
-            if back < jh:
-                cut = True
-                jh = back if back > j0 else j0 + 1
+        cut = jh >= known and not complete
+        # end a command's time before the horizon: what follows the group must not
+        # come out shorter than a command
+        if not complete and back < jh:
+            cut = True
+            jh = back if back > j0 else j0 + 1
         if cut and self.last_start > self._deep:
             return Wrote.WAIT  # the queue is deep: the next run makes it longer
         th = seg.step_tick(i, jh)
@@ -734,6 +738,7 @@ class AxisWriter:
         st = self.stats
         listener = self.listener if seg is not None and seg.dominant == self.axis else None
         ok = AqeResult.OK
+        w_end = self.w_end
         for ticks, steps in cmds:
             res = write(ticks, steps, up, False)
             if res != ok:
@@ -743,14 +748,16 @@ class AxisWriter:
                 self.host.report_abort(res, (ticks, steps, up))
                 return Wrote.ERROR
             if listener is not None and steps and seg is not None:
-                listener(self.w_end, seg.speed_at(self.w_end) * self.tps * 60.0, seg.tag)
+                listener(w_end, seg.speed_at(w_end) * self.tps * 60.0, seg.tag)
             self.free -= 1
             if steps > 1:
-                self.last_start = self.w_end + (steps - 1) * ticks
-                self.w_end += ticks * steps
+                last_start = w_end + (steps - 1) * ticks
+                w_end += ticks * steps
             else:
-                self.last_start = self.w_end
-                self.w_end += ticks
+                last_start = w_end
+                w_end += ticks
+            self.last_start = last_start
+            self.w_end = w_end
             self.up = up
             if steps:
                 st.commands += 1
@@ -759,7 +766,7 @@ class AxisWriter:
                     if self.step_dir is not None:
                         self.exact_until = self.step_last + self.turn_ticks
                     self.step_dir = up
-                self.step_last = self.last_start
+                self.step_last = last_start
             else:
                 st.pauses += 1
         return Wrote.OK
