@@ -243,7 +243,9 @@ class AxisWriter:
         """Write the pending step (due at ``w_end``) with the steps it groups with."""
         ex = self.ex
         i = self.axis
-        seg = ex.segment(self.seq)
+        segs = ex.segments
+        at = self.seq - ex.first_seq  # (ex.segment written out)
+        seg = segs[at] if 0 <= at < len(segs) else None
         assert seg is not None
         # shortly after a turn no step early (TURN_EXACT_S): one step a command
         up = seg.step_up(i, self.j) if seg.blend else seg.ups[i]
@@ -295,7 +297,7 @@ class AxisWriter:
         jmax = j0 + MAX_STEPS
         if known < jmax:
             jmax = known
-        jh = seg.steps_by(i, seg.dist_at(t_lim))
+        jh = seg.steps_by(i, seg.s_done if t_lim >= seg.t_done else seg.dist_at(t_lim))
         if jh > jmax:
             jh = jmax
         elif jh <= j0:
@@ -631,8 +633,8 @@ class AxisWriter:
     def _commands(self, span: int, m: int) -> list[tuple[int, int]] | None:
         """Commands ``(ticks, steps)`` for ``m`` steps over ``span`` ticks (None: a
         period beyond 65535 ticks)."""
-        lo = self.min_wait
         if m == 1:
+            lo = self.min_wait
             if span > MAX_TICKS:
                 return None
             if span < lo:
@@ -641,13 +643,20 @@ class AxisWriter:
         period, r = divmod(span, m)
         if period > MAX_TICKS or (period == MAX_TICKS and r):
             return None
-        floor = max(self.queue.max_speed_in_ticks, -(-self.min_cmd // m))
+        min_cmd = self.min_cmd
+        floor = self.queue.max_speed_in_ticks
+        least = -(-min_cmd // m)
+        if least > floor:
+            floor = least
         if period < floor:
             return [(floor, m)]
         if r == 0:
             return [(period, m)]
         a, b = m - r, r
-        if self._legal(period, a) and self._legal(period + 1, b):
+        # (both _legal: a command's duration at least min_cmd, its ticks at most
+        # MAX_TICKS - period + 1 is, as period < MAX_TICKS here)
+        if ((period * a if a > 1 else period) >= min_cmd
+                and ((period + 1) * b if b > 1 else period + 1) >= min_cmd):
             return [(period, a), (period + 1, b)]
         return [(period + (1 if 2 * r >= m else 0), m)]
 
