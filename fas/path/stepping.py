@@ -570,21 +570,26 @@ class AxisWriter:
         (:meth:`_group`)."""
         a = seg.accel / pitch  # steps/tick^2
         pieces = seg.pieces
+        count = len(pieces)
         k = 0
-        while k < len(pieces) and pieces[k].t1 <= t0:
+        while k < count and pieces[k].t1 <= t0:
             k += 1
-        if k == len(pieces):
+        if k == count:
             return t0 + math.sqrt(2.0 * self.tol / a), False
-        slowing = pieces[k].a < 0.0
+        first = pieces[k]
+        slowing = first.a < 0.0
         cruise_end = None
         boundary = math.inf
-        for p in pieces[k:]:
-            if (p.a < 0.0) != slowing:
+        while k < count:
+            p = pieces[k]
+            k += 1
+            pa = p.a
+            if (pa < 0.0) != slowing:
                 boundary = p.t0
                 break
-            if p.a == 0.0 and (cruise_end is not None or p is pieces[k]):
+            if pa == 0.0 and (cruise_end is not None or p is first):
                 cruise_end = p.t1
-            elif p.a != 0.0 and cruise_end is not None:
+            elif pa != 0.0 and cruise_end is not None:
                 break
         if cruise_end is not None:
             limit = cruise_end + math.sqrt(2.0 * self.tol / a)
