@@ -109,9 +109,10 @@ class Segment:
         self.ups = tuple([d > 0 for d in delta])
         self.length = block.length
         if block.span is None:  # from a step to a step
-            self.pitch = tuple(block.length / n if n else 0.0 for n in self.steps)
-            self.phase: tuple[float, ...] = (0.0,) * len(self.steps)
-            self.on_end: tuple[bool, ...] = (True,) * len(self.steps)
+            length = block.length
+            self.pitch = tuple([length / n if n else 0.0 for n in steps])
+            self.phase: tuple[float, ...] = (0.0,) * len(steps)
+            self.on_end: tuple[bool, ...] = (True,) * len(steps)
         else:
             origin = block.origin
             assert origin is not None

@@ -285,11 +285,11 @@ class PathGroup:
             exact = tuple([float(t) for t in ints])
             path: tuple[float, ...] | None = None
         else:  # (a point within a billionth of a step of a whole step is on it)
-            exact = tuple(float(round(t)) if abs(t - round(t)) < 1e-9 else float(t)
-                          for t in target)
-            ints = tuple(pin_after(p, x0, x1)
-                         for p, x0, x1 in zip(start, origin, exact, strict=True))
-            path = tuple(x1 - x0 for x1, x0 in zip(exact, origin, strict=True))
+            exact = tuple([float(round(t)) if abs(t - round(t)) < 1e-9 else float(t)
+                           for t in target])
+            ints = tuple([pin_after(p, x0, x1)
+                          for p, x0, x1 in zip(start, origin, exact, strict=True)])
+            path = tuple([x1 - x0 for x1, x0 in zip(exact, origin, strict=True)])
         delta = tuple([t - s for t, s in zip(ints, start, strict=True)])
         for d, a in zip(delta, self.axes, strict=True):
             if d < 0 and not a.host.has_direction_pin():

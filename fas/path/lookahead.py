@@ -198,10 +198,10 @@ class Lookahead:
         spu = self.spu
         d_units = [d / s for d, s in zip(delta if span is None else span, spu,
                                          strict=True)]
-        length = math.sqrt(sum(x * x for x in d_units))
+        length = math.sqrt(sum([x * x for x in d_units]))
         if length == 0.0:
             return None
-        unit = tuple(x / length for x in d_units)
+        unit = tuple([x / length for x in d_units])
         acceleration = limit_along(self.accel, unit)
         rapid = limit_along(self.max_rate, unit)
         block = Block(start, delta, unit, length, acceleration, rapid, rapid, tag, feed,
@@ -305,7 +305,7 @@ class Lookahead:
         if cos_theta < COS_STRAIGHT:
             return BIG
         bisector = [y - x for x, y in zip(a, b, strict=True)]
-        norm = math.sqrt(sum(v * v for v in bisector))
+        norm = math.sqrt(sum([v * v for v in bisector]))
         accel = limit_along(self.accel, [v / norm for v in bisector])
         sin_half = math.sqrt(0.5 * (1.0 - cos_theta))
         return accel * self.junction_deviation * sin_half / (1.0 - sin_half)

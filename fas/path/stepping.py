@@ -243,10 +243,12 @@ class AxisWriter:
         """Write the pending step (due at ``w_end``) with the steps it groups with."""
         ex = self.ex
         i = self.axis
-        seg = ex.segment(self.seq)
+        segs = ex.segments
+        at = self.seq - ex.first_seq  # (ex.segment written out)
+        seg = segs[at] if 0 <= at < len(segs) else None
         assert seg is not None
         # shortly after a turn no step early (TURN_EXACT_S): one step a command
-        up = seg.step_up(i, self.j)
+        up = seg.step_up(i, self.j) if seg.blend else seg.ups[i]
         if up != self.step_dir:
             if self.step_dir is not None:
                 self.exact_until = self.step_last + self.turn_ticks
@@ -283,26 +285,30 @@ class AxisWriter:
             nxt = ex.segment(self.seq + 1)
             if nxt is not None and nxt.blend:
                 return self._blend_group(seg)  # the last steps with the blend's
+        min_cmd = self.min_cmd
+        complete = seg.complete
+        if not complete:  # the steps end a command's time before the horizon
+            back = seg.steps_by(i, seg.dist_at(ex.t - min_cmd))
+            if back <= j0 and self.last_start > self._deep:
+                return Wrote.WAIT  # (cut at j0 + 1 below: the queue is deep)
         pitch = seg.pitch[i]
         t0 = self.w_end
-        min_cmd = self.min_cmd
         t_lim, slowing = self._span_limit(seg, pitch, t0)
         jmax = j0 + MAX_STEPS
         if known < jmax:
             jmax = known
-        jh = seg.steps_by(i, seg.dist_at(t_lim))
+        jh = seg.steps_by(i, seg.s_done if t_lim >= seg.t_done else seg.dist_at(t_lim))
         if jh > jmax:
             jh = jmax
         elif jh <= j0:
             jh = j0 + 1
         # the horizon, not the group's own limits, ends it
-        cut = jh >= known and not seg.complete
-        if not seg.complete:  # end a command's time before the horizon: what follows
-            # the group must not come out shorter than a command
-            back = seg.steps_by(i, seg.dist_at(ex.t - min_cmd))
-            if back < jh:
-                cut = True
-                jh = back if back > j0 else j0 + 1
+        cut = jh >= known and not complete
+        # end a command's time before the horizon: what follows the group must not
+        # come out shorter than a command
+        if not complete and back < jh:
+            cut = True
+            jh = back if back > j0 else j0 + 1
         if cut and self.last_start > self._deep:
             return Wrote.WAIT  # the queue is deep: the next run makes it longer
         th = seg.step_tick(i, jh)
@@ -564,21 +570,26 @@ class AxisWriter:
         (:meth:`_group`)."""
         a = seg.accel / pitch  # steps/tick^2
         pieces = seg.pieces
+        count = len(pieces)
         k = 0
-        while k < len(pieces) and pieces[k].t1 <= t0:
+        while k < count and pieces[k].t1 <= t0:
             k += 1
-        if k == len(pieces):
+        if k == count:
             return t0 + math.sqrt(2.0 * self.tol / a), False
-        slowing = pieces[k].a < 0.0
+        first = pieces[k]
+        slowing = first.a < 0.0
         cruise_end = None
         boundary = math.inf
-        for p in pieces[k:]:
-            if (p.a < 0.0) != slowing:
+        while k < count:
+            p = pieces[k]
+            k += 1
+            pa = p.a
+            if (pa < 0.0) != slowing:
                 boundary = p.t0
                 break
-            if p.a == 0.0 and (cruise_end is not None or p is pieces[k]):
+            if pa == 0.0 and (cruise_end is not None or p is first):
                 cruise_end = p.t1
-            elif p.a != 0.0 and cruise_end is not None:
+            elif pa != 0.0 and cruise_end is not None:
                 break
         if cruise_end is not None:
             limit = cruise_end + math.sqrt(2.0 * self.tol / a)
@@ -627,8 +638,8 @@ class AxisWriter:
     def _commands(self, span: int, m: int) -> list[tuple[int, int]] | None:
         """Commands ``(ticks, steps)`` for ``m`` steps over ``span`` ticks (None: a
         period beyond 65535 ticks)."""
-        lo = self.min_wait
         if m == 1:
+            lo = self.min_wait
             if span > MAX_TICKS:
                 return None
             if span < lo:
@@ -637,13 +648,20 @@ class AxisWriter:
         period, r = divmod(span, m)
         if period > MAX_TICKS or (period == MAX_TICKS and r):
             return None
-        floor = max(self.queue.max_speed_in_ticks, -(-self.min_cmd // m))
+        min_cmd = self.min_cmd
+        floor = self.queue.max_speed_in_ticks
+        least = -(-min_cmd // m)
+        if least > floor:
+            floor = least
         if period < floor:
             return [(floor, m)]
         if r == 0:
             return [(period, m)]
         a, b = m - r, r
-        if self._legal(period, a) and self._legal(period + 1, b):
+        # (both _legal: a command's duration at least min_cmd, its ticks at most
+        # MAX_TICKS - period + 1 is, as period < MAX_TICKS here)
+        if ((period * a if a > 1 else period) >= min_cmd
+                and ((period + 1) * b if b > 1 else period + 1) >= min_cmd):
             return [(period, a), (period + 1, b)]
         return [(period + (1 if 2 * r >= m else 0), m)]
 
@@ -734,6 +752,7 @@ class AxisWriter:
         st = self.stats
         listener = self.listener if seg is not None and seg.dominant == self.axis else None
         ok = AqeResult.OK
+        w_end = self.w_end
         for ticks, steps in cmds:
             res = write(ticks, steps, up, False)
             if res != ok:
@@ -743,14 +762,16 @@ class AxisWriter:
                 self.host.report_abort(res, (ticks, steps, up))
                 return Wrote.ERROR
             if listener is not None and steps and seg is not None:
-                listener(self.w_end, seg.speed_at(self.w_end) * self.tps * 60.0, seg.tag)
+                listener(w_end, seg.speed_at(w_end) * self.tps * 60.0, seg.tag)
             self.free -= 1
             if steps > 1:
-                self.last_start = self.w_end + (steps - 1) * ticks
-                self.w_end += ticks * steps
+                last_start = w_end + (steps - 1) * ticks
+                w_end += ticks * steps
             else:
-                self.last_start = self.w_end
-                self.w_end += ticks
+                last_start = w_end
+                w_end += ticks
+            self.last_start = last_start
+            self.w_end = w_end
             self.up = up
             if steps:
                 st.commands += 1
@@ -759,7 +780,7 @@ class AxisWriter:
                     if self.step_dir is not None:
                         self.exact_until = self.step_last + self.turn_ticks
                     self.step_dir = up
-                self.step_last = self.last_start
+                self.step_last = last_start
             else:
                 st.pauses += 1
         return Wrote.OK
