@@ -369,6 +369,17 @@ def edge_accel(ticks: Sequence[int], xs: Sequence[int], tps: int,
     return worst, at
 
 
+def first_within_a_step(ins: Sequence[tuple[int, tuple[int, ...]]], i: int,
+                        v: Sequence[float]) -> int:
+    """The index of the first instant from ``i`` on within one step (Chebyshev) of the
+    point ``v`` - a vertex between steps, such as an arc's chord end."""
+    j = i
+    while j < len(ins) and max(abs(a - c) for a, c in zip(ins[j][1], v, strict=True)) > 1.0:
+        j += 1
+    assert j < len(ins), f"vertex {v} never passed within a step"
+    return j
+
+
 def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
                 ins: Sequence[tuple[int, tuple[int, ...]]], spu: Sequence[float],
                 samples: int = 8) -> list[tuple[float, tuple[float, ...]]]:
@@ -399,11 +410,7 @@ def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
             out.append((ins[0][0] - 1 if ins else 0, tuple(float(c) for c in v)))
             continue
         if any(c != round(c) for c in v):  # between steps (an arc's chord end): the
-            j = i  # first instant within a step of it (the axes never stand on it)
-            while j < len(ins) and max(abs(a - c) for a, c in zip(ins[j][1], v,
-                                                                  strict=True)) > 1.0:
-                j += 1
-            assert j < len(ins), f"vertex {v} never passed within a step"
+            j = first_within_a_step(ins, i, v)  # first instant near it
             out.append((ins[j][0], tuple(float(c) for c in v)))
             i = j
             continue
@@ -458,11 +465,7 @@ def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
             k += 1
             continue
         if any(c != round(c) for c in v):  # between steps (an arc's chord end): the
-            j = i  # first instant within a step of it (the axes never stand on it)
-            while j < len(ins) and max(abs(a - c) for a, c in zip(ins[j][1], v,
-                                                                  strict=True)) > 1.0:
-                j += 1
-            assert j < len(ins), f"vertex {v} never passed within a step"
+            j = first_within_a_step(ins, i, v)  # first instant near it
             out.append(ins[j][0])
             i = j
             continue
