@@ -191,6 +191,8 @@ def test_corner_speed_is_the_junction_deviation_formula_through_the_blend(turn_d
     a_y = bseg.b.axis_accel(1) * SPU  # steps/s^2
     assert bseg.b.reach * u2[1] * SPU > 1  # Y's first step is inside the blend
     first_y = steps[1][0][0]
+    # 2 ticks: the step on a whole tick (rounding <= 1) after the blend's start,
+    # itself a fractional tick (<= 1)
     assert abs(first_y - (bseg.t_start + math.sqrt(2 / a_y) * tps)) <= 2
 
 

@@ -233,19 +233,24 @@ def test_speed_listener_reports_the_path_speed_at_every_queue_command():
     assert lines == {"G1X20Y10F3000", "G1X40Y10"}
 
 
-def test_the_same_program_through_port_on_the_python_device():
-    """Item 5 on the Python device (the loopback's virtual clock, 115200 baud): one run,
-    no underrun on the device, every axis within one step of the path, the position
-    where the program ends (the firmware in simavr: tests/firmware/)."""
+def cam_on_the_python_device(extra_setup: list[str] | None = None):
+    """rigs.gcode's CAM program through ``--port``'s path on the Python device (the
+    loopback's virtual clock, 115200 baud), the setup lines plus ``extra_setup``: the
+    machine, the program's vertices, the instants from the device's pins and the corner
+    blends made (empty with Grbl's junctions).  Asserts what every such run must: no
+    error, one look-ahead motion, no underrun, late start or rejected command."""
     from fas.device.loopback import Loopback
     from rigs.gcode import SETUP, cam_program
-    from rigs.path import instants, tracked_deviation
+    from rigs.path import instants
     from rigs.pins import steps_by_pins
     from stepperdemo.program import make_program
 
     text, verts = cam_program()
     with Loopback(device="python", record=True) as lb:
-        app = make_program("gcode", lb.backend, scripted=True, axes=2, setup_lines=SETUP)
+        app = make_program("gcode", lb.backend, scripted=True, axes=2,
+                           setup_lines=list(SETUP) + list(extra_setup or []))
+        app.run_script("G21\n", max_ticks=TPS)  # the machine is made: record its blends
+        app.machine.executor.group.blend_log = blends = []
         app.run_script(text, max_ticks=120 * TPS)
         assert lb.backend.settle()
         m = app.machine
@@ -256,7 +261,16 @@ def test_the_same_program_through_port_on_the_python_device():
     assert "error" not in app.transcript.decode()
     assert m.executor.kind == "lookahead" and len(m.motion_log) == 1
     assert counters["underruns"] == counters["late_starts"] == counters["rejected"] == 0
-    points = instants(steps, (0, 0))
+    return m, verts, instants(steps, (0, 0)), blends
+
+
+def test_the_same_program_through_port_on_the_python_device():
+    """Item 5 on the Python device (the loopback's virtual clock, 115200 baud): one run,
+    no underrun on the device, every axis within one step of the path, the position
+    where the program ends (the firmware in simavr: tests/firmware/)."""
+    from rigs.path import tracked_deviation
+
+    m, verts, points, _blends = cam_on_the_python_device()
     assert points[-1][1] == verts[-1] == tuple(m.positions())
     assert tracked_deviation(points, verts) <= 1.0
 
@@ -367,30 +381,10 @@ def test_the_same_program_through_port_on_the_python_device_with_blends():
     """As above with ``$172=1``: one run, no underrun, every axis within one step of
     the path as run (the commanded path, its corners blended) and within $11 + 1 step
     of the commanded path (tests/fas/path/test_path_blends.py says why)."""
-    from fas.device.loopback import Loopback
-    from rigs.gcode import SETUP, cam_program
-    from rigs.path import commanded_deviation, instants, path_as_run, timed_deviation
-    from rigs.pins import steps_by_pins
-    from stepperdemo.program import make_program
+    from rigs.path import commanded_deviation, path_as_run, timed_deviation
 
-    text, verts = cam_program()
-    with Loopback(device="python", record=True) as lb:
-        app = make_program("gcode", lb.backend, scripted=True, axes=2,
-                           setup_lines=list(SETUP) + ["$172=1"])
-        app.run_script("G21\n", max_ticks=TPS)  # the machine is made: record its blends
-        app.machine.executor.group.blend_log = blends = []
-        app.run_script(text, max_ticks=120 * TPS)
-        assert lb.backend.settle()
-        m = app.machine
-        counters = lb.backend.device_counters()
-        edges = lb.device.recorder.pin_edges
-        ups = [s.direction_pin_high_counts_up() for s in m.steppers]
-        steps = [steps_by_pins(edges, 9, 5, ups[0]), steps_by_pins(edges, 10, 7, ups[1])]
-    assert "error" not in app.transcript.decode()
-    assert m.executor.kind == "lookahead" and len(m.motion_log) == 1
-    assert counters["underruns"] == counters["late_starts"] == counters["rejected"] == 0
+    m, verts, points, blends = cam_on_the_python_device(["$172=1"])
     assert blends  # the corners were blended
-    points = instants(steps, (0, 0))
     assert points[-1][1] == verts[-1] == tuple(m.positions())
     path = path_as_run(verts, blends, points, (SPU, SPU))
     assert timed_deviation(points, path, int(0.02 * TPS)) <= 1.0
