@@ -590,7 +590,10 @@ class SimavrServer:
 
     def __init__(self, elf: str | Path, harness: str | Path, *, speed: float = 1.0,
                  link: str | None = None, trace: str | None = None) -> None:
-        args = [str(harness), "--pty", "--speed", repr(float(speed))]
+        # --parent: the harness ends when this process is gone, even if it is killed
+        # before the harness has looked (see fas_simavr.c's serve_pty)
+        args = [str(harness), "--pty", "--speed", repr(float(speed)), "--parent",
+                str(os.getpid())]
         if link:
             args += ["--link", link]
         if trace:

@@ -592,7 +592,7 @@ static void read_commands(void)
     }
 }
 
-static int serve_pty(double speed, const char *link)
+static int serve_pty(double speed, const char *link, pid_t parent)
 {
     char path[128];
     int slave = -1;
@@ -621,8 +621,9 @@ static int serve_pty(double speed, const char *link)
     int rc = 0;
     uint8_t buf[4096];
     /* whoever started us (stepperdemo device --simavr, a shell) going away ends the
-     * run: killed outright, it cannot stop us, and an orphan would run for ever */
-    pid_t parent = getppid();
+     * run: killed outright, it cannot stop us, and an orphan would run for ever.
+     * `parent` was taken before anything else (or named by --parent): read here, after
+     * the path went out, a parent killed in between would already be gone unseen. */
     while (!stopping) {
         if (getppid() != parent)
             break;
@@ -872,13 +873,16 @@ static void usage(void)
 {
     fprintf(stderr,
             "usage: fas-simavr [--pty] [--link PATH] [--speed F] [--trace FILE] "
-            "[--mcu NAME] [--freq HZ] [--boot N] FIRMWARE.elf\n"
+            "[--mcu NAME] [--freq HZ] [--boot N] [--parent PID] FIRMWARE.elf\n"
+            "  --parent PID: end when PID is no longer our parent (default: the parent "
+            "at start)\n"
             "  standard input: lines \"PIN VALUE\" (a level) or \"PIN VALUE a\" (an analog "
             "value 0..1023) set the board's inputs\n");
 }
 
 int main(int argc, char **argv)
 {
+    pid_t parent = getppid();
     const char *elf = NULL, *link = NULL, *mcu = "atmega328p", *trace_file = NULL;
     double speed = 1.0;
     uint32_t freq = 16000000;
@@ -899,6 +903,8 @@ int main(int argc, char **argv)
             freq = (uint32_t)strtoul(argv[++i], NULL, 10);
         else if (!strcmp(a, "--boot") && i + 1 < argc)
             boot = strtol(argv[++i], NULL, 10);
+        else if (!strcmp(a, "--parent") && i + 1 < argc)
+            parent = (pid_t)strtol(argv[++i], NULL, 10);
         else if (a[0] == '-') {
             usage();
             return 2;
@@ -916,7 +922,7 @@ int main(int argc, char **argv)
     }
     if (chip_open(elf, mcu, freq, trace_file, (uint16_t)boot, speed, 1))
         return 2;
-    int rc = serve_pty(speed, link);
+    int rc = serve_pty(speed, link, parent);
     chip_close();
     return rc;
 }

@@ -61,3 +61,28 @@ def test_the_harness_ends_when_device_simavr_is_killed():
             os.kill(harness, signal.SIGKILL)  # the orphan (before the fix)
         dev.stdout.close()
         dev.stderr.close()
+
+
+@pytest.mark.skipif(not hasattr(os, "pidfd_open") or not sys.platform.startswith("linux"),
+                    reason="waits on a pidfd (Linux)")
+def test_the_harness_ends_when_its_parent_died_before_it_looked():
+    """The race CI met: the parent killed between the harness's first line and its first
+    look at its parent.  ``--parent`` names the parent; one already gone ends the run."""
+    from fas.device.simavr import build
+
+    firmware = build()  # (re)builds the harness from source too
+    gone = subprocess.Popen(["true"])
+    gone.wait()  # a process that has ended: the parent the harness is told to watch
+    harness = subprocess.Popen([str(firmware.harness), "--pty", "--parent", str(gone.pid),
+                                str(firmware.elf)], stdin=subprocess.DEVNULL,
+                               stdout=subprocess.PIPE, text=True)
+    try:
+        assert harness.stdout.readline().startswith("/dev/")  # it served the pty ...
+        harness.wait(timeout=WAIT_S)  # ... and ended by itself
+        assert harness.returncode == 0
+        assert "simulated in" in harness.stdout.read()  # its summary: a clean end
+    finally:
+        if harness.poll() is None:
+            harness.kill()
+            harness.wait(timeout=WAIT_S)
+        harness.stdout.close()
