@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-import shutil
 import subprocess
-
-import pytest
 
 from fas import Engine
 from fas.sim import SimBackend
@@ -16,6 +13,7 @@ from fas.sim.trace import (
     timescale_factor,
     vcd_timescale,
 )
+from rigs.tools import need_tools
 from rigs.vcd import read_vcd
 
 SIGNALS = {9: "StepA", 5: "DirA", 6: "EnableA", 10: "StepB", 7: "DirB", 8: "EnableB"}
@@ -175,9 +173,8 @@ def test_trace_switched_on_and_off_while_running(tmp_path):
     assert all(t >= start for t, _ in mine)
 
 
-@pytest.mark.skipif(shutil.which("vcd2fst") is None or shutil.which("fst2vcd") is None,
-                    reason="GTKWave tools not installed")
 def test_gtkwave_reads_the_file(tmp_path):
+    need_tools("vcd2fst", "fst2vcd", package="gtkwave")
     backend = SimBackend("atmega328p")
     path = str(tmp_path / "g.vcd")
     trace = VcdTrace(backend, path, SIGNALS).start()
@@ -194,8 +191,8 @@ def test_gtkwave_reads_the_file(tmp_path):
     assert len(vcd.rising("StepB")) == backend.machine.pins.rising(10)
 
 
-@pytest.mark.skipif(shutil.which("sigrok-cli") is None, reason="sigrok-cli not installed")
 def test_sigrok_reads_the_file_as_pulseview_does(tmp_path):
+    need_tools("sigrok-cli", package="sigrok-cli")
     backend = SimBackend("atmega328p")
     path = str(tmp_path / "s.vcd")
     trace = VcdTrace(backend, path, SIGNALS).start()
