@@ -10,7 +10,9 @@ flags of the Arduino IDE's platform.txt and the case's input compiled in
 libsimavr 1.6 drives the compare outputs' forced matches differently), and records
 every step pin change, every interrupt entry and return, the library's queue writes
 and the queues' contents at each ramp task.  Nothing of those sources is part of this
-repository: their paths are arguments.
+repository: their paths are arguments (``--fas``: e.g. ``git -C FastAccelStepper archive
+1.2.6 src examples/StepperDemo | tar x -C DIR``; ``--simavr``: a checkout of simavr's
+source, whose library this script makes if it is not built yet).
 
     python3 bench/replica/replica.py --fas FAS_1_2_6 --simavr SIMAVR steps e01 e09 e14
     python3 bench/replica/replica.py --fas ... --simavr ... tasks e01 e03 e09 e13 e14
