@@ -117,6 +117,10 @@ class TaskEngine(Protocol):
         """A queue ran dry or a synchronized output was made (:mod:`fas.sync`)."""
         ...
 
+    def planning_queues(self) -> list[StepperQueue]:
+        """The queues whose stepper has motion still to plan in the next run."""
+        ...
+
 
 InputListener = Callable[[int, int, int], None]  # (pin, value, tick)
 LimitListener = Callable[[int, int, int, int], None]  # (queue index, pin, position, tick)

@@ -308,3 +308,8 @@ class Engine:
         if self.sync.active():
             self.sync.progress()
         return generated
+
+    def planning_queues(self) -> list[StepperQueue]:
+        """The queues whose stepper has motion still to plan: the others' fill returns at
+        its first check in the next run of the periodic task."""
+        return [q for q, planner in self._motion if planner.is_active()]

@@ -97,9 +97,13 @@ class SimBackend(Backend):
         m.task_offset = p.fill_entry_ticks
         per_entry = p.fill_queued_entry_ticks
         if per_entry or p.fill_stepper_ticks:
+            # a stepper whose ramp has planned everything: its fill returns at once
+            planning = engine.planning_queues() if p.fill_skips_done_ramps else None
             for ch in self.channels:  # a running stepper's fill first sums its queue
                 if ch.running:
                     q = ch.q
+                    if planning is not None and not any(q is x for x in planning):
+                        continue
                     queued = (q.next_write_idx - q.read_idx) & 0xFF
                     m.task_offset += p.fill_stepper_ticks + per_entry * max(0, queued - 1)
                     ch.plan_pending = bool(p.fill_plan_ticks)

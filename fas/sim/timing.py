@@ -72,6 +72,9 @@ class SimTiming:
     # ... and once more when that fill goes on to plan commands (a fill that finds the
     # queue long enough plans none and skips it)
     fill_plan_ticks: int = 0
+    # ... none of these for a running stepper whose ramp has planned everything (the
+    # library's fill returns at its first check while the queue drains)
+    fill_skips_done_ramps: bool = False
     # the step interrupt takes this much more CPU when it takes up the next queue entry
     isr_next_entry_ticks: int = 0
     # a command at the speed of the one before (the ramp coasts; 0: as fill_cmd_ticks)
@@ -151,12 +154,15 @@ AVR_TIME_MEASUREMENT_TIMING = replace(AVR_TIMING, isr_latency_ticks=(62, 73, 73)
 # the build of the runs e01-e18 (fas.sim.builds): the library's code takes fewer cycles.
 # A running stepper's fill costs 226 + 100 per queued entry, and 100 more when it goes
 # on to plan commands: the pitch between two blocks across a ramp task that plans none
-# is the firmware's so in every run (bench/e_fidelity.py --holdout, "across a ramp task")
+# is the firmware's so in every run (bench/e_fidelity.py --holdout, "across a ramp task");
+# none of that for a stepper whose ramp has planned everything (a task while its queue
+# drains: 462 ticks on the firmware's replica, bench/replica)
 AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
                        fill_plan_ticks=100, fill_bare_pause_ticks=608,
                        fill_start_ticks=597 + 1250,
                        fill_pause_ticks=1259, fill_single_ticks=1817, fill_cmd_ticks=2060,
                        fill_coast_cmd_ticks=1600, fill_queued_entry_ticks=100,
+                       fill_skips_done_ramps=True,
                        isr_next_entry_ticks=24, isr_duration_by_channel=(120, 135, 135))
 
 # upstream's own simulator-tested sketches (FastAccelStepper 1.2.7's examples/Issue*,
@@ -172,7 +178,7 @@ AVR_UPSTREAM_TM_TIMING = replace(
     **{name: getattr(AVR_E_TIMING, name) for name in (
         "fill_entry_ticks", "fill_stepper_ticks", "fill_queued_entry_ticks", "fill_plan_ticks",
         "fill_cmd_ticks", "fill_coast_cmd_ticks", "fill_single_ticks", "fill_pause_ticks",
-        "fill_bare_pause_ticks", "fill_start_ticks")})
+        "fill_bare_pause_ticks", "fill_start_ticks", "fill_skips_done_ramps")})
 
 # ATmega32U4: Serial is the USB CDC port, output costs no UART time (the AVR simulator
 # has no USB host, so the firmware's prints return at once): a write call to the CDC

@@ -1,10 +1,12 @@
 """The simulated machine: event clock, interrupt blocking, UART, millis()."""
 
 from fas.arch import ATMEGA328P
+from fas.engine import Engine
 from fas.sim import SimBackend
 from fas.sim.machine import Machine
 from fas.sim.timing import sim_timing
 from rigs.sim import make, periods, rising, run_until_idle
+from stepperdemo.demo.build import demo_build
 
 T328 = sim_timing(ATMEGA328P)
 
@@ -172,3 +174,38 @@ def test_interrupts_during_an_idle_wait_do_not_delay_the_loop_afterwards():
     s.move(20_000)
     backend.app_wait_until(backend.now() + 16_000 * 100)  # 100 ms idle: 2500 interrupts
     assert backend.machine.stolen_ticks <= T328.isr_duration_ticks
+
+
+def test_a_running_stepper_whose_ramp_is_done_costs_the_ramp_task_nothing(monkeypatch):
+    # build e (fas.sim.builds): the library's fill returns at its first check once the
+    # ramp has planned everything, so a task while the queue drains costs what an idle
+    # one does; while the ramp plans, the fill sums the queue first
+    b = SimBackend("atmega328p", build="e")
+    t = b.machine.timing
+    assert t.fill_skips_done_ramps
+    engine = Engine(b)
+    engine.init()
+    s = engine.stepper_connect_to_pin(demo_build(b.profile).steppers[0].step)
+    assert s is not None
+    plain = vars(SimBackend)["_task"]
+    seen: list[tuple[bool, int, int]] = []  # planning, queued entries, task cost
+
+    def task(self: SimBackend, index: int) -> None:
+        q = self.channels[0].q
+        planning = any(x is q for x in engine.planning_queues())
+        queued = (q.next_write_idx - q.read_idx) & 0xFF if self.channels[0].running else 0
+        before = self.machine.stolen_ticks
+        plain(self, index)
+        seen.append((planning, queued, self.machine.stolen_ticks - before))
+
+    monkeypatch.setattr(SimBackend, "_task", task)
+    s.set_speed_in_hz(20_000)
+    s.set_acceleration(100_000)
+    s.move(3000)
+    run_until_idle(b, s)
+    draining = [c for planning, queued, c in seen if not planning and queued]
+    assert draining and all(c == t.fill_entry_ticks for c in draining)
+    summing = [(queued, c) for planning, queued, c in seen if planning and queued > 1]
+    assert summing and min(c - t.fill_entry_ticks - t.fill_stepper_ticks
+                           - t.fill_queued_entry_ticks * (queued - 1)
+                           for queued, c in summing) >= 0

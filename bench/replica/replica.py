@@ -1,0 +1,344 @@
+"""The firmware of the runs e01-e18 rebuilt and run cycle by cycle: a replica to read
+the simulation model's figures from (docs/timing-model.md, "eighth pass").
+
+The conformance runs e01-e18 come from StepperDemo and FastAccelStepper 1.2.6 built
+with the Arduino AVR core and avr-gcc, run in simavr.  This script builds the same
+firmware from a FastAccelStepper 1.2.6 source tree with the Arduino AVR core that
+Debian packages (``arduino-core-avr``, 1.8.7) and the installed avr-gcc, with the
+flags of the Arduino IDE's platform.txt and the case's input compiled in
+(``SIM_TEST_INPUT``), runs it in an upstream simavr built from source (Debian's
+libsimavr 1.6 drives the compare outputs' forced matches differently), and records
+every step pin change, every interrupt entry and return, the library's queue writes
+and the queues' contents at each ramp task.  Nothing of those sources is part of this
+repository: their paths are arguments (``--fas``: e.g. ``git -C FastAccelStepper archive
+1.2.6 src examples/StepperDemo | tar x -C DIR``; ``--simavr``: a checkout of simavr's
+source, whose library this script makes if it is not built yet).
+
+    python3 bench/replica/replica.py --fas FAS_1_2_6 --simavr SIMAVR steps e01 e09 e14
+    python3 bench/replica/replica.py --fas ... --simavr ... tasks e01 e03 e09 e13 e14
+    python3 bench/replica/replica.py --fas ... --simavr ... task e14 --at 254.6
+
+``steps`` compares every step edge with the firmware's (``steps_*.tsv.gz``): the
+replica's come at one constant offset (61-62 ticks on the ATmega328P, 150 on the
+ATmega2560), i.e. it is the firmware to the cycle.  ``tasks`` reads the ramp task's
+costs from all tasks of the runs: the CPU time of a task without commands by what its
+queues hold, the time between two queue writes of one stepper by kind of command, and
+the interrupts nested in tasks.  ``task`` prints one task's timeline (CPU time, ticks
+of the interrupts nested so far, each queue write).  The ATmega32U4 runs (e15, e16)
+are not covered: their USB console needs a host the simulator does not have.
+"""
+
+from __future__ import annotations
+
+import argparse
+import bisect
+import collections
+import gzip
+import hashlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent.parent
+CORE = Path("/usr/share/arduino/hardware/arduino/avr")
+TICKS_PER_US = 16
+
+
+class Board:
+    def __init__(self, mcu: str, variant: str, define: str, extra: list[str],
+                 pins: dict[str, str], task_vector: int, queues: int) -> None:
+        self.mcu, self.variant, self.define, self.extra = mcu, variant, define, extra
+        self.pins, self.task_vector, self.queues = pins, task_vector, queues
+
+
+UNO = Board("atmega328p", "standard", "ARDUINO_AVR_UNO", [], {"A": "B1", "B": "B2"}, 13, 2)
+MEGA_T1 = Board("atmega2560", "mega", "ARDUINO_AVR_MEGA2560", ["-DFAS_TIMER_MODULE=1"],
+                {"A": "B5", "B": "B6", "C": "B7"}, 20, 3)
+BOARDS = {"e13": MEGA_T1, "e14": MEGA_T1}
+MARK_NAMES = ("FastAccelStepper::addQueueEntry(", "StepperQueue::startQueue(",
+              "StepperQueue::addQueueEntry(", "FastAccelStepper::enableOutputs(")
+WRITE, START, QUEUE_WRITE, ENABLE = range(4)
+
+
+def _conformance() -> Path:
+    for p in (ROOT.parent.parent / "shared" / "conformance", Path("/work/shared/conformance")):
+        if p.is_dir():
+            return p
+    return ROOT / "conformance"
+
+
+def run(cmd: list[str], **kw: object) -> None:
+    subprocess.run(cmd, check=True, **kw)  # type: ignore[call-overload]
+
+
+def build_firmware(fas: Path, case_input: str, board: Board, work: Path) -> Path:
+    """StepperDemo with ``case_input`` compiled in; returns the ELF (cached by input)."""
+    key = hashlib.sha1(f"{fas}|{case_input}|{board.mcu}|{board.extra}".encode()).hexdigest()
+    out = work / f"fw-{key[:12]}"
+    elf = out / "fw.elf"
+    if elf.exists():
+        return elf
+    out.mkdir(parents=True, exist_ok=True)
+    core = CORE / "cores" / "arduino"
+    defs = [f"-mmcu={board.mcu}", "-DF_CPU=16000000L", "-DARDUINO=10807", f"-D{board.define}",
+            "-DARDUINO_ARCH_AVR", *board.extra]
+    inc = [f"-I{core}", f"-I{CORE / 'variants' / board.variant}", f"-I{fas / 'src'}",
+           f"-I{fas / 'examples' / 'StepperDemo'}"]
+    cflags = ["-c", "-g", "-Os", "-w", "-std=gnu11", "-ffunction-sections", "-fdata-sections",
+              "-flto", "-fno-fat-lto-objects"]
+    cxxflags = ["-c", "-g", "-Os", "-w", "-std=gnu++11", "-fpermissive", "-fno-exceptions",
+                "-ffunction-sections", "-fdata-sections", "-fno-threadsafe-statics",
+                "-Wno-error=narrowing", "-flto"]
+    script = [f'-DSIM_TEST_INPUT="{case_input}"']
+    sketch = out / "StepperDemo.ino.cpp"
+    sketch.write_text("#include <Arduino.h>\n"
+                      + (fas / "examples" / "StepperDemo" / "StepperDemo.ino").read_text())
+    jobs: list[tuple[list[str], Path]] = []
+    for f in sorted(core.glob("*.c")):
+        jobs.append((["avr-gcc", *cflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
+    for f in sorted(core.glob("*.cpp")):
+        if f.name != "WString.cpp":  # unused; Debian's copy needs DECIMAL_DIG
+            jobs.append((["avr-g++", *cxxflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
+    for f in sorted(core.glob("*.S")):
+        jobs.append((["avr-gcc", "-c", "-g", "-x", "assembler-with-cpp", "-flto", *defs, *inc,
+                      str(f)], out / f"core_{f.name}.o"))
+    skip = ("pd_esp32", "pd_pico", "pd_sam", "pd_test", "esp32_pcnt")
+    for f in sorted((fas / "src").rglob("*.cpp")):
+        if not any(s in str(f) for s in skip):
+            name = str(f.relative_to(fas)).replace("/", "_")
+            jobs.append((["avr-g++", *cxxflags, *defs, *inc, str(f)], out / f"fas_{name}.o"))
+    for f in [*sorted((fas / "examples" / "StepperDemo").glob("*.cpp")), sketch]:
+        jobs.append((["avr-g++", *cxxflags, *defs, *inc, *script, str(f)], out / f"sk_{f.name}.o"))
+    for cmd, obj in jobs:
+        run([*cmd, "-o", str(obj)])
+    run(["avr-gcc", "-w", "-Os", "-g", "-flto", "-fuse-linker-plugin", "-Wl,--gc-sections",
+         f"-mmcu={board.mcu}", "-o", str(elf), *[str(o) for _, o in jobs], "-lm"])
+    return elf
+
+
+def build_runner(simavr: Path, work: Path) -> Path:
+    """replica_run.c linked with the simavr tree's static library (built if missing)."""
+    sim = simavr / "simavr"
+    objs = sorted(sim.glob("obj-*/libsimavr.a"))
+    if not objs:
+        run(["make", "-C", str(sim), "RELEASE=1", "libsimavr"], stdout=subprocess.DEVNULL)
+        objs = sorted(sim.glob("obj-*/libsimavr.a"))
+    lib = objs[0]
+    exe = work / "replica_run"
+    src = HERE / "replica_run.c"
+    if not exe.exists() or exe.stat().st_mtime < src.stat().st_mtime:
+        work.mkdir(parents=True, exist_ok=True)
+        run(["gcc", "-O2", f"-I{sim / 'sim'}", f"-I{lib.parent}", "-o", str(exe), str(src),
+             str(lib), "-lelf", "-lm"])
+    return exe
+
+
+def symbols(elf: Path) -> tuple[dict[str, int], int]:
+    """Byte addresses of the marked functions, data address of the queue array."""
+    text = subprocess.run(["avr-nm", "-C", str(elf)], check=True, capture_output=True,
+                          text=True).stdout
+    found: dict[str, int] = {}
+    queues = 0
+    for line in text.splitlines():
+        parts = line.split(None, 2)
+        if len(parts) < 3:
+            continue
+        for name in MARK_NAMES:
+            if parts[2].startswith(name):
+                found[name] = int(parts[0], 16)
+        if parts[2] == "fas_queue":
+            queues = int(parts[0], 16) & 0xFFFF
+    return found, queues
+
+
+def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
+    """Build and run ``case``; returns the output prefix and the board."""
+    board = BOARDS.get(case, UNO)
+    text = (args.conformance / case / "input.txt").read_text().rstrip("\n")
+    work = Path(args.work)
+    elf = build_firmware(Path(args.fas), text, board, work)
+    exe = build_runner(Path(args.simavr), work)
+    marks, queue_base = symbols(elf)
+    prefix = work / case
+    info = args.conformance / case / "run_info.json"  # the firmware halts at its end
+    ms = json.loads(info.read_text())["simulated_us"] / 1000 + 1 if info.exists() else 5000.0
+    env = {**os.environ, "MARKS": ",".join(f"{marks[n]:x}" for n in MARK_NAMES),
+           "TASK_VECTOR": str(board.task_vector), "QUEUES": str(board.queues),
+           "QUEUE_BASE": f"{queue_base:x}"}
+    run([str(exe), str(elf), board.mcu, f"{ms:.0f}", str(prefix), *board.pins.values()], env=env)
+    return prefix, board
+
+
+def rises(prefix: Path) -> dict[str, list[int]]:
+    out: dict[str, list[int]] = collections.defaultdict(list)
+    level: dict[str, int] = {}
+    with open(f"{prefix}.pins") as f:
+        for line in f:
+            c, pin, v = line.split()
+            if v == "1" and level.get(pin, 0) == 0:
+                out[pin].append(int(c))
+            level[pin] = int(v)
+    return out
+
+
+def cmd_steps(args: argparse.Namespace) -> int:
+    bad = 0
+    for case in args.cases:
+        prefix, board = replicate(case, args)
+        mine = rises(prefix)
+        for letter, pin in board.pins.items():
+            path = args.conformance / case / f"steps_{letter}.tsv.gz"
+            if not path.exists():
+                continue
+            with gzip.open(path, "rt") as f:
+                fw = [round(float(line.split()[0]) * TICKS_PER_US) for line in f if line.strip()]
+            ours = mine.get(pin, [])
+            n = min(len(fw), len(ours))
+            offs = [ours[i] - fw[i] for i in range(n)]
+            # the firmware's times are written to 1 ns: a tick is 62.5 ns
+            same = len(fw) == len(ours) and max(offs) - min(offs) <= 8
+            bad += not same
+            print(f"{case} {letter}: firmware {len(fw)} steps, replica {len(ours)}; replica - "
+                  f"firmware {min(offs)}..{max(offs)} ticks"
+                  + ("" if same else "  (not one constant offset)"))
+    return 1 if bad else 0
+
+
+class Task:
+    def __init__(self, t: int, queues: list[list[int]]) -> None:
+        self.t, self.queues = t, queues
+        self.cpu = self.wall = 0
+        self.nested: collections.Counter[int] = collections.Counter()
+        self.marks: list[tuple[int, int, int, int, int]] = []  # cpu, mark, this, ticks, steps
+
+
+def tasks_of(prefix: Path, task_vector: int) -> tuple[list[Task], dict[int, list[int]]]:
+    """Every run of the ramp task (CPU time its own, interrupts nested by vector) and the
+    durations of every other interrupt (vector -> ticks entry to reti)."""
+    tasks: list[Task] = []
+    isr: dict[int, list[int]] = collections.defaultdict(list)
+    stack: list[tuple[int, int]] = []
+    cur: Task | None = None
+    last = 0
+    with open(f"{prefix}.ev") as f:
+        for line in f:
+            p = line.split()
+            c = int(p[0])
+            if cur is not None and stack:
+                top = stack[-1][0]
+                if top == task_vector:
+                    cur.cpu += c - last
+                else:
+                    cur.nested[top] += c - last
+            last = c
+            if p[1] == "V":
+                v = int(p[2])
+                stack.append((v, c))
+                if v == task_vector:
+                    qs = " ".join(p[3:]).split("|")[1:]
+                    cur = Task(c, [[int(s) for s in q.split()] for q in qs])
+            elif p[1] == "R" and stack:
+                v, c0 = stack.pop()
+                if v == task_vector and cur is not None:
+                    cur.wall = c - cur.t
+                    tasks.append(cur)
+                    cur = None
+                elif v != task_vector:
+                    isr[v].append(c - c0)
+            elif p[1] == "M" and cur is not None:
+                cur.marks.append((cur.cpu, int(p[2]), int(p[3]), int(p[4]), int(p[5])))
+    return tasks, isr
+
+
+def _writes(t: Task) -> list[tuple[int, int, int, int, int]]:
+    """The task's command writes (a call with a command; the start call has none)."""
+    return [m for m in t.marks if m[1] == WRITE and m[4] < 256 and m[3] > 0]
+
+
+def _median(v: list[int]) -> int:
+    v = sorted(v)
+    return v[len(v) // 2] if v else 0
+
+
+def cmd_tasks(args: argparse.Namespace) -> int:
+    Run = tuple[list[Task], dict[int, list[int]]]
+    by_chip: dict[str, list[Run]] = collections.defaultdict(list)
+    for case in args.cases:
+        prefix, board = replicate(case, args)
+        by_chip[board.mcu].append(tasks_of(prefix, board.task_vector))
+    for chip, runs in by_chip.items():
+        idle: list[int] = []
+        plain: dict[tuple[int, int], list[int]] = collections.defaultdict(list)
+        done: list[int] = []
+        cost: dict[str, list[int]] = collections.defaultdict(list)
+        isr: dict[int, list[int]] = collections.defaultdict(list)
+        for tasks, isrs in runs:
+            for v, d in isrs.items():
+                isr[v] += d
+            for t in tasks:
+                running = [q for q in t.queues if q]
+                w = _writes(t)
+                if not running and not w:
+                    idle.append(t.cpu)
+                elif len(running) == 1 and not t.marks:
+                    q = running[0][1:]
+                    ones = sum(1 for s in q if s <= 1)
+                    if ones and ones == len(q):
+                        done.append(t.cpu)
+                    elif not ones:
+                        plain[(0, len(q))].append(t.cpu)
+                for a, b in zip(w, w[1:], strict=False):
+                    if a[2] == b[2]:
+                        kind = ("pause" if b[4] == 0 else "one step" if b[4] == 1
+                                else "coast" if b[3] == a[3] else "several steps")
+                        cost[kind].append(b[0] - a[0])
+        print(f"== {chip}")
+        print(f"idle task (no stepper running): median {_median(idle)} ticks "
+              f"({min(idle, default=0)}..{max(idle, default=0)}, {len(idle)} tasks)")
+        print(f"a running stepper whose ramp is done (one-step entries left): median "
+              f"{_median(done)} ({len(done)} tasks)")
+        for (_, n), v in sorted(plain.items()):
+            print(f"no command, {n} queued entries of several steps: median {_median(v)} "
+                  f"({len(v)} tasks)")
+        for kind, v in sorted(cost.items()):
+            print(f"command of {kind}: {_median(v)} ticks between two queue writes "
+                  f"({len(v)} commands)")
+        for v, d in sorted(isr.items()):
+            print(f"interrupt vector {v}: median {_median(d)} ticks entry to reti ({len(d)})")
+    return 0
+
+
+def cmd_task(args: argparse.Namespace) -> int:
+    case = args.cases[0]
+    prefix, board = replicate(case, args)
+    tasks, _ = tasks_of(prefix, board.task_vector)
+    at = round(args.at * 1000 * TICKS_PER_US)
+    i = min(max(bisect.bisect_left([t.t for t in tasks], at), 0), len(tasks) - 1)
+    t = tasks[i]
+    print(f"task at cycle {t.t} ({t.t / TICKS_PER_US / 1000:.3f} ms): CPU {t.cpu}, wall {t.wall}, "
+          f"nested by vector {dict(t.nested)}; queued steps at entry {t.queues}")
+    names = ("write", "start", "queue write", "enable")
+    for cpu, mark, this, ticks, steps in t.marks:
+        extra = f" stepper@{this:#x} ticks {ticks} steps {steps}" if mark == WRITE else ""
+        print(f"  CPU {cpu:6d}  {names[mark]}{extra}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--fas", required=True, help="FastAccelStepper 1.2.6 source tree")
+    ap.add_argument("--simavr", required=True, help="simavr source tree (upstream)")
+    ap.add_argument("--conformance", type=Path, default=_conformance())
+    ap.add_argument("--work", default="/tmp/fas-replica")
+    ap.add_argument("--at", type=float, default=0.0, help="task: its time in ms")
+    ap.add_argument("what", choices=("steps", "tasks", "task"))
+    ap.add_argument("cases", nargs="+")
+    args = ap.parse_args(argv)
+    return {"steps": cmd_steps, "tasks": cmd_tasks, "task": cmd_task}[args.what](args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,143 @@
+/* The firmware replica's runner (bench/replica/replica.py): runs an AVR ELF in simavr
+ * and records, by CPU cycle,
+ *   PREFIX.pins  "cycle PORTBIT level" for every change of the named port pins,
+ *   PREFIX.ev    "cycle V n [| steps of each queue ...]"  an interrupt vector entered
+ *                (for vector TASK_VECTOR the queued entries' step counts follow),
+ *                "cycle R"                                   a reti executed,
+ *                "cycle M k this ticks steps"               function k of MARKS entered
+ *                (this = r25:r24; ticks/steps read from the struct r23:r22 points to).
+ *
+ *   replica_run ELF MCU MILLISECONDS PREFIX PIN...      (PIN: port letter + bit, "B1")
+ *
+ * Environment: MARKS (comma-separated hex byte addresses), TASK_VECTOR, QUEUES and
+ * QUEUE_BASE (hex data address of the queue array; 119-byte queues of 16 entries of
+ * 6 bytes, read_idx/next_write_idx after the entries: FastAccelStepper 1.2.6 on AVR).
+ * Build against an upstream simavr tree (replica.py does it).
+ */
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "avr_ioport.h"
+#include "avr_uart.h"
+#include "sim_avr.h"
+#include "sim_elf.h"
+
+static avr_t *avr;
+static FILE *pins, *ev;
+static unsigned marks[16];
+static int n_marks, task_vector, n_queues, queue_base;
+
+enum { QUEUE_SIZE = 119, ENTRY_SIZE = 6, ENTRIES = 16 };
+
+static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    fprintf(pins, "%" PRIu64 " %s %u\n", avr->cycle, (const char *)param, value & 1);
+}
+
+static void record(void)
+{
+    uint32_t pc = avr->pc;
+    uint16_t op = avr->flash[pc] | (avr->flash[pc + 1] << 8);
+    if (op == 0x9518) { /* reti */
+        fprintf(ev, "%" PRIu64 " R\n", avr->cycle);
+        return;
+    }
+    if (pc && pc < 0x100 && !(pc & 3)) { /* a jmp of the vector table: entered */
+        int vector = (int)(pc >> 2);
+        fprintf(ev, "%" PRIu64 " V %d", avr->cycle, vector);
+        if (vector == task_vector) {
+            for (int q = 0; q < n_queues; q++) {
+                const uint8_t *b = avr->data + queue_base + QUEUE_SIZE * q;
+                uint8_t rp = b[ENTRY_SIZE * ENTRIES], wp = b[ENTRY_SIZE * ENTRIES + 1];
+                fputs(" |", ev);
+                for (uint8_t i = rp; i != wp; i++)
+                    fprintf(ev, " %u", b[ENTRY_SIZE * (i & (ENTRIES - 1))]);
+            }
+        }
+        fputc('\n', ev);
+        return;
+    }
+    for (int k = 0; k < n_marks; k++) {
+        if (pc != marks[k])
+            continue;
+        unsigned p = avr->data[22] | (avr->data[23] << 8);
+        unsigned ticks = 0, steps = 0;
+        if (p + 2 <= avr->ramend) {
+            ticks = avr->data[p] | (avr->data[p + 1] << 8);
+            steps = avr->data[p + 2];
+        }
+        fprintf(ev, "%" PRIu64 " M %d %u %u %u\n", avr->cycle, k,
+                avr->data[24] | (avr->data[25] << 8), ticks, steps);
+        return;
+    }
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 5) {
+        fprintf(stderr, "usage: %s ELF MCU MILLISECONDS PREFIX PIN...\n", argv[0]);
+        return 2;
+    }
+    elf_firmware_t fw;
+    memset(&fw, 0, sizeof fw);
+    if (elf_read_firmware(argv[1], &fw)) {
+        fprintf(stderr, "cannot read %s\n", argv[1]);
+        return 1;
+    }
+    avr = avr_make_mcu_by_name(argv[2]);
+    if (!avr) {
+        fprintf(stderr, "unknown MCU %s\n", argv[2]);
+        return 1;
+    }
+    avr_init(avr);
+    avr->log = LOG_ERROR;
+    fw.frequency = 16000000;
+    strncpy(fw.mmcu, argv[2], sizeof fw.mmcu - 1);
+    avr_load_firmware(avr, &fw);
+    avr->frequency = 16000000;
+    char name[1024];
+    snprintf(name, sizeof name, "%s.pins", argv[4]);
+    pins = fopen(name, "w");
+    snprintf(name, sizeof name, "%s.ev", argv[4]);
+    ev = fopen(name, "w");
+    if (!pins || !ev) {
+        perror(argv[4]);
+        return 1;
+    }
+    for (int i = 5; i < argc; i++) {
+        avr_irq_t *irq = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(argv[i][0]), atoi(argv[i] + 1));
+        if (!irq) {
+            fprintf(stderr, "no pin %s\n", argv[i]);
+            return 1;
+        }
+        avr_irq_register_notify(irq, pin_hook, argv[i]);
+    }
+    const char *env = getenv("MARKS");
+    if (env) {
+        char *list = strdup(env);
+        for (char *t = strtok(list, ","); t && n_marks < 16; t = strtok(NULL, ","))
+            marks[n_marks++] = (unsigned)strtoul(t, NULL, 16);
+    }
+    if (getenv("TASK_VECTOR")) {
+        task_vector = atoi(getenv("TASK_VECTOR"));
+        n_queues = getenv("QUEUES") ? atoi(getenv("QUEUES")) : 0;
+        queue_base = getenv("QUEUE_BASE") ? (int)strtoul(getenv("QUEUE_BASE"), NULL, 16) : 0;
+    }
+    uint32_t flags = 0; /* the console's characters are not wanted on stdout */
+    avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
+    flags &= ~AVR_UART_FLAG_STDIO;
+    avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+    uint64_t end = (uint64_t)(atof(argv[3]) * 16000);
+    while (avr->cycle < end) {
+        record();
+        int state = avr_run(avr);
+        if (state == cpu_Done || state == cpu_Crashed)
+            break;
+    }
+    fclose(pins);
+    fclose(ev);
+    return 0;
+}
