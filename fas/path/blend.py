@@ -167,7 +167,8 @@ def slowing_blend(u: Sequence[float], w: Sequence[float], speed_in: float,
 
 def hold_blend(u: Sequence[float], w: Sequence[float], v_sqr: float, rest: float,
                accel_in: float, accel_out: float, axis_accel: Sequence[float],
-               room_out: float) -> tuple[float, float] | None:
+               room_out: float, deviation: float = math.inf
+               ) -> tuple[float, float] | None:
     """A feed hold's corner it cannot stop before: ``(v_in^2, v_out)`` of the
     :func:`slowing_blend` that leaves the least to run after it, or None where none
     fits (straight on, or no blend can begin on the rest of the block in).
@@ -188,7 +189,9 @@ def hold_blend(u: Sequence[float], w: Sequence[float], v_sqr: float, rest: float
     never stops later than that.
     Where the blend slows along the polyline at ``a_in`` (``1 - 2 a_in c = r``: the
     axes that set ``tau`` keep their share of the block's acceleration) the stop lies
-    ``v^2 / (2 a_in)`` along the polyline, as without the corner."""
+    ``v^2 / (2 a_in)`` along the polyline, as without the corner.  Every blend passes
+    inside the corner by at most ``deviation`` (``$11``, as a planned blend at the
+    junction speed): the least ``Q`` among those that do."""
     diff = [b - a for a, b in zip(u, w, strict=True)]
     if math.sqrt(sum(x * x for x in diff)) < STRAIGHT:
         return None
@@ -240,13 +243,21 @@ def hold_blend(u: Sequence[float], w: Sequence[float], v_sqr: float, rest: float
             vin2 = v_sqr
         if r * c * vin2 > room_out:
             continue
-        found.append((vin2 * (r * c + r * r / (2.0 * accel_out)), r, vin2))
-    if not found:
-        return None
-    least = min(q for q, _r, _v in found)
-    _q, r, vin2 = max((f for f in found if f[0] <= least * (1.0 + WINDOW_EPS)),
-                      key=lambda f: f[1])
-    return vin2, r * math.sqrt(vin2)
+        found.append((vin2 * (r * c + r * r / (2.0 * accel_out)), r, vin2, c))
+    found.sort()
+    k = 0
+    while k < len(found):  # by Q; among equals the largest r first
+        top = found[k][0] * (1.0 + WINDOW_EPS)
+        j = k
+        while j < len(found) and found[j][0] <= top:
+            j += 1
+        for _q, r, vin2, c in sorted(found[k:j], key=lambda f: -f[1]):
+            reach = c * vin2  # its path: the Bezier from -reach u to r reach w
+            if (deviation == math.inf
+                    or reach * _nearest([-a for a in u], [r * b for b in w]) <= deviation):
+                return vin2, r * math.sqrt(vin2)
+        k = j
+    return None
 
 
 def zone_coefficient(u: Sequence[float], w: Sequence[float],

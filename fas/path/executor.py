@@ -432,7 +432,8 @@ class Executor:
                 if not stop and k > 0.0:  # the corner as a blend that slows down
                     out = la.blocks[1]
                     hb = hold_blend(block.unit, out.unit, v * v, rest, accel,
-                                    out.acceleration, la.accel, out.length)
+                                    out.acceleration, la.accel, out.length,
+                                    la.junction_deviation)
                     if hb is not None:
                         slowing = slowing_blend(block.unit, out.unit, math.sqrt(hb[0]),
                                                 hb[1], la.accel)

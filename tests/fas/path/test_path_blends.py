@@ -301,11 +301,14 @@ def test_every_axis_within_its_acceleration_from_the_pins_where_it_turns_round()
         assert a <= BENCH_LIMITS.acceleration * SPU + SLACK, (i, a / SPU, at / tps)
 
 
-def test_holds_and_resumes_at_random_moments():
+@pytest.mark.parametrize("seed", [3, 5])
+def test_holds_and_resumes_at_random_moments(seed):
     """A random path held and resumed at random moments: it ends exactly at its end,
     every step within one step of the path as run - the blended polyline with each
-    hold's stop point."""
-    rnd = random.Random(3)
+    hold's stop point - and within $11 + 1 step of the commanded polyline: a hold's
+    blends that slow down pass inside their corners by at most $11 too
+    (fas.path.blend.hold_blend), as the planned ones do."""
+    rnd = random.Random(seed)
     backend, engine, group, pins, dirs = blended(limits=LIMITS, junction_deviation=0.02,
                                                  queue_blocks=8)
     pts = random_path(rnd)
@@ -316,6 +319,9 @@ def test_holds_and_resumes_at_random_moments():
     verts = [(0, 0)] + [p for k, p in enumerate(pts) if k == 0 or p != pts[k - 1]]
     assert blended_dev(ins, group, verts, stops) <= 1.0
     assert group.blend_log
+    assert any(s.b.speed_out < s.b.speed for _c, s in group.blend_log)  # a hold's
+    dev = commanded_deviation(ins, verts, group.blend_log, int(0.02 * group.tps))
+    assert dev <= 0.02 * SPU + 1.0, dev
 
 
 # ----------------------------------------------------------------- hold
