@@ -228,7 +228,7 @@ def hold_blend(u: Sequence[float], w: Sequence[float], v_sqr: float, rest: float
                 den = b / acc - sg * b2 / acc2
                 if den != 0.0:
                     cands.add((a / acc - sg * a2 / acc2) / den)
-    found: list[tuple[float, float, float]] = []  # (Q, r, v_in^2)
+    found: list[tuple[float, float, float, float]] = []  # (Q, r, v_in^2, c)
     for r in cands:
         if not 0.0 < r <= 1.0:
             continue
