@@ -13,11 +13,11 @@ from fas.path.arc import (
     arc_center_from_radius,
     arc_end_approach,
     arc_end_cut,
-    last_block_pins,
     arc_points,
     arc_segments,
     arc_travel,
     check_arc_offsets,
+    last_block_pins,
 )
 
 
