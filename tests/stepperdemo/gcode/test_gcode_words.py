@@ -57,10 +57,16 @@ ARCS = [
 ]
 
 
+@pytest.mark.parametrize("motion", [0, 1])  # $171: look-ahead, exact stop
 @pytest.mark.parametrize("program, centre", ARCS)
 def test_arc_ends_exactly_and_stays_within_the_tolerance_plus_a_step_on_the_pins(program,
-                                                                                   centre):
-    g = grbl()
+                                                                                   centre,
+                                                                                   motion):
+    """Both executors: the exact stop (``$171=1``) runs each chord from rest to rest,
+    the axes standing on the chord ends rounded to steps, but its path between them is
+    the chord itself (``Move.exact``), each axis on the step nearest to it and its last
+    step on the end where the chord ends on whole steps (as the look-ahead's)."""
+    g = grbl(setup=MM + f"$171={motion}\n")
     out = send(g, program + "\n")
     assert out == ["ok"]
     tol = 0.002  # $12's default, mm
@@ -117,11 +123,12 @@ def test_arc_radius_error_within_the_tolerance_plus_one_step():
     assert inner <= bound, inner * SPU
 
 
-def test_a_feed_hold_inside_an_arc_resumes_it_on_the_same_circle():
+@pytest.mark.parametrize("motion", [0, 1])  # $171: look-ahead, exact stop
+def test_a_feed_hold_inside_an_arc_resumes_it_on_the_same_circle(motion):
     """The hold stops between chord ends; the blocks go back into the queue from where
     the axes stand, through the same points (``through``) - still within `$12` + one
     step, the end exact."""
-    g = grbl()
+    g = grbl(setup=MM + f"$171={motion}\n")
     g.send(b"G2 X20 Y0 I10 J0 F3000\n")
     g.advance(0.3)
     g.send(b"!")
@@ -164,15 +171,18 @@ def end_rule_point(events, last_move):
     return forced
 
 
-@pytest.mark.parametrize("seed", [1, 2, 16, 39])
-def test_random_arcs_stay_within_the_tolerance_plus_a_step_and_end_exactly(seed):
+@pytest.mark.parametrize(("seed", "motion"), [(1, 0), (2, 0), (16, 0), (39, 0), (1, 1),
+                                             (16, 1)])
+def test_random_arcs_stay_within_the_tolerance_plus_a_step_and_end_exactly(seed, motion):
     """Arcs of random centre, sweep, direction, feed and `$12`, their targets in mm
     (whole micrometres, so not on whole steps nor quite on the circle): up to the last
     chord each axis within half a step of the path (+ GROUP_TOLERANCE_STEPS where
     grouped steps come early); the last block ends on the target rounded to steps,
     every axis moving in it making its last step on the end tick
     (:func:`end_rule_point`) - where that would force a point beyond `$12` + 1 step,
-    the slower axis ends before it (:func:`fas.path.arc.arc_end_cut`).  The whole path
+    the slower axis ends before it (:func:`fas.path.arc.arc_end_cut`).  ``motion`` 1:
+    the exact stop (``$171=1``), each chord from rest to rest along the chord itself.
+    The whole path
     within `$12` + 1 step, nothing added for the target's own distance from the circle
     (the last chord heads to it; where its steps would leave the band the last chord
     begins later on the circle: fas.path.arc.arc_end_approach - the arcs of
@@ -187,7 +197,7 @@ def test_random_arcs_stay_within_the_tolerance_plus_a_step_and_end_exactly(seed)
         tol = rnd.choice([0.002, 0.01])
         line = (f"G{2 if a1 < a0 else 3} X{tx} Y{ty} I{c[0]:.4f} J{c[1]:.4f} "
                 f"F{rnd.choice([600, 3000, 6000])}")
-        g = grbl()
+        g = grbl(setup=MM + f"$171={motion}\n")
         assert send(g, f"$12={tol}\n{line}\n") == ["ok", "ok"], line
         it = Interpreter(3, g.machine.settings)
         moves = [a for a in it.interpret(parse_line(line)) if isinstance(a, Move)]
