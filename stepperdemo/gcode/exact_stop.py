@@ -4,7 +4,12 @@ A block is executed as one or more *runs*.  A run starts all moving axes togethe
 (their queues filled, then started on one tick, after a lead for the drivers'
 enable and direction delays) and follows one time law (:mod:`.timelaw`) along the
 path: axis i makes its step j when the path fraction reaches ``j / n_i``, so every
-axis stays within a step of the line and all arrive on the same tick.
+axis stays within a step of the line and all arrive on the same tick.  An arc's chord
+(``Move.exact``: its ends between steps) runs from rest to rest between its ends
+rounded to steps, along the chord itself: each axis's step where the chord is half a
+step before it (the axis on the step nearest to the chord), the last on the end where
+the block ends on a whole step of the axis (:meth:`AxisFeed.fraction`); its speeds
+from the chord's own lengths.
 
 The queues are fed only a short time ahead (:attr:`ExactStopExecutor.ahead_ticks`),
 so the law can still be changed from the *frontier* - the latest tick any axis's
