@@ -252,12 +252,29 @@ def hold_blend(u: Sequence[float], w: Sequence[float], v_sqr: float, rest: float
         while j < len(found) and found[j][0] <= top:
             j += 1
         for _q, r, vin2, c in sorted(found[k:j], key=lambda f: -f[1]):
-            reach = c * vin2  # its path: the Bezier from -reach u to r reach w
-            if (deviation == math.inf
-                    or reach * _nearest([-a for a in u], [r * b for b in w]) <= deviation):
+            if deviation == math.inf or _within(u, w, r, c * vin2, deviation):
                 return vin2, r * math.sqrt(vin2)
         k = j
     return None
+
+
+def _within(u: Sequence[float], w: Sequence[float], r: float, reach: float,
+            deviation: float) -> bool:
+    """Does the Bezier from ``-reach u`` to ``r reach w`` (corner at the origin) pass
+    the corner at ``deviation`` or nearer?  Its middle ``(p0 + p2) / 4`` is a point of
+    it (nearer: yes); every point is ``(1 - s)^2 + s^2 >= 1/2`` times a point of the
+    chord ``p0 p2`` (half its distance beyond: no); else :func:`_nearest`."""
+    p0 = [-reach * a for a in u]
+    p2 = [r * reach * b for b in w]
+    if math.sqrt(sum((a + b) ** 2 for a, b in zip(p0, p2, strict=True))) / 4.0 <= deviation:
+        return True
+    d = [b - a for a, b in zip(p0, p2, strict=True)]
+    n2 = sum(x * x for x in d)
+    t = min(1.0, max(0.0, -sum(a * x for a, x in zip(p0, d, strict=True)) / n2)) if n2 else 0.0
+    chord = math.sqrt(sum((a + t * x) ** 2 for a, x in zip(p0, d, strict=True)))
+    if 0.5 * chord > deviation:
+        return False
+    return _nearest(p0, p2) <= deviation
 
 
 def zone_coefficient(u: Sequence[float], w: Sequence[float],
