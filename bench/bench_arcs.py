@@ -17,8 +17,8 @@ tick every axis that makes its last step on it (each that moves in the last chor
 end exact) stands a step before the target, and between the steps on that tick some
 do - points set by the target and the directions the arc ends in, so where one lies
 beyond $12 + 1 step no placement of the steps meets that bound.  Both executors:
-look-ahead (the default) and the exact stop ($171=1, which moves between chord ends
-rounded to steps).
+look-ahead (the default) and the exact stop ($171=1, which stops on the chord ends
+rounded to steps, moving along the chords themselves).
 
 1. The four arcs of the tests (a half, a quarter, a full circle, a long R arc).
 2. ``--random`` arcs (seeded): centre, sweep, direction, feed, $12 at random, their

@@ -39,6 +39,8 @@ import math
 from collections.abc import Sequence
 from enum import IntEnum
 
+from .settings import GROUP_TOLERANCE_STEPS
+
 ARC_ANGULAR_TRAVEL_EPSILON = 5e-7  # rad (Grbl's config.h)
 ARC_RADIUS_TOLERANCE = 0.005  # mm: a radius difference up to this is always fine
 ARC_RADIUS_MAX_ERROR = 0.5  # mm: beyond this never
@@ -211,3 +213,126 @@ def arc_end_cut(last: Sequence[float], target: Sequence[int], centre: tuple[floa
         return None
     u = 0.5 * (u_minor + u_major)
     return tuple(x0 + u * (x1 - x0) for x0, x1 in zip(last, target, strict=True))
+
+
+
+#: a step grouped with others comes at most this many steps early
+EARLY_STEPS = GROUP_TOLERANCE_STEPS
+
+
+def block_pins(start: Sequence[float], end: Sequence[float]) -> list[tuple[int, int]]:
+    """Where the axes of a plane stand during a block of an arc's end (steps, the
+    plane's two axes) from the chord end ``start`` (between steps) to ``end`` (the
+    target on whole steps, or a point between), by
+    :class:`fas.path.executor.Segment`'s rule: each axis stands on the step nearest to
+    its path (from the step nearest to ``start``) - each step where the path is half a
+    step before it, or up to ``EARLY_STEPS`` earlier where steps are grouped - but
+    where the block ends on a whole step of the axis its last step comes on the end
+    tick (not listed: the next block's, or the end rule's).  Every position where two
+    steps may come in either order (their windows overlap) is listed."""
+    pins = [math.floor(x + 0.5) for x in start]
+    events: list[tuple[float, float, int, int]] = []  # (u, u early, axis, direction)
+    for i in range(2):
+        stop = math.floor(end[i] + 0.5)
+        n = abs(stop - pins[i])
+        span = end[i] - start[i]
+        if float(stop) == end[i]:
+            n -= 1  # the last on the end tick
+        if n < 1 or span == 0.0:
+            continue
+        d = 1 if stop > pins[i] else -1
+        early = EARLY_STEPS / abs(span)
+        for k in range(1, n + 1):
+            u = (pins[i] + k * d - 0.5 * d - start[i]) / span
+            events.append((u, u - early, i, d))
+    events.sort()
+    out = [(pins[0], pins[1])]
+    pos = list(pins)
+    for k, (u, _e, i, d) in enumerate(events):
+        if k + 1 < len(events):  # the next one may come first
+            _u1, e1, j, dj = events[k + 1]
+            if j != i and e1 <= u:
+                alt = list(pos)
+                alt[j] += dj
+                out.append((alt[0], alt[1]))
+        pos[i] += d
+        out.append((pos[0], pos[1]))
+    return out
+
+
+def last_block_pins(start: Sequence[float], target: Sequence[int],
+                    cut: Sequence[float] | None = None) -> list[tuple[int, int]]:
+    """:func:`block_pins` of an arc's end from the last chord end ``start`` to the
+    ``target`` (both in the plane), through ``cut`` where :func:`arc_end_cut` cuts the
+    last chord - less the positions within a step of the target on both axes: the end
+    rule's, which :func:`arc_end_cut` deals with."""
+    if cut is None:
+        pins = block_pins(start, target)
+    else:
+        pins = block_pins(start, cut) + block_pins(cut, target)
+    return [p for p in pins if not all(abs(target[i] - p[i]) <= 1 for i in range(2))]
+
+
+def _approach_ok(last: Sequence[float], target: Sequence[int], centre: tuple[float, float],
+                 radius: float, band: float, plane: Plane) -> bool:
+    """Do the steps from the last chord end ``last`` to ``target`` (all axes), with
+    :func:`arc_end_cut`'s cut where it makes one, keep ``band``?"""
+    a0, a1, _ = plane.axes
+    cut = arc_end_cut(last, target, centre, radius, band, plane)
+    pins = last_block_pins((last[a0], last[a1]), (target[a0], target[a1]),
+                           None if cut is None else (cut[a0], cut[a1]))
+    return all(abs(math.hypot(x - centre[0], y - centre[1]) - radius) <= band
+               for x, y in pins)
+
+
+#: arc_end_approach's candidates: the last chord's angle times k / APPROACH_TRIES
+APPROACH_TRIES = 64
+
+
+def arc_end_approach(last: Sequence[float], target: Sequence[int],
+                     centre: tuple[float, float], radius: float, band: float,
+                     plane: Plane, clockwise: bool) -> tuple[float, ...] | None:
+    """A point on the circle where the arc's last chord should begin instead, so that
+    the last block's steps keep ``band`` (``$12`` + one step) - or None: they do from
+    ``last`` already (or no point helps).
+
+    Everything in steps, as :func:`arc_end_cut`: ``last`` the last chord's start (on
+    the circle), ``target`` the arc's end rounded to whole steps - off the circle by up
+    to 0.71 step.  A chord from the circle to a target rounded inside it comes up to
+    ``s + |delta| / 2`` inside in its middle (``s`` its sagitta, up to ``$12``;
+    ``delta`` the target's offset), where the steps may stand up to 0.71 step further
+    in (the axes on the steps nearest to the path): beyond the band by up to 0.002 step
+    on bench/bench_arcs.py's random arcs.  Where the steps from the last chord end
+    (:func:`last_block_pins`, through :func:`arc_end_cut`'s cut where it makes one;
+    the end rule's points left to it) would leave the band, the last chord begins
+    later on the circle: at the smallest share of its angle (k / 64, then halving
+    towards the end) from which they keep it.  The
+    chord before it is a shorter chord of the circle, within ``$12`` as every chord.
+    Other axes (a helix) in proportion to the angle."""
+    a0, a1, _ = plane.axes
+    c = centre
+    tgt = (target[a0], target[a1])
+    p_last = (last[a0], last[a1])
+    if _approach_ok(last, target, c, radius, band, plane):
+        return None
+    th0 = math.atan2(p_last[1] - c[1], p_last[0] - c[0])
+    th1 = math.atan2(tgt[1] - c[1], tgt[0] - c[0])
+    turn = 2.0 * math.pi  # the last chord's angle, in the arc's direction:
+    span = -((th0 - th1) % turn) if clockwise else (th1 - th0) % turn
+    if not 0.0 < abs(span) < math.pi:
+        return None
+
+    def point(share: float) -> tuple[float, ...]:
+        th = th0 + span * share
+        out = [x0 + share * (x1 - x0) for x0, x1 in zip(last, target, strict=False)]
+        out[a0] = c[0] + radius * math.cos(th)
+        out[a1] = c[1] + radius * math.sin(th)
+        return tuple(out)
+
+    shares = [k / APPROACH_TRIES for k in range(1, APPROACH_TRIES)]
+    shares += [1.0 - 0.5 ** j / APPROACH_TRIES for j in range(1, 30)]
+    for share in shares:
+        p = point(share)
+        if _approach_ok(p, target, c, radius, band, plane):
+            return p
+    return None

@@ -53,34 +53,45 @@ TURN_EPS = 1e-9
 
 @dataclass(frozen=True)
 class Blend:
-    """A corner taken at constant acceleration (see the module text).  Units, seconds."""
+    """A corner taken at constant acceleration (see the module text).  Units, seconds.
+
+    The velocity goes from ``speed * u`` to ``speed_out * w``: at one speed (a planned
+    corner, :func:`corner_blend`) or slowing down (a feed hold's corner,
+    :func:`slowing_blend`).  Either way its path is the quadratic Bezier from ``reach``
+    before the corner on the block in to ``reach_out`` after it on the block out,
+    with the corner point as its control point: ``reach = speed T / 2`` and
+    ``reach_out = speed_out T / 2``."""
 
     u: tuple[float, ...]  # direction of the block in
     w: tuple[float, ...]  # direction of the block out
-    speed: float  # v: the junction speed (units/s), at both ends of the blend
-    accel: float  # a_j: along w - u (units/s^2)
+    speed: float  # v: the speed at the blend's start (units/s; a planned corner: the
+    # junction speed, at both ends)
+    accel: float  # |the acceleration| (units/s^2), along v_out w - v u
     duration: float  # T (s)
-    reach: float  # along each block from the corner to the blend's end (units)
+    reach: float  # along the block in from the blend's start to the corner (units)
     inside: float  # how far from the corner point it passes (units)
     zone: float  # k: reach = k v^2 at this corner and acceleration (s^2/unit)
+    speed_out: float  # the speed at its end (units/s)
+    reach_out: float  # along the block out from the corner to the blend's end (units)
 
     def axis_accel(self, i: int) -> float:
         """Axis ``i``'s acceleration in the blend (units/s^2, signed)."""
-        return self.speed * (self.w[i] - self.u[i]) / self.duration
+        return (self.speed_out * self.w[i] - self.speed * self.u[i]) / self.duration
 
     def position(self, t: float) -> tuple[float, ...]:
         """Where the blend is ``t`` seconds after it began, from the corner (units)."""
-        v, d, T = self.speed, self.reach, self.duration
-        return tuple(-d * a + v * a * t + 0.5 * v * (b - a) / T * t * t
+        v, vo, d, T = self.speed, self.speed_out, self.reach, self.duration
+        return tuple(-d * a + v * a * t + 0.5 * (vo * b - v * a) / T * t * t
                      for a, b in zip(self.u, self.w, strict=True))
 
     def velocity(self, t: float) -> tuple[float, ...]:
-        v, T = self.speed, self.duration
-        return tuple(v * (a + (b - a) * t / T) for a, b in zip(self.u, self.w, strict=True))
+        v, vo, T = self.speed, self.speed_out, self.duration
+        return tuple(v * a + (vo * b - v * a) * t / T
+                     for a, b in zip(self.u, self.w, strict=True))
 
     def turn_time(self, i: int) -> float | None:
         """When axis ``i`` turns round inside the blend (its velocity is 0), if it does."""
-        a, b = self.u[i], self.w[i]
+        a, b = self.speed * self.u[i], self.speed_out * self.w[i]
         if a * b >= 0.0:
             return None
         return self.duration * a / (a - b)
@@ -108,8 +119,162 @@ def corner_blend(u: Sequence[float], w: Sequence[float], speed: float,
     a_j = limit_along(axis_accel, [x / n for x in diff])
     duration = speed * n / a_j
     zone = n / (2.0 * a_j)
-    return Blend(tuple(u), tuple(w), speed, a_j, duration, zone * speed * speed,
-                 speed * duration * n / 8.0, zone)
+    reach = zone * speed * speed
+    return Blend(tuple(u), tuple(w), speed, a_j, duration, reach,
+                 speed * duration * n / 8.0, zone, speed, reach)
+
+
+def _nearest(p0: Sequence[float], p2: Sequence[float]) -> float:
+    """The least distance from the origin of the quadratic Bezier from ``p0`` to
+    ``p2`` with the origin as its control point: ``|(1 - s)^2 p0 + s^2 p2|`` over
+    ``0 <= s <= 1`` (sampled, then narrowed by golden sections)."""
+    def dist(s: float) -> float:
+        a, b = (1.0 - s) ** 2, s * s
+        return math.sqrt(sum((a * x + b * y) ** 2 for x, y in zip(p0, p2, strict=True)))
+
+    n = 64
+    k = min(range(n + 1), key=lambda j: dist(j / n))
+    lo, hi = max(0.0, (k - 1) / n), min(1.0, (k + 1) / n)
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    for _ in range(60):
+        m1, m2 = hi - g * (hi - lo), lo + g * (hi - lo)
+        if dist(m1) <= dist(m2):
+            hi = m2
+        else:
+            lo = m1
+    return dist(0.5 * (lo + hi))
+
+
+def slowing_blend(u: Sequence[float], w: Sequence[float], speed_in: float,
+                  speed_out: float, axis_accel: Sequence[float]) -> Blend | None:
+    """The blend from velocity ``speed_in * u`` to ``speed_out * w`` (units/s) in the
+    shortest time every axis's acceleration allows: ``T = max_i |v_out w_i - v_in
+    u_i| / a_i``, the axes that set it at their limit.  None straight on or from a
+    stop.  (At ``speed_out == speed_in`` it is :func:`corner_blend`'s blend.)"""
+    diff = [b - a for a, b in zip(u, w, strict=True)]
+    if math.sqrt(sum(x * x for x in diff)) < STRAIGHT or speed_in <= 0.0:
+        return None
+    dv = [speed_out * b - speed_in * a for a, b in zip(u, w, strict=True)]
+    duration = max(abs(x) / acc for x, acc in zip(dv, axis_accel, strict=True))
+    if duration <= 0.0:
+        return None
+    reach, reach_out = 0.5 * speed_in * duration, 0.5 * speed_out * duration
+    inside = _nearest([-reach * a for a in u], [reach_out * b for b in w])
+    return Blend(tuple(u), tuple(w), speed_in, math.sqrt(sum(x * x for x in dv)) / duration,
+                 duration, reach, inside, zone_coefficient(u, w, axis_accel), speed_out,
+                 reach_out)
+
+
+def hold_blend(u: Sequence[float], w: Sequence[float], v_sqr: float, rest: float,
+               accel_in: float, accel_out: float, axis_accel: Sequence[float],
+               room_out: float, deviation: float = math.inf
+               ) -> tuple[float, float] | None:
+    """A feed hold's corner it cannot stop before: ``(v_in^2, v_out)`` of the
+    :func:`slowing_blend` that leaves the least to run after it, or None where none
+    fits (straight on, or no blend can begin on the rest of the block in).
+
+    The hold is at speed squared ``v_sqr`` with ``rest`` units to the corner, and
+    decelerates at ``accel_in`` on the block in and at ``accel_out`` on the block out.
+    A blend slowing to ``v_out = r v_in`` takes ``T = v_in tau(r)``, ``tau(r) = max_i
+    |r w_i - u_i| / a_i``, and begins ``c v_in^2`` before the corner (``c = tau /
+    2``), where the deceleration reaches ``v_in^2 = (v^2 - 2 a_in rest) / (1 - 2 a_in
+    c)`` (it must: ``v_in^2 <= v^2``).  It ends ``r c v_in^2`` into the block out (at
+    most ``room_out``) at ``v_out``, from where a stop takes ``v_out^2 / (2 a_out)``
+    more: ``Q(r) = v_in^2 (r c + r^2 / (2 a_out))``, the stop's distance from the
+    corner along the block out.  The hold takes the least ``Q`` (the largest ``r``
+    among equals: the shortest blend), over ``r`` in ``(0, 1]``: every breakpoint of
+    ``tau``, where the blend would begin at the hold's point, ``Q``'s stationary
+    points on each axis's piece of ``tau``, and a grid of 1/1024 besides.  ``r = 1``
+    is :func:`corner_blend` at the slowest exit :func:`exit_window` allows, so it
+    never stops later than that.
+    Where the blend slows along the polyline at ``a_in`` (``1 - 2 a_in c = r``: the
+    axes that set ``tau`` keep their share of the block's acceleration) the stop lies
+    ``v^2 / (2 a_in)`` along the polyline, as without the corner.  Every blend passes
+    inside the corner by at most ``deviation`` (``$11``, as a planned blend at the
+    junction speed): the least ``Q`` among those that do."""
+    diff = [b - a for a, b in zip(u, w, strict=True)]
+    if math.sqrt(sum(x * x for x in diff)) < STRAIGHT:
+        return None
+    need = v_sqr - 2.0 * accel_in * rest
+    if need <= 0.0:
+        return None
+    axes = list(zip(u, w, axis_accel, strict=True))
+
+    def tau(r: float) -> float:
+        return max(abs(r * b - a) / acc for a, b, acc in axes)
+
+    grid = 1024
+    cands = {j / grid for j in range(1, grid + 1)}
+    edge = (1.0 - need / v_sqr) / accel_in  # tau where the blend begins at the hold's point
+    for i, (a, b, acc) in enumerate(axes):
+        if b != 0.0:
+            cands.add(a / b)  # the axis's term is 0 there
+            for sg in (1.0, -1.0):
+                cands.add((a + sg * edge * acc) / b)
+        for sg in (1.0, -1.0):  # where the axis sets tau = al + be r: Q's stationary
+            al, be = -sg * a / acc, sg * b / acc  # points, A2 D1 r^2 - 2 A2 D0 r - A1 D0 = 0
+            a1, a2 = 0.5 * al, 0.5 * be + 0.5 / accel_out
+            d0, d1 = 1.0 - accel_in * al, accel_in * be
+            qa, qb, qc = a2 * d1, -2.0 * a2 * d0, -a1 * d0
+            if qa != 0.0:
+                disc = qb * qb - 4.0 * qa * qc
+                if disc >= 0.0:
+                    root = math.sqrt(disc)
+                    cands.update(((-qb + root) / (2.0 * qa), (-qb - root) / (2.0 * qa)))
+            elif qb != 0.0:
+                cands.add(-qc / qb)
+        for a2, b2, acc2 in axes[i + 1:]:
+            for sg in (1.0, -1.0):  # the two axes' terms equal
+                den = b / acc - sg * b2 / acc2
+                if den != 0.0:
+                    cands.add((a / acc - sg * a2 / acc2) / den)
+    found: list[tuple[float, float, float, float]] = []  # (Q, r, v_in^2, c)
+    for r in cands:
+        if not 0.0 < r <= 1.0:
+            continue
+        c = 0.5 * tau(r)
+        den = 1.0 - 2.0 * accel_in * c
+        if den <= WINDOW_EPS:
+            continue
+        vin2 = need / den
+        if vin2 > v_sqr:
+            if vin2 > v_sqr * (1.0 + WINDOW_EPS):
+                continue  # it would begin before the hold's point
+            vin2 = v_sqr
+        if r * c * vin2 > room_out:
+            continue
+        found.append((vin2 * (r * c + r * r / (2.0 * accel_out)), r, vin2, c))
+    found.sort()
+    k = 0
+    while k < len(found):  # by Q; among equals the largest r first
+        top = found[k][0] * (1.0 + WINDOW_EPS)
+        j = k
+        while j < len(found) and found[j][0] <= top:
+            j += 1
+        for _q, r, vin2, c in sorted(found[k:j], key=lambda f: -f[1]):
+            if deviation == math.inf or _within(u, w, r, c * vin2, deviation):
+                return vin2, r * math.sqrt(vin2)
+        k = j
+    return None
+
+
+def _within(u: Sequence[float], w: Sequence[float], r: float, reach: float,
+            deviation: float) -> bool:
+    """Does the Bezier from ``-reach u`` to ``r reach w`` (corner at the origin) pass
+    the corner at ``deviation`` or nearer?  Its middle ``(p0 + p2) / 4`` is a point of
+    it (nearer: yes); every point is ``(1 - s)^2 + s^2 >= 1/2`` times a point of the
+    chord ``p0 p2`` (half its distance beyond: no); else :func:`_nearest`."""
+    p0 = [-reach * a for a in u]
+    p2 = [r * reach * b for b in w]
+    if math.sqrt(sum((a + b) ** 2 for a, b in zip(p0, p2, strict=True))) / 4.0 <= deviation:
+        return True
+    d = [b - a for a, b in zip(p0, p2, strict=True)]
+    n2 = sum(x * x for x in d)
+    t = min(1.0, max(0.0, -sum(a * x for a, x in zip(p0, d, strict=True)) / n2)) if n2 else 0.0
+    chord = math.sqrt(sum((a + t * x) ** 2 for a, x in zip(p0, d, strict=True)))
+    if 0.5 * chord > deviation:
+        return False
+    return _nearest(p0, p2) <= deviation
 
 
 def zone_coefficient(u: Sequence[float], w: Sequence[float],
@@ -213,7 +378,7 @@ def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
     len_in = math.sqrt(sum((d / k) ** 2 for d, k in zip(path_in, spu, strict=True)))
     len_out = math.sqrt(sum((d / k) ** 2 for d, k in zip(path_out, spu, strict=True)))
     from_in = start_in if origin_in is None else origin_in
-    if not (blend.reach <= len_in and blend.reach <= len_out):
+    if not (blend.reach <= len_in and blend.reach_out <= len_out):
         raise ValueError("the blend is longer than a block")
     s_in = len_in - blend.reach  # where the blend begins on the block in
     out: list[tuple[int, list[tuple[float, int]], int]] = []
@@ -231,7 +396,7 @@ def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
         p0 = x_s + (made if up_in else -made)
         x0 = x_p + dp_in * s_in / len_in
         corner = x_s + d_in
-        x_end = corner + dp_out * blend.reach / len_out
+        x_end = corner + dp_out * blend.reach_out / len_out
         steps, p = axis_crossings(x0, blend.speed * blend.u[i] * k, blend.axis_accel(i) * k,
                                   blend.duration, p0, x_end)
         if d_out == 0:

@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from .blend import Blend, corner_blend, corner_steps, exit_window
+from .blend import Blend, corner_blend, corner_steps, exit_window, hold_blend, slowing_blend
 from .lookahead import Block, Lookahead
 
 #: pieces shorter than this (ticks) are not cut off at the horizon: the next run
@@ -260,7 +260,7 @@ class BlendSegment(Segment):
         self.first = (0,) * n
         self.phase = (0.0,) * n
         self.on_end = (True,) * n
-        self.length = self.end = self.s_done = 2.0 * blend.reach
+        self.length = self.end = self.s_done = blend.reach + blend.reach_out
         self.accel = 0.0
         self.pieces: list[Piece] = []
         self.t_start = t_start
@@ -425,15 +425,22 @@ class Executor:
             accel = block.acceleration
             # the blend at the block's end takes k e of it (e: the exit squared)
             k = block.zone_out if len(la.blocks) > 1 else 0.0
+            slowing: Blend | None = None
             if self.holding:
                 phases, stop = self._hold_phases(v, accel, rest)
                 exit2 = max(0.0, v * v - 2.0 * accel * rest) if not stop else 0.0
-                if not stop and k > 0.0:  # the corner at the slowest exit it allows
-                    win = exit_window(v * v, rest, accel, k)
-                    if (win is not None and win[0] > 0.0
-                            and k * win[0] <= la.blocks[1].length):
-                        exit2 = win[0]
-                        phases = [(v, -accel, rest - k * exit2)]
+                if not stop and k > 0.0:  # the corner as a blend that slows down
+                    out = la.blocks[1]
+                    hb = hold_blend(block.unit, out.unit, v * v, rest, accel,
+                                    out.acceleration, la.accel, out.length,
+                                    la.junction_deviation)
+                    if hb is not None:
+                        slowing = slowing_blend(block.unit, out.unit, math.sqrt(hb[0]),
+                                                hb[1], la.accel)
+                    if slowing is not None:
+                        exit2 = slowing.speed * slowing.speed  # (the blend's entry)
+                        ramp = rest - slowing.reach
+                        phases = [(v, -accel, ramp)] if ramp > 0.0 else []
                     else:
                         k = 0.0
             else:
@@ -477,14 +484,17 @@ class Executor:
                 self.stop_segment = seg
                 self.v = 0.0
                 break
-            blend = None
-            if k > 0.0 and exit2 > 0.0:
+            blend = slowing
+            if blend is None and k > 0.0 and exit2 > 0.0:
                 blend = corner_blend(block.unit, la.blocks[1].unit, math.sqrt(exit2),
                                      la.accel)
             if blend is None:
                 seg.s_done = seg.end = seg.length
             else:
                 seg.end = seg.s_done  # the blend goes on from here
+                if blend.speed_out != blend.speed:  # (a hold's: it leaves slower)
+                    exit2 = blend.speed_out * blend.speed_out
+                    self.v = blend.speed_out / tps
             la.pop_first()
             nxt = la.first()
             if nxt is not None:
@@ -517,7 +527,7 @@ class Executor:
         self.next_seq += 1
         self.segments.append(bseg)
         self.t = bseg.t_done
-        self._enter = (blend.reach, tuple(f for _m, _s, f in per))
+        self._enter = (blend.reach_out, tuple(f for _m, _s, f in per))
 
     def _take(self, seg: Segment, phases: Sequence[tuple[float, float, float]],
               horizon: float) -> bool:

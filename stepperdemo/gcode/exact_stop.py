@@ -4,7 +4,12 @@ A block is executed as one or more *runs*.  A run starts all moving axes togethe
 (their queues filled, then started on one tick, after a lead for the drivers'
 enable and direction delays) and follows one time law (:mod:`.timelaw`) along the
 path: axis i makes its step j when the path fraction reaches ``j / n_i``, so every
-axis stays within a step of the line and all arrive on the same tick.
+axis stays within a step of the line and all arrive on the same tick.  An arc's chord
+(``Move.exact``: its ends between steps) runs from rest to rest between its ends
+rounded to steps, along the chord itself: each axis's step where the chord is half a
+step before it (the axis on the step nearest to the chord), the last on the end where
+the block ends on a whole step of the axis (:meth:`AxisFeed.fraction`); its speeds
+from the chord's own lengths.
 
 The queues are fed only a short time ahead (:attr:`ExactStopExecutor.ahead_ticks`),
 so the law can still be changed from the *frontier* - the latest tick any axis's
@@ -59,7 +64,8 @@ class AxisFeed:
     """One moving axis of a run: how far its commands reach and how many steps of the
     block they make."""
 
-    def __init__(self, index: int, stepper, n: int, done: int, up: bool, start: int) -> None:
+    def __init__(self, index: int, stepper, n: int, done: int, up: bool, start: int,
+                 path: tuple[float, float, int] | None = None) -> None:
         self.index = index
         self.stepper = stepper
         self.n = n  # steps of the whole block
@@ -68,6 +74,24 @@ class AxisFeed:
         self.cur = start  # tick at which the next command begins
         self.finished = False  # no more steps in this run
         self.pending: deque[Command] = deque()  # computed, not yet in the queue
+        #: a path between steps (an arc's chord ends): its start and end on this axis
+        #: and the step the axis starts on (None: from a step to a step)
+        self.path = path
+
+    def fraction(self, j: int) -> float:
+        """The path fraction at which step ``j`` (1..n) is due: from a step to a step
+        ``j / n``; along a path between steps where the path is half a step before it
+        (the axis on the step nearest to the path), the last on the end where the
+        block ends on a whole step of the axis."""
+        path = self.path
+        if path is None:
+            return j / self.n
+        x0, x1, p0 = path
+        if j == self.n and float(p0 + (j if self.up else -j)) == x1:
+            return 1.0
+        d = 1 if self.up else -1
+        s = (p0 + j * d - 0.5 * d - x0) / (x1 - x0)
+        return 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
 
 
 @dataclass
@@ -108,6 +132,8 @@ class ExactStopExecutor(MotionExecutor):
         self.run: Run | None = None
         self._hold = HoldState.NONE
         self._remainder: tuple[Move, float, list[int]] | None = None  # held mid-block
+        #: the last block completed: its target and exact end (an arc's chord end)
+        self._from: tuple[tuple[int, ...], tuple[float, ...] | None] | None = None
         self._resume = False
         self.feed_percent = 100
         self.rapid_percent = 100
@@ -197,6 +223,7 @@ class ExactStopExecutor(MotionExecutor):
         for s in self.host.steppers:
             s.force_stop_and_new_position(s.get_current_position())
         self.run = None
+        self._from = None
         self._remainder = None
         self._resume = False
         self._hold = HoldState.NONE
@@ -281,9 +308,25 @@ class ExactStopExecutor(MotionExecutor):
         feed = block.feed if block.jog else block.feed * self.feed_percent / 100
         return min(top, feed / 60 / length)
 
-    def _axis_figures(self, block: Move) -> tuple[list[int], list[float], list[float]]:
+    def _path(self, block: Move) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+        """The block's path where it runs between steps - from the previous block's
+        exact end (an arc's chord end) to its own - else None (steps to steps)."""
+        x0: tuple[float, ...] = tuple(float(v) for v in block.start)
+        prev = self._from
+        if prev is not None and prev[0] == block.start and prev[1] is not None:
+            x0 = prev[1]
+        x1 = block.exact if block.exact is not None else tuple(float(v) for v in block.target)
+        if x0 == tuple(block.start) and x1 == tuple(block.target):
+            return None
+        return x0, x1
+
+    def _axis_figures(self, block: Move) -> tuple[list[float], list[float], list[float]]:
         st = self.host.settings
-        deltas = [t - s for t, s in zip(block.target, block.start, strict=True)]
+        path = self._path(block)
+        deltas: list[float] = ([float(t - s) for t, s in zip(block.target, block.start,
+                                                             strict=True)]
+                               if path is None else
+                               [b - a for a, b in zip(path[0], path[1], strict=True)])
         rates, accels = [], []
         for i, stepper in enumerate(self.host.steppers[:len(deltas)]):
             spu = st.steps_per_unit[i]
@@ -304,7 +347,9 @@ class ExactStopExecutor(MotionExecutor):
         length = math.sqrt(sum((d / st.steps_per_unit[i]) ** 2 for i, d in enumerate(deltas)))
         cruise = self._cruise(block, length)
         steppers = host.steppers
-        moving = [i for i, d in enumerate(deltas) if d and done[i] < abs(d)]
+        steps = [t - s for t, s in zip(block.target, block.start, strict=True)]
+        moving = [i for i, d in enumerate(steps) if d and done[i] < abs(d)]
+        path = self._path(block)
         lead = self.min_cmd
         drivers_off = not getattr(host, "drivers_on", True)
         for i in moving:
@@ -317,7 +362,9 @@ class ExactStopExecutor(MotionExecutor):
                                           for i in moving])
         law = TimeLaw(ramp_to_rest(0.0, s0, 0.0, cruise, accel), s_start=s0)
         run = Run(block, law, now + lead, now, lead, length, accel, cruise)
-        run.axes = [AxisFeed(i, steppers[i], abs(deltas[i]), done[i], deltas[i] > 0, now)
+        run.axes = [AxisFeed(i, steppers[i], abs(steps[i]), done[i], steps[i] > 0, now,
+                             None if path is None else
+                             (path[0][i], path[1][i], block.start[i]))
                     for i in moving]
         self.run = run
         self.runs.append((now, lead))
@@ -342,6 +389,7 @@ class ExactStopExecutor(MotionExecutor):
         complete = all(a.done >= a.n for a in run.axes)
         if complete:
             self.blocks.pop()
+            self._from = (run.block.target, run.block.exact)
         else:
             done = [0] * len(run.block.target)
             for a in run.axes:
@@ -400,7 +448,7 @@ class ExactStopExecutor(MotionExecutor):
         """Tick of the axis's step ``j`` (1..n) under the run's law (None: not in it)."""
         if j > a.n:
             return None
-        t = run.law.time_of(j / a.n)
+        t = run.law.time_of(a.fraction(j))
         return None if t is None else run.origin + round(t * self.tps)
 
     def _next(self, run: Run, a: AxisFeed) -> list[Command]:

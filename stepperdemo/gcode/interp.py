@@ -48,6 +48,7 @@ from fas.path.arc import (
     ArcError,
     Plane,
     arc_center_from_radius,
+    arc_end_approach,
     arc_end_cut,
     arc_points,
     arc_segments,
@@ -734,17 +735,23 @@ class Interpreter:
         """The arc's points with one more on its last chord where the end rule would
         force a point beyond `$12` + one step (:func:`fas.path.arc.arc_end_cut`; a
         plane whose two axes have equal steps per unit)."""
-        offset, plane, _clockwise, tolerance = arc
+        offset, plane, clockwise, tolerance = arc
         a0, a1, _lin = plane.axes
         spu = self.settings.steps_per_unit
         if len(points) < 2 or spu[a0] != spu[a1]:
             return points
         k = spu[a0]
         centre = ((start[a0] + offset[0]) * k, (start[a1] + offset[1]) * k)
+        radius = math.hypot(*offset) * k
         last = self._exact_steps(points[-2])
         target = self._steps(list(points[-1]))
-        cut = arc_end_cut(last, target, centre, math.hypot(*offset) * k, tolerance * k + 1.0,
-                          plane)
+        later = arc_end_approach(last, target, centre, radius, tolerance * k + 1.0, plane,
+                                 clockwise)
+        if later is not None:  # the last chord begins later on the circle
+            units = tuple(v / s for v, s in zip(later, spu, strict=False))
+            points = [*points[:-1], units, points[-1]]
+            last = self._exact_steps(units)
+        cut = arc_end_cut(last, target, centre, radius, tolerance * k + 1.0, plane)
         if cut is None:
             return points
         units = tuple(v / s for v, s in zip(cut, spu, strict=False))

@@ -11,11 +11,13 @@ from fas.path.arc import (
     ArcError,
     Plane,
     arc_center_from_radius,
+    arc_end_approach,
     arc_end_cut,
     arc_points,
     arc_segments,
     arc_travel,
     check_arc_offsets,
+    last_block_pins,
 )
 
 
@@ -182,3 +184,60 @@ def test_arc_end_cut_only_where_it_is_needed_and_helps():
     cut = arc_end_cut((928.6787109375, 0.0, -817.958984375), (897, 0, -822),
                       OFF_CENTRE, OFF_RADIUS, band, Plane.ZX)
     assert cut is not None and round(cut[2]) == -822 and cut[0] > 897.5
+
+
+def test_last_block_pins_stand_on_the_steps_nearest_to_the_path_but_the_last():
+    """From (0.3, 0.2) to (4, 1): X from 0 (the step nearest to 0.3) steps where the
+    path is half a step before 1, 2, 3 - its last step (to 4) on the end tick, so it
+    stands on 3 until then; Y (one step) only on the end tick.  The end rule's points
+    (within a step of the target on both axes: (3, 0)) are left to arc_end_cut."""
+    assert last_block_pins((0.3, 0.2), (4, 1)) == [(0, 0), (1, 0), (2, 0)]
+    # both axes: a step of each whose windows overlap (a grouped step may come up to
+    # 1/8 step early) - both orders
+    pins = last_block_pins((0.0, 0.0), (8, 8))
+    assert (1, 0) in pins and (0, 1) in pins and (1, 1) in pins
+    # (0, 0) to (8, 2): X steps where the path's X is 0.5, 1.5 .. 6.5 (u = 1/16, 3/16,
+    # 5/16 ..), Y once where its Y is 0.5 (u = 1/4, up to 1/8 step early: from u =
+    # 3/16, X's step to 2 - so before it too, (1, 1)); X's step to 3 (from u = 5/16 -
+    # 1/64) cannot come before Y's
+    assert last_block_pins((0.0, 0.0), (8, 2)) == [
+        (0, 0), (1, 0), (1, 1), (2, 0), (2, 1), (3, 1), (4, 1), (5, 1), (6, 1)]
+
+
+def test_arc_end_approach_begins_the_last_chord_later_only_where_its_steps_leave_the_band():
+    """The second arc of test_gcode_words' LATE_ARCS in steps ($12 = 0.01 mm = 0.8
+    step): its last chord from (293.17, -19.64) on the circle to (262, 3), 0.66 step
+    inside it, comes 1.13 steps inside in its middle and its steps up to 0.71 further
+    (`$12` + 1.002 measured): a point on the circle later in the chord, from which
+    they keep `$12` + 1; a wider band, or the target on the circle: none."""
+    centre = (1.6738 * 80, -2.4897 * 80)
+    radius = math.hypot(*centre)
+    last = (293.173828125, -19.6357421875, 0.0)
+    band = 0.8 + 1.0
+
+    def off(p):
+        return abs(math.dist(p[:2], centre) - radius)
+
+    assert max(off(p) for p in last_block_pins(last[:2], (262, 3))) > band
+    p = arc_end_approach(last, (262, 3, 0), centre, radius, band, Plane.XY, False)
+    assert p is not None and off(p) < 1e-9
+    # between the two (the arc turns counter-clockwise from the last chord end)
+    a = [math.atan2(q[1] - centre[1], q[0] - centre[0]) for q in (last, p, (262, 3))]
+    assert a[0] < a[1] < a[2]
+    assert max(off(q) for q in last_block_pins(p[:2], (262, 3))) <= band
+    assert arc_end_approach(last, (262, 3, 0), centre, radius, band + 0.1, Plane.XY,
+                            False) is None
+    on = (centre[0] + radius * math.cos(a[2]), centre[1] + radius * math.sin(a[2]))
+    assert arc_end_approach(last, (round(on[0]), round(on[1]), 0), centre, radius, 3.0,
+                            Plane.XY, False) is None
+
+
+def test_arc_end_approach_leaves_an_end_the_cut_keeps_within_the_band():
+    """OFF_CIRCLE's last chord: its steps straight to the target would stand on
+    (-821, 899), $12 + 1.08 steps inside - but arc_end_cut releases X before, and
+    through the cut they keep the band: no later chord."""
+    band = 0.16 + 1.0
+    straight = last_block_pins(OFF_LAST, OFF_TARGET)
+    assert max(_off(p) for p in straight) > band
+    assert arc_end_approach(OFF_LAST + (0.0,), OFF_TARGET + (0,), OFF_CENTRE, OFF_RADIUS,
+                            band, Plane.XY, False) is None

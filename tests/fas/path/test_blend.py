@@ -12,7 +12,15 @@ import random
 
 import pytest
 
-from fas.path.blend import axis_crossings, corner_blend, corner_steps, exit_window, fit_sqr
+from fas.path.blend import (
+    axis_crossings,
+    corner_blend,
+    corner_steps,
+    exit_window,
+    fit_sqr,
+    hold_blend,
+    slowing_blend,
+)
 from rigs.path import edge_accel
 
 SPU = 80.0
@@ -90,6 +98,147 @@ def test_an_axis_turns_round_once_inside_a_blend_where_its_direction_flips():
     assert t is not None and 0 < t < b.duration
     assert b.velocity(t)[0] == pytest.approx(0.0, abs=1e-12)
     assert b.turn_time(1) is None
+
+
+@pytest.mark.parametrize("ratio", [0.0, 0.3, 0.8, 1.0])
+@pytest.mark.parametrize("w", CORNERS)
+def test_a_slowing_blend_joins_both_blocks_at_its_two_speeds_within_every_axis_limit(
+        w, ratio):
+    """A hold's blend: from ``v_in u`` to ``v_out w`` at constant acceleration in the
+    shortest time every axis allows (one axis at its limit), from ``v_in T / 2``
+    before the corner to ``v_out T / 2`` after it; at ``v_out = v_in`` the planned
+    blend."""
+    u = (1.0, 0.0)
+    v_in = 30.0
+    v_out = ratio * v_in
+    b = slowing_blend(u, w, v_in, v_out, (ACC, ACC))
+    assert b is not None
+    T = b.duration
+    assert b.reach == pytest.approx(v_in * T / 2)
+    assert b.reach_out == pytest.approx(v_out * T / 2)
+    assert b.position(0.0) == pytest.approx(tuple(-b.reach * x for x in u), abs=1e-12)
+    assert b.position(T) == pytest.approx(tuple(b.reach_out * x for x in w), abs=1e-12)
+    assert b.velocity(0.0) == pytest.approx(tuple(v_in * x for x in u))
+    assert b.velocity(T) == pytest.approx(tuple(v_out * x for x in w), abs=1e-12)
+    accs = [abs(b.axis_accel(i)) for i in range(2)]
+    assert max(accs) == pytest.approx(ACC)
+    assert all(a <= ACC * (1 + 1e-12) for a in accs)
+    # the acceleration is the velocity's change over T, axis by axis
+    for i in range(2):
+        assert b.axis_accel(i) == pytest.approx((v_out * w[i] - v_in * u[i]) / T)
+    # against 4000 samples: the distance changes by at most the path between two
+    # (speed <= v_in), so the samples' least is within half of that of the least
+    nearest = min(math.hypot(*b.position(T * k / 4000)) for k in range(4001))
+    assert abs(nearest - b.inside) <= v_in * T / 4000 / 2
+    if ratio == 1.0:
+        c = corner_blend(u, w, v_in, (ACC, ACC))
+        assert c is not None
+        assert b.duration == pytest.approx(c.duration)
+        assert b.reach == pytest.approx(c.reach) and b.inside == pytest.approx(c.inside)
+
+
+NEAR = 100
+
+
+def hold_q(u, w, v_sqr, rest, a_in, a_out, r, near=True):
+    """From the definitions: ``(Q, lo, hi)`` of a hold at ``v_sqr`` with ``rest`` to
+    the corner through the blend slowing to ``r v_in``: what it runs after the corner
+    (the blend's reach out plus the stop after it), and bounds on how near the corner
+    it passes - ``hi`` the nearest of ``NEAR`` points of its Bezier, ``lo`` that less
+    ``reach / NEAR`` (consecutive points lie within ``2 reach / NEAR``) - or None where
+    that blend would begin before the hold's point (``near`` False: no bounds, 0).
+    ``T = v_in tau``, tau from each axis's limit; the blend begins ``v_in T / 2``
+    before the corner, where the deceleration at ``a_in`` reaches ``v_in``, and ends
+    ``r v_in T / 2`` after it."""
+    tau = max(abs(r * y - x) / ACC for x, y in zip(u, w, strict=True))
+    den = 1 - a_in * tau
+    if den <= 0:
+        return None
+    vin2 = (v_sqr - 2 * a_in * rest) / den
+    if vin2 > v_sqr * (1 + 1e-9):  # (rounding: a blend that begins at the point)
+        return None
+    reach = vin2 * tau / 2
+    q = r * reach + r * r * vin2 / (2 * a_out)
+    if not near:
+        return q, 0.0, 0.0
+    hi = min(math.hypot(*(-(1 - t) ** 2 * reach * x + t * t * r * reach * y
+                          for x, y in zip(u, w, strict=True)))
+             for t in (k / NEAR for k in range(NEAR + 1)))
+    return q, hi - reach / NEAR, hi
+
+
+@pytest.mark.parametrize("bounded", [False, True])
+@pytest.mark.parametrize("w", CORNERS)
+def test_a_hold_takes_the_slowing_blend_that_leaves_the_least_to_run(w, bounded):
+    """hold_blend against a scan of 4 000 ratios, and never worse than the
+    constant-speed blend at the slowest exit exit_window allows (what a hold took
+    before); ``bounded``: among the blends that pass inside the corner by at most a
+    deviation (0.9 of the unbounded choice's; a scan of 1 000)."""
+    u = (1.0, 0.0) if bounded else unit(2, 1)
+    a_in = min(ACC / abs(x) for x in u if x)
+    a_out = min(ACC / abs(x) for x in w if x)
+    rng = random.Random(7)
+    for _ in range(10):
+        v_sqr = rng.uniform(100.0, 3000.0)
+        rest = rng.uniform(0.2, 0.99) * v_sqr / (2 * a_in)  # it cannot stop before
+        got = hold_blend(u, w, v_sqr, rest, a_in, a_out, (ACC, ACC), math.inf)
+        scan = sorted((h[0], k / 4000) for k in range(1, 4001)
+                      if (h := hold_q(u, w, v_sqr, rest, a_in, a_out, k / 4000, False))
+                      is not None)
+        if got is None:
+            assert not scan
+            continue
+        dev = math.inf
+        if bounded:
+            h = hold_q(u, w, v_sqr, rest, a_in, a_out, got[1] / math.sqrt(got[0]))
+            assert h is not None
+            dev = h[2] * 0.9
+            got = hold_blend(u, w, v_sqr, rest, a_in, a_out, (ACC, ACC), math.inf, dev)
+            # the least Q of the scan whose blend surely passes within the deviation
+            least = next((q for q, r in scan[::4]
+                          if (h := hold_q(u, w, v_sqr, rest, a_in, a_out, r)) is not None
+                          and h[2] <= dev), None)
+            if got is None:
+                assert least is None
+                continue
+            scan = [] if least is None else [(least, 0.0)]
+        vin2, v_out = got
+        h = hold_q(u, w, v_sqr, rest, a_in, a_out, v_out / math.sqrt(vin2))
+        assert h is not None
+        q, lo, _hi = h
+        assert lo <= dev
+        if scan:
+            assert q <= min(x for x, _r in scan) * (1 + 1e-9)
+        if bounded:
+            continue
+        diff = [y - x for x, y in zip(u, w, strict=True)]
+        n = math.hypot(*diff)
+        k = n / (2 * min(ACC / abs(c / n) for c in diff if c))
+        win = exit_window(v_sqr, rest, a_in, k)
+        if win is not None and win[0] > 0:
+            e = win[0]
+            assert q <= (k * e + e / (2 * a_out)) * (1 + 1e-9)
+
+
+def test_a_hold_stops_at_v2_over_2a_where_the_blend_slows_at_the_blocks_acceleration():
+    """A zigzag corner, (4, 1) into (4, -1): X keeps its component, so the blend can
+    slow along the polyline at the block's acceleration (X at its limit) - the stop
+    lies v^2 / (2 a) along the polyline, as if there were no corner."""
+    u, w = unit(4, 1), unit(4, -1)
+    a = ACC / u[0]
+    v_sqr, rest = 900.0, 0.3  # (v^2 / (2 a) = 0.44: it cannot stop before)
+    got = hold_blend(u, w, v_sqr, rest, a, a, (ACC, ACC), math.inf)
+    assert got is not None
+    vin2, v_out = got
+    b = slowing_blend(u, w, math.sqrt(vin2), v_out, (ACC, ACC))
+    assert b is not None
+    # the deceleration at a reaches v_in where the blend begins
+    assert vin2 == pytest.approx(v_sqr - 2 * a * (rest - b.reach))
+    after = b.reach_out + v_out * v_out / (2 * a)
+    assert rest + after == pytest.approx(v_sqr / (2 * a))
+    assert abs(b.axis_accel(0)) == pytest.approx(ACC)
+    # nothing fits in a block out shorter than any blend's reach out
+    assert hold_blend(u, w, v_sqr, rest, a, a, (ACC, ACC), 1e-6) is None
 
 
 # ----------------------------------------------------------------- the steps
@@ -200,9 +349,11 @@ def test_a_corner_through_a_blend_measures_within_the_acceleration_from_the_pins
     assert worst > 1.2 * limit  # the jump, as executed today, is above it
 
 
-def corner_timeline(start, d_in, d_out, v, b):
-    """Per axis: the steps of a corner taken at constant speed v through the blend
-    (block in from its start, the blend, the block out to its end) as (t, +-1)."""
+def corner_timeline(start, d_in, d_out, b):
+    """Per axis: the steps of a corner taken through the blend ``b`` - the block in from
+    its start at the blend's entry speed, the blend, the block out to its end at its
+    exit speed - as (t, +-1)."""
+    v, vo = b.speed, b.speed_out
     len_in = math.hypot(*(d / SPU for d in d_in))
     len_out = math.hypot(*(d / SPU for d in d_out))
     t_blend = (len_in - b.reach) / v
@@ -217,28 +368,31 @@ def corner_timeline(start, d_in, d_out, v, b):
             ev.append((j * len_in / n_in / v, 1 if d_in[i] > 0 else -1))
         ev += [(t_blend + t, d) for t, d in blend_steps]
         for j in range(first + 1, n_out + 1):
-            ev.append((t_out + (j * len_out / n_out - b.reach) / v, 1 if d_out[i] > 0 else -1))
+            ev.append((t_out + (j * len_out / n_out - b.reach_out) / vo,
+                       1 if d_out[i] > 0 else -1))
         events.append(ev)
     return events, t_blend, t_out, len_in, len_out
 
 
-def blended_position(i, t, start, d_in, d_out, v, b, t_blend, t_out, len_in, len_out):
+def blended_position(i, t, start, d_in, d_out, b, t_blend, t_out):
     u, w = b.u, b.w
     if t <= t_blend:
-        return start[i] + u[i] * v * t * SPU
+        return start[i] + u[i] * b.speed * t * SPU
     corner = start[i] + d_in[i]
     if t <= t_out:
         return corner + b.position(t - t_blend)[i] * SPU
-    return corner + (b.reach + v * (t - t_out)) * w[i] * SPU
+    return corner + (b.reach_out + b.speed_out * (t - t_out)) * w[i] * SPU
 
 
+@pytest.mark.parametrize("slowing", [False, True])
 @pytest.mark.parametrize("seed", range(6))
-def test_corner_steps_keep_every_axis_within_a_step_of_the_blended_path(seed):
+def test_corner_steps_keep_every_axis_within_a_step_of_the_blended_path(seed, slowing):
     """Random corners on an 80 steps/mm grid (reversals, axes standing still on one
     side, tiny blocks): the block in's steps, the blend's and the block out's from
     where the blend left the axis make every axis's net steps the blocks' deltas,
     never a whole step from the blended path, each step in the direction the axis
-    moves."""
+    moves - for planned blends and for a hold's blends that slow down
+    (``slowing``)."""
     rng = random.Random(seed)
     checked = 0
     while checked < 40:
@@ -255,13 +409,22 @@ def test_corner_steps_keep_every_axis_within_a_step_of_the_blended_path(seed):
             continue  # a reversal: a stop
         len_in = math.hypot(*(d / SPU for d in d_in))
         len_out = math.hypot(*(d / SPU for d in d_out))
-        cap = fit_sqr(u, w, (ACC, ACC), len_in, len_out)
-        v = min(junction_speed(u, w, ACC, rng.choice([0.01, 0.05, 0.2])), math.sqrt(cap))
-        b = corner_blend(u, w, v * rng.uniform(0.3, 1.0), (ACC, ACC))
+        if slowing:  # reach grows with the entry speed squared: a fit at speed 1
+            r = rng.uniform(0.05, 0.95)
+            b1 = slowing_blend(u, w, 1.0, r, (ACC, ACC))
+            if b1 is None:
+                continue
+            v2 = min(len_in / b1.reach, len_out / b1.reach_out) * rng.uniform(0.1, 1.0)
+            b = slowing_blend(u, w, math.sqrt(v2), r * math.sqrt(v2), (ACC, ACC))
+        else:
+            cap = fit_sqr(u, w, (ACC, ACC), len_in, len_out)
+            v = min(junction_speed(u, w, ACC, rng.choice([0.01, 0.05, 0.2])),
+                    math.sqrt(cap))
+            b = corner_blend(u, w, v * rng.uniform(0.3, 1.0), (ACC, ACC))
         if b is None:
             continue
-        events, t_blend, t_out, li, lo = corner_timeline(start, d_in, d_out, b.speed, b)
-        t_end = t_out + (lo - b.reach) / b.speed
+        events, t_blend, t_out, li, lo = corner_timeline(start, d_in, d_out, b)
+        t_end = t_out + (lo - b.reach_out) / b.speed_out
         for i in range(2):
             ev = events[i]
             assert sum(d for _t, d in ev) == d_in[i] + d_out[i]
@@ -274,15 +437,12 @@ def test_corner_steps_keep_every_axis_within_a_step_of_the_blended_path(seed):
                 while k < len(ev) and ev[k][0] <= t:
                     p += ev[k][1]
                     k += 1
-                x = blended_position(i, t, start, d_in, d_out, b.speed, b, t_blend, t_out,
-                                     li, lo)
+                x = blended_position(i, t, start, d_in, d_out, b, t_blend, t_out)
                 assert abs(x - p) < 1 + 1e-6, (seed, d_in, d_out, i, t, x, p)
             for t, d in ev:
                 dt = 1e-9
-                x1 = blended_position(i, t - dt, start, d_in, d_out, b.speed, b, t_blend,
-                                      t_out, li, lo)
-                x2 = blended_position(i, t + dt, start, d_in, d_out, b.speed, b, t_blend,
-                                      t_out, li, lo)
+                x1 = blended_position(i, t - dt, start, d_in, d_out, b, t_blend, t_out)
+                x2 = blended_position(i, t + dt, start, d_in, d_out, b, t_blend, t_out)
                 assert d * (x2 - x1) >= -1e-9  # never against the motion
         checked += 1
 

@@ -390,3 +390,56 @@ def test_the_same_program_through_port_on_the_python_device_with_blends():
     assert timed_deviation(points, path, int(0.02 * TPS)) <= 1.0
     jd = m.settings.junction_deviation
     assert commanded_deviation(points, verts, blends, int(0.02 * TPS)) <= jd * SPU + 1.0
+
+
+def test_a_feed_hold_with_172_stops_where_the_deceleration_takes_it_through_a_corner():
+    """``$172=1`` and ``!`` on a zigzag of 12.5 x 3.125 mm legs (turns of 28 degrees)
+    at F3000, sent where the deceleration cannot stop before the corner: the hold
+    takes the corner as a blend that slows down (fas.path.blend.hold_blend), here at
+    the block's acceleration along the polyline (X keeps its share of it through the
+    corner), so the axes stop ``v^2 / (2 a)`` along the polyline from where the
+    deceleration began (``a`` 500 mm/s^2 of X along the leg) - within a step per axis;
+    ``~`` runs the rest to the end."""
+    legs = [(12.5 * j, 3.125 if j % 2 else 0.0) for j in range(1, 9)]
+    g = grbl("$172=1\n")
+    program = "G1 F3000\n" + "".join(f"X{x:g} Y{y:g}\n" for x, y in legs)
+    assert len(program) <= 128  # (Grbl's receive buffer: sent at once)
+    g.send(program.encode())
+    group = g.machine.executor.group
+    for _ in range(4000):  # until a stop from here would pass the next corner
+        g.advance_ticks(TPS // 1000)
+        ex = group.executor  # (made when the group attaches)
+        seg = ex.cur
+        if (seg is not None and not seg.blend and len(group.lookahead.blocks) > 1
+                and (ex.v * TPS) ** 2 / (2 * seg.block.acceleration)
+                > seg.length - seg.s_done):
+            break
+    g.send(b"!")
+    g.advance(1.0)
+    assert status(g).startswith("<Hold:0|")
+    hs = group.hold_start
+    assert hs is not None and hs.block is not None
+    # the point v^2 / (2 a) along the polyline from the hold's start
+    verts = [(0.0, 0.0)] + legs
+    i0 = i = [(round(x * SPU), round(y * SPU)) for x, y in verts].index(
+        tuple(hs.block.start[:2]))
+    left = hs.distance + hs.speed ** 2 / (2 * hs.block.acceleration)
+    while True:
+        (x0, y0), (x1, y1) = verts[i], verts[i + 1]
+        n = math.hypot(x1 - x0, y1 - y0)
+        if left <= n:
+            exp = ((x0 + (x1 - x0) * left / n) * SPU, (y0 + (y1 - y0) * left / n) * SPU)
+            break
+        left -= n
+        i += 1
+    assert i > i0  # past a corner
+    stop = g.machine.positions()[:2]
+    assert all(abs(s - e) <= 1.0 for s, e in zip(stop, exp, strict=True)), (stop, exp)
+    g.send(b"~")
+    assert g.settle()
+    assert g.machine.positions()[:2] == [round(100 * SPU), 0]
+
+
+def status(g: RawGrbl) -> str:
+    g.send(b"?")
+    return g.take().decode().split("\r\n")[-2]

@@ -8,7 +8,7 @@ import random
 
 import pytest
 
-from fas.path.arc import Plane, arc_center_from_radius
+from fas.path.arc import Plane, arc_center_from_radius, arc_points
 from fas.path.settings import GROUP_TOLERANCE_STEPS
 from fas.pwm import duty_count
 from rigs.gcode import path_from_pins
@@ -57,10 +57,16 @@ ARCS = [
 ]
 
 
+@pytest.mark.parametrize("motion", [0, 1])  # $171: look-ahead, exact stop
 @pytest.mark.parametrize("program, centre", ARCS)
 def test_arc_ends_exactly_and_stays_within_the_tolerance_plus_a_step_on_the_pins(program,
-                                                                                   centre):
-    g = grbl()
+                                                                                   centre,
+                                                                                   motion):
+    """Both executors: the exact stop (``$171=1``) runs each chord from rest to rest,
+    the axes standing on the chord ends rounded to steps, but its path between them is
+    the chord itself (``Move.exact``), each axis on the step nearest to it and its last
+    step on the end where the chord ends on whole steps (as the look-ahead's)."""
+    g = grbl(setup=MM + f"$171={motion}\n")
     out = send(g, program + "\n")
     assert out == ["ok"]
     tol = 0.002  # $12's default, mm
@@ -117,11 +123,12 @@ def test_arc_radius_error_within_the_tolerance_plus_one_step():
     assert inner <= bound, inner * SPU
 
 
-def test_a_feed_hold_inside_an_arc_resumes_it_on_the_same_circle():
+@pytest.mark.parametrize("motion", [0, 1])  # $171: look-ahead, exact stop
+def test_a_feed_hold_inside_an_arc_resumes_it_on_the_same_circle(motion):
     """The hold stops between chord ends; the blocks go back into the queue from where
     the axes stand, through the same points (``through``) - still within `$12` + one
     step, the end exact."""
-    g = grbl()
+    g = grbl(setup=MM + f"$171={motion}\n")
     g.send(b"G2 X20 Y0 I10 J0 F3000\n")
     g.advance(0.3)
     g.send(b"!")
@@ -164,18 +171,22 @@ def end_rule_point(events, last_move):
     return forced
 
 
-@pytest.mark.parametrize("seed", [1, 2, 16, 39])
-def test_random_arcs_stay_within_the_tolerance_plus_a_step_and_end_exactly(seed):
+@pytest.mark.parametrize(("seed", "motion"), [(1, 0), (2, 0), (16, 0), (39, 0), (1, 1),
+                                             (16, 1)])
+def test_random_arcs_stay_within_the_tolerance_plus_a_step_and_end_exactly(seed, motion):
     """Arcs of random centre, sweep, direction, feed and `$12`, their targets in mm
     (whole micrometres, so not on whole steps nor quite on the circle): up to the last
     chord each axis within half a step of the path (+ GROUP_TOLERANCE_STEPS where
     grouped steps come early); the last block ends on the target rounded to steps,
     every axis moving in it making its last step on the end tick
     (:func:`end_rule_point`) - where that would force a point beyond `$12` + 1 step,
-    the slower axis ends before it (:func:`fas.path.arc.arc_end_cut`).  The whole path
+    the slower axis ends before it (:func:`fas.path.arc.arc_end_cut`).  ``motion`` 1:
+    the exact stop (``$171=1``), each chord from rest to rest along the chord itself.
+    The whole path
     within `$12` + 1 step, nothing added for the target's own distance from the circle
-    (the last chord heads to it: over 320 random arcs of bench/bench_arcs.py two come
-    up to 0.002 step beyond, mid-chord; these sixteen do not)."""
+    (the last chord heads to it; where its steps would leave the band the last chord
+    begins later on the circle: fas.path.arc.arc_end_approach - the arcs of
+    test_where_the_last_chords_steps_would_leave_the_band_it_begins_later_on_the_circle)."""
     rnd = random.Random(seed)
     for _ in range(4):
         r = rnd.choice([1.0, 3.0, 10.0])
@@ -186,7 +197,7 @@ def test_random_arcs_stay_within_the_tolerance_plus_a_step_and_end_exactly(seed)
         tol = rnd.choice([0.002, 0.01])
         line = (f"G{2 if a1 < a0 else 3} X{tx} Y{ty} I{c[0]:.4f} J{c[1]:.4f} "
                 f"F{rnd.choice([600, 3000, 6000])}")
-        g = grbl()
+        g = grbl(setup=MM + f"$171={motion}\n")
         assert send(g, f"$12={tol}\n{line}\n") == ["ok", "ok"], line
         it = Interpreter(3, g.machine.settings)
         moves = [a for a in it.interpret(parse_line(line)) if isinstance(a, Move)]
@@ -206,6 +217,54 @@ def test_random_arcs_stay_within_the_tolerance_plus_a_step_and_end_exactly(seed)
         assert inside <= tol * SPU + (0.5 + GROUP_TOLERANCE_STEPS) * math.sqrt(2), line
         end_rule_point(events, moves[-1])
         assert max(map(off, path)) <= tol * SPU + 1, line
+
+
+#: two of bench/bench_arcs.py's random arcs (seed 8), ($12, centre in mm): before
+#: arc_end_approach their last chord's steps came $12 + 1.0014 and + 1.0022 steps off
+#: the circle, in its middle (the chord from the circle to a target rounded 0.57 and
+#: 0.66 step inside it)
+LATE_ARCS = [("G3 X-16.03 Y-4.493 I-9.5106 J3.0902 F6000", 0.002, (-9.5106, 3.0902)),
+             ("G3 X3.281 Y0.043 I1.6738 J-2.4897 F3000", 0.01, (1.6738, -2.4897))]
+
+
+@pytest.mark.parametrize("line, tol, centre", LATE_ARCS)
+def test_where_the_last_chords_steps_would_leave_the_band_it_begins_later_on_the_circle(
+        line, tol, centre):
+    """The last chord from the circle to the target rounded inside it comes up to
+    ``s + |delta| / 2`` inside (``s`` its sagitta, ``delta`` the target's offset), and
+    its steps, on the steps nearest to the path, up to 0.71 step further: so the
+    interpreter begins the last chord later on the circle
+    (:func:`fas.path.arc.arc_end_approach`) - a point on the circle between the arc's
+    last two chord ends - and the whole path keeps `$12` + 1 step, the end exact.  (The
+    first arc's end rule then cuts the new last chord too: fas.path.arc.arc_end_cut.)"""
+    g = grbl()
+    assert send(g, f"$12={tol}\n{line}\n") == ["ok", "ok"]
+    c = (centre[0] * SPU, centre[1] * SPU)
+    radius = math.hypot(*c)
+    it = Interpreter(3, g.machine.settings)
+    moves = [a for a in it.interpret(parse_line(line)) if isinstance(a, Move)]
+    assert g.machine.positions() == list(moves[-1].target)
+    start = (0.0, 0.0, 0.0)
+    target = tuple(float(v) for v in parse_values(line))
+    chords = arc_points(start, target, centre, Plane.XY, False, tol)
+    ends = [tuple(round(v * SPU * 1024) / 1024 for v in p) for p in chords[:-1]]
+    extra = [m.exact for m in moves[:-1] if m.exact not in ends]
+    # a chord end added on the circle in the last chord (and where the end rule asks,
+    # arc_end_cut's on the new last chord)
+    assert 1 <= len(extra) <= 2 and moves[-1 - len(extra)].exact == extra[0]
+    assert abs(math.dist(extra[0][:2], c) - radius) < 1e-2
+    assert moves[-2 - len(extra)].exact == ends[-1]
+    if len(extra) == 2:
+        p, q, t = extra[0][:2], extra[1][:2], moves[-1].target[:2]
+        cross = (q[0] - p[0]) * (t[1] - p[1]) - (q[1] - p[1]) * (t[0] - p[0])
+        assert abs(cross) / math.dist(p, t) < 1e-2
+    worst = max(abs(math.dist(p, c) - radius) for _t, p in path_from_pins(g))
+    assert worst <= tol * SPU + 1, worst - tol * SPU
+
+
+def parse_values(line: str) -> tuple[float, float, float]:
+    words = dict((w[0], float(w[1:])) for w in line.split()[1:])
+    return (words["X"], words["Y"], 0.0)
 
 
 OFF_CIRCLE = "G3 X-10.281 Y11.213 I-0.3557 J9.9937 F6000"  # target 0.49 step inside
