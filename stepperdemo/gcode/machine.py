@@ -94,6 +94,8 @@ _RAPID = {RAPID_100: 100, RAPID_50: 50, RAPID_25: 25}
 class LineRun:
     """A line in execution: its actions, done in order; answered after the last."""
 
+    __slots__ = ("text", "actions", "index", "echo", "handed", "dwell_until", "dwell_left")
+
     def __init__(self, text: str, actions: list[Action], echo: bool = False) -> None:
         self.text = text
         self.actions = actions
@@ -706,7 +708,7 @@ class GcodeMachine:
         laser = self.tooling.wake_tick()
         if laser is not None and (wake is None or laser < wake):
             wake = laser
-        if self._reading() and run is None and (self.rx.pending or self.startup_queue):
+        if run is None and (self.rx.ring or self.startup_queue) and self._reading():
             wake = now if wake is None or now < wake else wake
         if self.drivers_on and self.settings.idle_delay_ms != KEEP_ENABLED:
             if self.idle_since is not None:

@@ -181,7 +181,8 @@ class GcodeProgram(Program):
 
     # ---------------------------------------------------------------- time
     def loop_pass(self) -> None:
-        self.setup()
+        if not self._setup_done:
+            self.setup()
         self.machine.poll()
         self._take_script()
 
