@@ -119,20 +119,6 @@ class Move:
     exact: tuple[float, ...] | None = None
 
 
-def plain_move(target: tuple[int, ...], start: tuple[int, ...], rapid: bool,
-               feed: float | None, line: str) -> Move:
-    """``Move(target, start, rapid, feed, line)``: the same frozen block, its fields set
-    at once (the dataclass's ``__init__`` sets each through ``object.__setattr__``; this
-    is made for every G0/G1 line)."""
-    move = _new_object(Move)
-    move.__dict__.update(target=target, start=start, rapid=rapid, feed=feed, line=line,
-                         jog=False, laser=None, exact=None)
-    return move
-
-
-_new_object = object.__new__
-
-
 @dataclass(frozen=True)
 class Dwell:
     seconds: float
@@ -647,8 +633,7 @@ class Interpreter:
         t = self._steps(target)  # (reads it only)
         if t != steps:
             rapid = motion == 0
-            move = plain_move(tuple(t), tuple(steps), rapid, None if rapid else feed,
-                              block.line)
+            move = Move(tuple(t), tuple(steps), rapid, None if rapid else feed, block.line)
             if self.check is not None:
                 self.check(move)
             actions: list[Action] = [move]

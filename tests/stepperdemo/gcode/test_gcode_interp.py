@@ -2,16 +2,7 @@
 
 import pytest
 
-from stepperdemo.gcode.interp import (
-    Dwell,
-    End,
-    Interpreter,
-    Move,
-    Pause,
-    SetOffset,
-    SetOutput,
-    plain_move,
-)
+from stepperdemo.gcode.interp import Dwell, End, Interpreter, Move, Pause, SetOffset, SetOutput
 from stepperdemo.gcode.parser import GcodeError, parse_line
 from stepperdemo.gcode.settings import GcodeSettings
 
@@ -222,9 +213,6 @@ def test_the_plain_move_shortcuts_read_a_line_as_the_general_path_does():
     for line in lines:
         assert outcome(fast, line) == outcome(general, line), line
     assert taken > 150  # the shortcut was taken for most of them
-    a = plain_move((1, 2), (0, 0), False, 60.0, "G1X1")  # (its block, as Move makes it)
-    b = Move((1, 2), (0, 0), False, 60.0, "G1X1")
-    assert a == b and hash(a) == hash(b) and vars(a) == vars(b) and repr(a) == repr(b)
     # the G/M words: the same block as _take_word makes of them
     assert parse_line("G1.00001X2").g == [1.0] and parse_line("M3S5").m == [3.0]
     with pytest.raises(GcodeError) as exc:
