@@ -102,8 +102,9 @@ class LookaheadExecutor(MotionExecutor):
         return HoldState.STOPPING if self.group.run_active else HoldState.HELD
 
     def current(self) -> Move | None:
-        if len(self.blocks):
-            return self.blocks.peek()
+        queued = self._queued
+        if queued:  # (the block queue's front: asked before every line)
+            return queued[0]
         g = self.group
         if g.run_active:
             tag = g.tag_at(self.host.backend.now())

@@ -482,7 +482,7 @@ class GcodeMachine:
             return True
         if isinstance(action, Move):
             blocks = self.blocks
-            if len(blocks.items) >= blocks.size:  # (no room)
+            if len(blocks.items) == blocks.size:  # (no room)
                 return False
             blocks.push(action)
             self.idle_since = None
