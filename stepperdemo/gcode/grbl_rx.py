@@ -72,6 +72,8 @@ class GrblReceiver:
     def reset(self) -> None:
         """A soft reset: what was received and not yet parsed is gone."""
         self._ring = bytearray()  # (a bytearray: a line is found and cut at once)
+        #: the same ring, to read (hot paths take its length without a call)
+        self.ring = self._ring
         self._line = bytearray()
         self._overflow = False
         self._comment: int | None = None  # "(" or ";" while inside a comment

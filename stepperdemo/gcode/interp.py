@@ -593,55 +593,56 @@ class Interpreter:
             return None
         g = block.g
         if g:
-            if len(g) > 1 or g[0] not in (0.0, 1.0):
+            if len(g) > 1:
                 return None
             motion = g[0]
         else:
             motion = self.motion
-            if motion not in (0.0, 1.0):
-                return None
+        if motion != 0.0 and motion != 1.0:
+            return None
         axes = self.axes
-        words: list[tuple[int, float]] = []  # (axis, value) of the axis words, in order
         feed = self.feed
-        scale = MM_PER_INCH if self.inches else 1.0
+        inches = self.inches
+        # the target (_target's and work_offset's, written out: not a machine position)
+        # as the axis words come; nothing of the state changes before the block is valid
+        position = self.position
+        target = list(position)
+        absolute = self.absolute
+        if absolute:
+            system = self.coords.systems[self.coord_select]
+            offset = self.offset
+            tlo = self.tlo
+        moved = False
         for letter, v in block.values.items():
             i = AXES.find(letter)
             if 0 <= i < axes:
-                words.append((i, v))
+                if inches:
+                    v = v * MM_PER_INCH
+                if absolute:
+                    target[i] = v + (system[i] + offset[i] + (tlo if i == TLO_AXIS else 0.0))
+                else:
+                    target[i] = position[i] + v
+                moved = True
             elif letter == "F":
-                feed = v * scale
+                feed = v * MM_PER_INCH if inches else v
             elif letter != "N":
                 return None
-        if not words or (motion != 0 and feed <= 0) or self.laser_mode:
+        if (not moved or (motion != 0 and feed <= 0)
+                or self.settings.kept.get(LASER_MODE, 0)):  # (laser_mode)
             return None
-        if scale != 1.0:
-            words = [(i, v * scale) for i, v in words]
-        offset = list(self.offset)
-        # (_target's and work_offset's, written out: not a machine position)
-        position = self.position
-        target = list(position)
-        if self.absolute:
-            system = self.coords.systems[self.coord_select]
-            tlo = self.tlo
-            for i, v in words:
-                target[i] = v + (system[i] + offset[i] + (tlo if i == TLO_AXIS else 0.0))
-        else:
-            for i, v in words:
-                target[i] = position[i] + v
-        steps = list(self.position_steps)
-        actions: list[Action] = []
-        rapid = motion == 0
+        steps = self.position_steps
         t = self._steps(target)  # (reads it only)
         if t != steps:
-            actions.append(Move(tuple(t), tuple(steps), rapid, None if rapid else feed,
-                                block.line, laser=None))
+            rapid = motion == 0
+            move = Move(tuple(t), tuple(steps), rapid, None if rapid else feed, block.line)
+            if self.check is not None:
+                self.check(move)
+            actions: list[Action] = [move]
             steps = t
-        if self.check is not None:
-            for action in actions:
-                self.check(action)
+        else:
+            actions = []
         self.feed = feed
         self.motion = motion
-        self.offset = offset
         self.position = target  # (a list of its own)
         self.position_steps = steps
         self.program_end = False
@@ -766,7 +767,7 @@ class Interpreter:
             if not -INT32 <= steps <= INT32:
                 raise GcodeError(Err.INVALID_TARGET, msg.GCODE_ERR_RANGE.format(
                     letter=AXES[i]))
-            out.append(int(floor(steps + 0.5)))
+            out.append(floor(steps + 0.5))  # (an int already)
         return out
 
     def _g10(self, values: dict[str, float], words: dict[str, float], coord_select: int,

@@ -102,8 +102,9 @@ class LookaheadExecutor(MotionExecutor):
         return HoldState.STOPPING if self.group.run_active else HoldState.HELD
 
     def current(self) -> Move | None:
-        if len(self.blocks):
-            return self.blocks.peek()
+        queued = self._queued
+        if queued:  # (the block queue's front: asked before every line)
+            return queued[0]
         g = self.group
         if g.run_active:
             tag = g.tag_at(self.host.backend.now())
@@ -182,22 +183,27 @@ class LookaheadExecutor(MotionExecutor):
             asked = self._asked if self._asked is not None else start
             self.runs.append((asked, start - asked))
             self._asked = None
-        self._retire()
-        self._hand()
-        if (not self.busy() and g.attached and not self.moving()
-                and self._hold == HoldState.NONE):
+        queued = self._queued
+        if self.handed and queued:  # (_retire's common case first: nothing to retire)
+            planned = g.lookahead.blocks
+            if not planned or planned[0].tag is not queued[0]:
+                self._retire()
+        if self.handed != len(queued):  # (else _hand has nothing to do)
+            self._hand()
+        if (not (queued or g.run_active or g.lookahead.blocks)  # (not busy())
+                and g.attached and not self.moving() and self._hold == HoldState.NONE):
             g.detach()  # the steppers' own planners back (StepperDemo's g mode)
 
     def wake_tick(self) -> int | None:
         b = self.host.backend
-        now = b.now()
         g = self.group
-        if self.handed < len(self._queued) and g.room() > 0:
-            return now
-        if self._queued or g.run_active or g.lookahead.blocks or self.moving():
-            return now + b.task_period_ticks
+        queued = self._queued
+        if self.handed < len(queued) and g.room() > 0:
+            return b.now()
+        if queued or g.run_active or g.lookahead.blocks or self.moving():
+            return b.now() + b.task_period_ticks
         if self.group.attached and self._hold == HoldState.NONE:
-            return now  # detach (as poll does: not while held - a resume goes on)
+            return b.now()  # detach (as poll does: not while held - a resume goes on)
         return None
 
     def _retire(self) -> None:
@@ -224,7 +230,8 @@ class LookaheadExecutor(MotionExecutor):
             return
         g = self.group
         blocks = self.blocks
-        if not g.busy():
+        la = g.lookahead
+        if not (g.run_active or la.blocks):  # (not g.busy())
             self._asked = self.host.backend.now()
             if not g.attached:
                 self.host.enable_drivers()  # (auto enable off: the group needs that)
@@ -239,8 +246,8 @@ class LookaheadExecutor(MotionExecutor):
         else:
             self.host.enable_drivers()
         handed_any = False
-        la = g.lookahead
-        for move in islice(blocks, self.handed, None):
+        la = g.lookahead  # (configure may have made it anew)
+        for move in islice(self._queued, self.handed, None):
             if la.size - len(la.blocks) <= 0:  # (the group's room)
                 break
             res = g.line(move.target if move.exact is None else move.exact,

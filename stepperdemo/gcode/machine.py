@@ -94,6 +94,8 @@ _RAPID = {RAPID_100: 100, RAPID_50: 50, RAPID_25: 25}
 class LineRun:
     """A line in execution: its actions, done in order; answered after the last."""
 
+    __slots__ = ("text", "actions", "index", "echo", "handed", "dwell_until", "dwell_left")
+
     def __init__(self, text: str, actions: list[Action], echo: bool = False) -> None:
         self.text = text
         self.actions = actions
@@ -173,7 +175,7 @@ class GcodeMachine:
         cur = self.executor.current()
         if cur is not None and cur.jog:
             return True
-        for b in self.blocks:  # (loops: this is asked before every line)
+        for b in self.blocks.items:  # (loops: this is asked before every line)
             if b.jog:
                 return True
         if self.pending is not None:
@@ -354,24 +356,30 @@ class GcodeMachine:
     def poll(self) -> None:
         """Everything that is due now: motion, the line in execution, new lines."""
         now = self.backend.now()
-        self._pick_executor()
+        if not self.blocks.items:  # (with blocks queued the executor is busy: kept)
+            self._pick_executor()
         self.executor.poll()
         self.tooling.poll(now)
         if (self.hold or self.door) and self.executor.hold_state() == HoldState.HELD:
             self.tooling.hold_off()  # laser mode: no laser while held (Grbl)
         if self.jog_cancel and self.executor.hold_state() == HoldState.HELD:
             self._finish_jog_cancel()
+        rx = self.rx
         while True:
-            if self.pending is not None:
-                if not self._advance(self.pending, now):
+            run = self.pending
+            if run is not None:
+                if not self._advance(run, now):
                     break
                 self.pending = None
-            if not self._reading():
+            if (self.hold or self.door or self.sleeping or self.jog_cancel
+                    or self.input_held):  # (not _reading())
                 break
             if self.startup_queue:
                 self._startup(self.startup_queue.popleft())
                 continue
-            line = self.rx.take_line()
+            if not rx.ring:  # (take_line() would find nothing: no line, nothing to assemble)
+                break
+            line = rx.take_line()
             if line is None:
                 break
             self._line(line, now)
@@ -473,9 +481,10 @@ class GcodeMachine:
                 self._program_end(action, outputs=False)
             return True
         if isinstance(action, Move):
-            if not self.blocks.room:
+            blocks = self.blocks
+            if len(blocks.items) == blocks.size:  # (no room)
                 return False
-            self.blocks.push(action)
+            blocks.push(action)
             self.idle_since = None
             ex.poll()
             return True
@@ -541,6 +550,9 @@ class GcodeMachine:
     # ------------------------------------------------------------- checks
     def _check(self, action: Action) -> None:
         """Refuse a block before it changes anything (called by the interpreter)."""
+        if isinstance(action, Move):  # (the common case; a Move is no Probe or SetOutput)
+            self._check_directions(action)
+            return
         if isinstance(action, Probe):
             if not self.probe.available():
                 raise GcodeError(Err.UNSUPPORTED_COMMAND, msg.GCODE_ERR_NO_PROBE.format(
@@ -558,8 +570,6 @@ class GcodeMachine:
             if used is not None and used != name:
                 raise GcodeError(Err.PARAMETER_OUT_OF_RANGE, msg.GCODE_ERR_OUTPUT_PIN_USED.format(
                     name=name, pin=pin, user=used))
-        elif isinstance(action, Move):
-            self._check_directions(action)
 
     def _check_directions(self, move: Move) -> None:
         """Two axes of one move on one direction pin must go the same way (and every
@@ -698,7 +708,7 @@ class GcodeMachine:
         laser = self.tooling.wake_tick()
         if laser is not None and (wake is None or laser < wake):
             wake = laser
-        if self._reading() and run is None and (self.rx.pending or self.startup_queue):
+        if run is None and (self.rx.ring or self.startup_queue) and self._reading():
             wake = now if wake is None or now < wake else wake
         if self.drivers_on and self.settings.idle_delay_ms != KEEP_ENABLED:
             if self.idle_since is not None:

@@ -73,9 +73,10 @@ class BlockQueue:
         return self.size - len(self._blocks)
 
     def push(self, block: Move) -> None:
-        if not self.room:
+        blocks = self._blocks
+        if len(blocks) == self.size:  # (no room)
             raise OverflowError("block queue full")  # the machine checks room first
-        self._blocks.append(block)
+        blocks.append(block)
 
     def peek(self) -> Move | None:
         return self._blocks[0] if self._blocks else None

@@ -101,17 +101,25 @@ def parse_line(line: str, filtered: bool = False) -> Block:
     text = line if filtered else filter_line(line)
     if len(text) > MAX_LINE:
         raise GcodeError(Err.OVERFLOW, msg.GCODE_ERR_LONG.format(n=MAX_LINE))
-    block = Block(line)
+    block = Block(line, [], [], {})
     if _WELL_FORMED.fullmatch(text):  # (the common case: the same checks, word by word)
         values = block.values
         for letter, number in _WORD.findall(text):
             value = float(number)
-            # (_take_word's common case written out: a value word read the first time)
-            if (letter in _PLAIN_WORDS and letter not in values
-                    and (value >= 0 or letter not in _NOT_NEGATIVE)):
-                values[letter] = value
-            else:
-                _take_word(block, letter, number, value)
+            # (_take_word's common cases written out: a value word read the first time,
+            # a G or M code that is a whole number - round(value, 4) is the value)
+            if letter in _PLAIN_WORDS:
+                if letter not in values and (value >= 0 or letter not in _NOT_NEGATIVE):
+                    values[letter] = value
+                    continue
+            elif letter == "G":
+                if value.is_integer():
+                    block.g.append(value)
+                    continue
+            elif letter == "M" and value.is_integer():
+                block.m.append(value)
+                continue
+            _take_word(block, letter, number, value)
         return block
     match = _NUMBER.match
     pos = 0

@@ -164,19 +164,25 @@ class GcodeProgram(Program):
                 m.receive(piece)
                 m.poll()
                 continue
-            if not self.script or not m.can_take_line():
-                break
+            if not self.script or m.pending is not None or not m.can_take_line():
+                break  # (a line in execution: can_take_line() is False)
             raw = self.script.popleft()
             if not raw.strip():
                 continue  # a blank line of a file: nothing to answer
-            self._sending += strip_comments(raw).encode("utf-8", "replace") + b"\n"
+            data = strip_comments(raw).encode("utf-8", "replace") + b"\n"
+            if len(data) <= m.rx.ring_size:  # (the common case: it fits the empty ring -
+                m.receive(data)  # can_take_line() - and goes in at once, as above)
+                m.poll()
+                continue
+            self._sending += data
         if (self.scripted and not self.script and not self._sending
                 and self.input_consumed_at is None):
             self.input_consumed_at = self.backend.now()
 
     # ---------------------------------------------------------------- time
     def loop_pass(self) -> None:
-        self.setup()
+        if not self._setup_done:
+            self.setup()
         self.machine.poll()
         self._take_script()
 
@@ -186,7 +192,7 @@ class GcodeProgram(Program):
             return b.now()
         m = self.machine
         if (self._sending and m.can_read() and m.rx.free) or (
-                self.script and m.can_take_line()):
+                self.script and m.pending is None and m.can_take_line()):
             return b.now()
         return m.wake_tick()
 
@@ -215,19 +221,21 @@ class GcodeProgram(Program):
         limit = b.now() + (max_ticks if max_ticks is not None
                            else 3600 * self.profile.ticks_per_s)
         while True:
-            if self.finished():
+            if self.input_consumed_at is not None and self.finished():
                 if firmware_end:
                     b.app_wait_until(max(b.now(), self.input_consumed_at
                                          + self.profile.ticks_per_s))
                     return EndReason.FIRMWARE_END
                 return EndReason.IDLE
-            if b.now() >= limit:
+            now = b.now()
+            if now >= limit:
                 return EndReason.MAX_TIME
             wake = self.next_wake_tick()
             if wake is None:
                 return EndReason.IDLE  # held (a feed hold, M0) with nothing to wake it
-            target = min(max(wake, b.now() + 1), limit)
-            b.app_wait_until(target)
+            nxt = now + 1
+            target = wake if wake >= nxt else nxt  # (min(max(wake, now + 1), limit))
+            b.app_wait_until(limit if limit < target else target)
             self.loop_pass()
 
     def force_stop_all(self) -> None:

@@ -171,3 +171,50 @@ def test_spindle_speed_and_tool_are_kept_for_the_report():
     assert (it.spindle_speed, it.tool) == (1000, 3)
     it.reset()
     assert (it.spindle_speed, it.tool, it.feed, it.motion) == (0, 0, 0, 0)
+
+
+def test_the_plain_move_shortcuts_read_a_line_as_the_general_path_does():
+    """parse_line's words written out (a G/M code that is a whole number) and
+    Interpreter._plain_move (G0/G1 with axis words, F, N) are shortcuts of the general
+    reading: the same block, the same actions (equal Move blocks), the same errors and
+    modal state as with the shortcut off - G20, G91, G54 offsets, G92, N, bad feeds."""
+    import random
+
+    lines = ["G21 G90", "G1 X10 Y5 F600", "X20", "G0 Y-3.5", "G91 X1.5 Y1", "G90", "N10 G1 X5",
+             "G20", "G1 X1 F10", "Y0.5 Z0.25", "G21", "G10 L2 P1 X5 Y5", "G54 G1 X1 F300",
+             "G92 X0 Y0", "G1 X2", "G92.1", "G1 X-4 F0", "G1 X1 X2", "G1.00001 X3",
+             "G0.5 X1", "G1 X99999999999", "G93 G1 X5 F2", "G94 G1 X6 F100", "M2"]
+    rng = random.Random(7)
+    for _ in range(200):
+        lines.append(rng.choice(["G0", "G1", ""]) + "".join(
+            f" {a}{rng.uniform(-50, 50):.4f}" for a in rng.sample("XYZ", rng.randint(1, 3)))
+            + (f" F{rng.choice([0, 300, 6000])}" if rng.random() < 0.3 else ""))
+
+    def outcome(it: Interpreter, line: str):
+        try:
+            actions = run(it, line)
+        except GcodeError as exc:
+            return ("error", exc.code, str(exc))
+        return actions, it.position_steps, it.position, it.feed, it.motion, it.offset
+
+    fast, general = interp(), interp()
+    # the shortcut off: every line read word by word
+    general._plain_move = lambda block: None  # type: ignore[method-assign]  # noqa: SLF001 - the shortcut under test
+    taken = 0
+    plain = fast._plain_move  # noqa: SLF001 - counted: the shortcut under test
+
+    def counted(block):
+        nonlocal taken
+        actions = plain(block)
+        taken += actions is not None
+        return actions
+
+    fast._plain_move = counted  # type: ignore[method-assign]  # noqa: SLF001 - (as above)
+    for line in lines:
+        assert outcome(fast, line) == outcome(general, line), line
+    assert taken > 150  # the shortcut was taken for most of them
+    # the G/M words: the same block as _take_word makes of them
+    assert parse_line("G1.00001X2").g == [1.0] and parse_line("M3S5").m == [3.0]
+    with pytest.raises(GcodeError) as exc:
+        parse_line("G0.5X1")
+    assert exc.value.code == 23
