@@ -165,8 +165,17 @@ class Segment:
     def time_at(self, s: float) -> float:
         """The time (ticks) at distance ``s`` (at most ``s_done``)."""
         for p in self.pieces:
-            if s <= p.s1:
-                return p.time_at(s)
+            if s <= p.s1:  # (Piece.time_at written out)
+                d = s - p.s0
+                if d <= 0.0:
+                    return p.t0
+                v0 = p.v0
+                root = v0 * v0 + 2.0 * p.a * d
+                den = v0 + math.sqrt(root if root > 0.0 else 0.0)
+                if den <= 0.0:
+                    return p.t1
+                t = p.t0 + 2.0 * d / den
+                return t if t < p.t1 else p.t1
         return self.t_done
 
     def dist_at(self, t: float) -> float:
@@ -174,8 +183,12 @@ class Segment:
         if t >= self.t_done:
             return self.s_done
         for p in self.pieces:
-            if t <= p.t1:
-                return p.dist_at(t)
+            if t <= p.t1:  # (Piece.dist_at written out)
+                tau = t - p.t0
+                if tau <= 0.0:
+                    return p.s0
+                s = p.s0 + tau * (p.v0 + 0.5 * p.a * tau)
+                return s if s < p.s1 else p.s1
         return self.s_done
 
     def speed_at(self, t: float) -> float:
@@ -526,7 +539,13 @@ class Executor:
         for v_s, a_s, d in phases:
             v = v_s / tps
             a = a_s / (tps * tps)
-            dur, v1 = phase_ticks(v, a, d)
+            if a == 0.0:  # (phase_ticks written out)
+                dur, v1 = d / v, v
+            else:
+                root = v * v + 2.0 * a * d
+                v1 = math.sqrt(root) if root > 0.0 else 0.0
+                den = v + v1
+                dur = 2.0 * d / den if den > 0.0 else 0.0
             t0 = self.t
             if t0 + dur > horizon:
                 tau = horizon - t0

@@ -343,7 +343,7 @@ class Machine:
             bc = None
         # the common case first: nothing has interrupts off at t (but perhaps the step
         # interrupt of another channel's block of pulses)
-        if t >= self._quiet_from:
+        if t >= self._quiet_from or self._none_holds(t):
             loads = self.uart.loads
             if ((not loads or t >= loads[-1] + self._uart_window)
                     and (t < self._millis_first or (t - self._millis_phase)
@@ -394,6 +394,24 @@ class Machine:
                     t = end
             if t == t0:
                 return t
+
+    def _none_holds(self, t: int) -> bool:
+        """No blocked section, routine entered as an event or ramp task's exit holds the
+        CPU at ``t`` (though one known ahead comes later: the ramp task's exit and its
+        commands' masks; :meth:`cpu_free_at`'s loop would not move ``t`` for them)."""
+        if self.irq_blocked_from <= t < self.irq_blocked_until + self.timing.sei_ticks:
+            return False
+        ends = self.isr_ends
+        if ends and t < ends[-1]:
+            i = bisect_right(self.isr_starts, t) - 1
+            if i >= 0 and t < ends[i]:
+                return False
+        ends = self.exit_ends
+        if ends and t < ends[-1]:
+            i = bisect_right(self.exit_starts, t) - 1
+            if i >= 0 and t < ends[i]:
+                return False
+        return True
 
     def _routines_end(self, t: int, bc: BatchSource | None) -> int:
         """The first tick at or after ``t`` at which no routine entered before holds the
