@@ -247,9 +247,15 @@ class Machine:
                         free = self.cpu_free_at(time, ev.owner)
                     if free > time:  # pending; those pending then enter in priority order
                         ev.time = free
-                        self.seq += 1
-                        heapq.heappush(heap, (free, prio, self.seq, ev))
-                        continue
+                        seq = self.seq + 1
+                        self.seq = seq
+                        if free > t or (heap and heap[0][0] <= free):
+                            heapq.heappush(heap, (free, prio, seq, ev))
+                            continue
+                        # (no other event comes before it: it is the one popped next, and
+                        # the CPU is free at ``free`` - cpu_free_at's answer holds there)
+                        time = free
+                        _ = seq
                 elif time < self.irq_blocked_until:
                     # interrupt pending until the block ends; then in priority order
                     ev.time = self.irq_blocked_until
