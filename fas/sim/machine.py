@@ -27,7 +27,7 @@ from typing import Callable, Protocol
 
 from ..arch import Profile
 from .builds import check_build
-from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after, running_end
+from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after
 from .outputs import SimOutputs
 from .pins import PinBank
 from .timing import sim_timing
@@ -693,11 +693,30 @@ class Machine:
         self.stolen_ticks = 0
         now = self.now
         wait = self.busy_until - now
-        for first, period, last, cost in self.loop_trains():
-            end = running_end(now, first, period, last, cost)
-            if end is not None and end - now > wait:
-                wait = end - now
-        cost = self.timing.uart_isr_ticks
+        # (loop_trains and running_end written out: this runs after every wait)
+        for src in self.block_sources:
+            if src.batch and src.isr_ticks:
+                cost = src.isr_ticks
+                first = src.b_c0 + src.lat
+                if now >= first:
+                    period = src.b_t
+                    into = (now - first) % period
+                    if into < cost and now - into <= first + (src.b_n - 2) * period:
+                        end = now - into + cost
+                        if end - now > wait:
+                            wait = end - now
+        timing = self.timing
+        cost = timing.millis_isr_ticks
+        if cost and self._millis_started:
+            ov = timing.millis_overflow_ticks
+            first = self._millis_phase + ov
+            if now >= first:
+                into = (now - first) % ov
+                if into < cost and now - into <= NEVER:
+                    end = now - into + cost
+                    if end - now > wait:
+                        wait = end - now
+        cost = timing.uart_isr_ticks
         if cost:
             loads = self.uart.loads
             li = bisect_right(loads, now)
