@@ -319,7 +319,9 @@ def trapezoid(v0: float, nominal: float, v_exit: float, accel: float,
     peak2 = 0.5 * (v02 + vx2) + accel * dist
     if peak2 < v02:  # cannot slow down enough: decelerate all the way
         return [(v0, -accel, dist)]
-    top2 = min(nominal * nominal, peak2)
+    top2 = nominal * nominal
+    if peak2 < top2:  # (min(nominal^2, peak2))
+        top2 = peak2
     if top2 < vx2:
         top2 = vx2
     if abs(top2 - v02) <= 1e-9 * top2:  # at the top already (rounding): no phase of
@@ -437,7 +439,8 @@ class Executor:
             v = self.v * tps  # units/s
             accel = block.acceleration
             # the blend at the block's end takes k e of it (e: the exit squared)
-            k = block.zone_out if len(la.blocks) > 1 else 0.0
+            more = len(la.blocks) > 1
+            k = block.zone_out if more else 0.0
             if self.holding:
                 phases, stop = self._hold_phases(v, accel, rest)
                 exit2 = max(0.0, v * v - 2.0 * accel * rest) if not stop else 0.0
@@ -451,7 +454,7 @@ class Executor:
                         k = 0.0
             else:
                 stop = False
-                vx2 = la.exit_sqr()
+                vx2 = la.blocks[1].entry_sqr if more else 0.0  # (la.exit_sqr())
                 win = exit_window(v * v, rest, accel, k) if k > 0.0 else None
                 if win is not None and k * max(win[0], min(vx2, win[1])) > la.blocks[1].length:
                     win = None  # its blend would not fit in the block out (an override)
@@ -475,7 +478,9 @@ class Executor:
                         la.blocks[1].entry_sqr = reach2
                         la.replan_from_first()
                     phases = trapezoid(v, block.nominal_speed, math.sqrt(vx2), accel, rest)
-                    exit2 = max(vx2, v * v - 2.0 * accel * rest)
+                    exit2 = v * v - 2.0 * accel * rest
+                    if vx2 >= exit2:  # (max(vx2, exit2))
+                        exit2 = vx2
             done = self._take(seg, phases, horizon)
             if not done:
                 break
