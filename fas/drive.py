@@ -269,7 +269,7 @@ class Drive:
                     if res != AQE_OK:
                         return res
 
-        res = q.add_queue_entry(ticks, steps, count_up, start=start)
+        res = q.add_queue_entry(ticks, steps, count_up, start)
         if res == AQE_OK and self.auto_enable:
             self.auto_disable_delay_counter = self.off_delay_count
         self._engine.kick()

@@ -85,6 +85,9 @@ class StepperQueue:
         self.channel: QueueChannel = (backend.allocate_channel(self) if make_channel is None
                                       else make_channel(self))
         self.is_running = self.channel.is_running
+        # the channel may refuse commands (a link not connected): asked only then
+        self._ask_ready = (type(self.channel).ready_for_commands
+                           is not QueueChannel.ready_for_commands)
 
     # ------------------------------------------------------------- queries
     def queue_entries(self) -> int:
@@ -170,7 +173,7 @@ class StepperQueue:
         """Append one command (``ticks is None``: only start the queue).  ``bare``: the
         library writes it itself, no planner computed it (:attr:`QueueEntry.bare`)."""
         channel = self.channel
-        if not channel.ready_for_commands():
+        if self._ask_ready and not channel.ready_for_commands():
             return AqeResult.DEVICE_NOT_READY
         if ticks is None:
             if start and not self.is_running():
@@ -215,7 +218,8 @@ class StepperQueue:
                 duration: int, bare: bool = False) -> AqeResult:
         """Write the command at write index ``wp`` (there is room), advance the queue's
         end unless commands are ignored, tell the channel and start it if asked."""
-        e = self.entries[wp % self.queue_len]
+        slot = wp % self.queue_len
+        e = self.entries[slot]
         dir_level = count_up == self.dir_high_counts_up
         toggle_dir = False
         if self.dir_pin != PIN_UNDEFINED:
@@ -229,7 +233,7 @@ class StepperQueue:
         e.steps = steps
         e.total_steps = steps
         e.ticks = ticks
-        self.durations[wp % self.queue_len] = duration
+        self.durations[slot] = duration
         e.count_up = count_up
         e.toggle_dir = toggle_dir
         e.dir_level = dir_level

@@ -165,8 +165,17 @@ class Segment:
     def time_at(self, s: float) -> float:
         """The time (ticks) at distance ``s`` (at most ``s_done``)."""
         for p in self.pieces:
-            if s <= p.s1:
-                return p.time_at(s)
+            if s <= p.s1:  # (Piece.time_at written out)
+                d = s - p.s0
+                if d <= 0.0:
+                    return p.t0
+                v0 = p.v0
+                root = v0 * v0 + 2.0 * p.a * d
+                den = v0 + math.sqrt(root if root > 0.0 else 0.0)
+                if den <= 0.0:
+                    return p.t1
+                t = p.t0 + 2.0 * d / den
+                return t if t < p.t1 else p.t1
         return self.t_done
 
     def dist_at(self, t: float) -> float:
@@ -174,8 +183,12 @@ class Segment:
         if t >= self.t_done:
             return self.s_done
         for p in self.pieces:
-            if t <= p.t1:
-                return p.dist_at(t)
+            if t <= p.t1:  # (Piece.dist_at written out)
+                tau = t - p.t0
+                if tau <= 0.0:
+                    return p.s0
+                s = p.s0 + tau * (p.v0 + 0.5 * p.a * tau)
+                return s if s < p.s1 else p.s1
         return self.s_done
 
     def speed_at(self, t: float) -> float:
@@ -306,7 +319,9 @@ def trapezoid(v0: float, nominal: float, v_exit: float, accel: float,
     peak2 = 0.5 * (v02 + vx2) + accel * dist
     if peak2 < v02:  # cannot slow down enough: decelerate all the way
         return [(v0, -accel, dist)]
-    top2 = min(nominal * nominal, peak2)
+    top2 = nominal * nominal
+    if peak2 < top2:  # (min(nominal^2, peak2))
+        top2 = peak2
     if top2 < vx2:
         top2 = vx2
     if abs(top2 - v02) <= 1e-9 * top2:  # at the top already (rounding): no phase of
@@ -424,7 +439,8 @@ class Executor:
             v = self.v * tps  # units/s
             accel = block.acceleration
             # the blend at the block's end takes k e of it (e: the exit squared)
-            k = block.zone_out if len(la.blocks) > 1 else 0.0
+            more = len(la.blocks) > 1
+            k = block.zone_out if more else 0.0
             slowing: Blend | None = None
             if self.holding:
                 phases, stop = self._hold_phases(v, accel, rest)
@@ -445,7 +461,7 @@ class Executor:
                         k = 0.0
             else:
                 stop = False
-                vx2 = la.exit_sqr()
+                vx2 = la.blocks[1].entry_sqr if more else 0.0  # (la.exit_sqr())
                 win = exit_window(v * v, rest, accel, k) if k > 0.0 else None
                 if win is not None and k * max(win[0], min(vx2, win[1])) > la.blocks[1].length:
                     win = None  # its blend would not fit in the block out (an override)
@@ -469,7 +485,9 @@ class Executor:
                         la.blocks[1].entry_sqr = reach2
                         la.replan_from_first()
                     phases = trapezoid(v, block.nominal_speed, math.sqrt(vx2), accel, rest)
-                    exit2 = max(vx2, v * v - 2.0 * accel * rest)
+                    exit2 = v * v - 2.0 * accel * rest
+                    if vx2 >= exit2:  # (max(vx2, exit2))
+                        exit2 = vx2
             done = self._take(seg, phases, horizon)
             if not done:
                 break
@@ -536,7 +554,13 @@ class Executor:
         for v_s, a_s, d in phases:
             v = v_s / tps
             a = a_s / (tps * tps)
-            dur, v1 = phase_ticks(v, a, d)
+            if a == 0.0:  # (phase_ticks written out)
+                dur, v1 = d / v, v
+            else:
+                root = v * v + 2.0 * a * d
+                v1 = math.sqrt(root) if root > 0.0 else 0.0
+                den = v + v1
+                dur = 2.0 * d / den if den > 0.0 else 0.0
             t0 = self.t
             if t0 + dur > horizon:
                 tau = horizon - t0

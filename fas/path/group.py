@@ -529,9 +529,9 @@ class PathGroup:
                 self.stats.errors += 1
                 self.abort()
                 return
-        keep = writers[0].cursor_seq()  # the first segment an axis is still in ...
+        keep = writers[0].seq  # the first segment an axis is still in ...
         for w in writers:
-            seq = w.cursor_seq()
+            seq = w.seq  # (cursor_seq)
             if seq < keep:
                 keep = seq
         ex = self.executor

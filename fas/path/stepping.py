@@ -258,8 +258,19 @@ class AxisWriter:
                     else GROUP_TOLERANCE_STEPS)
         if seg.blend:  # a corner blend: its steps grouped as far as they allow
             return self._blend_group(seg)
-        known = seg.known(i)
-        if seg.complete and self.j >= known:  # the segment's last step
+        # (Segment.known written out)
+        known = seg.steps[i]
+        complete = seg.complete
+        if known and not (complete and seg.end == seg.length):
+            k = int(seg.s_done / seg.pitch[i] + seg.phase[i])
+            if seg.on_end[i] and seg.block.span is not None:
+                known -= 1
+            f = seg.first[i]
+            if k < f:
+                k = f
+            if k < known:
+                known = k
+        if complete and self.j >= known:  # the segment's last step
             nxt = ex.segment(self.seq + 1)
             if nxt is not None and nxt.blend:  # it goes on into the blend's steps
                 return self._blend_group(seg)
@@ -287,17 +298,19 @@ class AxisWriter:
                 return self._blend_group(seg)  # the last steps with the blend's
         min_cmd = self.min_cmd
         complete = seg.complete
+        pitch = seg.pitch[i]
+        phase = seg.phase[i]
         if not complete:  # the steps end a command's time before the horizon
-            back = seg.steps_by(i, seg.dist_at(ex.t - min_cmd))
+            back = int(seg.dist_at(ex.t - min_cmd) / pitch + phase)  # (steps_by)
             if back <= j0 and self.last_start > self._deep:
                 return Wrote.WAIT  # (cut at j0 + 1 below: the queue is deep)
-        pitch = seg.pitch[i]
         t0 = self.w_end
         t_lim, slowing = self._span_limit(seg, pitch, t0)
         jmax = j0 + MAX_STEPS
         if known < jmax:
             jmax = known
-        jh = seg.steps_by(i, seg.s_done if t_lim >= seg.t_done else seg.dist_at(t_lim))
+        jh = int((seg.s_done if t_lim >= seg.t_done else seg.dist_at(t_lim)) / pitch
+                 + phase)  # (steps_by)
         if jh > jmax:
             jh = jmax
         elif jh <= j0:

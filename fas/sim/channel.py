@@ -350,9 +350,14 @@ class SimChannel(QueueChannel):
             last = compare + (e.steps - 1) * e.ticks
             if self.contention:
                 m.batch_channel = self
-                self.cost = self.isr_next_ticks  # the last pulse's takes up the next entry
-                self.event = m.schedule(last, self._batch_end, self.prio,
-                                        enter=self.cost, owner=self)
+                cost = self.cost = self.isr_next_ticks  # the last pulse's: the next entry
+                # (Machine.schedule written out: this runs for every block of pulses)
+                if last < m.now:
+                    last = m.now
+                ev = Event(last, self.prio, self._batch_end, cost > 0, cost, self)
+                self.event = ev
+                m.seq += 1
+                heappush(m.events, (last, self.prio, m.seq, ev))
             else:
                 self.event = m.schedule(last + self.lat, self._batch_end, self.prio, isr=True)
         else:
@@ -533,7 +538,8 @@ class SimChannel(QueueChannel):
         m.stolen_ticks += self.cost
         c = self.pending_compare
         now = m.now
-        if self.contention:  # entered now: the pin falls lat later
+        contention = self.contention
+        if contention:  # entered now: the pin falls lat later
             now += self.lat
         if self.pending_pulse:
             self.pending_pulse = False
@@ -546,26 +552,29 @@ class SimChannel(QueueChannel):
                 pins = self.pins
                 pin = self.step_pin
                 width = now - c
-                rise = pins.rise
-                rise[pin] = rise.get(pin, 0) + 1
-                fall = pins.fall
-                fall[pin] = fall.get(pin, 0) + 1
-                total = pins.high_total
-                total[pin] = total.get(pin, 0) + width
-                high_max = pins.high_max
-                if width > high_max.get(pin, 0):
+                rise, fall, total, high_max = pins.rise, pins.fall, pins.high_total, pins.high_max
+                try:  # (the pin has had a pulse before: its figures are there)
+                    r, f, h, longest = rise[pin], fall[pin], total[pin], high_max[pin]
+                except KeyError:
+                    r, f, h, longest = (rise.get(pin, 0), fall.get(pin, 0), total.get(pin, 0),
+                                        high_max.get(pin, 0))
+                rise[pin] = r + 1
+                fall[pin] = f + 1
+                total[pin] = h + width
+                if width > longest:
                     high_max[pin] = width
                 pins.level[pin] = 0
                 if pins.sinks:
                     times = [c, now]
                     for sink in pins.sinks:
                         sink.edges(pin, times, b"\x01\x00")
-            q = self.q
             if self.precounted:
                 self.precounted -= 1
-            elif q.read_idx != q.next_write_idx and self.pulse_counter is not None:
-                self.pulse_counter.count(1, q.entries[q.read_idx % q.queue_len].dir_level)
-        if ev is not None and self.contention and self._isr_plain:
+            elif self.pulse_counter is not None:
+                q = self.q
+                if q.read_idx != q.next_write_idx:
+                    self.pulse_counter.count(1, q.entries[q.read_idx % q.queue_len].dir_level)
+        if ev is not None and contention and self._isr_plain:
             # (_isr's common case beside another channel's block of pulses, written out:
             # the entry goes on with one more single pulse - its event is this one again)
             q = self.q
@@ -575,13 +584,12 @@ class SimChannel(QueueChannel):
                 steps = e.steps
                 compare = c + e.ticks
                 if steps > 1 and compare > now + self.ocr:
-                    bc = m.batch_channel
                     if steps == 2:
                         cost = self.isr_next_ticks
-                    elif bc is None or bc is self:
-                        cost = 0  # a block of pulses: _isr programs it
                     else:
-                        cost = self.isr_ticks
+                        bc = m.batch_channel
+                        # (None or this one: a block of pulses, _isr programs it)
+                        cost = 0 if bc is None or bc is self else self.isr_ticks
                     if cost:
                         e.steps = steps - 1
                         self.mode_one = True
@@ -590,15 +598,15 @@ class SimChannel(QueueChannel):
                         self.pending_compare = compare
                         self.pending_pulse = True
                         self.cost = cost
-                        if compare < m.now:  # pragma: no cover - compare > now here
-                            compare = m.now
+                        # (compare > now >= m.now here)
                         ev.time = compare
                         ev.isr = True
                         ev.enter = cost
                         ev.owner = self
                         self.event = ev
-                        m.seq += 1
-                        heappush(m.events, (compare, self.prio, m.seq, ev))
+                        seq = m.seq + 1
+                        m.seq = seq
+                        heappush(m.events, (compare, self.prio, seq, ev))
                         return
         self._isr(c, now)
 

@@ -27,7 +27,7 @@ from typing import Callable, Protocol
 
 from ..arch import Profile
 from .builds import check_build
-from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after, running_end
+from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_after
 from .outputs import SimOutputs
 from .pins import PinBank
 from .timing import sim_timing
@@ -247,9 +247,15 @@ class Machine:
                         free = self.cpu_free_at(time, ev.owner)
                     if free > time:  # pending; those pending then enter in priority order
                         ev.time = free
-                        self.seq += 1
-                        heapq.heappush(heap, (free, prio, self.seq, ev))
-                        continue
+                        seq = self.seq + 1
+                        self.seq = seq
+                        if free > t or (heap and heap[0][0] <= free):
+                            heapq.heappush(heap, (free, prio, seq, ev))
+                            continue
+                        # (no other event comes before it: it is the one popped next, and
+                        # the CPU is free at ``free`` - cpu_free_at's answer holds there)
+                        time = free
+                        _ = seq
                 elif time < self.irq_blocked_until:
                     # interrupt pending until the block ends; then in priority order
                     ev.time = self.irq_blocked_until
@@ -343,7 +349,7 @@ class Machine:
             bc = None
         # the common case first: nothing has interrupts off at t (but perhaps the step
         # interrupt of another channel's block of pulses)
-        if t >= self._quiet_from:
+        if t >= self._quiet_from or self._none_holds(t):
             loads = self.uart.loads
             if ((not loads or t >= loads[-1] + self._uart_window)
                     and (t < self._millis_first or (t - self._millis_phase)
@@ -394,6 +400,24 @@ class Machine:
                     t = end
             if t == t0:
                 return t
+
+    def _none_holds(self, t: int) -> bool:
+        """No blocked section, routine entered as an event or ramp task's exit holds the
+        CPU at ``t`` (though one known ahead comes later: the ramp task's exit and its
+        commands' masks; :meth:`cpu_free_at`'s loop would not move ``t`` for them)."""
+        if self.irq_blocked_from <= t < self.irq_blocked_until + self.timing.sei_ticks:
+            return False
+        ends = self.isr_ends
+        if ends and t < ends[-1]:
+            i = bisect_right(self.isr_starts, t) - 1
+            if i >= 0 and t < ends[i]:
+                return False
+        ends = self.exit_ends
+        if ends and t < ends[-1]:
+            i = bisect_right(self.exit_starts, t) - 1
+            if i >= 0 and t < ends[i]:
+                return False
+        return True
 
     def _routines_end(self, t: int, bc: BatchSource | None) -> int:
         """The first tick at or after ``t`` at which no routine entered before holds the
@@ -669,11 +693,30 @@ class Machine:
         self.stolen_ticks = 0
         now = self.now
         wait = self.busy_until - now
-        for first, period, last, cost in self.loop_trains():
-            end = running_end(now, first, period, last, cost)
-            if end is not None and end - now > wait:
-                wait = end - now
-        cost = self.timing.uart_isr_ticks
+        # (loop_trains and running_end written out: this runs after every wait)
+        for src in self.block_sources:
+            if src.batch and src.isr_ticks:
+                cost = src.isr_ticks
+                first = src.b_c0 + src.lat
+                if now >= first:
+                    period = src.b_t
+                    into = (now - first) % period
+                    if into < cost and now - into <= first + (src.b_n - 2) * period:
+                        end = now - into + cost
+                        if end - now > wait:
+                            wait = end - now
+        timing = self.timing
+        cost = timing.millis_isr_ticks
+        if cost and self._millis_started:
+            ov = timing.millis_overflow_ticks
+            first = self._millis_phase + ov
+            if now >= first:
+                into = (now - first) % ov
+                if into < cost and now - into <= NEVER:
+                    end = now - into + cost
+                    if end - now > wait:
+                        wait = end - now
+        cost = timing.uart_isr_ticks
         if cost:
             loads = self.uart.loads
             li = bisect_right(loads, now)
