@@ -120,7 +120,7 @@ def replica_tasks(case: str, work: Path) -> list[ReplicaTask]:
         w: list[Write] = []
         starts = [m[0] for m in marks if m[1] == replica.START]
         for j, m in enumerate(marks):
-            if m[1] != replica.WRITE or not (0 < m[3] and m[4] < 256):
+            if m[1] != replica.WRITE or not (m[3] > 0 and m[4] < 256):
                 continue
             nxt = marks[j + 1:j + 3]
             if any(x[1] == replica.START for x in nxt):
