@@ -7,7 +7,9 @@ cycle lies within ``PAIR_TICKS`` of the model's tick) and compared: the commands
 stepper's fill planned (steps and ticks of every queue write, in order), the CPU time
 of each write after the task's entry (the model: its ``task_offset`` when the write is
 charged; the replica: its own cycles, interrupts nested in the task left out), and the
-task's own CPU time.  The first task whose commands differ is printed with both
+task's own CPU time; for each queue start, its CPU time after the task's entry and its
+first compare (the replica's first step rises 80 cycles after ``startQueue()``),
+model - replica.  The first tasks whose commands differ are printed with both
 timelines; the summary counts the tasks that plan the same commands and the median
 difference of each kind of write's CPU time.
 
@@ -37,6 +39,7 @@ import replica  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
 from fas.sim.channel import SimChannel  # noqa: E402
 
+QUEUE_START_CYCLES = 80  # the replica's first step rises this long after startQueue()
 PAIR_TICKS = 2000  # the replica's task enters within this of the model's (median +160)
 
 Write = tuple[int, int, int, int]  # stepper, CPU ticks after the task's entry, ticks, steps
@@ -48,7 +51,8 @@ class ModelTask:
         self.cpu = 0
         self.writes: list[Write] = []
         self.queued: list[list[int]] = []
-        self.starts: list[tuple[int, int]] = []  # stepper, CPU ticks of its queue start
+        # stepper, CPU ticks of its queue start, its first compare after the task's tick
+        self.starts: list[tuple[int, int, int]] = []
 
 
 def model_tasks(case: str, conf: Path) -> list[ModelTask]:
@@ -85,7 +89,8 @@ def model_tasks(case: str, conf: Path) -> list[ModelTask]:
         plain_start(ch)
         if ch.m.in_task and log and ch.running and not was:
             k = letters.setdefault(id(ch), len(letters))
-            log[-1].starts.append((k, ch.m.task_offset))
+            m = ch.m
+            log[-1].starts.append((k, m.task_offset, m.cpu_now() + ch.start_ticks - log[-1].t))
 
     SimBackend._task = task  # type: ignore[method-assign]  # noqa: SLF001
     SimChannel.entry_added = added  # type: ignore[method-assign]
@@ -102,7 +107,8 @@ def model_tasks(case: str, conf: Path) -> list[ModelTask]:
     return log
 
 
-ReplicaTask = tuple[int, int, list[Write], list[list[int]], dict[int, int], list[int]]
+ReplicaTask = tuple[int, int, list[Write], list[list[int]], dict[int, int],
+                    list[tuple[int, int]]]
 
 
 def replica_tasks(case: str, work: Path) -> list[ReplicaTask]:
@@ -118,7 +124,10 @@ def replica_tasks(case: str, work: Path) -> list[ReplicaTask]:
     for t in tasks:
         marks = t.marks
         w: list[Write] = []
-        starts = [m[0] for m in marks if m[1] == replica.START]
+        # CPU of each queue start; its first compare (80 cycles after the call: the
+        # first step's rise) after the task's entry
+        starts = [(m[0], m[5] + QUEUE_START_CYCLES - t.t) for m in marks
+                  if m[1] == replica.START]
         for j, m in enumerate(marks):
             if m[1] != replica.WRITE or not (m[3] > 0 and m[4] < 256):
                 continue
@@ -173,7 +182,9 @@ def compare(case: str, conf: Path, work: Path, show: int, since_ms: float) -> di
             continue
         t, cpu, writes, queued, nested, starts = theirs[i]
         if rec.starts and starts:
-            start_diff.append(rec.starts[-1][1] - starts[-1])
+            cpu_off = rec.starts[-1][1] - starts[-1][0]
+            first_off = rec.starts[-1][2] - starts[-1][1] - (t - rec.t)
+            start_diff.append((cpu_off, first_off))
         paired += 1
         entry_diff.append(t - rec.t)
         if not writes and not rec.writes:
@@ -208,7 +219,8 @@ def compare(case: str, conf: Path, work: Path, show: int, since_ms: float) -> di
           f"{med(entry_diff):+d} ticks after the model's; own CPU model - replica "
           f"(tasks with the same commands) median {med(cpu_diff):+d}")
     if start_diff:
-        print(f"    queue starts: model - replica CPU after the task's entry {start_diff}")
+        print("    queue starts, model - replica: (CPU after the task's entry, first compare) "
+              f"{start_diff}")
     for k, v in sorted(diffs.items()):
         what = "CPU after the task's entry" if k.startswith("first") else \
             "CPU since the write before"
