@@ -212,7 +212,8 @@ class Task:
         self.t, self.queues = t, queues
         self.cpu = self.wall = 0
         self.nested: collections.Counter[int] = collections.Counter()
-        self.marks: list[tuple[int, int, int, int, int]] = []  # cpu, mark, this, ticks, steps
+        # cpu, mark, this, ticks, steps, cycle
+        self.marks: list[tuple[int, int, int, int, int, int]] = []
 
 
 def tasks_of(prefix: Path, task_vector: int) -> tuple[list[Task], dict[int, list[int]]]:
@@ -249,11 +250,11 @@ def tasks_of(prefix: Path, task_vector: int) -> tuple[list[Task], dict[int, list
                 elif v != task_vector:
                     isr[v].append(c - c0)
             elif p[1] == "M" and cur is not None:
-                cur.marks.append((cur.cpu, int(p[2]), int(p[3]), int(p[4]), int(p[5])))
+                cur.marks.append((cur.cpu, int(p[2]), int(p[3]), int(p[4]), int(p[5]), c))
     return tasks, isr
 
 
-def _writes(t: Task) -> list[tuple[int, int, int, int, int]]:
+def _writes(t: Task) -> list[tuple[int, int, int, int, int, int]]:
     """The task's command writes (a call with a command; the start call has none)."""
     return [m for m in t.marks if m[1] == WRITE and m[4] < 256 and m[3] > 0]
 
@@ -321,7 +322,7 @@ def cmd_task(args: argparse.Namespace) -> int:
     print(f"task at cycle {t.t} ({t.t / TICKS_PER_US / 1000:.3f} ms): CPU {t.cpu}, wall {t.wall}, "
           f"nested by vector {dict(t.nested)}; queued steps at entry {t.queues}")
     names = ("write", "start", "queue write", "enable")
-    for cpu, mark, this, ticks, steps in t.marks:
+    for cpu, mark, this, ticks, steps, _ in t.marks:
         extra = f" stepper@{this:#x} ticks {ticks} steps {steps}" if mark == WRITE else ""
         print(f"  CPU {cpu:6d}  {names[mark]}{extra}")
     return 0

@@ -1,0 +1,251 @@
+"""The model's ramp tasks beside the replica's, task by task (docs/timing-model.md,
+"ninth pass").
+
+For each run given, every ramp task of the simulation model (build e, the case's
+profile) is paired with the replica's task at the same timer overflow (the replica's
+cycle lies within ``PAIR_TICKS`` of the model's tick) and compared: the commands each
+stepper's fill planned (steps and ticks of every queue write, in order), the CPU time
+of each write after the task's entry (the model: its ``task_offset`` when the write is
+charged; the replica: its own cycles, interrupts nested in the task left out), and the
+task's own CPU time; for each queue start, its CPU time after the task's entry and its
+first compare (the replica's first step rises 80 cycles after ``startQueue()``),
+model - replica.  The first tasks whose commands differ are printed with both
+timelines; the summary counts the tasks that plan the same commands and the median
+difference of each kind of write's CPU time.
+
+    python3 bench/replica/compare.py --work /tmp/fas-replica e01 e03 e09 e13 e14
+
+The replica's runs (``CASE.ev``) are read from ``--work``: ``replica.py ... tasks CASE``
+writes them there (its ``--fas`` and ``--simavr`` are needed for that only).
+"""
+
+from __future__ import annotations
+
+import argparse
+import bisect
+import collections
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(ROOT / "bench"))
+
+import e_fidelity  # noqa: E402
+import replica  # noqa: E402
+
+from fas.sim import SimBackend  # noqa: E402
+from fas.sim.channel import SimChannel  # noqa: E402
+
+QUEUE_START_CYCLES = 80  # the replica's first step rises this long after startQueue()
+PAIR_TICKS = 2000  # the replica's task enters within this of the model's (median +160)
+
+Write = tuple[int, int, int, int]  # stepper, CPU ticks after the task's entry, ticks, steps
+
+
+class ModelTask:
+    def __init__(self, t: int) -> None:
+        self.t = t
+        self.cpu = 0
+        self.writes: list[Write] = []
+        self.queued: list[list[int]] = []
+        # stepper, CPU ticks of its queue start, its first compare after the task's tick
+        self.starts: list[tuple[int, int, int]] = []
+
+
+def model_tasks(case: str, conf: Path) -> list[ModelTask]:
+    """Run the model on the case; return its ramp tasks with their writes."""
+    plain_task, plain_added = SimBackend._task, SimChannel.entry_added  # noqa: SLF001
+    plain_start = SimChannel.start
+    log: list[ModelTask] = []
+    letters: dict[int, int] = {}
+
+    def task(self: SimBackend, index: int) -> None:
+        m = self.machine
+        rec = ModelTask(m.now)
+        for ch in self.channels:
+            q = ch.q
+            rec.queued.append([q.entries[(q.read_idx + k) % q.queue_len].total_steps
+                               for k in range((q.next_write_idx - q.read_idx) & 0xFF)]
+                              if ch.running else [])
+        log.append(rec)
+        before = m.stolen_ticks
+        plain_task(self, index)
+        rec.cpu = m.stolen_ticks - before
+
+    def added(ch: SimChannel) -> None:
+        plain_added(ch)
+        if ch.m.in_task and log:
+            q = ch.q
+            e = q.entries[(q.next_write_idx - 1) % q.queue_len]
+            if not e.bare:  # auto enable's pauses: written inside the firmware's first
+                k = letters.setdefault(id(ch), len(letters))  # command's call
+                log[-1].writes.append((k, ch.m.task_offset, e.ticks, e.total_steps))
+
+    def start(ch: SimChannel) -> None:
+        was = ch.running
+        plain_start(ch)
+        if ch.m.in_task and log and ch.running and not was:
+            k = letters.setdefault(id(ch), len(letters))
+            m = ch.m
+            log[-1].starts.append((k, m.task_offset, m.cpu_now() + ch.start_ticks - log[-1].t))
+
+    SimBackend._task = task  # type: ignore[method-assign]  # noqa: SLF001
+    SimChannel.entry_added = added  # type: ignore[method-assign]
+    SimChannel.start = start  # type: ignore[method-assign]
+    try:
+        folder = conf / case
+        backend = e_fidelity.run_model((folder / "input.txt").read_text().strip(),
+                                       e_fidelity.PROFILE.get(case, "atmega328p"), "e")
+        del backend  # steppers numbered by their first write, as the replica's
+    finally:
+        SimBackend._task = plain_task  # type: ignore[method-assign]  # noqa: SLF001
+        SimChannel.entry_added = plain_added  # type: ignore[method-assign]
+        SimChannel.start = plain_start  # type: ignore[method-assign]
+    return log
+
+
+ReplicaTask = tuple[int, int, list[Write], list[list[int]], dict[int, int],
+                    list[tuple[int, int]]]
+
+
+def replica_tasks(case: str, work: Path) -> list[ReplicaTask]:
+    """(cycle, own CPU, writes, queued steps, nested ticks by vector, CPU of each queue
+    start) of every replica task.  A write's CPU time is that of its last queue write
+    (the first command of a stepper writes auto enable's pauses before it), as the
+    model's is charged when the entry is written; the call that starts a queue (no
+    command: it is followed by the queue start) is left out."""
+    board = replica.BOARDS.get(case, replica.UNO)
+    tasks, _ = replica.tasks_of(work / case, board.task_vector)
+    steppers: list[int] = []  # numbered by their first write, as the model's
+    out = []
+    for t in tasks:
+        marks = t.marks
+        w: list[Write] = []
+        # CPU of each queue start; its first compare (80 cycles after the call: the
+        # first step's rise) after the task's entry
+        starts = [(m[0], m[5] + QUEUE_START_CYCLES - t.t) for m in marks
+                  if m[1] == replica.START]
+        for j, m in enumerate(marks):
+            if m[1] != replica.WRITE or not (m[3] > 0 and m[4] < 256):
+                continue
+            nxt = marks[j + 1:j + 3]
+            if any(x[1] == replica.START for x in nxt):
+                continue  # the start call
+            cpu = m[0]
+            for x in marks[j + 1:]:
+                if x[1] == replica.QUEUE_WRITE:
+                    cpu = x[0]
+                elif x[1] in (replica.WRITE, replica.START):
+                    break
+            if m[2] not in steppers:
+                steppers.append(m[2])
+            w.append((steppers.index(m[2]), cpu, m[3], m[4]))
+        out.append((t.t, t.cpu, w, t.queues, dict(t.nested), starts))
+    return out
+
+
+def _kind(w: Write, before: Write | None) -> str:
+    if w[3] == 0:
+        return "pause"
+    if w[3] == 1:
+        return "one step"
+    if before is not None and before[0] == w[0] and before[2] == w[2]:
+        return "coast"
+    return "several"
+
+
+def _same(a: list[Write], b: list[Write]) -> bool:
+    return [(s, t, n) for s, _, t, n in a] == [(s, t, n) for s, _, t, n in b]
+
+
+def _fmt(w: list[Write]) -> str:
+    return " ".join(f"M{s + 1}:{n}x{t}@{c}" for s, c, t, n in w) or "-"
+
+
+def compare(case: str, conf: Path, work: Path, show: int, since_ms: float) -> dict:
+    mine = model_tasks(case, conf)
+    theirs = replica_tasks(case, work)
+    ts = [r[0] for r in theirs]
+    paired = same = planned = 0
+    diffs: dict[str, list[int]] = collections.defaultdict(list)
+    cpu_diff: list[int] = []
+    entry_diff: list[int] = []
+    start_diff: list[int] = []
+    shown = 0
+    first_bad: float | None = None
+    for rec in mine:
+        i = bisect.bisect_left(ts, rec.t - PAIR_TICKS)
+        if i >= len(ts) or abs(ts[i] - rec.t) > PAIR_TICKS:
+            continue
+        t, cpu, writes, queued, nested, starts = theirs[i]
+        if rec.starts and starts:
+            cpu_off = rec.starts[-1][1] - starts[-1][0]
+            first_off = rec.starts[-1][2] - starts[-1][1] - (t - rec.t)
+            start_diff.append((cpu_off, first_off))
+        paired += 1
+        entry_diff.append(t - rec.t)
+        if not writes and not rec.writes:
+            continue
+        planned += 1
+        if _same(writes, rec.writes):
+            same += 1
+            cpu_diff.append(rec.cpu - cpu)
+            prev_m: Write | None = None
+            prev_r: Write | None = None
+            for wm, wr in zip(rec.writes, writes, strict=True):
+                if prev_m is None or prev_r is None or prev_m[0] != wm[0]:
+                    diffs["first of a stepper"].append(wm[1] - wr[1])
+                else:
+                    diffs[_kind(wr, prev_r)].append((wm[1] - prev_m[1]) - (wr[1] - prev_r[1]))
+                prev_m, prev_r = wm, wr
+            continue
+        if first_bad is None:
+            first_bad = rec.t / 16000
+        if rec.t / 16000 >= since_ms and shown < show:
+            shown += 1
+            print(f"  {case} task at {rec.t / 16000:9.3f} ms (replica +{t - rec.t}): "
+                  f"CPU model {rec.cpu} / replica {cpu} (nested {nested})")
+            print(f"      queued model   {rec.queued}")
+            print(f"      queued replica {queued}")
+            print(f"      writes model   {_fmt(rec.writes)}")
+            print(f"      writes replica {_fmt(writes)}")
+            print(f"      queue starts model {rec.starts} / replica {starts}")
+    med = replica._median  # noqa: SLF001
+    print(f"{case}: {paired} tasks paired, {planned} plan commands, {same} the same commands"
+          f" ({planned - same} differ, first at {first_bad} ms); replica's entry "
+          f"{med(entry_diff):+d} ticks after the model's; own CPU model - replica "
+          f"(tasks with the same commands) median {med(cpu_diff):+d}")
+    if start_diff:
+        print("    queue starts, model - replica: (CPU after the task's entry, first compare) "
+              f"{start_diff}")
+    for k, v in sorted(diffs.items()):
+        what = "CPU after the task's entry" if k.startswith("first") else \
+            "CPU since the write before"
+        print(f"    {k:18s} write: model - replica {what} {med(v):+5d} (median of {len(v)})")
+    return {"paired": paired, "planned": planned, "same": same}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("cases", nargs="+")
+    ap.add_argument("--work", type=Path, default=Path("/tmp/fas-replica"),
+                    help="where replica.py wrote CASE.ev")
+    ap.add_argument("--conformance", type=Path, default=e_fidelity.DEFAULT_CONF)
+    ap.add_argument("--show", type=int, default=3, help="differing tasks to print per case")
+    ap.add_argument("--since", type=float, default=0.0, help="print differing tasks from (ms)")
+    args = ap.parse_args(argv)
+    total = collections.Counter()
+    for case in args.cases:
+        if not (args.work / f"{case}.ev").exists():
+            print(f"{case}: no replica run in {args.work} (replica.py ... tasks {case})")
+            continue
+        total.update(compare(case, args.conformance, args.work, args.show, args.since))
+    print(f"all: {total['planned']} tasks plan commands, {total['same']} the same commands")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
