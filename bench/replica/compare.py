@@ -13,6 +13,15 @@ model - replica.  The first tasks whose commands differ are printed with both
 timelines; the summary counts the tasks that plan the same commands and the median
 difference of each kind of write's CPU time.
 
+A task whose commands differ is classed (docs/timing-model.md, "tenth pass"): the
+replica writes the model's and more ("..., model's queue full" where the model's queue
+held its 16 entries: the firmware's ``isQueueFull()`` read while its task runs), the
+model writes the replica's and more, the replica planned the model's commands in the
+task before or after ("a task apart"), or other.  The tasks that find the replica's
+queues at their entry (the same entries after the running one) are counted apart: a
+task whose queues differ plans differently because of what came before (a stepper one
+gap ahead), not because of how it plans.
+
     python3 bench/replica/compare.py --work /tmp/fas-replica e01 e03 e09 e13 e14
 
 The replica's runs (``CASE.ev``) are read from ``--work``: ``replica.py ... tasks CASE``
@@ -40,6 +49,7 @@ from fas.sim import SimBackend  # noqa: E402
 from fas.sim.channel import SimChannel  # noqa: E402
 
 QUEUE_START_CYCLES = 80  # the replica's first step rises this long after startQueue()
+QUEUE_SLOTS = 16  # the AVR queue's entries
 PAIR_TICKS = 2000  # the replica's task enters within this of the model's (median +160)
 
 Write = tuple[int, int, int, int]  # stepper, CPU ticks after the task's entry, ticks, steps
@@ -157,23 +167,57 @@ def _kind(w: Write, before: Write | None) -> str:
     return "several"
 
 
+def _queues_alike(mine: list[list[int]], theirs: list[list[int]]) -> bool:
+    """The model's queues at the task's entry hold the replica's entries after the
+    running one (whose steps left the model does not count down)."""
+    n = max(len(mine), len(theirs))
+    mine = mine + [[]] * (n - len(mine))
+    theirs = theirs + [[]] * (n - len(theirs))
+    return all(len(a) == len(b) and a[1:] == b[1:] for a, b in zip(mine, theirs, strict=True))
+
+
 def _same(a: list[Write], b: list[Write]) -> bool:
     return [(s, t, n) for s, _, t, n in a] == [(s, t, n) for s, _, t, n in b]
+
+
+def _differ(rec: ModelTask, writes: list[Write]) -> str:
+    """How a task's commands differ from the replica's: the replica writes the model's
+    and more to a stepper whose queue the model left full (a slot that freed while the
+    firmware's task ran: its fill reads ``isQueueFull()`` live), or the model writes the
+    replica's and more, or else."""
+    mine = [(s, t, n) for s, _, t, n in rec.writes]
+    theirs = [(s, t, n) for s, _, t, n in writes]
+    if theirs[:len(mine)] == mine:
+        extra = [s for s in {s for s, _, _ in theirs[len(mine):]}
+                 if s < len(rec.queued) and rec.queued[s]]  # steppers running
+        full = bool(extra) and all(
+            len(rec.queued[s]) + sum(1 for x in mine if x[0] == s) >= QUEUE_SLOTS
+            for s in extra)
+        return "replica writes more, model's queue full" if full else "replica writes more"
+    if mine[:len(theirs)] == theirs:
+        return "model writes more"
+    if sorted(mine) == sorted(theirs):
+        return "same commands, other order"
+    return "other"
 
 
 def _fmt(w: list[Write]) -> str:
     return " ".join(f"M{s + 1}:{n}x{t}@{c}" for s, c, t, n in w) or "-"
 
 
-def compare(case: str, conf: Path, work: Path, show: int, since_ms: float) -> dict:
+def compare(case: str, conf: Path, work: Path, show: int, since_ms: float,
+            only: str = "") -> dict:
     mine = model_tasks(case, conf)
     theirs = replica_tasks(case, work)
     ts = [r[0] for r in theirs]
     paired = same = planned = 0
+    planned_alike = same_alike = 0  # ... of the tasks that find the replica's queues
     diffs: dict[str, list[int]] = collections.defaultdict(list)
     cpu_diff: list[int] = []
     entry_diff: list[int] = []
     start_diff: list[int] = []
+    kinds: collections.Counter[str] = collections.Counter()
+    kinds_alike: collections.Counter[str] = collections.Counter()
     shown = 0
     first_bad: float | None = None
     for rec in mine:
@@ -190,8 +234,11 @@ def compare(case: str, conf: Path, work: Path, show: int, since_ms: float) -> di
         if not writes and not rec.writes:
             continue
         planned += 1
+        alike = _queues_alike(rec.queued, queued)
+        planned_alike += alike
         if _same(writes, rec.writes):
             same += 1
+            same_alike += alike
             cpu_diff.append(rec.cpu - cpu)
             prev_m: Write | None = None
             prev_r: Write | None = None
@@ -202,11 +249,19 @@ def compare(case: str, conf: Path, work: Path, show: int, since_ms: float) -> di
                     diffs[_kind(wr, prev_r)].append((wm[1] - prev_m[1]) - (wr[1] - prev_r[1]))
                 prev_m, prev_r = wm, wr
             continue
+        kind = _differ(rec, writes)
+        if kind == "other" and any(_same(theirs[j][2], rec.writes) for j in (i - 1, i + 1)
+                                   if 0 <= j < len(theirs)):
+            kind = "the replica's a task apart"
+        kinds[kind] += 1
+        if alike:
+            kinds_alike[kind] += 1
         if first_bad is None:
             first_bad = rec.t / 16000
-        if rec.t / 16000 >= since_ms and shown < show:
+        if rec.t / 16000 >= since_ms and shown < show and (not only or kind.startswith(only)
+                                                                or only == "alike" and alike):
             shown += 1
-            print(f"  {case} task at {rec.t / 16000:9.3f} ms (replica +{t - rec.t}): "
+            print(f"  {case} task at {rec.t / 16000:9.3f} ms (replica +{t - rec.t}, {kind}): "
                   f"CPU model {rec.cpu} / replica {cpu} (nested {nested})")
             print(f"      queued model   {rec.queued}")
             print(f"      queued replica {queued}")
@@ -218,6 +273,8 @@ def compare(case: str, conf: Path, work: Path, show: int, since_ms: float) -> di
           f" ({planned - same} differ, first at {first_bad} ms); replica's entry "
           f"{med(entry_diff):+d} ticks after the model's; own CPU model - replica "
           f"(tasks with the same commands) median {med(cpu_diff):+d}")
+    if kinds:
+        print("    differing tasks: " + ", ".join(f"{k} {n}" for k, n in kinds.most_common()))
     if start_diff:
         print("    queue starts, model - replica: (CPU after the task's entry, first compare) "
               f"{start_diff}")
@@ -225,7 +282,12 @@ def compare(case: str, conf: Path, work: Path, show: int, since_ms: float) -> di
         what = "CPU after the task's entry" if k.startswith("first") else \
             "CPU since the write before"
         print(f"    {k:18s} write: model - replica {what} {med(v):+5d} (median of {len(v)})")
-    return {"paired": paired, "planned": planned, "same": same}
+    print(f"    tasks finding the replica's queues (the entries after the running one):"
+          f" {planned_alike} plan commands, {same_alike} the same commands"
+          + "".join(f", {k} {n}" for k, n in kinds_alike.most_common()))
+    return {"paired": paired, "planned": planned, "same": same,
+            "planned_alike": planned_alike, "same_alike": same_alike, **kinds,
+            **{f"alike: {k}": n for k, n in kinds_alike.items()}}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -236,14 +298,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--conformance", type=Path, default=e_fidelity.DEFAULT_CONF)
     ap.add_argument("--show", type=int, default=3, help="differing tasks to print per case")
     ap.add_argument("--since", type=float, default=0.0, help="print differing tasks from (ms)")
+    ap.add_argument("--kind", default="", help="print only differing tasks of this kind "
+                    "(the start of its name: 'model writes more', 'replica writes more', "
+                    "'the replica's a task apart', 'other'; 'alike': those that found "
+                    "the replica's queues)")
     args = ap.parse_args(argv)
     total = collections.Counter()
     for case in args.cases:
         if not (args.work / f"{case}.ev").exists():
             print(f"{case}: no replica run in {args.work} (replica.py ... tasks {case})")
             continue
-        total.update(compare(case, args.conformance, args.work, args.show, args.since))
+        total.update(compare(case, args.conformance, args.work, args.show, args.since,
+                             args.kind))
     print(f"all: {total['planned']} tasks plan commands, {total['same']} the same commands")
+    print(f"all, tasks finding the replica's queues: {total['planned_alike']} plan commands, "
+          f"{total['same_alike']} the same commands"
+          + "".join(f", {k[7:]} {n}" for k, n in sorted(total.items(), key=lambda x: -x[1])
+                    if k.startswith("alike: ")))
+    rest = {k: n for k, n in total.items()
+            if k not in ("paired", "planned", "same", "planned_alike", "same_alike")
+            and not k.startswith("alike: ")}
+    print("all differing: " + ", ".join(f"{k} {n}" for k, n in
+                                      sorted(rest.items(), key=lambda x: -x[1])))
     return 0
 
 
