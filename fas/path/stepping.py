@@ -305,7 +305,46 @@ class AxisWriter:
             if back <= j0 and self.last_start > self._deep:
                 return Wrote.WAIT  # (cut at j0 + 1 below: the queue is deep)
         t0 = self.w_end
-        t_lim, slowing = self._span_limit(seg, pitch, t0)
+        # The tick ``t_lim`` up to which a group from ``t0`` may go, ``slowing``:
+        # whether the path slows down there.  Grouped steps stay within ``tol`` steps
+        # of the exact positions: where the path speeds up, their chord is off by
+        # ``a_axis tau^2 / 8`` at most; where it slows down, steps at the first
+        # interval's period by ``a_axis tau^2 / 2``; over a cruise they are exact, and
+        # the group may go on into a change of speed after it as far as
+        # ``a_axis tau^2 / 2`` allows.  A group does not reach from a part that slows
+        # down into one that does not, nor back: its steps are placed early on one
+        # side and that side differs (:meth:`_group`).
+        a = seg.accel / pitch  # steps/tick^2
+        pieces = seg.pieces
+        count = len(pieces)
+        k = 0
+        while k < count and pieces[k].t1 <= t0:
+            k += 1
+        if k == count:
+            t_lim = t0 + math.sqrt(2.0 * self.tol / a)
+            slowing = False
+        else:
+            first = pieces[k]
+            slowing = first.a < 0.0
+            cruise_end = None
+            boundary = math.inf
+            while k < count:
+                p = pieces[k]
+                k += 1
+                pa = p.a
+                if (pa < 0.0) != slowing:
+                    boundary = p.t0
+                    break
+                if pa == 0.0 and (cruise_end is not None or p is first):
+                    cruise_end = p.t1
+                elif pa != 0.0 and cruise_end is not None:
+                    break
+            if cruise_end is not None:
+                t_lim = cruise_end + math.sqrt(2.0 * self.tol / a)
+            else:
+                t_lim = t0 + math.sqrt((2.0 if slowing else 8.0) * self.tol / a)
+            if t_lim >= boundary:
+                t_lim = boundary
         jmax = j0 + MAX_STEPS
         if known < jmax:
             jmax = known
@@ -570,45 +609,6 @@ class AxisWriter:
                 prev = e
             return [(first, m - 1), (rest, 1)], [t0 + k * first for k in range(1, m)]
         return None, []
-
-    def _span_limit(self, seg: Segment, pitch: float, t0: float) -> tuple[float, bool]:
-        """(the tick up to which a group from ``t0`` may go, whether the path slows
-        down there).  Grouped steps stay within ``tol`` steps of the exact positions:
-        where the path speeds up, their chord is off by ``a_axis tau^2 / 8`` at most;
-        where it slows down, steps at the first interval's period by
-        ``a_axis tau^2 / 2``; over a cruise they are exact, and the group may go on
-        into a change of speed after it as far as ``a_axis tau^2 / 2`` allows.  A
-        group does not reach from a part that slows down into one that does not, nor
-        back: its steps are placed early on one side and that side differs
-        (:meth:`_group`)."""
-        a = seg.accel / pitch  # steps/tick^2
-        pieces = seg.pieces
-        count = len(pieces)
-        k = 0
-        while k < count and pieces[k].t1 <= t0:
-            k += 1
-        if k == count:
-            return t0 + math.sqrt(2.0 * self.tol / a), False
-        first = pieces[k]
-        slowing = first.a < 0.0
-        cruise_end = None
-        boundary = math.inf
-        while k < count:
-            p = pieces[k]
-            k += 1
-            pa = p.a
-            if (pa < 0.0) != slowing:
-                boundary = p.t0
-                break
-            if pa == 0.0 and (cruise_end is not None or p is first):
-                cruise_end = p.t1
-            elif pa != 0.0 and cruise_end is not None:
-                break
-        if cruise_end is not None:
-            limit = cruise_end + math.sqrt(2.0 * self.tol / a)
-        else:
-            limit = t0 + math.sqrt((2.0 if slowing else 8.0) * self.tol / a)
-        return (limit if limit < boundary else boundary), slowing
 
     def _group(self, seg: Segment, m: int, span: int, jh: int, th: int,
                slowing: bool) -> Wrote:

@@ -424,8 +424,8 @@ class ExactStopExecutor(MotionExecutor):
                     self._tell_speed(run, a, start)
         return None
 
-    def set_speed_listener(self, fn: SpeedListener | None) -> bool:
-        self.speed_listener = fn
+    def set_speed_listener(self, fn: SpeedListener | None, lasers_only: bool = False) -> bool:
+        self.speed_listener = fn  # (told of every block)
         return True
 
     def _tell_speed(self, run: Run, a: AxisFeed, start: int) -> None:

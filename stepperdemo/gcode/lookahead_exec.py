@@ -89,6 +89,7 @@ class LookaheadExecutor(MotionExecutor):
         self._last: Move | None = None  # the block handed last
         self._errors = 0
         self._listener: SpeedListener | None = None
+        self._lasers_only = False  # (set_speed_listener)
         #: (tick the run was asked for, ticks until its common start) of every run
         self.runs: list[tuple[int, int]] = []
         self._asked: int | None = None
@@ -127,9 +128,12 @@ class LookaheadExecutor(MotionExecutor):
     def path_rate(self) -> float:
         return self.group.current_speed()
 
-    def set_speed_listener(self, fn: SpeedListener | None) -> bool:
+    def set_speed_listener(self, fn: SpeedListener | None, lasers_only: bool = False) -> bool:
         self._listener = fn
-        self.group.speed_listener = None if fn is None else self._speed
+        self._lasers_only = lasers_only
+        # (lasers only: the group tells it from the first block handed with a laser
+        # on - :meth:`_hand` - and not before: no path speed computed for the rest)
+        self.group.speed_listener = None if fn is None or lasers_only else self._speed
         return True
 
     def _speed(self, tick: int, speed: float, tag: object) -> None:
@@ -233,6 +237,8 @@ class LookaheadExecutor(MotionExecutor):
         la = g.lookahead
         if not (g.run_active or la.blocks):  # (not g.busy())
             self._asked = self.host.backend.now()
+            if self._lasers_only:
+                g.speed_listener = None  # (until a block with a laser on comes)
             if not g.attached:
                 self.host.enable_drivers()  # (auto enable off: the group needs that)
             g.configure(path_settings(self.host.settings, len(self.host.steppers),
@@ -250,6 +256,9 @@ class LookaheadExecutor(MotionExecutor):
         for move in islice(self._queued, self.handed, None):
             if la.size - len(la.blocks) <= 0:  # (the group's room)
                 break
+            if (move.laser is not None and g.speed_listener is None
+                    and self._listener is not None):
+                g.speed_listener = self._speed  # (lasers only: from this block on)
             res = g.line(move.target if move.exact is None else move.exact,
                          None if move.rapid else move.feed, tag=move,
                          through=move.exact is not None,

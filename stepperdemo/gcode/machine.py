@@ -123,7 +123,7 @@ class GcodeMachine:
         self.executor: MotionExecutor = make_executor(self, self.blocks)
         self.interp = Interpreter(self.axes, self.settings, check=self._check)
         self.tooling = Tooling(self)  # spindle/laser and coolant outputs (issue 25)
-        self.executor.set_speed_listener(self.tooling.on_speed)  # laser mode
+        self.executor.set_speed_listener(self.tooling.on_speed, lasers_only=True)  # laser mode
         self.probe = ProbeCycle(self, self.tooling.map.probe)  # G38.x (issue 25)
         self.schedule = reports.ReportSchedule()
         self.alarm: int | None = None
@@ -394,7 +394,7 @@ class GcodeMachine:
             return
         self.executor = make_executor(self, self.blocks)
         self.executor.set_overrides(self.feed_override, self.rapid_override)
-        self.executor.set_speed_listener(self.tooling.on_speed)  # laser mode
+        self.executor.set_speed_listener(self.tooling.on_speed, lasers_only=True)  # laser mode
 
     def line(self, text: str) -> None:
         """A whole line as if received (tests, ``--set``): fed through the receive path."""

@@ -176,12 +176,14 @@ class MotionExecutor(ABC):
     def path_rate(self) -> float:
         """The speed along the path now, units/min (``FS:``)."""
 
-    def set_speed_listener(self, fn: SpeedListener | None) -> bool:
+    def set_speed_listener(self, fn: SpeedListener | None, lasers_only: bool = False) -> bool:
         """The laser hook (issue 25): ``fn(tick, speed, move)`` for every queue command
         of the dominant axis (the one with the most steps) of each block, as the
         command is written - ahead of time, with the tick at which it begins on the
         pins - with the path speed from there in units/min (0 where the path stops)
         and the block (the :class:`~.interp.Move`).  Grbl's M4 laser power follows it.
+        ``lasers_only``: ``fn`` does nothing for a block without a laser
+        (``Move.laser`` None, or no Move): the executor may leave it untold of them.
         False: this executor has none."""
         return False
 
