@@ -189,11 +189,14 @@ AVR_USB_TIMING = replace(AVR_TIMING, char_ticks=40, uart_byte_ticks=0,
 # In the build of the runs e15/e16 the core's main() attaches the USB device between
 # init() and setup() for 10 880 ticks: their first steps and e15's ramp task (the
 # pitches across it, mod 65536) come that much after the model's without it, while
-# e15's `e` windows (millis()) start where the model's do
+# e15's `e` windows (millis()) start where the model's do.  The ramp task's entry: e15's
+# pitch between two blocks across a task that plans no command is 2103 ticks wherever
+# no timer-0 overflow (at its measured phase) falls in it and 2199 wherever one does
+# (every such pitch, bench/e_blocks.py): 2103 = the pass's 298 + 479 + 226 + 11 * 100
 AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
                            boot_ticks=AVR_USB_TIMING.boot_ticks,
                            console_call_ticks=AVR_USB_TIMING.console_call_ticks,
-                           fill_entry_ticks=575, core_main_ticks=10880)
+                           fill_entry_ticks=479, core_main_ticks=10880)
 
 # ATmega2560: a 3-byte program counter makes calls, interrupt entries and returns
 # longer.  Its step interrupts take 127 ticks (channel A) and 142 (B, C), timer 0's 97
