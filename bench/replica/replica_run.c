@@ -5,7 +5,10 @@
  *                (for vector TASK_VECTOR the queued entries' step counts follow),
  *                "cycle R"                                   a reti executed,
  *                "cycle M k this ticks steps"               function k of MARKS entered
- *                (this = r25:r24; ticks/steps read from the struct r23:r22 points to).
+ *                (this = r25:r24; ticks/steps read from the struct r23:r22 points to),
+ *                "cycle C pc" / "cycle S pc"    the main program (no interrupt running)
+ *                turned interrupts off / on again at byte address pc (its critical
+ *                sections: cli ... sei, or SREG saved and restored).
  *
  *   replica_run ELF MCU MILLISECONDS PREFIX PIN...      (PIN: port letter + bit, "B1")
  *
@@ -37,16 +40,22 @@ static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
     fprintf(pins, "%" PRIu64 " %s %u\n", avr->cycle, (const char *)param, value & 1);
 }
 
+static int depth, loop_i = 1; /* interrupts running; the main program's I flag */
+static uint32_t last_pc;
+
 static void record(void)
 {
     uint32_t pc = avr->pc;
     uint16_t op = avr->flash[pc] | (avr->flash[pc + 1] << 8);
     if (op == 0x9518) { /* reti */
         fprintf(ev, "%" PRIu64 " R\n", avr->cycle);
+        if (depth > 0)
+            depth--;
         return;
     }
     if (pc && pc < 0x100 && !(pc & 3)) { /* a jmp of the vector table: entered */
         int vector = (int)(pc >> 2);
+        depth++;
         fprintf(ev, "%" PRIu64 " V %d", avr->cycle, vector);
         if (vector == task_vector) {
             for (int q = 0; q < n_queues; q++) {
@@ -60,6 +69,11 @@ static void record(void)
         fputc('\n', ev);
         return;
     }
+    if (depth == 0 && avr->sreg[S_I] != loop_i) { /* by the instruction before this one */
+        loop_i = avr->sreg[S_I];
+        fprintf(ev, "%" PRIu64 " %c %x\n", avr->cycle, loop_i ? 'S' : 'C', last_pc);
+    }
+    last_pc = pc;
     for (int k = 0; k < n_marks; k++) {
         if (pc != marks[k])
             continue;
