@@ -2,6 +2,8 @@
 
     python3 bench/e_blocks.py --conformance DIR pitches CASE [WINDOW ...]
     python3 bench/e_blocks.py --conformance DIR threshold CASE [CASE ...]
+    python3 bench/e_blocks.py --conformance DIR ramp CASE
+    python3 bench/e_blocks.py --conformance DIR rises CASE FROM_MS TO_MS
 
 ``pitches`` prints, for each `e` window (the 256 ms period k of ``millis()``), the
 firmware's and the model's blocks: how many, the first one's tick after the period's
@@ -17,6 +19,16 @@ the step interrupt entered at the block's end, 1 + 61 + 29 ticks after it).  Per
 and count of higher-priority channels whose compares fall in the same block, it prints
 the largest margin that gave a gap and the smallest that gave none, firmware and model:
 whether the miss rule or the placement of the blocks differs.
+
+``ramp`` sets each stepper's steps beside each other by the steps still to come (its
+ramp is the library's on both sides, so a step with as many steps left has the same
+period): when each side reaches 8 000 ... 10 steps before its end, and the model's
+lead or lag in ms.  A constant lag is a command planned a task apart (the stop found
+the queue a command shorter or longer); a jump of ~4.1 ms is a window with one gap more.
+
+``rises`` prints the blocks and every step rise between two times (ms), firmware and
+model one after the other, each rise with its distance to the same stepper's rise
+before (a wrap shows as ~65 536 + the period), each block with its length.
 """
 
 from __future__ import annotations
@@ -120,12 +132,59 @@ def threshold(conf: Path, cases: list[str]) -> None:
                   f"{sum(m > 0 for m in g)} | {sum(m <= 0 for m in n)} |")
 
 
+def _tracks(folder: Path, backend) -> dict[str, dict[str, list[int]]]:
+    """Step rises (ticks) per stepper letter, firmware and model."""
+    out = {}
+    for sp in ef.stepper_pins(backend.profile):
+        path = folder / f"steps_{sp.letter}.tsv.gz"
+        if path.exists():
+            ref, _ = ef.read_reference_track(path)
+            out[sp.letter] = {
+                "firmware": [round(t * TICKS_PER_US) for t in ref],
+                "model": [round(t * TICKS_PER_US) for t in ef.step_times_us(backend, sp.step)]}
+    return out
+
+
+REMAINING = (8000, 7000, 6000, 5000, 4000, 3000, 2000, 1000, 500, 100, 10)
+
+
+def ramp(conf: Path, case: str) -> None:
+    folder, backend, _, _ = _run(conf, case)
+    for letter, tr in _tracks(folder, backend).items():
+        fw, md = tr["firmware"], tr["model"]
+        print(f"{case} {letter}: {len(fw)} steps firmware, {len(md)} model")
+        print("| steps left | firmware (ms) | model (ms) | model - firmware (ms) | period |")
+        print("| --- | --- | --- | --- | --- |")
+        for left in REMAINING:
+            if left >= min(len(fw), len(md)) - 1:
+                continue
+            i, j = len(fw) - 1 - left, len(md) - 1 - left
+            print(f"| {left} | {fw[i] / 16_000:.3f} | {md[j] / 16_000:.3f} | "
+                  f"{(md[j] - fw[i]) / 16_000:+.3f} | {fw[i + 1] - fw[i]} / {md[j + 1] - md[j]} |")
+
+
+def rises(conf: Path, case: str, lo_ms: float, hi_ms: float) -> None:
+    folder, backend, fw_blocks, md_blocks = _run(conf, case)
+    tracks = _tracks(folder, backend)
+    lo, hi = round(lo_ms * 16_000), round(hi_ms * 16_000)
+    for side, blocks in (("firmware", fw_blocks), ("model", md_blocks)):
+        ev = [(a, f"block [{b - a}") for a, b in blocks] + [(b, "block ]") for _, b in blocks]
+        for letter, tr in tracks.items():
+            r = tr[side]
+            ev += [(t, f"{letter} {t - r[i - 1] if i else ''}") for i, t in enumerate(r)]
+        print(f"== {side}")
+        for t, what in sorted(ev):
+            if lo <= t < hi:
+                print(f"{t:>11} {t / 16_000:10.4f}  {what}")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--conformance", default=str(ef.DEFAULT_CONF))
-    ap.add_argument("what", choices=("pitches", "threshold"))
+    ap.add_argument("what", choices=("pitches", "threshold", "ramp", "rises"))
     ap.add_argument("case")
-    ap.add_argument("more", nargs="*", help="pitches: window numbers; threshold: more cases")
+    ap.add_argument("more", nargs="*", help="pitches: window numbers; threshold: more cases; "
+                    "rises: from and to (ms)")
     args = ap.parse_args(argv)
     conf = Path(args.conformance)
     for case in [args.case] + (args.more if args.what == "threshold" else []):
@@ -133,8 +192,15 @@ def main(argv: list[str] | None = None) -> int:
             print(f"e_blocks: no firmware run {case} in {conf} "
                   "(give the conformance folder with --conformance DIR)", file=sys.stderr)
             return 2
+    if args.what == "rises" and len(args.more) != 2:
+        print("e_blocks: rises CASE FROM_MS TO_MS", file=sys.stderr)
+        return 2
     if args.what == "pitches":
         pitches(conf, args.case, [int(w) for w in args.more])
+    elif args.what == "ramp":
+        ramp(conf, args.case)
+    elif args.what == "rises":
+        rises(conf, args.case, float(args.more[0]), float(args.more[1]))
     else:
         threshold(conf, [args.case, *args.more])
     return 0
