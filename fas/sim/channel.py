@@ -73,6 +73,12 @@ class SimChannel(QueueChannel):
         self.no_more = False
         self.mode_one = False
         self.event: Event | None = None
+        # the event of the interrupt running now, free to carry the next one (_single_isr,
+        # _batch_end: popped and run, no longer in the heap); taken by the next schedule
+        self._spare: Event | None = None
+        # the interrupt routines as bound methods, made once (an event's function)
+        self._single_isr_fn = self._single_isr
+        self._batch_end_fn = self._batch_end
         self.pending_compare = 0  # compare tick of the pending single ISR event
         self.pending_pulse = False
         # block of pulses of one entry: pulses at b_c0 + j*b_t, j < b_n (while batch;
@@ -354,7 +360,16 @@ class SimChannel(QueueChannel):
                 # (Machine.schedule written out: this runs for every block of pulses)
                 if last < m.now:
                     last = m.now
-                ev = Event(last, self.prio, self._batch_end, cost > 0, cost, self)
+                ev = self._spare
+                if ev is None:
+                    ev = Event(last, self.prio, self._batch_end_fn, cost > 0, cost, self)
+                else:  # (the running interrupt's event, reused: no new object)
+                    self._spare = None
+                    ev.time = last
+                    ev.fn = self._batch_end_fn
+                    ev.isr = cost > 0
+                    ev.enter = cost
+                    ev.owner = self
                 self.event = ev
                 m.seq += 1
                 heappush(m.events, (last, self.prio, m.seq, ev))
@@ -374,12 +389,21 @@ class SimChannel(QueueChannel):
         if self.contention:
             if compare < m.now:
                 compare = m.now
-            ev = Event(compare, self.prio, self._single_isr, cost > 0, cost, self)
+            ev = self._spare
+            if ev is None:
+                ev = Event(compare, self.prio, self._single_isr_fn, cost > 0, cost, self)
+            else:  # (the running interrupt's event, reused)
+                self._spare = None
+                ev.time = compare
+                ev.fn = self._single_isr_fn
+                ev.isr = cost > 0
+                ev.enter = cost
+                ev.owner = self
         else:
             compare += self.lat
             if compare < m.now:
                 compare = m.now
-            ev = Event(compare, self.prio, self._single_isr, True, 0, None)
+            ev = Event(compare, self.prio, self._single_isr_fn, True, 0, None)
         self.event = ev
         m.seq += 1
         heappush(m.events, (compare, self.prio, m.seq, ev))
@@ -480,6 +504,7 @@ class SimChannel(QueueChannel):
 
     def _batch_end(self) -> None:
         """The interrupt after the block's last pulse: switch to the next entry."""
+        ev = self.event  # (the event running now: free for the next interrupt's)
         self.event = None
         self.m.stolen_ticks += self.cost
         e = self.b_entry
@@ -513,6 +538,8 @@ class SimChannel(QueueChannel):
         self.block_isrs_done += n - 1
         self._leave_batch()
         e.steps = 1
+        if ev is not None:
+            self._spare = ev
         self._isr(last_c, fall)
 
     def _block_isrs_by(self, t: int) -> int:
@@ -608,6 +635,8 @@ class SimChannel(QueueChannel):
                         m.seq = seq
                         heappush(m.events, (compare, self.prio, seq, ev))
                         return
+        if ev is not None:
+            self._spare = ev  # (run: free for the next interrupt's event)
         self._isr(c, now)
 
     def _isr(self, c: int, now: int) -> None:
@@ -656,12 +685,21 @@ class SimChannel(QueueChannel):
             if contention:
                 if compare < m.now:
                     compare = m.now
-                ev = Event(compare, self.prio, self._single_isr, cost > 0, cost, self)
+                ev = self._spare
+                if ev is None:
+                    ev = Event(compare, self.prio, self._single_isr_fn, cost > 0, cost, self)
+                else:  # (the running interrupt's event, reused)
+                    self._spare = None
+                    ev.time = compare
+                    ev.fn = self._single_isr_fn
+                    ev.isr = cost > 0
+                    ev.enter = cost
+                    ev.owner = self
             else:
                 compare += self.lat
                 if compare < m.now:
                     compare = m.now
-                ev = Event(compare, self.prio, self._single_isr, True, 0, None)
+                ev = Event(compare, self.prio, self._single_isr_fn, True, 0, None)
             self.event = ev
             m.seq += 1
             heappush(m.events, (compare, self.prio, m.seq, ev))
