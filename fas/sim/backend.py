@@ -123,7 +123,9 @@ class SimBackend(Backend):
         p = m.timing
         engine = self._engine
         assert engine is not None  # the task is scheduled from attach_engine on
-        engine.credit_skipped_tasks(self.tasks.begin(index))
+        skipped = self.tasks.begin(index)
+        if skipped > 0:
+            engine.credit_skipped_tasks(skipped)
         may_stop = engine.may_stop_without_channel()
         m.in_task = True
         m.task_offset = p.fill_entry_ticks

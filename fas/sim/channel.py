@@ -522,7 +522,10 @@ class SimChannel(QueueChannel):
             waits = self._block_delays(0, n - 1) if self.pins.sinks else []
             if fall - last_c > lat:  # the last one stays high until its interrupt clears it
                 waits.append((n - 1, fall - last_c - lat))
-            self._made(n)
+            if self._made_plain:
+                self.pulses += n
+            else:
+                self._made(n)
             if self.detached:
                 pass
             elif waits:
@@ -536,7 +539,11 @@ class SimChannel(QueueChannel):
         if self.pulse_counter is not None:
             self._count(n - self.b_counted, e.dir_level)
         self.block_isrs_done += n - 1
-        self._leave_batch()
+        self.batch = False  # (_leave_batch, written out: this runs for every block)
+        self.entry_req = -1
+        m = self.m
+        if m.batch_channel is self:
+            m.batch_channel = None
         e.steps = 1
         if ev is not None:
             self._spare = ev
@@ -730,7 +737,43 @@ class SimChannel(QueueChannel):
         compare = c + ticks  # (_arm, written out: this runs once per queue entry)
         if compare <= now + self.ocr:
             compare = self._next_compare(compare, now)
-        self._program(compare, e)
+        steps = e.steps
+        if steps < 2 or not self.contention:
+            self._program(compare, e)
+            return
+        m = self.m
+        bc = m.batch_channel
+        if bc is not None and bc is not self:
+            self.pending_compare = compare  # (_program's single pulse, written out)
+            self.pending_pulse = True
+            self._schedule_single(compare)
+            return
+        # (_program's block of pulses where interrupts contend, written out: this runs
+        # for every block)
+        self.batch = True
+        self.b_entry = e
+        self.b_c0 = compare
+        self.b_t = ticks = e.ticks
+        self.b_n = steps
+        self.b_counted = 0
+        last = compare + (steps - 1) * ticks
+        m.batch_channel = self
+        cost = self.cost = self.isr_next_ticks  # the last pulse's: the next entry
+        if last < m.now:
+            last = m.now
+        ev = self._spare
+        if ev is None:
+            ev = Event(last, self.prio, self._batch_end_fn, cost > 0, cost, self)
+        else:  # (the running interrupt's event, reused)
+            self._spare = None
+            ev.time = last
+            ev.fn = self._batch_end_fn
+            ev.isr = cost > 0
+            ev.enter = cost
+            ev.owner = self
+        self.event = ev
+        m.seq += 1
+        heappush(m.events, (last, self.prio, m.seq, ev))
 
     def _note_entry(self, kind: int, e: QueueEntry) -> None:
         self._noted = e
