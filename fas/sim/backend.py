@@ -378,7 +378,10 @@ class SimBackend(Backend):
             else:
                 stopped = m.run_until_changed(tick, until)
         # the loop polled while interrupts ran; it goes on once the CPU is free
-        m.resume()
+        # (Machine.resume, written out: this runs after every wait)
+        wait = m.resume_wait()
+        if wait > 0:
+            m.consume(wait)
         return stopped
 
     def next_event_time(self) -> int | None:
