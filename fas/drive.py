@@ -272,7 +272,7 @@ class Drive:
         res = q.add_queue_entry(ticks, steps, count_up, start)
         if res == AQE_OK and self.auto_enable:
             self.auto_disable_delay_counter = self.off_delay_count
-        self._engine.kick()
+        self._engine.backend.wake_task()  # (Engine.kick, written out: every command)
         return res
 
     def _set_external_direction(self, count_up: bool) -> bool:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import heapq
 from typing import TYPE_CHECKING, Callable, Sequence
 
 from ..arch import Profile, get_profile
@@ -37,6 +38,11 @@ class SimBackend(Backend):
             self.machine.pins.sinks.append(self.recorder)
         self._engine: TaskEngine | None = None
         self._task_event: Event | None = None
+        # the event of the planned run that calls _run_task (at most one is pending),
+        # its run's index, and the event of the run that ran last (free to reuse)
+        self._task_run_ev: Event | None = None
+        self._task_index = 0
+        self._task_spare: Event | None = None
         self.tasks = TaskSchedule()  # the periodic task's runs
         self.task_runs = 0
         self.stray_reads = 0
@@ -82,16 +88,44 @@ class SimBackend(Backend):
         # the CPU is free and holds it until its sei
         m = self.machine
         enter = m.timing.fill_mask_entry_ticks if m.profile.irq_block_delays_steps else 0
-        self._task_event = m.schedule(self.tasks.time(index), lambda: self._task(index),
-                                      PRIO_TASK, isr=True, enter=enter)
+        time = self.tasks.time(index)
+        live = self._task_run_ev
+        if live is not None and not live.cancelled:
+            # a run planned before is still pending (never while things go as planned):
+            # this one carries its own index
+            self._task_event = m.schedule(time, lambda: self._task(index), PRIO_TASK,
+                                          isr=True, enter=enter)
+        else:
+            ev = self._task_spare
+            if ev is None:
+                ev = m.schedule(time, self._run_task, PRIO_TASK, isr=True, enter=enter)
+            else:  # the event of the run that has just ended, reused (Machine.schedule)
+                self._task_spare = None
+                if time < m.now:
+                    time = m.now
+                ev.time = time
+                ev.enter = enter
+                ev.cancelled = False
+                m.seq += 1
+                heapq.heappush(m.events, (time, PRIO_TASK, m.seq, ev))
+            self._task_index = index
+            self._task_run_ev = self._task_event = ev
         self.tasks.next = index
+
+    def _run_task(self) -> None:
+        """The planned run's event: run ``_task_index``; the event is free afterwards."""
+        self._task_spare = self._task_run_ev
+        self._task_run_ev = None
+        self._task(self._task_index)
 
     def _task(self, index: int) -> None:
         m = self.machine
         p = m.timing
         engine = self._engine
         assert engine is not None  # the task is scheduled from attach_engine on
-        engine.credit_skipped_tasks(self.tasks.begin(index))
+        skipped = self.tasks.begin(index)
+        if skipped > 0:
+            engine.credit_skipped_tasks(skipped)
         may_stop = engine.may_stop_without_channel()
         m.in_task = True
         m.task_offset = p.fill_entry_ticks
@@ -120,7 +154,14 @@ class SimBackend(Backend):
         m.stolen_ticks += cost
         exit_ticks = p.fill_mask_exit_ticks
         if exit_ticks and m.profile.irq_block_delays_steps:  # its exit: from cli to reti
-            m.mask(m.now + cost - exit_ticks, m.now + cost)
+            # (Machine.mask, written out: this runs for every run of the task)
+            end = m.now + cost
+            if len(m.exit_starts) > 1024:
+                m._forget_isrs()  # noqa: SLF001
+            m.exit_starts.append(end - exit_ticks)
+            m.exit_ends.append(end)
+            if end > m._quiet_from:  # noqa: SLF001
+                m._quiet_from = end  # noqa: SLF001
         self.task_runs += 1
         if may_stop or engine.may_stop_without_channel():
             m.activity += 1  # a stepper whose channel stands may have started or stopped
@@ -337,7 +378,10 @@ class SimBackend(Backend):
             else:
                 stopped = m.run_until_changed(tick, until)
         # the loop polled while interrupts ran; it goes on once the CPU is free
-        m.resume()
+        # (Machine.resume, written out: this runs after every wait)
+        wait = m.resume_wait()
+        if wait > 0:
+            m.consume(wait)
         return stopped
 
     def next_event_time(self) -> int | None:

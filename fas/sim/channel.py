@@ -73,6 +73,12 @@ class SimChannel(QueueChannel):
         self.no_more = False
         self.mode_one = False
         self.event: Event | None = None
+        # the event of the interrupt running now, free to carry the next one (_single_isr,
+        # _batch_end: popped and run, no longer in the heap); taken by the next schedule
+        self._spare: Event | None = None
+        # the interrupt routines as bound methods, made once (an event's function)
+        self._single_isr_fn = self._single_isr
+        self._batch_end_fn = self._batch_end
         self.pending_compare = 0  # compare tick of the pending single ISR event
         self.pending_pulse = False
         # block of pulses of one entry: pulses at b_c0 + j*b_t, j < b_n (while batch;
@@ -354,7 +360,16 @@ class SimChannel(QueueChannel):
                 # (Machine.schedule written out: this runs for every block of pulses)
                 if last < m.now:
                     last = m.now
-                ev = Event(last, self.prio, self._batch_end, cost > 0, cost, self)
+                ev = self._spare
+                if ev is None:
+                    ev = Event(last, self.prio, self._batch_end_fn, cost > 0, cost, self)
+                else:  # (the running interrupt's event, reused: no new object)
+                    self._spare = None
+                    ev.time = last
+                    ev.fn = self._batch_end_fn
+                    ev.isr = cost > 0
+                    ev.enter = cost
+                    ev.owner = self
                 self.event = ev
                 m.seq += 1
                 heappush(m.events, (last, self.prio, m.seq, ev))
@@ -374,12 +389,21 @@ class SimChannel(QueueChannel):
         if self.contention:
             if compare < m.now:
                 compare = m.now
-            ev = Event(compare, self.prio, self._single_isr, cost > 0, cost, self)
+            ev = self._spare
+            if ev is None:
+                ev = Event(compare, self.prio, self._single_isr_fn, cost > 0, cost, self)
+            else:  # (the running interrupt's event, reused)
+                self._spare = None
+                ev.time = compare
+                ev.fn = self._single_isr_fn
+                ev.isr = cost > 0
+                ev.enter = cost
+                ev.owner = self
         else:
             compare += self.lat
             if compare < m.now:
                 compare = m.now
-            ev = Event(compare, self.prio, self._single_isr, True, 0, None)
+            ev = Event(compare, self.prio, self._single_isr_fn, True, 0, None)
         self.event = ev
         m.seq += 1
         heappush(m.events, (compare, self.prio, m.seq, ev))
@@ -480,6 +504,7 @@ class SimChannel(QueueChannel):
 
     def _batch_end(self) -> None:
         """The interrupt after the block's last pulse: switch to the next entry."""
+        ev = self.event  # (the event running now: free for the next interrupt's)
         self.event = None
         self.m.stolen_ticks += self.cost
         e = self.b_entry
@@ -497,7 +522,10 @@ class SimChannel(QueueChannel):
             waits = self._block_delays(0, n - 1) if self.pins.sinks else []
             if fall - last_c > lat:  # the last one stays high until its interrupt clears it
                 waits.append((n - 1, fall - last_c - lat))
-            self._made(n)
+            if self._made_plain:
+                self.pulses += n
+            else:
+                self._made(n)
             if self.detached:
                 pass
             elif waits:
@@ -511,8 +539,14 @@ class SimChannel(QueueChannel):
         if self.pulse_counter is not None:
             self._count(n - self.b_counted, e.dir_level)
         self.block_isrs_done += n - 1
-        self._leave_batch()
+        self.batch = False  # (_leave_batch, written out: this runs for every block)
+        self.entry_req = -1
+        m = self.m
+        if m.batch_channel is self:
+            m.batch_channel = None
         e.steps = 1
+        if ev is not None:
+            self._spare = ev
         self._isr(last_c, fall)
 
     def _block_isrs_by(self, t: int) -> int:
@@ -608,6 +642,8 @@ class SimChannel(QueueChannel):
                         m.seq = seq
                         heappush(m.events, (compare, self.prio, seq, ev))
                         return
+        if ev is not None:
+            self._spare = ev  # (run: free for the next interrupt's event)
         self._isr(c, now)
 
     def _isr(self, c: int, now: int) -> None:
@@ -656,12 +692,21 @@ class SimChannel(QueueChannel):
             if contention:
                 if compare < m.now:
                     compare = m.now
-                ev = Event(compare, self.prio, self._single_isr, cost > 0, cost, self)
+                ev = self._spare
+                if ev is None:
+                    ev = Event(compare, self.prio, self._single_isr_fn, cost > 0, cost, self)
+                else:  # (the running interrupt's event, reused)
+                    self._spare = None
+                    ev.time = compare
+                    ev.fn = self._single_isr_fn
+                    ev.isr = cost > 0
+                    ev.enter = cost
+                    ev.owner = self
             else:
                 compare += self.lat
                 if compare < m.now:
                     compare = m.now
-                ev = Event(compare, self.prio, self._single_isr, True, 0, None)
+                ev = Event(compare, self.prio, self._single_isr_fn, True, 0, None)
             self.event = ev
             m.seq += 1
             heappush(m.events, (compare, self.prio, m.seq, ev))
@@ -692,7 +737,43 @@ class SimChannel(QueueChannel):
         compare = c + ticks  # (_arm, written out: this runs once per queue entry)
         if compare <= now + self.ocr:
             compare = self._next_compare(compare, now)
-        self._program(compare, e)
+        steps = e.steps
+        if steps < 2 or not self.contention:
+            self._program(compare, e)
+            return
+        m = self.m
+        bc = m.batch_channel
+        if bc is not None and bc is not self:
+            self.pending_compare = compare  # (_program's single pulse, written out)
+            self.pending_pulse = True
+            self._schedule_single(compare)
+            return
+        # (_program's block of pulses where interrupts contend, written out: this runs
+        # for every block)
+        self.batch = True
+        self.b_entry = e
+        self.b_c0 = compare
+        self.b_t = ticks = e.ticks
+        self.b_n = steps
+        self.b_counted = 0
+        last = compare + (steps - 1) * ticks
+        m.batch_channel = self
+        cost = self.cost = self.isr_next_ticks  # the last pulse's: the next entry
+        if last < m.now:
+            last = m.now
+        ev = self._spare
+        if ev is None:
+            ev = Event(last, self.prio, self._batch_end_fn, cost > 0, cost, self)
+        else:  # (the running interrupt's event, reused)
+            self._spare = None
+            ev.time = last
+            ev.fn = self._batch_end_fn
+            ev.isr = cost > 0
+            ev.enter = cost
+            ev.owner = self
+        self.event = ev
+        m.seq += 1
+        heappush(m.events, (last, self.prio, m.seq, ev))
 
     def _note_entry(self, kind: int, e: QueueEntry) -> None:
         self._noted = e

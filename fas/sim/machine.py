@@ -215,7 +215,7 @@ class Machine:
             if ev.isr:
                 if enter:  # requested now: entered once the CPU is free
                     bc = self.batch_channel
-                    if (time >= self._quiet_from
+                    if ((time >= self._quiet_from or self._none_holds(time))
                             and (not loads or time >= loads[-1] + uart_cost)
                             and (time < millis_first
                                  or (time - millis_phase) % ms_ov >= ms_cost)):
