@@ -78,6 +78,14 @@ def circle(n: int, r: float, feed: int) -> tuple[str, list[tuple[int, int]]]:
     return text, [(round(x * SPU), round(y * SPU)) for x, y in pts]
 
 
+def right_angle_corner(deviation: float) -> tuple[float, float]:
+    """A right angle's bisector acceleration (each axis at ACCEL) and its junction
+    speed by Grbl's formula v^2 = a_j d sin(45) / (1 - sin(45)), mm/s^2 and mm/s."""
+    a_j = ACCEL / math.cos(math.pi / 4)
+    s = math.sin(math.pi / 4)
+    return a_j, math.sqrt(a_j * deviation * s / (1 - s))
+
+
 def test_lookahead_is_the_default_and_171_selects_exact_stop():
     g = grbl()
     assert g.machine.executor.kind == "lookahead"
@@ -124,9 +132,7 @@ def test_a_right_angle_corner_is_taken_at_the_junction_deviation_speed():
     corner's tick; from there Y leaves at v and accelerates at 500 mm/s^2, so its step
     k comes where k / 80 = v t + 250 t^2."""
     g = run("G1 X20 F6000\nG1 Y20\n", setup="$11=0.05\n")
-    a_j = ACCEL / math.cos(math.pi / 4)
-    s = math.sin(math.pi / 4)
-    v = math.sqrt(a_j * 0.05 * s / (1 - s))  # 9.24 mm/s
+    a_j, v = right_angle_corner(0.05)  # v 9.24 mm/s
     xs, ys = g.backend.recorder.rising(X_STEP), g.backend.recorder.rising(Y_STEP)
     assert len(g.machine.motion_log) == 1
     corner = xs[-1]
@@ -365,9 +371,7 @@ def test_a_right_angle_corner_blended_with_172():
     blend's end on its last step; Y leaves rest at the blend's start, its first step
     (a command's first: exact) sqrt(2 / (500 * 80)) s later; so T and v = 500 T."""
     g = run("G1 X20 F6000\nG1 Y20\n", setup="$11=0.05\n$172=1\n")
-    a_j = ACCEL / math.cos(math.pi / 4)
-    s = math.sin(math.pi / 4)
-    v = math.sqrt(a_j * 0.05 * s / (1 - s))  # 9.24 mm/s
+    a_j, v = right_angle_corner(0.05)  # v 9.24 mm/s
     xs, ys = g.backend.recorder.rising(X_STEP), g.backend.recorder.rising(Y_STEP)
     assert len(g.machine.motion_log) == 1
     t_end = xs[-1] / TPS
