@@ -106,14 +106,7 @@ def threshold(conf: Path, cases: list[str]) -> None:
     stats: dict[str, dict] = {"firmware": defaultdict(list), "model": defaultdict(list)}
     for case in cases:
         folder, backend, fw, model = _run(conf, case)
-        tracks = {}
-        for sp in ef.stepper_pins(backend.profile):
-            path = folder / f"steps_{sp.letter}.tsv.gz"
-            if path.exists():
-                ref, _ = ef.read_reference_track(path)
-                tracks[sp.letter] = {
-                    "firmware": [round(t * TICKS_PER_US) for t in ref],
-                    "model": [round(t * TICKS_PER_US) for t in ef.step_times_us(backend, sp.step)]}
+        tracks = _tracks(folder, backend)
         board = ef.PROFILE.get(case, "atmega328p")
         for side, bl in (("firmware", fw), ("model", model)):
             for letter, tr in tracks.items():
