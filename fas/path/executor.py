@@ -165,17 +165,8 @@ class Segment:
     def time_at(self, s: float) -> float:
         """The time (ticks) at distance ``s`` (at most ``s_done``)."""
         for p in self.pieces:
-            if s <= p.s1:  # (Piece.time_at written out)
-                d = s - p.s0
-                if d <= 0.0:
-                    return p.t0
-                v0 = p.v0
-                root = v0 * v0 + 2.0 * p.a * d
-                den = v0 + math.sqrt(root if root > 0.0 else 0.0)
-                if den <= 0.0:
-                    return p.t1
-                t = p.t0 + 2.0 * d / den
-                return t if t < p.t1 else p.t1
+            if s <= p.s1:
+                return p.time_at(s)
         return self.t_done
 
     def dist_at(self, t: float) -> float:

@@ -360,16 +360,7 @@ class SimChannel(QueueChannel):
                 # (Machine.schedule written out: this runs for every block of pulses)
                 if last < m.now:
                     last = m.now
-                ev = self._spare
-                if ev is None:
-                    ev = Event(last, self.prio, self._batch_end_fn, cost > 0, cost, self)
-                else:  # (the running interrupt's event, reused: no new object)
-                    self._spare = None
-                    ev.time = last
-                    ev.fn = self._batch_end_fn
-                    ev.isr = cost > 0
-                    ev.enter = cost
-                    ev.owner = self
+                ev = self._event(last, self._batch_end_fn, cost)
                 self.event = ev
                 m.seq += 1
                 heappush(m.events, (last, self.prio, m.seq, ev))
@@ -389,16 +380,7 @@ class SimChannel(QueueChannel):
         if self.contention:
             if compare < m.now:
                 compare = m.now
-            ev = self._spare
-            if ev is None:
-                ev = Event(compare, self.prio, self._single_isr_fn, cost > 0, cost, self)
-            else:  # (the running interrupt's event, reused)
-                self._spare = None
-                ev.time = compare
-                ev.fn = self._single_isr_fn
-                ev.isr = cost > 0
-                ev.enter = cost
-                ev.owner = self
+            ev = self._event(compare, self._single_isr_fn, cost)
         else:
             compare += self.lat
             if compare < m.now:
@@ -692,16 +674,7 @@ class SimChannel(QueueChannel):
             if contention:
                 if compare < m.now:
                     compare = m.now
-                ev = self._spare
-                if ev is None:
-                    ev = Event(compare, self.prio, self._single_isr_fn, cost > 0, cost, self)
-                else:  # (the running interrupt's event, reused)
-                    self._spare = None
-                    ev.time = compare
-                    ev.fn = self._single_isr_fn
-                    ev.isr = cost > 0
-                    ev.enter = cost
-                    ev.owner = self
+                ev = self._event(compare, self._single_isr_fn, cost)
             else:
                 compare += self.lat
                 if compare < m.now:
@@ -761,19 +734,24 @@ class SimChannel(QueueChannel):
         cost = self.cost = self.isr_next_ticks  # the last pulse's: the next entry
         if last < m.now:
             last = m.now
-        ev = self._spare
-        if ev is None:
-            ev = Event(last, self.prio, self._batch_end_fn, cost > 0, cost, self)
-        else:  # (the running interrupt's event, reused)
-            self._spare = None
-            ev.time = last
-            ev.fn = self._batch_end_fn
-            ev.isr = cost > 0
-            ev.enter = cost
-            ev.owner = self
+        ev = self._event(last, self._batch_end_fn, cost)
         self.event = ev
         m.seq += 1
         heappush(m.events, (last, self.prio, m.seq, ev))
+
+    def _event(self, time: int, fn: Callable[[], None], cost: int) -> Event:
+        """This channel's next interrupt event: the running interrupt's, reused when it
+        is spare (no new object on the per-pulse path), else a new one."""
+        ev = self._spare
+        if ev is None:
+            return Event(time, self.prio, fn, cost > 0, cost, self)
+        self._spare = None
+        ev.time = time
+        ev.fn = fn
+        ev.isr = cost > 0
+        ev.enter = cost
+        ev.owner = self
+        return ev
 
     def _note_entry(self, kind: int, e: QueueEntry) -> None:
         self._noted = e
