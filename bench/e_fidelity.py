@@ -48,6 +48,11 @@ those runs: what a first step the model places off the firmware's does to the wi
 
 ``--first-steps`` prints each stepper's first step, firmware beside model (ticks off).
 
+``--set [CHIP:]FIELD=VALUE`` (repeatable) runs every view with another figure of build
+e's timing (a field of ``fas.sim.timing.SimTiming``; CHIP: the profiles whose name
+starts with it), e.g. ``--set atmega2560:fill_start_ticks=2190``: a variant measured
+without a patch (docs/timing-model.md, "fourteenth pass").
+
 ``--tasks`` compares the pitch between two blocks across each ramp task (the task plus
 the rest of the loop's pass) with the model's, task by task (paired where the model's
 task falls between the two blocks of both), beside what the model's task did: the
@@ -66,6 +71,7 @@ from __future__ import annotations
 
 import argparse
 import bisect
+import dataclasses
 import gzip
 import re
 import sys
@@ -77,7 +83,9 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from fas.sim import SimBackend  # noqa: E402
+from fas.sim import timing as sim_timing_module  # noqa: E402
 from fas.sim.channel import SimChannel  # noqa: E402
+from fas.sim.timing import SimTiming  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.scenarios.evaluate import (  # noqa: E402
     gaps_per_window,
@@ -113,6 +121,30 @@ TICKS_PER_US = 16
 TRAIN = [f"e{i:02d}" for i in range(1, 19, 2)]  # the hold-out split: odd numbers
 TEST = [f"e{i:02d}" for i in range(2, 19, 2)]
 PITCH_MAX_TICKS = 200 * TICKS_PER_US  # a pitch between two blocks of one window
+
+
+def set_timing(settings: list[str]) -> None:
+    """Change figures of build e's timing for this process (``--set``): each setting is
+    ``FIELD=VALUE`` (every chip of build e) or ``CHIP:FIELD=VALUE`` (the chips whose
+    profile name starts with CHIP: ``atmega328p``, ``atmega32u4``, ``atmega2560``), a
+    field of :class:`fas.sim.timing.SimTiming` - a figure to try, or one of the
+    mechanisms it holds switched off (``fill_reads_queue_live``, ``task_nested_isrs``,
+    docs/timing-model.md, "fourteenth pass").  Raises ValueError on an unknown field."""
+    fields = {f.name: f for f in dataclasses.fields(SimTiming)}
+    table = sim_timing_module.BY_BUILD["e"]
+    for setting in settings:
+        chip, _, assignment = setting.rpartition(":")
+        name, sep, value = assignment.partition("=")
+        if not sep or name not in fields:
+            raise ValueError(f"--set {setting!r}: not FIELD=VALUE with a SimTiming field")
+        current = getattr(next(iter(table.values())), name)
+        new: object = (value.lower() in ("1", "true", "yes") if isinstance(current, bool)
+                       else int(value))
+        chips = [k for k in table if k.startswith(chip)]
+        if not chips:
+            raise ValueError(f"--set {setting!r}: no chip of build e named {chip!r}...")
+        for k in chips:
+            table[k] = dataclasses.replace(table[k], **{name: new})
 
 
 def run_model(inp: str, profile: str, build: str,
@@ -607,7 +639,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--start-shift", default="",
                     help="with --phase: ticks added to the first step of the 1st, 2nd, "
                     "... queue start of a ramp task, comma-separated")
+    ap.add_argument("--set", action="append", default=[], metavar="[CHIP:]FIELD=VALUE",
+                    help="a figure or mechanism of build e's timing (SimTiming field) "
+                    "for this run, e.g. fill_reads_queue_live=1, "
+                    "atmega2560:fill_start_ticks=2190; repeatable")
     args = ap.parse_args(argv)
+    try:
+        set_timing(args.set)
+    except ValueError as exc:
+        print(f"e_fidelity: {exc}", file=sys.stderr)
+        return 2
     conf = Path(args.conformance)
     missing = [c for c in (args.cases or CASES) if not (conf / c / "input.txt").is_file()]
     if missing:

@@ -24,6 +24,14 @@ gap ahead), not because of how it plans.
 
     python3 bench/replica/compare.py --work /tmp/fas-replica e01 e03 e09 e13 e14
 
+``--at MS`` prints the task at that time whatever it planned, with the model's read of
+each running stepper's queue (docs/timing-model.md, "fourteenth pass"): the task's
+CPU time when its fill reads, the tick it reads at after the task's tick (that CPU
+time stretched by the interrupts the model counts inside the task), and the ticks it
+finds queued after the running entry - beside the replica's writes and the CPU of the
+interrupts nested in its task, by vector.  ``--set [CHIP:]FIELD=VALUE`` runs the
+model with other figures of build e (as ``bench/e_fidelity.py --set``).
+
 The replica's runs (``CASE.ev``) are read from ``--work``: ``replica.py ... tasks CASE``
 writes them there (its ``--fas`` and ``--simavr`` are needed for that only).
 """
@@ -45,6 +53,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 import e_fidelity  # noqa: E402
 import replica  # noqa: E402
 
+from fas.queue import StepperQueue  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
 from fas.sim.channel import SimChannel  # noqa: E402
 
@@ -63,12 +72,22 @@ class ModelTask:
         self.queued: list[list[int]] = []
         # stepper, CPU ticks of its queue start, its first compare after the task's tick
         self.starts: list[tuple[int, int, int]] = []
+        # each fill's read of its queue (a running stepper's): stepper, CPU ticks of the
+        # task by then, the tick it reads at after the task's tick (the interrupts nested
+        # in the task counted where SimTiming.task_nested_isrs says so), the ticks it
+        # finds queued after the running entry
+        self.reads: list[tuple[int, int, int, int]] = []
 
 
 def model_tasks(case: str, conf: Path) -> list[ModelTask]:
     """Run the model on the case; return its ramp tasks with their writes."""
     plain_task, plain_added = SimBackend._task, SimChannel.entry_added  # noqa: SLF001
     plain_start = SimChannel.start
+    # the fill's read of its queue: the planner's call (a model that reads the queue
+    # live has a method of its own for it)
+    read_name = ("fill_ticks_in_queue" if hasattr(StepperQueue, "fill_ticks_in_queue")
+                 else "ticks_in_queue")
+    plain_read = getattr(StepperQueue, read_name)
     log: list[ModelTask] = []
     letters: dict[int, int] = {}
 
@@ -102,7 +121,21 @@ def model_tasks(case: str, conf: Path) -> list[ModelTask]:
             m = ch.m
             log[-1].starts.append((k, m.task_offset, m.cpu_now() + ch.start_ticks - log[-1].t))
 
+    def read(q: StepperQueue) -> int:
+        ch = q.channel
+        if not (isinstance(ch, SimChannel) and ch.m.in_task and ch.running and log):
+            return plain_read(q)
+        m = ch.m
+        found = plain_read(q)  # (a live read charges the fill's checks first)
+        work = m.task_offset
+        nested = getattr(m.timing, "task_nested_isrs", 0)
+        at = m.nested_stretched(work) if nested else m.stretched(work)  # type: ignore[attr-defined]
+        k = letters.setdefault(id(ch), len(letters))
+        log[-1].reads.append((k, work, at, found))
+        return found
+
     SimBackend._task = task  # type: ignore[method-assign]  # noqa: SLF001
+    setattr(StepperQueue, read_name, read)
     SimChannel.entry_added = added  # type: ignore[method-assign]
     SimChannel.start = start  # type: ignore[method-assign]
     try:
@@ -114,6 +147,7 @@ def model_tasks(case: str, conf: Path) -> list[ModelTask]:
         SimBackend._task = plain_task  # type: ignore[method-assign]  # noqa: SLF001
         SimChannel.entry_added = plain_added  # type: ignore[method-assign]
         SimChannel.start = plain_start  # type: ignore[method-assign]
+        setattr(StepperQueue, read_name, plain_read)
     return log
 
 
@@ -205,8 +239,23 @@ def _fmt(w: list[Write]) -> str:
     return " ".join(f"M{s + 1}:{n}x{t}@{c}" for s, c, t, n in w) or "-"
 
 
+def _print_task(case: str, rec: ModelTask, theirs: ReplicaTask, kind: str) -> None:
+    t, cpu, writes, queued, nested, starts = theirs
+    print(f"  {case} task at {rec.t / 16000:9.3f} ms (replica +{t - rec.t}, {kind}): "
+          f"CPU model {rec.cpu} / replica {cpu} (nested {nested})")
+    print(f"      queued model   {rec.queued}")
+    print(f"      queued replica {queued}")
+    print(f"      writes model   {_fmt(rec.writes)}")
+    print(f"      writes replica {_fmt(writes)}")
+    print(f"      queue starts model {rec.starts} / replica {starts}")
+    if rec.reads:
+        print("      model's reads  " + " ".join(
+            f"M{k + 1}:cpu {cpu_at}, at +{at}, finds {found}"
+            for k, cpu_at, at, found in rec.reads))
+
+
 def compare(case: str, conf: Path, work: Path, show: int, since_ms: float,
-            only: str = "") -> dict:
+            only: str = "", at_ms: tuple[float, ...] = ()) -> dict:
     mine = model_tasks(case, conf)
     theirs = replica_tasks(case, work)
     ts = [r[0] for r in theirs]
@@ -231,6 +280,8 @@ def compare(case: str, conf: Path, work: Path, show: int, since_ms: float,
             start_diff.append((cpu_off, first_off))
         paired += 1
         entry_diff.append(t - rec.t)
+        if any(abs(rec.t / 16000 - a) < 2.048 for a in at_ms):
+            _print_task(case, rec, theirs[i], "asked for")
         if not writes and not rec.writes:
             continue
         planned += 1
@@ -261,13 +312,7 @@ def compare(case: str, conf: Path, work: Path, show: int, since_ms: float,
         if rec.t / 16000 >= since_ms and shown < show and (not only or kind.startswith(only)
                                                                 or only == "alike" and alike):
             shown += 1
-            print(f"  {case} task at {rec.t / 16000:9.3f} ms (replica +{t - rec.t}, {kind}): "
-                  f"CPU model {rec.cpu} / replica {cpu} (nested {nested})")
-            print(f"      queued model   {rec.queued}")
-            print(f"      queued replica {queued}")
-            print(f"      writes model   {_fmt(rec.writes)}")
-            print(f"      writes replica {_fmt(writes)}")
-            print(f"      queue starts model {rec.starts} / replica {starts}")
+            _print_task(case, rec, theirs[i], kind)
     med = replica._median  # noqa: SLF001
     print(f"{case}: {paired} tasks paired, {planned} plan commands, {same} the same commands"
           f" ({planned - same} differ, first at {first_bad} ms); replica's entry "
@@ -302,14 +347,25 @@ def main(argv: list[str] | None = None) -> int:
                     "(the start of its name: 'model writes more', 'replica writes more', "
                     "'the replica's a task apart', 'other'; 'alike': those that found "
                     "the replica's queues)")
+    ap.add_argument("--at", type=float, action="append", default=[], metavar="MS",
+                    help="print the task at this time (ms) whatever it planned, with the "
+                    "model's reads of each queue; repeatable")
+    ap.add_argument("--set", action="append", default=[], metavar="[CHIP:]FIELD=VALUE",
+                    help="a figure or mechanism of build e's timing for the model's runs "
+                    "(as bench/e_fidelity.py --set); repeatable")
     args = ap.parse_args(argv)
+    try:
+        e_fidelity.set_timing(args.set)
+    except ValueError as exc:
+        print(f"compare: {exc}", file=sys.stderr)
+        return 2
     total = collections.Counter()
     for case in args.cases:
         if not (args.work / f"{case}.ev").exists():
             print(f"{case}: no replica run in {args.work} (replica.py ... tasks {case})")
             continue
         total.update(compare(case, args.conformance, args.work, args.show, args.since,
-                             args.kind))
+                             args.kind, tuple(args.at)))
     print(f"all: {total['planned']} tasks plan commands, {total['same']} the same commands")
     print(f"all, tasks finding the replica's queues: {total['planned_alike']} plan commands, "
           f"{total['same_alike']} the same commands"
