@@ -75,6 +75,19 @@ class SimTiming:
     # ... none of these for a running stepper whose ramp has planned everything (the
     # library's fill returns at its first check while the queue drains)
     fill_skips_done_ramps: bool = False
+    # ... this per queued entry of at most one step or a pause (no multiply; 0: as
+    # fill_queued_entry_ticks)
+    fill_queued_single_ticks: int = 0
+    # each running stepper's fill reads its queue when the library's code reaches it
+    # (the entries the channel has taken up by then left out), its cost charged then
+    fill_reads_queue_live: bool = False
+    # interrupts nested in the ramp task (timer 0, the step interrupts) move the CPU
+    # time line of its code: 1 the fill's read only, 2 every write and queue start too
+    task_nested_isrs: int = 0
+    # a command written to a queue that has not started yet costs this much more (the
+    # replica: a starting ramp's one-step commands 1 862-1 872 ticks on the ATmega328P,
+    # 1 799-1 813 in a running one)
+    fill_unstarted_cmd_extra_ticks: int = 0
     # the step interrupt takes this much more CPU when it takes up the next queue entry
     isr_next_entry_ticks: int = 0
     # a command at the speed of the one before (the ramp coasts; 0: as fill_cmd_ticks)

@@ -1,0 +1,75 @@
+"""The ramp task's time line on the AVR (build e, off by default): a running stepper's
+fill reads its queue when the library's code gets there (``fill_reads_queue_live``),
+that moment counted with the interrupts nested in the task (``task_nested_isrs``), and
+the commands of a starting ramp (``fill_unstarted_cmd_extra_ticks``)
+(docs/timing-model.md, "fourteenth pass")."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from fas.arch import ATMEGA328P
+from fas.sim import timing as sim_timing_module
+from fas.sim.machine import Machine
+from stepperdemo.scenarios.evaluate import position_from_pins
+
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT / "bench"))
+
+import e_fidelity  # noqa: E402
+
+E09 = "M1 A20000 V50 e f M2 A20000 V65 b w1200 M1 S M2 S W M1 W"
+E09_B_FIRMWARE = -16352  # ../shared/conformance/e09: B's pin-derived end position
+
+
+def test_the_tasks_code_is_stretched_by_timer_0_and_the_step_interrupts() -> None:
+    m = Machine(ATMEGA328P, "e")
+    t = m.timing
+    ov, ms = t.millis_overflow_ticks, t.millis_isr_ticks
+    m.start_millis()  # at tick 0: overflows at ov, 2 ov, ...
+    m.run_until(ov - 100)
+    assert m.nested_stretched(50) == 50  # before the overflow
+    assert m.nested_stretched(1000) == 1000 + ms
+    steps = [ov + 950]  # a step interrupt that the stretch reaches only with timer 0's
+    m.step_isrs_between = lambda lo, hi: sum(120 for c in steps if lo <= c < hi)
+    assert m.nested_stretched(1000) == 1000 + ms + 120
+    assert m.nested_stretched(960) == 960 + ms + 120  # timer 0's brings it to ov + 956
+    assert m.nested_stretched(950) == 950 + ms  # ends at ov + 946
+    assert m.stretched(1000) == 1000  # the UART's stretch alone: nothing printed
+
+
+def _b_end(monkeypatch: pytest.MonkeyPatch, **fields: object) -> int:
+    table = {k: replace(v, **fields) for k, v in sim_timing_module.BY_BUILD["e"].items()}
+    monkeypatch.setitem(sim_timing_module.BY_BUILD, "e", table)
+    backend = e_fidelity.run_model(E09, "atmega328p", "e")
+    sp = [p for p in e_fidelity.stepper_pins(backend.profile) if p.letter == "B"][0]
+    return position_from_pins(backend, sp.step, sp.direction)
+
+
+def test_a_fill_that_reads_its_queue_after_the_nested_interrupts_plans_the_firmwares_stop(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # e09's task at 1 458.5 ms: the firmware's M2 fill reads the queue ~10 000 ticks into
+    # the task, when M2's running entry has ended, and plans a third coast command of 30
+    # steps; read at the task's entry (the default) the model plans two, and M2's stop
+    # finds its plan 30 steps short
+    assert _b_end(monkeypatch) == E09_B_FIRMWARE + 30
+    assert _b_end(monkeypatch, fill_reads_queue_live=True,
+                  task_nested_isrs=1) == E09_B_FIRMWARE
+
+
+def test_commands_written_before_the_queue_starts_can_cost_more(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    def first_rise(**fields: object) -> float:
+        table = {k: replace(v, **fields) for k, v in sim_timing_module.BY_BUILD["e"].items()}
+        monkeypatch.setitem(sim_timing_module.BY_BUILD, "e", table)
+        backend = e_fidelity.run_model("M1 A30000 V45 f w100 S W", "atmega328p", "e")
+        return e_fidelity.step_times_us(backend, 9)[0]
+
+    plain = first_rise()
+    later = round((first_rise(fill_unstarted_cmd_extra_ticks=1000) - plain) * 16)
+    commands = later // 1000  # the start task's commands (each 1 000 ticks more)
+    assert commands >= 2 and later - 1000 * commands < 1000  # + the UART's interrupts
