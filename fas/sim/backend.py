@@ -161,7 +161,7 @@ class SimBackend(Backend):
                 ch.plan_pending = False
             # the task's own CPU time; the UART interrupts that run inside it are
             # counted as such by the loop (Machine.consume)
-            cost = m.task_offset
+            cost = m.task_offset + p.fill_exit_ticks
             m.task_offset = 0
             m.in_task = False
         m.stolen_ticks += cost

@@ -92,6 +92,9 @@ class SimTiming:
     isr_next_entry_ticks: int = 0
     # a command at the speed of the one before (the ramp coasts; 0: as fill_cmd_ticks)
     fill_coast_cmd_ticks: int = 0
+    # the ramp task's CPU after its fill (its return), charged at its end: of the task's
+    # fixed cost, fill_entry_ticks comes before the first command, this after the last
+    fill_exit_ticks: int = 0
     # the ramp task starts a stopped queue after its fill
     fill_start_ticks: int = 0
     # a pause the library writes itself before the first command (auto enable's delay):
@@ -106,6 +109,13 @@ class SimTiming:
     # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
     # (the ATmega32U4's USBDevice.attach())
     core_main_ticks: int = 0
+    # the start-up code copies a built-in input line (initialised data, boot_script_byte_ticks
+    # a byte) together with this many bytes of the program's other initialised data
+    # (its terminating NUL included), the whole rounded up to boot_data_align bytes
+    # (2: avr-gcc's .data section ends on an even address); boot_ticks then holds the
+    # rest of the start-up
+    boot_data_bytes: int = 0
+    boot_data_align: int = 1
 
     def isr_latency(self, channel: int) -> int:
         """The step pulse width of queue ``channel`` when its interrupt enters at once."""

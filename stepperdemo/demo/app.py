@@ -204,7 +204,9 @@ class StepperDemo(LoopProgram):
         timing = self._timing
         boot = timing.boot_ticks
         if self.script_loaded:  # the built-in line is start-up data copied at reset
-            boot += len(self.script) * timing.boot_script_byte_ticks
+            align = timing.boot_data_align
+            copied = -(-(len(self.script) + timing.boot_data_bytes) // align) * align
+            boot += copied * timing.boot_script_byte_ticks
         b.app_spend(boot)
         b.app_started()
         b.app_spend(timing.core_main_ticks + self.build.setup_head_ticks)

@@ -2,7 +2,9 @@
 fill reads its queue when the library's code gets there (``fill_reads_queue_live``),
 that moment counted with the interrupts nested in the task (``task_nested_isrs``), and
 the commands of a starting ramp (``fill_unstarted_cmd_extra_ticks``)
-(docs/timing-model.md, "fourteenth pass")."""
+(docs/timing-model.md, "fourteenth pass"); the start-up's data copy
+(``boot_data_bytes``, ``boot_data_align``) and the task's cost after its fill
+(``fill_exit_ticks``) ("fifteenth pass")."""
 
 from __future__ import annotations
 
@@ -73,3 +75,41 @@ def test_commands_written_before_the_queue_starts_can_cost_more(
     later = round((first_rise(fill_unstarted_cmd_extra_ticks=1000) - plain) * 16)
     commands = later // 1000  # the start task's commands (each 1 000 ticks more)
     assert commands >= 2 and later - 1000 * commands < 1000  # + the UART's interrupts
+
+
+def _with(monkeypatch: pytest.MonkeyPatch, **fields: object) -> None:
+    table = {k: replace(v, **fields) for k, v in sim_timing_module.BY_BUILD["e"].items()}
+    monkeypatch.setitem(sim_timing_module.BY_BUILD, "e", table)
+
+
+def _timer0_start(inp: str) -> int:
+    backend = e_fidelity.run_model(inp, "atmega328p", "e")
+    return backend.machine.tick_at_millis(0)
+
+
+def test_the_start_up_copies_the_input_line_with_the_data_section_rounded_up_to_even(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # the replica's ELF: .data holds 407 bytes besides the line (input + " " + NUL) on the
+    # ATmega328P and ends on an even address; timer 0 starts after the copy
+    # (docs/timing-model.md, "fifteenth pass")
+    short, mid, long = "M1 A30000 V45 f w10 S W", "M1 A30000 V45 f w100 S W", \
+        "M1 A30000 V45 f w1000 S W"
+    per_byte = sim_timing_module.AVR_E_TIMING.boot_script_byte_ticks
+    assert _timer0_start(mid) - _timer0_start(short) == per_byte  # the default: as it is
+    _with(monkeypatch, boot_data_bytes=408, boot_data_align=2)
+    assert _timer0_start(mid) - _timer0_start(short) == 2 * per_byte  # 433 -> 434
+    assert _timer0_start(long) == _timer0_start(mid)  # 434 stays 434
+
+
+def test_the_tasks_cost_after_its_fill_moves_no_write(monkeypatch: pytest.MonkeyPatch) -> None:
+    def run() -> tuple[float, int]:
+        backend = e_fidelity.run_model("M1 A30000 V45 f w100 S W", "atmega328p", "e")
+        return e_fidelity.step_times_us(backend, 9)[0], backend.machine.stolen_ticks
+
+    rise, stolen = run()
+    entry = sim_timing_module.AVR_E_TIMING.fill_entry_ticks
+    _with(monkeypatch, fill_entry_ticks=entry - 100, fill_exit_ticks=100)
+    rise_split, stolen_split = run()
+    # the first step comes 100 ticks sooner, and every task costs what it did
+    assert round((rise_split - rise) * 16) == -100
+    assert stolen_split == stolen
