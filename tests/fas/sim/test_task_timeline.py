@@ -113,3 +113,23 @@ def test_the_tasks_cost_after_its_fill_moves_no_write(monkeypatch: pytest.Monkey
     # the first step comes 100 ticks sooner, and every task costs what it did
     assert round((rise_split - rise) * 16) == -100
     assert stolen_split == stolen
+
+
+def test_an_idle_loop_woken_by_millis_takes_the_deadline_up_half_a_pass_later(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from stepperdemo.demo import build as demo_build_module
+
+    def window_starts() -> list[int]:
+        blocks: list[tuple[int, int]] = []
+        e_fidelity.run_model("M1 A30000 V45 e f w600 S W", "atmega328p", "e", blocks)
+        return [a for i, (a, _) in enumerate(blocks)
+                if i == 0 or a - blocks[i - 1][0] > 100_000]
+
+    at_once = window_starts()
+    table = {k: replace(v, wake_mid_pass=True)
+             for k, v in demo_build_module.BY_BUILD["e"].items()}
+    monkeypatch.setitem(demo_build_module.BY_BUILD, "e", table)
+    later = [b - a for a, b in zip(at_once, window_starts(), strict=True)]
+    # during w600 a pass is 220 + 10 (M1 running) + 40 (M2 idle); once W holds the
+    # input its character and command passes (+5, +106) alternate
+    assert later == [(220 + 10 + 40) // 2] * 3 + [(220 + 50 + (5 + 106) // 2) // 2] * 2
