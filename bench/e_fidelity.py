@@ -141,8 +141,8 @@ def set_timing(settings: list[str]) -> None:
         if sep and name not in fields and name in demo_fields:  # StepperDemo's own figures
             table = demo_build_module.BY_BUILD["e"]
         elif not sep or name not in fields:
-            raise ValueError(f"--set {setting!r}: not FIELD=VALUE with a field of SimTiming "
-                             "or DemoBuild")
+            raise ValueError(f"--set {setting!r}: not FIELD=VALUE with a SimTiming field "
+                             "(or a DemoBuild field)")
         else:
             table = sim_timing_module.BY_BUILD["e"]
         current = getattr(next(iter(table.values())), name)
