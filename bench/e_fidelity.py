@@ -86,6 +86,7 @@ from fas.sim import SimBackend  # noqa: E402
 from fas.sim import timing as sim_timing_module  # noqa: E402
 from fas.sim.channel import SimChannel  # noqa: E402
 from fas.sim.timing import SimTiming  # noqa: E402
+from stepperdemo.demo import build as demo_build_module  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.scenarios.evaluate import (  # noqa: E402
     gaps_per_window,
@@ -129,14 +130,21 @@ def set_timing(settings: list[str]) -> None:
     profile name starts with CHIP: ``atmega328p``, ``atmega32u4``, ``atmega2560``), a
     field of :class:`fas.sim.timing.SimTiming` - a figure to try, or one of the
     mechanisms it holds switched off (``fill_reads_queue_live``, ``task_nested_isrs``,
-    docs/timing-model.md, "fourteenth pass").  Raises ValueError on an unknown field."""
+    docs/timing-model.md, "fourteenth pass") - or of StepperDemo's
+    :class:`stepperdemo.demo.build.DemoBuild` (``wake_mid_pass``, "fifteenth pass").
+    Raises ValueError on an unknown field."""
     fields = {f.name: f for f in dataclasses.fields(SimTiming)}
-    table = sim_timing_module.BY_BUILD["e"]
+    demo_fields = {f.name: f for f in dataclasses.fields(demo_build_module.DemoBuild)}
     for setting in settings:
         chip, _, assignment = setting.rpartition(":")
         name, sep, value = assignment.partition("=")
-        if not sep or name not in fields:
-            raise ValueError(f"--set {setting!r}: not FIELD=VALUE with a SimTiming field")
+        if sep and name not in fields and name in demo_fields:  # StepperDemo's own figures
+            table = demo_build_module.BY_BUILD["e"]
+        elif not sep or name not in fields:
+            raise ValueError(f"--set {setting!r}: not FIELD=VALUE with a SimTiming field "
+                             "(or a DemoBuild field)")
+        else:
+            table = sim_timing_module.BY_BUILD["e"]
         current = getattr(next(iter(table.values())), name)
         new: object = (value.lower() in ("1", "true", "yes") if isinstance(current, bool)
                        else int(value))

@@ -132,6 +132,12 @@ class QueueChannel(ABC):
     def ready_for_commands(self) -> bool:
         return True
 
+    def fill_begins(self) -> int:
+        """The ramp task's fill of this stepper reads the queue now: the ticks of the
+        entries after the running one that the channel has taken up by the time the
+        fill's code reads the indices; 0 by default."""
+        return 0
+
     def entry_added(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """A new entry was appended (a channel waiting for one may continue)."""
 

@@ -125,6 +125,11 @@ class StepperQueue:
             return sum(durations[first:first + count])
         return sum(durations[first:]) + sum(durations[:first + count - n])
 
+    def fill_ticks_in_queue(self) -> int:
+        """``ticks_in_queue()`` as the ramp task's fill reads it."""
+        ticks = self.ticks_in_queue()
+        return ticks - self.channel.fill_begins()
+
     def has_ticks_in_queue(self, min_ticks: int) -> bool:
         self.channel.sync()
         rp, wp = self.read_idx, self.next_write_idx

@@ -32,6 +32,11 @@ finds queued after the running entry - beside the replica's writes and the CPU o
 interrupts nested in its task, by vector.  ``--set [CHIP:]FIELD=VALUE`` runs the
 model with other figures of build e (as ``bench/e_fidelity.py --set``).
 
+``--phases`` prints, per run, timer 0's first overflow and the first ramp task of the
+model against the firmware's: the replica's vector entries less the replica's constant
+lead over the firmware (``FIRMWARE_LAG``, ``replica.py steps``) - docs/timing-model.md,
+"fifteenth pass".
+
 The replica's runs (``CASE.ev``) are read from ``--work``: ``replica.py ... tasks CASE``
 writes them there (its ``--fas`` and ``--simavr`` are needed for that only).
 """
@@ -60,6 +65,11 @@ from fas.sim.channel import SimChannel  # noqa: E402
 QUEUE_START_CYCLES = 80  # the replica's first step rises this long after startQueue()
 QUEUE_SLOTS = 16  # the AVR queue's entries
 PAIR_TICKS = 2000  # the replica's task enters within this of the model's (median +160)
+
+# the replica's steps and `e` blocks come this many cycles after the firmware's from the
+# first on (replica.py steps), by the replica's task vector; its timer-0 overflow vector
+TIMER0_VECTOR = {13: 16, 20: 23}
+FIRMWARE_LAG = {13: 61, 20: 150}
 
 Write = tuple[int, int, int, int]  # stepper, CPU ticks after the task's entry, ticks, steps
 
@@ -335,6 +345,39 @@ def compare(case: str, conf: Path, work: Path, show: int, since_ms: float,
             **{f"alike: {k}": n for k, n in kinds_alike.items()}}
 
 
+def phases(case: str, conf: Path, work: Path) -> tuple[int, int]:
+    """(timer 0's first overflow, the first ramp task): model - firmware, in ticks."""
+    first: list[int] = []
+    plain_task = SimBackend._task  # noqa: SLF001
+
+    def task(self: SimBackend, index: int) -> None:
+        if not first:
+            first.append(self.machine.now)
+        plain_task(self, index)
+
+    SimBackend._task = task  # type: ignore[method-assign]  # noqa: SLF001
+    try:
+        backend = e_fidelity.run_model((conf / case / "input.txt").read_text().strip(),
+                                       e_fidelity.PROFILE.get(case, "atmega328p"), "e")
+    finally:
+        SimBackend._task = plain_task  # type: ignore[method-assign]  # noqa: SLF001
+    board = replica.BOARDS.get(case, replica.UNO)
+    vec0, lag = TIMER0_VECTOR[board.task_vector], FIRMWARE_LAG[board.task_vector]
+    fw0 = fw1 = None
+    with open(work / f"{case}.ev") as f:
+        for line in f:
+            p = line.split()
+            if p[1] == "V":
+                if fw0 is None and int(p[2]) == vec0:
+                    fw0 = int(p[0]) - lag
+                if fw1 is None and int(p[2]) == board.task_vector:
+                    fw1 = int(p[0]) - lag
+                if fw0 is not None and fw1 is not None:
+                    break
+    assert fw0 is not None and fw1 is not None and first
+    return backend.machine.tick_at_millis(1) - fw0, first[0] - fw1
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("cases", nargs="+")
@@ -353,12 +396,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="[CHIP:]FIELD=VALUE",
                     help="a figure or mechanism of build e's timing for the model's runs "
                     "(as bench/e_fidelity.py --set); repeatable")
+    ap.add_argument("--phases", action="store_true",
+                    help="timer 0's first overflow and the first ramp task, model - firmware")
     args = ap.parse_args(argv)
     try:
         e_fidelity.set_timing(args.set)
     except ValueError as exc:
         print(f"compare: {exc}", file=sys.stderr)
         return 2
+    if args.phases:
+        for case in args.cases:
+            t0, task = phases(case, args.conformance, args.work)
+            print(f"{case}: model - firmware: timer 0's first overflow {t0:+d} ticks, "
+                  f"the first ramp task {task:+d}")
+        return 0
     total = collections.Counter()
     for case in args.cases:
         if not (args.work / f"{case}.ev").exists():

@@ -183,7 +183,7 @@ class RampPlanner(Planner):
         self.fill_calls += 1
         delayed_start = not q.is_running()
         need_delayed_start = False
-        ticks_prepared = q.ticks_in_queue()
+        ticks_prepared = q.fill_ticks_in_queue()
         planning = host.settings.forward_planning_ticks
         if not delayed_start:  # a running queue: what the backend's link needs, too
             planning += host.backend.planning_extra_ticks

@@ -130,17 +130,30 @@ class SimBackend(Backend):
         m.in_task = True
         m.task_offset = p.fill_entry_ticks
         per_entry = p.fill_queued_entry_ticks
+        if p.task_nested_isrs and m.step_isrs_between is None:
+            m.step_isrs_between = lambda lo, hi: sum(c.isr_cpu_between(lo, hi)
+                                                     for c in self.channels)
         if per_entry or p.fill_stepper_ticks:
             # a stepper whose ramp has planned everything: its fill returns at once
             planning = engine.planning_queues() if p.fill_skips_done_ramps else None
+            per_single = p.fill_queued_single_ticks or per_entry
             for ch in self.channels:  # a running stepper's fill first sums its queue
                 if ch.running:
                     q = ch.q
                     if planning is not None and not any(q is x for x in planning):
                         continue
-                    queued = (q.next_write_idx - q.read_idx) & 0xFF
-                    m.task_offset += p.fill_stepper_ticks + per_entry * max(0, queued - 1)
                     ch.plan_pending = bool(p.fill_plan_ticks)
+                    if p.fill_reads_queue_live:
+                        continue  # charged when its fill reads the queue (fill_begins)
+                    queued = (q.next_write_idx - q.read_idx) & 0xFF
+                    if per_single != per_entry:
+                        n = q.queue_len
+                        singles = sum(1 for k in range(1, queued)
+                                      if q.entries[(q.read_idx + k) % n].total_steps <= 1)
+                        cost = per_single * singles + per_entry * (queued - 1 - singles)
+                    else:
+                        cost = per_entry * max(0, queued - 1)
+                    m.task_offset += p.fill_stepper_ticks + cost
         try:
             engine.manage_steppers()
         finally:
@@ -148,7 +161,7 @@ class SimBackend(Backend):
                 ch.plan_pending = False
             # the task's own CPU time; the UART interrupts that run inside it are
             # counted as such by the loop (Machine.consume)
-            cost = m.task_offset
+            cost = m.task_offset + p.fill_exit_ticks
             m.task_offset = 0
             m.in_task = False
         m.stolen_ticks += cost

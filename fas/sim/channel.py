@@ -26,7 +26,7 @@ without such a sink the pin statistics count a block's pulses at their plain wid
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from heapq import heappush
 from typing import TYPE_CHECKING
 
@@ -252,6 +252,86 @@ class SimChannel(QueueChannel):
             first = (first + 1) & 0xFF
         return end
 
+    def _running_segments(self) -> Iterator[tuple[int, int, int]]:
+        """The compares still to come: ``(first, period, count)`` per queue entry, the
+        running one first (none while the channel stands or waits for a timed start)."""
+        q = self.q
+        rp, wp = q.read_idx, q.next_write_idx
+        if not self.running or self._start_event is not None or rp == wp or self.no_more:
+            return
+        n = q.queue_len
+        if self.batch:
+            yield self.b_c0, self.b_t, self.b_n
+            end = self.b_c0 + self.b_n * self.b_t
+        else:
+            e = q.entries[rp % n]
+            k = max(e.steps, 1)
+            yield self.pending_compare, e.ticks, k
+            end = self.pending_compare + k * e.ticks
+        first = (rp + 1) & 0xFF
+        while first != wp:
+            e = q.entries[first % n]
+            k = max(e.total_steps, 1)
+            yield end, e.ticks, k
+            end += e.ticks * k
+            first = (first + 1) & 0xFF
+
+    def isr_cpu_between(self, lo: int, hi: int) -> int:
+        """CPU time of this channel's step interrupts whose compares fall in [lo, hi)."""
+        count = 0
+        for c0, t, k in self._running_segments():
+            if c0 >= hi:
+                break
+            last = c0 + (k - 1) * t
+            if last < lo:
+                continue
+            j0 = 0 if c0 >= lo else -(-(lo - c0) // t)
+            j1 = min(k - 1, (hi - 1 - c0) // t)
+            if j1 >= j0:
+                count += j1 - j0 + 1
+        return count * self.isr_ticks
+
+    def fill_begins(self) -> int:
+        m = self.m
+        p = m.timing
+        if not (m.in_task and p.fill_reads_queue_live and self.running):
+            return 0
+        q = self.q
+        m.task_offset += p.fill_stepper_ticks  # the fill's checks before it reads
+        work = m.task_offset
+        t = m.now + (m.nested_stretched(work) if p.task_nested_isrs else m.stretched(work))
+        rp, wp = q.read_idx, q.next_write_idx
+        n = q.queue_len
+        # the channel takes up the entry after the running one in the step interrupt of
+        # the running entry's last compare (a pause has one); the next entry's first
+        # compare follows that one by the running entry's period
+        skipped = 0
+        if self._start_event is None and rp != wp:
+            if self.batch:
+                last, period = self.b_c0 + (self.b_n - 1) * self.b_t, self.b_t
+            else:
+                e = q.entries[rp % n]
+                last = self.pending_compare + (max(e.steps, 1) - 1) * e.ticks
+                period = e.ticks
+            k = (rp + 1) & 0xFF
+            while k != wp and last + self.lat <= t:
+                e = q.entries[k % n]
+                skipped += q.durations[k % n]
+                last += period + (max(e.total_steps, 1) - 1) * e.ticks
+                period = e.ticks
+                rp = k
+                k = (k + 1) & 0xFF
+        # the library then sums the entries after the one running by then
+        per_entry = p.fill_queued_entry_ticks
+        per_single = p.fill_queued_single_ticks or per_entry
+        cost = 0
+        k = (rp + 1) & 0xFF
+        while k != wp:
+            cost += per_single if q.entries[k % n].total_steps <= 1 else per_entry
+            k = (k + 1) & 0xFF
+        m.task_offset += cost
+        return skipped
+
     def earliest_start_tick(self) -> int:
         return self.m.cpu_now() + self.start_ticks
 
@@ -311,6 +391,8 @@ class SimChannel(QueueChannel):
                 m.task_offset += p.fill_coast_cmd_ticks  # at the speed of the one before
             else:
                 m.task_offset += p.fill_cmd_ticks
+            if steps and p.fill_unstarted_cmd_extra_ticks and not self.running:
+                m.task_offset += p.fill_unstarted_cmd_extra_ticks
             if p.fill_cmd_mask_ticks and self.contention:
                 # the command is written to the queue with interrupts off
                 end = m.now + m.task_offset

@@ -139,6 +139,9 @@ class Machine:
         self.cpu_sources: list[CpuSource] = []
         self.task_offset = 0  # CPU time used so far by the running periodic task
         self.in_task = False
+        # the CPU time of the step interrupts entered in [lo, hi) (set by the backend:
+        # SimTiming.task_nested_isrs)
+        self.step_isrs_between: Callable[[int, int], int] | None = None
         self.events_run = 0
         self._millis_phase = 0  # timer 0 starts counting (see start_millis)
         self._millis_started = False
@@ -551,7 +554,39 @@ class Machine:
         """Tick at which code running right now takes effect (inside a task: later)."""
         if not self.task_offset:
             return self.now
+        if self.timing.task_nested_isrs >= 2:
+            return self.now + self.nested_stretched(self.task_offset)
         return self.now + self.stretched(self.task_offset)
+
+    def nested_stretched(self, work: int) -> int:
+        """Ticks that ``work`` ticks of the ramp task's code take from now on with every
+        interrupt nested in it: the UART's, timer 0's overflows and the step
+        interrupts."""
+        timing = self.timing
+        ucost = timing.uart_isr_ticks
+        mcost = timing.millis_isr_ticks if self._millis_started else 0
+        ov = timing.millis_overflow_ticks
+        steps = self.step_isrs_between
+        now = self.now
+        t = work
+        for _ in range(50):
+            extra = 0
+            if ucost:
+                extra += ucost * self.uart.isr_loads_between(now, now + t)
+            if mcost:
+                lo = max(now, self._millis_first)
+                hi = now + t
+                if hi > lo:
+                    # overflows at phase + k * ov in [lo, hi)
+                    first = lo + (-(lo - self._millis_phase)) % ov
+                    if first < hi:
+                        extra += mcost * ((hi - 1 - first) // ov + 1)
+            if steps is not None:
+                extra += steps(now, now + t)
+            if work + extra == t:
+                return t
+            t = work + extra
+        return t
 
     def stretched(self, work: int) -> int:
         """Ticks that ``work`` ticks of interruptible code take from now on.

@@ -75,10 +75,26 @@ class SimTiming:
     # ... none of these for a running stepper whose ramp has planned everything (the
     # library's fill returns at its first check while the queue drains)
     fill_skips_done_ramps: bool = False
+    # ... this per queued entry of at most one step or a pause (no multiply; 0: as
+    # fill_queued_entry_ticks)
+    fill_queued_single_ticks: int = 0
+    # each running stepper's fill reads its queue when the library's code reaches it
+    # (the entries the channel has taken up by then left out), its cost charged then
+    fill_reads_queue_live: bool = False
+    # interrupts nested in the ramp task (timer 0, the step interrupts) move the CPU
+    # time line of its code: 1 the fill's read only, 2 every write and queue start too
+    task_nested_isrs: int = 0
+    # a command written to a queue that has not started yet costs this much more (the
+    # replica: a starting ramp's one-step commands 1 862-1 872 ticks on the ATmega328P,
+    # 1 799-1 813 in a running one)
+    fill_unstarted_cmd_extra_ticks: int = 0
     # the step interrupt takes this much more CPU when it takes up the next queue entry
     isr_next_entry_ticks: int = 0
     # a command at the speed of the one before (the ramp coasts; 0: as fill_cmd_ticks)
     fill_coast_cmd_ticks: int = 0
+    # the ramp task's CPU after its fill (its return), charged at its end: of the task's
+    # fixed cost, fill_entry_ticks comes before the first command, this after the last
+    fill_exit_ticks: int = 0
     # the ramp task starts a stopped queue after its fill
     fill_start_ticks: int = 0
     # a pause the library writes itself before the first command (auto enable's delay):
@@ -93,6 +109,13 @@ class SimTiming:
     # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
     # (the ATmega32U4's USBDevice.attach())
     core_main_ticks: int = 0
+    # the start-up code copies a built-in input line (initialised data, boot_script_byte_ticks
+    # a byte) together with this many bytes of the program's other initialised data
+    # (its terminating NUL included), the whole rounded up to boot_data_align bytes
+    # (2: avr-gcc's .data section ends on an even address); boot_ticks then holds the
+    # rest of the start-up
+    boot_data_bytes: int = 0
+    boot_data_align: int = 1
 
     def isr_latency(self, channel: int) -> int:
         """The step pulse width of queue ``channel`` when its interrupt enters at once."""

@@ -100,6 +100,7 @@ class StepperDemo(LoopProgram):
         self.pause_start = 0
         self.simulate_digital_read_error = False
         self.simulate_blocked_isr = False
+        self._wake_by_clock = False  # the idle loop's next wake is a deadline of millis()
         self.waiting_interactive = False  # interactive W holding the input
         self.restart_pending = False
         self._setup_done = False
@@ -204,7 +205,9 @@ class StepperDemo(LoopProgram):
         timing = self._timing
         boot = timing.boot_ticks
         if self.script_loaded:  # the built-in line is start-up data copied at reset
-            boot += len(self.script) * timing.boot_script_byte_ticks
+            align = timing.boot_data_align
+            copied = -(-(len(self.script) + timing.boot_data_bytes) // align) * align
+            boot += copied * timing.boot_script_byte_ticks
         b.app_spend(boot)
         b.app_started()
         b.app_spend(timing.core_main_ticks + self.build.setup_head_ticks)
@@ -684,6 +687,7 @@ class StepperDemo(LoopProgram):
     def _wake_time(self) -> int | None:
         """Earliest tick at which an idle loop could have something to do."""
         b = self.backend
+        self._wake_by_clock = False
         if self.waiting_interactive:  # only the stepper's stop ends the spin (a machine event)
             nxt = b.next_event_time()
             return None if nxt is None else max(nxt, b.now())
@@ -692,6 +696,7 @@ class StepperDemo(LoopProgram):
             nxt = b.next_event_time()
             if nxt is not None:
                 candidates.append(nxt)
+        machine = len(candidates)
         if self.pause_ms > 0:
             candidates.append(b.tick_at_millis(self.pause_start + self.pause_ms))
         # the 100 ms status line: printed in the normal and config modes while a stepper
@@ -705,13 +710,16 @@ class StepperDemo(LoopProgram):
             for slot in self.test_slots:
                 if slot.test is not None and slot.wake_ms is not None:
                     candidates.append(b.tick_at_millis(slot.wake_ms))
+        clock = min(candidates[machine:], default=None)  # the deadlines of millis()
         if self.mode == _GCODE:
             wake = self.gcode.wake_tick()
             if wake is not None:
                 candidates.append(wake)
         if not candidates:
             return None
-        return max(min(candidates), b.now())
+        first = min(candidates)
+        self._wake_by_clock = first == clock and first not in candidates[:machine]
+        return max(first, b.now())
 
     def next_wake_tick(self) -> int | None:
         """When the loop next has something to do (None: only new input can wake it).
@@ -735,8 +743,27 @@ class StepperDemo(LoopProgram):
                 if not b.app_wait_until(limit, self._watch()):
                     return
             else:  # (a wake due now waits for nothing: no watch to set up)
-                b.app_wait_until(wake, self._watch() if wake > b.now() else None)
+                waited = wake > b.now()
+                changed = b.app_wait_until(wake, self._watch() if waited else None)
+                if waited and not changed and self._wake_by_clock and self.build.wake_mid_pass:
+                    b.app_spend(self._idle_pass_ticks() // 2)
         self.loop_pass()
+
+    def _idle_pass_ticks(self) -> int:
+        """CPU time of an idle pass as :meth:`loop_pass` charges it (a held `W`: its
+        character and command passes alternate)."""
+        p = self.build
+        ticks = p.loop_pass_ticks
+        if self.pause_ms > 0:
+            ticks += p.loop_pause_ticks
+        if self.mode not in (_TEST, _GCODE):
+            for s in self.steppers:
+                if s is not None:
+                    ticks += (p.loop_running_stepper_ticks if s.is_running()
+                              else p.loop_idle_stepper_ticks)
+            if self._held_by_w():
+                ticks += (p.loop_char_ticks + p.cmd_ticks.get("W", p.cmd_default_ticks)) // 2
+        return ticks
 
     def finished(self) -> bool:
         """Input consumed and everything at rest (the end of a scripted run)."""

@@ -97,6 +97,10 @@ class DemoBuild:
     # executing a command, by letter, without its prints and argument parsing
     cmd_ticks: dict[str, int] = field(default_factory=dict, compare=False)
     irq_block_ticks: int = 0  # `e`: length of one blocked section
+    # an idle loop woken by a deadline of millis() (timer 0's overflow) reads millis()
+    # where the pass the overflow interrupted gets to it: on average half a pass later
+    # (the pass's phase at the overflow is not kept; False: at once)
+    wake_mid_pass: bool = False
 
 
 # ------------------------------------------------------------------------------ costs

@@ -45,6 +45,18 @@ def test_set_changes_build_e_per_chip_and_refuses_what_it_does_not_know(build_e:
         e_fidelity.set_timing(["esp32:fill_start_ticks=1"])
 
 
+def test_set_changes_stepperdemos_own_figures_of_build_e(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from stepperdemo.demo import build as demo_build_module
+
+    table = dict(demo_build_module.BY_BUILD["e"])
+    monkeypatch.setitem(demo_build_module.BY_BUILD, "e", table)
+    e_fidelity.set_timing(["atmega328p:wake_mid_pass=1"])
+    assert table["atmega328p"].wake_mid_pass
+    assert not table["atmega32u4"].wake_mid_pass
+    assert not demo_build_module.BY_BUILD["e"]["atmega2560"].wake_mid_pass
+
+
 def test_set_reaches_the_models_run(build_e: dict) -> None:
     def first_rise() -> int:
         backend = e_fidelity.run_model("M1 A30000 V45 f w100 S W", "atmega328p", "e")
