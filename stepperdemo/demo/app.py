@@ -540,8 +540,11 @@ class StepperDemo(LoopProgram):
             b.stray_read(pins)
             # spent where they run: before the `e` check below (docs/timing-model.md)
             b.app_spend(len(pins) * self.build.loop_stray_read_ticks)
-        if self.simulate_blocked_isr and (ms & 0xFF) < 0x40:
-            b.block_interrupts(self.build.irq_block_ticks)
+        if self.simulate_blocked_isr:
+            if (ms & 0xFF) < 0x40:
+                b.block_interrupts(self.build.irq_block_ticks)
+            else:
+                path -= self.build.e_outside_saved_ticks
 
         if self.mode == _TEST:
             if self.test_ongoing:
@@ -621,7 +624,8 @@ class StepperDemo(LoopProgram):
             return True  # only the selected stepper's stop can end W
         if self.simulate_digital_read_error:
             return False  # every pass makes a stray read that we count
-        if self.simulate_blocked_isr and (self.backend.millis() & 0xFF) < 0x40:
+        if self.simulate_blocked_isr and (self.build.e_every_pass
+                                          or (self.backend.millis() & 0xFF) < 0x40):
             return False  # every pass blocks interrupts in this window
         if not self._input_idle():
             return False
@@ -763,6 +767,8 @@ class StepperDemo(LoopProgram):
                               else p.loop_idle_stepper_ticks)
             if self._held_by_w():
                 ticks += (p.loop_char_ticks + p.cmd_ticks.get("W", p.cmd_default_ticks)) // 2
+        if self.simulate_blocked_isr:  # (an idle pass lies outside the `e` windows)
+            ticks -= p.e_outside_saved_ticks
         return ticks
 
     def finished(self) -> bool:

@@ -101,6 +101,14 @@ class DemoBuild:
     # where the pass the overflow interrupted gets to it: on average half a pass later
     # (the pass's phase at the overflow is not kept; False: at once)
     wake_mid_pass: bool = False
+    # `e` on: run every pass of the loop, also between the windows, so that the pass
+    # that reads a window's deadline is the one the loop's pass lengths and the
+    # interrupts lead to (the loop's phase kept; False: idle passes skipped to the
+    # deadline; docs/timing-model.md, "sixteenth pass")
+    e_every_pass: bool = False
+    # `e` on, outside a window: a pass that skips the block is this much shorter than a
+    # window's pass less its block (the replica of e01: 267 against 1 852 - 1 582)
+    e_outside_saved_ticks: int = 0
 
 
 # ------------------------------------------------------------------------------ costs

@@ -16,6 +16,7 @@ import pytest
 
 from fas.arch import ATMEGA328P
 from fas.sim import timing as sim_timing_module
+from fas.sim.backend import SimBackend
 from fas.sim.machine import Machine
 from stepperdemo.scenarios.evaluate import position_from_pins
 
@@ -133,3 +134,40 @@ def test_an_idle_loop_woken_by_millis_takes_the_deadline_up_half_a_pass_later(
     # during w600 a pass is 220 + 10 (M1 running) + 40 (M2 idle); once W holds the
     # input its character and command passes (+5, +106) alternate
     assert later == [(220 + 10 + 40) // 2] * 3 + [(220 + 50 + (5 + 106) // 2) // 2] * 2
+
+
+def test_e_every_pass_runs_the_passes_between_the_windows(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from stepperdemo.demo import build as demo_build_module
+    from stepperdemo.program import make_program
+
+    def passes_and_reads(**fields: object) -> tuple[int, list[int]]:
+        table = {k: replace(v, **fields) for k, v in demo_build_module.BY_BUILD["e"].items()}
+        monkeypatch.setitem(demo_build_module.BY_BUILD, "e", table)
+        backend = SimBackend("atmega328p", record=True, build="e")
+        reads: list[int] = []
+        millis = backend.millis
+
+        def read() -> int:
+            reads.append(backend.machine.now)
+            return millis()
+
+        monkeypatch.setattr(backend, "millis", read)
+        app = make_program("demo", backend, scripted=True)
+        app.run_script("M1 A30000 V45 e f w400 S W", firmware_end=True)
+        return app.passes, reads
+
+    skipped, _ = passes_and_reads()
+    every, reads = passes_and_reads(e_every_pass=True)
+    # between the windows (from 64 ms of millis on) the passes are run, not skipped
+    assert every > 2 * skipped
+    # a pause pass outside a window: two reads of millis() (the pause's and the `e`
+    # check's) at one tick, the pass 220 + 10 (M1 running) + 40 (M2 idle) long without
+    # interrupts; shorter by e_outside_saved_ticks
+    def shortest_pitch(reads: list[int]) -> int:
+        ticks = sorted(set(reads))
+        return min(b - a for a, b in zip(ticks, ticks[1:], strict=False))
+
+    assert shortest_pitch(reads) == 270
+    _, reads_saved = passes_and_reads(e_every_pass=True, e_outside_saved_ticks=3)
+    assert shortest_pitch(reads_saved) == 267
