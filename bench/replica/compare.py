@@ -32,10 +32,12 @@ finds queued after the running entry - beside the replica's writes and the CPU o
 interrupts nested in its task, by vector.  ``--set [CHIP:]FIELD=VALUE`` runs the
 model with other figures of build e (as ``bench/e_fidelity.py --set``).
 
-``--phases`` prints, per run, timer 0's first overflow and the first ramp task of the
-model against the firmware's: the replica's vector entries less the replica's constant
-lead over the firmware (``FIRMWARE_LAG``, ``replica.py steps``) - docs/timing-model.md,
-"fifteenth pass".
+``--phases`` prints, per run, timer 0's first overflow, the first ramp task and the
+console's first transmit interrupt (the banner's second character loaded: the phase of
+every character printed without a pause after it) of the model against the firmware's:
+the replica's vector entries less the replica's constant lead over the firmware
+(``FIRMWARE_LAG``, ``replica.py steps``) - docs/timing-model.md, "fifteenth pass" and
+"sixteenth pass".
 
 The replica's runs (``CASE.ev``) are read from ``--work``: ``replica.py ... tasks CASE``
 writes them there (its ``--fas`` and ``--simavr`` are needed for that only).
@@ -61,6 +63,7 @@ import replica  # noqa: E402
 from fas.queue import StepperQueue  # noqa: E402
 from fas.sim import SimBackend  # noqa: E402
 from fas.sim.channel import SimChannel  # noqa: E402
+from stepperdemo.program import make_program  # noqa: E402
 
 QUEUE_START_CYCLES = 80  # the replica's first step rises this long after startQueue()
 QUEUE_SLOTS = 16  # the AVR queue's entries
@@ -69,6 +72,7 @@ PAIR_TICKS = 2000  # the replica's task enters within this of the model's (media
 # the replica's steps and `e` blocks come this many cycles after the firmware's from the
 # first on (replica.py steps), by the replica's task vector; its timer-0 overflow vector
 TIMER0_VECTOR = {13: 16, 20: 23}
+UART_VECTOR = {13: 19, 20: 26}  # the console's data-register-empty interrupt
 FIRMWARE_LAG = {13: 61, 20: 150}
 
 Write = tuple[int, int, int, int]  # stepper, CPU ticks after the task's entry, ticks, steps
@@ -345,8 +349,9 @@ def compare(case: str, conf: Path, work: Path, show: int, since_ms: float,
             **{f"alike: {k}": n for k, n in kinds_alike.items()}}
 
 
-def phases(case: str, conf: Path, work: Path) -> tuple[int, int]:
-    """(timer 0's first overflow, the first ramp task): model - firmware, in ticks."""
+def phases(case: str, conf: Path, work: Path) -> tuple[int, int, int]:
+    """(timer 0's first overflow, the first ramp task, the console's first transmit
+    interrupt): model - firmware, in ticks."""
     first: list[int] = []
     plain_task = SimBackend._task  # noqa: SLF001
 
@@ -355,27 +360,42 @@ def phases(case: str, conf: Path, work: Path) -> tuple[int, int]:
             first.append(self.machine.now)
         plain_task(self, index)
 
+    uart: list[int] = []
+
+    class Records(collections.deque):
+        """The UART's newest characters, noting the first one the machine loaded."""
+
+        def append(self, rec: list[int]) -> None:
+            # [write tick, load tick, ...]: loaded later than written - by the
+            # interrupt, while the one before it was on the wire
+            if not uart and rec[1] > rec[0]:
+                uart.append(rec[1])
+            super().append(rec)
+
     SimBackend._task = task  # type: ignore[method-assign]  # noqa: SLF001
     try:
-        backend = e_fidelity.run_model((conf / case / "input.txt").read_text().strip(),
-                                       e_fidelity.PROFILE.get(case, "atmega328p"), "e")
+        backend = SimBackend(e_fidelity.PROFILE.get(case, "atmega328p"), record=True,
+                             build="e")
+        backend.machine.uart.records = Records(maxlen=backend.machine.uart.capacity)
+        app = make_program("demo", backend, scripted=True)
+        app.run_script((conf / case / "input.txt").read_text().strip(), firmware_end=True)
     finally:
         SimBackend._task = plain_task  # type: ignore[method-assign]  # noqa: SLF001
     board = replica.BOARDS.get(case, replica.UNO)
-    vec0, lag = TIMER0_VECTOR[board.task_vector], FIRMWARE_LAG[board.task_vector]
-    fw0 = fw1 = None
+    vectors = (TIMER0_VECTOR[board.task_vector], board.task_vector,
+               UART_VECTOR[board.task_vector])
+    lag = FIRMWARE_LAG[board.task_vector]
+    fw: dict[int, int] = {}
     with open(work / f"{case}.ev") as f:
         for line in f:
             p = line.split()
-            if p[1] == "V":
-                if fw0 is None and int(p[2]) == vec0:
-                    fw0 = int(p[0]) - lag
-                if fw1 is None and int(p[2]) == board.task_vector:
-                    fw1 = int(p[0]) - lag
-                if fw0 is not None and fw1 is not None:
+            if p[1] == "V" and int(p[2]) in vectors and int(p[2]) not in fw:
+                fw[int(p[2])] = int(p[0]) - lag
+                if len(fw) == len(vectors):
                     break
-    assert fw0 is not None and fw1 is not None and first
-    return backend.machine.tick_at_millis(1) - fw0, first[0] - fw1
+    assert len(fw) == len(vectors) and first and uart
+    return (backend.machine.tick_at_millis(1) - fw[vectors[0]], first[0] - fw[vectors[1]],
+            uart[0] - fw[vectors[2]])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -397,7 +417,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="a figure or mechanism of build e's timing for the model's runs "
                     "(as bench/e_fidelity.py --set); repeatable")
     ap.add_argument("--phases", action="store_true",
-                    help="timer 0's first overflow and the first ramp task, model - firmware")
+                    help="timer 0's first overflow, the first ramp task and the console's first "
+                    "transmit interrupt, model - firmware")
     args = ap.parse_args(argv)
     try:
         e_fidelity.set_timing(args.set)
@@ -406,9 +427,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if args.phases:
         for case in args.cases:
-            t0, task = phases(case, args.conformance, args.work)
+            t0, task, uart = phases(case, args.conformance, args.work)
             print(f"{case}: model - firmware: timer 0's first overflow {t0:+d} ticks, "
-                  f"the first ramp task {task:+d}")
+                  f"the first ramp task {task:+d}, the console's first transmit "
+                  f"interrupt {uart:+d}")
         return 0
     total = collections.Counter()
     for case in args.cases:

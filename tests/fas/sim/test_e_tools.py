@@ -86,3 +86,48 @@ def test_compare_records_each_running_fills_read_in_task_order(tmp_path: Path) -
     # a fill that reads finds under the planning horizon (20 ms) what it then fills up
     planning = [t for t in both if any(w[0] == 1 for w in t.writes)]
     assert planning and all(t.reads[1][3] < 20 * 16000 for t in planning)
+
+
+def _demo_build_e(monkeypatch: pytest.MonkeyPatch) -> dict:
+    from stepperdemo.demo import build as demo_build_module
+
+    table = dict(demo_build_module.BY_BUILD["e"])
+    monkeypatch.setitem(demo_build_module.BY_BUILD, "e", table)
+    return table
+
+
+def test_phases_show_the_banner_and_the_first_task_move_with_setups_head(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, build_e: dict) -> None:
+    from dataclasses import replace
+
+    # a replica run whose timer-0, task and UART vectors enter at the firmware's tick 0
+    (tmp_path / "e01.ev").write_text("61 V 16\n65 R\n61 V 13\n70 R\n61 V 19\n66 R\n")
+    table = _demo_build_e(monkeypatch)
+    conf = e_fidelity.DEFAULT_CONF
+    t0, task, uart = compare.phases("e01", conf, tmp_path)
+    table["atmega328p"] = replace(table["atmega328p"],
+                                  setup_head_ticks=table["atmega328p"].setup_head_ticks - 100)
+    t0_h, task_h, uart_h = compare.phases("e01", conf, tmp_path)
+    # timer 0 starts before setup(); the banner's characters and the engine's start
+    # (the ramp task's phase counts from it) come 100 ticks sooner
+    assert (t0_h - t0, task_h - task, uart_h - uart) == (0, -100, -100)
+    # the first transmit interrupt (the banner's second character) comes before the
+    # engine starts, one character's time on the wire after the first
+    assert uart < task - sim_timing_module.BY_BUILD["e"]["atmega328p"].task_phase_ticks
+
+
+def test_loop_phase_reads_the_replicas_passes_and_tasks(tmp_path: Path) -> None:
+    import loop_phase
+
+    lines = []
+    for k in range(5):  # passes of 267 ticks: isRunning() (10), millis() (9)
+        t = 1000 + 267 * k
+        lines += [f"{t} C 4b62", f"{t + 10} S 4b62", f"{t + 148} C 5270", f"{t + 157} S 5270"]
+    # a ramp task with a UART interrupt nested in it (118 ticks to its reti)
+    lines += ["3000 V 13", "3500 V 19", "3618 R", "5000 R"]
+    (tmp_path / "e01.ev").write_text("\n".join(lines) + "\n")
+    side, site = loop_phase.replica_side("e01", tmp_path)
+    assert site == "5270"
+    assert side.reads == [1000 + 148 + 267 * k - 61 for k in range(5)]
+    assert side.tasks == [(3000 - 61, 2000 - 118 - 4)]
+    assert loop_phase.spans(4 * loop_phase.WINDOW_TICKS)[0] == (80 * 16_000, 252 * 16_000)
