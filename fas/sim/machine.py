@@ -86,7 +86,6 @@ class BatchSource(Protocol):
 # where timer 0 and the UART come before the step compares: how long after its request
 # one of them may still begin (behind the routines running then; a blocked section is
 # known on its own)
-LOOP_POLL_OPEN = 1 << 62  # the end of a poll still running (Machine.loop_polls)
 LATE_ISR_SLACK = 1024
 # no routine keeps a step interrupt of a block of pulses waiting this long (the longest
 # chain of other routines: timer 0, the UART, the ramp task's exit, another step interrupt)
@@ -166,17 +165,7 @@ class Machine:
         self._late_isrs = profile.step_vectors_after_timer0
         slack = LATE_ISR_SLACK if self._late_isrs else 0
         self._ms_window = self.timing.millis_isr_ticks + slack
-        # how long the UART's transmit interrupt holds a step interrupt (its CPU time
-        # taken from the loop is uart_isr_ticks)
-        self._uart_hold = ((self.timing.uart_hold_ticks or self.timing.uart_isr_ticks)
-                           if self.timing.uart_isr_ticks else 0)
-        self._uart_window = self._uart_hold + slack
-        # the main loop's own critical sections while it polls (:meth:`loop_hold`): the
-        # polls as (start, end, period, sections), in order; the one running now has
-        # end LOOP_POLL_OPEN (``loop_polling``: one runs)
-        self.loop_polls: list[tuple[int, int, int, tuple[tuple[int, int], ...]]] = []
-        self.loop_polling = False
-        self._ms_cost = self.timing.millis_isr_ticks  # per 16 384 ticks (loop_hold)
+        self._uart_window = self.timing.uart_isr_ticks + slack
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
@@ -316,49 +305,6 @@ class Machine:
         return True
 
     # ------------------------------------------------- interrupt contention
-    def poll_begin(self, period: int, sections: tuple[tuple[int, int], ...]) -> None:
-        """The main loop polls from now on in passes of ``period`` ticks, each with
-        interrupts off in ``sections`` (offset in the pass, ticks), until
-        :meth:`poll_end`."""
-        polls = self.loop_polls
-        if len(polls) > 4096:  # forget what no block of pulses can still ask about
-            del polls[:len(polls) - 64]
-        polls.append((self.now, LOOP_POLL_OPEN, period, sections))
-        self.loop_polling = True
-
-    def poll_end(self) -> None:
-        """The loop takes up work (its poll ends now)."""
-        polls = self.loop_polls
-        start, _, period, sections = polls[-1]
-        if self.now > start:
-            polls[-1] = (start, self.now, period, sections)
-        else:
-            polls.pop()
-        self.loop_polling = False
-
-    def loop_hold(self, c: int, step_period: int, step_cost: int) -> int:
-        """Ticks a step interrupt requested at ``c``, when no routine holds the CPU,
-        waits for a critical section of the polling loop to end (0: none holds it).
-        The passes run one after another from the poll's start in the loop's own CPU
-        time: the step interrupts of the asking channel (``step_cost`` ticks every
-        ``step_period``) and timer 0's overflows are taken from it."""
-        polls = self.loop_polls
-        i = len(polls) - 1
-        while i >= 0:
-            start, end, period, sections = polls[i]
-            if c >= end:
-                return 0
-            if c >= start:
-                d = c - start
-                d -= step_cost * (d // step_period) + self._ms_cost * (d >> 14)
-                phase = d % period
-                for offset, ticks in sections:
-                    if offset <= phase < offset + ticks:
-                        return offset + ticks - phase
-                return 0
-            i -= 1
-        return 0
-
     def enter_isr(self, t: int, cost: int) -> None:
         """A routine entered as an event at tick ``t`` holds the CPU ``cost`` ticks."""
         starts = self.isr_starts
@@ -417,9 +363,7 @@ class Machine:
         ms_ov = timing.millis_overflow_ticks
         ms_phase = self._millis_phase
         ms_first = ms_phase + ms_ov
-        # a step interrupt waits for the UART's routine to its reti's end; the loop and
-        # the ramp task go on after the CPU time it takes from them
-        uart_cost = self._uart_hold if asker is not None else timing.uart_isr_ticks
+        uart_cost = timing.uart_isr_ticks
         loads = self.uart.loads
         bfrom, buntil = self.irq_blocked_from, self.irq_blocked_until
         blocked_end = buntil + timing.sei_ticks
@@ -438,7 +382,7 @@ class Machine:
                 if i >= 0 and t < xe[i]:
                     t = xe[i]
             if self._late_isrs:
-                t = self._after_late_isrs(t, bc, uart_cost)
+                t = self._after_late_isrs(t, bc)
             # timer 0 and the UART (lower priority than the step compares): they hold the
             # CPU when they began with interrupts on (one held back by a blocked section
             # runs after the step interrupts pending at its end)
@@ -501,11 +445,12 @@ class Machine:
             if t == t0:
                 return t
 
-    def _timer0_runs(self, req: int, bc: BatchSource | None, uart: int) -> int:
+    def _timer0_runs(self, req: int, bc: BatchSource | None, uart: bool) -> int:
         """Where timer 0's interrupt requested at ``req`` begins when it comes before
         the step compares: once the routines running then have returned (a UART
-        interrupt running then too, holding the CPU ``uart`` ticks; 0: not asked)."""
-        cost = uart
+        interrupt running then too, when ``uart``)."""
+        timing = self.timing
+        cost = timing.uart_isr_ticks
         loads = self.uart.loads
         t = req
         while True:
@@ -517,7 +462,7 @@ class Machine:
                 return t
             t = loads[i] + cost
 
-    def _after_late_isrs(self, t: int, bc: BatchSource | None, uart_cost: int) -> int:
+    def _after_late_isrs(self, t: int, bc: BatchSource | None) -> int:
         """``t``, or the end of timer 0's or the UART's interrupt running at ``t``, where
         both come before the step compares (``Profile.step_vectors_after_timer0``): each
         begins once the routines running at its request have returned, timer 0 before a
@@ -529,10 +474,10 @@ class Machine:
             req = t - (t - self._millis_phase) % ov
             for r in (req, req - ov):
                 if r >= self._millis_first and t - r < self._ms_window:
-                    begin = self._timer0_runs(r, bc, uart_cost)
+                    begin = self._timer0_runs(r, bc, True)
                     if begin <= t < begin + cost:
                         return begin + cost
-        cost = uart_cost
+        cost = timing.uart_isr_ticks
         loads = self.uart.loads
         if cost and loads and t < loads[-1] + self._uart_window:
             i = bisect_right(loads, t) - 1
@@ -546,7 +491,7 @@ class Machine:
                         ov = timing.millis_overflow_ticks
                         r = begin - (begin - self._millis_phase) % ov
                         if r >= self._millis_first and begin - r < self._ms_window:
-                            m0 = self._timer0_runs(r, bc, 0)
+                            m0 = self._timer0_runs(r, bc, False)
                             if m0 <= begin < m0 + ms:
                                 begin = m0 + ms
                     if begin == b0:

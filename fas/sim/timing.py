@@ -90,13 +90,6 @@ class SimTiming:
     # interrupts pending when the loop's blocked section ends enter after the
     # instruction that follows its sei
     sei_ticks: int = 0
-    # a step interrupt held behind another routine enters after the instruction of the
-    # main program that runs after that routine's reti
-    reti_next_ticks: int = 0
-    # how long the UART's transmit interrupt holds a step interrupt requested while it
-    # runs: from its request to its reti's end (0: uart_isr_ticks, the CPU time it
-    # takes from the loop, which was fitted to the prints)
-    uart_hold_ticks: int = 0
     # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
     # (the ATmega32U4's USBDevice.attach())
     core_main_ticks: int = 0
@@ -129,7 +122,7 @@ def avr_uart_byte_ticks(f_cpu: int, baud: int, sim_bits: int = 10) -> int:
 
 AVR_TIMING = SimTiming(
     timer_wrap_ticks=65536,
-    isr_latency_ticks=(60, 70, 70),
+    isr_latency_ticks=(61, 71, 71),
     isr_duration_ticks=120,
     fill_entry_ticks=2436,
     fill_cmd_ticks=2367,
@@ -145,21 +138,17 @@ AVR_TIMING = SimTiming(
     uart_rx_buffer=63,  # HardwareSerial: a 64-byte ring keeps one slot free
     millis_overflow_ticks=64 * 256,
     millis_isr_ticks=96,
-    isr_ocr_ticks=30,
+    isr_ocr_ticks=29,
     isr_duration_by_channel=(120, 146, 146),
     fill_mask_entry_ticks=50,
     fill_mask_exit_ticks=41,
     sei_ticks=1,
-    reti_next_ticks=2,
-    # measured on the replica of the 328P (docs/timing-model.md, fourteenth pass): entry
-    # to reti 118 ticks, the reti 4 (timer 0's: 92 + 4, its millis_isr_ticks)
-    uart_hold_ticks=118 + 4,
 )
 
 # the default build with the library's SIMAVR_TIME_MEASUREMENT (upstream's timing
 # tests): the step interrupt sets a port bit on entry (sbi, before it clears the step pin)
 # and toggles it before it returns
-AVR_TIME_MEASUREMENT_TIMING = replace(AVR_TIMING, isr_latency_ticks=(62, 73, 73), isr_ocr_ticks=29,
+AVR_TIME_MEASUREMENT_TIMING = replace(AVR_TIMING, isr_latency_ticks=(62, 73, 73),
                                       isr_duration_by_channel=(126, 152, 152))
 
 # the build of the runs e01-e18 (fas.sim.builds): the library's code takes fewer cycles.
@@ -213,11 +202,8 @@ AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
 # longer.  Its step interrupts take 127 ticks (channel A) and 142 (B, C), timer 0's 97
 # (measured on the runs e13/e14, the only ones of this chip); the pin falls 5 ticks later
 # than on the ATmega328P (one more cycle to enter, the extra pushes of its prologue)
-AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76), isr_ocr_ticks=29,
-                          isr_duration_by_channel=(127, 142, 142), millis_isr_ticks=97,
-                          # the replica of e13: the UART's transmit interrupt entry to
-                          # reti 126 ticks, the reti 5 (a 3-byte return address)
-                          uart_hold_ticks=126 + 5)
+AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76),
+                          isr_duration_by_channel=(127, 142, 142), millis_isr_ticks=97)
 # ... in the build of the runs e13/e14, where channel A's pin falls 64 ticks after the
 # entry (3 later than on the ATmega328P): e13's plain pulses average 64.4 ticks, held
 # pulses apart (bench/e_fidelity.py --pulses); B and C as above (e14).  Its start-up
@@ -231,7 +217,7 @@ AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76), isr_ocr_ti
 AVR_MEGA_E_TIMING = replace(AVR_E_TIMING, fill_entry_ticks=517, fill_stepper_ticks=276,
                             boot_ticks=AVR_E_TIMING.boot_ticks + 4950,
                             fill_start_ticks=2384,
-                            isr_latency_ticks=(63, 73, 73),
+                            isr_latency_ticks=(64, 76, 76),
                             isr_duration_by_channel=AVR_MEGA_TIMING.isr_duration_by_channel,
                             millis_isr_ticks=AVR_MEGA_TIMING.millis_isr_ticks)
 

@@ -65,9 +65,6 @@ class DemoConfig:
     steppers: tuple[DemoStepper, ...]
 
 
-LoopPoll = tuple[int, tuple[tuple[int, int], ...]]
-
-
 @dataclass(frozen=True)
 class DemoBuild:
     """StepperDemo built for one chip (costs in ticks of its profile)."""
@@ -100,15 +97,6 @@ class DemoBuild:
     # executing a command, by letter, without its prints and argument parsing
     cmd_ticks: dict[str, int] = field(default_factory=dict, compare=False)
     irq_block_ticks: int = 0  # `e`: length of one blocked section
-    # the loop's own critical sections while it polls with a stepper running, as
-    # (pass length, ((offset in the pass, ticks with interrupts off), ...)): during a
-    # `w<ms>` and otherwise (None: not followed)
-    loop_poll_pause: LoopPoll | None = None
-    loop_poll_running: LoopPoll | None = None
-    # test sequence 11's position reads in a loop: one getCurrentPosition() (ticks) and,
-    # where measured, how that loop turns interrupts off (as loop_poll_pause)
-    position_read_ticks: int = 96
-    position_read_poll: LoopPoll | None = None
 
 
 # ------------------------------------------------------------------------------ costs
@@ -135,18 +123,6 @@ AVR_COSTS = DemoBuild(
     # noInterrupts(); delayMicroseconds(100); interrupts(): the AVR core's busy loop of
     # 4 cycles per round, 4 rounds per us less 5 for the call, plus cli and sei
     irq_block_ticks=4 * (4 * 100 - 5) + 2,
-    # measured on the replica of the 328P build (docs/timing-model.md, fourteenth pass):
-    # isRunning()'s queue read 10 ticks from cli to sei at the pass's start, millis() 9
-    # from cli to the SREG restore; an interrupt requested inside enters after the next
-    # instruction (1 tick after sei, 2 after millis()'s restore: 11 each); a `w` pass
-    # reads millis() twice (the pause, then the pass's own), 260 ticks; otherwise passes
-    # of 265 and 366 ticks alternate, millis() 153 and 254 ticks after isRunning()
-    loop_poll_pause=(260, ((0, 11), (111, 11), (148, 11))),
-    loop_poll_running=(631, ((0, 11), (153, 11), (265, 11), (519, 11))),
-    # test sequence 11's getCurrentPosition() loop on the replica: one read every 183 or
-    # 198 ticks, interrupts off for 37 ticks of it and the instruction after the sei (38)
-    position_read_ticks=381 // 2,
-    position_read_poll=(381, ((0, 38), (183, 38))),
 )
 
 # ESP32 and the Pico: not measured on a firmware run, estimates
