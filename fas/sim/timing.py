@@ -90,11 +90,6 @@ class SimTiming:
     # interrupts pending when the loop's blocked section ends enter after the
     # instruction that follows its sei
     sei_ticks: int = 0
-    # how long the UART's transmit interrupt holds a step interrupt requested while it
-    # runs: from its request to the step interrupt's entry, i.e. its reti's end and the
-    # instruction of the main program after it (0: uart_isr_ticks, the CPU time it takes
-    # from the loop, which was fitted with the prints)
-    uart_hold_ticks: int = 0
     # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
     # (the ATmega32U4's USBDevice.attach())
     core_main_ticks: int = 0
@@ -148,10 +143,6 @@ AVR_TIMING = SimTiming(
     fill_mask_entry_ticks=50,
     fill_mask_exit_ticks=41,
     sei_ticks=1,
-    # the replica of the 328P (docs/timing-model.md, fifteenth pass): the routine's entry
-    # to its reti 118 ticks, the reti 4, one instruction of the loop (1-2) before the
-    # held step interrupt enters: 123-124 ticks from the UART's request
-    uart_hold_ticks=124,
 )
 
 # the default build with the library's SIMAVR_TIME_MEASUREMENT (upstream's timing
@@ -212,10 +203,7 @@ AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
 # (measured on the runs e13/e14, the only ones of this chip); the pin falls 5 ticks later
 # than on the ATmega328P (one more cycle to enter, the extra pushes of its prologue)
 AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76),
-                          isr_duration_by_channel=(127, 142, 142), millis_isr_ticks=97,
-                          # the replica of e13: the UART's routine 126 ticks to its reti,
-                          # the reti 5 (3-byte return address), one instruction: 132-133
-                          uart_hold_ticks=133)
+                          isr_duration_by_channel=(127, 142, 142), millis_isr_ticks=97)
 # ... in the build of the runs e13/e14, where channel A's pin falls 64 ticks after the
 # entry (3 later than on the ATmega328P): e13's plain pulses average 64.4 ticks, held
 # pulses apart (bench/e_fidelity.py --pulses); B and C as above (e14).  Its start-up
