@@ -19,6 +19,10 @@ on both sides (ticks), so the situation whose width the model gets wrong stands 
 
     python3 bench/pulse_widths.py --replica /tmp/fas-replica d38 d35 e13
 
+``--holds`` reads the replica alone: per routine, how long it holds a step interrupt
+requested while it runs (from its entry to the step interrupt's, beside its own entry to
+``reti``).
+
 The replica is build e of the firmware; the ``d`` folders of the conformance data were
 run in build d, whose commands land 200-336 us earlier (docs/timing-model.md, "A replica
 of the firmware") - the model runs each case in its folder's build, as the corpus does.
@@ -114,6 +118,48 @@ def situation(rise: int, vec: int, task: int, starts: list[int],
     if ahead:
         return "behind " + "+".join(ahead)
     return "loop cli"
+
+
+def hold_lengths(ev: Path, pins: Path, pin: str,
+                 vec: int) -> dict[int, tuple[list[int], list[int]]]:
+    """How long each routine holds a step interrupt (vector ``vec``, pulses on ``pin``):
+    per routine vector, (its entry-to-reti spans, and for every pulse that rose while
+    it alone ran - nothing entered in between - the step interrupt's entry less the
+    routine's entry).  The model's window for it is the hold, not the CPU time."""
+    starts, spans = routines(ev)
+    out: dict[int, tuple[list[int], list[int]]] = {}
+    for a, r, v in spans:
+        if v != vec:
+            out.setdefault(v, ([], []))[0].append(r - a)
+    for rise, _ in replica_pulses(pins, pin):
+        k = bisect.bisect_left(starts, rise)
+        mine = next((spans[j] for j in range(k, min(k + 12, len(spans)))
+                     if spans[j][2] == vec), None)
+        if mine is None:
+            continue
+        running = [s for s in spans[max(0, k - 40):k] if s[0] < rise < s[1]]
+        between = [s for s in spans[k:] if s[0] < mine[0] and s[2] != vec]
+        if len(running) == 1 and not between and running[0][2] != vec:
+            top = running[0]
+            out.setdefault(top[2], ([], []))[1].append(mine[0] - top[0])
+    return out
+
+
+def report_holds(case: str, replica: Path) -> None:
+    profile = PROFILE.get(case, "atmega328p")
+    print(f"## {case}: holds ({profile}; ticks from the routine's entry)")
+    print("| step vector | behind vector | routine entry to reti (median) | held pulses "
+          "| step entry - routine entry: median, mean |")
+    print("| --- | --- | --- | --- | --- |")
+    for letter, (pin, vec) in REPLICA[profile].items():
+        holds = hold_lengths(replica / f"{case}.ev", replica / f"{case}.pins", pin, vec)
+        for v, (durs, held) in sorted(holds.items()):
+            if not held or v == TASK[profile]:  # the task nests: its pulses are no holds
+                continue
+            durs_s, held_s = sorted(durs), sorted(held)
+            print(f"| {vec} ({letter}) | {v} | {durs_s[len(durs_s) // 2]} | {len(held)} "
+                  f"| {held_s[len(held_s) // 2]}, {sum(held) / len(held):.1f} |")
+    print()
 
 
 def model_pulses(case: str, conf: Path, profile: str) -> dict[str, list[tuple[int, int]]]:
@@ -216,10 +262,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--replica", type=Path, default=Path("/tmp/fas-replica"),
                     help="the replica's runs (CASE.pins, CASE.ev)")
     ap.add_argument("--conformance", type=Path, default=Path("/work/shared/conformance"))
+    ap.add_argument("--holds", action="store_true",
+                    help="only the replica: how long each routine holds a step interrupt")
     ap.add_argument("cases", nargs="+")
     args = ap.parse_args(argv)
     for case in args.cases:
-        report(case, args.replica, args.conformance)
+        if args.holds:
+            report_holds(case, args.replica)
+        else:
+            report(case, args.replica, args.conformance)
     return 0
 
 

@@ -168,7 +168,11 @@ class Machine:
         self._late_isrs = profile.step_vectors_after_timer0
         slack = LATE_ISR_SLACK if self._late_isrs else 0
         self._ms_window = self.timing.millis_isr_ticks + slack
-        self._uart_window = self.timing.uart_isr_ticks + slack
+        # how long the UART's transmit interrupt holds a step interrupt (the CPU time it
+        # takes from the loop and the ramp task is uart_isr_ticks)
+        self._uart_hold = ((self.timing.uart_hold_ticks or self.timing.uart_isr_ticks)
+                           if self.timing.uart_isr_ticks else 0)
+        self._uart_window = self._uart_hold + slack
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
@@ -366,7 +370,9 @@ class Machine:
         ms_ov = timing.millis_overflow_ticks
         ms_phase = self._millis_phase
         ms_first = ms_phase + ms_ov
-        uart_cost = timing.uart_isr_ticks
+        # a step interrupt waits for the UART's routine to the end of its reti and one
+        # instruction; the loop and the ramp task go on after the CPU time it takes
+        uart_cost = self._uart_hold if asker is not None else timing.uart_isr_ticks
         loads = self.uart.loads
         bfrom, buntil = self.irq_blocked_from, self.irq_blocked_until
         blocked_end = buntil + timing.sei_ticks
@@ -385,7 +391,7 @@ class Machine:
                 if i >= 0 and t < xe[i]:
                     t = xe[i]
             if self._late_isrs:
-                t = self._after_late_isrs(t, bc)
+                t = self._after_late_isrs(t, bc, uart_cost)
             # timer 0 and the UART (lower priority than the step compares): they hold the
             # CPU when they began with interrupts on (one held back by a blocked section
             # runs after the step interrupts pending at its end)
@@ -448,12 +454,11 @@ class Machine:
             if t == t0:
                 return t
 
-    def _timer0_runs(self, req: int, bc: BatchSource | None, uart: bool) -> int:
+    def _timer0_runs(self, req: int, bc: BatchSource | None, uart: int) -> int:
         """Where timer 0's interrupt requested at ``req`` begins when it comes before
         the step compares: once the routines running then have returned (a UART
-        interrupt running then too, when ``uart``)."""
-        timing = self.timing
-        cost = timing.uart_isr_ticks
+        interrupt running then too, holding the CPU ``uart`` ticks; 0: not asked)."""
+        cost = uart
         loads = self.uart.loads
         t = req
         while True:
@@ -465,7 +470,7 @@ class Machine:
                 return t
             t = loads[i] + cost
 
-    def _after_late_isrs(self, t: int, bc: BatchSource | None) -> int:
+    def _after_late_isrs(self, t: int, bc: BatchSource | None, uart_cost: int) -> int:
         """``t``, or the end of timer 0's or the UART's interrupt running at ``t``, where
         both come before the step compares (``Profile.step_vectors_after_timer0``): each
         begins once the routines running at its request have returned, timer 0 before a
@@ -477,10 +482,10 @@ class Machine:
             req = t - (t - self._millis_phase) % ov
             for r in (req, req - ov):
                 if r >= self._millis_first and t - r < self._ms_window:
-                    begin = self._timer0_runs(r, bc, True)
+                    begin = self._timer0_runs(r, bc, uart_cost)
                     if begin <= t < begin + cost:
                         return begin + cost
-        cost = timing.uart_isr_ticks
+        cost = uart_cost
         loads = self.uart.loads
         if cost and loads and t < loads[-1] + self._uart_window:
             i = bisect_right(loads, t) - 1
@@ -494,7 +499,7 @@ class Machine:
                         ov = timing.millis_overflow_ticks
                         r = begin - (begin - self._millis_phase) % ov
                         if r >= self._millis_first and begin - r < self._ms_window:
-                            m0 = self._timer0_runs(r, bc, False)
+                            m0 = self._timer0_runs(r, bc, 0)
                             if m0 <= begin < m0 + ms:
                                 begin = m0 + ms
                     if begin == b0:

@@ -106,6 +106,11 @@ class SimTiming:
     # interrupts pending when the loop's blocked section ends enter after the
     # instruction that follows its sei
     sei_ticks: int = 0
+    # how long the UART's transmit interrupt holds a step interrupt requested while it
+    # runs: from its request to the step interrupt's entry - its reti's end and the
+    # instruction of the main program after it (0: uart_isr_ticks, the CPU time it takes
+    # from the loop and the ramp task, which was fitted with the default build's prints)
+    uart_hold_ticks: int = 0
     # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
     # (the ATmega32U4's USBDevice.attach())
     core_main_ticks: int = 0
@@ -186,7 +191,12 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
                        fill_pause_ticks=1259, fill_single_ticks=1817, fill_cmd_ticks=2060,
                        fill_coast_cmd_ticks=1600, fill_queued_entry_ticks=100,
                        fill_skips_done_ramps=True,
-                       isr_next_entry_ticks=24, isr_duration_by_channel=(120, 135, 135))
+                       isr_next_entry_ticks=24, isr_duration_by_channel=(120, 135, 135),
+                       # the replica of this build (docs/timing-model.md, fifteenth pass):
+                       # the UART's routine 118 ticks to its reti, the reti 4, one
+                       # instruction (1-2) before a held step interrupt enters: 123-124
+                       # ticks from the UART's request (test_sd_14_328p 315 pulses, e17 195)
+                       uart_hold_ticks=124)
 
 # upstream's own simulator-tested sketches (FastAccelStepper 1.2.7's examples/Issue*,
 # built by its test suite with SIMAVR_TIME_MEASUREMENT): the step interrupt as in
@@ -219,7 +229,8 @@ AVR_USB_TIMING = replace(AVR_TIMING, char_ticks=40, uart_byte_ticks=0,
 AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
                            boot_ticks=AVR_USB_TIMING.boot_ticks,
                            console_call_ticks=AVR_USB_TIMING.console_call_ticks,
-                           fill_entry_ticks=479, core_main_ticks=10880)
+                           fill_entry_ticks=479, core_main_ticks=10880,
+                           uart_hold_ticks=0)  # the USB's interrupt: not read
 
 # ATmega2560: a 3-byte program counter makes calls, interrupt entries and returns
 # longer.  Its step interrupts take 127 ticks (channel A) and 142 (B, C), timer 0's 97
@@ -240,9 +251,13 @@ AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76),
 AVR_MEGA_E_TIMING = replace(AVR_E_TIMING, fill_entry_ticks=517, fill_stepper_ticks=276,
                             boot_ticks=AVR_E_TIMING.boot_ticks + 4950,
                             fill_start_ticks=2384,
-                            isr_latency_ticks=(64, 76, 76),
+                            isr_latency_ticks=(64, 73, 73),
                             isr_duration_by_channel=AVR_MEGA_TIMING.isr_duration_by_channel,
-                            millis_isr_ticks=AVR_MEGA_TIMING.millis_isr_ticks)
+                            millis_isr_ticks=AVR_MEGA_TIMING.millis_isr_ticks,
+                            # the replica of e13/e14: the UART's routine 126 ticks to its
+                            # reti, the reti 5 (3-byte return address), one instruction:
+                            # 132-133 ticks (e13 62 pulses, e14 211)
+                            uart_hold_ticks=133)
 
 ESP32_TIMING = SimTiming(
     timer_wrap_ticks=0,

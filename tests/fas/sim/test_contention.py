@@ -131,3 +131,21 @@ def test_on_the_megas_timer_4_timer_0_enters_before_a_pending_step_interrupt():
     a_end = -50 + 127
     assert _behind_a_step_interrupt_and_timer_0("atmega2560") == [("A", -50), ("B", a_end + ms)]
     assert _behind_a_step_interrupt_and_timer_0("atmega2560_timer1") == [("A", -50), ("B", ms)]
+
+
+def test_a_step_interrupt_waits_for_the_uarts_routine_to_its_reti_the_loop_for_its_cpu_time():
+    # build e (the replica's): the UART's transmit interrupt requested at 1000 holds a step
+    # interrupt to its reti's end and one instruction (124 ticks on the 328P, 133 on the
+    # 2560); the loop and the ramp task (asker None) go on after its CPU time (114)
+    for profile, hold in ((ATMEGA328P, 124), (get_profile("atmega2560_timer1"), 133)):
+        m = Machine(profile, "e")
+        m.uart.loads.append(1000)
+        step = object()  # a step channel asks
+        cpu = sim_timing(profile, "e").uart_isr_ticks
+        assert m.cpu_free_at(1010, step) == 1000 + hold
+        assert m.cpu_free_at(1010) == 1000 + cpu
+        assert m.cpu_free_at(1000 + hold, step) == 1000 + hold
+    # the default build: not read on a replica, its window is the CPU time
+    m = Machine(ATMEGA328P)
+    m.uart.loads.append(1000)
+    assert m.cpu_free_at(1010, object()) == 1000 + T.uart_isr_ticks

@@ -56,6 +56,22 @@ def test_situations_of_the_replica_pulses(tmp_path: Path) -> None:
     assert got == ["alone", "behind 16", "in task", "loop cli"]
 
 
+def test_hold_lengths_per_routine(tmp_path: Path) -> None:
+    # the pulse rising in timer 0's routine (entry 5000, reti 5100) is held until the
+    # step interrupt enters at 5101: 101 ticks from timer 0's entry, its routine 100
+    _write(tmp_path)
+    holds = pw.hold_lengths(tmp_path / "c.ev", tmp_path / "c.pins", "B1", 11)
+    assert holds[16] == ([100], [101])
+    # the pulse in the ramp task entered while it ran (nested): the report leaves it out
+    assert holds[13] == ([600], [50])
+    out = subprocess.run([sys.executable, "bench/pulse_widths.py", "--holds", "--replica",
+                          str(tmp_path), "c"], cwd=ROOT, capture_output=True, text=True,
+                         timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert "| 11 (A) | 16 | 100 | 1 | 101, 101.0 |" in out.stdout
+    assert "| 11 (A) | 13 |" not in out.stdout
+
+
 def test_excess_bins_count_beyond_the_commonest_width() -> None:
     pulses = [(0, 60), (100, 160), (200, 263), (300, 372), (400, 500), (500, 900)]
     bins = pw.excess_bins(pulses)
