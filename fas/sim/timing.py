@@ -192,7 +192,7 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
                        fill_coast_cmd_ticks=1600, fill_queued_entry_ticks=100,
                        fill_skips_done_ramps=True,
                        isr_next_entry_ticks=24, isr_duration_by_channel=(120, 135, 135),
-                       # the replica of this build (docs/timing-model.md, fifteenth pass):
+                       # the replica of this build (docs/timing-model.md, fifteenth pass, pulses):
                        # the UART's routine 118 ticks to its reti, the reti 4, one
                        # instruction (1-2) before a held step interrupt enters: 123-124
                        # ticks from the UART's request (test_sd_14_328p 315 pulses, e17 195)
