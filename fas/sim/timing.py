@@ -106,9 +106,6 @@ class SimTiming:
     # interrupts pending when the loop's blocked section ends enter after the
     # instruction that follows its sei
     sei_ticks: int = 0
-    # a step interrupt held behind another routine enters after the instruction of the
-    # main program that runs after that routine's reti
-    reti_next_ticks: int = 0
     # how long the UART's transmit interrupt holds a step interrupt requested while it
     # runs: from its request to the step interrupt's entry - its reti's end and the
     # instruction of the main program after it (0: uart_isr_ticks, the CPU time it takes
@@ -195,14 +192,11 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
                        fill_coast_cmd_ticks=1600, fill_queued_entry_ticks=100,
                        fill_skips_done_ramps=True,
                        isr_next_entry_ticks=24, isr_duration_by_channel=(120, 135, 135),
-                       # the replica of this build (docs/timing-model.md, fourteenth and
-                       # fifteenth passes, pulses): the pin falls 60 / 70 ticks after an
-                       # entry at once, the next compare 30 after it; a step interrupt held
-                       # behind a routine enters after its reti and one instruction of the
-                       # loop (reti_next_ticks): the UART's routine 118 ticks to its reti,
-                       # the reti 4 (test_sd_14_328p 315 pulses, e17 195: 123-124 in all)
-                       isr_latency_ticks=(60, 70, 70), isr_ocr_ticks=30, reti_next_ticks=2,
-                       uart_hold_ticks=118 + 4)
+                       # the replica of this build (docs/timing-model.md, fifteenth pass, pulses):
+                       # the UART's routine 118 ticks to its reti, the reti 4, one
+                       # instruction (1-2) before a held step interrupt enters: 123-124
+                       # ticks from the UART's request (test_sd_14_328p 315 pulses, e17 195)
+                       uart_hold_ticks=124)
 
 # upstream's own simulator-tested sketches (FastAccelStepper 1.2.7's examples/Issue*,
 # built by its test suite with SIMAVR_TIME_MEASUREMENT): the step interrupt as in
@@ -257,14 +251,13 @@ AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76),
 AVR_MEGA_E_TIMING = replace(AVR_E_TIMING, fill_entry_ticks=517, fill_stepper_ticks=276,
                             boot_ticks=AVR_E_TIMING.boot_ticks + 4950,
                             fill_start_ticks=2384,
-                            isr_latency_ticks=(63, 73, 73),
+                            isr_latency_ticks=(64, 73, 73),
                             isr_duration_by_channel=AVR_MEGA_TIMING.isr_duration_by_channel,
                             millis_isr_ticks=AVR_MEGA_TIMING.millis_isr_ticks,
                             # the replica of e13/e14: the UART's routine 126 ticks to its
-                            # reti, the reti 5 (3-byte return address), then one
-                            # instruction (reti_next_ticks): 132-133 ticks (e13 62 pulses,
-                            # e14 211)
-                            uart_hold_ticks=126 + 5)
+                            # reti, the reti 5 (3-byte return address), one instruction:
+                            # 132-133 ticks (e13 62 pulses, e14 211)
+                            uart_hold_ticks=133)
 
 ESP32_TIMING = SimTiming(
     timer_wrap_ticks=0,
