@@ -106,9 +106,6 @@ class SimTiming:
     # interrupts pending when the loop's blocked section ends enter after the
     # instruction that follows its sei
     sei_ticks: int = 0
-    # a step interrupt held behind another routine enters after the instruction of the
-    # main program that runs after that routine's reti
-    reti_next_ticks: int = 0
     # how long the UART's transmit interrupt holds a step interrupt requested while it
     # runs: from its request to the step interrupt's entry - its reti's end and the
     # instruction of the main program after it (0: uart_isr_ticks, the CPU time it takes
@@ -153,7 +150,7 @@ def avr_uart_byte_ticks(f_cpu: int, baud: int, sim_bits: int = 10) -> int:
 
 AVR_TIMING = SimTiming(
     timer_wrap_ticks=65536,
-    isr_latency_ticks=(60, 70, 70),
+    isr_latency_ticks=(61, 71, 71),
     isr_duration_ticks=120,
     fill_entry_ticks=2436,
     fill_cmd_ticks=2367,
@@ -169,20 +166,17 @@ AVR_TIMING = SimTiming(
     uart_rx_buffer=63,  # HardwareSerial: a 64-byte ring keeps one slot free
     millis_overflow_ticks=64 * 256,
     millis_isr_ticks=96,
-    isr_ocr_ticks=30,
+    isr_ocr_ticks=29,
     isr_duration_by_channel=(120, 146, 146),
     fill_mask_entry_ticks=50,
     fill_mask_exit_ticks=41,
     sei_ticks=1,
-    # (experiment: build e's figures in every AVR build)
-    reti_next_ticks=2,
-    uart_hold_ticks=118 + 4,
 )
 
 # the default build with the library's SIMAVR_TIME_MEASUREMENT (upstream's timing
 # tests): the step interrupt sets a port bit on entry (sbi, before it clears the step pin)
 # and toggles it before it returns
-AVR_TIME_MEASUREMENT_TIMING = replace(AVR_TIMING, isr_latency_ticks=(62, 73, 73), isr_ocr_ticks=29,
+AVR_TIME_MEASUREMENT_TIMING = replace(AVR_TIMING, isr_latency_ticks=(62, 73, 73),
                                       isr_duration_by_channel=(126, 152, 152))
 
 # the build of the runs e01-e18 (fas.sim.builds): the library's code takes fewer cycles.
@@ -198,14 +192,11 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
                        fill_coast_cmd_ticks=1600, fill_queued_entry_ticks=100,
                        fill_skips_done_ramps=True,
                        isr_next_entry_ticks=24, isr_duration_by_channel=(120, 135, 135),
-                       # the replica of this build (docs/timing-model.md, fourteenth and
-                       # fifteenth passes, pulses): the pin falls 60 / 70 ticks after an
-                       # entry at once, the next compare 30 after it; a step interrupt held
-                       # behind a routine enters after its reti and one instruction of the
-                       # loop (reti_next_ticks): the UART's routine 118 ticks to its reti,
-                       # the reti 4 (test_sd_14_328p 315 pulses, e17 195: 123-124 in all)
-                       isr_latency_ticks=(60, 70, 70), isr_ocr_ticks=30, reti_next_ticks=2,
-                       uart_hold_ticks=118 + 4)
+                       # the replica of this build (docs/timing-model.md, fifteenth pass, pulses):
+                       # the UART's routine 118 ticks to its reti, the reti 4, one
+                       # instruction (1-2) before a held step interrupt enters: 123-124
+                       # ticks from the UART's request (test_sd_14_328p 315 pulses, e17 195)
+                       uart_hold_ticks=124)
 
 # upstream's own simulator-tested sketches (FastAccelStepper 1.2.7's examples/Issue*,
 # built by its test suite with SIMAVR_TIME_MEASUREMENT): the step interrupt as in
@@ -245,8 +236,7 @@ AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
 # longer.  Its step interrupts take 127 ticks (channel A) and 142 (B, C), timer 0's 97
 # (measured on the runs e13/e14, the only ones of this chip); the pin falls 5 ticks later
 # than on the ATmega328P (one more cycle to enter, the extra pushes of its prologue)
-AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76), isr_ocr_ticks=29,
-                          uart_hold_ticks=126 + 5,
+AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76),
                           isr_duration_by_channel=(127, 142, 142), millis_isr_ticks=97)
 # ... in the build of the runs e13/e14, where channel A's pin falls 64 ticks after the
 # entry (3 later than on the ATmega328P): e13's plain pulses average 64.4 ticks, held
@@ -261,14 +251,13 @@ AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76), isr_ocr_ti
 AVR_MEGA_E_TIMING = replace(AVR_E_TIMING, fill_entry_ticks=517, fill_stepper_ticks=276,
                             boot_ticks=AVR_E_TIMING.boot_ticks + 4950,
                             fill_start_ticks=2384,
-                            isr_latency_ticks=(63, 73, 73),
+                            isr_latency_ticks=(64, 73, 73),
                             isr_duration_by_channel=AVR_MEGA_TIMING.isr_duration_by_channel,
                             millis_isr_ticks=AVR_MEGA_TIMING.millis_isr_ticks,
                             # the replica of e13/e14: the UART's routine 126 ticks to its
-                            # reti, the reti 5 (3-byte return address), then one
-                            # instruction (reti_next_ticks): 132-133 ticks (e13 62 pulses,
-                            # e14 211)
-                            uart_hold_ticks=126 + 5)
+                            # reti, the reti 5 (3-byte return address), one instruction:
+                            # 132-133 ticks (e13 62 pulses, e14 211)
+                            uart_hold_ticks=133)
 
 ESP32_TIMING = SimTiming(
     timer_wrap_ticks=0,

@@ -26,7 +26,6 @@ The builds of one family share their costs: each is :data:`AVR_COSTS`,
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 from fas.arch import (
     ATMEGA2560,
@@ -64,9 +63,6 @@ class DemoConfig:
 
     name: str
     steppers: tuple[DemoStepper, ...]
-
-
-LoopPoll = tuple[int, tuple[tuple[int, int], ...]]
 
 
 @dataclass(frozen=True)
@@ -113,34 +109,9 @@ class DemoBuild:
     # `e` on, outside a window: a pass that skips the block is this much shorter than a
     # window's pass less its block (the replica of e01: 267 against 1 852 - 1 582)
     e_outside_saved_ticks: int = 0
-    # the loop's own critical sections while it polls with a stepper running, as
-    # (pass length, ((offset in the pass, ticks with interrupts off), ...)): during a
-    # `w<ms>` and otherwise (None: not followed)
-    loop_poll_pause: LoopPoll | None = None
-    loop_poll_running: LoopPoll | None = None
-    # test sequence 11's position reads in a loop: one getCurrentPosition() (ticks) and,
-    # where measured, how that loop turns interrupts off (as loop_poll_pause)
-    position_read_ticks: int = 96
-    position_read_poll: LoopPoll | None = None
 
 
 # ------------------------------------------------------------------------------ costs
-# the main loop's critical sections in the build of the runs e01-e18, measured on its
-# replica of the 328P (docs/timing-model.md, fourteenth pass, pulses): isRunning()'s
-# queue read 10 ticks from cli to sei at the pass's start, millis() 9 from cli to the
-# SREG restore; an interrupt requested inside enters after the next instruction (1 tick
-# after sei, 2 after millis()'s restore: 11 each); a `w` pass reads millis() twice (the
-# pause, then the pass's own), 260 ticks; otherwise passes of 265 and 366 ticks
-# alternate, millis() 153 and 254 ticks after isRunning().  Test sequence 11's
-# getCurrentPosition() loop: one read every 183 or 198 ticks, interrupts off for 37 ticks
-# of it and the instruction after the sei (38)
-_E_LOOP_SECTIONS: dict[str, Any] = {
-    "loop_poll_pause": (260, ((0, 11), (111, 11), (148, 11))),
-    "loop_poll_running": (631, ((0, 11), (153, 11), (265, 11), (519, 11))),
-    "position_read_ticks": 381 // 2,
-    "position_read_poll": (381, ((0, 38), (183, 38))),
-}
-
 AVR_COSTS = DemoBuild(
     has_stray_digital_read=True,
     setup_head_ticks=2700,
@@ -164,9 +135,7 @@ AVR_COSTS = DemoBuild(
     # noInterrupts(); delayMicroseconds(100); interrupts(): the AVR core's busy loop of
     # 4 cycles per round, 4 rounds per us less 5 for the call, plus cli and sei
     irq_block_ticks=4 * (4 * 100 - 5) + 2,
-    **_E_LOOP_SECTIONS,  # (experiment: in every AVR build)
 )
-
 
 # ESP32 and the Pico: not measured on a firmware run, estimates
 ESP32_COSTS = DemoBuild(
@@ -364,22 +333,19 @@ BY_BUILD: dict[str, dict[str, DemoBuild]] = {
     "e": {"atmega328p": replace(ATMEGA328P_BUILD, loop_pass_ticks=220, setup_head_ticks=1450,
                                 loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
                                 loop_char_ticks=5, loop_stray_read_ticks=81,
-                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106},
-                                **_E_LOOP_SECTIONS),
+                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106}),
           # (setup() entry to the banner: 2076 ticks - the ramp task of e13 runs where the
           # firmware's does, mod 65536, with the start-up of fas.sim.timing's
           # AVR_MEGA_E_TIMING)
           **{p.name: replace(_mega(p), loop_pass_ticks=300, loop_running_stepper_ticks=10,
                              setup_head_ticks=2076,
                              loop_idle_stepper_ticks=40, loop_char_ticks=5,
-                             cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106},
-                             **_E_LOOP_SECTIONS)
+                             cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106})
              for p in (ATMEGA2560, *ATMEGA2560_VARIANTS)},
           "atmega32u4": replace(ATMEGA32U4_BUILD, loop_pass_ticks=248,
                                 loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
                                 loop_char_ticks=5,
-                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 105},
-                                **_E_LOOP_SECTIONS)},
+                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 105})},
 }
 
 

@@ -16,16 +16,13 @@ from . import TEST_STATE_ERROR
 
 READS_PER_PASS = 1001
 SAMPLES_PER_PASS = 11
+READ_TICKS = 96  # one getCurrentPosition() on the AVR, about 6 us
 
 
 def _check(app, stepper, slot, going_up: bool) -> bool:
     backend = app.backend
     prev_pos = slot.s32_1
-    # the reads' CPU time (DemoBuild.position_read_ticks; in build e, measured, with the
-    # reads' critical sections: position_read_poll)
-    build = app.build
-    poll = build.position_read_poll
-    chunk = build.position_read_ticks * (READS_PER_PASS // (SAMPLES_PER_PASS - 1))
+    chunk = READ_TICKS * (READS_PER_PASS // (SAMPLES_PER_PASS - 1))
     for k in range(SAMPLES_PER_PASS):
         i = k * (READS_PER_PASS // (SAMPLES_PER_PASS - 1))
         pos = stepper.get_current_position()
@@ -46,10 +43,7 @@ def _check(app, stepper, slot, going_up: bool) -> bool:
         prev_pos = slot.s32_1
         slot.s32_1 = pos
         if k < SAMPLES_PER_PASS - 1:
-            if poll is None:
-                backend.app_spend(chunk)
-            else:
-                backend.app_spend_in(chunk, poll)
+            backend.app_spend(chunk)
     return True
 
 
