@@ -131,3 +131,21 @@ def test_loop_phase_reads_the_replicas_passes_and_tasks(tmp_path: Path) -> None:
     assert side.reads == [1000 + 148 + 267 * k - 61 for k in range(5)]
     assert side.tasks == [(3000 - 61, 2000 - 118 - 4)]
     assert loop_phase.spans(4 * loop_phase.WINDOW_TICKS)[0] == (80 * 16_000, 252 * 16_000)
+
+
+def test_loop_phase_kinds_of_the_replicas_tasks(tmp_path: Path) -> None:
+    import loop_phase
+
+    assert loop_phase.kind_of(0, [], []) == "0st -"
+    assert loop_phase.kind_of(2, [(1, 900, 5, 1000), (2, 800, 5, 800)], ["U", "T0"]) \
+        == "2st acc+coast T0 U"
+    assert loop_phase.kind_of(1, [(1, 1100, 5, 1000), (1, 1100, 1, 1100)], []) \
+        == "1st dec+short"
+    lines = [  # a task writing two commands (faster, then as fast), timer 0 nested in it
+        "1000 V 13 | 1 1 |", "1500 M 0 727 900 5", "1600 V 16", "1700 R",
+        "2000 M 0 727 900 5", "3000 R",
+        "70000 V 13 | 1 1 1 |", "70400 V 19", "70518 R", "71000 R",  # nothing written
+        "140000 V 13 | 1 |", "140500 M 0 727 1000 5", "142000 R"]  # slower again
+    (tmp_path / "e01.ev").write_text("\n".join(lines) + "\n")
+    assert loop_phase.replica_kinds("e01", tmp_path) == [
+        ("1st acc+coast T0", 2), ("1st - U", 0), ("1st dec", 1)]
