@@ -18,6 +18,10 @@ A difference of one read is one pass (267 ticks on the pause path) of phase.
     python3 bench/replica/replica.py --fas FAS --simavr SIMAVR --work /tmp/e16p steps e09
     python3 bench/replica/loop_phase.py --work /tmp/e16p e09 \\
         --set e_every_pass=1 --set e_outside_saved_ticks=3 [--set ...]
+
+``--by-kind``: the ramp tasks' CPU over the spans per kind of task (``kind_of``), each
+replica task beside the model's task nearest to it (docs/timing-model.md, "nineteenth
+pass").
 """
 
 from __future__ import annotations
