@@ -129,6 +129,8 @@ class SimBackend(Backend):
         may_stop = engine.may_stop_without_channel()
         m.in_task = True
         m.task_offset = p.fill_entry_ticks
+        if p.idle_task_ticks and not any(ch.running for ch in self.channels):
+            m.task_offset = p.idle_task_ticks  # no stepper runs (a command may start one)
         per_entry = p.fill_queued_entry_ticks
         if p.task_nested_isrs and m.step_isrs_between is None:
             m.step_isrs_between = lambda lo, hi: sum(c.isr_cpu_between(lo, hi)
@@ -181,7 +183,8 @@ class SimBackend(Backend):
         if self._sync_outputs and self._make_sync_outputs():
             engine.queues_idle()
             m.activity += 1
-        nxt = self.tasks.end(engine.quiescent_tasks())
+        # idle_task_ticks: no run is skipped, each one costs CPU time
+        nxt = self.tasks.end(0 if p.idle_task_ticks else engine.quiescent_tasks())
         if nxt is None:
             self._task_event = None  # suspended until wake_task()
         else:

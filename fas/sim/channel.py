@@ -389,6 +389,9 @@ class SimChannel(QueueChannel):
             elif (p.fill_coast_cmd_ticks and ((wp - 1 - q.read_idx) & 0xFF)
                   and q.entries[(wp - 2) % q.queue_len].ticks == e.ticks):
                 m.task_offset += p.fill_coast_cmd_ticks  # at the speed of the one before
+            elif (p.fill_dec_cmd_ticks and ((wp - 1 - q.read_idx) & 0xFF)
+                  and q.entries[(wp - 2) % q.queue_len].ticks < e.ticks):
+                m.task_offset += p.fill_dec_cmd_ticks  # slower than the one before
             else:
                 m.task_offset += p.fill_cmd_ticks
             if steps and p.fill_unstarted_cmd_extra_ticks and not self.running:

@@ -92,6 +92,13 @@ class SimTiming:
     isr_next_entry_ticks: int = 0
     # a command at the speed of the one before (the ramp coasts; 0: as fill_cmd_ticks)
     fill_coast_cmd_ticks: int = 0
+    # a command slower than the one before (the ramp decelerates; 0: as fill_cmd_ticks,
+    # which then holds the accelerating ones)
+    fill_dec_cmd_ticks: int = 0
+    # the ramp task runs in every period, also while no stepper runs (no run skipped as
+    # engine.quiescent_tasks() allows), and a run in which no stepper runs costs this
+    # instead of fill_entry_ticks (0: such runs are skipped and cost nothing)
+    idle_task_ticks: int = 0
     # the ramp task's CPU after its fill (its return), charged at its end: of the task's
     # fixed cost, fill_entry_ticks comes before the first command, this after the last
     fill_exit_ticks: int = 0

@@ -1,0 +1,80 @@
+"""The ramp task's cost per kind of task (build e, off by default; docs/timing-model.md,
+"nineteenth pass" and "twentieth pass"): idle runs charged (``idle_task_ticks``) and a
+decelerating command's own figure (``fill_dec_cmd_ticks``)."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from fas import Engine
+from fas.sim import SimBackend
+from fas.sim import timing as sim_timing_module
+
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT / "bench"))
+
+import e_fidelity  # noqa: E402
+
+_TASK = SimBackend._task  # noqa: SLF001
+RUN = "M1 A30000 V45 f w300 S W"  # a ramp up, a coast, a stop (a ramp down)
+
+
+def _with(monkeypatch: pytest.MonkeyPatch, **fields: object) -> None:
+    table = {k: replace(v, **fields) for k, v in sim_timing_module.BY_BUILD["e"].items()}
+    monkeypatch.setitem(sim_timing_module.BY_BUILD, "e", table)
+
+
+def _idle_engine(seconds: int) -> SimBackend:
+    backend = SimBackend("atmega328p", build="e")
+    engine = Engine(backend)
+    engine.init()
+    engine.stepper_connect_to_pin(9)  # a stepper that never moves
+    backend.run_for(seconds * backend.profile.ticks_per_s)
+    return backend
+
+
+def test_idle_runs_of_the_ramp_task_are_skipped_unless_charged(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    off = _idle_engine(1)
+    assert off.task_runs <= 1  # the default: runs that do nothing are skipped
+    _with(monkeypatch, idle_task_ticks=429)  # the replica's idle task (ATmega328P)
+    on = _idle_engine(1)
+    period = on.task_period_ticks
+    slots = on.profile.ticks_per_s // period
+    assert slots - 1 <= on.task_runs <= slots + 1  # every period runs
+    assert on.machine.stolen_ticks - off.machine.stolen_ticks == \
+        429 * on.task_runs - (off.machine.stolen_ticks and off.task_runs * 433)
+
+
+def _run(monkeypatch: pytest.MonkeyPatch) -> tuple[list[float], int]:
+    """The step times and the ramp tasks' CPU summed over the run."""
+    spent = [0]
+
+    def counted(self: SimBackend, index: int) -> None:
+        before = self.machine.stolen_ticks
+        _TASK(self, index)
+        spent[0] += self.machine.stolen_ticks - before
+
+    monkeypatch.setattr(SimBackend, "_task", counted)
+    backend = e_fidelity.run_model(RUN, "atmega328p", "e")
+    return e_fidelity.step_times_us(backend, 9), spent[0]
+
+
+def test_a_decelerating_command_can_cost_its_own_figure(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    steps, stolen = _run(monkeypatch)
+    cmd = sim_timing_module.AVR_E_TIMING.fill_cmd_ticks
+    _with(monkeypatch, fill_dec_cmd_ticks=cmd)  # the same figure: nothing moves
+    assert _run(monkeypatch) == (steps, stolen)
+    _with(monkeypatch, fill_dec_cmd_ticks=cmd + 1000)
+    steps_dec, stolen_dec = _run(monkeypatch)
+    assert steps_dec == steps  # no `e`: the task's CPU moves no step
+    extra = stolen_dec - stolen
+    assert extra > 0 and extra % 1000 == 0  # the ramp down's commands, 1 000 each
+    _with(monkeypatch, fill_dec_cmd_ticks=0, fill_cmd_ticks=cmd + 1000)
+    every = _run(monkeypatch)[1] - stolen  # every command that is not a coast one
+    assert every > extra  # the ramp up's are not charged as decelerating
