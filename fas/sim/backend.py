@@ -138,7 +138,6 @@ class SimBackend(Backend):
         if per_entry or p.fill_stepper_ticks:
             # a stepper whose ramp has planned everything: its fill returns at once
             planning = engine.planning_queues() if p.fill_skips_done_ramps else None
-            per_single = p.fill_queued_single_ticks or per_entry
             for ch in self.channels:  # a running stepper's fill first sums its queue
                 if ch.running:
                     q = ch.q
@@ -147,15 +146,7 @@ class SimBackend(Backend):
                     ch.plan_pending = bool(p.fill_plan_ticks)
                     if p.fill_reads_queue_live:
                         continue  # charged when its fill reads the queue (fill_begins)
-                    queued = (q.next_write_idx - q.read_idx) & 0xFF
-                    if per_single != per_entry:
-                        n = q.queue_len
-                        singles = sum(1 for k in range(1, queued)
-                                      if q.entries[(q.read_idx + k) % n].total_steps <= 1)
-                        cost = per_single * singles + per_entry * (queued - 1 - singles)
-                    else:
-                        cost = per_entry * max(0, queued - 1)
-                    m.task_offset += p.fill_stepper_ticks + cost
+                    m.task_offset += p.fill_stepper_ticks + ch.queue_sum_ticks(q.read_idx)
         try:
             engine.manage_steppers()
         finally:

@@ -322,15 +322,25 @@ class SimChannel(QueueChannel):
                 rp = k
                 k = (k + 1) & 0xFF
         # the library then sums the entries after the one running by then
+        m.task_offset += self.queue_sum_ticks(rp)
+        return skipped
+
+    def queue_sum_ticks(self, rp: int) -> int:
+        """The fill's CPU time summing the queue entries after entry ``rp`` (the one
+        running): ``fill_queued_entry_ticks`` each, ``fill_queued_single_ticks`` for
+        an entry of at most one step or a pause where that is set."""
+        p = self.m.timing
+        q = self.q
+        wp = q.next_write_idx
         per_entry = p.fill_queued_entry_ticks
         per_single = p.fill_queued_single_ticks or per_entry
-        cost = 0
-        k = (rp + 1) & 0xFF
-        while k != wp:
-            cost += per_single if q.entries[k % n].total_steps <= 1 else per_entry
-            k = (k + 1) & 0xFF
-        m.task_offset += cost
-        return skipped
+        queued = (wp - rp - 1) & 0xFF if wp != rp else 0
+        if per_single == per_entry:
+            return per_entry * queued
+        n = q.queue_len
+        singles = sum(1 for k in range(1, queued + 1)
+                      if q.entries[(rp + k) % n].total_steps <= 1)
+        return per_single * singles + per_entry * (queued - singles)
 
     def earliest_start_tick(self) -> int:
         return self.m.cpu_now() + self.start_ticks
