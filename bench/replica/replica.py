@@ -17,6 +17,7 @@ source, whose library this script makes if it is not built yet).
     python3 bench/replica/replica.py --fas FAS_1_2_6 --simavr SIMAVR steps e01 e09 e14
     python3 bench/replica/replica.py --fas ... --simavr ... tasks e01 e03 e09 e13 e14
     python3 bench/replica/replica.py --fas ... --simavr ... task e14 --at 254.6
+    python3 bench/replica/replica.py --fas ... --simavr ... --profile pitches e09
 
 ``steps`` compares every step edge with the firmware's (``steps_*.tsv.gz``): the
 replica's come at one constant offset (61-62 ticks on the ATmega328P, 150 on the
@@ -24,7 +25,11 @@ ATmega2560), i.e. it is the firmware to the cycle.  ``tasks`` reads the ramp tas
 costs from all tasks of the runs: the CPU time of a task without commands by what its
 queues hold, the time between two queue writes of one stepper by kind of command, and
 the interrupts nested in tasks.  ``task`` prints one task's timeline (CPU time, ticks
-of the interrupts nested so far, each queue write).  The ATmega32U4 runs (e15, e16)
+of the interrupts nested so far, each queue write).  ``pitches`` prints one line per
+command a ramp task writes after another of the same stepper: the CPU between the two
+writes, the interrupts nested in between, both commands, and with ``--profile`` the ramp
+step and log2 value the ramp's arithmetic converted and the task's own cycles by function
+(docs/timing-model.md, "twenty-first pass").  The ATmega32U4 runs (e15, e16)
 are not covered: their USB console needs a host the simulator does not have.
 """
 
@@ -61,6 +66,10 @@ BOARDS = {"e13": MEGA_T1, "e14": MEGA_T1}
 MARK_NAMES = ("FastAccelStepper::addQueueEntry(", "StepperQueue::startQueue(",
               "StepperQueue::addQueueEntry(", "FastAccelStepper::enableOutputs(")
 WRITE, START, QUEUE_WRITE, ENABLE = range(4)
+# --profile marks these too: the ramp step the ramp's maths converts (calculate_ticks's
+# argument after `this`) and the log2 value it converts back (log2_to_u32's argument)
+PROFILE_MARKS = ("ramp_config_s::calculate_ticks(", "log2_to_u32(")
+CALC, TO_U32 = range(4, 6)
 
 
 def _conformance() -> Path:
@@ -136,7 +145,7 @@ def build_runner(simavr: Path, work: Path) -> Path:
     return exe
 
 
-def symbols(elf: Path) -> tuple[dict[str, int], int]:
+def symbols(elf: Path, names: tuple[str, ...] = MARK_NAMES) -> tuple[dict[str, int], int]:
     """Byte addresses of the marked functions, data address of the queue array."""
     text = subprocess.run(["avr-nm", "-C", str(elf)], check=True, capture_output=True,
                           text=True).stdout
@@ -146,12 +155,26 @@ def symbols(elf: Path) -> tuple[dict[str, int], int]:
         parts = line.split(None, 2)
         if len(parts) < 3:
             continue
-        for name in MARK_NAMES:
+        for name in names:
             if parts[2].startswith(name):
                 found[name] = int(parts[0], 16)
         if parts[2] == "fas_queue":
             queues = int(parts[0], 16) & 0xFFFF
     return found, queues
+
+
+def functions(elf: Path) -> list[tuple[int, int, str]]:
+    """(start, end, name) of every function of the ELF, by address."""
+    text = subprocess.run(["avr-nm", "-C", "-S", "-n", str(elf)], check=True,
+                          capture_output=True, text=True).stdout
+    out = []
+    for line in text.splitlines():
+        parts = line.split(None, 3)
+        if len(parts) == 4 and parts[2] in "tTwW" and int(parts[1], 16) > 0:
+            a = int(parts[0], 16)
+            if a < 0x800000:
+                out.append((a, a + int(parts[1], 16), parts[3]))
+    return out
 
 
 def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
@@ -161,13 +184,18 @@ def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
     work = Path(args.work)
     elf = build_firmware(Path(args.fas), text, board, work)
     exe = build_runner(Path(args.simavr), work)
-    marks, queue_base = symbols(elf)
+    names = MARK_NAMES + PROFILE_MARKS if getattr(args, "profile", False) else MARK_NAMES
+    marks, queue_base = symbols(elf, names)
     prefix = work / case
     info = args.conformance / case / "run_info.json"  # the firmware halts at its end
     ms = json.loads(info.read_text())["simulated_us"] / 1000 + 1 if info.exists() else 5000.0
-    env = {**os.environ, "MARKS": ",".join(f"{marks[n]:x}" for n in MARK_NAMES),
+    env = {**os.environ, "MARKS": ",".join(f"{marks[n]:x}" for n in names),
            "TASK_VECTOR": str(board.task_vector), "QUEUES": str(board.queues),
            "QUEUE_BASE": f"{queue_base:x}"}
+    if getattr(args, "profile", False):
+        ranges = work / f"{case}.funcs"
+        ranges.write_text("".join(f"{a:x} {b:x} {name}\n" for a, b, name in functions(elf)))
+        env["PROFILE"] = str(ranges)
     run([str(exe), str(elf), board.mcu, f"{ms:.0f}", str(prefix), *board.pins.values()], env=env)
     return prefix, board
 
@@ -321,10 +349,101 @@ def cmd_task(args: argparse.Namespace) -> int:
     t = tasks[i]
     print(f"task at cycle {t.t} ({t.t / TICKS_PER_US / 1000:.3f} ms): CPU {t.cpu}, wall {t.wall}, "
           f"nested by vector {dict(t.nested)}; queued steps at entry {t.queues}")
-    names = ("write", "start", "queue write", "enable")
+    names = ("write", "start", "queue write", "enable", "ramp step", "log2 back")
     for cpu, mark, this, ticks, steps, _ in t.marks:
         extra = f" stepper@{this:#x} ticks {ticks} steps {steps}" if mark == WRITE else ""
         print(f"  CPU {cpu:6d}  {names[mark]}{extra}")
+    return 0
+
+
+def pitches_of(prefix: Path, task_vector: int) -> list[dict[str, object]]:
+    """Every command a ramp task writes after another of the same stepper: the CPU
+    between the two writes (``pitch``, nested interrupts left out), the interrupts
+    nested in that span, the two commands, and - with ``--profile`` - the task's own
+    cycles by function in the span (the P lines of the run)."""
+    names: dict[int, str] = {-1: "(none)"}
+    funcs = Path(f"{prefix}.funcs")
+    if funcs.exists():
+        for i, line in enumerate(funcs.read_text().splitlines()):
+            names[i] = line.split(None, 2)[2]
+    out: list[dict[str, object]] = []
+    stack: list[int] = []
+    cpu = nested = 0
+    last = 0
+    marks: list[tuple[int, int, int, int, int, collections.Counter[str]]] = []
+    prof: collections.Counter[str] = collections.Counter()
+    running = 0
+    with open(f"{prefix}.ev") as f:
+        for line in f:
+            p = line.split()
+            c = int(p[0])
+            if stack and stack[-1] == task_vector:
+                cpu += c - last
+            last = c
+            if p[1] == "V":
+                v = int(p[2])
+                stack.append(v)
+                if v == task_vector:
+                    cpu = nested = 0
+                    marks = []
+                    prof = collections.Counter()
+                    qs = " ".join(p[3:]).split("|")[1:]
+                    running = sum(1 for q in qs if q.split())
+                elif task_vector in stack:
+                    nested += 1
+            elif p[1] == "P" and task_vector in stack:
+                for item in p[2:]:
+                    k, n = item.split(":")
+                    prof[names.get(int(k), k)] += int(n)
+            elif p[1] == "M" and task_vector in stack:
+                marks.append((cpu, int(p[2]), int(p[3]), int(p[4]), int(p[5]), nested,
+                              prof, int(p[6]) if len(p) > 7 else 0,
+                              int(p[7]) if len(p) > 7 else 0))
+                prof = collections.Counter()
+            elif p[1] == "R" and stack and stack.pop() == task_vector:
+                _pitches(marks, running, c, out)
+    return out
+
+
+def _pitches(marks: list, running: int, t: int, out: list[dict[str, object]]) -> None:
+    pending: collections.Counter[str] = collections.Counter()
+    prev = None
+    ramp_step = log2_back = -1
+    for m in marks:
+        if prev is not None:
+            pending.update(m[6])
+        if m[1] == CALC and ramp_step < 0:
+            ramp_step = m[7]
+        elif m[1] == TO_U32 and log2_back < 0 and ramp_step >= 0:
+            log2_back = m[8] - 0x10000 if m[8] & 0x8000 else m[8]
+        if m[1] != WRITE or m[4] >= 256 or m[3] == 0:
+            continue
+        if prev is not None and prev[2] == m[2]:
+            a, b = prev, m
+            kind = ("short" if a[4] <= 1 or b[4] <= 1 else "coast" if b[3] == a[3]
+                    else "acc" if b[3] < a[3] else "dec")
+            out.append({"t": t, "stepper": b[2], "running": running, "kind": kind,
+                        "ticks0": a[3], "steps0": a[4], "ticks": b[3], "steps": b[4],
+                        "pitch": b[0] - a[0], "nested": b[5] - a[5],
+                        "ramp_step": ramp_step, "log2_back": log2_back,
+                        "by_function": dict(pending)})
+        prev = m
+        pending = collections.Counter()
+        ramp_step = log2_back = -1
+
+
+def cmd_pitches(args: argparse.Namespace) -> int:
+    """One line per command: its pitch and (with --profile) the cycles by function."""
+    for case in args.cases:
+        prefix, board = replicate(case, args)
+        for r in pitches_of(prefix, board.task_vector):
+            fn = r["by_function"]
+            assert isinstance(fn, dict)
+            top = " ".join(f"{k.split('(')[0]}={v}" for k, v in
+                           sorted(fn.items(), key=lambda kv: -kv[1]))
+            print(f"{case} {r['t']} {r['stepper']:#x} {r['running']} {r['kind']} "
+                  f"{r['ticks0']} {r['steps0']} {r['ticks']} {r['steps']} {r['pitch']} "
+                  f"{r['nested']} {r['ramp_step']} {r['log2_back']}  {top}")
     return 0
 
 
@@ -335,10 +454,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--conformance", type=Path, default=_conformance())
     ap.add_argument("--work", default="/tmp/fas-replica")
     ap.add_argument("--at", type=float, default=0.0, help="task: its time in ms")
-    ap.add_argument("what", choices=("steps", "tasks", "task"))
+    ap.add_argument("--profile", action="store_true",
+                    help="record the ramp task's cycles by function (pitches)")
+    ap.add_argument("what", choices=("steps", "tasks", "task", "pitches"))
     ap.add_argument("cases", nargs="+")
     args = ap.parse_args(argv)
-    return {"steps": cmd_steps, "tasks": cmd_tasks, "task": cmd_task}[args.what](args)
+    return {"steps": cmd_steps, "tasks": cmd_tasks, "task": cmd_task,
+            "pitches": cmd_pitches}[args.what](args)
 
 
 if __name__ == "__main__":

@@ -4,17 +4,23 @@
  *   PREFIX.ev    "cycle V n [| steps of each queue ...]"  an interrupt vector entered
  *                (for vector TASK_VECTOR the queued entries' step counts follow),
  *                "cycle R"                                   a reti executed,
- *                "cycle M k this ticks steps"               function k of MARKS entered
- *                (this = r25:r24; ticks/steps read from the struct r23:r22 points to),
+ *                "cycle M k this ticks steps a32 a16"       function k of MARKS entered
+ *                (this = r25:r24; ticks/steps read from the struct r23:r22 points to;
+ *                a32 = r23..r20, a16 = r25:r24: a function's arguments as numbers),
  *                "cycle C pc" / "cycle S pc"    the main program (no interrupt running)
  *                turned interrupts off / on again at byte address pc (its critical
- *                sections: cli ... sei, or SREG saved and restored).
+ *                sections: cli ... sei, or SREG saved and restored),
+ *                "cycle P f:n ..."   (only with PROFILE) before each M line and at the
+ *                ramp task's reti: the cycles the task's own code spent in function f
+ *                (the f-th range of PROFILE) since the last P line, n > 0 only.
  *
  *   replica_run ELF MCU MILLISECONDS PREFIX PIN...      (PIN: port letter + bit, "B1")
  *
  * Environment: MARKS (comma-separated hex byte addresses), TASK_VECTOR, QUEUES and
  * QUEUE_BASE (hex data address of the queue array; 119-byte queues of 16 entries of
- * 6 bytes, read_idx/next_write_idx after the entries: FastAccelStepper 1.2.6 on AVR).
+ * 6 bytes, read_idx/next_write_idx after the entries: FastAccelStepper 1.2.6 on AVR);
+ * PROFILE (optional): a file of "start end [name]" byte-address ranges (hex), one
+ * function a line.
  * Build against an upstream simavr tree (replica.py does it).
  */
 #include <inttypes.h>
@@ -43,11 +49,59 @@ static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 static int depth, loop_i = 1; /* interrupts running; the main program's I flag */
 static uint32_t last_pc;
 
+/* PROFILE: the ramp task's own cycles by function (the vectors entered, innermost last) */
+enum { MAX_FUNCS = 1024, MAX_DEPTH = 16 };
+static uint16_t *func_of; /* flash byte address -> range index + 1 (0: none) */
+static uint64_t spent[MAX_FUNCS + 1], prof_cycle;
+static uint32_t prof_pc;
+static int n_funcs, vectors[MAX_DEPTH];
+
+static void load_profile(const char *path)
+{
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        perror(path);
+        exit(1);
+    }
+    func_of = calloc(avr->flashend + 2, sizeof *func_of);
+    unsigned a, b;
+    char line[1024];
+    while (n_funcs < MAX_FUNCS && fgets(line, sizeof line, f) && sscanf(line, "%x %x", &a, &b) == 2) {
+        n_funcs++;
+        for (unsigned x = a; x < b && x <= avr->flashend; x++)
+            func_of[x] = (uint16_t)n_funcs;
+    }
+    fclose(f);
+}
+
+static void profile_step(void) /* the cycles since the last call, to its instruction */
+{
+    if (depth > 0 && depth <= MAX_DEPTH && vectors[depth - 1] == task_vector)
+        spent[func_of[prof_pc]] += avr->cycle - prof_cycle;
+    prof_cycle = avr->cycle;
+    prof_pc = avr->pc;
+}
+
+static void profile_flush(void)
+{
+    fprintf(ev, "%" PRIu64 " P", avr->cycle);
+    for (int i = 0; i <= n_funcs; i++)
+        if (spent[i]) {
+            fprintf(ev, " %d:%" PRIu64, i - 1, spent[i]);
+            spent[i] = 0;
+        }
+    fputc('\n', ev);
+}
+
 static void record(void)
 {
     uint32_t pc = avr->pc;
     uint16_t op = avr->flash[pc] | (avr->flash[pc + 1] << 8);
+    if (func_of)
+        profile_step();
     if (op == 0x9518) { /* reti */
+        if (func_of && depth > 0 && depth <= MAX_DEPTH && vectors[depth - 1] == task_vector)
+            profile_flush();
         fprintf(ev, "%" PRIu64 " R\n", avr->cycle);
         if (depth > 0)
             depth--;
@@ -55,6 +109,8 @@ static void record(void)
     }
     if (pc && pc < 0x100 && !(pc & 3)) { /* a jmp of the vector table: entered */
         int vector = (int)(pc >> 2);
+        if (depth < MAX_DEPTH)
+            vectors[depth] = vector;
         depth++;
         fprintf(ev, "%" PRIu64 " V %d", avr->cycle, vector);
         if (vector == task_vector) {
@@ -83,8 +139,13 @@ static void record(void)
             ticks = avr->data[p] | (avr->data[p + 1] << 8);
             steps = avr->data[p + 2];
         }
-        fprintf(ev, "%" PRIu64 " M %d %u %u %u\n", avr->cycle, k,
-                avr->data[24] | (avr->data[25] << 8), ticks, steps);
+        if (func_of)
+            profile_flush();
+        const uint8_t *r = avr->data; /* r20..r25: the arguments after `this` */
+        fprintf(ev, "%" PRIu64 " M %d %u %u %u %" PRIu32 " %u\n", avr->cycle, k,
+                r[24] | (r[25] << 8), ticks, steps,
+                (uint32_t)r[20] | ((uint32_t)r[21] << 8) | ((uint32_t)r[22] << 16)
+                | ((uint32_t)r[23] << 24), r[24] | (r[25] << 8));
         return;
     }
 }
@@ -140,6 +201,8 @@ int main(int argc, char **argv)
         n_queues = getenv("QUEUES") ? atoi(getenv("QUEUES")) : 0;
         queue_base = getenv("QUEUE_BASE") ? (int)strtoul(getenv("QUEUE_BASE"), NULL, 16) : 0;
     }
+    if (getenv("PROFILE"))
+        load_profile(getenv("PROFILE"));
     uint32_t flags = 0; /* the console's characters are not wanted on stdout */
     avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
     flags &= ~AVR_UART_FLAG_STDIO;
