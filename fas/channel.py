@@ -138,6 +138,12 @@ class QueueChannel(ABC):
         fill's code reads the indices; 0 by default."""
         return 0
 
+    def ramp_converted(self, ramp_step: int, log2_ticks: int) -> None:  # noqa: B027
+        """The ramp computed the next command's period (written next) from ramp step
+        ``ramp_step``: the value it converted to log2 and the log2 value ``log2_ticks`` it
+        converted back.  A backend whose CPU time follows that arithmetic hooks in; does
+        nothing by default."""
+
     def entry_added(self) -> None:  # noqa: B027 - optional hook: does nothing by default
         """A new entry was appended (a channel waiting for one may continue)."""
 

@@ -20,7 +20,7 @@ class RampConfig:
     """Parameters as seen by the ramp task plus the figures derived from them."""
 
     __slots__ = ("parameters", "max_ramp_up_steps", "log2_ticks_h", "cubic",
-                 "_l2_ticks", "_l2_ticks_div_sqrt2", "_l2_accel_factor")
+                 "_l2_ticks", "_l2_ticks_div_sqrt2", "_l2_accel_factor", "converted")
 
     def __init__(self, log2_ticks_per_s: int, log2_ticks_div_sqrt2: int,
                  log2_accel_factor: int) -> None:
@@ -31,6 +31,10 @@ class RampConfig:
         self._l2_ticks = log2_ticks_per_s
         self._l2_ticks_div_sqrt2 = log2_ticks_div_sqrt2
         self._l2_accel_factor = log2_accel_factor
+        # calculate_ticks's last conversion: the ramp step it took to log2 and the log2
+        # value it took back (what the firmware's arithmetic costs depends on; the
+        # planner hands it to the backend, QueueChannel.ramp_converted)
+        self.converted: tuple[int, int] | None = None
 
     def update(self) -> None:
         p = self.parameters
@@ -45,6 +49,11 @@ class RampConfig:
             self.log2_ticks_h = log2.MAX
         self.max_ramp_up_steps = self.calculate_ramp_steps(p.min_travel_ticks) or 1
 
+    def take_converted(self) -> tuple[int, int] | None:
+        """calculate_ticks's conversion since the last call (None: none)."""
+        converted, self.converted = self.converted, None
+        return converted
+
     def calculate_ticks(self, steps: int) -> int:
         """Step period (ticks) at ramp step ``steps``."""
         p = self.parameters
@@ -52,9 +61,12 @@ class RampConfig:
             steps -= (p.s_h + 2) >> 2
             l2 = log2.wrap16(log2.from_u32(steps) + p.log2_accel)
             l2 = log2.wrap16(self._l2_ticks_div_sqrt2 - log2.sqrt(l2))
+            self.converted = (steps, l2)
             return log2.to_u32(l2)
         l2_steps = log2.from_u32(steps)
-        return log2.to_u32(log2.wrap16(self.cubic - log2.pow_2_div_3(l2_steps)))
+        l2 = log2.wrap16(self.cubic - log2.pow_2_div_3(l2_steps))
+        self.converted = (steps, l2)
+        return log2.to_u32(l2)
 
     def calculate_ramp_steps(self, ticks: int) -> int:
         """Ramp step at which the step period equals ``ticks``."""

@@ -188,6 +188,8 @@ class RampPlanner(Planner):
         if not delayed_start:  # a running queue: what the backend's link needs, too
             planning += host.backend.planning_extra_ticks
         snaps = self._snapshots
+        cfg = rg.config
+        cfg.take_converted()  # none from before this fill
         write = host.write
         generated = 0
         queue_len = q.queue_len
@@ -202,7 +204,10 @@ class RampPlanner(Planner):
                 break  # a new request waits until the cut is confirmed or undone
             res = AQE_OK
             cmd = rg.get_next_command(q.queue_end_pos, q.queue_end_count_up)
+            converted = cfg.take_converted()
             if cmd.ticks != 0:
+                if converted is not None:  # the command's period came from the ramp step
+                    q.channel.ramp_converted(*converted)
                 res = write(cmd.ticks, cmd.steps, cmd.count_up, not delayed_start)
                 generated += 1
             if res == AQE_OK:

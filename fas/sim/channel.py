@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING
 
 from ..channel import PulseCounter, QueueChannel
 from .machine import LATE_ENTRY, PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
+from .ramp_cost import conversion_ticks
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..queue import QueueEntry, StepperQueue
@@ -105,6 +106,11 @@ class SimChannel(QueueChannel):
         # observers (traces, timing reports): fn(kind, pulse_index, ticks, steps) when the
         # channel takes up an entry; pulse_index is the number of its first pulse
         self.entry_listeners: list[Callable[[int, int, int, int], None]] = []
+        # the ramp's arithmetic for the command written next (fill_cmd_maths; -1: its
+        # period was not computed from a ramp step), and the period below which an
+        # accelerating ramp checks for too short commands
+        self.maths_ticks = -1
+        self.fast_acc_below = 2 * p.min_cmd_ticks
         self._noted: QueueEntry | None = None
         # the running ramp task's fill of this (running) stepper has not planned a
         # command yet: its first one costs SimTiming.fill_plan_ticks more
@@ -379,8 +385,13 @@ class SimChannel(QueueChannel):
                     self.pulse_counter.count(risen - self.b_counted, self.b_entry.dir_level)
                     self.b_counted = risen
 
+    def ramp_converted(self, ramp_step: int, log2_ticks: int) -> None:
+        if self.m.timing.fill_cmd_maths:
+            self.maths_ticks = conversion_ticks(self.m.timing, ramp_step, log2_ticks)
+
     def entry_added(self) -> None:
         m = self.m
+        maths, self.maths_ticks = self.maths_ticks, -1
         if m.in_task:  # planning one command costs the ramp task CPU time
             q = self.q
             wp = q.next_write_idx
@@ -401,9 +412,16 @@ class SimChannel(QueueChannel):
                 m.task_offset += p.fill_coast_cmd_ticks  # at the speed of the one before
             elif (p.fill_dec_cmd_ticks and ((wp - 1 - q.read_idx) & 0xFF)
                   and q.entries[(wp - 2) % q.queue_len].ticks < e.ticks):
-                m.task_offset += p.fill_dec_cmd_ticks  # slower than the one before
-            else:
+                # slower than the one before
+                m.task_offset += p.fill_dec_cmd_ticks + (maths if maths > 0 else 0)
+            elif maths < 0:
                 m.task_offset += p.fill_cmd_ticks
+            else:
+                m.task_offset += p.fill_cmd_ticks + maths
+                if (p.fill_fast_acc_ticks and ((wp - 1 - q.read_idx) & 0xFF)
+                        and e.ticks < q.entries[(wp - 2) % q.queue_len].ticks
+                        < self.fast_acc_below):
+                    m.task_offset += p.fill_fast_acc_ticks  # accelerating at a high speed
             if steps and p.fill_unstarted_cmd_extra_ticks and not self.running:
                 m.task_offset += p.fill_unstarted_cmd_extra_ticks
             if p.fill_cmd_mask_ticks and self.contention:

@@ -95,6 +95,24 @@ class SimTiming:
     # a command slower than the one before (the ramp decelerates; 0: as fill_cmd_ticks,
     # which then holds the accelerating ones)
     fill_dec_cmd_ticks: int = 0
+    # --- the ramp's arithmetic per command (fas.sim.ramp_cost; off: an average of it is
+    # in fill_cmd_ticks / fill_dec_cmd_ticks) ---
+    # a command of several steps whose period the ramp computed from a ramp step costs
+    # fill_cmd_ticks / fill_dec_cmd_ticks plus what the library's log2 conversions of that
+    # step and back take (both depend on the values), plus fill_fast_acc_ticks where
+    # it accelerates from a period below two min_cmd_ticks
+    fill_cmd_maths: bool = False
+    # the ramp step to log2: by the bit length (1..16) of the 16 bits of it the library
+    # converts ...
+    ramp_log2_from_ticks: tuple[int, ...] = ()
+    # ... the log2 value back (calculate_ticks's own code included), by its exponent
+    # (value >> 9, 0..) ...
+    ramp_log2_to_ticks: tuple[int, ...] = ()
+    # ... each this more where it reads two entries of its table (interpolates)
+    ramp_log2_interp_ticks: int = 0
+    # the library's check of an accelerating ramp for commands too short (its period
+    # below two min_cmd_ticks)
+    fill_fast_acc_ticks: int = 0
     # the ramp task runs in every period, also while no stepper runs (no run skipped as
     # engine.quiescent_tasks() allows), and a run in which no stepper runs costs this
     # instead of fill_entry_ticks (0: such runs are skipped and cost nothing)
@@ -198,6 +216,17 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
                        fill_pause_ticks=1259, fill_single_ticks=1817, fill_cmd_ticks=2060,
                        fill_coast_cmd_ticks=1600, fill_queued_entry_ticks=100,
                        fill_skips_done_ramps=True,
+                       # the ramp's log2 arithmetic (fill_cmd_maths, off), the replica's
+                       # cycles by value, every command of e01-e12, e17, e18
+                       # (docs/timing-model.md, twenty-first pass): to log2 by bit length
+                       # 1..16 (15 and 16 by the pattern of 9..14: no run reaches them),
+                       # back by exponent 0..17 (below 9 by the code's shift loop, 5 a
+                       # place: no run reaches them), 10 more for two table reads
+                       ramp_log2_from_ticks=(176, 169, 164, 157, 153, 146, 141, 134,
+                                             185, 178, 173, 166, 162, 155, 150, 143),
+                       ramp_log2_to_ticks=(212, 207, 202, 197, 192, 187, 182, 177, 172,
+                                           167, 148, 155, 160, 165, 170, 175, 198, 205),
+                       ramp_log2_interp_ticks=10, fill_fast_acc_ticks=35,
                        isr_next_entry_ticks=24, isr_duration_by_channel=(120, 135, 135),
                        # the replica of this build (docs/timing-model.md, fifteenth pass, pulses):
                        # the UART's routine 118 ticks to its reti, the reti 4, one
@@ -261,6 +290,13 @@ AVR_MEGA_E_TIMING = replace(AVR_E_TIMING, fill_entry_ticks=517, fill_stepper_tic
                             isr_latency_ticks=(64, 73, 73),
                             isr_duration_by_channel=AVR_MEGA_TIMING.isr_duration_by_channel,
                             millis_isr_ticks=AVR_MEGA_TIMING.millis_isr_ticks,
+                            # the ramp's log2 arithmetic as on the ATmega328P (e13, e14):
+                            # 3-5 ticks more a call (1..13 bits, exponents 9..16 measured)
+                            ramp_log2_from_ticks=(181, 174, 169, 162, 158, 151, 146, 139,
+                                                  188, 181, 176, 169, 165, 158, 153, 146),
+                            ramp_log2_to_ticks=(216, 211, 206, 201, 196, 191, 186, 181, 176,
+                                                171, 152, 159, 164, 169, 174, 179, 202,
+                                                209),
                             # the replica of e13/e14: the UART's routine 126 ticks to its
                             # reti, the reti 5 (3-byte return address), one instruction:
                             # 132-133 ticks (e13 62 pulses, e14 211)
