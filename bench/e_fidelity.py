@@ -189,11 +189,50 @@ def _replay(backend: SimBackend, firsts: list[int]) -> None:
     backend.block_interrupts = replayed  # type: ignore[method-assign]
 
 
+# --align-first-steps: per input, ticks added to each step pin's first queue start
+ALIGN_FIRST_STEPS: dict[tuple[str, str], dict[int, int]] = {}
+_ALIGNING: dict[int, dict[int, int]] = {}  # per machine (id): the shifts of its run
+
+
+def align_first_steps(conf: Path) -> None:
+    """Make every run start each stepper's first queue where its first step comes at
+    the firmware's first rise (``--align-first-steps``: an oracle, not a model; the
+    shift is added to the ramp task's time line at that start)."""
+    plain_start = SimChannel.start
+
+    def start(ch: SimChannel) -> None:
+        shifts = _ALIGNING.get(id(ch.m))
+        if shifts and not ch.starts and ch.m.in_task and ch.step_pin in shifts:
+            ch.m.task_offset += shifts[ch.step_pin]
+        plain_start(ch)
+
+    SimChannel.start = start  # type: ignore[method-assign]
+    for case in CASES:
+        folder = conf / case
+        if not (folder / "input.txt").exists():
+            continue
+        inp, profile = (folder / "input.txt").read_text().strip(), PROFILE.get(case, "atmega328p")
+        shifts: dict[int, int] = {}
+        for _ in range(3):  # an interrupt the shift moves across can leave a rest
+            ALIGN_FIRST_STEPS[inp, profile] = shifts
+            backend = run_model(inp, profile, build_of(case))
+            for sp in stepper_pins(backend.profile):
+                path = folder / f"steps_{sp.letter}.tsv.gz"
+                if path.exists():
+                    fw, ours = read_reference_track(path)[0], step_times_us(backend, sp.step)
+                    if fw and ours:
+                        off = round((fw[0] - ours[0]) * TICKS_PER_US)
+                        shifts = {**shifts, sp.step: shifts.get(sp.step, 0) + off}
+        ALIGN_FIRST_STEPS[inp, profile] = shifts
+
+
 def run_model(inp: str, profile: str, build: str,
               blocks: list[tuple[int, int]] | None = None) -> SimBackend:
     backend = SimBackend(profile, record=True, build=build)
     if (inp, profile) in REPLAY_STARTS:
         _replay(backend, REPLAY_STARTS[inp, profile])
+    if (inp, profile) in ALIGN_FIRST_STEPS:
+        _ALIGNING[id(backend.machine)] = ALIGN_FIRST_STEPS[inp, profile]
     if blocks is not None:  # record the model's blocked sections (start, end ticks)
         backend.machine.block_listeners.append(lambda a, b: blocks.append((a, b)))
     app = make_program("demo", backend, scripted=True)
@@ -713,6 +752,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--replay-starts", action="store_true",
                     help="an oracle: each window's first block at the firmware's measured "
                     "tick (with timer 0 at the firmware's phase: the sixteenth pass's T H)")
+    ap.add_argument("--align-first-steps", action="store_true",
+                    help="an oracle: each stepper's first step at the firmware's (its "
+                    "first queue start shifted by the model's offset)")
     ap.add_argument("--set", action="append", default=[], metavar="[CHIP:]FIELD=VALUE",
                     help="a figure or mechanism of build e's timing (SimTiming field) "
                     "for this run, e.g. fill_reads_queue_live=1, "
@@ -724,6 +766,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"e_fidelity: {exc}", file=sys.stderr)
         return 2
     conf = Path(args.conformance)
+    if args.align_first_steps:
+        align_first_steps(conf)
     if args.replay_starts:
         replay_starts(conf)
     missing = [c for c in (args.cases or CASES) if not (conf / c / "input.txt").is_file()]

@@ -131,3 +131,29 @@ def test_window_starts_reads_the_pass_the_overflow_fell_in(tmp_path: Path) -> No
     assert r["rest"] == 226 - 97
     assert r["isr"] == {"16": 97}
     assert window_starts.biased_rest([272, 373]) == pytest.approx((272**2 + 373**2) / 1290)
+
+
+def test_align_first_steps_puts_each_first_step_at_the_firmwares(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    import gzip
+
+    from fas.sim.channel import SimChannel
+
+    monkeypatch.setattr(SimChannel, "start", SimChannel.start)  # restored afterwards
+    monkeypatch.setattr(e_fidelity, "ALIGN_FIRST_STEPS", {})
+    inp = "M1 A30000 V45 f w100 S W"
+    plain = e_fidelity.step_times_us(e_fidelity.run_model(inp, "atmega328p", "e"), 9)
+    folder = tmp_path / "e01"
+    folder.mkdir()
+    (folder / "input.txt").write_text(inp + "\n")
+    fw_first = plain[0] + 50.0  # the firmware's first rise 50 us (800 ticks) later
+    with gzip.open(folder / "steps_A.tsv.gz", "wt") as f:
+        f.write(f"{fw_first:.3f}\t1\n{fw_first + 4000:.3f}\t1\n")
+    e_fidelity.align_first_steps(tmp_path)
+    # the shift is what brings the rise there (a UART interrupt nested in the task
+    # after the shift stretches it: less than the 800 ticks)
+    shift = e_fidelity.ALIGN_FIRST_STEPS[inp, "atmega328p"][9]
+    assert 0 < shift <= 800
+    aligned = e_fidelity.step_times_us(e_fidelity.run_model(inp, "atmega328p", "e"), 9)
+    assert round((aligned[0] - fw_first) * 16) == 0
+    assert len(aligned) == len(plain)
