@@ -155,9 +155,84 @@ def set_timing(settings: list[str]) -> None:
             table[k] = dataclasses.replace(table[k], **{name: new})
 
 
+# --replay-starts: per input, the firmware's first block of each window (ticks)
+REPLAY_STARTS: dict[tuple[str, str], list[int]] = {}
+
+
+def replay_starts(conf: Path) -> None:
+    """Make every run put each window's first block at the firmware's (``--replay-starts``:
+    an oracle, not a model; docs/timing-model.md, "twenty-second pass")."""
+    for case in CASES:
+        folder = conf / case
+        fw = firmware_blocks(folder)
+        if fw:
+            key = ((folder / "input.txt").read_text().strip(), PROFILE.get(case, "atmega328p"))
+            REPLAY_STARTS[key] = window_firsts(fw)
+
+
+def _replay(backend: SimBackend, firsts: list[int]) -> None:
+    """Delay the model's first block of each window to the firmware's first block of
+    the same window (never earlier than the model's)."""
+    m = backend.machine
+    block = backend.block_interrupts
+    last = [-(1 << 62)]
+    window = 256_000 * TICKS_PER_US
+
+    def replayed(ticks: int) -> None:
+        if m.now - last[0] > 50_000 * TICKS_PER_US:
+            fw = [t for t in firsts if t // window == m.now // window]
+            if fw and fw[0] > m.now:
+                m.consume(fw[0] - m.now)
+        block(ticks)
+        last[0] = m.now
+
+    backend.block_interrupts = replayed  # type: ignore[method-assign]
+
+
+# --align-first-steps: per input, ticks added to each step pin's first queue start
+ALIGN_FIRST_STEPS: dict[tuple[str, str], dict[int, int]] = {}
+_ALIGNING: dict[int, dict[int, int]] = {}  # per machine (id): the shifts of its run
+
+
+def align_first_steps(conf: Path) -> None:
+    """Make every run start each stepper's first queue where its first step comes at
+    the firmware's first rise (``--align-first-steps``: an oracle, not a model; the
+    shift is added to the ramp task's time line at that start)."""
+    plain_start = SimChannel.start
+
+    def start(ch: SimChannel) -> None:
+        shifts = _ALIGNING.get(id(ch.m))
+        if shifts and not ch.starts and ch.m.in_task and ch.step_pin in shifts:
+            ch.m.task_offset += shifts[ch.step_pin]
+        plain_start(ch)
+
+    SimChannel.start = start  # type: ignore[method-assign]
+    for case in CASES:
+        folder = conf / case
+        if not (folder / "input.txt").exists():
+            continue
+        inp, profile = (folder / "input.txt").read_text().strip(), PROFILE.get(case, "atmega328p")
+        shifts: dict[int, int] = {}
+        for _ in range(3):  # an interrupt the shift moves across can leave a rest
+            ALIGN_FIRST_STEPS[inp, profile] = shifts
+            backend = run_model(inp, profile, build_of(case))
+            for sp in stepper_pins(backend.profile):
+                path = folder / f"steps_{sp.letter}.tsv.gz"
+                if path.exists():
+                    fw, ours = read_reference_track(path)[0], step_times_us(backend, sp.step)
+                    if fw and ours:
+                        off = round((fw[0] - ours[0]) * TICKS_PER_US)
+                        shifts = {**shifts, sp.step: shifts.get(sp.step, 0) + off}
+        ALIGN_FIRST_STEPS[inp, profile] = shifts
+
+
 def run_model(inp: str, profile: str, build: str,
               blocks: list[tuple[int, int]] | None = None) -> SimBackend:
     backend = SimBackend(profile, record=True, build=build)
+    if (inp, profile) in REPLAY_STARTS:
+        _replay(backend, REPLAY_STARTS[inp, profile])
+    if (inp, profile) in ALIGN_FIRST_STEPS:
+        _ALIGNING[id(backend.machine)] = ALIGN_FIRST_STEPS[inp, profile]
     if blocks is not None:  # record the model's blocked sections (start, end ticks)
         backend.machine.block_listeners.append(lambda a, b: blocks.append((a, b)))
     app = make_program("demo", backend, scripted=True)
@@ -327,6 +402,7 @@ def starts(conf: Path, cases: list[str]) -> int:
     print("| case | board | first block after the overflow, fw (ticks) | model | timer 0's "
           "overflow mod 16384: fw range / model |")
     print("| --- " * 5 + "|")
+    pairs: list[tuple[int, int]] = []
     for case in cases:
         folder = conf / case
         fw = firmware_blocks(folder)
@@ -346,7 +422,33 @@ def starts(conf: Path, cases: list[str]) -> int:
         phase = m.tick_at_millis(1) % ov
         print(f"| {case} | {PROFILE.get(case, 'atmega328p')} | {' '.join(map(str, rel[0]))} "
               f"| {' '.join(map(str, rel[1]))} | {lo}-{hi} / {phase} |")
+        if case != "e15":  # the 32U4's timer 0 lies elsewhere (no T H for it)
+            pairs += [(f, o) for f, o in zip(*rel, strict=False)
+                      if f < STARTS_PLAIN and o < STARTS_PLAIN]
+    print(start_histograms(pairs))
     return 0
+
+
+STARTS_PLAIN = 1000  # a window start beyond this waits for a ramp task or a print
+STARTS_BIN = 100
+
+
+def start_histograms(pairs: list[tuple[int, int]]) -> str:
+    """The window starts' distributions, firmware beside model (the windows where both
+    start within ``STARTS_PLAIN`` ticks: the loop's pass, not a task or a print), and
+    their distance window by window (docs/timing-model.md, "twenty-second pass")."""
+    if not pairs:
+        return "no window starts both sides"
+    lines = [f"windows starting within {STARTS_PLAIN} ticks on both sides: {len(pairs)}"]
+    for name, values in (("firmware", [f for f, _ in pairs]), ("model", [o for _, o in pairs])):
+        mean = sum(values) / len(values)
+        sd = (sum((v - mean) ** 2 for v in values) / len(values)) ** 0.5
+        c = Counter(v // STARTS_BIN * STARTS_BIN for v in values)
+        lines.append(f"  {name:8s} mean {mean:.0f} sd {sd:.0f}: "
+                     + " ".join(f"{b}:{c[b]}" for b in sorted(c)))
+    dist = sum(abs(o - f) for f, o in pairs) / len(pairs)
+    lines.append(f"  window by window, |model - firmware| {dist:.0f} ticks on average")
+    return "\n".join(lines)
 
 
 def first_steps(conf: Path, cases: list[str]) -> int:
@@ -647,6 +749,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--start-shift", default="",
                     help="with --phase: ticks added to the first step of the 1st, 2nd, "
                     "... queue start of a ramp task, comma-separated")
+    ap.add_argument("--replay-starts", action="store_true",
+                    help="an oracle: each window's first block at the firmware's measured "
+                    "tick (with timer 0 at the firmware's phase: the sixteenth pass's T H)")
+    ap.add_argument("--align-first-steps", action="store_true",
+                    help="an oracle: each stepper's first step at the firmware's (its "
+                    "first queue start shifted by the model's offset)")
     ap.add_argument("--set", action="append", default=[], metavar="[CHIP:]FIELD=VALUE",
                     help="a figure or mechanism of build e's timing (SimTiming field) "
                     "for this run, e.g. fill_reads_queue_live=1, "
@@ -658,6 +766,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"e_fidelity: {exc}", file=sys.stderr)
         return 2
     conf = Path(args.conformance)
+    if args.align_first_steps:
+        align_first_steps(conf)
+    if args.replay_starts:
+        replay_starts(conf)
     missing = [c for c in (args.cases or CASES) if not (conf / c / "input.txt").is_file()]
     if missing:
         print(f"e_fidelity: no firmware run {', '.join(missing)} in {conf} "

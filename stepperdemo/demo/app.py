@@ -541,6 +541,10 @@ class StepperDemo(LoopProgram):
             # spent where they run: before the `e` check below (docs/timing-model.md)
             b.app_spend(len(pins) * self.build.loop_stray_read_ticks)
         if self.simulate_blocked_isr:
+            if self.build.e_read_block_ticks:
+                # the check lies this far after the read: spent before it, not after
+                b.app_spend(self.build.e_read_block_ticks)
+                path -= self.build.e_read_block_ticks
             if (ms & 0xFF) < 0x40:
                 b.block_interrupts(self.build.irq_block_ticks)
             else:

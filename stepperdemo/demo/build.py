@@ -109,6 +109,11 @@ class DemoBuild:
     # `e` on, outside a window: a pass that skips the block is this much shorter than a
     # window's pass less its block (the replica of e01: 267 against 1 852 - 1 582)
     e_outside_saved_ticks: int = 0
+    # the loop's CPU from its `ms = millis()` read to the `e` block's cli (the replica:
+    # 26 ticks on the ATmega328P and the ATmega2560), spent there rather than with the
+    # rest of the pass after the check (the pass's length unchanged; 0: the block
+    # follows the read at once; docs/timing-model.md, "twenty-second pass")
+    e_read_block_ticks: int = 0
 
 
 # ------------------------------------------------------------------------------ costs
