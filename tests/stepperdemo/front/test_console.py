@@ -8,6 +8,10 @@ def test_move_and_wait_shows_the_stop(tmp_path):
     async def script(inp, clock, console):
         inp.send_text("M1 A1000 V100 R500\r")
         await settle()
+        # the move takes ~1 s: its status lines come every 100 ms until the W blocks
+        # (how much fake time 50 rounds of settle() cover depends on when the chip next
+        # wakes, so the W waits for the clock, not for the rounds)
+        await wait(clock, 0.3)
         inp.send_text("W\r")
         await wait(clock, 4.0)
 
