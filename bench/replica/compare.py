@@ -91,10 +91,15 @@ class ModelTask:
         # in the task counted where SimTiming.task_nested_isrs says so), the ticks it
         # finds queued after the running entry
         self.reads: list[tuple[int, int, int, int]] = []
+        # each read's queue: (ticks, steps) of the entries from the read index on, the
+        # running one first (the model's read index: where its live read skips to)
+        self.read_queues: list[list[tuple[int, int]]] = []
+        self.read_ticks: list[int] = []
 
 
-def model_tasks(case: str, conf: Path) -> list[ModelTask]:
-    """Run the model on the case; return its ramp tasks with their writes."""
+def model_tasks(case: str, conf: Path, keep: list[SimBackend] | None = None) -> list[ModelTask]:
+    """Run the model on the case; return its ramp tasks with their writes (the backend
+    appended to ``keep`` where given)."""
     plain_task, plain_added = SimBackend._task, SimChannel.entry_added  # noqa: SLF001
     plain_start = SimChannel.start
     # the fill's read of its queue: the planner's call (a model that reads the queue
@@ -140,12 +145,23 @@ def model_tasks(case: str, conf: Path) -> list[ModelTask]:
         if not (isinstance(ch, SimChannel) and ch.m.in_task and ch.running and log):
             return plain_read(q)
         m = ch.m
+        live = getattr(m.timing, "fill_reads_queue_live", False)
         found = plain_read(q)  # (a live read charges the fill's checks first)
         work = m.task_offset
         nested = getattr(m.timing, "task_nested_isrs", 0)
         at = m.nested_stretched(work) if nested else m.stretched(work)  # type: ignore[attr-defined]
         k = letters.setdefault(id(ch), len(letters))
         log[-1].reads.append((k, work, at, found))
+        n = q.queue_len
+        ents = [(q.entries[(q.read_idx + j) % n].ticks, q.entries[(q.read_idx + j) % n].total_steps)
+                for j in range((q.next_write_idx - q.read_idx) & 0xFF)]
+        # a live read that finds the running entry ended counts from the next one
+        while len(ents) > 1 and sum(t * max(s, 1) for t, s in ents[1:]) > found:
+            ents = ents[1:]
+        log[-1].read_queues.append(ents)
+        # the tick the read finds the queue at, after the task's tick (the task's entry
+        # without the live read)
+        log[-1].read_ticks.append(ch.fill_read_tick - m.now if live else 0)
         return found
 
     SimBackend._task = task  # type: ignore[method-assign]  # noqa: SLF001
@@ -156,6 +172,8 @@ def model_tasks(case: str, conf: Path) -> list[ModelTask]:
         folder = conf / case
         backend = e_fidelity.run_model((folder / "input.txt").read_text().strip(),
                                        e_fidelity.PROFILE.get(case, "atmega328p"), "e")
+        if keep is not None:
+            keep.append(backend)
         del backend  # steppers numbered by their first write, as the replica's
     finally:
         SimBackend._task = plain_task  # type: ignore[method-assign]  # noqa: SLF001
@@ -181,28 +199,36 @@ def replica_tasks(case: str, work: Path) -> list[ReplicaTask]:
     out = []
     for t in tasks:
         marks = t.marks
-        w: list[Write] = []
         # CPU of each queue start; its first compare (80 cycles after the call: the
         # first step's rise) after the task's entry
         starts = [(m[0], m[5] + QUEUE_START_CYCLES - t.t) for m in marks
                   if m[1] == replica.START]
-        for j, m in enumerate(marks):
-            if m[1] != replica.WRITE or not (m[3] > 0 and m[4] < 256):
-                continue
-            nxt = marks[j + 1:j + 3]
-            if any(x[1] == replica.START for x in nxt):
-                continue  # the start call
-            cpu = m[0]
-            for x in marks[j + 1:]:
-                if x[1] == replica.QUEUE_WRITE:
-                    cpu = x[0]
-                elif x[1] in (replica.WRITE, replica.START):
-                    break
-            if m[2] not in steppers:
-                steppers.append(m[2])
-            w.append((steppers.index(m[2]), cpu, m[3], m[4]))
+        w = replica_tasks_one(t, steppers)
         out.append((t.t, t.cpu, w, t.queues, dict(t.nested), starts))
     return out
+
+
+def replica_tasks_one(t: replica.Task, steppers: list[int]) -> list[Write]:
+    """The command writes of one replica task (``steppers``: the steppers numbered by
+    their first write, extended as new ones write)."""
+    marks = t.marks
+    w: list[Write] = []
+    for j, m in enumerate(marks):
+        if m[1] != replica.WRITE or not (m[3] > 0 and m[4] < 256):
+            continue
+        nxt = marks[j + 1:j + 3]
+        if any(x[1] == replica.START for x in nxt):
+            continue  # the start call
+        cpu = m[0]
+        for x in marks[j + 1:]:
+            if x[1] == replica.QUEUE_WRITE:
+                cpu = x[0]
+            elif x[1] in (replica.WRITE, replica.START):
+                break
+        if m[2] not in steppers:
+            steppers.append(m[2])
+        w.append((steppers.index(m[2]), cpu, m[3], m[4]))
+    return w
 
 
 def _kind(w: Write, before: Write | None) -> str:

@@ -29,7 +29,10 @@ of the interrupts nested so far, each queue write).  ``pitches`` prints one line
 command a ramp task writes after another of the same stepper: the CPU between the two
 writes, the interrupts nested in between, both commands, and with ``--profile`` the ramp
 step and log2 value the ramp's arithmetic converted and the task's own cycles by function
-(docs/timing-model.md, "twenty-first pass").  The ATmega32U4 runs (e15, e16)
+(docs/timing-model.md, "twenty-first pass").  Every run also records each ramp task's
+fill reading its queue (``ticksInQueue()``, inlined into the task's vector: the end of
+its critical section, found in the ELF) with the queue's entries then; ``fill_reads.py``
+sets those beside the model's ("twenty-fourth pass").  The ATmega32U4 runs (e15, e16)
 are not covered: their USB console needs a host the simulator does not have.
 """
 
@@ -177,6 +180,34 @@ def functions(elf: Path) -> list[tuple[int, int, str]]:
     return out
 
 
+def fill_read_pc(elf: Path, task_vector: int) -> int:
+    """Byte address of the instruction that ends the critical section in which the ramp
+    task's fill reads its queue's indices (``ticksInQueue()``, inlined into the task's
+    vector: its first ``in rN, SREG; cli`` ... ``out SREG, rN``); 0 if not found."""
+    start = end = 0
+    for a, b, name in functions(elf):
+        if name == f"__vector_{task_vector}":
+            start, end = a, b
+    if not start:
+        return 0
+    text = subprocess.run(["avr-objdump", "-d", f"--start-address={start:#x}",
+                           f"--stop-address={end:#x}", str(elf)], check=True,
+                          capture_output=True, text=True).stdout
+    ins = []
+    for line in text.splitlines():
+        parts = line.split("\t")
+        if len(parts) >= 3 and parts[0].strip().endswith(":"):
+            ins.append((int(parts[0].strip()[:-1], 16), " ".join(parts[2:]).split(";")[0].strip()))
+    for i in range(1, len(ins)):
+        if ins[i][1] == "cli" and ins[i - 1][1].startswith("in") and ins[i - 1][1].endswith("0x3f"):
+            reg = ins[i - 1][1].split()[1].rstrip(",")
+            for a, op in ins[i + 1:i + 12]:
+                if op.replace(" ", "") == f"out0x3f,{reg}":
+                    return a
+            return 0
+    return 0
+
+
 def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
     """Build and run ``case``; returns the output prefix and the board."""
     board = BOARDS.get(case, UNO)
@@ -192,6 +223,9 @@ def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
     env = {**os.environ, "MARKS": ",".join(f"{marks[n]:x}" for n in names),
            "TASK_VECTOR": str(board.task_vector), "QUEUES": str(board.queues),
            "QUEUE_BASE": f"{queue_base:x}"}
+    read_pc = fill_read_pc(elf, board.task_vector)
+    if read_pc:
+        env["READ_PC"] = f"{read_pc:x}"
     if getattr(args, "profile", False):
         ranges = work / f"{case}.funcs"
         ranges.write_text("".join(f"{a:x} {b:x} {name}\n" for a, b, name in functions(elf)))
@@ -242,6 +276,9 @@ class Task:
         self.nested: collections.Counter[int] = collections.Counter()
         # cpu, mark, this, ticks, steps, cycle
         self.marks: list[tuple[int, int, int, int, int, int]] = []
+        # the fill's reads of a queue (Q lines): cpu, queue, cycle, entries from the
+        # read index on as (ticks, steps), the running entry first
+        self.reads: list[tuple[int, int, int, list[tuple[int, int]]]] = []
 
 
 def tasks_of(prefix: Path, task_vector: int) -> tuple[list[Task], dict[int, list[int]]]:
@@ -279,7 +316,16 @@ def tasks_of(prefix: Path, task_vector: int) -> tuple[list[Task], dict[int, list
                     isr[v].append(c - c0)
             elif p[1] == "M" and cur is not None:
                 cur.marks.append((cur.cpu, int(p[2]), int(p[3]), int(p[4]), int(p[5]), c))
+            elif p[1] == "Q" and cur is not None:
+                ents = [(int(a), int(b)) for a, b in (x.split(":") for x in p[5:])]
+                cur.reads.append((cur.cpu, int(p[2]), c, ents))
     return tasks, isr
+
+
+def ticks_in_queue(entries: list[tuple[int, int]]) -> int:
+    """The library's ticksInQueue() of a queue holding ``entries`` (the running one
+    first): ticks x steps of every entry after it, a pause's ticks once."""
+    return sum(t * max(s, 1) for t, s in entries[1:])
 
 
 def _writes(t: Task) -> list[tuple[int, int, int, int, int, int]]:

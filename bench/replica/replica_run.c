@@ -10,6 +10,10 @@
  *                "cycle C pc" / "cycle S pc"    the main program (no interrupt running)
  *                turned interrupts off / on again at byte address pc (its critical
  *                sections: cli ... sei, or SREG saved and restored),
+ *                "cycle Q q rp wp t:s ..."   (only with READ_PC) the ramp task's fill read
+ *                queue q's indices (ticksInQueue(), inlined: the instruction after its
+ *                critical section, Z = the queue's next_write_idx): the indices and every
+ *                entry from the read index on, ticks:steps (the running entry first),
  *                "cycle P f:n ..."   (only with PROFILE) before each M line and at the
  *                ramp task's reti: the cycles the task's own code spent in function f
  *                (the f-th range of PROFILE) since the last P line, n > 0 only.
@@ -19,6 +23,7 @@
  * Environment: MARKS (comma-separated hex byte addresses), TASK_VECTOR, QUEUES and
  * QUEUE_BASE (hex data address of the queue array; 119-byte queues of 16 entries of
  * 6 bytes, read_idx/next_write_idx after the entries: FastAccelStepper 1.2.6 on AVR);
+ * READ_PC (optional): hex byte address of the fill's queue read (replica.py finds it);
  * PROFILE (optional): a file of "start end [name]" byte-address ranges (hex), one
  * function a line.
  * Build against an upstream simavr tree (replica.py does it).
@@ -37,6 +42,7 @@ static avr_t *avr;
 static FILE *pins, *ev;
 static unsigned marks[16];
 static int n_marks, task_vector, n_queues, queue_base;
+static unsigned read_pc; /* READ_PC: the fill's ticksInQueue() read (0: none) */
 
 enum { QUEUE_SIZE = 119, ENTRY_SIZE = 6, ENTRIES = 16 };
 
@@ -130,6 +136,18 @@ static void record(void)
         fprintf(ev, "%" PRIu64 " %c %x\n", avr->cycle, loop_i ? 'S' : 'C', last_pc);
     }
     last_pc = pc;
+    if (read_pc && pc == read_pc) {
+        int z = avr->data[30] | (avr->data[31] << 8);
+        int q = (z - queue_base) / QUEUE_SIZE;
+        const uint8_t *b = avr->data + queue_base + QUEUE_SIZE * q;
+        uint8_t rp = b[ENTRY_SIZE * ENTRIES], wp = b[ENTRY_SIZE * ENTRIES + 1];
+        fprintf(ev, "%" PRIu64 " Q %d %u %u", avr->cycle, q, rp, wp);
+        for (uint8_t i = rp; i != wp; i++) {
+            const uint8_t *e = b + ENTRY_SIZE * (i & (ENTRIES - 1));
+            fprintf(ev, " %u:%u", e[2] | (e[3] << 8), e[0]);
+        }
+        fputc('\n', ev);
+    }
     for (int k = 0; k < n_marks; k++) {
         if (pc != marks[k])
             continue;
@@ -201,6 +219,8 @@ int main(int argc, char **argv)
         n_queues = getenv("QUEUES") ? atoi(getenv("QUEUES")) : 0;
         queue_base = getenv("QUEUE_BASE") ? (int)strtoul(getenv("QUEUE_BASE"), NULL, 16) : 0;
     }
+    if (getenv("READ_PC"))
+        read_pc = (unsigned)strtoul(getenv("READ_PC"), NULL, 16);
     if (getenv("PROFILE"))
         load_profile(getenv("PROFILE"));
     uint32_t flags = 0; /* the console's characters are not wanted on stdout */

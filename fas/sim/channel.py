@@ -305,7 +305,10 @@ class SimChannel(QueueChannel):
         q = self.q
         m.task_offset += p.fill_stepper_ticks  # the fill's checks before it reads
         work = m.task_offset
+        if p.fill_entry_after_reads:  # the task's fixed part comes after its fills' reads
+            work = max(work - p.fill_entry_ticks, 0)
         t = m.now + (m.nested_stretched(work) if p.task_nested_isrs else m.stretched(work))
+        self.fill_read_tick = t
         rp, wp = q.read_idx, q.next_write_idx
         n = q.queue_len
         # the channel takes up the entry after the running one in the step interrupt of
@@ -330,6 +333,9 @@ class SimChannel(QueueChannel):
         # the library then sums the entries after the one running by then
         m.task_offset += self.queue_sum_ticks(rp)
         return skipped
+
+    # the tick of the fill's last live read of this queue (fill_begins; bench tools)
+    fill_read_tick = 0
 
     def queue_sum_ticks(self, rp: int) -> int:
         """The fill's CPU time summing the queue entries after entry ``rp`` (the one

@@ -84,6 +84,13 @@ class SimTiming:
     # interrupts nested in the ramp task (timer 0, the step interrupts) move the CPU
     # time line of its code: 1 the fill's read only, 2 every write and queue start too
     task_nested_isrs: int = 0
+    # with fill_reads_queue_live: the task's fixed part before its first command
+    # (fill_entry_ticks) comes after its fills' reads of their queues, not before them
+    # (the firmware's first read: 199 ticks after the task's entry on the ATmega328P,
+    # 174-210 on the ATmega2560 - fill_stepper_ticks alone; docs/timing-model.md,
+    # "twenty-fourth pass").  Only the reads move: the charges, and with them the writes
+    # and queue starts, stay where they are
+    fill_entry_after_reads: bool = False
     # a command written to a queue that has not started yet costs this much more (the
     # replica: a starting ramp's one-step commands 1 862-1 872 ticks on the ATmega328P,
     # 1 799-1 813 in a running one)
