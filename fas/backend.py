@@ -253,6 +253,18 @@ class Backend(ABC):
     def app_spend(self, ticks: int) -> None:
         """The main loop uses ``ticks`` of CPU time (interrupts keep running)."""
 
+    def app_polls(self, poll: tuple[int, tuple[tuple[int, int], ...]] | None) -> None:
+        """How the main loop polls in the following waits (:meth:`app_wait_until`): its
+        pass length and, per pass, the sections (offset, ticks) with interrupts off
+        (None: not followed).  Backends without interrupt contention ignore it."""
+        return
+
+    def app_spend_in(self, ticks: int, poll: tuple[int, tuple[tuple[int, int], ...]]) -> None:
+        """:meth:`app_spend` in passes of ``poll[0]`` ticks, each with interrupts off in
+        the sections ``poll[1]`` (offset, ticks): a loop that reads something under
+        ``cli`` again and again."""
+        self.app_spend(ticks)
+
     @abstractmethod
     def app_wait_until(self, tick: int, until: Callable[[], bool] | None = None) -> bool:
         """The main loop idles until ``tick`` (interrupts keep running), or until

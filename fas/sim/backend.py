@@ -31,6 +31,8 @@ class SimBackend(Backend):
         # ``build``: the firmware build whose CPU costs the chip runs (fas.sim.builds)
         self.machine = Machine(self.profile, build)
         self.build = self.machine.build
+        # how the main loop polls in its waits (app_polls; None: not followed)
+        self._poll: tuple[int, tuple[tuple[int, int], ...]] | None = None
         self.channels: list[SimChannel] = []
         self.recorder: EdgeRecorder | None = None
         if record:
@@ -376,14 +378,28 @@ class SimBackend(Backend):
     def app_spend(self, ticks: int) -> None:
         self.machine.consume(ticks)
 
+    def app_spend_in(self, ticks: int, poll: tuple[int, tuple[tuple[int, int], ...]]) -> None:
+        m = self.machine
+        m.poll_begin(*poll)
+        m.consume(ticks)
+        m.poll_end()
+
+    def app_polls(self, poll: tuple[int, tuple[tuple[int, int], ...]] | None) -> None:
+        self._poll = poll
+
     def app_wait_until(self, tick: int, until: Callable[[], bool] | None = None) -> bool:
         m = self.machine
         stopped = False
         if tick > m.now:
+            poll = self._poll
+            if poll is not None:
+                m.poll_begin(*poll)
             if until is None:
                 m.run_until(tick)
             else:
                 stopped = m.run_until_changed(tick, until)
+            if poll is not None:
+                m.poll_end()
         # the loop polled while interrupts ran; it goes on once the CPU is free
         # (Machine.resume, written out: this runs after every wait)
         wait = m.resume_wait()

@@ -70,6 +70,7 @@ class SimChannel(QueueChannel):
         # it writes the next compare ``ocr`` ticks after it cleared the pin
         self.contention = bool(self.irq_sensitive and timing.isr_ocr_ticks)
         self.ocr = timing.isr_ocr_ticks if self.contention else 0
+        self.after_reti = timing.reti_next_ticks if self.contention else 0
         self.running = False
         self.no_more = False
         self.mode_one = False
@@ -540,8 +541,16 @@ class SimChannel(QueueChannel):
         for j in m.held_requests(c0, t, j0, j1):
             c = c0 + j * t
             free = m.cpu_free_at(c, self)
-            if free > c:
-                out.append((j, free - c))
+            if free > c:  # behind a routine: after its reti, one instruction (not after
+                # a blocked section's end: its sei's instruction is in sei_ticks)
+                out.append((j, free - c + (self.after_reti if free != m.blocked_end
+                                           else 0)))
+        if m.loop_polls and m.loop_polls[-1][1] > c0 + j0 * t:
+            held = {j for j, _ in out}
+            loop = [(j, w) for j in range(j0, j1) if j not in held
+                    and (w := m.loop_hold(c0 + j * t, t, self.isr_ticks))]
+            if loop:
+                out = sorted(out + loop)
         return out
 
     def block_isr_running_at(self, t: int) -> int | None:
@@ -676,6 +685,12 @@ class SimChannel(QueueChannel):
         contention = self.contention
         if contention:  # entered now: the pin falls lat later
             now += self.lat
+            if now - self.lat > c and now - self.lat != m.blocked_end:  # held behind a
+                now += self.after_reti  # routine: after its reti, one instruction
+            if now - self.lat == c and m.loop_polling:  # ... or at the end of the loop's cli
+                q = self.q
+                now += m.loop_hold(c, q.entries[q.read_idx % q.queue_len].ticks or 1,
+                                   self.isr_ticks)
         if self.pending_pulse:
             self.pending_pulse = False
             # (_emit and PinBank.pulses of one pulse, written out: this runs for every single pulse)

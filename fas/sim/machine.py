@@ -86,6 +86,7 @@ class BatchSource(Protocol):
 # where timer 0 and the UART come before the step compares: how long after its request
 # one of them may still begin (behind the routines running then; a blocked section is
 # known on its own)
+LOOP_POLL_OPEN = 1 << 62  # the end of a poll still running (Machine.loop_polls)
 LATE_ISR_SLACK = 1024
 # no routine keeps a step interrupt of a block of pulses waiting this long (the longest
 # chain of other routines: timer 0, the UART, the ramp task's exit, another step interrupt)
@@ -168,11 +169,17 @@ class Machine:
         self._late_isrs = profile.step_vectors_after_timer0
         slack = LATE_ISR_SLACK if self._late_isrs else 0
         self._ms_window = self.timing.millis_isr_ticks + slack
-        # how long the UART's transmit interrupt holds a step interrupt (the CPU time it
-        # takes from the loop and the ramp task is uart_isr_ticks)
+        # how long the UART's transmit interrupt holds a step interrupt (its CPU time
+        # taken from the loop is uart_isr_ticks)
         self._uart_hold = ((self.timing.uart_hold_ticks or self.timing.uart_isr_ticks)
                            if self.timing.uart_isr_ticks else 0)
         self._uart_window = self._uart_hold + slack
+        # the main loop's own critical sections while it polls (:meth:`loop_hold`): the
+        # polls as (start, end, period, sections), in order; the one running now has
+        # end LOOP_POLL_OPEN (``loop_polling``: one runs)
+        self.loop_polls: list[tuple[int, int, int, tuple[tuple[int, int], ...]]] = []
+        self.loop_polling = False
+        self._ms_cost = self.timing.millis_isr_ticks  # per 16 384 ticks (loop_hold)
 
     # ----------------------------------------------------------- scheduling
     def schedule(self, time: int, fn: Callable[[], None], prio: int = PRIO_PLAIN,
@@ -312,6 +319,55 @@ class Machine:
         return True
 
     # ------------------------------------------------- interrupt contention
+    def poll_begin(self, period: int, sections: tuple[tuple[int, int], ...]) -> None:
+        """The main loop polls from now on in passes of ``period`` ticks, each with
+        interrupts off in ``sections`` (offset in the pass, ticks), until
+        :meth:`poll_end`."""
+        polls = self.loop_polls
+        if len(polls) > 4096:  # forget what no block of pulses can still ask about
+            del polls[:len(polls) - 64]
+        polls.append((self.now, LOOP_POLL_OPEN, period, sections))
+        self.loop_polling = True
+
+    def poll_end(self) -> None:
+        """The loop takes up work (its poll ends now)."""
+        polls = self.loop_polls
+        start, _, period, sections = polls[-1]
+        if self.now > start:
+            polls[-1] = (start, self.now, period, sections)
+        else:
+            polls.pop()
+        self.loop_polling = False
+
+    def loop_hold(self, c: int, step_period: int, step_cost: int) -> int:
+        """Ticks a step interrupt requested at ``c``, when no routine holds the CPU,
+        waits for a critical section of the polling loop to end (0: none holds it).
+        The passes run one after another from the poll's start in the loop's own CPU
+        time: the step interrupts of the asking channel (``step_cost`` ticks every
+        ``step_period``) and timer 0's overflows are taken from it."""
+        polls = self.loop_polls
+        i = len(polls) - 1
+        while i >= 0:
+            start, end, period, sections = polls[i]
+            if c >= end:
+                return 0
+            if c >= start:
+                d = c - start
+                d -= step_cost * (d // step_period) + self._ms_cost * (d >> 14)
+                phase = d % period
+                for offset, ticks in sections:
+                    if offset <= phase < offset + ticks:
+                        return offset + ticks - phase
+                return 0
+            i -= 1
+        return 0
+
+    @property
+    def blocked_end(self) -> int:
+        """The tick at which an interrupt held by the loop's last blocked section (`e`)
+        enters: its end and the instruction after its sei."""
+        return self.irq_blocked_until + self.timing.sei_ticks
+
     def enter_isr(self, t: int, cost: int) -> None:
         """A routine entered as an event at tick ``t`` holds the CPU ``cost`` ticks."""
         starts = self.isr_starts

@@ -143,6 +143,17 @@ class SimTiming:
     # instruction of the main program after it (0: uart_isr_ticks, the CPU time it takes
     # from the loop and the ramp task, which was fitted with the default build's prints)
     uart_hold_ticks: int = 0
+    # a step interrupt held behind another routine enters after the instruction of the
+    # main program that runs after that routine's reti (not after a blocked section's
+    # end: its sei's instruction is sei_ticks)
+    reti_next_ticks: int = 0
+    # the figures measured on the replica together with the main loop's own critical
+    # sections (docs/timing-model.md, fourteenth and twenty-sixth passes): with it,
+    # sim_timing() gives the chip LOOP_SECTIONS_FIGURES (the plain widths, the next
+    # compare's write, reti_next_ticks, the UART's hold); StepperDemo follows the loop's
+    # sections with DemoBuild.loop_sections (both together: the variant of `78087fe`).
+    # Off by default: not landed
+    loop_section_widths: bool = False
     # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
     # (the ATmega32U4's USBDevice.attach())
     core_main_ticks: int = 0
@@ -386,11 +397,44 @@ BY_BUILD: dict[str, dict[str, SimTiming]] = {
 }
 
 
+# the figures measured on the replica (build e's timing; docs/timing-model.md,
+# fourteenth, fifteenth and seventeenth passes, pulses) that go with the loop's critical
+# sections (SimTiming.loop_section_widths), by build and profile name: the pin falls 60 / 70
+# ticks after an entry at once (the 2560's build e 63 / 73 / 73), the next compare 30
+# after it; a step interrupt held behind a routine enters after its reti and one
+# instruction of the loop (reti_next_ticks 2): the UART's routine 118 ticks to its reti,
+# the reti 4 (the 2560: 126 + 5, a 3-byte return address).  Build d has no replica: with
+# the sections on it takes build e's chip figures (its own library and console code may
+# differ; twenty-sixth pass)
+_SECTIONS_328P: dict[str, object] = {"isr_latency_ticks": (60, 70, 70), "isr_ocr_ticks": 30,
+                                     "reti_next_ticks": 2, "uart_hold_ticks": 118 + 4}
+_SECTIONS_MEGA: dict[str, object] = {"isr_ocr_ticks": 29, "reti_next_ticks": 2,
+                                     "uart_hold_ticks": 126 + 5}
+LOOP_SECTIONS_FIGURES: dict[str, dict[str, dict[str, object]]] = {
+    "d": {"atmega328p": _SECTIONS_328P, "atmega32u4": {**_SECTIONS_328P, "uart_hold_ticks": 0},
+          **{name: _SECTIONS_MEGA for name in MEGA_NAMES}},
+    "e": {"atmega328p": _SECTIONS_328P, "atmega32u4": {**_SECTIONS_328P, "uart_hold_ticks": 0},
+          **{name: {**_SECTIONS_MEGA, "isr_latency_ticks": (63, 73, 73), "isr_ocr_ticks": 30}
+             for name in MEGA_NAMES}},
+}
+
+
 def sim_timing(profile: Profile, build: str | None = None) -> SimTiming:
     """The simulated timing of ``profile`` in firmware ``build`` (None: the default
     build): the build's entry for the profile or its family, else the profile's own
-    entry, else its family's."""
-    variant = BY_BUILD.get(check_build(build), {})
+    entry, else its family's; with its ``loop_section_widths`` on, with the figures measured
+    together with them (:data:`LOOP_SECTIONS_FIGURES`)."""
+    build = check_build(build)
+    timing = _sim_timing(profile, build)
+    if timing.loop_section_widths:
+        figures = LOOP_SECTIONS_FIGURES.get(build, {}).get(profile.name)
+        if figures:
+            timing = replace(timing, **figures)  # type: ignore[arg-type]
+    return timing
+
+
+def _sim_timing(profile: Profile, build: str) -> SimTiming:
+    variant = BY_BUILD.get(build, {})
     timing = (variant.get(profile.name) or variant.get(profile.family)
               or BY_PROFILE.get(profile.name) or BY_FAMILY.get(profile.family))
     if timing is None:

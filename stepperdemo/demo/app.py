@@ -747,6 +747,14 @@ class StepperDemo(LoopProgram):
         b = self.backend
         if self._idle():
             wake = self._wake_time()
+            build = self.build
+            if build.loop_sections:  # the loop's critical sections while it polls
+                poll = None  # (a stepper runs)
+                if (self.mode == _NORMAL and not self.waiting_interactive
+                        and self.any_running()):
+                    poll = (build.loop_poll_pause if self.pause_ms > 0
+                            else build.loop_poll_running)
+                b.app_polls(poll)
             if wake is None or wake > limit:
                 if not b.app_wait_until(limit, self._watch()):
                     return

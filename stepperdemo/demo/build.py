@@ -65,6 +65,9 @@ class DemoConfig:
     steppers: tuple[DemoStepper, ...]
 
 
+LoopPoll = tuple[int, tuple[tuple[int, int], ...]]
+
+
 @dataclass(frozen=True)
 class DemoBuild:
     """StepperDemo built for one chip (costs in ticks of its profile)."""
@@ -114,6 +117,20 @@ class DemoBuild:
     # rest of the pass after the check (the pass's length unchanged; 0: the block
     # follows the read at once; docs/timing-model.md, "twenty-second pass")
     e_read_block_ticks: int = 0
+    # the loop's own critical sections (docs/timing-model.md, fourteenth and twenty-sixth
+    # passes) followed: off by default, not landed (the chip's figures measured with
+    # them: fas.sim.timing's SimTiming.loop_section_widths)
+    loop_sections: bool = False
+    # those sections while the loop polls with a stepper running, as (pass length,
+    # ((offset in the pass, ticks with interrupts off), ...)): during a `w<ms>` and
+    # otherwise (None: not measured)
+    loop_poll_pause: LoopPoll | None = None
+    loop_poll_running: LoopPoll | None = None
+    # test sequence 11's position reads in a loop: one getCurrentPosition() (ticks) and,
+    # where measured, how that loop turns interrupts off (as loop_poll_pause; one read
+    # per section: with loop_sections on, a read takes its pass's length / its sections)
+    position_read_ticks: int = 96
+    position_read_poll: LoopPoll | None = None
 
 
 # ------------------------------------------------------------------------------ costs
@@ -140,6 +157,18 @@ AVR_COSTS = DemoBuild(
     # noInterrupts(); delayMicroseconds(100); interrupts(): the AVR core's busy loop of
     # 4 cycles per round, 4 rounds per us less 5 for the call, plus cli and sei
     irq_block_ticks=4 * (4 * 100 - 5) + 2,
+    # the main loop's critical sections, measured on the replica of build e's 328P
+    # (docs/timing-model.md, fourteenth pass, pulses; followed only with loop_sections):
+    # isRunning()'s queue read 10 ticks from cli to sei at the pass's start, millis() 9
+    # from cli to the SREG restore; an interrupt requested inside enters after the next
+    # instruction (1 tick after sei, 2 after millis()'s restore: 11 each); a `w` pass
+    # reads millis() twice (the pause, then the pass's own), 260 ticks; otherwise passes
+    # of 265 and 366 ticks alternate, millis() 153 and 254 ticks after isRunning().  Test
+    # sequence 11's getCurrentPosition() loop: one read every 183 or 198 ticks, interrupts
+    # off for 37 ticks of it and the instruction after the sei (38)
+    loop_poll_pause=(260, ((0, 11), (111, 11), (148, 11))),
+    loop_poll_running=(631, ((0, 11), (153, 11), (265, 11), (519, 11))),
+    position_read_poll=(381, ((0, 38), (183, 38))),
 )
 
 # ESP32 and the Pico: not measured on a firmware run, estimates

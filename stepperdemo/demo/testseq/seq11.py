@@ -16,13 +16,18 @@ from . import TEST_STATE_ERROR
 
 READS_PER_PASS = 1001
 SAMPLES_PER_PASS = 11
-READ_TICKS = 96  # one getCurrentPosition() on the AVR, about 6 us
 
 
 def _check(app, stepper, slot, going_up: bool) -> bool:
     backend = app.backend
     prev_pos = slot.s32_1
-    chunk = READ_TICKS * (READS_PER_PASS // (SAMPLES_PER_PASS - 1))
+    # the reads' CPU time (DemoBuild.position_read_ticks; with the loop's sections
+    # followed, DemoBuild.loop_sections, as measured on the AVR with the reads' own
+    # critical sections, position_read_poll: one read per section)
+    build = app.build
+    poll = build.position_read_poll if build.loop_sections else None
+    read_ticks = build.position_read_ticks if poll is None else poll[0] // len(poll[1])
+    chunk = read_ticks * (READS_PER_PASS // (SAMPLES_PER_PASS - 1))
     for k in range(SAMPLES_PER_PASS):
         i = k * (READS_PER_PASS // (SAMPLES_PER_PASS - 1))
         pos = stepper.get_current_position()
@@ -43,7 +48,10 @@ def _check(app, stepper, slot, going_up: bool) -> bool:
         prev_pos = slot.s32_1
         slot.s32_1 = pos
         if k < SAMPLES_PER_PASS - 1:
-            backend.app_spend(chunk)
+            if poll is None:
+                backend.app_spend(chunk)
+            else:
+                backend.app_spend_in(chunk, poll)
     return True
 
 
