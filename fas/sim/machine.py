@@ -83,10 +83,10 @@ class BatchSource(Protocol):
         ...
 
 
+LOOP_POLL_OPEN = 1 << 62  # the end of a poll still running (Machine.loop_polls)
 # where timer 0 and the UART come before the step compares: how long after its request
 # one of them may still begin (behind the routines running then; a blocked section is
 # known on its own)
-LOOP_POLL_OPEN = 1 << 62  # the end of a poll still running (Machine.loop_polls)
 LATE_ISR_SLACK = 1024
 # no routine keeps a step interrupt of a block of pulses waiting this long (the longest
 # chain of other routines: timer 0, the UART, the ramp task's exit, another step interrupt)
@@ -169,8 +169,8 @@ class Machine:
         self._late_isrs = profile.step_vectors_after_timer0
         slack = LATE_ISR_SLACK if self._late_isrs else 0
         self._ms_window = self.timing.millis_isr_ticks + slack
-        # how long the UART's transmit interrupt holds a step interrupt (its CPU time
-        # taken from the loop is uart_isr_ticks)
+        # how long the UART's transmit interrupt holds a step interrupt (the CPU time it
+        # takes from the loop and the ramp task is uart_isr_ticks)
         self._uart_hold = ((self.timing.uart_hold_ticks or self.timing.uart_isr_ticks)
                            if self.timing.uart_isr_ticks else 0)
         self._uart_window = self._uart_hold + slack
