@@ -12,9 +12,11 @@ matches where TCNT1 == OCR1x: its flag rises one cycle later, at ``overflow + OC
 (the datasheet's "at the next timer clock").  Every such moment while a value is held
 is an expected compare; one without a flag within ``slack`` cycles is *missing* (the
 simulator lost it), a flag no expected moment explains is *extra*.  The first and last
-``slack`` cycles of a value's span are not judged (where the write lands within the
-instruction).  The overflow's own moment is the earliest flag of its residue class
-(the simulator raises a flag after the instruction that spans it: 0-4 cycles late).
+``slack`` cycles of a value's span, and of the file, are not judged (where the write lands
+within its instruction; the start-up code's timer settings before the first overflow of
+the run's phase).  The overflow's moment is the earliest of its flags' residues and of
+the compares' (flag - OCR - 1): the simulator raises a flag after the instruction that
+spans its moment, 0-3 cycles late.
 
     python3 bench/replica/timer_check.py WORK/CASE.timer ... [--show N]
 """
@@ -52,8 +54,9 @@ class Report:
     expected: dict[int, int] = field(default_factory=dict)  # channel -> compares
     missing: list[Missing] = field(default_factory=list)
     extra: dict[int, int] = field(default_factory=dict)  # channel -> flags unexplained
+    extra_at: list[tuple[int, int]] = field(default_factory=list)  # (cycle, channel)
     # expected compares by cycles after the overflow, in bins of BIN cycles
-    after_overflow: collections.Counter = field(default_factory=collections.Counter)
+    after_overflow: collections.Counter[int] = field(default_factory=collections.Counter)
 
     def summary(self) -> str:
         exp = sum(self.expected.values())
@@ -150,12 +153,13 @@ def check(lines: list[str], slack: int = SLACK) -> Report:
         wc = [c for c, _ in ws]
         extra = 0
         for j, t in enumerate(seen):
-            if used[j] or t < first or t >= end - slack:
+            if used[j] or t <= first + slack or t >= end - slack:
                 continue
             k = bisect.bisect_right(wc, t)
             near = any(abs(t - wc[q]) <= slack + 1 for q in (k - 1, k) if 0 <= q < len(wc))
             if not near:
                 extra += 1
+                rep.extra_at.append((t, ch))
         rep.expected[ch] = n
         rep.extra[ch] = extra
     return rep
@@ -168,8 +172,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--bins", action="store_true",
                     help="expected compares by cycles after the overflow (first 1000)")
     args = ap.parse_args(argv)
-    total = collections.Counter()
-    bins: collections.Counter = collections.Counter()
+    total: collections.Counter[str] = collections.Counter()
+    bins: collections.Counter[int] = collections.Counter()
     for path in args.files:
         rep = check(path.read_text().splitlines())
         print(f"{path.stem}: {rep.summary()}")
