@@ -230,6 +230,8 @@ def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
         ranges = work / f"{case}.funcs"
         ranges.write_text("".join(f"{a:x} {b:x} {name}\n" for a, b, name in functions(elf)))
         env["PROFILE"] = str(ranges)
+    if getattr(args, "timer_check", False):
+        env["TIMER_CHECK"] = f"{prefix}.timer"
     run([str(exe), str(elf), board.mcu, f"{ms:.0f}", str(prefix), *board.pins.values()], env=env)
     return prefix, board
 
@@ -266,6 +268,11 @@ def cmd_steps(args: argparse.Namespace) -> int:
             print(f"{case} {letter}: firmware {len(fw)} steps, replica {len(ours)}; replica - "
                   f"firmware {min(offs)}..{max(offs)} ticks"
                   + ("" if same else "  (not one constant offset)"))
+        if getattr(args, "timer_check", False):
+            from timer_check import check  # noqa: PLC0415 (a sibling script)
+            rep = check(Path(f"{prefix}.timer").read_text().splitlines())
+            print(f"{case} timer 1: {rep.summary()}")
+            bad += bool(rep.missing)
     return 1 if bad else 0
 
 
@@ -502,6 +509,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--at", type=float, default=0.0, help="task: its time in ms")
     ap.add_argument("--profile", action="store_true",
                     help="record the ramp task's cycles by function (pitches)")
+    ap.add_argument("--timer-check", action="store_true",
+                    help="write WORK/CASE.timer: timer 1's events (timer_check.py)")
     ap.add_argument("what", choices=("steps", "tasks", "task", "pitches"))
     ap.add_argument("cases", nargs="+")
     args = ap.parse_args(argv)

@@ -26,15 +26,23 @@
  * READ_PC (optional): hex byte address of the fill's queue read (replica.py finds it);
  * PROFILE (optional): a file of "start end [name]" byte-address ranges (hex), one
  * function a line.
+ * TIMER_CHECK (optional): a file that receives timer 1's events, for
+ * bench/replica/timer_check.py (needs TASK_VECTOR = timer 1's overflow vector and QUEUES
+ * = its compare channels, whose vectors precede it):
+ *   "T cycle"          the overflow's interrupt flag raised,
+ *   "C cycle ch"       compare channel ch's interrupt flag raised (while not pending),
+ *   "W cycle ch value" OCR1x (data 0x88 + 2 ch) holds a new value after an instruction.
  * Build against an upstream simavr tree (replica.py does it).
  */
 #include <inttypes.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "avr_ioport.h"
 #include "avr_uart.h"
+#include "sim_interrupts.h"
 #include "sim_avr.h"
 #include "sim_elf.h"
 
@@ -45,6 +53,32 @@ static int n_marks, task_vector, n_queues, queue_base;
 static unsigned read_pc; /* READ_PC: the fill's ticksInQueue() read (0: none) */
 
 enum { QUEUE_SIZE = 119, ENTRY_SIZE = 6, ENTRIES = 16 };
+
+static FILE *tcheck; /* TIMER_CHECK */
+static uint16_t ocr_seen[3];
+
+static void timer_hook(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    int ch = (int)(intptr_t)param;
+    if (!value)
+        return;
+    if (ch < 0)
+        fprintf(tcheck, "T %" PRIu64 "\n", avr->cycle);
+    else
+        fprintf(tcheck, "C %" PRIu64 " %d\n", avr->cycle, ch);
+}
+
+static void timer_ocr_step(void)
+{
+    for (int ch = 0; ch < n_queues && ch < 3; ch++) {
+        uint16_t v = avr->data[0x88 + 2 * ch] | (avr->data[0x89 + 2 * ch] << 8);
+        if (v != ocr_seen[ch]) {
+            ocr_seen[ch] = v;
+            fprintf(tcheck, "W %" PRIu64 " %d %u\n", avr->cycle, ch, v);
+        }
+    }
+}
 
 static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 {
@@ -223,6 +257,21 @@ int main(int argc, char **argv)
         read_pc = (unsigned)strtoul(getenv("READ_PC"), NULL, 16);
     if (getenv("PROFILE"))
         load_profile(getenv("PROFILE"));
+    if (getenv("TIMER_CHECK") && task_vector) {
+        tcheck = fopen(getenv("TIMER_CHECK"), "w");
+        if (!tcheck) {
+            perror(getenv("TIMER_CHECK"));
+            return 1;
+        }
+        avr_irq_t *v = avr_get_interrupt_irq(avr, (uint8_t)task_vector);
+        if (v)
+            avr_irq_register_notify(v + AVR_INT_IRQ_PENDING, timer_hook, (void *)(intptr_t)-1);
+        for (int ch = 0; ch < n_queues && ch < 3; ch++) {
+            v = avr_get_interrupt_irq(avr, (uint8_t)(task_vector - n_queues + ch));
+            if (v)
+                avr_irq_register_notify(v + AVR_INT_IRQ_PENDING, timer_hook, (void *)(intptr_t)ch);
+        }
+    }
     uint32_t flags = 0; /* the console's characters are not wanted on stdout */
     avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
     flags &= ~AVR_UART_FLAG_STDIO;
@@ -231,10 +280,14 @@ int main(int argc, char **argv)
     while (avr->cycle < end) {
         record();
         int state = avr_run(avr);
+        if (tcheck)
+            timer_ocr_step();
         if (state == cpu_Done || state == cpu_Crashed)
             break;
     }
     fclose(pins);
     fclose(ev);
+    if (tcheck)
+        fclose(tcheck);
     return 0;
 }
