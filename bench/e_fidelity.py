@@ -124,6 +124,52 @@ TEST = [f"e{i:02d}" for i in range(2, 19, 2)]
 PITCH_MAX_TICKS = 200 * TICKS_PER_US  # a pitch between two blocks of one window
 
 
+# named sets of ``--set`` (``--variant``): the variants of docs/timing-model.md by the
+# names the passes give them
+VARIANTS: dict[str, tuple[str, ...]] = {
+    # timer 0, the ramp task and the console's first character at the firmware's phase
+    # (sixteenth pass; its task phase as the eighteenth pass's U has it)
+    "TH": ("boot_data_align=2", "atmega328p:boot_data_bytes=408",
+           "atmega2560:boot_data_bytes=433", "atmega328p:boot_ticks=7309",
+           "atmega2560:boot_ticks=11712", "atmega328p:setup_head_ticks=368",
+           "atmega2560:setup_head_ticks=412"),
+    # the UART's 63-byte ring and the task phases that go with it (eighteenth pass)
+    "U": ("atmega328p:uart_tx_buffer=63", "atmega2560:uart_tx_buffer=63",
+          "atmega328p:task_phase_ticks=67955", "atmega2560:task_phase_ticks=68714"),
+    # the twenty-first pass's I M F K
+    "IMFK": ("atmega328p:idle_task_ticks=429", "atmega2560:idle_task_ticks=512",
+             "fill_cmd_maths=1", "atmega328p:fill_cmd_ticks=1741",
+             "atmega328p:fill_dec_cmd_ticks=1802", "atmega2560:fill_cmd_ticks=1784",
+             "atmega2560:fill_dec_cmd_ticks=1814", "fill_plan_ticks=11",
+             "atmega328p:fill_coast_cmd_ticks=1712", "atmega2560:fill_coast_cmd_ticks=1750"),
+    # the interrupts nested in the ramp task move its writes and queue starts
+    "N2": ("atmega328p:task_nested_isrs=2", "atmega2560:task_nested_isrs=2"),
+    # the start task's figures re-read from the replica's lone starts (twenty-eighth
+    # pass): a one-step command, a pause, auto enable's bare pause, the CPU from the last
+    # write to the queue's compare (startQueue() + 70), the task's CPU after it, and the
+    # task's fixed part split into before the first write and after the last
+    "R28": ("atmega328p:fill_single_ticks=1868", "atmega328p:fill_pause_ticks=1316",
+            "atmega328p:fill_bare_pause_ticks=640", "atmega328p:fill_start_ticks=1045",
+            "atmega328p:fill_start_tail_ticks=362", "atmega328p:fill_entry_ticks=379",
+            "atmega328p:fill_exit_ticks=54",
+            "atmega2560:fill_single_ticks=1922", "atmega2560:fill_pause_ticks=1332",
+            "atmega2560:fill_bare_pause_ticks=697", "atmega2560:fill_start_ticks=1058",
+            "atmega2560:fill_start_tail_ticks=308", "atmega2560:fill_entry_ticks=312",
+            "atmega2560:fill_exit_ticks=205"),
+}
+
+
+def variant_settings(names: list[str]) -> list[str]:
+    """The ``--set`` settings of the named variants (``--variant``), in order.  Raises
+    ValueError on an unknown name."""
+    out: list[str] = []
+    for name in names:
+        if name not in VARIANTS:
+            raise ValueError(f"--variant {name!r}: not one of {', '.join(VARIANTS)}")
+        out.extend(VARIANTS[name])
+    return out
+
+
 def set_timing(settings: list[str]) -> None:
     """Change figures of build e's timing for this process (``--set``): each setting is
     ``FIELD=VALUE`` (every chip of build e) or ``CHIP:FIELD=VALUE`` (the chips whose
@@ -759,9 +805,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="a figure or mechanism of build e's timing (SimTiming field) "
                     "for this run, e.g. fill_reads_queue_live=1, "
                     "atmega2560:fill_start_ticks=2190; repeatable")
+    ap.add_argument("--variant", action="append", default=[], choices=sorted(VARIANTS),
+                    help="a named set of --set settings (docs/timing-model.md: TH, U, "
+                    "IMFK, N2, R28), applied before --set; repeatable")
     args = ap.parse_args(argv)
     try:
-        set_timing(args.set)
+        set_timing(variant_settings(args.variant) + args.set)
     except ValueError as exc:
         print(f"e_fidelity: {exc}", file=sys.stderr)
         return 2

@@ -138,7 +138,10 @@ def model_tasks(case: str, conf: Path, keep: list[SimBackend] | None = None) -> 
         if ch.m.in_task and log and ch.running and not was:
             k = letters.setdefault(id(ch), len(letters))
             m = ch.m
+            tail = m.timing.fill_start_tail_ticks  # charged after the start: not in it
+            m.task_offset -= tail
             log[-1].starts.append((k, m.task_offset, m.cpu_now() + ch.start_ticks - log[-1].t))
+            m.task_offset += tail
 
     def read(q: StepperQueue) -> int:
         ch = q.channel

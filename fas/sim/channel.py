@@ -155,6 +155,8 @@ class SimChannel(QueueChannel):
         if self.entry_listeners:
             self._note_entry(ENTRY_START, e)
         self._program(t + self.start_ticks, e)
+        if m.in_task:  # the task goes on after the start (its compare is set)
+            m.task_offset += m.timing.fill_start_tail_ticks
 
     def release(self) -> None:
         """The chip resets: stop at once and leave the machine (its interrupt-block

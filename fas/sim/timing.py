@@ -129,6 +129,10 @@ class SimTiming:
     fill_exit_ticks: int = 0
     # the ramp task starts a stopped queue after its fill
     fill_start_ticks: int = 0
+    # the ramp task's CPU after it started a queue: startQueue()'s rest and return, the
+    # rest of that stepper's fill (0: the task ends at the start; build e's replica: 416
+    # on the ATmega328P, 513 on the ATmega2560 - docs/timing-model.md, "twenty-eighth pass")
+    fill_start_tail_ticks: int = 0
     # a pause the library writes itself before the first command (auto enable's delay):
     # a bare queue write, no ramp step planned (0: as fill_pause_ticks)
     fill_bare_pause_ticks: int = 0

@@ -149,3 +149,22 @@ def test_loop_phase_kinds_of_the_replicas_tasks(tmp_path: Path) -> None:
     (tmp_path / "e01.ev").write_text("\n".join(lines) + "\n")
     assert loop_phase.replica_kinds("e01", tmp_path) == [
         ("1st acc+coast T0", 2), ("1st - U", 0), ("1st dec", 1)]
+
+
+def test_variants_are_named_sets_of_settings(build_e: dict) -> None:
+    """``--variant`` (docs/timing-model.md, "twenty-eighth pass"): R28's figures reach
+    the ATmega328P and the ATmega2560 and leave the ATmega32U4 as it is."""
+    usb = build_e["atmega32u4"]
+    assert e_fidelity.variant_settings(["TH", "U"]) == [
+        *e_fidelity.VARIANTS["TH"], *e_fidelity.VARIANTS["U"]]
+    e_fidelity.set_timing(e_fidelity.variant_settings(["R28"]))
+    uno, mega = build_e["atmega328p"], build_e["atmega2560"]
+    assert (uno.fill_start_ticks, uno.fill_start_tail_ticks, uno.fill_single_ticks) == \
+        (1045, 362, 1868)
+    assert (mega.fill_start_ticks, mega.fill_start_tail_ticks) == (1058, 308)
+    # the fixed part split, its sum kept: 433 and 517 (the pitches across a task)
+    assert uno.fill_entry_ticks + uno.fill_exit_ticks == 433
+    assert mega.fill_entry_ticks + mega.fill_exit_ticks == 517
+    assert build_e["atmega32u4"] == usb
+    with pytest.raises(ValueError, match="R29"):
+        e_fidelity.variant_settings(["R29"])

@@ -79,3 +79,23 @@ def test_a_decelerating_command_can_cost_its_own_figure(
     _with(monkeypatch, fill_dec_cmd_ticks=0, fill_cmd_ticks=cmd + 1000)
     every = _run(monkeypatch)[1] - stolen  # every command that is not a coast one
     assert every > extra  # the ramp up's are not charged as decelerating
+
+
+def test_a_queue_starts_tail_is_task_cpu_after_the_start(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """``fill_start_tail_ticks`` (off in every build; docs/timing-model.md, "twenty-eighth
+    pass"): the task goes on after it started a queue, so the start's first step stays
+    where it was and only the task's CPU grows."""
+    steps, stolen = _run(monkeypatch)
+    _with(monkeypatch, fill_start_tail_ticks=416)
+    steps_tail, stolen_tail = _run(monkeypatch)
+    assert steps_tail[0] == steps[0]  # the first step: before the tail
+    extra = stolen_tail - stolen
+    assert extra > 0 and extra % 416 == 0  # one tail per queue start of a task
+    _with(monkeypatch, fill_start_tail_ticks=0, fill_start_ticks=AVR_E_START + 416)
+    later = _run(monkeypatch)
+    assert later[0][0] > steps[0]  # charged before the start instead: the step moves
+    assert later[1] == stolen_tail  # ... with the same CPU
+
+
+AVR_E_START = sim_timing_module.AVR_E_TIMING.fill_start_ticks

@@ -1,0 +1,55 @@
+"""``bench/replica/start_tasks.py``: the pieces of a ramp task that starts a queue, read
+from the replica's marks (docs/timing-model.md, "twenty-eighth pass")."""
+
+from __future__ import annotations
+
+import collections
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT / "bench" / "replica"))
+
+import replica  # noqa: E402
+import start_tasks  # noqa: E402
+
+W, S, Q = replica.WRITE, replica.START, replica.QUEUE_WRITE
+
+
+def _task(marks: list[tuple[int, int, int, int, int]], cpu: int) -> replica.Task:
+    """A replica task with marks (cpu, mark, queue, ticks, steps); cycles follow the cpu."""
+    t = replica.Task(1000, [])
+    t.marks = [(c, k, q, ticks, steps, 1000 + c) for c, k, q, ticks, steps in marks]
+    t.cpu = cpu
+    return t
+
+
+def test_the_pieces_of_a_lone_start() -> None:
+    # one step, one step, a pause, then the call that starts the queue
+    t = _task([(100, W, 7, 40000, 1), (2200, Q, 7, 0, 0),
+               (2300, W, 7, 30000, 1), (4100, Q, 7, 0, 0),
+               (4200, W, 7, 30000, 0), (5400, Q, 7, 0, 0),
+               (5450, W, 7, 30000, 1), (6400, S, 7, 0, 0)], cpu=6900)
+    idle = _task([(100, W, 7, 40000, 1), (2200, Q, 7, 0, 0)], cpu=2500)  # no start
+    pieces: start_tasks.Pieces = collections.defaultdict(list)
+    start_tasks.start_pieces("x01", [idle, t], pieces)
+    assert dict(pieces) == {
+        "first write (lone start)": [("x01", 2200)],
+        "single -> single": [("x01", 1900)],
+        "single -> pause": [("x01", 1300)],
+        "last pause -> startQueue()": [("x01", 1000)],
+        "startQueue() -> task end": [("x01", 500)],
+    }
+    lines = start_tasks.report(pieces)
+    assert lines[2] == "| first write (lone start) | 1 | 2200.0 | 2200 | 2200 | 2200 | x01:2200 |"
+
+
+def test_a_start_after_another_steppers_writes() -> None:
+    t = _task([(100, W, 1, 20000, 1), (1800, Q, 1, 0, 0),
+               (2000, W, 2, 40000, 1), (5900, Q, 2, 0, 0),
+               (6000, W, 2, 40000, 1), (6900, S, 2, 0, 0)], cpu=7400)
+    pieces: start_tasks.Pieces = collections.defaultdict(list)
+    start_tasks.start_pieces("x02", [t], pieces)
+    assert pieces["first write after another stepper's last"] == [("x02", 4100)]
+    assert pieces["last single -> startQueue()"] == [("x02", 1000)]
+    assert "first write (lone start)" not in pieces
