@@ -86,9 +86,78 @@ def run(cmd: list[str], **kw: object) -> None:
     subprocess.run(cmd, check=True, **kw)  # type: ignore[call-overload]
 
 
-def build_firmware(fas: Path, case_input: str, board: Board, work: Path) -> Path:
+class Flags:
+    """The compile settings of a build: optimisation level, link-time optimisation,
+    one section per function/datum (with the linker's garbage collection), extra
+    options for every compile (``-D...``).  The defaults are the Arduino IDE's
+    platform.txt: the build of the runs e01-e18."""
+
+    def __init__(self, opt: str = "-Os", lto: bool = True, sections: bool = True,
+                 extra: tuple[str, ...] = (), toolchain: str = "",
+                 input_everywhere: bool = False) -> None:
+        opt = opt if opt.startswith("-") else f"-{opt}"  # --opt O2 as well as --opt=-O2
+        if opt not in ("-O0", "-O1", "-O2", "-O3", "-Os", "-Og"):
+            raise ValueError(f"unknown optimisation level {opt!r}")
+        self.opt, self.lto, self.sections, self.extra = opt, lto, sections, tuple(extra)
+        self.toolchain = toolchain  # a directory with avr-gcc/avr-g++, '' for PATH's
+        # the input's define on every compile, the library's and the core's too (as
+        # PlatformIO's build_flags do), not only on the sketch's
+        self.input_everywhere = input_everywhere
+
+    def tool(self, name: str) -> str:
+        return str(Path(self.toolchain) / name) if self.toolchain else name
+
+    def default(self) -> bool:
+        return (self.opt == "-Os" and self.lto and self.sections and not self.extra
+                and not self.toolchain and not self.input_everywhere)
+
+    def tag(self) -> str:
+        """'' for the default build, else a short name for file names."""
+        if self.default():
+            return ""
+        parts = [self.opt[1:]] + ([] if self.lto else ["nolto"])
+        parts += [] if self.sections else ["nosec"]
+        parts += ["inall"] if self.input_everywhere else []
+        if self.extra or self.toolchain:
+            text = " ".join(self.extra) + "|" + self.toolchain
+            parts.append(hashlib.sha1(text.encode()).hexdigest()[:6])
+        return "-".join(parts)
+
+    def cflags(self) -> list[str]:
+        return ["-c", "-g", self.opt, "-w", "-std=gnu11", *self._sections(), *self._lto(True),
+                *self.extra]
+
+    def cxxflags(self) -> list[str]:
+        return ["-c", "-g", self.opt, "-w", "-std=gnu++11", "-fpermissive", "-fno-exceptions",
+                *self._sections(), "-fno-threadsafe-statics", "-Wno-error=narrowing",
+                *self._lto(False), *self.extra]
+
+    def asflags(self) -> list[str]:
+        return ["-c", "-g", "-x", "assembler-with-cpp", *(["-flto"] if self.lto else [])]
+
+    def ldflags(self) -> list[str]:
+        lto = ["-flto", "-fuse-linker-plugin"] if self.lto else []
+        gc = ["-Wl,--gc-sections"] if self.sections else []
+        return ["-w", self.opt, "-g", *lto, *gc]
+
+    def _sections(self) -> list[str]:
+        return ["-ffunction-sections", "-fdata-sections"] if self.sections else []
+
+    def _lto(self, c: bool) -> list[str]:
+        if not self.lto:
+            return []
+        return ["-flto", "-fno-fat-lto-objects"] if c else ["-flto"]
+
+
+def build_firmware(fas: Path, case_input: str, board: Board, work: Path,
+                   flags: Flags | None = None) -> Path:
     """StepperDemo with ``case_input`` compiled in; returns the ELF (cached by input)."""
-    key = hashlib.sha1(f"{fas}|{case_input}|{board.mcu}|{board.extra}".encode()).hexdigest()
+    flags = flags or Flags()
+    ident = f"{fas}|{case_input}|{board.mcu}|{board.extra}"
+    if not flags.default():  # the default build keeps its cache key
+        ident += (f"|{flags.opt}|{flags.lto}|{flags.sections}|{flags.extra}|{flags.toolchain}"
+                  f"|{flags.input_everywhere}")
+    key = hashlib.sha1(ident.encode()).hexdigest()
     out = work / f"fw-{key[:12]}"
     elf = out / "fw.elf"
     if elf.exists():
@@ -99,35 +168,33 @@ def build_firmware(fas: Path, case_input: str, board: Board, work: Path) -> Path
             "-DARDUINO_ARCH_AVR", *board.extra]
     inc = [f"-I{core}", f"-I{CORE / 'variants' / board.variant}", f"-I{fas / 'src'}",
            f"-I{fas / 'examples' / 'StepperDemo'}"]
-    cflags = ["-c", "-g", "-Os", "-w", "-std=gnu11", "-ffunction-sections", "-fdata-sections",
-              "-flto", "-fno-fat-lto-objects"]
-    cxxflags = ["-c", "-g", "-Os", "-w", "-std=gnu++11", "-fpermissive", "-fno-exceptions",
-                "-ffunction-sections", "-fdata-sections", "-fno-threadsafe-statics",
-                "-Wno-error=narrowing", "-flto"]
     script = [f'-DSIM_TEST_INPUT="{case_input}"']
+    cflags, cxxflags = flags.cflags(), flags.cxxflags()
+    if flags.input_everywhere:
+        cflags, cxxflags, script = cflags + script, cxxflags + script, []
     sketch = out / "StepperDemo.ino.cpp"
     sketch.write_text("#include <Arduino.h>\n"
                       + (fas / "examples" / "StepperDemo" / "StepperDemo.ino").read_text())
     jobs: list[tuple[list[str], Path]] = []
     for f in sorted(core.glob("*.c")):
-        jobs.append((["avr-gcc", *cflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
+        jobs.append(([flags.tool("avr-gcc"), *cflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
     for f in sorted(core.glob("*.cpp")):
         if f.name != "WString.cpp":  # unused; Debian's copy needs DECIMAL_DIG
-            jobs.append((["avr-g++", *cxxflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
+            jobs.append(([flags.tool("avr-g++"), *cxxflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
     for f in sorted(core.glob("*.S")):
-        jobs.append((["avr-gcc", "-c", "-g", "-x", "assembler-with-cpp", "-flto", *defs, *inc,
-                      str(f)], out / f"core_{f.name}.o"))
+        jobs.append(([flags.tool("avr-gcc"), *flags.asflags(), *defs, *inc, str(f)],
+                     out / f"core_{f.name}.o"))
     skip = ("pd_esp32", "pd_pico", "pd_sam", "pd_test", "esp32_pcnt")
     for f in sorted((fas / "src").rglob("*.cpp")):
         if not any(s in str(f) for s in skip):
             name = str(f.relative_to(fas)).replace("/", "_")
-            jobs.append((["avr-g++", *cxxflags, *defs, *inc, str(f)], out / f"fas_{name}.o"))
+            jobs.append(([flags.tool("avr-g++"), *cxxflags, *defs, *inc, str(f)], out / f"fas_{name}.o"))
     for f in [*sorted((fas / "examples" / "StepperDemo").glob("*.cpp")), sketch]:
-        jobs.append((["avr-g++", *cxxflags, *defs, *inc, *script, str(f)], out / f"sk_{f.name}.o"))
+        jobs.append(([flags.tool("avr-g++"), *cxxflags, *defs, *inc, *script, str(f)], out / f"sk_{f.name}.o"))
     for cmd, obj in jobs:
         run([*cmd, "-o", str(obj)])
-    run(["avr-gcc", "-w", "-Os", "-g", "-flto", "-fuse-linker-plugin", "-Wl,--gc-sections",
-         f"-mmcu={board.mcu}", "-o", str(elf), *[str(o) for _, o in jobs], "-lm"])
+    run([flags.tool("avr-gcc"), *flags.ldflags(), f"-mmcu={board.mcu}", "-o", str(elf),
+         *[str(o) for _, o in jobs], "-lm"])
     return elf
 
 
@@ -208,16 +275,26 @@ def fill_read_pc(elf: Path, task_vector: int) -> int:
     return 0
 
 
+def flags_of(args: argparse.Namespace) -> Flags:
+    """The build's settings from the command line (--opt, --no-lto, --no-sections, -D)."""
+    return Flags(getattr(args, "opt", "-Os"), not getattr(args, "no_lto", False),
+                 not getattr(args, "no_sections", False),
+                 tuple(f"-D{d}" for d in getattr(args, "define", None) or ()),
+                 getattr(args, "toolchain", "") or "",
+                 getattr(args, "input_everywhere", False))
+
+
 def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
     """Build and run ``case``; returns the output prefix and the board."""
     board = BOARDS.get(case, UNO)
     text = (args.conformance / case / "input.txt").read_text().rstrip("\n")
     work = Path(args.work)
-    elf = build_firmware(Path(args.fas), text, board, work)
+    flags = flags_of(args)
+    elf = build_firmware(Path(args.fas), text, board, work, flags)
     exe = build_runner(Path(args.simavr), work)
     names = MARK_NAMES + PROFILE_MARKS if getattr(args, "profile", False) else MARK_NAMES
     marks, queue_base = symbols(elf, names)
-    prefix = work / case
+    prefix = work / (f"{case}-{flags.tag()}" if flags.tag() else case)
     info = args.conformance / case / "run_info.json"  # the firmware halts at its end
     ms = json.loads(info.read_text())["simulated_us"] / 1000 + 1 if info.exists() else 5000.0
     env = {**os.environ, "MARKS": ",".join(f"{marks[n]:x}" for n in names),
@@ -511,6 +588,19 @@ def main(argv: list[str] | None = None) -> int:
                     help="record the ramp task's cycles by function (pitches)")
     ap.add_argument("--timer-check", action="store_true",
                     help="write WORK/CASE.timer: timer 1's events (timer_check.py)")
+    ap.add_argument("--opt", default="-Os",
+                    help="optimisation level of every compile and the link: Os (default), O2, "
+                    "O1, ...")
+    ap.add_argument("--no-lto", action="store_true", help="build without -flto")
+    ap.add_argument("--no-sections", action="store_true",
+                    help="build without -ffunction-sections/-fdata-sections/--gc-sections")
+    ap.add_argument("-D", "--define", action="append", metavar="NAME[=VALUE]",
+                    help="a define added to every compile (repeatable)")
+    ap.add_argument("--toolchain", default="",
+                    help="directory of another avr-gcc/avr-g++ (default: those on PATH)")
+    ap.add_argument("--input-everywhere", action="store_true",
+                    help="SIM_TEST_INPUT on every compile (library, core), as PlatformIO's "
+                    "build_flags, not only on the sketch's")
     ap.add_argument("what", choices=("steps", "tasks", "task", "pitches"))
     ap.add_argument("cases", nargs="+")
     args = ap.parse_args(argv)
