@@ -94,7 +94,7 @@ class Flags:
 
     def __init__(self, opt: str = "-Os", lto: bool = True, sections: bool = True,
                  extra: tuple[str, ...] = (), toolchain: str = "",
-                 input_everywhere: bool = False) -> None:
+                 input_everywhere: bool = False, data_pad: int = 0, core: str = "") -> None:
         opt = opt if opt.startswith("-") else f"-{opt}"  # --opt O2 as well as --opt=-O2
         if opt not in ("-O0", "-O1", "-O2", "-O3", "-Os", "-Og"):
             raise ValueError(f"unknown optimisation level {opt!r}")
@@ -103,13 +103,20 @@ class Flags:
         # the input's define on every compile, the library's and the core's too (as
         # PlatformIO's build_flags do), not only on the sketch's
         self.input_everywhere = input_everywhere
+        # bytes of initialised data added to the image (a variable the start-up code
+        # copies from flash, 9 cycles a byte, the section rounded up to even bytes)
+        if data_pad < 0:
+            raise ValueError("--data-pad counts bytes added: 0 or more")
+        self.data_pad = data_pad
+        self.core = core  # another Arduino AVR core (its hardware/arduino/avr folder)
 
     def tool(self, name: str) -> str:
         return str(Path(self.toolchain) / name) if self.toolchain else name
 
     def default(self) -> bool:
         return (self.opt == "-Os" and self.lto and self.sections and not self.extra
-                and not self.toolchain and not self.input_everywhere)
+                and not self.toolchain and not self.input_everywhere and not self.data_pad
+                and not self.core)
 
     def tag(self) -> str:
         """'' for the default build, else a short name for file names."""
@@ -118,8 +125,9 @@ class Flags:
         parts = [self.opt[1:]] + ([] if self.lto else ["nolto"])
         parts += [] if self.sections else ["nosec"]
         parts += ["inall"] if self.input_everywhere else []
-        if self.extra or self.toolchain:
-            text = " ".join(self.extra) + "|" + self.toolchain
+        parts += [f"pad{self.data_pad}"] if self.data_pad else []
+        if self.extra or self.toolchain or self.core:
+            text = " ".join(self.extra) + "|" + self.toolchain + "|" + self.core
             parts.append(hashlib.sha1(text.encode()).hexdigest()[:6])
         return "-".join(parts)
 
@@ -156,17 +164,18 @@ def build_firmware(fas: Path, case_input: str, board: Board, work: Path,
     ident = f"{fas}|{case_input}|{board.mcu}|{board.extra}"
     if not flags.default():  # the default build keeps its cache key
         ident += (f"|{flags.opt}|{flags.lto}|{flags.sections}|{flags.extra}|{flags.toolchain}"
-                  f"|{flags.input_everywhere}")
+                  f"|{flags.input_everywhere}|{flags.data_pad}|{flags.core}")
     key = hashlib.sha1(ident.encode()).hexdigest()
     out = work / f"fw-{key[:12]}"
     elf = out / "fw.elf"
     if elf.exists():
         return elf
     out.mkdir(parents=True, exist_ok=True)
-    core = CORE / "cores" / "arduino"
+    root = Path(flags.core) if flags.core else CORE
+    core = root / "cores" / "arduino"
     defs = [f"-mmcu={board.mcu}", "-DF_CPU=16000000L", "-DARDUINO=10807", f"-D{board.define}",
             "-DARDUINO_ARCH_AVR", *board.extra]
-    inc = [f"-I{core}", f"-I{CORE / 'variants' / board.variant}", f"-I{fas / 'src'}",
+    inc = [f"-I{core}", f"-I{root / 'variants' / board.variant}", f"-I{fas / 'src'}",
            f"-I{fas / 'examples' / 'StepperDemo'}"]
     script = [f'-DSIM_TEST_INPUT="{case_input}"']
     cflags, cxxflags = flags.cflags(), flags.cxxflags()
@@ -175,25 +184,32 @@ def build_firmware(fas: Path, case_input: str, board: Board, work: Path,
     sketch = out / "StepperDemo.ino.cpp"
     sketch.write_text("#include <Arduino.h>\n"
                       + (fas / "examples" / "StepperDemo" / "StepperDemo.ino").read_text())
+    gcc, gxx = flags.tool("avr-gcc"), flags.tool("avr-g++")
     jobs: list[tuple[list[str], Path]] = []
     for f in sorted(core.glob("*.c")):
-        jobs.append(([flags.tool("avr-gcc"), *cflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
+        jobs.append(([gcc, *cflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
     for f in sorted(core.glob("*.cpp")):
         if f.name != "WString.cpp":  # unused; Debian's copy needs DECIMAL_DIG
-            jobs.append(([flags.tool("avr-g++"), *cxxflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
+            jobs.append(([gxx, *cxxflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
     for f in sorted(core.glob("*.S")):
-        jobs.append(([flags.tool("avr-gcc"), *flags.asflags(), *defs, *inc, str(f)],
+        jobs.append(([gcc, *flags.asflags(), *defs, *inc, str(f)],
                      out / f"core_{f.name}.o"))
     skip = ("pd_esp32", "pd_pico", "pd_sam", "pd_test", "esp32_pcnt")
     for f in sorted((fas / "src").rglob("*.cpp")):
         if not any(s in str(f) for s in skip):
             name = str(f.relative_to(fas)).replace("/", "_")
-            jobs.append(([flags.tool("avr-g++"), *cxxflags, *defs, *inc, str(f)], out / f"fas_{name}.o"))
+            jobs.append(([gxx, *cxxflags, *defs, *inc, str(f)], out / f"fas_{name}.o"))
     for f in [*sorted((fas / "examples" / "StepperDemo").glob("*.cpp")), sketch]:
-        jobs.append(([flags.tool("avr-g++"), *cxxflags, *defs, *inc, *script, str(f)], out / f"sk_{f.name}.o"))
+        jobs.append(([gxx, *cxxflags, *defs, *inc, *script, str(f)], out / f"sk_{f.name}.o"))
+    keep = []
+    if flags.data_pad:
+        pad = out / "data_pad.c"
+        pad.write_text(f"volatile char replica_data_pad[{flags.data_pad}] = {{1}};\n")
+        jobs.append(([gcc, *cflags, *defs, str(pad)], out / "data_pad.o"))
+        keep = ["-Wl,--undefined=replica_data_pad"]
     for cmd, obj in jobs:
         run([*cmd, "-o", str(obj)])
-    run([flags.tool("avr-gcc"), *flags.ldflags(), f"-mmcu={board.mcu}", "-o", str(elf),
+    run([gcc, *flags.ldflags(), *keep, f"-mmcu={board.mcu}", "-o", str(elf),
          *[str(o) for _, o in jobs], "-lm"])
     return elf
 
@@ -276,12 +292,26 @@ def fill_read_pc(elf: Path, task_vector: int) -> int:
 
 
 def flags_of(args: argparse.Namespace) -> Flags:
-    """The build's settings from the command line (--opt, --no-lto, --no-sections, -D)."""
-    return Flags(getattr(args, "opt", "-Os"), not getattr(args, "no_lto", False),
+    """The build's settings from the command line: ``--build d`` is ``--no-lto
+    --input-everywhere --data-pad 1`` (docs/timing-model.md, "twenty-seventh pass"), the
+    rest as named."""
+    d = getattr(args, "build", "e") == "d"
+    return Flags(getattr(args, "opt", "-Os"), not (d or getattr(args, "no_lto", False)),
                  not getattr(args, "no_sections", False),
                  tuple(f"-D{d}" for d in getattr(args, "define", None) or ()),
                  getattr(args, "toolchain", "") or "",
-                 getattr(args, "input_everywhere", False))
+                 d or getattr(args, "input_everywhere", False),
+                 int(d) if getattr(args, "data_pad", None) is None else args.data_pad,
+                 getattr(args, "core", "") or "")
+
+
+def case_defines(folder: Path) -> tuple[str, ...]:
+    """The extra defines a run was built with (its ``defines.txt``, the upstream test's
+    build_flags beside the input: e.g. ``-DSIMAVR_TIME_MEASUREMENT``)."""
+    path = folder / "defines.txt"
+    if not path.exists():
+        return ()
+    return tuple(w for w in path.read_text().split() if w.startswith("-D"))
 
 
 def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
@@ -290,6 +320,7 @@ def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
     text = (args.conformance / case / "input.txt").read_text().rstrip("\n")
     work = Path(args.work)
     flags = flags_of(args)
+    flags.extra += case_defines(args.conformance / case)
     elf = build_firmware(Path(args.fas), text, board, work, flags)
     exe = build_runner(Path(args.simavr), work)
     names = MARK_NAMES + PROFILE_MARKS if getattr(args, "profile", False) else MARK_NAMES
@@ -577,7 +608,7 @@ def cmd_pitches(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
+def parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--fas", required=True, help="FastAccelStepper 1.2.6 source tree")
     ap.add_argument("--simavr", required=True, help="simavr source tree (upstream)")
@@ -588,6 +619,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="record the ramp task's cycles by function (pitches)")
     ap.add_argument("--timer-check", action="store_true",
                     help="write WORK/CASE.timer: timer 1's events (timer_check.py)")
+    ap.add_argument("--build", choices=("e", "d"), default="e",
+                    help="e: the build of e01-e18 (default); d: the build of the d*/test_sd_* "
+                    "runs (--no-lto --input-everywhere --data-pad 1)")
     ap.add_argument("--opt", default="-Os",
                     help="optimisation level of every compile and the link: Os (default), O2, "
                     "O1, ...")
@@ -601,9 +635,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--input-everywhere", action="store_true",
                     help="SIM_TEST_INPUT on every compile (library, core), as PlatformIO's "
                     "build_flags, not only on the sketch's")
+    ap.add_argument("--data-pad", type=int, default=None, metavar="BYTES",
+                    help="add BYTES of initialised data (the start-up copy: 9 cycles a byte; "
+                    "default 0, 1 with --build d)")
+    ap.add_argument("--core", default="",
+                    help="another Arduino AVR core: the folder holding cores/ and variants/ "
+                    f"(default {CORE})")
     ap.add_argument("what", choices=("steps", "tasks", "task", "pitches"))
     ap.add_argument("cases", nargs="+")
-    args = ap.parse_args(argv)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
     return {"steps": cmd_steps, "tasks": cmd_tasks, "task": cmd_task,
             "pitches": cmd_pitches}[args.what](args)
 
