@@ -34,6 +34,16 @@ fill reading its queue (``ticksInQueue()``, inlined into the task's vector: the 
 its critical section, found in the ELF) with the queue's entries then; ``fill_reads.py``
 sets those beside the model's ("twenty-fourth pass").  The ATmega32U4 runs (e15, e16)
 are not covered: their USB console needs a host the simulator does not have.
+
+``--build d`` builds the firmware of the d*/test_sd_*/test_seq_sd_* runs instead: no
+link-time optimisation, the input's define on every compile (as PlatformIO's build_flags
+in the upstream harness), one byte more of ``.data``; every step of those runs then comes
+at 96 ticks (docs/timing-model.md, "twenty-seventh pass").  A case's ``defines.txt`` joins
+its build.  Other settings (``--opt``, ``--no-lto``, ``--no-sections``, ``-D``,
+``--toolchain``, ``--core``, ``--input-everywhere``, ``--data-pad``) are options of their
+own; a build other than the default writes ``WORK/CASE-TAG.*``.
+
+    python3 bench/replica/replica.py --fas ... --simavr ... --build d steps d01 test_sd_07_328p
 """
 
 from __future__ import annotations
