@@ -324,6 +324,13 @@ def case_defines(folder: Path) -> tuple[str, ...]:
     return tuple(w for w in path.read_text().split() if w.startswith("-D"))
 
 
+def run_name(case: str, args: argparse.Namespace) -> str:
+    """The run's output name in WORK: the case, and for a build other than the default
+    the command line's settings (a case's own defines do not rename it)."""
+    tag = flags_of(args).tag()
+    return f"{case}-{tag}" if tag else case
+
+
 def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
     """Build and run ``case``; returns the output prefix and the board."""
     board = BOARDS.get(case, UNO)
@@ -335,7 +342,7 @@ def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
     exe = build_runner(Path(args.simavr), work)
     names = MARK_NAMES + PROFILE_MARKS if getattr(args, "profile", False) else MARK_NAMES
     marks, queue_base = symbols(elf, names)
-    prefix = work / (f"{case}-{flags.tag()}" if flags.tag() else case)
+    prefix = work / run_name(case, args)
     info = args.conformance / case / "run_info.json"  # the firmware halts at its end
     ms = json.loads(info.read_text())["simulated_us"] / 1000 + 1 if info.exists() else 5000.0
     env = {**os.environ, "MARKS": ",".join(f"{marks[n]:x}" for n in names),

@@ -124,3 +124,12 @@ def test_a_case_s_defines_join_its_build(tmp_path: Path) -> None:
     (tmp_path / "defines.txt").write_text("-DSIMAVR_TIME_MEASUREMENT\n")
     assert replica.case_defines(tmp_path) == ("-DSIMAVR_TIME_MEASUREMENT",)
     assert replica.case_defines(tmp_path / "none") == ()
+
+
+def test_run_names() -> None:
+    def name(*opts: str) -> str:
+        args = replica.parser().parse_args([*BASE, *opts, "steps", "test_seq_sd_02_328p"])
+        return replica.run_name("test_seq_sd_02_328p", args)
+    assert name() == "test_seq_sd_02_328p"  # the default build keeps its names
+    assert name("--build", "d") == "test_seq_sd_02_328p-Os-nolto-inall-pad1"
+    assert name("--no-lto") == "test_seq_sd_02_328p-Os-nolto"
