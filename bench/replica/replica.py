@@ -34,6 +34,16 @@ fill reading its queue (``ticksInQueue()``, inlined into the task's vector: the 
 its critical section, found in the ELF) with the queue's entries then; ``fill_reads.py``
 sets those beside the model's ("twenty-fourth pass").  The ATmega32U4 runs (e15, e16)
 are not covered: their USB console needs a host the simulator does not have.
+
+``--build d`` builds the firmware of the d*/test_sd_*/test_seq_sd_* runs instead: no
+link-time optimisation, the input's define on every compile (as PlatformIO's build_flags
+in the upstream harness), one byte more of ``.data``; every step of those runs then comes
+at 96 ticks (docs/timing-model.md, "twenty-seventh pass").  A case's ``defines.txt`` joins
+its build.  Other settings (``--opt``, ``--no-lto``, ``--no-sections``, ``-D``,
+``--toolchain``, ``--core``, ``--input-everywhere``, ``--data-pad``) are options of their
+own; a build other than the default writes ``WORK/CASE-TAG.*``.
+
+    python3 bench/replica/replica.py --fas ... --simavr ... --build d steps d01 test_sd_07_328p
 """
 
 from __future__ import annotations
@@ -86,48 +96,131 @@ def run(cmd: list[str], **kw: object) -> None:
     subprocess.run(cmd, check=True, **kw)  # type: ignore[call-overload]
 
 
-def build_firmware(fas: Path, case_input: str, board: Board, work: Path) -> Path:
+class Flags:
+    """The compile settings of a build: optimisation level, link-time optimisation,
+    one section per function/datum (with the linker's garbage collection), extra
+    options for every compile (``-D...``).  The defaults are the Arduino IDE's
+    platform.txt: the build of the runs e01-e18."""
+
+    def __init__(self, opt: str = "-Os", lto: bool = True, sections: bool = True,
+                 extra: tuple[str, ...] = (), toolchain: str = "",
+                 input_everywhere: bool = False, data_pad: int = 0, core: str = "") -> None:
+        opt = opt if opt.startswith("-") else f"-{opt}"  # --opt O2 as well as --opt=-O2
+        if opt not in ("-O0", "-O1", "-O2", "-O3", "-Os", "-Og"):
+            raise ValueError(f"unknown optimisation level {opt!r}")
+        self.opt, self.lto, self.sections, self.extra = opt, lto, sections, tuple(extra)
+        self.toolchain = toolchain  # a directory with avr-gcc/avr-g++, '' for PATH's
+        # the input's define on every compile, the library's and the core's too (as
+        # PlatformIO's build_flags do), not only on the sketch's
+        self.input_everywhere = input_everywhere
+        # bytes of initialised data added to the image (a variable the start-up code
+        # copies from flash, 9 cycles a byte, the section rounded up to even bytes)
+        if data_pad < 0:
+            raise ValueError("--data-pad counts bytes added: 0 or more")
+        self.data_pad = data_pad
+        self.core = core  # another Arduino AVR core (its hardware/arduino/avr folder)
+
+    def tool(self, name: str) -> str:
+        return str(Path(self.toolchain) / name) if self.toolchain else name
+
+    def default(self) -> bool:
+        return (self.opt == "-Os" and self.lto and self.sections and not self.extra
+                and not self.toolchain and not self.input_everywhere and not self.data_pad
+                and not self.core)
+
+    def tag(self) -> str:
+        """'' for the default build, else a short name for file names."""
+        if self.default():
+            return ""
+        parts = [self.opt[1:]] + ([] if self.lto else ["nolto"])
+        parts += [] if self.sections else ["nosec"]
+        parts += ["inall"] if self.input_everywhere else []
+        parts += [f"pad{self.data_pad}"] if self.data_pad else []
+        if self.extra or self.toolchain or self.core:
+            text = " ".join(self.extra) + "|" + self.toolchain + "|" + self.core
+            parts.append(hashlib.sha1(text.encode()).hexdigest()[:6])
+        return "-".join(parts)
+
+    def cflags(self) -> list[str]:
+        return ["-c", "-g", self.opt, "-w", "-std=gnu11", *self._sections(), *self._lto(True),
+                *self.extra]
+
+    def cxxflags(self) -> list[str]:
+        return ["-c", "-g", self.opt, "-w", "-std=gnu++11", "-fpermissive", "-fno-exceptions",
+                *self._sections(), "-fno-threadsafe-statics", "-Wno-error=narrowing",
+                *self._lto(False), *self.extra]
+
+    def asflags(self) -> list[str]:
+        return ["-c", "-g", "-x", "assembler-with-cpp", *(["-flto"] if self.lto else [])]
+
+    def ldflags(self) -> list[str]:
+        lto = ["-flto", "-fuse-linker-plugin"] if self.lto else []
+        gc = ["-Wl,--gc-sections"] if self.sections else []
+        return ["-w", self.opt, "-g", *lto, *gc]
+
+    def _sections(self) -> list[str]:
+        return ["-ffunction-sections", "-fdata-sections"] if self.sections else []
+
+    def _lto(self, c: bool) -> list[str]:
+        if not self.lto:
+            return []
+        return ["-flto", "-fno-fat-lto-objects"] if c else ["-flto"]
+
+
+def build_firmware(fas: Path, case_input: str, board: Board, work: Path,
+                   flags: Flags | None = None) -> Path:
     """StepperDemo with ``case_input`` compiled in; returns the ELF (cached by input)."""
-    key = hashlib.sha1(f"{fas}|{case_input}|{board.mcu}|{board.extra}".encode()).hexdigest()
+    flags = flags or Flags()
+    ident = f"{fas}|{case_input}|{board.mcu}|{board.extra}"
+    if not flags.default():  # the default build keeps its cache key
+        ident += (f"|{flags.opt}|{flags.lto}|{flags.sections}|{flags.extra}|{flags.toolchain}"
+                  f"|{flags.input_everywhere}|{flags.data_pad}|{flags.core}")
+    key = hashlib.sha1(ident.encode()).hexdigest()
     out = work / f"fw-{key[:12]}"
     elf = out / "fw.elf"
     if elf.exists():
         return elf
     out.mkdir(parents=True, exist_ok=True)
-    core = CORE / "cores" / "arduino"
+    root = Path(flags.core) if flags.core else CORE
+    core = root / "cores" / "arduino"
     defs = [f"-mmcu={board.mcu}", "-DF_CPU=16000000L", "-DARDUINO=10807", f"-D{board.define}",
             "-DARDUINO_ARCH_AVR", *board.extra]
-    inc = [f"-I{core}", f"-I{CORE / 'variants' / board.variant}", f"-I{fas / 'src'}",
+    inc = [f"-I{core}", f"-I{root / 'variants' / board.variant}", f"-I{fas / 'src'}",
            f"-I{fas / 'examples' / 'StepperDemo'}"]
-    cflags = ["-c", "-g", "-Os", "-w", "-std=gnu11", "-ffunction-sections", "-fdata-sections",
-              "-flto", "-fno-fat-lto-objects"]
-    cxxflags = ["-c", "-g", "-Os", "-w", "-std=gnu++11", "-fpermissive", "-fno-exceptions",
-                "-ffunction-sections", "-fdata-sections", "-fno-threadsafe-statics",
-                "-Wno-error=narrowing", "-flto"]
     script = [f'-DSIM_TEST_INPUT="{case_input}"']
+    cflags, cxxflags = flags.cflags(), flags.cxxflags()
+    if flags.input_everywhere:
+        cflags, cxxflags, script = cflags + script, cxxflags + script, []
     sketch = out / "StepperDemo.ino.cpp"
     sketch.write_text("#include <Arduino.h>\n"
                       + (fas / "examples" / "StepperDemo" / "StepperDemo.ino").read_text())
+    gcc, gxx = flags.tool("avr-gcc"), flags.tool("avr-g++")
     jobs: list[tuple[list[str], Path]] = []
     for f in sorted(core.glob("*.c")):
-        jobs.append((["avr-gcc", *cflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
+        jobs.append(([gcc, *cflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
     for f in sorted(core.glob("*.cpp")):
         if f.name != "WString.cpp":  # unused; Debian's copy needs DECIMAL_DIG
-            jobs.append((["avr-g++", *cxxflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
+            jobs.append(([gxx, *cxxflags, *defs, *inc, str(f)], out / f"core_{f.name}.o"))
     for f in sorted(core.glob("*.S")):
-        jobs.append((["avr-gcc", "-c", "-g", "-x", "assembler-with-cpp", "-flto", *defs, *inc,
-                      str(f)], out / f"core_{f.name}.o"))
+        jobs.append(([gcc, *flags.asflags(), *defs, *inc, str(f)],
+                     out / f"core_{f.name}.o"))
     skip = ("pd_esp32", "pd_pico", "pd_sam", "pd_test", "esp32_pcnt")
     for f in sorted((fas / "src").rglob("*.cpp")):
         if not any(s in str(f) for s in skip):
             name = str(f.relative_to(fas)).replace("/", "_")
-            jobs.append((["avr-g++", *cxxflags, *defs, *inc, str(f)], out / f"fas_{name}.o"))
+            jobs.append(([gxx, *cxxflags, *defs, *inc, str(f)], out / f"fas_{name}.o"))
     for f in [*sorted((fas / "examples" / "StepperDemo").glob("*.cpp")), sketch]:
-        jobs.append((["avr-g++", *cxxflags, *defs, *inc, *script, str(f)], out / f"sk_{f.name}.o"))
+        jobs.append(([gxx, *cxxflags, *defs, *inc, *script, str(f)], out / f"sk_{f.name}.o"))
+    keep = []
+    if flags.data_pad:
+        pad = out / "data_pad.c"
+        pad.write_text(f"volatile char replica_data_pad[{flags.data_pad}] = {{1}};\n")
+        jobs.append(([gcc, *cflags, *defs, str(pad)], out / "data_pad.o"))
+        keep = ["-Wl,--undefined=replica_data_pad"]
     for cmd, obj in jobs:
         run([*cmd, "-o", str(obj)])
-    run(["avr-gcc", "-w", "-Os", "-g", "-flto", "-fuse-linker-plugin", "-Wl,--gc-sections",
-         f"-mmcu={board.mcu}", "-o", str(elf), *[str(o) for _, o in jobs], "-lm"])
+    run([gcc, *flags.ldflags(), *keep, f"-mmcu={board.mcu}", "-o", str(elf),
+         *[str(o) for _, o in jobs], "-lm"])
     return elf
 
 
@@ -208,16 +301,48 @@ def fill_read_pc(elf: Path, task_vector: int) -> int:
     return 0
 
 
+def flags_of(args: argparse.Namespace) -> Flags:
+    """The build's settings from the command line: ``--build d`` is ``--no-lto
+    --input-everywhere --data-pad 1`` (docs/timing-model.md, "twenty-seventh pass"), the
+    rest as named."""
+    d = getattr(args, "build", "e") == "d"
+    return Flags(getattr(args, "opt", "-Os"), not (d or getattr(args, "no_lto", False)),
+                 not getattr(args, "no_sections", False),
+                 tuple(f"-D{d}" for d in getattr(args, "define", None) or ()),
+                 getattr(args, "toolchain", "") or "",
+                 d or getattr(args, "input_everywhere", False),
+                 int(d) if getattr(args, "data_pad", None) is None else args.data_pad,
+                 getattr(args, "core", "") or "")
+
+
+def case_defines(folder: Path) -> tuple[str, ...]:
+    """The extra defines a run was built with (its ``defines.txt``, the upstream test's
+    build_flags beside the input: e.g. ``-DSIMAVR_TIME_MEASUREMENT``)."""
+    path = folder / "defines.txt"
+    if not path.exists():
+        return ()
+    return tuple(w for w in path.read_text().split() if w.startswith("-D"))
+
+
+def run_name(case: str, args: argparse.Namespace) -> str:
+    """The run's output name in WORK: the case, and for a build other than the default
+    the command line's settings (a case's own defines do not rename it)."""
+    tag = flags_of(args).tag()
+    return f"{case}-{tag}" if tag else case
+
+
 def replicate(case: str, args: argparse.Namespace) -> tuple[Path, Board]:
     """Build and run ``case``; returns the output prefix and the board."""
     board = BOARDS.get(case, UNO)
     text = (args.conformance / case / "input.txt").read_text().rstrip("\n")
     work = Path(args.work)
-    elf = build_firmware(Path(args.fas), text, board, work)
+    flags = flags_of(args)
+    flags.extra += case_defines(args.conformance / case)
+    elf = build_firmware(Path(args.fas), text, board, work, flags)
     exe = build_runner(Path(args.simavr), work)
     names = MARK_NAMES + PROFILE_MARKS if getattr(args, "profile", False) else MARK_NAMES
     marks, queue_base = symbols(elf, names)
-    prefix = work / case
+    prefix = work / run_name(case, args)
     info = args.conformance / case / "run_info.json"  # the firmware halts at its end
     ms = json.loads(info.read_text())["simulated_us"] / 1000 + 1 if info.exists() else 5000.0
     env = {**os.environ, "MARKS": ",".join(f"{marks[n]:x}" for n in names),
@@ -500,7 +625,7 @@ def cmd_pitches(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
+def parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--fas", required=True, help="FastAccelStepper 1.2.6 source tree")
     ap.add_argument("--simavr", required=True, help="simavr source tree (upstream)")
@@ -511,9 +636,35 @@ def main(argv: list[str] | None = None) -> int:
                     help="record the ramp task's cycles by function (pitches)")
     ap.add_argument("--timer-check", action="store_true",
                     help="write WORK/CASE.timer: timer 1's events (timer_check.py)")
+    ap.add_argument("--build", choices=("e", "d"), default="e",
+                    help="e: the build of e01-e18 (default); d: the build of the d*/test_sd_* "
+                    "runs (--no-lto --input-everywhere --data-pad 1)")
+    ap.add_argument("--opt", default="-Os",
+                    help="optimisation level of every compile and the link: Os (default), O2, "
+                    "O1, ...")
+    ap.add_argument("--no-lto", action="store_true", help="build without -flto")
+    ap.add_argument("--no-sections", action="store_true",
+                    help="build without -ffunction-sections/-fdata-sections/--gc-sections")
+    ap.add_argument("-D", "--define", action="append", metavar="NAME[=VALUE]",
+                    help="a define added to every compile (repeatable)")
+    ap.add_argument("--toolchain", default="",
+                    help="directory of another avr-gcc/avr-g++ (default: those on PATH)")
+    ap.add_argument("--input-everywhere", action="store_true",
+                    help="SIM_TEST_INPUT on every compile (library, core), as PlatformIO's "
+                    "build_flags, not only on the sketch's")
+    ap.add_argument("--data-pad", type=int, default=None, metavar="BYTES",
+                    help="add BYTES of initialised data (the start-up copy: 9 cycles a byte; "
+                    "default 0, 1 with --build d)")
+    ap.add_argument("--core", default="",
+                    help="another Arduino AVR core: the folder holding cores/ and variants/ "
+                    f"(default {CORE})")
     ap.add_argument("what", choices=("steps", "tasks", "task", "pitches"))
     ap.add_argument("cases", nargs="+")
-    args = ap.parse_args(argv)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
     return {"steps": cmd_steps, "tasks": cmd_tasks, "task": cmd_task,
             "pitches": cmd_pitches}[args.what](args)
 

@@ -407,9 +407,9 @@ BY_BUILD: dict[str, dict[str, SimTiming]] = {
 # ticks after an entry at once (the 2560's build e 63 / 73 / 73), the next compare 30
 # after it; a step interrupt held behind a routine enters after its reti and one
 # instruction of the loop (reti_next_ticks 2): the UART's routine 118 ticks to its reti,
-# the reti 4 (the 2560: 126 + 5, a 3-byte return address).  Build d has no replica: with
-# the sections on it takes build e's chip figures (its own library and console code may
-# differ; twenty-sixth pass)
+# the reti 4 (the 2560: 126 + 5, a 3-byte return address).  Build d takes build e's chip
+# figures: its replica's interrupts and sections are build e's to the tick (twenty-seventh
+# pass; only its loop's passes differ: stepperdemo's AVR_COSTS)
 _SECTIONS_328P: dict[str, object] = {"isr_latency_ticks": (60, 70, 70), "isr_ocr_ticks": 30,
                                      "reti_next_ticks": 2, "uart_hold_ticks": 118 + 4}
 _SECTIONS_MEGA: dict[str, object] = {"isr_ocr_ticks": 29, "reti_next_ticks": 2,

@@ -157,19 +157,29 @@ AVR_COSTS = DemoBuild(
     # noInterrupts(); delayMicroseconds(100); interrupts(): the AVR core's busy loop of
     # 4 cycles per round, 4 rounds per us less 5 for the call, plus cli and sei
     irq_block_ticks=4 * (4 * 100 - 5) + 2,
-    # the main loop's critical sections, measured on the replica of build e's 328P
-    # (docs/timing-model.md, fourteenth pass, pulses; followed only with loop_sections):
+    # the main loop's critical sections (followed only with loop_sections), measured on
+    # the replica of build d's 328P (docs/timing-model.md, twenty-seventh pass): the
+    # sections of build e's (fourteenth pass, pulses) at other offsets, its passes longer.
     # isRunning()'s queue read 10 ticks from cli to sei at the pass's start, millis() 9
     # from cli to the SREG restore; an interrupt requested inside enters after the next
     # instruction (1 tick after sei, 2 after millis()'s restore: 11 each); a `w` pass
-    # reads millis() twice (the pause, then the pass's own), 260 ticks; otherwise passes
-    # of 265 and 366 ticks alternate, millis() 153 and 254 ticks after isRunning().  Test
-    # sequence 11's getCurrentPosition() loop: one read every 183 or 198 ticks, interrupts
-    # off for 37 ticks of it and the instruction after the sei (38)
-    loop_poll_pause=(260, ((0, 11), (111, 11), (148, 11))),
-    loop_poll_running=(631, ((0, 11), (153, 11), (265, 11), (519, 11))),
+    # reads millis() twice (the pause, then the pass's own), 290 ticks; otherwise passes
+    # of 330 and 467 ticks alternate, millis() 207 and 344 ticks after isRunning().
+    # Test sequence 11's getCurrentPosition() loop: build e's (one read every 183 or 198
+    # ticks, interrupts off for 37 ticks of it and the instruction after the sei: 38;
+    # not read on build d)
+    loop_poll_pause=(290, ((0, 11), (167, 11), (215, 11))),
+    loop_poll_running=(797, ((0, 11), (207, 11), (330, 11), (674, 11))),
     position_read_poll=(381, ((0, 38), (183, 38))),
 )
+
+# the same on the replica of build e's 328P (fourteenth pass, pulses): a `w` pass 260
+# ticks, its millis() reads at 111 and 148; otherwise passes of 265 and 366 ticks,
+# millis() 153 and 254 ticks after isRunning()
+E_LOOP_POLLS: dict[str, LoopPoll] = {
+    "loop_poll_pause": (260, ((0, 11), (111, 11), (148, 11))),
+    "loop_poll_running": (631, ((0, 11), (153, 11), (265, 11), (519, 11))),
+}
 
 # ESP32 and the Pico: not measured on a firmware run, estimates
 ESP32_COSTS = DemoBuild(
@@ -367,19 +377,19 @@ BY_BUILD: dict[str, dict[str, DemoBuild]] = {
     "e": {"atmega328p": replace(ATMEGA328P_BUILD, loop_pass_ticks=220, setup_head_ticks=1450,
                                 loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
                                 loop_char_ticks=5, loop_stray_read_ticks=81,
-                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106}),
+                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106}, **E_LOOP_POLLS),
           # (setup() entry to the banner: 2076 ticks - the ramp task of e13 runs where the
           # firmware's does, mod 65536, with the start-up of fas.sim.timing's
           # AVR_MEGA_E_TIMING)
           **{p.name: replace(_mega(p), loop_pass_ticks=300, loop_running_stepper_ticks=10,
                              setup_head_ticks=2076,
                              loop_idle_stepper_ticks=40, loop_char_ticks=5,
-                             cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106})
+                             cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106}, **E_LOOP_POLLS)
              for p in (ATMEGA2560, *ATMEGA2560_VARIANTS)},
           "atmega32u4": replace(ATMEGA32U4_BUILD, loop_pass_ticks=248,
                                 loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
                                 loop_char_ticks=5,
-                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 105})},
+                                cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 105}, **E_LOOP_POLLS)},
 }
 
 
