@@ -204,13 +204,17 @@ class StepperDemo(LoopProgram):
         b = self.backend
         timing = self._timing
         boot = timing.boot_ticks
+        lag = timing.timer0_lag_ticks  # timer 0 starts later, setup() where it was
         if self.script_loaded:  # the built-in line is start-up data copied at reset
             align = timing.boot_data_align
             copied = -(-(len(self.script) + timing.boot_data_bytes) // align) * align
             boot += copied * timing.boot_script_byte_ticks
-        b.app_spend(boot)
+            if lag:
+                t_align = timing.timer0_data_align
+                lag += (-(-copied // t_align) * t_align - copied) * timing.boot_script_byte_ticks
+        b.app_spend(boot + lag)
         b.app_started()
-        b.app_spend(timing.core_main_ticks + self.build.setup_head_ticks)
+        b.app_spend(timing.core_main_ticks + self.build.setup_head_ticks - lag)
         configs = self.build.configs
         if not configs:
             self._finish_setup()
