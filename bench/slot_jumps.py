@@ -27,7 +27,7 @@ interrupt log: the entry of the last step interrupt before the call, the ``cli``
     python3 bench/slot_jumps.py --conformance ../shared/conformance test_seq_sd_02_328p
     python3 bench/slot_jumps.py --build e --replica /tmp/rep test_seq_sd_02_328p
     python3 bench/slot_jumps.py --build e --calls --replica /tmp/rep \\
-        --elf /tmp/rep/fw-XXXX/fw.elf test_seq_sd_02_328p
+        --elf /tmp/rep/fw-<hash>/fw.elf test_seq_sd_02_328p
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 recorded with marks on ``loop()`` and the call (docs/timing-model.md, "twenty-ninth pass").
 
 ``replica.py`` marks the queue's functions only; this re-runs a built firmware (an ELF of
-``replica.py``'s work folder, e.g. ``fw-XXXX/fw.elf`` of ``--build d``) in its runner with
+``replica.py``'s work folder, e.g. ``fw-<hash>/fw.elf`` of ``--build d``) in its runner with
 marks also on ``loop``, ``FastAccelStepper::stopMove()`` / ``move`` / ``moveTo`` /
 ``isRunning()`` and ``millis``, and reads its ``.ev``:
 
@@ -13,7 +13,7 @@ marks also on ``loop``, ``FastAccelStepper::stopMove()`` / ``move`` / ``moveTo``
   ``loop()``'s entry to the next, less the cycles spent in interrupts (vector entry to
   ``reti``), as a histogram, with what each pass called (isRunning, millis).
 
-    python3 bench/replica/loop_passes.py --elf /tmp/fas-replica/fw-XXXX/fw.elf \\
+    python3 bench/replica/loop_passes.py --elf /tmp/fas-replica/fw-<hash>/fw.elf \\
         --work /tmp/lp --ms 3317 --window 700 1139 d21
 
 The runner's recording does not change the firmware's cycles: the step pins come out
