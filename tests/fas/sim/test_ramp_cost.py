@@ -9,7 +9,6 @@ from pathlib import Path
 
 import pytest
 
-from fas.sim import SimBackend
 from fas.sim import timing as sim_timing_module
 from fas.sim.channel import SimChannel
 from fas.sim.ramp_cost import conversion_ticks, log2_window
@@ -17,10 +16,8 @@ from fas.sim.ramp_cost import conversion_ticks, log2_window
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "bench"))
 
-import e_fidelity  # noqa: E402
+from .task_cpu import run_task_cpu  # noqa: E402
 
-_TASK = SimBackend._task  # noqa: SLF001
-RUN = "M1 A30000 V45 f w300 S W"  # a ramp up, a coast, a stop (a ramp down)
 FAST = "M1 A30000 V45 f w1000 S W"  # ... up to 720 ticks a step (from 0.74 s)
 
 # (ramp step, log2 value converted back, cycles of log2_from + leading_zeros +
@@ -70,18 +67,7 @@ def _with(monkeypatch: pytest.MonkeyPatch, **fields: object) -> None:
     monkeypatch.setitem(sim_timing_module.BY_BUILD, "e", table)
 
 
-def _run(monkeypatch: pytest.MonkeyPatch, run: str = RUN) -> tuple[list[float], int]:
-    """The step times and the ramp tasks' CPU summed over the run."""
-    spent = [0]
-
-    def counted(self: SimBackend, index: int) -> None:
-        before = self.machine.stolen_ticks
-        _TASK(self, index)
-        spent[0] += self.machine.stolen_ticks - before
-
-    monkeypatch.setattr(SimBackend, "_task", counted)
-    backend = e_fidelity.run_model(run, "atmega328p", "e")
-    return e_fidelity.step_times_us(backend, 9), spent[0]
+_run = run_task_cpu
 
 
 def test_the_maths_is_charged_per_computed_command_only_when_on(

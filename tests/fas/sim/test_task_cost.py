@@ -4,9 +4,7 @@ decelerating command's own figure (``fill_dec_cmd_ticks``)."""
 
 from __future__ import annotations
 
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import pytest
 
@@ -14,13 +12,7 @@ from fas import Engine
 from fas.sim import SimBackend
 from fas.sim import timing as sim_timing_module
 
-ROOT = Path(__file__).resolve().parents[3]
-sys.path.insert(0, str(ROOT / "bench"))
-
-import e_fidelity  # noqa: E402
-
-_TASK = SimBackend._task  # noqa: SLF001
-RUN = "M1 A30000 V45 f w300 S W"  # a ramp up, a coast, a stop (a ramp down)
+from .task_cpu import run_task_cpu
 
 
 def _with(monkeypatch: pytest.MonkeyPatch, **fields: object) -> None:
@@ -51,18 +43,7 @@ def test_idle_runs_of_the_ramp_task_are_skipped_unless_charged(
         429 * on.task_runs - (off.machine.stolen_ticks and off.task_runs * entry)
 
 
-def _run(monkeypatch: pytest.MonkeyPatch) -> tuple[list[float], int]:
-    """The step times and the ramp tasks' CPU summed over the run."""
-    spent = [0]
-
-    def counted(self: SimBackend, index: int) -> None:
-        before = self.machine.stolen_ticks
-        _TASK(self, index)
-        spent[0] += self.machine.stolen_ticks - before
-
-    monkeypatch.setattr(SimBackend, "_task", counted)
-    backend = e_fidelity.run_model(RUN, "atmega328p", "e")
-    return e_fidelity.step_times_us(backend, 9), spent[0]
+_run = run_task_cpu
 
 
 def test_a_decelerating_command_can_cost_its_own_figure(
