@@ -298,7 +298,7 @@ AVR_UPSTREAM_TM_TIMING = replace(
 # has no USB host, so the firmware's prints return at once): a write call to the CDC
 # driver costs 112 ticks (its checks), and its larger start-up code starts timer 0 2000
 # ticks later than on the ATmega328P (both measured on the runs e15/e16)
-AVR_USB_TIMING = replace(AVR_TIMING, boot_data_align=1, char_ticks=40, uart_byte_ticks=0,
+AVR_USB_TIMING = replace(AVR_TIMING, char_ticks=40, uart_byte_ticks=0,
                          boot_ticks=AVR_TIMING.boot_ticks + 2000, console_call_ticks=112)
 # In the build of the runs e15/e16 the core's main() attaches the USB device between
 # init() and setup() for 10 880 ticks: their first steps and e15's ramp task (the
@@ -317,7 +317,7 @@ AVR_USB_E_TIMING = replace(AVR_E_TIMING, char_ticks=40, uart_byte_ticks=0,
 # longer.  Its step interrupts take 127 ticks (channel A) and 142 (B, C), timer 0's 97
 # (measured on the runs e13/e14, the only ones of this chip); the pin falls 5 ticks later
 # than on the ATmega328P (one more cycle to enter, the extra pushes of its prologue)
-AVR_MEGA_TIMING = replace(AVR_TIMING, boot_data_align=1, isr_latency_ticks=(66, 76, 76),
+AVR_MEGA_TIMING = replace(AVR_TIMING, isr_latency_ticks=(66, 76, 76),
                           isr_duration_by_channel=(127, 142, 142), millis_isr_ticks=97)
 # ... in the build of the runs e13/e14, where channel A's pin falls 64 ticks after the
 # entry (3 later than on the ATmega328P): e13's plain pulses average 64.4 ticks, held
