@@ -35,6 +35,7 @@ import bisect
 import collections
 import re
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -59,21 +60,34 @@ def build_of(case: str) -> str:
     return "e" if re.fullmatch(r"e\d+", case) else "d"
 
 
-def replica_pulses(pins: Path, pin: str) -> list[tuple[int, int]]:
-    out: list[tuple[int, int]] = []
+def replica_edges(pins: Path, pin: str) -> Iterator[tuple[int, bool]]:
+    """(cycle, rising) of every level change of ``pin`` in a replica's pins file."""
     level = 0
-    rise = 0
     with open(pins) as f:
         for line in f:
             c, p, v = line.split()
             if p != pin:
                 continue
             lv = int(v)
-            if lv and not level:
-                rise = int(c)
-            elif not lv and level:
-                out.append((rise, int(c)))
+            if lv != level:
+                yield int(c), bool(lv)
             level = lv
+
+
+def replica_rises(pins: Path, pin: str) -> list[int]:
+    """Every rising edge of ``pin`` (cycles)."""
+    return [c for c, up in replica_edges(pins, pin) if up]
+
+
+def replica_pulses(pins: Path, pin: str) -> list[tuple[int, int]]:
+    """(rise, fall) of every whole pulse of ``pin`` (cycles)."""
+    out: list[tuple[int, int]] = []
+    rise = 0
+    for c, up in replica_edges(pins, pin):
+        if up:
+            rise = c
+        else:
+            out.append((rise, c))
     return out
 
 

@@ -44,6 +44,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
+from pulse_widths import replica_rises  # noqa: E402
+
 from fas.sim.channel import RESTART_TICKS  # noqa: E402
 
 PERIOD = 65536  # timer 1 of the ATmega328P: its wrap and the ramp task's period
@@ -113,20 +115,6 @@ def report(names: tuple[str, str], a: Sequence[int], b: Sequence[int],
 def firmware_rises(path: Path) -> list[int]:
     with gzip.open(path, "rt") as fh:
         return [round(float(line.split()[0]) * TICKS_PER_US) for line in fh if line.strip()]
-
-
-def replica_rises(path: Path, pin: str) -> list[int]:
-    out: list[int] = []
-    level = 0
-    with open(path) as fh:
-        for line in fh:
-            c, p, v = line.split()
-            if p != pin:
-                continue
-            if v == "1" and level == 0:
-                out.append(int(c))
-            level = int(v)
-    return out
 
 
 # ---------------------------------------------------------------- moves from the loop
