@@ -156,6 +156,17 @@ VARIANTS: dict[str, tuple[str, ...]] = {
             "atmega2560:fill_bare_pause_ticks=697", "atmega2560:fill_start_ticks=1058",
             "atmega2560:fill_start_tail_ticks=308", "atmega2560:fill_entry_ticks=312",
             "atmega2560:fill_exit_ticks=205"),
+    # a starting ramp's commands of several steps and the queue start after one
+    # (thirty-second pass; the ATmega328P's replica only: no such start on the 2560's)
+    "R32": ("atmega328p:fill_unstarted_multi_cmd_ticks=2115",
+            "atmega328p:fill_start_after_cmd_ticks=1097"),
+    # a running ramp's one-step commands apart from a starting one's (the replica's
+    # single -> single pitches in tasks without a start: 1 831 / 1 866; 1 868 / 1 922
+    # in a start task, twenty-eighth pass) and the fill's sum of a one-step entry
+    # (the replica's 46, fourteenth pass) (thirty-second pass)
+    "Q32": ("atmega328p:fill_single_ticks=1831", "atmega328p:fill_unstarted_cmd_extra_ticks=37",
+            "atmega2560:fill_single_ticks=1866", "atmega2560:fill_unstarted_cmd_extra_ticks=56",
+            "atmega328p:fill_queued_single_ticks=46"),
 }
 
 
@@ -807,7 +818,7 @@ def main(argv: list[str] | None = None) -> int:
                     "atmega2560:fill_start_ticks=2190; repeatable")
     ap.add_argument("--variant", action="append", default=[], choices=sorted(VARIANTS),
                     help="a named set of --set settings (docs/timing-model.md: TH, U, "
-                    "IMFK, N2, R28), applied before --set; repeatable")
+                    "IMFK, N2, R28, R32, Q32), applied before --set; repeatable")
     args = ap.parse_args(argv)
     try:
         set_timing(variant_settings(args.variant) + args.set)

@@ -60,6 +60,8 @@ def start_pieces(case: str, tasks: list[replica.Task], into: Pieces) -> None:
             into["first write (lone start)"].append((case, mine[0][1]))
         for a, b in zip(mine, mine[1:], strict=False):
             into[f"{_kind(a[3])} -> {_kind(b[3])}"].append((case, b[1] - a[1]))
+            if b[3] > 1:  # the model's one figure for a starting ramp's longer commands
+                into["any -> command"].append((case, b[1] - a[1]))
         call = starts[-1][0]
         into[f"last {_kind(mine[-1][3])} -> startQueue()"].append((case, call - mine[-1][1]))
         into["startQueue() -> task end"].append((case, t.cpu - call))

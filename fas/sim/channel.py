@@ -144,7 +144,11 @@ class SimChannel(QueueChannel):
         self.starts += 1
         e = q.entries[q.read_idx % q.queue_len]
         if m.in_task:  # the ramp task starts the queue after its fill
-            m.task_offset += m.timing.fill_start_ticks
+            p = m.timing
+            last = q.entries[(q.next_write_idx - 1) % q.queue_len]
+            m.task_offset += (p.fill_start_after_cmd_ticks
+                              if p.fill_start_after_cmd_ticks and last.total_steps > 1
+                              else p.fill_start_ticks)
         t = m.cpu_now()
         if e.toggle_dir:
             self._toggle_dir(t)
@@ -416,6 +420,9 @@ class SimChannel(QueueChannel):
                                   if e.bare and p.fill_bare_pause_ticks else p.fill_pause_ticks)
             elif steps == 1:
                 m.task_offset += p.fill_single_ticks
+            elif p.fill_unstarted_multi_cmd_ticks and not self.running:
+                # a starting ramp's command of several steps: one figure, all in
+                m.task_offset += p.fill_unstarted_multi_cmd_ticks
             elif (p.fill_coast_cmd_ticks and ((wp - 1 - q.read_idx) & 0xFF)
                   and q.entries[(wp - 2) % q.queue_len].ticks == e.ticks):
                 m.task_offset += p.fill_coast_cmd_ticks  # at the speed of the one before
@@ -431,7 +438,8 @@ class SimChannel(QueueChannel):
                         and e.ticks < q.entries[(wp - 2) % q.queue_len].ticks
                         < self.fast_acc_below):
                     m.task_offset += p.fill_fast_acc_ticks  # accelerating at a high speed
-            if steps and p.fill_unstarted_cmd_extra_ticks and not self.running:
+            if (steps and p.fill_unstarted_cmd_extra_ticks and not self.running
+                    and not (steps > 1 and p.fill_unstarted_multi_cmd_ticks)):
                 m.task_offset += p.fill_unstarted_cmd_extra_ticks
             if p.fill_cmd_mask_ticks and self.contention:
                 # the command is written to the queue with interrupts off

@@ -133,6 +133,17 @@ class SimTiming:
     # rest of that stepper's fill (0: the task ends at the start; build e's replica: 416
     # on the ATmega328P, 513 on the ATmega2560 - docs/timing-model.md, "twenty-eighth pass")
     fill_start_tail_ticks: int = 0
+    # a command of several steps written to a queue that has not started yet (a start
+    # task's ramp up) costs this in all, instead of fill_cmd_ticks and its arithmetic
+    # (0: as a running ramp's).  Build e's replica: 2 115 ticks on the ATmega328P, the
+    # mean of 19 such pitches in e05, e11, e17 (docs/timing-model.md, "thirty-second
+    # pass").  Off (0) everywhere
+    fill_unstarted_multi_cmd_ticks: int = 0
+    # the queue start when the last command the task wrote has several steps: this
+    # instead of fill_start_ticks (0: as fill_start_ticks).  The replica: the last write
+    # -> startQueue() 1 027 ticks after such a command, 975 after one step or a pause
+    # (+ 70 to the model's compare: 1 097).  Off (0) everywhere
+    fill_start_after_cmd_ticks: int = 0
     # a pause the library writes itself before the first command (auto enable's delay):
     # a bare queue write, no ramp step planned (0: as fill_pause_ticks)
     fill_bare_pause_ticks: int = 0

@@ -166,5 +166,16 @@ def test_variants_are_named_sets_of_settings(build_e: dict) -> None:
     assert uno.fill_entry_ticks + uno.fill_exit_ticks == 433
     assert mega.fill_entry_ticks + mega.fill_exit_ticks == 517
     assert build_e["atmega32u4"] == usb
+    # the thirty-second pass's: a starting ramp's longer commands (the 328P's replica
+    # only) and the running singles apart from the starting ones
+    e_fidelity.set_timing(e_fidelity.variant_settings(["R32", "Q32"]))
+    uno, mega = build_e["atmega328p"], build_e["atmega2560"]
+    assert (uno.fill_unstarted_multi_cmd_ticks, uno.fill_start_after_cmd_ticks) == (2115, 1097)
+    assert (mega.fill_unstarted_multi_cmd_ticks, mega.fill_start_after_cmd_ticks) == (0, 0)
+    # a starting ramp's one-step command as R28 read it: running + the extra
+    assert uno.fill_single_ticks + uno.fill_unstarted_cmd_extra_ticks == 1868
+    assert mega.fill_single_ticks + mega.fill_unstarted_cmd_extra_ticks == 1922
+    assert uno.fill_queued_single_ticks == 46
+    assert build_e["atmega32u4"] == usb
     with pytest.raises(ValueError, match="R29"):
         e_fidelity.variant_settings(["R29"])

@@ -53,3 +53,18 @@ def test_a_start_after_another_steppers_writes() -> None:
     assert pieces["first write after another stepper's last"] == [("x02", 4100)]
     assert pieces["last single -> startQueue()"] == [("x02", 1000)]
     assert "first write (lone start)" not in pieces
+
+
+def test_the_pitches_to_a_longer_command_are_pooled() -> None:
+    """"any -> command" (docs/timing-model.md, "thirty-second pass"): every pitch that
+    ends in a command of several steps, whatever came before it."""
+    t = _task([(100, W, 1, 20000, 1), (1800, Q, 1, 0, 0),
+               (2000, W, 1, 9000, 2), (3850, Q, 1, 0, 0),
+               (4000, W, 1, 8000, 3), (5970, Q, 1, 0, 0),
+               (6000, W, 1, 8000, 3), (6900, S, 1, 0, 0)], cpu=7400)
+    pieces: start_tasks.Pieces = collections.defaultdict(list)
+    start_tasks.start_pieces("x03", [t], pieces)
+    assert pieces["single -> command"] == [("x03", 2050)]
+    assert pieces["command -> command"] == [("x03", 2120)]
+    assert pieces["any -> command"] == [("x03", 2050), ("x03", 2120)]
+    assert pieces["last command -> startQueue()"] == [("x03", 930)]

@@ -80,3 +80,42 @@ def test_a_queue_starts_tail_is_task_cpu_after_the_start(
 
 
 AVR_E_START = sim_timing_module.AVR_E_TIMING.fill_start_ticks
+
+
+MULTI_START = "M1 A70000 V42 R25000 W"  # e05 without `e`: its start task ends in 2-3 steps
+
+
+def test_a_starting_ramps_longer_commands_can_cost_their_own_figure(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """``fill_unstarted_multi_cmd_ticks`` (off in every build; docs/timing-model.md,
+    "thirty-second pass"): a command of several steps written before its queue starts
+    costs this, all in; the commands of a running ramp keep theirs."""
+    singles = _run(monkeypatch)  # a start through one-step commands only
+    steps, stolen = _run(monkeypatch, MULTI_START)
+    cmd = sim_timing_module.AVR_E_TIMING.fill_cmd_ticks
+    _with(monkeypatch, fill_unstarted_multi_cmd_ticks=cmd)  # the same figure: nothing moves
+    assert _run(monkeypatch, MULTI_START) == (steps, stolen)
+    _with(monkeypatch, fill_unstarted_multi_cmd_ticks=cmd + 1000)
+    later, stolen_later = _run(monkeypatch, MULTI_START)
+    extra = stolen_later - stolen
+    commands = extra // 1000
+    assert commands >= 2 and extra == 1000 * commands  # the start task's, 1 000 each
+    assert later[0] > steps[0]  # charged before the start: the first step moves
+    assert later[1] - later[0] == steps[1] - steps[0]  # and nothing else
+    assert _run(monkeypatch) == singles  # ... has none of them
+
+
+def test_a_start_after_a_longer_command_can_cost_its_own_figure(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """``fill_start_after_cmd_ticks`` (off; "thirty-second pass"): the queue start that
+    follows a command of several steps, instead of ``fill_start_ticks``."""
+    singles = _run(monkeypatch)
+    steps, stolen = _run(monkeypatch, MULTI_START)
+    _with(monkeypatch, fill_start_after_cmd_ticks=AVR_E_START)  # the same: nothing moves
+    assert _run(monkeypatch, MULTI_START) == (steps, stolen)
+    _with(monkeypatch, fill_start_after_cmd_ticks=AVR_E_START + 1000)
+    later, stolen_later = _run(monkeypatch, MULTI_START)
+    assert stolen_later - stolen == 1000  # one queue start
+    assert round((later[0] - steps[0]) * 16) >= 1000  # its first step moves (+ interrupts)
+    assert _run(monkeypatch) == singles  # after a one-step command: fill_start_ticks
+
