@@ -445,12 +445,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="[CHIP:]FIELD=VALUE",
                     help="a figure or mechanism of build e's timing for the model's runs "
                     "(as bench/e_fidelity.py --set); repeatable")
+    ap.add_argument("--variant", action="append", default=[],
+                    choices=sorted(e_fidelity.VARIANTS),
+                    help="a named set of --set (as bench/e_fidelity.py --variant), applied "
+                    "before --set; repeatable")
     ap.add_argument("--phases", action="store_true",
                     help="timer 0's first overflow, the first ramp task and the console's first "
                     "transmit interrupt, model - firmware")
     args = ap.parse_args(argv)
     try:
-        e_fidelity.set_timing(args.set)
+        e_fidelity.set_timing(e_fidelity.variant_settings(args.variant) + args.set)
     except ValueError as exc:
         print(f"compare: {exc}", file=sys.stderr)
         return 2

@@ -179,3 +179,17 @@ def test_variants_are_named_sets_of_settings(build_e: dict) -> None:
     assert build_e["atmega32u4"] == usb
     with pytest.raises(ValueError, match="R29"):
         e_fidelity.variant_settings(["R29"])
+
+
+def test_compare_takes_the_named_variants(tmp_path: Path, build_e: dict,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    """``compare.py --variant`` (docs/timing-model.md, "thirty-second pass"): the named
+    sets reach build e's table before ``--set``; a name it does not know is refused."""
+    assert compare.main(["--work", str(tmp_path), "--variant", "R32", "--variant", "Q32",
+                         "--set", "atmega328p:fill_queued_single_ticks=45", "e09"]) == 0
+    assert "e09: no replica run" in capsys.readouterr().out
+    uno = build_e["atmega328p"]
+    assert (uno.fill_unstarted_multi_cmd_ticks, uno.fill_single_ticks) == (2115, 1831)
+    assert uno.fill_queued_single_ticks == 45  # --set after the variant
+    with pytest.raises(SystemExit):
+        compare.main(["--variant", "R99", "e09"])
