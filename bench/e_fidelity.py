@@ -167,6 +167,8 @@ VARIANTS: dict[str, tuple[str, ...]] = {
     "Q32": ("atmega328p:fill_single_ticks=1831", "atmega328p:fill_unstarted_cmd_extra_ticks=37",
             "atmega2560:fill_single_ticks=1866", "atmega2560:fill_unstarted_cmd_extra_ticks=56",
             "atmega328p:fill_queued_single_ticks=46"),
+    # a running stepper's fixed fill work after its writes (thirty-second pass)
+    "O32": ("fill_charges_after_writes=1",),
 }
 
 
@@ -818,7 +820,7 @@ def main(argv: list[str] | None = None) -> int:
                     "atmega2560:fill_start_ticks=2190; repeatable")
     ap.add_argument("--variant", action="append", default=[], choices=sorted(VARIANTS),
                     help="a named set of --set settings (docs/timing-model.md: TH, U, "
-                    "IMFK, N2, R28, R32, Q32), applied before --set; repeatable")
+                    "IMFK, N2, R28, R32, Q32, O32), applied before --set; repeatable")
     args = ap.parse_args(argv)
     try:
         set_timing(variant_settings(args.variant) + args.set)

@@ -10,7 +10,7 @@ from ..backend import Backend, OutputChange, PinStates, PulseCounter, TaskEngine
 from ..pwm import PwmSetting
 from ..queue import StepperQueue
 from ..schedule import TaskSchedule
-from .channel import SimChannel
+from .channel import SimChannel, flush_fills
 from .machine import PRIO_PLAIN, PRIO_TASK, Event, Machine
 from .pins import EdgeRecorder
 from .printing import print_chars
@@ -148,10 +148,16 @@ class SimBackend(Backend):
                     ch.plan_pending = bool(p.fill_plan_ticks)
                     if p.fill_reads_queue_live:
                         continue  # charged when its fill reads the queue (fill_begins)
+                    if p.fill_charges_after_writes:  # charged after its writes
+                        ch.fill_charge = p.fill_stepper_ticks + ch.queue_sum_ticks(q.read_idx)
+                        continue
                     m.task_offset += p.fill_stepper_ticks + ch.queue_sum_ticks(q.read_idx)
         try:
             engine.manage_steppers()
         finally:
+            if p.fill_charges_after_writes:  # the last fills' work, and those that never ran
+                m.fills_done.extend(ch for ch in self.channels if ch.fill_charge)
+                flush_fills(m)
             for ch in self.channels:
                 ch.plan_pending = False
             # the task's own CPU time; the UART interrupts that run inside it are

@@ -304,9 +304,16 @@ class SimChannel(QueueChannel):
                 count += j1 - j0 + 1
         return count * self.isr_ticks
 
+    # fill_charges_after_writes: this running stepper's fixed fill work, charged after
+    # its writes (SimBackend._task sets it; flush_fills charges it)
+    fill_charge = 0
+
     def fill_begins(self) -> int:
         m = self.m
         p = m.timing
+        if m.in_task and p.fill_charges_after_writes:
+            flush_fills(m)  # the fills before this one are over: their work comes now
+            m.fills_done.append(self)
         if not (m.in_task and p.fill_reads_queue_live and self.running):
             return 0
         q = self.q
@@ -413,7 +420,10 @@ class SimChannel(QueueChannel):
             p = m.timing
             if self.plan_pending:
                 self.plan_pending = False
-                m.task_offset += p.fill_plan_ticks
+                if p.fill_charges_after_writes:
+                    self.fill_charge += p.fill_plan_ticks
+                else:
+                    m.task_offset += p.fill_plan_ticks
             if steps == 0:
                 # a pause of auto enable's delay is a bare queue write (no ramp step)
                 m.task_offset += (p.fill_bare_pause_ticks
@@ -980,3 +990,12 @@ class SimChannel(QueueChannel):
         self.pending_compare = compare
         self.pending_pulse = True
         self._schedule_single(compare)
+
+
+def flush_fills(m: Machine) -> None:
+    """Charge the fixed work of the fills that ran so far in this task
+    (``fill_charges_after_writes``)."""
+    for ch in m.fills_done:
+        m.task_offset += ch.fill_charge
+        ch.fill_charge = 0
+    m.fills_done.clear()

@@ -140,6 +140,9 @@ class Machine:
         self.cpu_sources: list[CpuSource] = []
         self.task_offset = 0  # CPU time used so far by the running periodic task
         self.in_task = False
+        # fill_charges_after_writes: the channels whose fill ran in this task and whose
+        # fixed work is still to charge (at the next fill's start or the task's end)
+        self.fills_done: list = []
         # the CPU time of the step interrupts entered in [lo, hi) (set by the backend:
         # SimTiming.task_nested_isrs)
         self.step_isrs_between: Callable[[int, int], int] | None = None

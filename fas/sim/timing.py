@@ -133,6 +133,13 @@ class SimTiming:
     # rest of that stepper's fill (0: the task ends at the start; build e's replica: 416
     # on the ATmega328P, 513 on the ATmega2560 - docs/timing-model.md, "twenty-eighth pass")
     fill_start_tail_ticks: int = 0
+    # a running stepper's fill charges its fixed work (fill_stepper_ticks, the sum of its
+    # queue, fill_plan_ticks) after its last write, not before its first: the replica's
+    # running fills write their first command one command's cost after the task's
+    # entry (one step: median 1 877 ticks over 350 tasks, ATmega328P) and spend
+    # 1 093-1 167 ticks after their last write (docs/timing-model.md, "thirty-second
+    # pass").  Only the order moves: the task's CPU stays.  Off everywhere
+    fill_charges_after_writes: bool = False
     # a command of several steps written to a queue that has not started yet (a start
     # task's ramp up) costs this in all, instead of fill_cmd_ticks and its arithmetic
     # (0: as a running ramp's).  Build e's replica: 2 115 ticks on the ATmega328P, the

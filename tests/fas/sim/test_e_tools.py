@@ -193,3 +193,39 @@ def test_compare_takes_the_named_variants(tmp_path: Path, build_e: dict,
     assert uno.fill_queued_single_ticks == 45  # --set after the variant
     with pytest.raises(SystemExit):
         compare.main(["--variant", "R99", "e09"])
+
+
+def test_a_running_fills_fixed_work_can_come_after_its_writes(
+        tmp_path: Path, build_e: dict) -> None:
+    """``fill_charges_after_writes`` (off; docs/timing-model.md, "thirty-second pass"):
+    a running stepper's first write comes its own fixed work sooner (M1's also M2's,
+    charged at the entry before), M2's first write in a task where both write by its own
+    only (M1's work is charged before it), and every task's CPU stays."""
+    (tmp_path / "e09").mkdir()
+    (tmp_path / "e09" / "input.txt").write_text(E09 + "\n")
+    before = compare.model_tasks("e09", tmp_path)
+    e_fidelity.set_timing(["fill_charges_after_writes=1"])
+    after = compare.model_tasks("e09", tmp_path)
+    assert [(t.t, t.cpu) for t in after] == [(t.t, t.cpu) for t in before]
+    uno = build_e["atmega328p"]
+    fixed = uno.fill_stepper_ticks + uno.fill_plan_ticks  # + 100 a queued entry
+    moved = both = 0
+    for b, a in zip(before, after, strict=True):
+        if not b.writes or b.writes[0][0] != 0 or not b.queued[0]:
+            continue
+        assert [w[2:] for w in a.writes] == [w[2:] for w in b.writes]
+        m2 = [k for k, w in enumerate(b.writes) if w[0] == 1]
+        if b.queued[1] and not m2:
+            continue  # M2 runs without planning (its ramp may be done: not charged)
+        # M1's first write: sooner by M1's work, and M2's where M2 runs (all at the entry
+        # before); the sum 100 a queued entry after the running one
+        sooner = fixed + sum(uno.fill_stepper_ticks * (k > 0) + uno.fill_queued_entry_ticks
+                             * (len(q) - 1) for k, q in enumerate(b.queued) if q)
+        assert b.writes[0][1] - a.writes[0][1] == sooner
+        moved += 1
+        if m2 and b.queued[1]:
+            # M2's first write: sooner by M2's own work only (M1's is charged before it)
+            own = fixed + uno.fill_queued_entry_ticks * (len(b.queued[1]) - 1)
+            assert b.writes[m2[0]][1] - a.writes[m2[0]][1] == own
+            both += 1
+    assert moved > 100 and both > 100
