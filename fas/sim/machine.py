@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import heapq
 from bisect import bisect_left, bisect_right
-from typing import Callable, Protocol
+from typing import TYPE_CHECKING, Callable, Protocol
 
 from ..arch import Profile
 from .builds import check_build
@@ -31,6 +31,9 @@ from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_a
 from .outputs import SimOutputs
 from .pins import PinBank
 from .timing import sim_timing
+
+if TYPE_CHECKING:
+    from .channel import SimChannel
 from .uart import Uart
 
 PRIO_STEP_ISR = 10  # + channel index: TIMER1_COMPA before COMPB ...
@@ -142,7 +145,7 @@ class Machine:
         self.in_task = False
         # fill_charges_after_writes: the channels whose fill ran in this task and whose
         # fixed work is still to charge (at the next fill's start or the task's end)
-        self.fills_done: list = []
+        self.fills_done: list[SimChannel] = []
         # the CPU time of the step interrupts entered in [lo, hi) (set by the backend:
         # SimTiming.task_nested_isrs)
         self.step_isrs_between: Callable[[int, int], int] | None = None
