@@ -12,6 +12,10 @@ mean, median and range:
     python3 bench/replica/start_tasks.py --work /tmp/e16p --work /tmp/h-winstart-rep \\
         --work /tmp/e15p e01 e03 e04 e05 e06 e07 e08 e09 e10 e11 e12 e13 e14 e17 e18
 
+``--running`` lists the running fills instead: the pitches of every task without a
+start, and where one stepper runs and writes, its first write and the CPU after its
+last.
+
 The replica's runs (``CASE.ev``) are read from the first ``--work`` that holds them
 (``replica.py ... tasks CASE`` writes them).  The replica's first step rises 80 cycles
 after the ``startQueue()`` call (``compare.QUEUE_START_CYCLES``); the model's compare
@@ -67,6 +71,27 @@ def start_pieces(case: str, tasks: list[replica.Task], into: Pieces) -> None:
         into["startQueue() -> task end"].append((case, t.cpu - call))
 
 
+def running_pieces(case: str, tasks: list[replica.Task], into: Pieces) -> None:
+    """``--running``: in every task without a queue start, the pitches from one write
+    of a stepper to its next; in those where one stepper runs and writes, its first
+    write after the task's entry and the task's CPU after its last write, by the kind
+    of its first command (docs/timing-model.md, "thirty-second pass")."""
+    for t in tasks:
+        if any(m[1] == replica.START for m in t.marks):
+            continue
+        writes = compare.replica_tasks_one(t, [])
+        if not writes:
+            continue
+        for a, b in zip(writes, writes[1:], strict=False):
+            if a[0] == b[0]:
+                into[f"running: {_kind(a[3])} -> {_kind(b[3])}"].append((case, b[1] - a[1]))
+        if len({w[0] for w in writes}) != 1 or sum(1 for q in t.queues if q) != 1:
+            continue
+        kind = _kind(writes[0][3])
+        into[f"running: first write, {kind}"].append((case, writes[0][1]))
+        into[f"running: after the last write, {kind}"].append((case, t.cpu - writes[-1][1]))
+
+
 def report(pieces: Pieces) -> list[str]:
     lines = ["| piece | n | mean | median | min | max | by run |",
              "| --- | --- | --- | --- | --- | --- | --- |"]
@@ -82,6 +107,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--work", action="append", default=[], type=Path,
                     help="where replica.py wrote CASE.ev; repeatable")
+    ap.add_argument("--running", action="store_true",
+                    help="the running fills' pieces (tasks without a start) instead")
     ap.add_argument("cases", nargs="+")
     args = ap.parse_args(argv)
     by_chip: dict[str, Pieces] = collections.defaultdict(lambda: collections.defaultdict(list))
@@ -93,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
             return 1
         board = replica.BOARDS.get(case, replica.UNO)
         tasks, _ = replica.tasks_of(where / case, board.task_vector)
-        start_pieces(case, tasks, by_chip[board.mcu])
+        (running_pieces if args.running else start_pieces)(case, tasks, by_chip[board.mcu])
     for chip, pieces in by_chip.items():
         print(f"{chip}:")
         print("\n".join(report(pieces)))

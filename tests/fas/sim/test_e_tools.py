@@ -229,3 +229,18 @@ def test_a_running_fills_fixed_work_can_come_after_its_writes(
             assert b.writes[m2[0]][1] - a.writes[m2[0]][1] == own
             both += 1
     assert moved > 100 and both > 100
+
+
+def test_the_corpus_runs_under_a_variant(build_e: dict,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """``bench/e_corpus.py`` (docs/timing-model.md, "thirty-second pass"): the variant
+    reaches build e's table, the scenarios run as ``stepperdemo run`` runs them, and a
+    figure it does not know is a one-line error."""
+    import e_corpus
+
+    scenario = str(ROOT / "sequences" / "conformance" / "e02.toml")
+    assert e_corpus.main(["--variant", "R32", scenario]) == 0
+    assert build_e["atmega328p"].fill_start_after_cmd_ticks == 1097
+    assert "1 scenarios, 0 failed" in capsys.readouterr().out
+    assert e_corpus.main(["--set", "fill_nothing=1", scenario]) == 2
+    assert capsys.readouterr().err.startswith("e_corpus: --set 'fill_nothing=1'")

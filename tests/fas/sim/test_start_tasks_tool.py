@@ -68,3 +68,24 @@ def test_the_pitches_to_a_longer_command_are_pooled() -> None:
     assert pieces["command -> command"] == [("x03", 2120)]
     assert pieces["any -> command"] == [("x03", 2050), ("x03", 2120)]
     assert pieces["last command -> startQueue()"] == [("x03", 930)]
+
+
+def test_the_running_fills_pieces() -> None:
+    """``--running`` ("thirty-second pass"): a task without a start where one stepper
+    runs gives its first write and the CPU after its last; a task where two run gives
+    only the pitches; a start task gives nothing."""
+    lone = _task([(100, W, 1, 20000, 1), (1880, Q, 1, 0, 0),
+                  (1900, W, 1, 19000, 1), (3710, Q, 1, 0, 0)], cpu=4820)
+    lone.queues = [[1, 1, 1], []]
+    two = _task([(100, W, 1, 20000, 1), (1800, Q, 1, 0, 0),
+                 (1900, W, 1, 19000, 1), (3600, Q, 1, 0, 0),
+                 (3700, W, 2, 30000, 1), (5900, Q, 2, 0, 0)], cpu=7000)
+    two.queues = [[1, 1], [1]]
+    start = _task([(100, W, 1, 20000, 1), (2200, Q, 1, 0, 0),
+                   (2300, W, 1, 20000, 1), (3200, S, 1, 0, 0)], cpu=3700)
+    pieces: start_tasks.Pieces = collections.defaultdict(list)
+    start_tasks.running_pieces("x04", [lone, two, start], pieces)
+    assert pieces["running: first write, single"] == [("x04", 1880)]
+    assert pieces["running: after the last write, single"] == [("x04", 1110)]
+    assert pieces["running: single -> single"] == [("x04", 1830), ("x04", 1800)]
+    assert len(pieces) == 3
