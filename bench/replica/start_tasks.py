@@ -97,7 +97,13 @@ def report(pieces: Pieces) -> list[str]:
              "| --- | --- | --- | --- | --- | --- | --- |"]
     for name, got in pieces.items():
         vals = [v for _, v in got]
-        by_run = " ".join(f"{c}:{v}" for c, v in got) if len(got) <= 16 else ""
+        if len(got) <= 16:
+            by_run = " ".join(f"{c}:{v}" for c, v in got)
+        else:  # each run's mean
+            runs: dict[str, list[int]] = {}
+            for c, v in got:
+                runs.setdefault(c, []).append(v)
+            by_run = " ".join(f"{c}:{statistics.mean(v):.0f}" for c, v in runs.items())
         lines.append(f"| {name} | {len(vals)} | {statistics.mean(vals):.1f} | "
                      f"{statistics.median(vals):g} | {min(vals)} | {max(vals)} | {by_run} |")
     return lines

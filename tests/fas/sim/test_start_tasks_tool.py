@@ -89,3 +89,10 @@ def test_the_running_fills_pieces() -> None:
     assert pieces["running: after the last write, single"] == [("x04", 1110)]
     assert pieces["running: single -> single"] == [("x04", 1830), ("x04", 1800)]
     assert len(pieces) == 3
+
+
+def test_a_piece_of_many_pitches_shows_each_runs_mean() -> None:
+    pieces: start_tasks.Pieces = {"single -> single": [("x05", 1800)] * 9 + [("x06", 1900)] * 8}
+    line = start_tasks.report(pieces)[2]
+    assert line.endswith("| x05:1800 x06:1900 |")
+    assert "| 17 | 1847.1 | 1800 | 1800 | 1900 |" in line
