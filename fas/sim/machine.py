@@ -31,10 +31,10 @@ from .loop_isrs import NEVER, IsrClock, Train, count_between, count_from, next_a
 from .outputs import SimOutputs
 from .pins import PinBank
 from .timing import sim_timing
+from .uart import Uart
 
 if TYPE_CHECKING:
     from .channel import SimChannel
-from .uart import Uart
 
 PRIO_STEP_ISR = 10  # + channel index: TIMER1_COMPA before COMPB ...
 PRIO_TASK = 30  # timer overflow: after the compare interrupts
