@@ -146,10 +146,10 @@ def test_the_blends_keep_every_axis_within_11_plus_one_step_of_the_commanded_pat
     at the junction speed (fas.path.blend; less at a lower speed), d = $11 - a
     Euclidean distance, so no axis is further than d from the polyline on the path as
     run; the steps are within 1 step of that path (blended_dev).  Bound: $11 + 1 step
-    per axis (Chebyshev <= Euclidean).  Measured on four circles of chords at $11 =
-    0.01 mm = 0.8 step: 1.04 steps (Grbl's junctions: 0.94) - above the issue's 1
-    step, why blends are opt-in (docs/path-planner.md "Corners: blends"); on the
-    square at $11 = 0.05 mm = 4 steps: 2.0 steps (Grbl's junctions: 0)."""
+    per axis (Chebyshev <= Euclidean).  At $11 = 0.01 mm = 0.8 step the steps led
+    towards the commanded corner meet the issue's 1 step on four circles of chords
+    (the next test); on the square at $11 = 0.05 mm = 4 steps: 2.0 steps (Grbl's
+    junctions: 0) - a blend 2.4 steps inside its corner."""
     backend, pts, steps, group = corner_run
     ins = instants(steps, (0, 0))
     tps = backend.profile.ticks_per_s
@@ -163,6 +163,24 @@ def test_the_blends_keep_every_axis_within_11_plus_one_step_of_the_commanded_pat
     dev = commanded_deviation(ins, [(0, 0)] + SQUARE, group.blend_log, int(0.02 * tps))
     assert dev <= 0.05 * SPU + 1.0, dev
     assert dev > 1.0  # each blend passes 0.030 mm = 2.4 steps inside its corner
+
+
+def test_with_blends_every_axis_within_one_step_of_the_commanded_path_at_grbls_11(
+        corner_run):
+    """Issue 25's line "every axis within 1 step of the commanded path at every step",
+    with the blends, at Grbl's default $11 = 0.01 mm (0.8 step): each blend step comes
+    where the commanded corner reaches its integer if that is earlier, at most
+    GROUP_TOLERANCE_STEPS before the blend does (fas.path.blend.lead_to_polyline) -
+    without it 1.038 steps on these circles (floor rounding along the motion, 0.992
+    step, plus the blend's 0.088 step inside the chord after the corner).  The other two
+    lines on the same run: every axis within its acceleration from the pins
+    (test_every_axis_within_its_acceleration_from_the_pins_at_the_corners_too) and the
+    corner speed (test_corner_speed_is_the_junction_deviation_formula_through_the_blend)."""
+    backend, pts, steps, group = corner_run
+    ins = instants(steps, (0, 0))
+    tps = backend.profile.ticks_per_s
+    assert commanded_deviation(ins, [(0, 0)] + pts, group.blend_log, int(0.02 * tps)) <= 1.0
+    assert blended_dev(ins, group, [(0, 0)] + pts) <= 1.0
 
 
 @pytest.mark.parametrize("turn_deg", [45, 135])
