@@ -24,6 +24,13 @@ reaches ``p - 1`` - the rule a straight block follows (its position rounds down
 along the path), so the step grid of both blocks is unchanged, and an axis that
 turns round inside the blend makes no step at the turn.
 
+Written out, a blend step may come a little earlier (:func:`lead_to_polyline`):
+where the commanded corner (the blend's control polygon at the blend's clock)
+reaches its integer first, the step comes there, but at most 1/8 step (the
+grouping's tolerance) before the blend reaches it - so that an axis the blend makes
+lag the commanded path (floor rounding plus the blend's gap inside the corner) is
+not more than a step from it (docs/path-planner.md, "Where the 1.038 came from").
+
 The planner's side (:func:`exit_window`): with the blends, a block is a ramp between
 two zones of constant speed whose lengths grow with the junction speeds squared
 (``reach = k v^2``, :attr:`Blend.zone`), so what a block can reach is linear in the
