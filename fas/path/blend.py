@@ -24,6 +24,13 @@ reaches ``p - 1`` - the rule a straight block follows (its position rounds down
 along the path), so the step grid of both blocks is unchanged, and an axis that
 turns round inside the blend makes no step at the turn.
 
+Written out, a blend step may come a little earlier (:func:`lead_to_polyline`):
+where the commanded corner (the blend's control polygon at the blend's clock)
+reaches its integer first, the step comes there, but at most 1/8 step (the
+grouping's tolerance) before the blend reaches it - so that an axis the blend makes
+lag the commanded path (floor rounding plus the blend's gap inside the corner) is
+not more than a step from it (docs/path-planner.md, "Where the 1.038 came from").
+
 The planner's side (:func:`exit_window`): with the blends, a block is a ramp between
 two zones of constant speed whose lengths grow with the junction speeds squared
 (``reach = k v^2``, :attr:`Blend.zone`), so what a block can reach is linear in the
@@ -352,12 +359,58 @@ def axis_crossings(x0: float, v0: float, a: float, duration: float, p0: int,
     return out, p
 
 
+def _reach_time(x0: float, v0: float, a: float, target: float, s: int) -> float:
+    """When ``x0 + v0 t + a t^2 / 2`` (moving the way ``s``, no turn) reaches ``target``."""
+    gap = s * (target - x0)
+    if gap <= 0.0:
+        return 0.0
+    w0 = s * v0
+    root = w0 * w0 + 2.0 * s * a * gap
+    den = w0 + math.sqrt(root) if root > 0.0 else w0
+    return 2.0 * gap / den if den > 0.0 else math.inf
+
+
+def lead_to_polyline(steps: list[tuple[float, int]], x0: float, p0: int, blend: Blend,
+                     i: int,
+                     k: float, lead: float) -> list[tuple[float, int]]:
+    """Axis ``i``'s blend steps, each moved to where the control polygon (the
+    commanded corner at the blend's clock: the block in at ``speed`` up to ``T/2``,
+    the block out at ``speed_out`` after) reaches its integer, where that is earlier,
+    but never more than ``lead`` steps before the blend reaches it.  An axis that
+    turns round (in the blend or at the corner) keeps its steps, and so does one at
+    rest at either end (a step next to rest keeps its tick, as a group's first and
+    last do: there 1/8 step is a large share of the time between steps)."""
+    vi = blend.speed * blend.u[i] * k
+    vo = blend.speed_out * blend.w[i] * k
+    if vi * vo <= 0.0 or not steps or any(d != steps[0][1] for _t, d in steps):
+        return steps
+    s = steps[0][1]
+    a = blend.axis_accel(i) * k
+    half = blend.duration / 2
+    corner = x0 + vi * half
+    out = []
+    p = p0
+    for t, d in steps:
+        p += s  # the integer this step reaches
+        if s * (p - corner) <= 0.0:
+            tu = (p - x0) / vi if vi else math.inf
+        else:
+            tu = half + (p - corner) / vo if vo else math.inf
+        if tu < t:
+            tu = max(tu, _reach_time(x0, vi, a, p - s * lead, s))
+            if tu < t:
+                t = tu
+        out.append((t, d))
+    return out
+
+
 def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
                  delta_out: Sequence[int], blend: Blend, spu: Sequence[float],
                  made_in: Sequence[int] | None = None,
                  origin_in: Sequence[float] | None = None,
                  span_in: Sequence[float] | None = None,
-                 span_out: Sequence[float] | None = None
+                 span_out: Sequence[float] | None = None,
+                 leads: list[list[float]] | None = None, lead: float = 0.0
                  ) -> list[tuple[int, list[tuple[float, int]], int]]:
     """Each axis's steps around one blended corner, on the blocks' own step grid.
 
@@ -372,7 +425,9 @@ def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
     number ``first_out + 1``).  Needs the blend within both blocks.  A block whose
     path runs between steps (:class:`fas.path.lookahead.Block`'s ``origin``,
     ``span``): the path is ``origin_in`` + ``span_in`` in, ``span_out`` out, the
-    corner on whole steps (the steps counted from ``start_in``, the axes' pins)."""
+    corner on whole steps (the steps counted from ``start_in``, the axes' pins).
+    ``leads``: a list that receives, per axis, its blend steps' times led towards the
+    commanded corner by up to ``lead`` steps (:func:`lead_to_polyline`)."""
     path_in = delta_in if span_in is None else span_in
     path_out = delta_out if span_out is None else span_out
     len_in = math.sqrt(sum((d / k) ** 2 for d, k in zip(path_in, spu, strict=True)))
@@ -399,6 +454,8 @@ def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
         x_end = corner + dp_out * blend.reach_out / len_out
         steps, p = axis_crossings(x0, blend.speed * blend.u[i] * k, blend.axis_accel(i) * k,
                                   blend.duration, p0, x_end)
+        if leads is not None:
+            leads.append([t for t, _d in lead_to_polyline(steps, x0, p0, blend, i, k, lead)])
         if d_out == 0:
             first = 0 if p == corner else -1
         else:

@@ -27,6 +27,7 @@ from collections.abc import Sequence
 
 from .blend import Blend, corner_blend, corner_steps, exit_window, hold_blend, slowing_blend
 from .lookahead import Block, Lookahead
+from .settings import GROUP_TOLERANCE_STEPS
 
 #: pieces shorter than this (ticks) are not cut off at the horizon: the next run
 #: takes them with what follows
@@ -248,14 +249,20 @@ class BlendSegment(Segment):
 
     def __init__(self, seq: int, block: Block, blend: Blend,
                  per_axis: list[tuple[int, list[tuple[float, int]], int]],
-                 t_start: float, ticks_per_s: int, dominant: int) -> None:
+                 t_start: float, ticks_per_s: int, dominant: int,
+                 leads: list[list[float]] | None = None) -> None:
         # (Segment's figures set here: a blend has no distance of its own)
         self.seq = seq
         self.block = block  # the block out (the blend ends in it)
         self.start = block.start
         self.b = blend
         self.tps = ticks_per_s
-        self.times = [[t * ticks_per_s for t, _d in steps] for _m, steps, _f in per_axis]
+        #: each step's time (ticks from ``t_start``) where the blend reaches it ...
+        self.exact = [[t * ticks_per_s for t, _d in steps] for _m, steps, _f in per_axis]
+        #: ... and where it is written: led towards the commanded corner (up to
+        #: GROUP_TOLERANCE_STEPS early, fas.path.blend.lead_to_polyline)
+        self.times = (self.exact if leads is None
+                      else [[t * ticks_per_s for t in ts] for ts in leads])
         self.dirs = [[d > 0 for _t, d in steps] for _m, steps, _f in per_axis]
         self.steps = tuple(len(x) for x in self.times)
         self.ups = tuple(d[0] if d else block.delta[i] > 0 for i, d in enumerate(self.dirs))
@@ -282,6 +289,12 @@ class BlendSegment(Segment):
         if j == 0:
             return int(self.t_start + 0.5)
         return int(self.t_start + self.times[axis][j - 1] + 0.5)
+
+    def exact_tick(self, axis: int, j: int) -> int:
+        """Step ``j``'s tick where the blend reaches it (not led)."""
+        if j == 0:
+            return int(self.t_start + 0.5)
+        return int(self.t_start + self.exact[axis][j - 1] + 0.5)
 
     def step_up(self, axis: int, j: int) -> bool:
         d = self.dirs[axis]
@@ -524,9 +537,12 @@ class Executor:
         axes = range(len(seg.steps))
         made = [seg.known(i) for i in axes]
         block = seg.block
+        leads: list[list[float]] = []
         per = corner_steps(block.start, block.delta, nxt.delta, blend, self.lookahead.spu,
-                           made, block.origin, block.span, nxt.span)
-        bseg = BlendSegment(self.next_seq, nxt, blend, per, self.t, self.tps, seg.dominant)
+                           made, block.origin, block.span, nxt.span, leads,
+                           GROUP_TOLERANCE_STEPS)
+        bseg = BlendSegment(self.next_seq, nxt, blend, per, self.t, self.tps, seg.dominant,
+                            leads)
         bseg.tag = block.tag  # the corner ends the block in
         # the steps each axis's blocks would have made in the blend and did not
         bseg.saved = tuple(abs(d) - m + f - len(st)

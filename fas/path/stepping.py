@@ -225,6 +225,9 @@ class AxisWriter:
             n = seg.steps[i]
             if j < n:
                 if j < seg.known(i):
+                    if seg.blend and self.tol == 0.0:  # exact: a blend's own ticks
+                        return (Found.STEP, seq, j + 1,
+                                cast(BlendSegment, seg).exact_tick(i, j + 1))
                     return Found.STEP, seq, j + 1, seg.step_tick(i, j + 1)
                 if not seg.complete:
                     return Found.UNKNOWN, seq, j, 0
@@ -473,6 +476,10 @@ class AxisWriter:
         if cut and self.last_start > self._deep:
             return Wrote.WAIT  # the queue is deep: the next run makes the group longer
         exact: list[int] = []
+        #: the blends' own ticks where their steps are led (``exact``: the led ones,
+        #: the latest placement; ``reach``: where the blend reaches them, from which
+        #: the earliest is counted); None where none is led
+        reach: list[int] | None = None
         #: where each segment's steps begin in ``exact``: (index, seq, its step there)
         spans: list[tuple[int, int, int]] = []
         for cur in chain:
@@ -495,13 +502,23 @@ class AxisWriter:
                     if d != up:  # the first step the other way ends it
                         turn = True
                         break
-                exact.extend([int(t0 + t) for t in bl.times[i][j:j + n]])
+                if self.tol > 0.0 and bl.times is not bl.exact:
+                    if reach is None:
+                        reach = list(exact)
+                    exact.extend([int(t0 + t) for t in bl.times[i][j:j + n]])
+                    reach.extend([int(t0 + t) for t in bl.exact[i][j:j + n]])
+                else:  # (an axis's exact steps after a turn: the blend's own)
+                    exact.extend([int(t0 + t) for t in bl.exact[i][j:j + n]])
+                    if reach is not None:
+                        reach.extend(exact[len(reach):])
                 if turn:
                     break
             else:
                 if cur.ups[i] != up:
                     kn = j + 1  # the first step the other way ends it
                 exact.extend(cur.step_ticks(i, j + 1, kn))
+                if reach is not None:
+                    reach.extend(exact[len(reach):])
                 if cur.ups[i] != up or not cur.complete:
                     break
             if len(exact) >= MAX_STEPS:
@@ -510,7 +527,7 @@ class AxisWriter:
         if not exact:
             return self._single(seg)
         t0 = self.w_end
-        m, period = self._longest(t0, exact)
+        m, period = self._longest(t0, exact, reach)
         if m < 2:
             return self._single(seg)
         cmds = [(period, m - 1), (exact[m - 1] - t0 - (m - 1) * period, 1)]
@@ -529,13 +546,17 @@ class AxisWriter:
         self.pending = True
         return Wrote.OK
 
-    def _longest(self, t0: int, exact: list[int]) -> tuple[int, int]:
+    def _longest(self, t0: int, exact: list[int], reach: list[int] | None = None
+                 ) -> tuple[int, int]:
         """How many of ``exact`` a group from a step at ``t0`` reaches (its last one
         starting the next command) with its steps at a whole period ``P``, the last
         waiting for the rest: ``(m, P)``, ``m`` 1 where none.  Step ``k`` at ``t0 +
         k P`` is at or before its tick and at most ``tol`` steps early where ``(e_k -
         tol (e_k - e_(k-1)) - t0) / k <= P <= (e_k - t0) / k``: one pass narrows that
-        range step by step; ``P`` is its top, the latest placement."""
+        range step by step; ``P`` is its top, the latest placement.  ``reach``: where
+        a blend's led steps (``exact``, each at most ``tol`` steps before it) are
+        reached - the ``tol`` counts from there, so a led step comes at most ``tol``
+        early in all."""
         tol = self.tol
         lo = -math.inf
         hi = math.inf
@@ -550,6 +571,9 @@ class AxisWriter:
             e = exact[k - 1]
             d = e - t0
             h = d / k
+            if reach is not None:
+                e = reach[k - 1]  # (the earliest from where the blend reaches it)
+                d = e - t0
             low = (d - tol * (e - prev)) / k
             if h < hi:
                 hi = h

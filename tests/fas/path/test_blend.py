@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import random
+from functools import partial
 
 import pytest
 
@@ -445,6 +446,91 @@ def test_corner_steps_keep_every_axis_within_a_step_of_the_blended_path(seed, sl
                 x2 = blended_position(i, t + dt, start, d_in, d_out, b, t_blend, t_out)
                 assert d * (x2 - x1) >= -1e-9  # never against the motion
         checked += 1
+
+
+def blend_x(b, i: int, corner: int, t: float) -> float:
+    """Axis ``i``'s position (steps) in the blend ``t`` s after it began."""
+    return corner + b.position(t)[i] * SPU
+
+
+def commanded_x(b, i: int, corner: int, t: float) -> float:
+    """Axis ``i`` on the commanded corner at the blend's clock: the block in at
+    ``speed`` up to ``T/2``, the block out after."""
+    half = b.duration / 2
+    if t <= half:
+        return corner + (b.speed * t - b.reach) * b.u[i] * SPU
+    return corner + b.speed_out * (t - half) * b.w[i] * SPU
+
+
+def first_at(f, target: float, sgn: int, T: float) -> float:
+    """Bisection: the first time in [0, T] at which ``f`` has reached ``target``
+    moving the way ``sgn`` (f monotone)."""
+    lo, hi = 0.0, T
+    if sgn * (f(lo) - target) >= 0.0:
+        return 0.0
+    for _ in range(80):
+        mid = (lo + hi) / 2
+        if sgn * (f(mid) - target) >= 0.0:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_led_steps_come_where_the_commanded_corner_reaches_them_at_most_an_eighth_early(seed):
+    """``corner_steps``' ``leads``: each blend step at the earlier of where the blend
+    reaches its integer and where the commanded corner does (the control polygon at
+    the blend's clock: the block in at ``speed`` up to ``T/2``, the block out after),
+    never more than ``lead`` steps before the blend reaches it; an axis that turns
+    round or is at rest at either end keeps the blend's own times.  Times found by
+    bisection on the blend's position (``Blend.position``), independently."""
+    rng = random.Random(seed)
+    lead = 0.125
+    checked = moved = 0
+    while checked < 40:
+        d_in = (rng.randint(-40, 40), rng.randint(-40, 40))
+        d_out = (rng.randint(-40, 40), rng.randint(-40, 40))
+        if rng.random() < 0.2:
+            d_out = (0, d_out[1]) if rng.random() < 0.5 else (d_out[0], 0)
+        if d_in == (0, 0) or d_out == (0, 0):
+            continue
+        u = unit(d_in[0] / SPU, d_in[1] / SPU)
+        w = unit(d_out[0] / SPU, d_out[1] / SPU)
+        if -sum(x * y for x, y in zip(u, w, strict=True)) > 0.999999:
+            continue
+        len_in = math.hypot(*(d / SPU for d in d_in))
+        len_out = math.hypot(*(d / SPU for d in d_out))
+        cap = fit_sqr(u, w, (ACC, ACC), len_in, len_out)
+        v = min(junction_speed(u, w, ACC, rng.choice([0.01, 0.05])), math.sqrt(cap))
+        b = corner_blend(u, w, v * rng.uniform(0.3, 1.0), (ACC, ACC))
+        if b is None:
+            continue
+        start = (rng.randint(-50, 50), rng.randint(-50, 50))
+        leads: list[list[float]] = []
+        per = corner_steps(start, d_in, d_out, b, (SPU, SPU), leads=leads, lead=lead)
+        T = b.duration
+        for i in range(2):
+            corner = start[i] + d_in[i]
+            steps = per[i][1]
+            if u[i] * w[i] <= 0.0:
+                assert leads[i] == [t for t, _d in steps]
+                continue
+
+            sgn = 1 if d_in[i] > 0 else -1
+            p = start[i] + sgn * per[i][0]
+            for (t_b, d), t_l in zip(steps, leads[i], strict=True):
+                p += sgn
+                assert d == sgn
+                want = min(t_b, max(
+                    first_at(partial(commanded_x, b, i, corner), p, sgn, T),
+                    first_at(partial(blend_x, b, i, corner), p - sgn * lead, sgn, T)))
+                assert t_l == pytest.approx(want, abs=1e-9 * T + 1e-12), (d_in, d_out, i, p)
+                # at most 1/8 step early
+                assert sgn * (p - blend_x(b, i, corner, t_l)) <= lead + 1e-9
+                moved += t_l < t_b - 1e-9 * T
+        checked += 1
+    assert moved > 0
 
 
 def test_corner_steps_refuse_a_blend_longer_than_a_block():
