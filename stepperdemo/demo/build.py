@@ -208,6 +208,11 @@ ATMEGA328P_BUILD = replace(
                     off_delay_ms=10),
     ),
     debug_led_pin=13,
+    # build d's `e` block: without link-time optimisation delayMicroseconds(100) is a
+    # call with a run-time argument (its checks, shift and subtraction, call and ret):
+    # 1 599 cycles from the cli to the SREG restore in every block of its replica (build
+    # e inlines it: 1 582; docs/timing-model.md, "thirty-first pass")
+    irq_block_ticks=1599,
 )
 
 
@@ -375,6 +380,7 @@ BY_PROFILE: dict[str, DemoBuild] = {
 # (fas.sim.builds), by profile name
 BY_BUILD: dict[str, dict[str, DemoBuild]] = {
     "e": {"atmega328p": replace(ATMEGA328P_BUILD, loop_pass_ticks=220, setup_head_ticks=1450,
+                                irq_block_ticks=AVR_COSTS.irq_block_ticks,
                                 loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
                                 loop_char_ticks=5, loop_stray_read_ticks=81,
                                 cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106}, **E_LOOP_POLLS),
