@@ -213,6 +213,17 @@ ATMEGA328P_BUILD = replace(
     # 1 599 cycles from the cli to the SREG restore in every block of its replica (build
     # e inlines it: 1 582; docs/timing-model.md, "thirty-first pass")
     irq_block_ticks=1599,
+    # build d's loop passes, read on its replica (d21, twenty-ninth pass; landed with the
+    # block above, thirty-first pass): 376 ticks with both steppers idle, 330 with one
+    # running, 338 in a `w` (millis() read twice); the paths as in AVR_COSTS (342 a pass)
+    # on the other AVR chips, whose build d has no replica
+    loop_pass_ticks=284,
+    loop_idle_stepper_ticks=46,
+    loop_running_stepper_ticks=0,
+    loop_pause_ticks=8,
+    # `W` holding the input: the command's pass 467 ticks against the letter's 330 (d21;
+    # d30 in an `e` window 2 070 against 1 933, its blocks of 1 599 apart)
+    cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 137},
 )
 
 
@@ -381,6 +392,7 @@ BY_PROFILE: dict[str, DemoBuild] = {
 BY_BUILD: dict[str, dict[str, DemoBuild]] = {
     "e": {"atmega328p": replace(ATMEGA328P_BUILD, loop_pass_ticks=220, setup_head_ticks=1450,
                                 irq_block_ticks=AVR_COSTS.irq_block_ticks,
+                                loop_pause_ticks=AVR_COSTS.loop_pause_ticks,
                                 loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
                                 loop_char_ticks=5, loop_stray_read_ticks=81,
                                 cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106}, **E_LOOP_POLLS),
