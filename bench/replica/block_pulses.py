@@ -140,8 +140,7 @@ def set_build_d(settings: list[str]) -> None:
 
 def model_run(text: str) -> tuple[list[Span], list[Span], list[int]]:
     """(pulses of stepper A, `e` blocks, character starts on the UART) of the model."""
-    from fas.sim import SimBackend
-    from fas.sim import printing
+    from fas.sim import SimBackend, printing
     from stepperdemo.program import make_program
     from stepperdemo.scenarios.evaluate import stepper_pins
 
