@@ -112,6 +112,10 @@ class DemoBuild:
     # `e` on, outside a window: a pass that skips the block is this much shorter than a
     # window's pass less its block (the replica of e01: 267 against 1 852 - 1 582)
     e_outside_saved_ticks: int = 0
+    # `e` on: the loop's own check of the flag and of millis() on every pass, beside the
+    # block (0: in loop_pass_ticks; build d's replica: its passes 4 ticks longer in a
+    # window, 3 outside - docs/timing-model.md, "thirty-first pass"; off)
+    e_check_ticks: int = 0
     # the loop's CPU from its `ms = millis()` read to the `e` block's cli (the replica:
     # 26 ticks on the ATmega328P and the ATmega2560), spent there rather than with the
     # rest of the pass after the check (the pass's length unchanged; 0: the block
