@@ -180,7 +180,7 @@ class SimTiming:
     # much later; the transmit interrupts that load the ones after it keep that phase.
     # Build d's replica (60 runs): the firmware's transmit interrupts enter 257 ticks
     # after the model's in every run.  Off (0) everywhere: with it and both phases at
-    # the replica's the corpus fails d29, test_sd_07 and test_sd_09's pulse-high totals
+    # the replica's the corpus fails d29's and test_sd_07's pulse-high totals and d30's
     # (docs/timing-model.md, "thirty-first pass")
     uart_idle_start_ticks: int = 0
 
