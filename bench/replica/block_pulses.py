@@ -15,7 +15,10 @@ the firmware, ``--lag``) and the model's run of the same input in build d (ATmeg
 * ``uart``: for each transmit interrupt of the replica (vector 19's entry less 4), the
   nearest start of a character on the model's line: the most common offsets;
 * per window (blocks less than 100 000 cycles apart): its first block and count on
-  each side, and the commonest distances between blocks.
+  each side, and the commonest distances between blocks;
+* ``--tasks``: the ramp task's own CPU, task by task from the first step on (the
+  replica: its vector's entry to its ``reti`` less the interrupts nested in it; the
+  model: the CPU it charges the task).
 
 ``--set FIELD=VALUE`` runs the model with another figure of build d's ATmega328P: a
 field of :class:`fas.sim.timing.SimTiming` or of StepperDemo's
@@ -46,6 +49,7 @@ from stepperdemo.demo import build as demo_build_module  # noqa: E402
 BLOCK_TICKS = (1500, 1700)  # a 100 us block: cli ... SREG restore
 WINDOW_GAP = 100_000  # blocks further apart belong to different windows
 UART_VECTOR, VECTOR_ENTRY = 19, 4  # the ATmega328P's USART_UDRE, the hardware's entry
+TASK_VECTOR = 13  # the ATmega328P's TIMER1_OVF: the ramp task
 STEP_PIN = "B1"  # stepper A's step pin (OC1A)
 
 Span = tuple[int, int]
@@ -72,6 +76,70 @@ def replica_uart(lines: Iterable[str], lag: int) -> list[int]:
     """The transmit interrupt's requests (its vector's entries less the entry and ``lag``)."""
     return [int(p[0]) - lag - VECTOR_ENTRY for p in (line.split() for line in lines)
             if len(p) >= 3 and p[1] == "V" and p[2] == str(UART_VECTOR)]
+
+
+def replica_tasks(lines: Iterable[str], lag: int) -> list[Span]:
+    """(entry less ``lag``, own CPU) of every ramp task: its vector's entry to its
+    ``reti``, less the interrupts nested in it."""
+    stack: list[list[int]] = []  # [entry, vector, nested ticks]
+    out: list[Span] = []
+    for line in lines:
+        p = line.split()
+        if len(p) >= 3 and p[1] == "V":
+            stack.append([int(p[0]), int(p[2]), 0])
+        elif len(p) >= 2 and p[1] == "R" and stack:
+            entry, vec, nested = stack.pop()
+            span = int(p[0]) - entry
+            if stack:
+                stack[-1][2] += span
+            if vec == TASK_VECTOR:
+                out.append((entry - lag, span - nested))
+    return out
+
+
+def model_tasks(text: str) -> list[Span]:
+    """(tick, CPU charged) of every ramp task of the model's run in build d."""
+    from fas.sim import SimBackend
+    from fas.sim import backend as backend_module
+    from stepperdemo.program import make_program
+
+    out: list[Span] = []
+    original = backend_module.SimBackend._task  # noqa: SLF001
+
+    def task(self: SimBackend, index: int) -> None:
+        m = self.machine
+        before, now = m.stolen_ticks, m.now
+        original(self, index)
+        out.append((now, m.stolen_ticks - before))
+
+    backend_module.SimBackend._task = task  # type: ignore[method-assign]  # noqa: SLF001
+    try:
+        backend = SimBackend("atmega328p", build="d")
+        app = make_program("demo", backend, scripted=True)
+        app.run_script(text, firmware_end=True)
+    finally:
+        backend_module.SimBackend._task = original  # type: ignore[method-assign]  # noqa: SLF001
+    return out
+
+
+def report_tasks(case: str, ev: Path, pins: Path, conf: Path, lag: int) -> None:
+    sys.path.insert(0, str(HERE.parent))
+    from pulse_widths import replica_rises
+
+    first = replica_rises(pins, STEP_PIN)[0] - lag
+    with open(ev) as f:
+        rep = [t for t in replica_tasks(f, lag) if t[0] >= first - 65536]
+    mod = model_tasks((conf / case / "input.txt").read_text().strip())
+    mod = [t for t in mod if t[0] >= first - 65536][:len(rep)]
+    print(f"## {case}: the ramp task's own CPU from the first step's task on")
+    print("| | tasks | mean | median | commonest |")
+    print("| --- | --- | --- | --- | --- |")
+    for name, ts in (("replica", rep), ("model", mod)):
+        cpu = sorted(c for _, c in ts)
+        common = collections.Counter(cpu).most_common(4)
+        print(f"| {name} | {len(cpu)} | {sum(cpu) / len(cpu):.0f} | {cpu[len(cpu) // 2]} "
+              f"| {common} |")
+    print()
 
 
 def held_by(pulses: list[Span], blocks: list[Span]) -> list[int | None]:
@@ -229,6 +297,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--lag", type=int, default=96, help="replica minus firmware, ticks")
     ap.add_argument("--conformance", type=Path, default=Path("/work/shared/conformance"))
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE")
+    ap.add_argument("--tasks", action="store_true", help="the ramp task's CPU, task by task")
     ap.add_argument("cases", nargs="+")
     args = ap.parse_args(argv)
     try:
@@ -242,7 +311,10 @@ def main(argv: list[str] | None = None) -> int:
         if not ev.exists() or not pins.exists():
             print(f"{case}: no replica run {ev} / {pins}")
             continue
-        report(case, ev, pins, args.conformance, args.lag)
+        if args.tasks:
+            report_tasks(case, ev, pins, args.conformance, args.lag)
+        else:
+            report(case, ev, pins, args.conformance, args.lag)
     return 0
 
 

@@ -77,3 +77,16 @@ def test_the_models_run_gives_its_pulses_blocks_and_uart_starts() -> None:
     byte = sim_timing_module.AVR_TIMING.uart_byte_ticks
     assert len(starts) > 64  # more than the UART's ring keeps
     assert byte in {b - a for a, b in zip(starts, starts[1:], strict=False)}
+
+
+def test_the_tasks_own_cpu_leaves_out_the_interrupts_nested_in_it() -> None:
+    log = [f"{1000 + LAG} V 13", f"{1500 + LAG} V 11", f"{1620 + LAG} R",
+           f"{3000 + LAG} V 19", f"{3118 + LAG} R", f"{7000 + LAG} R",
+           f"{9000 + LAG} V 16", f"{9096 + LAG} R", "x"]
+    assert block_pulses.replica_tasks(log, LAG) == [(1000, 6000 - 120 - 118)]
+
+
+def test_the_models_tasks_carry_the_cpu_they_charge() -> None:
+    tasks = block_pulses.model_tasks("M1 A2000 V40 R40 W")
+    entry = sim_timing_module.AVR_TIMING.fill_entry_ticks
+    assert len(tasks) > 10 and all(cpu >= entry for _, cpu in tasks)
