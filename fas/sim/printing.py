@@ -26,6 +26,7 @@ def print_chars(m: Machine, data: bytes, cpu_after: Sequence[int] | None,
     capacity = uart.capacity
     heap = m.events
     byte_ticks = uart.byte_ticks
+    idle_start = uart.idle_start
     loads = uart.loads
     # the interrupts that take time from the loop, followed between events by the
     # machine's IsrClock (asked again after events ran); QuickStep's timers are not
@@ -56,8 +57,8 @@ def print_chars(m: Machine, data: bytes, cpu_after: Sequence[int] | None,
         prev = uart.last_start
         load = t if t > prev else prev
         start = prev + byte_ticks
-        if load > start:
-            start = load
+        if load > start:  # the line is idle (Uart.idle_start)
+            start = load + idle_start
         uart.last_start = start
         chars.append([t, load, start, prev])
         uart.chars += 1

@@ -24,11 +24,16 @@ _load = itemgetter(1)  # the load tick of a character record
 
 
 class Uart:
-    __slots__ = ("byte_ticks", "capacity", "records", "last_start", "chars", "loads", "_pos")
+    __slots__ = ("byte_ticks", "capacity", "records", "last_start", "chars", "loads", "_pos",
+                 "idle_start")
 
-    def __init__(self, byte_ticks: int, capacity: int) -> None:
+    def __init__(self, byte_ticks: int, capacity: int, idle_start: int = 0) -> None:
         self.byte_ticks = byte_ticks
         self.capacity = capacity
+        # a character the loop hands over while the line is idle goes onto the wire
+        # this much later (SimTiming.uart_idle_start_ticks): the transmit interrupts
+        # that follow keep that phase (a load held by a blocked section does not)
+        self.idle_start = idle_start
         # the newest ``capacity`` characters as
         # [write tick, load tick, start tick, start tick of the one before]
         # (fas.sim.printing hands characters over written out, for speed)
@@ -50,7 +55,9 @@ class Uart:
         """Hand over one character at tick ``t`` (``t >= room_at()``)."""
         prev = self.last_start
         load = max(t, prev)
-        start = max(load, prev + self.byte_ticks)
+        start = prev + self.byte_ticks
+        if load > start:  # the line is idle
+            start = load + self.idle_start
         self.last_start = start
         self.records.append([t, load, start, prev])
         self.chars += 1
@@ -76,7 +83,9 @@ class Uart:
             load = max(ch[0], prev_start)
             if begin <= load < end:
                 load = end
-            start = max(load, prev_start + self.byte_ticks)
+            start = prev_start + self.byte_ticks
+            if load > start:  # the line is idle: a hand-over's start lags, a held load's not
+                start = load + (self.idle_start if load == ch[0] else 0)
             ch[1] = load
             ch[2] = start
             ch[3] = prev_start

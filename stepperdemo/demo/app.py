@@ -545,6 +545,7 @@ class StepperDemo(LoopProgram):
             # spent where they run: before the `e` check below (docs/timing-model.md)
             b.app_spend(len(pins) * self.build.loop_stray_read_ticks)
         if self.simulate_blocked_isr:
+            path += self.build.e_check_ticks
             if self.build.e_read_block_ticks:
                 # the check lies this far after the read: spent before it, not after
                 b.app_spend(self.build.e_read_block_ticks)
@@ -784,7 +785,7 @@ class StepperDemo(LoopProgram):
             if self._held_by_w():
                 ticks += (p.loop_char_ticks + p.cmd_ticks.get("W", p.cmd_default_ticks)) // 2
         if self.simulate_blocked_isr:  # (an idle pass lies outside the `e` windows)
-            ticks -= p.e_outside_saved_ticks
+            ticks += p.e_check_ticks - p.e_outside_saved_ticks
         return ticks
 
     def finished(self) -> bool:

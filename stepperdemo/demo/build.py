@@ -112,6 +112,10 @@ class DemoBuild:
     # `e` on, outside a window: a pass that skips the block is this much shorter than a
     # window's pass less its block (the replica of e01: 267 against 1 852 - 1 582)
     e_outside_saved_ticks: int = 0
+    # `e` on: the loop's own check of the flag and of millis() on every pass, beside the
+    # block (0: in loop_pass_ticks; build d's replica: its passes 4 ticks longer in a
+    # window, 3 outside - docs/timing-model.md, "thirty-first pass"; off)
+    e_check_ticks: int = 0
     # the loop's CPU from its `ms = millis()` read to the `e` block's cli (the replica:
     # 26 ticks on the ATmega328P and the ATmega2560), spent there rather than with the
     # rest of the pass after the check (the pass's length unchanged; 0: the block
@@ -208,6 +212,22 @@ ATMEGA328P_BUILD = replace(
                     off_delay_ms=10),
     ),
     debug_led_pin=13,
+    # build d's `e` block: without link-time optimisation delayMicroseconds(100) is a
+    # call with a run-time argument (its checks, shift and subtraction, call and ret):
+    # 1 599 cycles from the cli to the SREG restore in every block of its replica (build
+    # e inlines it: 1 582; docs/timing-model.md, "thirty-first pass")
+    irq_block_ticks=1599,
+    # build d's loop passes, read on its replica (d21, twenty-ninth pass; landed with the
+    # block above, thirty-first pass): 376 ticks with both steppers idle, 330 with one
+    # running, 338 in a `w` (millis() read twice); the paths as in AVR_COSTS (342 a pass)
+    # on the other AVR chips, whose build d has no replica
+    loop_pass_ticks=284,
+    loop_idle_stepper_ticks=46,
+    loop_running_stepper_ticks=0,
+    loop_pause_ticks=8,
+    # `W` holding the input: the command's pass 467 ticks against the letter's 330 (d21;
+    # d30 in an `e` window 2 070 against 1 933, its blocks of 1 599 apart)
+    cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 137},
 )
 
 
@@ -375,6 +395,8 @@ BY_PROFILE: dict[str, DemoBuild] = {
 # (fas.sim.builds), by profile name
 BY_BUILD: dict[str, dict[str, DemoBuild]] = {
     "e": {"atmega328p": replace(ATMEGA328P_BUILD, loop_pass_ticks=220, setup_head_ticks=1450,
+                                irq_block_ticks=AVR_COSTS.irq_block_ticks,
+                                loop_pause_ticks=AVR_COSTS.loop_pause_ticks,
                                 loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,
                                 loop_char_ticks=5, loop_stray_read_ticks=81,
                                 cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 106}, **E_LOOP_POLLS),

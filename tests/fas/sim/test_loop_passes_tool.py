@@ -7,8 +7,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import pytest
-
 ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "bench" / "replica"))
 
@@ -59,14 +57,13 @@ def test_a_call_against_its_ramp_tasks() -> None:
     assert tr.irq_between(1600, 6000) == 3000
 
 
-@pytest.mark.xfail(strict=True, reason="build d's 328P charges 342 ticks a pass on every "
-                   "path (loop_pass_ticks, the paths 0): replica 376 / 330 / 338; set to "
-                   "them, d30's A pulse high total leaves its tolerance (48 273 us, firmware "
-                   "49 248 +- 710; twenty-ninth pass)")
+# landed with build d's `e` block and `W` (thirty-first pass): d30 49 444 us, firmware
+# 49 248 +- 710
 def test_build_d_loop_figures_are_the_replicas_passes() -> None:
     """d21's replica of build d (two steppers connected): passes of 376 ticks with both
-    idle, 330 with one running, 338 in a `w` with one running."""
+    idle, 330 with one running, 338 in a `w` with one running, 467 for `W`'s command."""
     d = demo_build(get_profile("atmega328p"), "d")
     both_idle = d.loop_pass_ticks + 2 * d.loop_idle_stepper_ticks
     one_running = d.loop_pass_ticks + d.loop_running_stepper_ticks + d.loop_idle_stepper_ticks
     assert (both_idle, one_running, one_running + d.loop_pause_ticks) == (376, 330, 338)
+    assert one_running + d.cmd_ticks["W"] == 467  # `W` held: the command's pass

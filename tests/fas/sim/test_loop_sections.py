@@ -85,7 +85,9 @@ def _pulse_high(name: str):
 
 # with build d's own loop passes (its replica, twenty-seventh pass; build e's gave 207
 # and 11 481)
-@pytest.mark.parametrize("name, off, on", [("d14", 208, 205), ("d38", 11588, 11464)])
+# (thirty-first pass: with build d's block and loop passes as its replica measures them,
+# the default now; before them 205 and 11 464)
+@pytest.mark.parametrize("name, off, on", [("d14", 208, 206), ("d38", 11588, 11470)])
 def test_build_d_known_deviations_close_with_the_sections(monkeypatch, name, off, on) -> None:
     check = _pulse_high(name)
     assert check.known and check.measured == off  # the file's known deviation

@@ -56,15 +56,18 @@ def test_a_start_on_a_quiet_console_keeps_its_first_step(
 
 def test_test_sequence_02_plans_its_move_at_44_77_s_in_the_earlier_task(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    """The conformance run test_seq_sd_02_328p: the loop starts its 57th move 952 ticks
-    after the previous move's stop; the firmware's first step comes from the task 1 009
-    ticks after that stop (with the local build's task: 865, too early for the call)."""
+    """The conformance run test_seq_sd_02_328p: the loop starts its 57th move 825 ticks
+    after the previous move's stop (952 before build d's loop passes were read from its
+    replica, thirty-first pass); the firmware's first step comes from the task 1 009
+    ticks after that stop (the local build's task, 865, was too early for the call before)."""
     line = "t M1 02 I R W"
     rows, backend = slot_jumps.model_calls(line, "atmega328p", "d")
     stop, call, task = rows[55]
-    assert (call - stop, task - stop) == (952, 865 + LAG)
+    assert (call - stop, task - stop) == (825, 865 + LAG)
     _local_build_task(monkeypatch)
     rows, _ = slot_jumps.model_calls(line, "atmega328p", "d")
     stop, call, task = rows[55]
-    # the loop loses the task's entry (2 436 ticks) before its call: the next slot
-    assert (call - stop, task - stop) == (952 + 2436, 865 + 65536)
+    # with build d's loop passes (thirty-first pass) the call comes 40 ticks before even
+    # the local build's task (with the passes before: 952, after it, the loop lost the
+    # task's entry of 2 436 ticks before its call and the move took the next slot)
+    assert (call - stop, task - stop) == (825, 865)
