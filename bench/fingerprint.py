@@ -9,6 +9,11 @@ timing would move: the transcript, every recorded pin edge (tick and level), the
 tick, pin statistics and each stepper's position.  Each line runs twice, with and
 without the edge recorder: the recorder must not change the transcript either.
 
+Two G-code runs (``gcode:`` cases) take bench_path's CAM program (``GCODE_SEGMENTS``
+short segments around circles and a raster, as ``bench/bench_gcode.py --lookahead-only``
+runs it) through the look-ahead, once with Grbl's junctions (``$172=0``) and once with
+the corner blends (``$172=1``).
+
 ``--sequences`` adds every scenario file of ``sequences/`` (its program, profile and input
 as ``stepperdemo run`` runs it, with the edge recorder on).
 
@@ -45,6 +50,22 @@ LINES = [
     ("sam_due", "M1 A50000 V20 R100000 M2 R-5000 W"),
     ("rp2040", "M1 A20000 V50 R30000 W"),
 ]
+
+#: segments of bench_path's CAM program in each ``gcode:`` case
+GCODE_SEGMENTS = 1500
+
+
+def gcode_cases() -> list[tuple[str, str]]:
+    """bench_gcode's look-ahead program (its settings first), in both corner modes, as
+    ("gcode:<arch>", the program's text)."""
+    import bench_path as bp
+
+    moves = [f"G1 X{p[0]:.4f} Y{p[1]:.4f} F{f:g}" for p, f in bp.cam_program(GCODE_SEGMENTS)]
+    setup = ([f"$10{i}={bp.SPU}" for i in range(2)]
+             + [f"$11{i}={bp.MAX_RATE}" for i in range(2)]
+             + [f"$12{i}={bp.ACCEL}" for i in range(2)] + [f"$11={bp.JUNCTION}", "$171=0"])
+    return [("gcode:atmega328p", "\n".join([f"$172={blends}"] + setup + moves) + "\n")
+            for blends in (0, 1)]
 
 
 def fuzz_lines(n: int, seed: int) -> list[tuple[str, str]]:
@@ -124,9 +145,34 @@ def scenario_digest(path: str) -> str:
     return h.hexdigest()[:16]
 
 
+def gcode_digest(arch: str, text: str) -> str:
+    """Run a G-code program on two axes (recorded) and digest what it did."""
+    from fas.sim import SimBackend
+    from stepperdemo.program import make_program
+
+    h = hashlib.sha256()
+    b = SimBackend(arch, record=True)
+    app = make_program("gcode", b, scripted=True, output=lambda d: None, axes=2)
+    try:
+        reason = app.run_script(text, max_ticks=600 * b.profile.ticks_per_s).name
+    except Exception as exc:  # noqa: BLE001 - a failure is part of the fingerprint
+        reason = f"{type(exc).__name__}: {exc}"
+    h.update(f"{reason} {b.now()} ".encode())
+    h.update(bytes(app.transcript))
+    _digest_backend(h, b, getattr(app, "steppers", []))
+    return h.hexdigest()[:16]
+
+
 def run_here(cases: list[tuple[str, str]]) -> list[str]:
-    return [scenario_digest(text) if arch == "scenario" else digest(arch, text.encode("latin-1"))
-            for arch, text in cases]
+    out = []
+    for arch, text in cases:
+        if arch == "scenario":
+            out.append(scenario_digest(text))
+        elif arch.startswith("gcode:"):
+            out.append(gcode_digest(arch[len("gcode:"):], text))
+        else:
+            out.append(digest(arch, text.encode("latin-1")))
+    return out
 
 
 def scenario_cases() -> list[tuple[str, str]]:
@@ -158,7 +204,7 @@ def main() -> int:
     ap.add_argument("--show", action="store_true", help="print every digest")
     args = ap.parse_args()
     os.chdir(ROOT)  # scenario paths are relative to the tree that runs them
-    cases = LINES + fuzz_lines(args.fuzz, args.seed)
+    cases = LINES + gcode_cases() + fuzz_lines(args.fuzz, args.seed)
     if args.sequences:
         cases += scenario_cases()
     sys.path.insert(0, str(ROOT))

@@ -382,9 +382,12 @@ def lead_to_polyline(steps: list[tuple[float, int]], x0: float, p0: int, blend: 
     last do: there 1/8 step is a large share of the time between steps)."""
     vi = blend.speed * blend.u[i] * k
     vo = blend.speed_out * blend.w[i] * k
-    if vi * vo <= 0.0 or not steps or any(d != steps[0][1] for _t, d in steps):
+    if vi * vo <= 0.0 or not steps:
         return steps
     s = steps[0][1]
+    for _t, d in steps:
+        if d != s:  # (an axis that turns round keeps its steps)
+            return steps
     a = blend.axis_accel(i) * k
     half = blend.duration / 2
     corner = x0 + vi * half
@@ -430,8 +433,8 @@ def corner_steps(start_in: Sequence[int], delta_in: Sequence[int],
     commanded corner by up to ``lead`` steps (:func:`lead_to_polyline`)."""
     path_in = delta_in if span_in is None else span_in
     path_out = delta_out if span_out is None else span_out
-    len_in = math.sqrt(sum((d / k) ** 2 for d, k in zip(path_in, spu, strict=True)))
-    len_out = math.sqrt(sum((d / k) ** 2 for d, k in zip(path_out, spu, strict=True)))
+    len_in = math.sqrt(sum([(d / k) ** 2 for d, k in zip(path_in, spu, strict=True)]))
+    len_out = math.sqrt(sum([(d / k) ** 2 for d, k in zip(path_out, spu, strict=True)]))
     from_in = start_in if origin_in is None else origin_in
     if not (blend.reach <= len_in and blend.reach_out <= len_out):
         raise ValueError("the blend is longer than a block")

@@ -204,32 +204,46 @@ class Segment:
         pitch = self.pitch[axis]
         phase = self.phase[axis]
         pieces = self.pieces
-        last = len(pieces) - 1
+        count = len(pieces)
         k = 0
         out: list[int] = []
         end = (j1 == self.steps[axis] and self.complete and self.end == self.length
                and self.on_end[axis])
         sqrt = math.sqrt
-        p = pieces[0] if pieces else None
+        t_done = self.t_done
+        # the piece in use, its figures as locals (Piece.time_at written out); past
+        # the last piece: none (s1 infinite)
+        past = not count
+        s0 = t0 = t1 = v0 = vv = a2 = 0.0
+        s1 = math.inf
+        if count:
+            p = pieces[0]
+            s0, s1, t0, t1, v0 = p.s0, p.s1, p.t0, p.t1, p.v0
+            vv, a2 = v0 * v0, 2.0 * p.a
         for j in range(j0, j1 if end else j1 + 1):
             s = (j - phase) * pitch
-            if p is not None and s > p.s1:
-                while k <= last and s > pieces[k].s1:
+            if s > s1:
+                while k < count and s > pieces[k].s1:
                     k += 1
-                p = pieces[k] if k <= last else None
-            if p is None:
-                t = self.t_done
-            else:  # Piece.time_at written out
-                d = s - p.s0
-                if d <= 0.0:
-                    t = p.t0
+                if k < count:
+                    p = pieces[k]
+                    s0, s1, t0, t1, v0 = p.s0, p.s1, p.t0, p.t1, p.v0
+                    vv, a2 = v0 * v0, 2.0 * p.a
                 else:
-                    v0 = p.v0
-                    root = v0 * v0 + 2.0 * p.a * d
+                    past = True
+                    s1 = math.inf
+            if past:
+                t = t_done
+            else:
+                d = s - s0
+                if d <= 0.0:
+                    t = t0
+                else:
+                    root = vv + a2 * d
                     den = v0 + sqrt(root if root > 0.0 else 0.0)
-                    t = p.t0 + 2.0 * d / den if den > 0.0 else p.t1
-                    if t > p.t1:
-                        t = p.t1
+                    t = t0 + 2.0 * d / den if den > 0.0 else t1
+                    if t > t1:
+                        t = t1
             out.append(int(t + 0.5))
         if end:
             out.append(self.end_tick)
@@ -281,6 +295,8 @@ class BlendSegment(Segment):
         self.dominant = dominant
         self.tag = block.tag
         self.saved: tuple[int, ...] = (0,) * n  # see Executor._blend
+        #: (axis, led) -> (t_start, each step's tick): :meth:`ticks`' lists
+        self._ticks: dict[tuple[int, bool], tuple[float, list[int]]] = {}
 
     def known(self, axis: int) -> int:
         return self.steps[axis]
@@ -295,6 +311,20 @@ class BlendSegment(Segment):
         if j == 0:
             return int(self.t_start + 0.5)
         return int(self.t_start + self.exact[axis][j - 1] + 0.5)
+
+    def ticks(self, axis: int, led: bool) -> list[int]:
+        """Every step's tick of ``axis`` (``led``: where it is written, else where
+        the blend reaches it), as :meth:`step_tick` and :meth:`exact_tick` give
+        them; made once (again after a :meth:`Executor.shift`)."""
+        key = (axis, led)
+        t_start = self.t_start
+        made = self._ticks.get(key)
+        if made is None or made[0] != t_start:
+            t0 = t_start + 0.5
+            made = (t_start, [int(t0 + t) for t in
+                              (self.times if led else self.exact)[axis]])
+            self._ticks[key] = made
+        return made[1]
 
     def step_up(self, axis: int, j: int) -> bool:
         d = self.dirs[axis]

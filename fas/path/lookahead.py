@@ -142,8 +142,11 @@ class Lookahead:
         """``top_rates``: the steppers' own top speeds in steps/s (their queues' limit),
         which cap each axis's ``max_rate`` too.  ``blend_share`` > 0: corners are
         blended (fas.path.blend), each blend within that share of either block."""
+        from .blend import zone_coefficient  # (blend uses limit_along from here)
+
         self.size = size
         self.blend_share = blend_share
+        self._zone_coefficient = zone_coefficient  # (_reserve's, imported once)
         self.blocks: list[Block] = []
         self.planned = 0  # blocks before this index (and its entry) are final
         self.configure(axes, junction_deviation, top_rates)
@@ -264,15 +267,13 @@ class Lookahead:
         length ``k m`` only - a length that grows, so what is final stays final.  The
         path goes on through an arc's chord ends (``through``) and points between
         steps exactly: no blend there, the junction as Grbl's (:func:`on_steps`)."""
-        from .blend import zone_coefficient  # (blend uses limit_along from here)
-
         blocks = self.blocks
         k = 0.0
         prev_res = 0.0
         if (blocks and self.prev_unit is not None and block.max_junction_sqr > 0.0
                 and on_steps(blocks[-1])):
             prev = blocks[-1]
-            k = zone_coefficient(prev.unit, block.unit, self.accel)
+            k = self._zone_coefficient(prev.unit, block.unit, self.accel)
             if k > 0.0:
                 fit = share * min(prev.length, block.length) / k
                 if block.max_junction_sqr > fit:

@@ -494,21 +494,19 @@ class AxisWriter:
             spans.append((len(exact), cur.seq, j + 1))
             if cur.blend:
                 bl = cast(BlendSegment, cur)
-                t0 = bl.t_start + 0.5
-                n = 0
-                turn = False
-                for d in bl.dirs[i][j:kn]:
-                    n += 1
-                    if d != up:  # the first step the other way ends it
-                        turn = True
-                        break
+                try:  # the first step the other way ends it
+                    n = bl.dirs[i].index(not up, j, kn) + 1 - j
+                    turn = True
+                except ValueError:
+                    n = kn - j
+                    turn = False
                 if self.tol > 0.0 and bl.times is not bl.exact:
                     if reach is None:
                         reach = list(exact)
-                    exact.extend([int(t0 + t) for t in bl.times[i][j:j + n]])
-                    reach.extend([int(t0 + t) for t in bl.exact[i][j:j + n]])
+                    exact.extend(bl.ticks(i, True)[j:j + n])
+                    reach.extend(bl.ticks(i, False)[j:j + n])
                 else:  # (an axis's exact steps after a turn: the blend's own)
-                    exact.extend([int(t0 + t) for t in bl.exact[i][j:j + n]])
+                    exact.extend(bl.ticks(i, False)[j:j + n])
                     if reach is not None:
                         reach.extend(exact[len(reach):])
                 if turn:
