@@ -161,3 +161,29 @@ def test_build_d_checks_with_the_task_read_and_the_phases(
     check = _check(name, what)
     assert check.measured == measured  # (the value the reason names)
     assert abs(check.measured - check.expected) <= check.tolerance
+
+
+def test_with_the_figures_read_the_models_tasks_cost_the_replicas(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """`bench/replica/block_pulses.py --tasks` d30 (from its first step): the replica's
+    task CPU mean / median 4 803 / 6 134, the model's 4 783 / 6 136 with D33 P30 (5 977 /
+    7 026 on main): an idle task 664 (the replica's median over 23 193), a running one
+    that plans two commands of several steps 6 136 / 6 211 with its queue's entries."""
+    import block_pulses  # noqa: PLC0415 (bench/replica)
+
+    text = "M1 A2000 V40 R4000 W"  # d30 without its `e`
+    main = collections_counter(c for _, c in block_pulses.model_tasks(text))
+    assert 664 not in main and main.most_common(1)[0][0] == 2292  # main: fitted entry
+    _measured_d(monkeypatch)
+    got = collections_counter(c for _, c in block_pulses.model_tasks(text))
+    f = BUILD_D_REPLICA_TASK
+    # the idle task, then a planning task's two commands with 9 / 10 entries queued
+    base = f["fill_entry_ticks"] + f["fill_exit_ticks"] + f["fill_stepper_ticks"]
+    two = base + 2 * f["fill_cmd_ticks"]
+    assert [c for c, _ in got.most_common(3)] == [664, two + 9 * 75, two + 10 * 75]
+    assert two + 9 * 75 == 6136
+
+
+def collections_counter(it):
+    import collections  # noqa: PLC0415
+    return collections.Counter(it)
