@@ -321,6 +321,10 @@ BUILD_D_REPLICA_TASK: dict[str, int] = {
     "fill_coast_cmd_ticks": 1903, "fill_unstarted_cmd_extra_ticks": 36,
     "fill_unstarted_multi_cmd_ticks": 2387, "fill_start_ticks": 976 + 70,
     "fill_start_after_cmd_ticks": 1030 + 70, "fill_start_tail_ticks": 621 - 70 - 228,
+    # auto enable's pauses written in a first command's call: its queue writes 585, 517
+    # and 152 ticks apart (all five such tasks), two pauses; a running fill's fixed work
+    # after its writes (a second start's first write then lies where the replica's does)
+    "fill_bare_pause_ticks": (585 + 517 + 152) // 2, "fill_charges_after_writes": 1,
 }
 # ... and build d's two phases as its replica measures them (thirtieth pass): the ramp
 # task 217 ticks after the model's (with the entry read, no longer taken off the entry),

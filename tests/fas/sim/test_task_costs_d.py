@@ -90,6 +90,8 @@ def test_the_figures_are_the_replicas_readings_in_the_models_terms() -> None:
     assert (f["fill_start_ticks"] - 70 + 70 + f["fill_start_tail_ticks"]
             + f["fill_exit_ticks"]) == 976 + 621
     assert BUILD_D_REPLICA_PHASES["task_phase_ticks"] == 217
+    # auto enable's two pauses in a first command's call: queue writes 585, 517, 152 apart
+    assert 2 * f["fill_bare_pause_ticks"] == 585 + 517 + 152
 
 
 @pytest.mark.parametrize("build", [None, "d", "d_time_measurement"])
@@ -121,7 +123,7 @@ def _measured_d(monkeypatch: pytest.MonkeyPatch) -> None:
                        (sim_timing_module.BY_BUILD["d_time_measurement"], "atmega328p")):
         t = table[key]
         monkeypatch.setitem(table, key, replace(
-            t, **{k: bool(v) if k == "fill_skips_done_ramps" else v
+            t, **{k: bool(v) if k in ("fill_skips_done_ramps", "fill_charges_after_writes") else v
                   for k, v in BUILD_D_REPLICA_TASK.items()},
             task_phase_ticks=t.task_phase_ticks + BUILD_D_REPLICA_PHASES["task_phase_ticks"],
             timer0_lag_ticks=BUILD_D_REPLICA_PHASES["timer0_lag_ticks"],
@@ -146,20 +148,36 @@ def test_known_deviations_close_with_the_task_read_and_the_phases(
     assert abs(check.measured - check.expected) <= check.tolerance
 
 
-# ... and files it puts out (not landed: the landing rule needs 0 failed)
+# ... files that the landed figures' over-charged tasks held and the read ones keep
+# (each broke with one of the parts alone: thirtieth, thirty-first passes)
+@pytest.mark.parametrize("name, what", [
+    ("d25", "A pulse high total us"), ("d30", "A pulse high total us"),
+    ("test_sd_14_328p", "A pulse high total us"),
+    ("test_sd_04_timing_328p", "A pulse high total us"),
+])
+def test_build_d_checks_kept_with_the_task_read_and_the_phases(
+        monkeypatch: pytest.MonkeyPatch, name: str, what: str) -> None:
+    _measured_d(monkeypatch)
+    check = _check(name, what)
+    assert abs(check.measured - check.expected) <= check.tolerance
+
+
+# ... and the files it puts out, each a call one ramp-task slot off (not landed: the
+# landing rule needs 0 failed)
 @pytest.mark.parametrize("name, what, measured", [
-    pytest.param("d25", "A pulse high total us", 1935, marks=pytest.mark.xfail(
-        strict=True, reason="d25 1 935 us against 1 896 +- 28.3")),
     pytest.param("dm09", "A position", 4231, marks=pytest.mark.xfail(
         strict=True, reason="dm09 4 231 steps against 4 284 +- 21")),
     pytest.param("d34", "A position", 796, marks=pytest.mark.xfail(
         strict=True, reason="d34 796 steps against 784 +- 10")),
+    pytest.param("test_sd_18_328p", "A step time max |dev| us", 106177,
+                 marks=pytest.mark.xfail(strict=True, reason="test_sd_18 a step 106 177 us "
+                                         "late against 0 +- 336 (one step fewer before X)")),
 ])
 def test_build_d_checks_with_the_task_read_and_the_phases(
         monkeypatch: pytest.MonkeyPatch, name: str, what: str, measured: int) -> None:
     _measured_d(monkeypatch)
     check = _check(name, what)
-    assert check.measured == measured  # (the value the reason names)
+    assert round(check.measured) == measured  # (the value the reason names)
     assert abs(check.measured - check.expected) <= check.tolerance
 
 
@@ -208,3 +226,16 @@ def test_the_corpus_wrapper_runs_scenario_files_under_build_ds_variants() -> Non
                          text=True, timeout=300)
     assert bad.returncode == 2 and bad.stderr.strip() == (
         "d_corpus: --set 'nope=1': not FIELD=VALUE with a SimTiming or DemoBuild field")
+
+
+def test_compare_runs_the_model_in_the_build_asked_for(tmp_path, capsys) -> None:
+    import compare  # noqa: PLC0415 (bench/replica)
+
+    try:
+        assert compare.main(["--build", "d", "--work", str(tmp_path), "d01"]) == 0
+        assert compare.MODEL_BUILD == "d"
+        assert f"d01: no replica run in {tmp_path}" in capsys.readouterr().out
+        compare.main(["--work", str(tmp_path), "d01"])
+        assert compare.MODEL_BUILD == "e"  # the default
+    finally:
+        compare.MODEL_BUILD = "e"
