@@ -311,8 +311,9 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
 # writes 136 less than that plus its commands (the solve over 27 594 tasks); a lone
 # start's first write 2 581 (436 + 2 145, its one-step commands 36 above a running
 # ramp's), its last write to the task's end 976 + 621 (1 030 after a command of several
-# steps).  Not set in any build: with them (and both phases, below) the corpus fails
-# d25, d34, dm09, test_sd_18 and the timing build's test_sd_04 (the pass's table)
+# steps).  Not set in any build: with them and both phases (below) the corpus fails
+# d34, dm09 and test_sd_18, each a call one ramp-task slot off (the loop's chain, not
+# read for build d yet), and meets d14, d35 and d38 (the pass's table)
 BUILD_D_REPLICA_TASK: dict[str, int] = {
     "fill_entry_ticks": 376, "fill_exit_ticks": 228, "idle_task_ticks": 436,
     "fill_stepper_ticks": 209 - 136, "fill_queued_entry_ticks": 75,
