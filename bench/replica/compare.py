@@ -67,6 +67,9 @@ from stepperdemo.program import make_program  # noqa: E402
 
 QUEUE_START_CYCLES = 80  # the replica's first step rises this long after startQueue()
 QUEUE_SLOTS = 16  # the AVR queue's entries
+# the model's build (``--build``): e, the build of e01-e18; d, the default build of the
+# d*/test_sd_* runs (its replica, ``replica.py --build d``, leads the firmware by 96)
+MODEL_BUILD = "e"
 PAIR_TICKS = 2000  # the replica's task enters within this of the model's (median +160)
 
 # the replica's steps and `e` blocks come this many cycles after the firmware's from the
@@ -174,7 +177,7 @@ def model_tasks(case: str, conf: Path, keep: list[SimBackend] | None = None) -> 
     try:
         folder = conf / case
         backend = e_fidelity.run_model((folder / "input.txt").read_text().strip(),
-                                       e_fidelity.PROFILE.get(case, "atmega328p"), "e")
+                                       e_fidelity.PROFILE.get(case, "atmega328p"), MODEL_BUILD)
         if keep is not None:
             keep.append(backend)
         del backend  # steppers numbered by their first write, as the replica's
@@ -449,10 +452,15 @@ def main(argv: list[str] | None = None) -> int:
                     choices=sorted(e_fidelity.VARIANTS),
                     help="a named set of --set (as bench/e_fidelity.py --variant), applied "
                     "before --set; repeatable")
+    ap.add_argument("--build", choices=("e", "d"), default="e",
+                    help="the model's build: e (the runs e01-e18) or d (the d*/test_sd_* runs; "
+                    "their replica: replica.py --build d, links CASE.ev)")
     ap.add_argument("--phases", action="store_true",
                     help="timer 0's first overflow, the first ramp task and the console's first "
                     "transmit interrupt, model - firmware")
     args = ap.parse_args(argv)
+    global MODEL_BUILD
+    MODEL_BUILD = args.build
     try:
         e_fidelity.set_timing(e_fidelity.variant_settings(args.variant) + args.set)
     except ValueError as exc:

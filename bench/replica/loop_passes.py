@@ -38,7 +38,9 @@ import replica  # noqa: E402
 
 TICKS_PER_MS = 16000
 CALLS = {"stopMove": "FastAccelStepper::stopMove(", "move": "FastAccelStepper::move(",
-         "moveTo": "FastAccelStepper::moveTo("}
+         "moveTo": "FastAccelStepper::moveTo(",
+         "applySpeedAcceleration": "FastAccelStepper::applySpeedAcceleration(",
+         "moveByAcceleration": "FastAccelStepper::moveByAcceleration("}
 EXTRA = ("loop", "FastAccelStepper::isRunning(", "millis")
 
 

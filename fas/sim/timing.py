@@ -303,6 +303,37 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
                        # ticks from the UART's request (test_sd_14_328p 315 pulses, e17 195)
                        uart_hold_ticks=124)
 
+# build d's ramp task read piece by piece from its replica (bench/replica/task_costs.py
+# over its 60 runs; docs/timing-model.md, "thirty-third-d pass"), in the model's terms:
+# an idle task 664 (436 + the exit), a task whose stepper's ramp is done 604 (entry +
+# exit), a planning stepper's task that writes nothing 813 + 75 a queued entry of
+# several steps, 30 of one step or a pause (entry + exit + 209 + the sum); a task that
+# writes 136 less than that plus its commands (the solve over 27 594 tasks); a lone
+# start's first write 2 581 (436 + 2 145, its one-step commands 36 above a running
+# ramp's), its last write to the task's end 976 + 621 (1 030 after a command of several
+# steps).  Not set in any build: with them and both phases (below) the corpus fails
+# d34, dm09 and test_sd_18, each a call one ramp-task slot off (the loop's chain, not
+# read for build d yet), and meets d14, d35 and d38 (the pass's table)
+BUILD_D_REPLICA_TASK: dict[str, int] = {
+    "fill_entry_ticks": 376, "fill_exit_ticks": 228, "idle_task_ticks": 436,
+    "fill_stepper_ticks": 209 - 136, "fill_queued_entry_ticks": 75,
+    "fill_queued_single_ticks": 30, "fill_plan_ticks": 0, "fill_skips_done_ramps": 1,
+    "fill_single_ticks": 2109, "fill_cmd_ticks": 2392, "fill_pause_ticks": 1583,
+    "fill_coast_cmd_ticks": 1903, "fill_unstarted_cmd_extra_ticks": 36,
+    "fill_unstarted_multi_cmd_ticks": 2387, "fill_start_ticks": 976 + 70,
+    "fill_start_after_cmd_ticks": 1030 + 70, "fill_start_tail_ticks": 621 - 70 - 228,
+    # auto enable's pauses written in a first command's call: its queue writes 585, 517
+    # and 152 ticks apart (all five such tasks), two pauses; a running fill's fixed work
+    # after its writes (a second start's first write then lies where the replica's does)
+    "fill_bare_pause_ticks": (585 + 517 + 152) // 2, "fill_charges_after_writes": 1,
+}
+# ... and build d's two phases as its replica measures them (thirtieth pass): the ramp
+# task 217 ticks after the model's (with the entry read, no longer taken off the entry),
+# timer 0 405 (the copy rounded to even bytes)
+BUILD_D_REPLICA_PHASES: dict[str, int] = {
+    "task_phase_ticks": 217, "timer0_lag_ticks": 405, "timer0_data_align": 2,
+}
+
 # upstream's own simulator-tested sketches (FastAccelStepper 1.2.7's examples/Issue*,
 # built by its test suite with SIMAVR_TIME_MEASUREMENT): the step interrupt as in
 # d_time_measurement, the ramp task as in the build of the runs e01-e18 (its cost per

@@ -1,0 +1,81 @@
+"""The scenario corpus with build d's ATmega328P figures changed: the landing rule's
+corpus check for build d's figures (docs/timing-model.md, "thirty-third-d pass").
+
+    python3 bench/d_corpus.py --variant D33 [--set FIELD=VALUE ...] \\
+        sequences/conformance sequences/upstream sequences/gcode sequences/examples
+
+A setting is ``FIELD=VALUE`` (or ``FIELD=+N`` / ``-N``) of :class:`fas.sim.timing.SimTiming`
+or StepperDemo's :class:`stepperdemo.demo.build.DemoBuild`; it reaches build d's
+ATmega328P (the default build's AVR figures, and its time-measurement build of upstream's
+timing tests); the scenario files then run as ``python3 -m stepperdemo run FILES...``
+runs them (its exit status).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+from fas.sim import timing as sim_timing_module  # noqa: E402
+from stepperdemo.demo import build as demo_build_module  # noqa: E402
+from stepperdemo.front.cli import main as stepperdemo_main  # noqa: E402
+
+# build d's ramp task read from its replica and both its phases (fas.sim.timing's
+# BUILD_D_REPLICA_TASK and BUILD_D_REPLICA_PHASES; the phase of the task is added)
+VARIANTS: dict[str, list[str]] = {
+    "D33": [f"{k}={v}" for k, v in sim_timing_module.BUILD_D_REPLICA_TASK.items()],
+    "P30": [f"{k}={'+' if k == 'task_phase_ticks' else ''}{v}"
+            for k, v in sim_timing_module.BUILD_D_REPLICA_PHASES.items()],
+}
+
+
+def set_build_d(settings: list[str]) -> None:
+    """Change build d's ATmega328P figures for this process.  Raises ValueError on an
+    unknown field or a value that is not a number."""
+    t_fields = {f.name for f in dataclasses.fields(sim_timing_module.SimTiming)}
+    d_fields = {f.name for f in dataclasses.fields(demo_build_module.DemoBuild)}
+    for setting in settings:
+        name, sep, value = setting.partition("=")
+        if not sep or name not in t_fields | d_fields:
+            raise ValueError(f"--set {setting!r}: not FIELD=VALUE with a SimTiming or "
+                             "DemoBuild field")
+        places = ([(sim_timing_module.BY_FAMILY, "avr"),
+                   (sim_timing_module.BY_BUILD["d_time_measurement"], "atmega328p")]
+                  if name in t_fields else [(demo_build_module.BY_PROFILE, "atmega328p")])
+        for table, key in places:
+            current = getattr(table[key], name)
+            if isinstance(current, bool):
+                new: object = value.lower() in ("1", "true", "yes")
+            elif not isinstance(current, int):
+                raise ValueError(f"--set {setting!r}: {name} is not a number")
+            else:
+                try:
+                    new = current + int(value) if value[:1] in "+-" else int(value)
+                except ValueError:
+                    raise ValueError(f"--set {setting!r}: {value!r} is not a number") from None
+            table[key] = dataclasses.replace(table[key], **{name: new})
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--variant", action="append", default=[], choices=sorted(VARIANTS),
+                    help="a named set of --set; repeatable")
+    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                    help="a figure of build d's ATmega328P; repeatable")
+    ap.add_argument("paths", nargs="+", help="scenario files or folders")
+    args = ap.parse_args(argv)
+    try:
+        set_build_d([s for v in args.variant for s in VARIANTS[v]] + args.set)
+    except ValueError as exc:
+        print(f"d_corpus: {exc}", file=sys.stderr)
+        return 2
+    return stepperdemo_main(["run", *args.paths])
+
+
+if __name__ == "__main__":
+    sys.exit(main())
