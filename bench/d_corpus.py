@@ -1,5 +1,5 @@
 """The scenario corpus with build d's ATmega328P figures changed: the landing rule's
-corpus check for build d's figures (docs/timing-model.md, "thirty-third-d pass").
+corpus check for build d's figures (docs/timing-model.md, "thirty-third pass").
 
     python3 bench/d_corpus.py --variant D33 [--set FIELD=VALUE ...] \\
         sequences/conformance sequences/upstream sequences/gcode sequences/examples

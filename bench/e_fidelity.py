@@ -89,6 +89,8 @@ from fas.sim.timing import SimTiming  # noqa: E402
 from stepperdemo.demo import build as demo_build_module  # noqa: E402
 from stepperdemo.program import make_program  # noqa: E402
 from stepperdemo.scenarios.evaluate import (  # noqa: E402
+    WINDOW_PERIOD_US,
+    WINDOW_SPAN_US,
     gaps_per_window,
     pin_activity,
     position_from_pins,
@@ -169,6 +171,10 @@ VARIANTS: dict[str, tuple[str, ...]] = {
             "atmega328p:fill_queued_single_ticks=46"),
     # a running stepper's fixed fill work after its writes (thirty-second pass)
     "O32": ("fill_charges_after_writes=1",),
+    # the step interrupt writes its next compare later where it takes up the next queue
+    # entry: channel A 24 ticks, B and C 28 (the replica's interrupts, 328P and 2560: 49
+    # / 54 against 25 / 26 cycles after the pin's clear; thirty-fourth pass)
+    "P33": ("isr_ocr_next_ticks=24,28",),
 }
 
 
@@ -205,8 +211,13 @@ def set_timing(settings: list[str]) -> None:
         else:
             table = sim_timing_module.BY_BUILD["e"]
         current = getattr(next(iter(table.values())), name)
-        new: object = (value.lower() in ("1", "true", "yes") if isinstance(current, bool)
-                       else int(value))
+        new: object
+        if isinstance(current, bool):
+            new = value.lower() in ("1", "true", "yes")
+        elif isinstance(current, tuple):  # a figure per channel: comma-separated
+            new = tuple(int(x) for x in value.split(","))
+        else:
+            new = int(value)
         chips = [k for k in table if k.startswith(chip)]
         if not chips:
             raise ValueError(f"--set {setting!r}: no chip of build e named {chip!r}...")
@@ -391,6 +402,34 @@ def held_extra(rises: list[int], blocks: list[tuple[int, int]]) -> tuple[int, in
     return n, extra
 
 
+def window_split(rises: list[int], blocks: list[tuple[int, int]]) -> dict[int, list[int]]:
+    """Per `e` window (its number; rises outside every window under -1): [rises, pulses
+    held by a block, their summed ticks from the rise to the block's end]."""
+    period, span = round(WINDOW_PERIOD_US * TICKS_PER_US), round(WINDOW_SPAN_US * TICKS_PER_US)
+    out: dict[int, list[int]] = {}
+    for c in rises:
+        k = c // period
+        n, extra = held_extra([c], blocks)
+        cell = out.setdefault(k if c - k * period < span else -1, [0, 0, 0])
+        cell[0] += 1
+        cell[1] += n
+        cell[2] += extra
+    return out
+
+
+def _window_rows(case: str, letter: str, fw: dict[int, list[int]], model: dict[int, list[int]],
+                 gaps_fw: dict[int, int], gaps: dict[int, int]) -> None:
+    print(f"    {case} {letter} per window: rises fw/model | held | their extra (us) "
+          "| extra per held pulse (us) | gaps")
+    for k in sorted(set(fw) | set(model), key=lambda k: (k < 0, k)):
+        a, b = fw.get(k, [0, 0, 0]), model.get(k, [0, 0, 0])
+        name = "outside" if k < 0 else f"window {k}"
+        per = [x[2] / TICKS_PER_US / max(1, x[1]) for x in (a, b)]
+        print(f"      {name}: {a[0]}/{b[0]} | {a[1]}/{b[1]} | {a[2] / TICKS_PER_US:.0f}/"
+              f"{b[2] / TICKS_PER_US:.0f} | {per[0]:.1f}/{per[1]:.1f} "
+              f"| {gaps_fw.get(k, 0)}/{gaps.get(k, 0)}")
+
+
 def firmware_high_totals(folder: Path) -> dict[str, int]:
     """Total High (us) per step pin letter, from the firmware run's ``result.txt``."""
     text = (folder / "result.txt").read_text()
@@ -398,8 +437,9 @@ def firmware_high_totals(folder: Path) -> dict[str, int]:
             for m in re.finditer(r"Step(\w):.*Total High=(\d+)us", text)}
 
 
-def pulses(conf: Path, cases: list[str]) -> int:
-    """Pulse-high totals split into the blocks' part and the plain pulses' mean."""
+def pulses(conf: Path, cases: list[str], windows: bool = False) -> int:
+    """Pulse-high totals split into the blocks' part and the plain pulses' mean
+    (``windows``: and per `e` window, with the rises and gaps of each)."""
     print("| case | pin | total high fw / model (us) | held pulses fw / model | their extra "
           "fw / model (us) | rest per pulse fw / model (ticks) |")
     print("| --- " * 6 + "|")
@@ -425,6 +465,10 @@ def pulses(conf: Path, cases: list[str]) -> int:
             print(f"| {case} | {sp.letter} | {totals[sp.letter]} / {act.high_total_us:.0f} "
                   f"| {n_fw} / {n_m} | {x_fw / TICKS_PER_US:.0f} / {x_m / TICKS_PER_US:.0f} "
                   f"| {rest_fw:.2f} / {rest_m:.2f} |")
+            if windows:
+                _window_rows(case, sp.letter, window_split(fw_rises, fw_blocks),
+                             window_split(our_rises, ours), gaps_per_window(wrap_gaps(ref)),
+                             gaps_per_window(wrap_gaps([t / TICKS_PER_US for t in our_rises])))
     return 0
 
 
@@ -676,6 +720,9 @@ def _pooled_fit(rows: list[tuple[int, int, int, int]]) -> None:
           f"step {sol[2]:+.1f} per other command (a pause or more steps) {sol[3]:+.0f}")
 
 
+# the scenario files' tolerance on an `e` run's pulse-high total (sequences/conformance/e*.toml:
+# the widest upstream's expect.txt grant a Total High on the 328P, test_sd_05's 800 of 55 477 us)
+HIGH_TOTAL_PCT = 1.44
 PHASE_SPAN_TICKS = 500  # the firmware's window starts scatter over ~530 ticks (--starts)
 PHASE_STEP_TICKS = 25
 
@@ -703,12 +750,16 @@ def phase(conf: Path, cases: list[str], start_shifts: tuple[int, ...] = ()) -> i
 
 
 def _phase(conf: Path, cases: list[str]) -> int:
+    n_win = in_win = n_high = 0
+    high_off = 0.0  # summed |model's mean over the phases - firmware| / tolerance
     for case in cases:
         folder = conf / case
         inp = (folder / "input.txt").read_text().strip()
         profile = PROFILE.get(case, "atmega328p")
         counts: dict[str, dict[int, set[int]]] = {}
         fw_win: dict[str, dict[int, int]] = {}
+        highs: dict[str, list[float]] = {}  # pulse-high total (us) per phase
+        fw_high = firmware_high_totals(folder)
         for shift in range(0, PHASE_SPAN_TICKS + 1, PHASE_STEP_TICKS):
             backend = SimBackend(profile, record=True, build=build_of(case))
             m = backend.machine
@@ -731,6 +782,8 @@ def _phase(conf: Path, cases: list[str]) -> int:
                     fw_win[sp.letter] = gaps_per_window(wrap_gaps(read_reference_track(
                         ref_path)[0]))
                 w = gaps_per_window(wrap_gaps(step_times_us(backend, sp.step)))
+                highs.setdefault(sp.letter, []).append(
+                    pin_activity(backend, sp.step).high_total_us)
                 per = counts.setdefault(sp.letter, {})
                 for k in set(w) | set(fw_win[sp.letter]) | set(per):
                     per.setdefault(k, set()).add(w.get(k, 0))
@@ -738,10 +791,31 @@ def _phase(conf: Path, cases: list[str]) -> int:
             cells = []
             for k in sorted(per):
                 lo, hi, f = min(per[k]), max(per[k]), fw_win[letter].get(k, 0)
+                n_win += 1
+                in_win += lo <= f <= hi
                 cells.append(f"{f} in {lo}-{hi}" if lo <= f <= hi else f"{f} NOT in {lo}-{hi}")
             print(f"{case} {letter}: firmware's count per window against the model's over "
                   f"0-{PHASE_SPAN_TICKS} ticks: {'; '.join(cells)}")
+            if letter in fw_high:
+                print("    " + high_spread(fw_high[letter], highs[letter]))
+                tol = fw_high[letter] * HIGH_TOTAL_PCT / 100 + 1
+                n_high += 1
+                high_off += abs(sum(highs[letter]) / len(highs[letter]) - fw_high[letter]) / tol
+    print(f"windows whose firmware count lies in the model's range: {in_win} of {n_win}; "
+          f"pulse-high totals: the model's mean over the phases off by "
+          f"{high_off / max(1, n_high):.2f} tolerances on average ({n_high} pins)")
     return 0
+
+
+def high_spread(fw: int, totals: list[float], pct: float = HIGH_TOTAL_PCT) -> str:
+    """The pulse-high totals the model makes over the window start's phases against the
+    firmware's total and the scenario files' tolerance (``pct`` of it, + 1 us)."""
+    tol = fw * pct / 100 + 1
+    inside = sum(abs(t - fw) <= tol for t in totals)
+    mean = sum(totals) / len(totals)
+    return (f"pulse-high total: firmware {fw} +- {tol:.0f} us, model {min(totals):.0f}-"
+            f"{max(totals):.0f} (mean {mean:.0f}, {mean - fw:+.0f}), inside at {inside} of "
+            f"{len(totals)} phases")
 
 
 def case_rows(conf: Path, case: str, build: str | None = None) -> list[dict]:
@@ -788,7 +862,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--conformance", default=str(DEFAULT_CONF))
     ap.add_argument("--build", help="firmware build for every case (default: e for e01.., "
                     "d for the others)")
-    ap.add_argument("--windows", action="store_true", help="print the gap start times")
+    ap.add_argument("--windows", action="store_true", help="print the gap start times "
+                    "(with --pulses: the split per `e` window)")
     ap.add_argument("--holdout", action="store_true",
                     help="figures read from the odd-numbered e-runs only, beside the "
                     "model's; acceptance on the even-numbered ones")
@@ -820,7 +895,7 @@ def main(argv: list[str] | None = None) -> int:
                     "atmega2560:fill_start_ticks=2190; repeatable")
     ap.add_argument("--variant", action="append", default=[], choices=sorted(VARIANTS),
                     help="a named set of --set settings (docs/timing-model.md: TH, U, "
-                    "IMFK, N2, R28, R32, Q32, O32), applied before --set; repeatable")
+                    "IMFK, N2, R28, R32, Q32, O32, P33), applied before --set; repeatable")
     args = ap.parse_args(argv)
     try:
         set_timing(variant_settings(args.variant) + args.set)
@@ -848,7 +923,8 @@ def main(argv: list[str] | None = None) -> int:
         shifts = tuple(int(x) for x in args.start_shift.split(",") if x.strip())
         return phase(conf, e_cases, shifts)
     if args.pulses:
-        return pulses(conf, args.cases or [c for c in CASES if c.startswith("e")])
+        return pulses(conf, args.cases or [c for c in CASES if c.startswith("e")],
+                      args.windows)
     if args.holdout:
         return holdout(conf)
     print("| case | arch | input | pin | pos fw | pos model | off | bound | pulses fw/model "

@@ -1,5 +1,5 @@
 """The ramp task's CPU read piece by piece from a replica's runs, every task of every run
-(docs/timing-model.md, "thirty-third-d pass": build d's figures).
+(docs/timing-model.md, "thirty-third pass": build d's figures).
 
 Each replica task (its vector's entry to its ``reti``, the interrupts nested in it left
 out, their entries in) is described by what the model charges for it: no stepper running

@@ -70,6 +70,8 @@ class SimChannel(QueueChannel):
         # it writes the next compare ``ocr`` ticks after it cleared the pin
         self.contention = bool(self.irq_sensitive and timing.isr_ocr_ticks)
         self.ocr = timing.isr_ocr_ticks if self.contention else 0
+        # ... later where it takes up the next queue entry
+        self.ocr_next = self.ocr + timing.isr_ocr_next(queue.index) if self.contention else 0
         self.after_reti = timing.reti_next_ticks if self.contention else 0
         self.running = False
         self.no_more = False
@@ -862,8 +864,8 @@ class SimChannel(QueueChannel):
         if self.entry_listeners and e is not self._noted:
             self._note_entry(ENTRY_RESTART if was_dry else ENTRY_NEXT, e)
         compare = c + ticks  # (_arm, written out: this runs once per queue entry)
-        if compare <= now + self.ocr:
-            compare = self._next_compare(compare, now)
+        if compare <= now + self.ocr_next:
+            compare = self._next_compare(compare, now, self.ocr_next)
         steps = e.steps
         if steps < 2 or not self.contention:
             self._program(compare, e)
@@ -941,11 +943,12 @@ class SimChannel(QueueChannel):
             return self.pending_compare
         return None
 
-    def _next_compare(self, compare: int, now: int) -> int:
+    def _next_compare(self, compare: int, now: int, ocr: int | None = None) -> int:
         """The tick at which the compare written by the interrupt that cleared the pin at
-        ``now`` matches: it writes it ``ocr`` ticks later; a value the timer has passed by
-        then matches only after the timer wraps."""
-        written = now + self.ocr
+        ``now`` matches: it writes it ``ocr`` ticks later (default: the channel's
+        ``ocr``); a value the timer has passed by then matches only after the timer
+        wraps."""
+        written = now + (self.ocr if ocr is None else ocr)
         if compare <= written:
             if self.wrap:  # the timer matches the passed value only after it wraps
                 self.missed_compares += 1

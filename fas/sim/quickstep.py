@@ -65,7 +65,7 @@ class QuickStepChannel(SimChannel, OrderChannel):
         self.isr_ticks = self.isr_next_ticks = self.cost = p.step_isr_ticks
         self.irq_sensitive = True
         self.contention = False  # its timer's own rule: events at the pulse's end
-        self.ocr = 0
+        self.ocr = self.ocr_next = 0
         if self._on_block not in machine.block_listeners:
             machine.block_listeners.append(self._on_block)
         self.trailing = False  # waiting for the end of the finished order's last interval

@@ -55,6 +55,13 @@ class SimTiming:
     # the step interrupt writes the next compare this long after it cleared the pin (a
     # value the timer has passed by then matches only after the timer wraps)
     isr_ocr_ticks: int = 0
+    # ... this much later again where the interrupt takes up the next queue entry, per
+    # channel (the last figure stands for the channels after it; empty: one figure for
+    # both paths).  The library's interrupt writes the compare at its end, after the
+    # entry switch: channel A 49 cycles after the pin's clear on that path against 25
+    # where the entry has more steps, B and C 54 against 26 (build e's replica, the 328P
+    # and the 2560 alike: docs/timing-model.md, "thirty-fourth pass")
+    isr_ocr_next_ticks: tuple[int, ...] = ()
     # CPU time of one step interrupt per channel, entry to return (empty: all take
     # isr_duration_ticks); the last figure stands for the channels after it
     isr_duration_by_channel: tuple[int, ...] = ()
@@ -207,6 +214,12 @@ class SimTiming:
         table = self.isr_latency_ticks
         return table[min(channel, len(table) - 1)]
 
+    def isr_ocr_next(self, channel: int) -> int:
+        """How much later than ``isr_ocr_ticks`` queue ``channel``'s interrupt writes the
+        next compare where it takes up the next queue entry."""
+        table = self.isr_ocr_next_ticks
+        return table[min(channel, len(table) - 1)] if table else 0
+
     def isr_duration(self, channel: int) -> int:
         """CPU time of one step interrupt of queue ``channel``."""
         table = self.isr_duration_by_channel
@@ -304,7 +317,7 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
                        uart_hold_ticks=124)
 
 # build d's ramp task read piece by piece from its replica (bench/replica/task_costs.py
-# over its 60 runs; docs/timing-model.md, "thirty-third-d pass"), in the model's terms:
+# over its 60 runs; docs/timing-model.md, "thirty-third pass"), in the model's terms:
 # an idle task 664 (436 + the exit), a task whose stepper's ramp is done 604 (entry +
 # exit), a planning stepper's task that writes nothing 813 + 75 a queued entry of
 # several steps, 30 of one step or a pause (entry + exit + 209 + the sum); a task that

@@ -244,3 +244,52 @@ def test_the_corpus_runs_under_a_variant(build_e: dict,
     assert "1 scenarios, 0 failed" in capsys.readouterr().out
     assert e_corpus.main(["--set", "fill_nothing=1", scenario]) == 2
     assert capsys.readouterr().err.startswith("e_corpus: --set 'fill_nothing=1'")
+
+
+def test_window_split_counts_each_windows_rises_and_held_pulses() -> None:
+    """``e_fidelity.py --pulses --windows`` (docs/timing-model.md, "thirty-fourth pass"):
+    a rise inside a block is held to the block's end; rises between windows go under -1."""
+    period = 256_000 * 16  # a window every 256 ms
+    blocks = [(period + 1000, period + 2582), (period + 3000, period + 4582)]
+    rises = [period + 500, period + 1500, period + 2000, period + 4000,  # window 1
+             period + 80_000 * 16,                                  # after its span
+             2 * period + 10]                                       # window 2, no block
+    split = e_fidelity.window_split(rises, blocks)
+    assert split == {1: [4, 3, (2582 - 1500) + (2582 - 2000) + (4582 - 4000)],
+                     -1: [1, 0, 0], 2: [1, 0, 0]}
+    # the per-pulse helper agrees with the pooled one
+    assert e_fidelity.held_extra(rises, blocks) == (3, split[1][2])
+
+
+def test_high_spread_counts_the_phases_inside_the_scenarios_tolerance() -> None:
+    line = e_fidelity.high_spread(10_000, [9_900, 10_100, 10_200, 9_850])
+    # 1.44 % of 10 000 + 1 us: 145 us
+    assert line == ("pulse-high total: firmware 10000 +- 145 us, model 9850-10200 "
+                    "(mean 10012, +12), inside at 2 of 4 phases")
+
+
+def test_e13s_rises_per_window_are_the_firmwares() -> None:
+    """The model's step rises per `e` window of e13 (the 2560) are the firmware's, window
+    by window: what its pulse-high total misses is where the rises fall in the blocks."""
+    folder = ROOT / "sequences" / "reference" / "e13"
+    ref, _ = e_fidelity.read_reference_track(folder / "steps_A.tsv.gz")
+    inp = "M1 A40000 V55 e f w900 S W"
+    backend = e_fidelity.run_model(inp, "atmega2560_timer1", "e")
+    pin = e_fidelity.stepper_pins(backend.profile)[0]
+    ours = e_fidelity.step_times_us(backend, pin.step)
+    fw = e_fidelity.window_split([round(t * 16) for t in ref], [])
+    model = e_fidelity.window_split([round(t * 16) for t in ours], [])
+    assert sorted(k for k in fw if k >= 0) == [1, 2, 3, 4, 5, 6]
+    assert {k: v[0] for k, v in model.items()} == {k: v[0] for k, v in fw.items()}
+
+
+def test_p33_sets_the_entry_switch_figure_per_channel(build_e: dict) -> None:
+    """``--variant P33`` (docs/timing-model.md, "thirty-fourth pass"): a figure per
+    channel, comma-separated, reaches every chip of build e."""
+    e_fidelity.set_timing(e_fidelity.variant_settings(["P33"]))
+    for timing in build_e.values():
+        assert timing.isr_ocr_next_ticks == (24, 28)
+        assert [timing.isr_ocr_next(k) for k in range(3)] == [24, 28, 28]
+    e_fidelity.set_timing(["atmega2560:isr_ocr_next_ticks=5"])
+    assert build_e["atmega2560"].isr_ocr_next(2) == 5
+    assert build_e["atmega328p"].isr_ocr_next(2) == 28

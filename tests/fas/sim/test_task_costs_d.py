@@ -1,5 +1,5 @@
 """Build d's ramp task read piece by piece from its replica
-(``bench/replica/task_costs.py``; docs/timing-model.md, "thirty-third-d pass"): the
+(``bench/replica/task_costs.py``; docs/timing-model.md, "thirty-third pass"): the
 reader on written tasks, the figures (``fas.sim.timing.BUILD_D_REPLICA_TASK``, set in no
 build) against the replica's readings they come from, and the corpus files they move
 together with both measured phases (``bench/d_corpus.py --variant D33 --variant P30``),
