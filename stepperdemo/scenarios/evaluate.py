@@ -228,10 +228,11 @@ WINDOW_SPAN_US = 72_000.0  # ... for 64 ms of millis() and the last block (+ mar
 def wrap_gaps(times: Sequence[float]) -> list[float]:
     """Start times (µs) of the ~4.1 ms gaps among rising step edges: an interval of
     ``GAP_US`` or more next to intervals shorter than ``FAST_US`` (a compare missed
-    while interrupts were blocked; the 16-bit timer wrapped before it matched)."""
+    while interrupts were blocked; the 16-bit timer wrapped before it matched).  The
+    interval that ends at the last step counts too: a run may end on a wrap."""
     out = []
     n = len(times)
-    for i in range(1, n - 1):
+    for i in range(1, n):
         if times[i] - times[i - 1] < GAP_US:
             continue
         j = i - 1  # the nearest intervals that are no gaps, on both sides

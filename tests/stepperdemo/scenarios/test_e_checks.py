@@ -42,6 +42,13 @@ def test_gaps_are_the_long_intervals_between_fast_steps_counted_per_256_ms_windo
     assert wrap_gaps([0.0, 5000.0, 10_000.0, 12_000.0]) == []
 
 
+def test_a_run_that_ends_on_a_wrap_counts_that_gap():
+    # e07 B's firmware run ends on a wrap: its last interval is 4 150.9 us after fast steps
+    times = [0.0, 40.0, 80.0, 120.0, 4270.9]
+    assert wrap_gaps(times) == [120.0]
+    assert gaps_per_window(wrap_gaps(times)) == {0: 1}
+
+
 def scenario(tmp_path, body: str) -> str:
     return (f'name = "x"\ninput = "{LINE}"\nend = "firmware"\nbuild = "d"\n'
             f'reference = "{tmp_path / "ref"}"\n' + body)
