@@ -558,35 +558,43 @@ class AxisWriter:
         tol = self.tol
         lo = -math.inf
         hi = math.inf
-        best = (1, 0)
-        prev = t0
-        k = 1
         n = len(exact)
         fastest = self.queue.max_speed_in_ticks
-        min_wait = self.min_wait
-        min_cmd = self.min_cmd
-        while k < n:
-            e = exact[k - 1]
-            d = e - t0
-            h = d / k
-            if reach is not None:
-                e = reach[k - 1]  # (the earliest from where the blend reaches it)
-                d = e - t0
-            low = (d - tol * (e - prev)) / k
+        prev = t0
+        #: the period at step k (periods[k - 1]) while the range holds
+        periods: list[int] = []
+        keep = periods.append
+        # (``reach`` may go on past ``exact``'s cut at MAX_STEPS)
+        for k, (e, f) in enumerate(zip(exact, exact if reach is None else reach,
+                                       strict=False), 1):
+            if k >= n:
+                break
+            h = (e - t0) / k
             if h < hi:
                 hi = h
+            # (``f``: the earliest counts from where the blend reaches the step)
+            d = f - t0
+            low = (d - tol * (f - prev)) / k
             if low > lo:
                 lo = low
             period = int(hi)
             if period < lo or period < fastest:
                 break
-            prev = e
-            k += 1
-            rest = exact[k - 1] - t0 - (k - 1) * period
+            prev = f
+            keep(period)
+        # the most steps whose commands are legal: steps 0..k-1 at the period of
+        # step k-1, then the wait up to step k's tick (step k begins the next command)
+        min_wait = self.min_wait
+        min_cmd = self.min_cmd
+        k = len(periods)
+        while k:
+            period = periods[k - 1]
+            rest = exact[k] - t0 - k * period
             if (min_wait <= rest <= MAX_TICKS and period <= MAX_TICKS
-                    and (k > 2 and period * (k - 1) >= min_cmd or period >= min_cmd)):
-                best = (k, period)
-        return best
+                    and (period * k >= min_cmd if k > 1 else period >= min_cmd)):
+                return k + 1, period
+            k -= 1
+        return 1, 0
 
     def _placement(self, t0: int, exact: list[int], m: int = 0
                    ) -> tuple[list[tuple[int, int]] | None, list[int]]:
