@@ -361,7 +361,12 @@ AVR_UPSTREAM_TM_TIMING = replace(
     **{name: getattr(AVR_E_TIMING, name) for name in (
         "fill_entry_ticks", "fill_stepper_ticks", "fill_queued_entry_ticks", "fill_plan_ticks",
         "fill_cmd_ticks", "fill_coast_cmd_ticks", "fill_single_ticks", "fill_pause_ticks",
-        "fill_bare_pause_ticks", "fill_start_ticks", "fill_skips_done_ramps")})
+        "fill_bare_pause_ticks", "fill_start_ticks", "fill_skips_done_ramps")},
+    # the task's entry until its sei and its exit from its cli, read on Issue208 rebuilt
+    # (bench/replica/sketch_replica.py; docs/timing-model.md, "The upstream sketches'
+    # loop sections"): a step interrupt requested there enters 87 ticks after the task's
+    # entry (290 pulses), or 5 ticks after its reti, up to 83 ticks before it (296)
+    fill_mask_entry_ticks=87, fill_mask_exit_ticks=83 + 5)
 
 # ATmega32U4: Serial is the USB CDC port, output costs no UART time (the AVR simulator
 # has no USB host, so the firmware's prints return at once): a write call to the CDC
