@@ -98,3 +98,35 @@ def test_sketch_loops_hold_requests_inside_their_sections(loop: str) -> None:
     assert m.loop_hold(t0 + offset + ticks - 1, step_period, 0) == 1
     assert m.loop_hold(t0 + offset + ticks, step_period, 0) == 0
     m.poll_end()
+
+
+def test_fill_cmd_mask_sections_mask_each_command_as_laid_out() -> None:
+    """SimTiming.fill_cmd_mask_sections: each command the ramp task writes masks the
+    interrupts in those sections, placed before the write's end (off by default)."""
+    from dataclasses import replace
+
+    from fas import Engine
+    from fas.sim import SimBackend
+    from fas.sim.timing import UPSTREAM_TM_CMD_MASK_SECTIONS
+
+    def masks(sections: tuple[tuple[int, int], ...]) -> list[tuple[int, int]]:
+        b = SimBackend("atmega328p", build="upstream_time_measurement")
+        b.machine.timing = replace(b.machine.timing, fill_cmd_mask_sections=sections)
+        e = Engine(b)
+        e.init()
+        s = e.stepper_connect_to_pin(9)
+        s.set_speed_in_hz(20000)
+        s.set_acceleration(100000)
+        s.move(3000, blocking=True)
+        m = b.machine
+        return list(zip(m.exit_starts, m.exit_ends, strict=True))
+
+    plain = masks(())
+    laid = masks(UPSTREAM_TM_CMD_MASK_SECTIONS)
+    assert all(e - s == 83 + 5 for s, e in plain)  # only the task's exits
+    widths = [e - s for s, e in laid if e - s != 88]
+    pattern = [w for _, w in UPSTREAM_TM_CMD_MASK_SECTIONS]
+    runs = sum(widths[i:i + len(pattern)] == pattern for i in range(len(widths)))
+    assert runs >= 3  # whole commands' worth, in order
+    starts = [s for s, _ in laid]
+    assert starts == sorted(starts)  # the machine's masks stay in order
