@@ -17,7 +17,9 @@ examples/Issue280 | tar x -C DIR``), ``--simavr`` a simavr source tree.
 prints the counts and pulse-high figures upstream's evaluation prints for the step pin,
 and splits the pulse-high total by what held the step interrupt at each rise: nothing
 (alone), another interrupt (behind N), or the sketch loop's interrupts-off section
-(loop cli), with the loop sections' widths by the address that opens them.
+(loop cli), with the loop sections' widths by the address that opens them, and the
+ramp task's own interrupts-off spans (its entry, its exit, each inner section's width;
+with ``--mark 'StepperQueue::addQueueEntry('`` also its distance to the next write).
 """
 
 from __future__ import annotations
@@ -83,7 +85,8 @@ def run_sketch(args: argparse.Namespace) -> Path:
     exe = replica.build_runner(Path(args.simavr), work)
     prefix = work / (args.sketch + ("-m-" + "-".join(args.mark) if args.mark else ""))
     if not Path(f"{prefix}.ev").exists() or args.again:
-        env = {"TASK_VECTOR": "13", "QUEUES": "0", "PATH": "/usr/bin:/bin"}
+        env = {"TASK_VECTOR": "13", "QUEUES": "0", "PATH": "/usr/bin:/bin",
+               "TASK_SECTIONS": "1"}
         if args.mark:
             found, _ = replica.symbols(elf, tuple(args.mark))
             missing = [n for n in args.mark if n not in found]
@@ -183,6 +186,57 @@ def passes(prefix: Path) -> dict[int, collections.Counter[int]]:
     return out
 
 
+def task_sections(prefix: Path, vector: int = 13,
+                  write_mark: int | None = None) -> dict[str, collections.Counter[int]]:
+    """The ramp task's own interrupts-off spans (``TASK_SECTIONS``): "entry" (entry to its
+    sei), "exit" (its last cli to the reti) and per inner section's cli address its
+    widths; with ``write_mark`` (the mark index of ``addQueueEntry``) also, per address,
+    the task's own CPU ticks (nested interrupts left out) from the section's cli to the
+    task's next write ("before:ADDR")."""
+    out: dict[str, collections.Counter[int]] = collections.defaultdict(collections.Counter)
+    depth, cur, base, nested, nest_at = 0, None, 0, 0, 0
+    with open(f"{prefix}.ev") as f:
+        for line in f:
+            p = line.split()
+            c, k = int(p[0]), p[1]
+            if k == "V":
+                depth += 1
+                if depth == 1 and int(p[2]) == vector:
+                    cur, base, nested = [], c, 0
+                elif depth == 2:
+                    nest_at = c
+            elif k == "R":
+                if depth == 2 and cur is not None:
+                    nested += c - nest_at
+                depth = max(0, depth - 1)
+                if depth == 0 and cur is not None:
+                    _task_spans(cur, c - base - nested, out, write_mark)
+                    cur = None
+            elif (cur is not None and depth == 1 and k in ("c", "s", "M")
+                  and (k != "M" or write_mark is None or int(p[2]) == write_mark)):
+                cur.append((k, c - base - nested, p[2]))
+    return out
+
+
+def _task_spans(ev: list[tuple[str, int, str]], end: int,
+                out: dict[str, collections.Counter[int]], write_mark: int | None) -> None:
+    secs = [e for e in ev if e[0] in ("c", "s")]
+    if secs and secs[0][0] == "s":
+        out["entry"][secs[0][1]] += 1
+        secs = secs[1:]
+    if secs and secs[-1][0] == "c":
+        out["exit"][end - secs[-1][1]] += 1
+        secs = secs[:-1]
+    writes = [t for k, t, _ in ev if k == "M"]
+    for i in range(len(secs) - 1):
+        if secs[i][0] == "c" and secs[i + 1][0] == "s":
+            t, pc = secs[i][1], secs[i][2]
+            out[pc][secs[i + 1][1] - t] += 1
+            nxt = [w for w in writes if w >= t]
+            if write_mark is not None and nxt:
+                out[f"before:{pc}"][nxt[0] - t] += 1
+
+
 def marks(prefix: Path) -> list[tuple[int, int]]:
     """(cycle, mark index) of each call of a ``--mark`` function."""
     with open(f"{prefix}.ev") as f:
@@ -214,13 +268,24 @@ def cmd_report(args: argparse.Namespace) -> int:
         print(f"  {pc:#06x}: {len(ws):8d}  {min(ws)}/{statistics.median(ws):.0f}/{max(ws)}"
               f"  {mean}")
     lstarts = [s[0] for s in loops]
+    shown: collections.Counter[int] = collections.Counter()
     for c, k in marks(prefix):
+        shown[k] += 1
+        if shown[k] > 10:  # (a function called in every task: its first ten calls)
+            continue
         i = bisect.bisect_left(lstarts, c)
         first = f"first cli ends {loops[i][0] - c} ticks later ({loops[i][2]:#06x})" \
             if i < len(loops) else "no cli after it"
         sel = [(a, b) for a, b in step if a >= c]
         print(f"mark {args.mark[k]} at {c}: {first}; {len(sel)} pulses from it, "
               f"{sum(b - a for a, b in sel) / TPU:.1f} us high")
+    spans = task_sections(prefix, write_mark=(args.mark.index("StepperQueue::addQueueEntry(")
+                                              if "StepperQueue::addQueueEntry(" in args.mark
+                                              else None))
+    if spans:
+        print("ramp task's own interrupts-off spans (ticks: count), the commonest:")
+        for key, cn in sorted(spans.items(), key=lambda kv: -sum(kv[1].values())):
+            print(f"  {key:>12}: {sum(cn.values()):7d}  {cn.most_common(3)}")
     for name in ("EnableA", "DirA"):
         e = pe[PINS[name]]
         print(f"{name}: {sum(v for _, v in e)} L->H, {sum(1 - v for _, v in e)} H->L")

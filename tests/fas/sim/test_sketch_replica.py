@@ -130,3 +130,18 @@ def test_fill_cmd_mask_sections_mask_each_command_as_laid_out() -> None:
     assert runs >= 3  # whole commands' worth, in order
     starts = [s for s, _ in laid]
     assert starts == sorted(starts)  # the machine's masks stay in order
+
+
+def test_task_sections_split_entry_exit_inner_and_distance_to_the_write(tmp_path: Path) -> None:
+    ev = ("1000 V 13\n1085 s b24\n"            # entry: 85 ticks to its sei
+          "1200 c eca\n1243 s ede\n"           # an inner section of 43 ticks
+          "1300 V 11\n1422 R\n"                # a step interrupt nested: not the task's CPU
+          "1500 c 17d4\n1508 s 17e0\n"
+          "1555 M 0 0 0 0 0 0\n"               # the write: 55 - 0 ticks of task CPU after
+          "1600 c 1bca\n1683 R\n")             # exit: 83 ticks from its cli
+    prefix = write(tmp_path, "", ev)
+    got = sketch_replica.task_sections(prefix, write_mark=0)
+    assert got["entry"] == {85: 1} and got["exit"] == {83: 1}
+    assert got["eca"] == {43: 1} and got["17d4"] == {8: 1}
+    assert got["before:17d4"] == {55: 1}
+    assert got["before:eca"] == {1555 - 1200 - 122: 1}  # the nested interrupt left out
