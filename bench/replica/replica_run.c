@@ -10,6 +10,8 @@
  *                "cycle C pc" / "cycle S pc"    the main program (no interrupt running)
  *                turned interrupts off / on again at byte address pc (its critical
  *                sections: cli ... sei, or SREG saved and restored),
+ *                "cycle c pc" / "cycle s pc"  (only with TASK_SECTIONS) the same for the
+ *                ramp task's own code (TASK_VECTOR at depth 1; its entry is with them off),
  *                "cycle Q q rp wp t:s ..."   (only with READ_PC) the ramp task's fill read
  *                queue q's indices (ticksInQueue(), inlined: the instruction after its
  *                critical section, Z = the queue's next_write_idx): the indices and every
@@ -87,6 +89,7 @@ static void pin_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 }
 
 static int depth, loop_i = 1; /* interrupts running; the main program's I flag */
+static int task_sections, task_i; /* TASK_SECTIONS: the ramp task's own I flag too */
 static uint32_t last_pc;
 
 /* PROFILE: the ramp task's own cycles by function (the vectors entered, innermost last) */
@@ -153,6 +156,8 @@ static void record(void)
             vectors[depth] = vector;
         depth++;
         fprintf(ev, "%" PRIu64 " V %d", avr->cycle, vector);
+        if (depth == 1 && vector == task_vector)
+            task_i = 0; /* entered with interrupts off */
         if (vector == task_vector) {
             for (int q = 0; q < n_queues; q++) {
                 const uint8_t *b = avr->data + queue_base + QUEUE_SIZE * q;
@@ -164,6 +169,10 @@ static void record(void)
         }
         fputc('\n', ev);
         return;
+    }
+    if (task_sections && depth == 1 && vectors[0] == task_vector && avr->sreg[S_I] != task_i) {
+        task_i = avr->sreg[S_I]; /* the task's own sei / cli, by the instruction before */
+        fprintf(ev, "%" PRIu64 " %c %x\n", avr->cycle, task_i ? 's' : 'c', last_pc);
     }
     if (depth == 0 && avr->sreg[S_I] != loop_i) { /* by the instruction before this one */
         loop_i = avr->sreg[S_I];
@@ -253,6 +262,7 @@ int main(int argc, char **argv)
         n_queues = getenv("QUEUES") ? atoi(getenv("QUEUES")) : 0;
         queue_base = getenv("QUEUE_BASE") ? (int)strtoul(getenv("QUEUE_BASE"), NULL, 16) : 0;
     }
+    task_sections = getenv("TASK_SECTIONS") != NULL;
     if (getenv("READ_PC"))
         read_pc = (unsigned)strtoul(getenv("READ_PC"), NULL, 16);
     if (getenv("PROFILE"))

@@ -172,7 +172,11 @@ class SimBackend(Backend):
             end = m.now + cost
             if len(m.exit_starts) > 1024:
                 m._forget_isrs()  # noqa: SLF001
-            m.exit_starts.append(end - exit_ticks)
+            start = end - exit_ticks
+            while m.exit_ends and start < m.exit_ends[-1]:  # over a command's section
+                start = min(start, m.exit_starts.pop())  # (fill_cmd_mask_sections)
+                end = max(end, m.exit_ends.pop())
+            m.exit_starts.append(start)
             m.exit_ends.append(end)
             if end > m._quiet_from:  # noqa: SLF001
                 m._quiet_from = end  # noqa: SLF001

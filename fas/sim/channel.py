@@ -457,6 +457,13 @@ class SimChannel(QueueChannel):
                 # the command is written to the queue with interrupts off
                 end = m.now + m.task_offset
                 m.mask(end - p.fill_cmd_mask_ticks, end)
+            elif p.fill_cmd_mask_sections and self.contention:
+                end = m.now + m.task_offset
+                for before, ticks in p.fill_cmd_mask_sections:
+                    # (a short command: not before the sections already known)
+                    start = max(end - before, m.exit_ends[-1] if m.exit_ends else 0)
+                    if start < end - before + ticks:
+                        m.mask(start, end - before + ticks)
 
     def step_pin_high(self) -> bool:
         """Is a step pulse on the pin at this very tick?"""

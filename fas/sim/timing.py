@@ -71,6 +71,9 @@ class SimTiming:
     fill_mask_exit_ticks: int = 0
     # ... and for this long when it writes a command to the queue
     fill_cmd_mask_ticks: int = 0
+    # ... or in these sections per command written, as (ticks before the write's end,
+    # ticks with interrupts off), the earliest first (none: fill_cmd_mask_ticks alone)
+    fill_cmd_mask_sections: tuple[tuple[int, int], ...] = ()
     # the ramp task's work for each running stepper before its first command ...
     fill_stepper_ticks: int = 0
     # ... where it first sums the ticks of its queued entries (all but the running
@@ -361,7 +364,21 @@ AVR_UPSTREAM_TM_TIMING = replace(
     **{name: getattr(AVR_E_TIMING, name) for name in (
         "fill_entry_ticks", "fill_stepper_ticks", "fill_queued_entry_ticks", "fill_plan_ticks",
         "fill_cmd_ticks", "fill_coast_cmd_ticks", "fill_single_ticks", "fill_pause_ticks",
-        "fill_bare_pause_ticks", "fill_start_ticks", "fill_skips_done_ramps")})
+        "fill_bare_pause_ticks", "fill_start_ticks", "fill_skips_done_ramps")},
+    # the task's entry until its sei and its exit from its cli, read on Issue208 rebuilt
+    # (bench/replica/sketch_replica.py; docs/timing-model.md, "The upstream sketches'
+    # loop sections"): a step interrupt requested there enters 87 ticks after the task's
+    # entry (290 pulses), or 5 ticks after its reti, up to 83 ticks before it (296)
+    fill_mask_entry_ticks=87, fill_mask_exit_ticks=83 + 5)
+# the same sketch's ramp task between its entry and exit: per command it writes, six
+# sections with interrupts off, as (ticks of the task's own CPU before the write,
+# ticks): the ramp's state (43), the queue's fill level (10), the command's own write
+# (8 at 55 before it), and four the library makes before the next command's maths
+# (2, 53, 2, 13; counted here as the next write's).  Read on Issue208 rebuilt
+# (bench/replica/replica_run.c with TASK_SECTIONS; docs/timing-model.md, "The upstream
+# sketches' loop sections"); with fill_cmd_mask_sections, off by default: not landed
+UPSTREAM_TM_CMD_MASK_SECTIONS: tuple[tuple[int, int], ...] = (
+    (1916, 2), (1561, 53), (1483, 2), (1428, 13), (1240, 10), (1190, 43), (55, 8))
 
 # ATmega32U4: Serial is the USB CDC port, output costs no UART time (the AVR simulator
 # has no USB host, so the firmware's prints return at once): a write call to the CDC

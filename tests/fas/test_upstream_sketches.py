@@ -17,6 +17,8 @@ pulses mean "pass", one "fail" - that is checked like every other pin.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from fas import Engine
@@ -28,7 +30,8 @@ from fas.codes import (
     RampState,
 )
 from fas.sim import SimBackend
-from fas.sim.timing import sim_timing
+from fas.sim.sketch_loops import sketch_loop_poll
+from fas.sim.timing import UPSTREAM_TM_CMD_MASK_SECTIONS, sim_timing
 from stepperdemo.demo.testseq.rand import AvrRand
 from stepperdemo.scenarios.evaluate import pin_activity, position_from_pins
 
@@ -38,24 +41,51 @@ STEP_A, STEP_B, DIR_A, DIR_B, EN_A, EN_B = 9, 10, 5, 7, 6, 8
 class Sketch:
     """Arduino's view of the simulated chip: delay(), millis(), digitalWrite()."""
 
-    def __init__(self) -> None:
+    def __init__(self, loop_sections: bool = False, task_sections: bool = False) -> None:
         self.backend = SimBackend("atmega328p", record=True, build="upstream_time_measurement")
+        if task_sections:  # the ramp task's sections per command (off by default)
+            m = self.backend.machine
+            m.timing = replace(m.timing, fill_cmd_mask_sections=UPSTREAM_TM_CMD_MASK_SECTIONS)
+        # the sketch's own waiting loops' interrupts-off sections (fas.sim.sketch_loops):
+        # off by default, not landed
+        self.loop_sections = loop_sections
+        self.delay_starts: list[int] = []  # when each delay() began (ticks)
         self.backend.app_spend(sim_timing(self.backend.profile).boot_ticks)  # reset -> setup()
         self.backend.app_started()
         self.engine = Engine(self.backend)
         self.tps = self.backend.profile.ticks_per_s
 
+    def poll(self, loop: str):
+        """The waiting loop's sections where followed (None: not followed)."""
+        if not self.loop_sections:
+            return None
+        return sketch_loop_poll("upstream_time_measurement", self.backend.profile.name, loop)
+
     def delay(self, ms: int) -> None:
         b = self.backend
-        b.app_wait_until(b.now() + ms * self.tps // 1000)
+        self.delay_starts.append(b.now())
+        b.app_polls(self.poll("delay"))  # micros(), read over and over
+        try:
+            b.app_wait_until(b.now() + ms * self.tps // 1000)
+        finally:
+            b.app_polls(None)
 
     def millis(self) -> int:
         return self.backend.millis()
 
-    def busy_wait(self, condition) -> None:
-        """``while (condition()) {}``: the loop polls; time passes event by event."""
-        assert self.backend.wait_until(lambda: not condition(), 600 * self.tps)
-        self.backend.machine.resume()  # the loop polled; it goes on once the CPU is free
+    def busy_wait(self, condition, loop: str = "") -> None:
+        """``while (condition()) {}``: the loop polls; time passes event by event.
+        ``loop``: the loop's kind where it has interrupts-off sections."""
+        m = self.backend.machine
+        poll = self.poll(loop) if loop else None
+        if poll is not None:
+            m.poll_begin(*poll)
+        try:
+            assert self.backend.wait_until(lambda: not condition(), 600 * self.tps)
+        finally:
+            if poll is not None:
+                m.poll_end()
+        m.resume()  # the loop polled; it goes on once the CPU is free
 
     def print(self, text: str) -> None:
         self.backend.console_write(text.encode())
@@ -254,8 +284,8 @@ def test_issue173_force_stop_then_set_position_clears_the_target():
 
 
 # --------------------------------------------------------------------- Issue208
-def _issue208():
-    sk = Sketch()
+def _issue208(loop_sections: bool = False, task_sections: bool = False):
+    sk = Sketch(loop_sections, task_sections)
     sk.print("Init\r\n")
     sk.engine.init()
     sk.print("AVR\r\n9\r\n")
@@ -282,12 +312,12 @@ def _issue208():
     s.set_acceleration(10000)
     s.set_speed_in_hz(36800)
     s.run_forward()
-    sk.busy_wait(watch(True, RampState.COAST | RAMP_DIRECTION_COUNT_UP))
+    sk.busy_wait(watch(True, RampState.COAST | RAMP_DIRECTION_COUNT_UP), "speed_read")
     sk.delay(20)
     last[0] = s.get_current_speed_in_milli_hz(False)
     sk.print("Reverse\r\n")
     s.run_backward()
-    sk.busy_wait(watch(False, RampState.COAST | RAMP_DIRECTION_COUNT_DOWN))
+    sk.busy_wait(watch(False, RampState.COAST | RAMP_DIRECTION_COUNT_DOWN), "speed_read")
     s.stop_move()
     sk.signal(not errors)
     sk.print("PASS\r\n")
@@ -322,7 +352,7 @@ def test_issue208_longest_pulse_as_upstream(issue208):
     assert abs(int(pin_activity(sk.backend, STEP_A).high_max_us) - 9) <= 5
 
 
-@pytest.mark.xfail(strict=True, reason="measured Total High 915341 us; upstream 923729 +- 700 "
+@pytest.mark.xfail(strict=True, reason="measured Total High 916550 us; upstream 923729 +- 700 "
                    "us (issue 23 item 2: the pulses waiting behind other interrupts are "
                    "fewer or shorter than on the chip)")
 def test_issue208_pulse_high_time_as_upstream(issue208):
@@ -331,6 +361,100 @@ def test_issue208_pulse_high_time_as_upstream(issue208):
     sk.settle()
     a = pin_activity(sk.backend, STEP_A)
     assert abs(int(a.high_total_us) - 923729) <= 700
+
+
+# The sketch's own loops' interrupts-off sections (fas.sim.sketch_loops; off by default).
+# Issue208 rebuilt and run cycle by cycle (bench/replica/sketch_replica.py, FastAccelStepper
+# 1.2.7): its last delay(1000), the chip decelerating from 36.8 kHz, makes 31 969 pulses
+# with 127 621 us high in all, 5 639 of them held by micros()'s section.
+REPLICA_208_LAST_DELAY_HIGH_US = 127621
+# upstream's own band for a total high time, relative: 700 of 923 729 us (expect.txt)
+UPSTREAM_208_HIGH_BAND = 700 / 923729
+
+
+@pytest.fixture(scope="module")
+def issue208_sections():
+    return _issue208(loop_sections=True)
+
+
+def _high_us_from(sk: Sketch, start: int) -> float:
+    sk.settle()
+    times, levels = sk.backend.recorder.pin_edges(STEP_A)
+    total, rise = 0, None
+    for t, lv in zip(times, levels, strict=True):
+        if lv:
+            rise = t if t >= start else None
+        elif rise is not None:
+            total += t - rise
+            rise = None
+    return total / sk.backend.profile.ticks_per_us
+
+
+def test_issue208_with_loop_sections_still_as_upstream(issue208_sections):
+    """The same expect.txt figures as without the sections (counts, position, Max High)."""
+    sk, errors = issue208_sections
+    c = sk.counts()
+    assert not errors
+    assert abs(c["StepA"][0] - 234999) <= 120 and abs(c["StepA"][1] - 234999) <= 120
+    assert c["DirA"] == (0, 1) and c["StepB"] == (2, 2)
+    assert abs(sk.position(STEP_A, DIR_A) - 37271) <= 200
+    assert abs(int(pin_activity(sk.backend, STEP_A).high_max_us) - 9) <= 5
+
+
+def test_issue208_last_delay_sections_hold_pulses_as_the_rebuilt_sketch(issue208_sections,
+                                                                        issue208):
+    """micros()'s section in delay() holds step interrupts: the pulses of the last
+    delay(1000) come closer to the rebuilt sketch's high time with the sections followed
+    than without (without: 124 739 us)."""
+    on = _high_us_from(issue208_sections[0], issue208_sections[0].delay_starts[-1])
+    off = _high_us_from(issue208[0], issue208[0].delay_starts[-1])
+    assert abs(on - REPLICA_208_LAST_DELAY_HIGH_US) < abs(off - REPLICA_208_LAST_DELAY_HIGH_US)
+
+
+@pytest.mark.xfail(strict=True, reason="measured 128047 us; the rebuilt sketch 127621 "
+                   "+- 97 us (upstream's relative band for a total high time; the model's "
+                   "passes at a fixed pitch alias with the step period)")
+def test_issue208_last_delay_high_time_as_the_rebuilt_sketch(issue208_sections):
+    sk, _ = issue208_sections
+    high = _high_us_from(sk, sk.delay_starts[-1])
+    band = UPSTREAM_208_HIGH_BAND * REPLICA_208_LAST_DELAY_HIGH_US
+    assert abs(high - REPLICA_208_LAST_DELAY_HIGH_US) <= band
+
+
+@pytest.mark.xfail(strict=True, reason="measured Total High 922046 us with the sketch "
+                   "loop's sections; upstream 923729 +- 700 us (the rebuilt sketch: "
+                   "922944; short: the pulses held behind timer 0 and the ramp task's "
+                   "entry, docs/timing-model.md, \"The upstream sketches' loop sections\")")
+def test_issue208_pulse_high_time_with_loop_sections_as_upstream(issue208_sections):
+    sk, _ = issue208_sections
+    sk.settle()
+    assert abs(int(pin_activity(sk.backend, STEP_A).high_total_us) - 923729) <= 700
+
+
+@pytest.fixture(scope="module")
+def issue208_all_sections():
+    return _issue208(loop_sections=True, task_sections=True)
+
+
+def test_issue208_with_all_sections_still_as_upstream(issue208_all_sections):
+    """The sketch loop's sections and the ramp task's per command: the counts, position
+    and Max High of expect.txt still."""
+    sk, errors = issue208_all_sections
+    c = sk.counts()
+    assert not errors
+    assert abs(c["StepA"][0] - 234999) <= 120 and abs(c["StepA"][1] - 234999) <= 120
+    assert abs(sk.position(STEP_A, DIR_A) - 37271) <= 200
+    assert abs(int(pin_activity(sk.backend, STEP_A).high_max_us) - 9) <= 5
+
+
+def test_issue208_pulse_high_time_with_all_sections_as_upstream(issue208_all_sections):
+    """With both switches (off by default) StepA's Total High meets expect.txt's band:
+    923 263 us here.  Not landed as the default: the rebuilt sketch itself makes 922 944
+    (785 short of upstream's figure), and the variant's delay() half holds more than
+    the rebuilt sketch's (test_issue208_last_delay_high_time_as_the_rebuilt_sketch)."""
+    sk, _ = issue208_all_sections
+    sk.settle()
+    assert abs(int(pin_activity(sk.backend, STEP_A).high_total_us) - 923729) <= 700
 
 
 # --------------------------------------------------------------------- Issue250
