@@ -530,6 +530,10 @@ class StepperDemo(LoopProgram):
                         self.rejected += 1
                         self.print(msg.UNKNOWN_COMMAND)
                         self.println(cmd)
+                    elif self.build.cmd_tail_ticks and not self.waiting_interactive:
+                        tail = self.build.cmd_tail_ticks.get(chr(cmd[0]), 0)
+                        if tail:
+                            b.app_spend(tail)
                     if self.waiting_interactive or self.restart_pending:
                         # W blocks inside the command; a restart ends the old program
                         self.restart_pending = False

@@ -99,6 +99,9 @@ class DemoBuild:
     cmd_default_ticks: int = 0  # executing a command without its own figure
     # executing a command, by letter, without its prints and argument parsing
     cmd_ticks: dict[str, int] = field(default_factory=dict, compare=False)
+    # ... and, by letter, the command's CPU after its prints: the rest of the pass that ran
+    # it (empty: none; build d's replica, docs/timing-model.md, "thirty-fourth pass": off)
+    cmd_tail_ticks: dict[str, int] = field(default_factory=dict, compare=False)
     irq_block_ticks: int = 0  # `e`: length of one blocked section
     # an idle loop woken by a deadline of millis() (timer 0's overflow) reads millis()
     # where the pass the overflow interrupted gets to it: on average half a pass later
@@ -138,6 +141,22 @@ class DemoBuild:
 
 
 # ------------------------------------------------------------------------------ costs
+# build d's commands read from its replica (bench/replica/command_costs.py over its 60
+# runs; docs/timing-model.md, "thirty-fourth pass"): by letter, the CPU from the firmware's
+# process_cmd() entry to the command's first character handed to the serial driver
+# (interrupts out), less what the model charges there beside cmd_ticks (the argument's
+# characters, the message table's look-up before the first character, a number's
+# digits): the median over the runs.  Not set in any build (the pass's corpus table:
+# with it d34, dm09 and test_sd_18 still fail, the rest of the chain lies in the prints'
+# pacing and the command pass's tail).  '+', '-' and '?' are not read (their first
+# character waits for the step or for room in the serial buffer)
+BUILD_D_REPLICA_COMMANDS: dict[str, int] = {
+    "M": 515 + 64, "A": 680 - 165, "V": 528 - 15, "R": 552 - 87, "P": 596 - 118,
+    "a": 770 - 268, "j": 433 + 221, "J": 456 + 196, "E": 515 + 12, "D": 435 + 79,
+    "w": 461 - 98, "K": 128 + 109, "S": 145 + 195, "U": 156 + 103, "X": 323 - 90,
+    "f": 226 + 54, "b": 223 + 58, "e": 140 + 180, "r": 144 + 176, "u": 223 + 122,
+    "N": 319 - 102, "Q": 140 + 72, "H": 1110 - 489, "h": 1847 - 1197,
+}
 AVR_COSTS = DemoBuild(
     has_stray_digital_read=True,
     setup_head_ticks=2700,
