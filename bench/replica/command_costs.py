@@ -99,6 +99,43 @@ def model_hooks() -> Iterator[dict[str, list]]:
         setattr(app.StepperDemo, command_name, saved[3])
 
 
+def tails(tr: loop_passes.Trace, cmd_k: int, write_k: int, loop_k: int
+          ) -> list[tuple[int, int]]:
+    """Per ``process_cmd()`` entry but the last: (the pass's CPU before the entry, the CPU
+    from the last write call before the next entry to that entry - the rest of the
+    command's pass and the passes that read the next command's word -, interrupts out;
+    -1 if nothing was written in between)."""
+    cmds, writes, loops = tr.marks[cmd_k], tr.marks[write_k], tr.marks[loop_k]
+    out = []
+    for c, nxt in zip(cmds, cmds[1:], strict=False):
+        s = loops[bisect.bisect_right(loops, c) - 1]
+        head = c - s - tr.irq_between(s, c)
+        j = bisect.bisect_left(writes, nxt) - 1
+        if j < 0 or writes[j] < c:
+            out.append((head, -1))
+            continue
+        out.append((head, nxt - writes[j] - tr.irq_between(writes[j], nxt)))
+    return out
+
+
+def model_tails(log: dict[str, list]) -> list[int]:
+    """Per model command but the last: the CPU charged from its last console write call
+    before the next command to that command (-1 if nothing was written in between); the
+    write's own characters are in it (their char_ticks: the model charges them with the
+    write call)."""
+    writes = log["write"]
+    spend_t = [t for t, _ in log["spend"]]
+    out = []
+    for (t, _), (nxt, _) in zip(log["cmd"], log["cmd"][1:], strict=False):
+        j = bisect.bisect_left(writes, nxt) - 1
+        if j < 0 or writes[j] < t:
+            out.append(-1)
+            continue
+        a, b = bisect.bisect_left(spend_t, writes[j]), bisect.bisect_left(spend_t, nxt)
+        out.append(sum(x for _, x in log["spend"][a:b]))
+    return out
+
+
 def model_first_writes(log: dict[str, list]) -> list[tuple[str, int, int]]:
     """Per model command: (its text, its time, the CPU charged from it to the next
     console write; -1 if none)."""
@@ -115,14 +152,14 @@ def model_first_writes(log: dict[str, list]) -> list[tuple[str, int, int]]:
     return out
 
 
-def run_model(case: str) -> list[tuple[str, int, int]]:
-    """The model's commands of ``sequences/conformance/<case>.toml``, as
+def run_model(case: str) -> dict[str, list]:
+    """The model's log (:func:`model_hooks`) of ``sequences/conformance/<case>.toml``, as
     ``stepperdemo run`` runs it."""
     from stepperdemo.front.cli import main as stepperdemo_main
 
     with model_hooks() as log, contextlib.redirect_stdout(io.StringIO()):
         stepperdemo_main(["run", str(ROOT / "sequences" / "conformance" / f"{case}.toml")])
-    return model_first_writes(log)
+    return log
 
 
 def find_elf(fw: Path, line: str) -> Path | None:
@@ -179,6 +216,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--conformance", type=Path, default=ROOT.parent / "shared" / "conformance",
                     help="the firmware runs (each case's input.txt)")
     ap.add_argument("--ms", type=float, default=12000.0)
+    ap.add_argument("--tails", action="store_true",
+                    help="also each command's tail: its last print to the next command")
     args = ap.parse_args(argv)
     import d_corpus
 
@@ -188,7 +227,12 @@ def main(argv: list[str] | None = None) -> int:
 
     names = list(replica.MARK_NAMES) + [loop_passes.CALLS["stopMove"], *loop_passes.EXTRA]
     cmd_k, write_k = names.index("process_cmd("), names.index("HardwareSerial::write(")
+    loop_k = names.index("loop")
+    from fas.sim.timing import sim_timing
+
+    char_ticks = sim_timing(get_profile("atmega328p")).char_ticks
     pairs: list[tuple[str, int, int]] = []
+    tail_rows: dict[tuple[str, int], list[tuple[int, int]]] = collections.defaultdict(list)
     for case in args.cases:
         line = (args.conformance / case / "input.txt").read_text().strip()
         ev = args.work / f"{case}-loop.ev"
@@ -202,8 +246,13 @@ def main(argv: list[str] | None = None) -> int:
                                        "stopMove")
         with open(ev) as fh:
             tr = loop_passes.Trace(fh, replica.UNO.task_vector)
-        got = pair(first_writes(tr, cmd_k, write_k), run_model(case))
+        log = run_model(case)
+        got = pair(first_writes(tr, cmd_k, write_k), model_first_writes(log))
         pairs += got
+        for (text, _, _), (head, r), m in zip(got, tails(tr, cmd_k, write_k, loop_k),
+                                              model_tails(log), strict=False):
+            if r >= 0 and m >= 0 and text[0] not in NOT_READ:
+                tail_rows[(text[0], head)].append((r, m + char_ticks))
         print(f"{case}: " + ", ".join(f"{t} {r}/{m - r:+d}" for t, r, m in got))
     build = demo_build(get_profile("atmega328p"))
     print("letter  n  replica  model-replica [min max]  cmd_ticks read (model's)")
@@ -211,6 +260,14 @@ def main(argv: list[str] | None = None) -> int:
                                                         build.cmd_default_ticks):
         print(f"  {letter}  {n:3d}  {rmed:7.0f}  {med:+7.0f} [{lo:+d} {hi:+d}]  {read} "
               f"({build.cmd_ticks.get(letter, build.cmd_default_ticks)})")
+    if args.tails:
+        print("tails: last write call -> next command's process_cmd(), CPU (model: its "
+              "charges + one char_ticks)")
+        print("letter head  n  replica  model-replica [min max]")
+        for (letter, head), xs in sorted(tail_rows.items()):
+            diffs = [m - r for r, m in xs]
+            print(f"  {letter}  {head:4d} {len(xs):3d}  {statistics.median(r for r, _ in xs):7.0f}"
+                  f"  {statistics.median(diffs):+7.0f} [{min(diffs):+d} {max(diffs):+d}]")
     return 0
 
 

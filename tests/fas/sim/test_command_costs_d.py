@@ -45,6 +45,26 @@ def test_first_writes_take_the_interrupts_out() -> None:
     assert command_costs.first_writes(tr, CMD, WRITE) == [(1000, 2800), (9000, -1)]
 
 
+def test_a_commands_tail_runs_from_its_last_write_call_to_the_next_command() -> None:
+    loop = 5
+    tr = loop_passes.Trace([
+        f"900 M {loop} 0 0 0 0 0",      # the pass that runs the command, 100 in
+        f"1000 M {CMD} 0 0 0 0 0",
+        f"4000 M {WRITE} 0 0 0 0 0",
+        f"4107 M {WRITE} 0 0 0 0 0",    # its last write call ...
+        "5000 V 11",                     # (an interrupt of 300, taken out)
+        "5300 R",
+        f"5500 M {loop} 0 0 0 0 0",
+        f"9000 M {loop} 0 0 0 0 0",
+        f"9084 M {CMD} 0 0 0 0 0",      # ... to the next command: 4 977 - 300
+    ], TASK)
+    assert command_costs.tails(tr, CMD, WRITE, loop) == [(100, 4677)]
+    log = {"cmd": [(100, "A1000"), (5000, "U"), (6000, "S")],
+           "spend": [(100, 680), (780, 900), (2100, 330), (2430, 330), (5000, 156)],
+           "write": [2000]}
+    assert command_costs.model_tails(log) == [660, -1]  # U wrote nothing before S
+
+
 def test_the_models_first_writes_count_its_charges() -> None:
     log = {"cmd": [(100, "A1000"), (5000, "W")], "spend": [(100, 680), (780, 900), (9000, 5)],
            "write": [(2000,)[0]]}
