@@ -34,6 +34,9 @@ VARIANTS: dict[str, list[str]] = {
     # build d's commands' CPU to their first print, read from its replica (StepperDemo's
     # BUILD_D_REPLICA_COMMANDS)
     "L34": [f"cmd_ticks.{k}={v}" for k, v in demo_build_module.BUILD_D_REPLICA_COMMANDS.items()],
+    # ... and their tails after the print (BUILD_D_REPLICA_COMMAND_TAILS)
+    "T34": [f"cmd_tail_ticks.{k}={v}"
+            for k, v in demo_build_module.BUILD_D_REPLICA_COMMAND_TAILS.items()],
 }
 
 

@@ -157,6 +157,14 @@ BUILD_D_REPLICA_COMMANDS: dict[str, int] = {
     "f": 226 + 54, "b": 223 + 58, "e": 140 + 180, "r": 144 + 176, "u": 223 + 122,
     "N": 319 - 102, "Q": 140 + 72, "H": 1110 - 489, "h": 1847 - 1197,
 }
+# ... and their tails (cmd_tail_ticks), read where a stepper runs (the serial buffer has
+# room): from the command's last write call to the next command's process_cmd(), the
+# replica's CPU less the model's charges there (the library call that follows the print:
+# A's setAcceleration(), S's stopMove(); the rest of the command's pass): the median.
+# Not set in any build (with them the corpus is as with the commands alone)
+BUILD_D_REPLICA_COMMAND_TAILS: dict[str, int] = {
+    "A": 296, "S": 347, "V": 158, "R": 136, "U": 41, "K": 25, "f": 59, "P": 14, "a": 14,
+}
 AVR_COSTS = DemoBuild(
     has_stray_digital_read=True,
     setup_head_ticks=2700,
