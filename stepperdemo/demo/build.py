@@ -141,14 +141,14 @@ class DemoBuild:
 
 
 # ------------------------------------------------------------------------------ costs
-# build d's commands read from its replica (bench/replica/command_costs.py over its 60
+# build d's commands read from its replica (bench/replica/command_costs.py over 56 of its
 # runs; docs/timing-model.md, "thirty-fourth pass"): by letter, the CPU from the firmware's
 # process_cmd() entry to the command's first character handed to the serial driver
 # (interrupts out), less what the model charges there beside cmd_ticks (the argument's
 # characters, the message table's look-up before the first character, a number's
 # digits): the median over the runs.  Not set in any build (the pass's corpus table:
-# with it d34, dm09 and test_sd_18 still fail, the rest of the chain lies in the prints'
-# pacing and the command pass's tail).  '+', '-' and '?' are not read (their first
+# with it d34, dm09 and test_sd_18 still fail: the rest of their chain lies in the `w`
+# end's anchor, the interrupts' phase and the command pass's tail below).  '+', '-' and '?' are not read (their first
 # character waits for the step or for room in the serial buffer)
 BUILD_D_REPLICA_COMMANDS: dict[str, int] = {
     "M": 515 + 64, "A": 680 - 165, "V": 528 - 15, "R": 552 - 87, "P": 596 - 118,
