@@ -148,8 +148,9 @@ class DemoBuild:
 # characters, the message table's look-up before the first character, a number's
 # digits): the median over the runs.  Not set in any build (the pass's corpus table:
 # with it d34, dm09 and test_sd_18 still fail: the rest of their chain lies in the `w`
-# end's anchor, the interrupts' phase and the command pass's tail below).  '+', '-' and '?' are not read (their first
-# character waits for the step or for room in the serial buffer)
+# end's anchor, the interrupts' phase and the command pass's tail below).  '+', '-' and
+# '?' are not read (their first character waits for the step or for room in the serial
+# buffer)
 BUILD_D_REPLICA_COMMANDS: dict[str, int] = {
     "M": 515 + 64, "A": 680 - 165, "V": 528 - 15, "R": 552 - 87, "P": 596 - 118,
     "a": 770 - 268, "j": 433 + 221, "J": 456 + 196, "E": 515 + 12, "D": 435 + 79,
