@@ -37,6 +37,8 @@ VARIANTS: dict[str, list[str]] = {
     # ... and their tails after the print (BUILD_D_REPLICA_COMMAND_TAILS)
     "T34": [f"cmd_tail_ticks.{k}={v}"
             for k, v in demo_build_module.BUILD_D_REPLICA_COMMAND_TAILS.items()],
+    # ... and the pass that ends a `w<ms>` before its message (BUILD_D_REPLICA_PAUSE_END_TICKS)
+    "W34": [f"pause_end_ticks={demo_build_module.BUILD_D_REPLICA_PAUSE_END_TICKS}"],
 }
 
 

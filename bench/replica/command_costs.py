@@ -65,7 +65,7 @@ def model_hooks() -> Iterator[dict[str, list]]:
     from fas.sim import backend as bk
     from stepperdemo.demo import app
 
-    log: dict[str, list] = {"cmd": [], "spend": [], "write": []}
+    log: dict[str, list] = {"cmd": [], "spend": [], "write": [], "write_len": []}
     command_name = "_spend_command"  # StepperDemo's charge for a command, at its parse
     saved = (bk.SimBackend.app_spend, bk.SimBackend.app_spend_in,
              bk.SimBackend.console_write, getattr(app.StepperDemo, command_name))
@@ -81,6 +81,7 @@ def model_hooks() -> Iterator[dict[str, list]]:
 
     def h_write(self, data, cpu_after=None):  # type: ignore[no-untyped-def]
         log["write"].append(self.machine.now)
+        log["write_len"].append(len(data))
         return write(self, data, cpu_after)
 
     def h_command(self, cmd):  # type: ignore[no-untyped-def]
@@ -133,6 +134,35 @@ def model_tails(log: dict[str, list]) -> list[int]:
             continue
         a, b = bisect.bisect_left(spend_t, writes[j]), bisect.bisect_left(spend_t, nxt)
         out.append(sum(x for _, x in log["spend"][a:b]))
+    return out
+
+
+WAIT_COMPLETE_LEN = 14  # "Wait complete\n", one write in the model
+
+
+def pause_ends(tr: loop_passes.Trace, write_k: int, loop_k: int, log: dict[str, list],
+               near: int = 5000) -> list[tuple[int, int, int]]:
+    """Per `Wait complete` the model printed (a write of its 14 characters after the
+    table's look-up, one charge): (the replica's CPU from the start of the pass whose
+    write lies nearest - firmware time, within ``near`` - to that write, the model's
+    look-up charge, model - firmware time of the first character)."""
+    writes, loops = tr.marks[write_k], tr.marks[loop_k]
+    spend_t = [t for t, _ in log["spend"]]
+    out = []
+    for t, n in zip(log["write"], log["write_len"], strict=False):
+        i = bisect.bisect_left(spend_t, t) - 1
+        if n != WAIT_COMPLETE_LEN or i < 0:
+            continue
+        lead = log["spend"][i][1]
+        j = bisect.bisect_left(writes, t + LAG)
+        cands = writes[max(0, j - 3):j + 3]
+        if not cands:
+            continue
+        r = min(cands, key=lambda x: abs(x - LAG - t))
+        if abs(r - LAG - t) > near:
+            continue
+        start = loops[bisect.bisect_right(loops, r) - 1]
+        out.append((r - start - tr.irq_between(start, r), lead, t - (r - LAG)))
     return out
 
 
@@ -216,6 +246,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--conformance", type=Path, default=ROOT.parent / "shared" / "conformance",
                     help="the firmware runs (each case's input.txt)")
     ap.add_argument("--ms", type=float, default=12000.0)
+    ap.add_argument("--pause-ends", action="store_true",
+                    help="also each `Wait complete`: the CPU before it in its pass")
     ap.add_argument("--tails", action="store_true",
                     help="also each command's tail: its last print to the next command")
     args = ap.parse_args(argv)
@@ -233,6 +265,7 @@ def main(argv: list[str] | None = None) -> int:
     char_ticks = sim_timing(get_profile("atmega328p")).char_ticks
     pairs: list[tuple[str, int, int]] = []
     tail_rows: dict[tuple[str, int], list[tuple[int, int]]] = collections.defaultdict(list)
+    ends: list[tuple[int, int, int]] = []
     for case in args.cases:
         line = (args.conformance / case / "input.txt").read_text().strip()
         ev = args.work / f"{case}-loop.ev"
@@ -249,6 +282,7 @@ def main(argv: list[str] | None = None) -> int:
         log = run_model(case)
         got = pair(first_writes(tr, cmd_k, write_k), model_first_writes(log))
         pairs += got
+        ends += pause_ends(tr, write_k, loop_k, log)
         for (text, _, _), (head, r), m in zip(got, tails(tr, cmd_k, write_k, loop_k),
                                               model_tails(log), strict=False):
             if r >= 0 and m >= 0 and text[0] not in NOT_READ:
@@ -260,6 +294,12 @@ def main(argv: list[str] | None = None) -> int:
                                                         build.cmd_default_ticks):
         print(f"  {letter}  {n:3d}  {rmed:7.0f}  {med:+7.0f} [{lo:+d} {hi:+d}]  {read} "
               f"({build.cmd_ticks.get(letter, build.cmd_default_ticks)})")
+    if args.pause_ends and ends:
+        extra = [r - lead for r, lead, _ in ends]
+        print(f"pause ends: {len(ends)}; the replica's CPU from the pass's start to the first "
+              f"character less the model's look-up: median {statistics.median(extra):.0f} "
+              f"[{min(extra)} {max(extra)}]; the model's first character - the firmware's: "
+              f"median {statistics.median(d for _, _, d in ends):.0f}")
     if args.tails:
         print("tails: last write call -> next command's process_cmd(), CPU (model: its "
               "charges + one char_ticks)")

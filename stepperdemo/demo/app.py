@@ -507,6 +507,8 @@ class StepperDemo(LoopProgram):
             path = self.build.loop_pause_ticks
             if ((b.millis() - self.pause_start) & 0xFFFFFFFF) >= self.pause_ms:
                 self.pause_ms = 0
+                if self.build.pause_end_ticks:
+                    b.app_spend(self.build.pause_end_ticks)
                 self.print(msg.WAIT_COMPLETE)
         elif self.qs_hold is not None:
             qs_console.service_hold(self)

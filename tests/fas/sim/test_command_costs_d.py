@@ -26,6 +26,7 @@ from stepperdemo.demo.build import (  # noqa: E402
     AVR_COSTS,
     BUILD_D_REPLICA_COMMAND_TAILS,
     BUILD_D_REPLICA_COMMANDS,
+    BUILD_D_REPLICA_PAUSE_END_TICKS,
 )
 from stepperdemo.scenarios.runner import run_file  # noqa: E402
 
@@ -69,6 +70,23 @@ def test_a_commands_tail_runs_from_its_last_write_call_to_the_next_command() -> 
     assert command_costs.model_tails(log) == [660, -1]  # U wrote nothing before S
 
 
+def test_a_pause_end_is_read_from_its_passs_start() -> None:
+    loop = 5
+    tr = loop_passes.Trace([
+        f"1000 M {loop} 0 0 0 0 0",     # the pass that ends the pause ...
+        "1500 V 16",                     # (timer 0, 92: taken out)
+        "1592 R",
+        f"{1000 + 9613 + 92} M {WRITE} 0 0 0 0 0",  # ... its first character
+        f"20000 M {loop} 0 0 0 0 0",
+    ], TASK)
+    # the model (its times are the firmware's: the replica's less 96): the look-up charged
+    # at 904, its 14 characters 250 ticks before the firmware's first
+    log = {"spend": [(904, 9329)], "write": [1000 + 9613 + 92 - 96 - 250], "write_len": [14]}
+    assert command_costs.pause_ends(tr, WRITE, loop, log) == [(9613, 9329, -250)]
+    log["write_len"] = [13]  # not `Wait complete`
+    assert command_costs.pause_ends(tr, WRITE, loop, log) == []
+
+
 def test_the_models_first_writes_count_its_charges() -> None:
     log = {"cmd": [(100, "A1000"), (5000, "W")], "spend": [(100, 680), (780, 900), (9000, 5)],
            "write": [(2000,)[0]]}
@@ -101,9 +119,10 @@ def test_the_tails_read_are_the_running_rows_medians() -> None:
     P -14, a -14; `w` +28 (not a tail to add)."""
     assert BUILD_D_REPLICA_COMMAND_TAILS == {"A": 296, "S": 347, "V": 158, "R": 136,
                                              "U": 41, "K": 25, "f": 59, "P": 14, "a": 14}
+    assert BUILD_D_REPLICA_PAUSE_END_TICKS == 284  # 44 pause ends, 276-376
     builds = [*demo_build_module.BY_PROFILE.values(),
               *(b for table in demo_build_module.BY_BUILD.values() for b in table.values())]
-    assert all(b.cmd_tail_ticks == {} for b in builds)  # off in every build
+    assert all(b.cmd_tail_ticks == {} and b.pause_end_ticks == 0 for b in builds)  # off
 
 
 def _d_with(monkeypatch: pytest.MonkeyPatch, variants: list[str]) -> None:
@@ -201,3 +220,45 @@ def test_the_tool_as_a_user_runs_it() -> None:
     out = subprocess.run([sys.executable, "bench/replica/command_costs.py", "--help"],
                          cwd=ROOT, capture_output=True, text=True)
     assert out.returncode == 0 and "--conformance" in out.stdout
+
+
+def test_a_pause_ends_head_comes_before_its_message(monkeypatch: pytest.MonkeyPatch) -> None:
+    def wait_complete_at() -> list[int]:
+        with command_costs.model_hooks() as log:
+            run_file(ROOT / "sequences" / "conformance" / "d34.toml")
+        return [t for t, n in zip(log["write"], log["write_len"], strict=True) if n == 14]
+
+    _d_with(monkeypatch, ["D33", "P30", "L34", "T34"])
+    before = wait_complete_at()
+    d_corpus.set_build_d(d_corpus.VARIANTS["W34"])
+    after = wait_complete_at()
+    assert len(before) == len(after) == 2  # w1500 and w3000 end
+    assert all(284 <= b - a < 284 + 300 for a, b in zip(before, after, strict=True))
+
+
+# the pause end read as well: d34 passes and d21's known deviation is met (the firmware's
+# figures); test_sd_07's pulse-high total goes out
+def test_with_the_pause_end_read_d34_and_d21_meet_the_firmware(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    _d_with(monkeypatch, ["D33", "P30", "L34", "T34", "W34"])
+    d34 = _check("d34", "A position")
+    assert d34.measured == 784 and abs(d34.measured - d34.expected) <= d34.tolerance
+    d21 = _check("d21", "A position")
+    assert d21.measured == 5354 and abs(d21.measured - d21.expected) <= d21.tolerance
+
+
+@pytest.mark.parametrize("name,what,measured", [
+    pytest.param("test_sd_07_328p", "A pulse high total us", 412, marks=pytest.mark.xfail(
+        strict=True, reason="test_sd_07 412 us against 420 +- 7.05 with D33 P30 L34 T34 W34")),
+    pytest.param("dm09", "A position", 4231, marks=pytest.mark.xfail(
+        strict=True, reason="dm09 4 231 steps against 4 284 +- 21 with D33 P30 L34 T34 W34")),
+    pytest.param("test_sd_18_328p", "A step time max |dev| us", 106179,
+                 marks=pytest.mark.xfail(strict=True, reason="test_sd_18 a step 106 179 us "
+                                         "late against 0 +- 336 with D33 P30 L34 T34 W34")),
+])
+def test_build_d_checks_with_the_pause_end_read(
+        monkeypatch: pytest.MonkeyPatch, name: str, what: str, measured: int) -> None:
+    _d_with(monkeypatch, ["D33", "P30", "L34", "T34", "W34"])
+    check = _check(name, what)
+    assert round(check.measured) == measured  # (the value the reason names)
+    assert abs(check.measured - check.expected) <= check.tolerance
