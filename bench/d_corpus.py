@@ -31,6 +31,14 @@ VARIANTS: dict[str, list[str]] = {
     "D33": [f"{k}={v}" for k, v in sim_timing_module.BUILD_D_REPLICA_TASK.items()],
     "P30": [f"{k}={'+' if k == 'task_phase_ticks' else ''}{v}"
             for k, v in sim_timing_module.BUILD_D_REPLICA_PHASES.items()],
+    # build d's commands' CPU to their first print, read from its replica (StepperDemo's
+    # BUILD_D_REPLICA_COMMANDS)
+    "L34": [f"cmd_ticks.{k}={v}" for k, v in demo_build_module.BUILD_D_REPLICA_COMMANDS.items()],
+    # ... and their tails after the print (BUILD_D_REPLICA_COMMAND_TAILS)
+    "T34": [f"cmd_tail_ticks.{k}={v}"
+            for k, v in demo_build_module.BUILD_D_REPLICA_COMMAND_TAILS.items()],
+    # ... and the pass that ends a `w<ms>` before its message (BUILD_D_REPLICA_PAUSE_END_TICKS)
+    "W34": [f"pause_end_ticks={demo_build_module.BUILD_D_REPLICA_PAUSE_END_TICKS}"],
 }
 
 
@@ -41,6 +49,10 @@ def set_build_d(settings: list[str]) -> None:
     d_fields = {f.name for f in dataclasses.fields(demo_build_module.DemoBuild)}
     for setting in settings:
         name, sep, value = setting.partition("=")
+        table_name, dot, letter = name.partition(".")
+        if sep and dot and table_name in ("cmd_ticks", "cmd_tail_ticks") and len(letter) == 1:
+            _set_cmd_ticks(setting, table_name, letter, value)
+            continue
         if not sep or name not in t_fields | d_fields:
             raise ValueError(f"--set {setting!r}: not FIELD=VALUE with a SimTiming or "
                              "DemoBuild field")
@@ -59,6 +71,21 @@ def set_build_d(settings: list[str]) -> None:
                 except ValueError:
                     raise ValueError(f"--set {setting!r}: {value!r} is not a number") from None
             table[key] = dataclasses.replace(table[key], **{name: new})
+
+
+def _set_cmd_ticks(setting: str, table_name: str, letter: str, value: str) -> None:
+    """``cmd_ticks.<letter>=VALUE`` / ``cmd_tail_ticks.<letter>=VALUE`` (or ``+N`` / ``-N``):
+    one command's cost in build d's ATmega328P StepperDemo (cmd_ticks' default:
+    ``cmd_default_ticks``; cmd_tail_ticks': 0)."""
+    build = demo_build_module.BY_PROFILE["atmega328p"]
+    table: dict[str, int] = getattr(build, table_name)
+    current = table.get(letter, build.cmd_default_ticks if table_name == "cmd_ticks" else 0)
+    try:
+        new = current + int(value) if value[:1] in "+-" else int(value)
+    except ValueError:
+        raise ValueError(f"--set {setting!r}: {value!r} is not a number") from None
+    demo_build_module.BY_PROFILE["atmega328p"] = dataclasses.replace(
+        build, **{table_name: {**table, letter: new}})
 
 
 def main(argv: list[str] | None = None) -> int:

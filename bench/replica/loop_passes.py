@@ -41,7 +41,8 @@ CALLS = {"stopMove": "FastAccelStepper::stopMove(", "move": "FastAccelStepper::m
          "moveTo": "FastAccelStepper::moveTo(",
          "applySpeedAcceleration": "FastAccelStepper::applySpeedAcceleration(",
          "moveByAcceleration": "FastAccelStepper::moveByAcceleration("}
-EXTRA = ("loop", "FastAccelStepper::isRunning(", "millis")
+EXTRA = ("loop", "FastAccelStepper::isRunning(", "millis", "HardwareSerial::write(",
+         "process_cmd(")
 
 
 def addresses(elf: Path, names: Sequence[str]) -> dict[str, int]:

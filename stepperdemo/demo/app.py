@@ -507,6 +507,8 @@ class StepperDemo(LoopProgram):
             path = self.build.loop_pause_ticks
             if ((b.millis() - self.pause_start) & 0xFFFFFFFF) >= self.pause_ms:
                 self.pause_ms = 0
+                if self.build.pause_end_ticks:
+                    b.app_spend(self.build.pause_end_ticks)
                 self.print(msg.WAIT_COMPLETE)
         elif self.qs_hold is not None:
             qs_console.service_hold(self)
@@ -530,6 +532,10 @@ class StepperDemo(LoopProgram):
                         self.rejected += 1
                         self.print(msg.UNKNOWN_COMMAND)
                         self.println(cmd)
+                    elif self.build.cmd_tail_ticks and not self.waiting_interactive:
+                        tail = self.build.cmd_tail_ticks.get(chr(cmd[0]), 0)
+                        if tail:
+                            b.app_spend(tail)
                     if self.waiting_interactive or self.restart_pending:
                         # W blocks inside the command; a restart ends the old program
                         self.restart_pending = False

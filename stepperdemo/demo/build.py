@@ -99,7 +99,14 @@ class DemoBuild:
     cmd_default_ticks: int = 0  # executing a command without its own figure
     # executing a command, by letter, without its prints and argument parsing
     cmd_ticks: dict[str, int] = field(default_factory=dict, compare=False)
+    # ... and, by letter, the command's CPU after its prints: the rest of the pass that ran
+    # it (empty: none; build d's replica, docs/timing-model.md, "thirty-sixth pass": off)
+    cmd_tail_ticks: dict[str, int] = field(default_factory=dict, compare=False)
     irq_block_ticks: int = 0  # `e`: length of one blocked section
+    # the pass that ends a `w<ms>` pause: its CPU before `Wait complete`'s first character
+    # beyond the message table's look-up (the pass's head, millis(), the check), spent
+    # there (0: none; build d's replica, docs/timing-model.md, "thirty-sixth pass": off)
+    pause_end_ticks: int = 0
     # an idle loop woken by a deadline of millis() (timer 0's overflow) reads millis()
     # where the pass the overflow interrupted gets to it: on average half a pass later
     # (the pass's phase at the overflow is not kept; False: at once)
@@ -138,6 +145,36 @@ class DemoBuild:
 
 
 # ------------------------------------------------------------------------------ costs
+# build d's commands read from its replica (bench/replica/command_costs.py over 56 of its
+# runs; docs/timing-model.md, "thirty-sixth pass"): by letter, the CPU from the firmware's
+# process_cmd() entry to the command's first character handed to the serial driver
+# (interrupts out), less what the model charges there beside cmd_ticks (the argument's
+# characters, the message table's look-up before the first character, a number's
+# digits): the median over the runs.  Not set in any build (the pass's corpus table:
+# with it d34, dm09 and test_sd_18 still fail: the rest of their chain lies in the `w`
+# end's anchor, the interrupts' phase and the command pass's tail below).  '+', '-' and
+# '?' are not read (their first character waits for the step or for room in the serial
+# buffer)
+BUILD_D_REPLICA_COMMANDS: dict[str, int] = {
+    "M": 515 + 64, "A": 680 - 165, "V": 528 - 15, "R": 552 - 87, "P": 596 - 118,
+    "a": 770 - 268, "j": 433 + 221, "J": 456 + 196, "E": 515 + 12, "D": 435 + 79,
+    "w": 461 - 98, "K": 128 + 109, "S": 145 + 195, "U": 156 + 103, "X": 323 - 90,
+    "f": 226 + 54, "b": 223 + 58, "e": 140 + 180, "r": 144 + 176, "u": 223 + 122,
+    "N": 319 - 102, "Q": 140 + 72, "H": 1110 - 489, "h": 1847 - 1197,
+}
+# ... and their tails (cmd_tail_ticks), read where a stepper runs (the serial buffer has
+# room): from the command's last write call to the next command's process_cmd(), the
+# replica's CPU less the model's charges there (the library call that follows the print:
+# A's setAcceleration(), S's stopMove(); the rest of the command's pass): the median.
+# Not set in any build (with them the corpus is as with the commands alone)
+BUILD_D_REPLICA_COMMAND_TAILS: dict[str, int] = {
+    "A": 296, "S": 347, "V": 158, "R": 136, "U": 41, "K": 25, "f": 59, "P": 14, "a": 14,
+}
+# ... and the pass that ends a `w<ms>`: its CPU from the pass's start to `Wait complete`'s
+# first character less the model's look-up of that message (9 329): 284 ticks, the median
+# of all 44 such passes of the runs (276-376) - for pause_end_ticks.  Not set in any build
+# (with it and the three above the corpus fails test_sd_07's pulse-high total)
+BUILD_D_REPLICA_PAUSE_END_TICKS = 284
 AVR_COSTS = DemoBuild(
     has_stray_digital_read=True,
     setup_head_ticks=2700,
