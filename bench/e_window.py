@@ -17,6 +17,10 @@ e01.., with ``--set`` / ``--variant`` as in ``e_fidelity.py``):
 * ``--margins``: each held compare's margin (the next compare less the block's end,
   ticks), missed or kept, in 25-tick bins, split by whether another stepper's compare
   fell in the same block.
+* ``--phases SPAN STEP``: the model's run again with each window's first block 0..SPAN
+  ticks later (``e_fidelity.py --phase``'s probe): per window, how many phases make each
+  count of wraps, with their steps, held compares and those held in a block's first 200
+  ticks, beside the firmware's.
 * ``--pitches``: per window, the blocks' pitch (one block's start to the next) by what
   fell in the pass: the pin's compares and the other steppers' (count, commonest
   pitches).
@@ -44,6 +48,7 @@ WRAP_MIN = 60_000  # an interval this long holds a wrap
 WINDOW_TICKS = round(ef.WINDOW_PERIOD_US * TICKS_PER_US)
 SPAN_TICKS = round(ef.WINDOW_SPAN_US * TICKS_PER_US)
 PLACE_BIN, MARGIN_BIN = 200, 25
+WINDOW_GAP_US = 50_000  # a block this long after the last one starts a window (e_fidelity)
 MARGIN_RANGE = (-100, 250)
 
 Span = tuple[int, int]
@@ -174,12 +179,43 @@ def tracks(conf: Path, case: str) -> tuple[dict[str, tuple[list[int], list[int]]
     return out, ef.firmware_blocks(folder), ours
 
 
+def phase_rows(conf: Path, case: str, pin: str, windows: Sequence[int], span: int,
+               step: int) -> dict[int, list[tuple[int, int, int, int]]]:
+    """The model's window over the window start's phase (each window's first block
+    ``0..span`` ticks later, as ``e_fidelity.py --phase``): {window: [(missed, steps in
+    the blocks' span, held, held in the block's first 200 ticks) per phase]}."""
+    folder = conf / case
+    text = (folder / "input.txt").read_text().strip()
+    out: dict[int, list[tuple[int, int, int, int]]] = {w: [] for w in windows}
+    for shift in range(0, span + 1, step):
+        backend = ef.SimBackend(ef.PROFILE.get(case, "atmega328p"), record=True,
+                                build=ef.build_of(case))
+        m, block, last = backend.machine, backend.block_interrupts, [-(1 << 62)]
+        blocks: list[Span] = []
+        m.block_listeners.append(lambda a, b, blocks=blocks: blocks.append((a, b)))
+
+        def delayed(ticks: int, m=m, block=block, last=last, shift=shift) -> None:
+            if m.now - last[0] > WINDOW_GAP_US * TICKS_PER_US:
+                m.consume(shift)  # the loop reaches its check later in the pass
+            block(ticks)
+            last[0] = m.now
+
+        backend.block_interrupts = delayed  # type: ignore[method-assign]
+        ef.make_program("demo", backend, scripted=True).run_script(text, firmware_end=True)
+        sp = next(p for p in ef.stepper_pins(backend.profile) if p.letter == pin)
+        rises = [round(t * TICKS_PER_US) for t in ef.step_times_us(backend, sp.step)]
+        for w in windows:
+            r = window_rows(rises, blocks, w)
+            out[w].append((r["missed"], r["steps"], r["held"], r["place"].get(0, 0)))
+    return out
+
+
 def _bins(c: Counter, lo: int, hi: int, step: int) -> str:
     return " ".join(str(c.get(b, 0)) for b in range(lo, hi, step))
 
 
 def report(conf: Path, case: str, pin: str, windows: list[int], show_margins: bool,
-           show_pitches: bool) -> int:
+           show_pitches: bool, phases: tuple[int, int] | None = None) -> int:
     tr, fw_blocks, model_blocks = tracks(conf, case)
     if pin not in tr:
         print(f"e_window: {case} has no pin {pin} (pins: {' '.join(sorted(tr))})", file=sys.stderr)
@@ -212,6 +248,21 @@ def report(conf: Path, case: str, pin: str, windows: list[int], show_margins: bo
                 cells = " ".join(f"{b}:{m[other].get((b, True), 0)}/{m[other].get((b, False), 0)}"
                                  for b in range(*MARGIN_RANGE, MARGIN_BIN))
                 print(f"  {name}, other stepper {'held' if other else 'not held'}: {cells}")
+    if phases:
+        span, step = phases
+        print(f"the model over the window start's phase (0-{span} ticks, every {step}):")
+        for w, rows in phase_rows(conf, case, pin, windows, span, step).items():
+            fw = window_rows(fr, fw_blocks, w)
+            cells = []
+            for k in sorted({r[0] for r in rows}):
+                g = [r for r in rows if r[0] == k]
+                n = len(g)
+                cells.append(f"{k} wraps at {n} phases (steps {sum(r[1] for r in g) / n:.0f}, "
+                             f"held {sum(r[2] for r in g) / n:.0f}, in the first 200 ticks "
+                             f"{sum(r[3] for r in g) / n:.1f})")
+            print(f"  window {w}: firmware {fw['missed']} wraps (steps {fw['steps']}, held "
+                  f"{fw['held']}, in the first 200 ticks {fw['place'].get(0, 0)}); model: "
+                  + "; ".join(cells))
     if show_pitches:
         for w in windows:
             print(f"pitches in window {w}: (compares of {pin}, others') count, commonest")
@@ -230,6 +281,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--variant", action="append", default=[], choices=sorted(ef.VARIANTS))
     ap.add_argument("--margins", action="store_true")
     ap.add_argument("--pitches", action="store_true")
+    ap.add_argument("--phases", type=int, nargs=2, metavar=("SPAN", "STEP"),
+                    help="the model's windows over the window start's phase, 0..SPAN ticks")
     ap.add_argument("case")
     ap.add_argument("pin")
     ap.add_argument("windows", nargs="*", type=int)
@@ -243,7 +296,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"e_window: {exc}", file=sys.stderr)
         return 2
     return report(args.conformance, args.case, args.pin, args.windows, args.margins,
-                  args.pitches)
+                  args.pitches, tuple(args.phases) if args.phases else None)
 
 
 if __name__ == "__main__":

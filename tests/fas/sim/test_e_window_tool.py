@@ -102,3 +102,12 @@ def test_e09_a_runs_the_firmware_s_ramp_and_its_last_window_differs_by_its_wraps
 def test_bad_input_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert e_window.main(["--conformance", str(tmp_path), "e09", "A"]) == 2
     assert "no firmware run e09" in capsys.readouterr().err
+
+
+def test_the_phase_probe_at_phase_0_is_the_plain_run_and_later_starts_move_the_wraps() -> None:
+    rows = e_window.phase_rows(CONF, "e09", "A", [8], 200, 100)[8]
+    # phase 0 is the model's own run: 13 wraps, 119 steps in the blocks' span, 77 held
+    assert rows[0] == (13, 119, 77, 13)
+    # the window's first blocks later: the same window makes another count of wraps and
+    # held compares (the count is a sample of where the blocks fall, not a fixed figure)
+    assert len(rows) == 3 and len({r[:3] for r in rows}) > 1
