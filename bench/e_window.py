@@ -21,6 +21,10 @@ e01.., with ``--set`` / ``--variant`` as in ``e_fidelity.py``):
   ticks later (``e_fidelity.py --phase``'s probe): per window, how many phases make each
   count of wraps, with their steps, held compares and those held in a block's first 200
   ticks, beside the firmware's.
+* ``--replica PREFIX``: a replica run (``replica.py steps``'s ``PREFIX.pins`` and
+  ``.ev``) in the model's column, less its lead over the firmware's first step: e.g. the
+  firmware rebuilt with its input line changed by a space, to read the firmware's own
+  spread of a window's count.
 * ``--pitches``: per window, the blocks' pitch (one block's start to the next) by what
   fell in the pass: the pin's compares and the other steppers' (count, commonest
   pitches).
@@ -39,6 +43,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE / "replica"))
 
 import e_fidelity as ef  # noqa: E402
 
@@ -210,13 +215,36 @@ def phase_rows(conf: Path, case: str, pin: str, windows: Sequence[int], span: in
     return out
 
 
+REPLICA_PINS = {"A": "B1", "B": "B2"}  # the ATmega328P's OC1A / OC1B: steppers A and B
+
+
+def replica_tracks(prefix: Path, firmware: dict[str, tuple[list[int], list[int]]]
+                   ) -> tuple[dict[str, list[int]], list[Span]]:
+    """A replica run's rises per pin and blocks (``PREFIX.pins``, ``PREFIX.ev``), less its
+    lead over the firmware (its first step of A less the firmware's)."""
+    from block_pulses import replica_blocks
+    from pulse_widths import replica_rises
+
+    pins, ev = prefix.with_suffix(".pins"), prefix.with_suffix(".ev")
+    rises = {k: replica_rises(pins, v) for k, v in REPLICA_PINS.items() if k in firmware}
+    lag = rises["A"][0] - firmware["A"][0][0]
+    with open(ev) as f:
+        blocks = replica_blocks(f, lag)
+    return {k: [t - lag for t in v] for k, v in rises.items()}, blocks
+
+
 def _bins(c: Counter, lo: int, hi: int, step: int) -> str:
     return " ".join(str(c.get(b, 0)) for b in range(lo, hi, step))
 
 
 def report(conf: Path, case: str, pin: str, windows: list[int], show_margins: bool,
-           show_pitches: bool, phases: tuple[int, int] | None = None) -> int:
+           show_pitches: bool, phases: tuple[int, int] | None = None,
+           replica: Path | None = None) -> int:
     tr, fw_blocks, model_blocks = tracks(conf, case)
+    if replica is not None:  # the replica's run in the model's place
+        rr, model_blocks = replica_tracks(replica, tr)
+        tr = {k: (v[0], rr[k]) for k, v in tr.items() if k in rr}
+        print(f"(the model's column: the replica run {replica})")
     if pin not in tr:
         print(f"e_window: {case} has no pin {pin} (pins: {' '.join(sorted(tr))})", file=sys.stderr)
         return 2
@@ -283,6 +311,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pitches", action="store_true")
     ap.add_argument("--phases", type=int, nargs=2, metavar=("SPAN", "STEP"),
                     help="the model's windows over the window start's phase, 0..SPAN ticks")
+    ap.add_argument("--replica", type=Path, metavar="PREFIX",
+                    help="a replica run (PREFIX.pins, PREFIX.ev; ATmega328P) in the model's place, "
+                         "e.g. the same firmware with the input changed")
     ap.add_argument("case")
     ap.add_argument("pin")
     ap.add_argument("windows", nargs="*", type=int)
@@ -296,7 +327,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"e_window: {exc}", file=sys.stderr)
         return 2
     return report(args.conformance, args.case, args.pin, args.windows, args.margins,
-                  args.pitches, tuple(args.phases) if args.phases else None)
+                  args.pitches, tuple(args.phases) if args.phases else None, args.replica)
 
 
 if __name__ == "__main__":

@@ -111,3 +111,16 @@ def test_the_phase_probe_at_phase_0_is_the_plain_run_and_later_starts_move_the_w
     # the window's first blocks later: the same window makes another count of wraps and
     # held compares (the count is a sample of where the blocks fall, not a fixed figure)
     assert len(rows) == 3 and len({r[:3] for r in rows}) > 1
+
+
+def test_a_replica_run_takes_the_model_s_column_less_its_lead(tmp_path: Path) -> None:
+    lead = 61
+    (tmp_path / "r.pins").write_text(
+        f"{1000 + lead} B1 1\n{1065 + lead} B1 0\n{3000 + lead} B1 1\n{3065 + lead} B1 0\n"
+        f"{2000 + lead} B2 1\n{2070 + lead} B2 0\n")
+    (tmp_path / "r.ev").write_text(f"{2900 + lead} C 0\n{2900 + 1582 + lead} S 0\n"
+                                   f"{5000 + lead} C 0\n{5010 + lead} S 0\n")
+    firmware = {"A": ([1000, 3000], []), "B": ([2000], [])}
+    rises, blocks = e_window.replica_tracks(tmp_path / "r", firmware)
+    assert rises == {"A": [1000, 3000], "B": [2000]}
+    assert blocks == [(2900, 2900 + 1582)]  # a short section is not an `e` block
