@@ -1,6 +1,8 @@
 """A build-d `e` run against its replica, pulse by pulse: the blocks, the pulses they
 hold, the step train's offset and the UART's phase (docs/timing-model.md, "thirty-first
-pass").
+pass").  Build d only: the model runs in build d and ``--set`` edits build d's tables, so
+a build-e run (e01..) is refused; ``bench/e_window.py`` compares those from the
+conformance folder's measured blocks (thirty-eighth pass).
 
 From a replica run (``WORK/CASE[-TAG].pins`` and ``.ev``, less the replica's lead over
 the firmware, ``--lag``) and the model's run of the same input in build d (ATmega328P):
@@ -35,6 +37,7 @@ import argparse
 import bisect
 import collections
 import dataclasses
+import re
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -46,6 +49,7 @@ sys.path.insert(0, str(HERE.parent))
 from fas.sim import timing as sim_timing_module  # noqa: E402
 from stepperdemo.demo import build as demo_build_module  # noqa: E402
 
+BUILD_E_CASE = re.compile(r"e\d+")  # the conformance's build-e runs (not this tool's)
 BLOCK_TICKS = (1500, 1700)  # a 100 us block: cli ... SREG restore
 WINDOW_GAP = 100_000  # blocks further apart belong to different windows
 UART_VECTOR, VECTOR_ENTRY = 19, 4  # the ATmega328P's USART_UDRE, the hardware's entry
@@ -307,6 +311,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     suffix = f"-{args.tag}" if args.tag else ""
     for case in args.cases:
+        if BUILD_E_CASE.fullmatch(case):
+            print(f"{case}: a build-e run; this tool runs the model in build d (use "
+                  "bench/e_window.py on the conformance folder's blocks)")
+            continue
         ev, pins = (args.work / f"{case}{suffix}.ev", args.work / f"{case}{suffix}.pins")
         if not ev.exists() or not pins.exists():
             print(f"{case}: no replica run {ev} / {pins}")

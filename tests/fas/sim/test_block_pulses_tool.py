@@ -90,3 +90,13 @@ def test_the_models_tasks_carry_the_cpu_they_charge() -> None:
     tasks = block_pulses.model_tasks("M1 A2000 V40 R40 W")
     entry = sim_timing_module.AVR_TIMING.fill_entry_ticks
     assert len(tasks) > 10 and all(cpu >= entry for _, cpu in tasks)
+
+
+def test_a_build_e_run_is_refused_not_compared_with_build_d(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # the model runs in build d and --set edits build d's tables: e09 (build e) would be
+    # a build-d model against a build-e replica
+    (tmp_path / "e09-x.ev").write_text("0 C 0\n")
+    (tmp_path / "e09-x.pins").write_text("")
+    assert block_pulses.main(["--work", str(tmp_path), "--tag", "x", "e09"]) == 0
+    assert "e09: a build-e run" in capsys.readouterr().out
