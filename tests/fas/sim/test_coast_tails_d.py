@@ -73,6 +73,9 @@ def test_a_true_coast_is_a_coast_either_way(monkeypatch: pytest.MonkeyPatch) -> 
     same_period = _task_cpu(monkeypatch, FAST)
     d_corpus.set_build_d(d_corpus.VARIANTS["C37"])
     assert _task_cpu(monkeypatch, FAST) == same_period
+    d_corpus.set_build_d(["fill_coast_cmd_ticks=+1000"])  # (it has coasts: they cost more)
+    coasts = _task_cpu(monkeypatch, FAST)[1] - same_period[1]
+    assert coasts > 0 and coasts % 1000 == 0
 
 
 def test_the_field_is_off_in_every_build() -> None:
