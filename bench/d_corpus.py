@@ -39,6 +39,12 @@ VARIANTS: dict[str, list[str]] = {
             for k, v in demo_build_module.BUILD_D_REPLICA_COMMAND_TAILS.items()],
     # ... and the pass that ends a `w<ms>` before its message (BUILD_D_REPLICA_PAUSE_END_TICKS)
     "W34": [f"pause_end_ticks={demo_build_module.BUILD_D_REPLICA_PAUSE_END_TICKS}"],
+    # ... and `H` / `X` given while a stepper runs (BUILD_D_REPLICA_RUNNING_TAILS)
+    "T37": [f"cmd_tail_ticks.{k}={v}"
+            for k, v in demo_build_module.BUILD_D_REPLICA_RUNNING_TAILS.items()],
+    # a coast is a command planned without a conversion (SimTiming.fill_coast_unconverted;
+    # docs/timing-model.md, thirty-seventh pass)
+    "C37": ["fill_coast_unconverted=1"],
 }
 
 

@@ -25,9 +25,11 @@ import bisect
 import collections
 import contextlib
 import io
+import re
 import statistics
 import subprocess
 import sys
+import tempfile
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
@@ -199,9 +201,12 @@ def find_elf(fw: Path, line: str) -> Path | None:
         elf = d / "fw.elf"
         if not (d / "data_pad.c").exists() or not elf.exists():
             continue
-        data = subprocess.run(["avr-objcopy", "-O", "binary", "-j", ".data", str(elf),
-                               "/dev/stdout"], capture_output=True, check=True).stdout
-        if line.encode() + b"\0" in data or line.encode() + b" \0" in data:
+        with tempfile.TemporaryDirectory() as tmp:  # (objcopy seeks: not to a pipe)
+            out = Path(tmp) / "data.bin"
+            subprocess.run(["avr-objcopy", "-O", "binary", "-j", ".data", str(elf), str(out)],
+                           capture_output=True, check=True)
+            data = out.read_bytes()
+        if re.search(re.escape(line.encode()) + rb" *\0", data):  # (the line's spaces)
             return elf
     return None
 

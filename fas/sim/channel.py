@@ -113,6 +113,7 @@ class SimChannel(QueueChannel):
         # period was not computed from a ramp step), and the period below which an
         # accelerating ramp checks for too short commands
         self.maths_ticks = -1
+        self.converted = False  # ... and whether the ramp computed it at all
         self.fast_acc_below = 2 * p.min_cmd_ticks
         self._noted: QueueEntry | None = None
         # the running ramp task's fill of this (running) stepper has not planned a
@@ -408,12 +409,14 @@ class SimChannel(QueueChannel):
                     self.b_counted = risen
 
     def ramp_converted(self, ramp_step: int, log2_ticks: int) -> None:
+        self.converted = True
         if self.m.timing.fill_cmd_maths:
             self.maths_ticks = conversion_ticks(self.m.timing, ramp_step, log2_ticks)
 
     def entry_added(self) -> None:
         m = self.m
         maths, self.maths_ticks = self.maths_ticks, -1
+        converted, self.converted = self.converted, False
         if m.in_task:  # planning one command costs the ramp task CPU time
             q = self.q
             wp = q.next_write_idx
@@ -435,8 +438,10 @@ class SimChannel(QueueChannel):
             elif p.fill_unstarted_multi_cmd_ticks and not self.running:
                 # a starting ramp's command of several steps: one figure, all in
                 m.task_offset += p.fill_unstarted_multi_cmd_ticks
-            elif (p.fill_coast_cmd_ticks and ((wp - 1 - q.read_idx) & 0xFF)
-                  and q.entries[(wp - 2) % q.queue_len].ticks == e.ticks):
+            elif (p.fill_coast_cmd_ticks
+                  and (not converted if p.fill_coast_unconverted
+                       else (((wp - 1 - q.read_idx) & 0xFF)
+                             and q.entries[(wp - 2) % q.queue_len].ticks == e.ticks))):
                 m.task_offset += p.fill_coast_cmd_ticks  # at the speed of the one before
             elif (p.fill_dec_cmd_ticks and ((wp - 1 - q.read_idx) & 0xFF)
                   and q.entries[(wp - 2) % q.queue_len].ticks < e.ticks):

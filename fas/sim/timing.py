@@ -109,6 +109,11 @@ class SimTiming:
     isr_next_entry_ticks: int = 0
     # a command at the speed of the one before (the ramp coasts; 0: as fill_cmd_ticks)
     fill_coast_cmd_ticks: int = 0
+    # ... and a coast is a command the ramp planned without computing its period from a
+    # ramp step (the library's coast state: no calculate_ticks), not one at the speed of
+    # the one before (a slow ramp's accelerating or decelerating commands repeat their
+    # period, but each costs the conversion; docs/timing-model.md, thirty-seventh pass)
+    fill_coast_unconverted: bool = False
     # a command slower than the one before (the ramp decelerates; 0: as fill_cmd_ticks,
     # which then holds the accelerating ones)
     fill_dec_cmd_ticks: int = 0

@@ -170,6 +170,12 @@ BUILD_D_REPLICA_COMMANDS: dict[str, int] = {
 BUILD_D_REPLICA_COMMAND_TAILS: dict[str, int] = {
     "A": 296, "S": 347, "V": 158, "R": 136, "U": 41, "K": 25, "f": 59, "P": 14, "a": 14,
 }
+# ... and two letters given while a stepper runs, read on build d's replica of the runs
+# dm01-dm12 (their firmware is build d's but for the input's define in the library and
+# one byte of data: the same steps, 643-677 ticks earlier): `H` 749 (8 commands, 737-757:
+# the speed's division after its print), `X` 1 058 (3, 966-1 066).  Not set in any build
+# (docs/timing-model.md, thirty-seventh pass)
+BUILD_D_REPLICA_RUNNING_TAILS: dict[str, int] = {"H": 749, "X": 1058}
 # ... and the pass that ends a `w<ms>`: its CPU from the pass's start to `Wait complete`'s
 # first character less the model's look-up of that message (9 329): 284 ticks, the median
 # of all 44 such passes of the runs (276-376) - for pause_end_ticks.  Not set in any build
