@@ -36,7 +36,6 @@ from __future__ import annotations
 import argparse
 import bisect
 import collections
-import dataclasses
 import re
 import sys
 from collections.abc import Iterable
@@ -46,8 +45,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent.parent))
 sys.path.insert(0, str(HERE.parent))
 
-from fas.sim import timing as sim_timing_module  # noqa: E402
-from stepperdemo.demo import build as demo_build_module  # noqa: E402
+from d_corpus import set_build_d  # noqa: E402  (build d's figures changed: one reader of --set)
 
 BUILD_E_CASE = re.compile(r"e\d+")  # the conformance's build-e runs (not this tool's)
 BLOCK_TICKS = (1500, 1700)  # a 100 us block: cli ... SREG restore
@@ -187,27 +185,6 @@ def held_summary(pulses: list[Span], blocks: list[Span]) -> dict[str, float]:
             "place in block": sum(a - blk[0] for (a, _), blk in held) / n if n else 0.0,
             "other width": sum(free) / len(free) if free else 0.0,
             "total us": sum(b - a for a, b in pulses) / 16}
-
-
-def set_build_d(settings: list[str]) -> None:
-    """Change build d's ATmega328P figures for this process (see the module's text)."""
-    t_fields = {f.name for f in dataclasses.fields(sim_timing_module.SimTiming)}
-    d_fields = {f.name for f in dataclasses.fields(demo_build_module.DemoBuild)}
-    for setting in settings:
-        name, sep, value = setting.partition("=")
-        if not sep or name not in t_fields | d_fields:
-            raise ValueError(f"--set {setting!r}: not FIELD=VALUE with a SimTiming or "
-                             "DemoBuild field")
-        table, key = ((sim_timing_module.BY_FAMILY, "avr") if name in t_fields
-                      else (demo_build_module.BY_PROFILE, "atmega328p"))
-        current = getattr(table[key], name)
-        if isinstance(current, bool):
-            new: object = value.lower() in ("1", "true", "yes")
-        elif not isinstance(current, int):
-            raise ValueError(f"--set {setting!r}: {name} is not a number")
-        else:
-            new = current + int(value) if value[:1] in "+-" else int(value)
-        table[key] = dataclasses.replace(table[key], **{name: new})
 
 
 def model_run(text: str) -> tuple[list[Span], list[Span], list[int]]:

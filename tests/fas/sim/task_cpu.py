@@ -1,5 +1,6 @@
-"""A run of the model in build e with the ramp tasks' CPU summed: shared by the tests of
-the task's cost figures (test_task_cost.py, test_ramp_cost.py)."""
+"""A run of the model with the ramp tasks' CPU summed (build e unless told): shared by the
+tests of the task's cost figures (test_task_cost.py, test_ramp_cost.py,
+test_coast_tails_d.py)."""
 
 from __future__ import annotations
 
@@ -19,7 +20,8 @@ _TASK = SimBackend._task  # noqa: SLF001
 RUN = "M1 A30000 V45 f w300 S W"  # a ramp up, a coast, a stop (a ramp down)
 
 
-def run_task_cpu(monkeypatch: pytest.MonkeyPatch, run: str = RUN) -> tuple[list[float], int]:
+def run_task_cpu(monkeypatch: pytest.MonkeyPatch, run: str = RUN,
+                 build: str = "e") -> tuple[list[float], int]:
     """The step times (us) and the ramp tasks' CPU (ticks) summed over the run."""
     spent = [0]
 
@@ -29,5 +31,5 @@ def run_task_cpu(monkeypatch: pytest.MonkeyPatch, run: str = RUN) -> tuple[list[
         spent[0] += self.machine.stolen_ticks - before
 
     monkeypatch.setattr(SimBackend, "_task", counted)
-    backend = e_fidelity.run_model(run, "atmega328p", "e")
+    backend = e_fidelity.run_model(run, "atmega328p", build)
     return e_fidelity.step_times_us(backend, 9), spent[0]

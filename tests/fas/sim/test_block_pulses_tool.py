@@ -61,6 +61,8 @@ def test_set_changes_build_ds_328p_only(monkeypatch: pytest.MonkeyPatch) -> None
     d = demo_build_module.BY_PROFILE["atmega328p"]
     monkeypatch.setitem(sim_timing_module.BY_FAMILY, "avr", t)
     monkeypatch.setitem(demo_build_module.BY_PROFILE, "atmega328p", d)
+    tm = sim_timing_module.BY_BUILD["d_time_measurement"]
+    monkeypatch.setitem(tm, "atmega328p", tm["atmega328p"])
     block_pulses.set_build_d(["task_phase_ticks=+217", "uart_idle_start_ticks=257",
                               "irq_block_ticks=1582"])
     assert sim_timing_module.BY_FAMILY["avr"].task_phase_ticks == t.task_phase_ticks + 217

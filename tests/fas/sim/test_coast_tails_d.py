@@ -11,7 +11,6 @@ from pathlib import Path
 
 import pytest
 
-from fas.sim import SimBackend
 from fas.sim import timing as sim_timing_module
 from stepperdemo.demo import build as demo_build_module
 from stepperdemo.demo.build import BUILD_D_REPLICA_RUNNING_TAILS
@@ -21,9 +20,9 @@ ROOT = Path(__file__).resolve().parents[3]
 sys.path.insert(0, str(ROOT / "bench"))
 
 import d_corpus  # noqa: E402
-import e_fidelity  # noqa: E402
 
-_TASK = SimBackend._task  # noqa: SLF001
+from .task_cpu import run_task_cpu  # noqa: E402
+
 D = sim_timing_module.BUILD_D_REPLICA_TASK
 
 
@@ -39,16 +38,8 @@ def _d_with(monkeypatch: pytest.MonkeyPatch, variants: list[str], *sets: str) ->
 
 def _task_cpu(monkeypatch: pytest.MonkeyPatch, run: str) -> tuple[int, int]:
     """(rising step edges, the ramp tasks' CPU summed) of ``run`` in build d."""
-    spent = [0]
-
-    def counted(self: SimBackend, index: int) -> None:
-        before = self.machine.stolen_ticks
-        _TASK(self, index)
-        spent[0] += self.machine.stolen_ticks - before
-
-    monkeypatch.setattr(SimBackend, "_task", counted)
-    backend = e_fidelity.run_model(run, "atmega328p", "d")
-    return len(e_fidelity.step_times_us(backend, 9)), spent[0]
+    steps, spent = run_task_cpu(monkeypatch, run, "d")
+    return len(steps), spent
 
 
 SLOW = "M1 A10 V100 j100000 f w600 X"  # a ramp so slow that its periods repeat
