@@ -45,6 +45,12 @@ VARIANTS: dict[str, list[str]] = {
     # a coast is a command planned without a conversion (SimTiming.fill_coast_unconverted;
     # docs/timing-model.md, thirty-seventh pass)
     "C37": ["fill_coast_unconverted=1"],
+    # a print's body from a buffer, read from the replica (StepperDemo's
+    # BUILD_D_REPLICA_PRINT_BODY; docs/timing-model.md, thirty-ninth pass)
+    "P39": [f"{k}={v}" for k, v in demo_build_module.BUILD_D_REPLICA_PRINT_BODY.items()],
+    # ... and the tails read again under it (T34 and T37 in one; BUILD_D_REPLICA_TAILS_P39)
+    "T39": [f"cmd_tail_ticks.{k}={v}"
+            for k, v in demo_build_module.BUILD_D_REPLICA_TAILS_P39.items()],
 }
 
 

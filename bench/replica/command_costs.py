@@ -44,6 +44,7 @@ import replica  # noqa: E402
 
 LAG = 96  # the replica's times are the firmware's + 96 ticks (twenty-seventh pass)
 NOT_READ = "+-?W"  # their first character waits (the step, room in the buffer, W's wait)
+TABLE_PRINT = "_print_from_table"  # StepperDemo's print of a message table's text
 
 
 def first_writes(tr: loop_passes.Trace, cmd_k: int, write_k: int) -> list[tuple[int, int]]:
@@ -67,11 +68,14 @@ def model_hooks() -> Iterator[dict[str, list]]:
     from fas.sim import backend as bk
     from stepperdemo.demo import app
 
-    log: dict[str, list] = {"cmd": [], "spend": [], "write": [], "write_len": []}
+    log: dict[str, list] = {"cmd": [], "spend": [], "write": [], "write_len": [],
+                            "write_last": []}
     command_name = "_spend_command"  # StepperDemo's charge for a command, at its parse
     saved = (bk.SimBackend.app_spend, bk.SimBackend.app_spend_in,
-             bk.SimBackend.console_write, getattr(app.StepperDemo, command_name))
-    spend, spend_in, write, command = saved
+             bk.SimBackend.console_write, getattr(app.StepperDemo, command_name),
+             getattr(app.StepperDemo, TABLE_PRINT))
+    spend, spend_in, write, command, from_table = saved
+    in_table = [False]
 
     def h_spend(self, ticks):  # type: ignore[no-untyped-def]
         log["spend"].append((self.machine.now, ticks))
@@ -84,7 +88,17 @@ def model_hooks() -> Iterator[dict[str, list]]:
     def h_write(self, data, cpu_after=None):  # type: ignore[no-untyped-def]
         log["write"].append(self.machine.now)
         log["write_len"].append(len(data))
+        # a print from a buffer: its last character's cost beyond char_ticks (P39's body);
+        # a table's text keeps char_ticks (its look-ups after the character are not body)
+        log["write_last"].append(0 if in_table[0] or not cpu_after else cpu_after[-1])
         return write(self, data, cpu_after)
+
+    def h_table(self, data, scan):  # type: ignore[no-untyped-def]
+        in_table[0] = True
+        try:
+            return from_table(self, data, scan)
+        finally:
+            in_table[0] = False
 
     def h_command(self, cmd):  # type: ignore[no-untyped-def]
         log["cmd"].append((self.backend.machine.now, cmd.decode("latin-1")))
@@ -94,12 +108,14 @@ def model_hooks() -> Iterator[dict[str, list]]:
     bk.SimBackend.app_spend_in = h_spend_in  # type: ignore[method-assign]
     bk.SimBackend.console_write = h_write  # type: ignore[method-assign]
     setattr(app.StepperDemo, command_name, h_command)
+    setattr(app.StepperDemo, TABLE_PRINT, h_table)
     try:
         yield log
     finally:
         (bk.SimBackend.app_spend, bk.SimBackend.app_spend_in,
          bk.SimBackend.console_write) = saved[:3]  # type: ignore[method-assign]
         setattr(app.StepperDemo, command_name, saved[3])
+        setattr(app.StepperDemo, TABLE_PRINT, saved[4])
 
 
 def tails(tr: loop_passes.Trace, cmd_k: int, write_k: int, loop_k: int
@@ -124,8 +140,9 @@ def tails(tr: loop_passes.Trace, cmd_k: int, write_k: int, loop_k: int
 def model_tails(log: dict[str, list]) -> list[int]:
     """Per model command but the last: the CPU charged from its last console write call
     before the next command to that command (-1 if nothing was written in between); the
-    write's own characters are in it (their char_ticks: the model charges them with the
-    write call)."""
+    write's own characters are not in it (their char_ticks: the model charges them with
+    the write call), but a buffer print's last character's cost beyond char_ticks is
+    (``write_last``: 0 unless a print's body is set, P39)."""
     writes = log["write"]
     spend_t = [t for t, _ in log["spend"]]
     out = []
@@ -135,7 +152,8 @@ def model_tails(log: dict[str, list]) -> list[int]:
             out.append(-1)
             continue
         a, b = bisect.bisect_left(spend_t, writes[j]), bisect.bisect_left(spend_t, nxt)
-        out.append(sum(x for _, x in log["spend"][a:b]))
+        last = log["write_last"][j] if len(log.get("write_last", ())) == len(writes) else 0
+        out.append(sum(x for _, x in log["spend"][a:b]) + last)
     return out
 
 

@@ -64,6 +64,9 @@ class StepperDemo(LoopProgram):
         self._timing = sim_timing(self.profile, self.firmware_build)
         # a write call to the console's serial driver (USB CDC: not nothing)
         self._call_ticks = self._timing.console_call_ticks
+        # a print's body from a buffer beyond the timing's char_ticks (0: none)
+        self._buffer_char_delta = (self.build.buffer_char_ticks - self._timing.char_ticks
+                                   if self.build.buffer_char_ticks else 0)
         self._reset_state()
         self.rx: deque[int] = deque()
         self.script = b""
@@ -123,8 +126,9 @@ class StepperDemo(LoopProgram):
         if scan is None:
             if data:
                 call = self._call_ticks  # one write call for the whole text
-                self.backend.console_write(data, [call] + [0] * (len(data) - 1)
-                                           if call else None)
+                d = self._buffer_char_delta  # the body's characters from a buffer
+                self.backend.console_write(data, [call + d] + [d] * (len(data) - 1)
+                                           if call or d else None)
         else:
             self._print_from_table(data, scan)
         if not data:

@@ -107,6 +107,10 @@ class DemoBuild:
     # beyond the message table's look-up (the pass's head, millis(), the check), spent
     # there (0: none; build d's replica, docs/timing-model.md, "thirty-sixth pass": off)
     pause_end_ticks: int = 0
+    # a print's body from a buffer in RAM (Print::write's loop: a number, a status line's
+    # pieces), CPU per character handed to the serial driver; 0: the timing's char_ticks
+    # (build d's replica: 107 against 121; docs/timing-model.md, "thirty-ninth pass": off)
+    buffer_char_ticks: int = 0
     # an idle loop woken by a deadline of millis() (timer 0's overflow) reads millis()
     # where the pass the overflow interrupted gets to it: on average half a pass later
     # (the pass's phase at the overflow is not kept; False: at once)
@@ -176,6 +180,21 @@ BUILD_D_REPLICA_COMMAND_TAILS: dict[str, int] = {
 # the speed's division after its print), `X` 1 058 (3, 966-1 066).  Not set in any build
 # (docs/timing-model.md, thirty-seventh pass)
 BUILD_D_REPLICA_RUNNING_TAILS: dict[str, int] = {"H": 749, "X": 1058}
+# ... and a print's body from a buffer, CPU per character between two calls of
+# HardwareSerial::write(unsigned char), interrupts out, read on build d's replica (1 990
+# prints of dm01-dm12, d21, d34, test_sd_07 without a wait for room: 107, the model's 121
+# less 14 in every one).  The message table's texts keep the timing's figure: their plain
+# characters cost 114, but the look-ups between their fragments make up the rest.  Not set
+# in any build (docs/timing-model.md, thirty-ninth pass)
+BUILD_D_REPLICA_PRINT_BODY: dict[str, int] = {"buffer_char_ticks": 107}
+# ... and under that body, the tails (COMMAND_TAILS and RUNNING_TAILS) read again with
+# `command_costs.py --tails` over the d-runs and dm01-dm12: a command whose last print is
+# a number's or a line end's from a buffer (A, S, V, R, f, H, X) reads 14 ticks more (its
+# last character 107, not 121), the others (U, K, P, a) the same.  Not set in any build
+BUILD_D_REPLICA_TAILS_P39: dict[str, int] = {
+    "A": 310, "S": 361, "V": 172, "R": 150, "U": 41, "K": 25, "f": 73, "P": 14, "a": 14,
+    "H": 763, "X": 1072,
+}
 # ... and the pass that ends a `w<ms>`: its CPU from the pass's start to `Wait complete`'s
 # first character less the model's look-up of that message (9 329): 284 ticks, the median
 # of all 44 such passes of the runs (276-376) - for pause_end_ticks.  Not set in any build
