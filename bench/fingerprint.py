@@ -139,8 +139,13 @@ def scenario_digest(path: str) -> str:
                                 max_ticks=int(sc.max_time_s * b.profile.ticks_per_s)).name
     except Exception as exc:  # noqa: BLE001 - a failure is part of the fingerprint
         reason = f"{type(exc).__name__}: {exc}"
-    h.update(f"{reason} {b.now()} ".encode())
-    h.update(bytes(app.transcript))
+    return _digest_run(h, b, app, reason)
+
+
+def _digest_run(h: "hashlib._Hash", b: object, app: object, reason: str) -> str:
+    """The digest of a finished run: how it ended, at which tick, its transcript, its pins."""
+    h.update(f"{reason} {b.now()} ".encode())  # type: ignore[attr-defined]
+    h.update(bytes(app.transcript))  # type: ignore[attr-defined]
     _digest_backend(h, b, getattr(app, "steppers", []))
     return h.hexdigest()[:16]
 
@@ -157,10 +162,7 @@ def gcode_digest(arch: str, text: str) -> str:
         reason = app.run_script(text, max_ticks=600 * b.profile.ticks_per_s).name
     except Exception as exc:  # noqa: BLE001 - a failure is part of the fingerprint
         reason = f"{type(exc).__name__}: {exc}"
-    h.update(f"{reason} {b.now()} ".encode())
-    h.update(bytes(app.transcript))
-    _digest_backend(h, b, getattr(app, "steppers", []))
-    return h.hexdigest()[:16]
+    return _digest_run(h, b, app, reason)
 
 
 def run_here(cases: list[tuple[str, str]]) -> list[str]:

@@ -180,6 +180,11 @@ def model_pulses(case: str, conf: Path, profile: str) -> dict[str, list[tuple[in
     backend = SimBackend(profile, record=True, build=build_of(case))
     app = make_program("demo", backend, scripted=True)
     app.run_script((conf / case / "input.txt").read_text().strip(), firmware_end=True)
+    return backend_pulses(backend)
+
+
+def backend_pulses(backend: SimBackend) -> dict[str, list[tuple[int, int]]]:
+    """Each stepper's step pulses (rise, fall) in ticks, from a recording backend's pins."""
     rec = backend.recorder
     assert rec is not None
     out: dict[str, list[tuple[int, int]]] = {}

@@ -213,18 +213,8 @@ def model_run(text: str) -> tuple[list[Span], list[Span], list[int]]:
     finally:
         backend_module.print_chars = original
     starts.update(r[2] for r in records)
-    rec = backend.recorder
-    assert rec is not None
-    step = stepper_pins(backend.profile)[0].step
-    times, levels = rec.pin_edges(step)
-    pulses: list[Span] = []
-    rise = None
-    for t, lv in zip(times, levels, strict=True):
-        if lv:
-            rise = t
-        elif rise is not None:
-            pulses.append((rise, t))
-            rise = None
+    from pulse_widths import backend_pulses
+    pulses = backend_pulses(backend)[stepper_pins(backend.profile)[0].letter]
     return pulses, blocks, sorted(starts)
 
 

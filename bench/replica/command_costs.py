@@ -64,12 +64,13 @@ def first_writes(tr: loop_passes.Trace, cmd_k: int, write_k: int) -> list[tuple[
 @contextlib.contextmanager
 def model_hooks() -> Iterator[dict[str, list]]:
     """While active, record the model's commands (time, text), CPU charges (time,
-    ticks) and console writes (time)."""
+    ticks) and console writes (time; ``write_data``: the text, the CPU after each
+    character beyond char_ticks, whether the message table printed it)."""
     from fas.sim import backend as bk
     from stepperdemo.demo import app
 
     log: dict[str, list] = {"cmd": [], "spend": [], "write": [], "write_len": [],
-                            "write_last": []}
+                            "write_last": [], "write_data": []}
     command_name = "_spend_command"  # StepperDemo's charge for a command, at its parse
     saved = (bk.SimBackend.app_spend, bk.SimBackend.app_spend_in,
              bk.SimBackend.console_write, getattr(app.StepperDemo, command_name),
@@ -88,6 +89,8 @@ def model_hooks() -> Iterator[dict[str, list]]:
     def h_write(self, data, cpu_after=None):  # type: ignore[no-untyped-def]
         log["write"].append(self.machine.now)
         log["write_len"].append(len(data))
+        log["write_data"].append((bytes(data), list(cpu_after) if cpu_after else None,
+                                  in_table[0]))
         # a print from a buffer: its last character's cost beyond char_ticks (P39's body);
         # a table's text keeps char_ticks (its look-ups after the character are not body)
         log["write_last"].append(0 if in_table[0] or not cpu_after else cpu_after[-1])

@@ -10,8 +10,6 @@ from pathlib import Path
 
 import pytest
 
-from fas.sim import backend as sim_backend
-from stepperdemo.demo import app as demo_app
 from stepperdemo.demo import build as demo_build_module
 from stepperdemo.demo.build import (
     BUILD_D_REPLICA_COMMAND_TAILS,
@@ -34,39 +32,21 @@ from .test_coast_tails_d import _d_with  # noqa: E402
 READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]
 
 
-def _writes(monkeypatch: pytest.MonkeyPatch, name: str
-            ) -> list[tuple[bytes, list[int] | None, bool]]:
+def _writes(name: str) -> list[tuple[bytes, list[int] | None, bool]]:
     """Every console write of ``sequences/conformance/<name>.toml``: (its text, the CPU
     after each character beyond char_ticks, whether it came from the message table)."""
-    log: list[tuple[bytes, list[int] | None, bool]] = []
-    in_table = [False]
-    write = sim_backend.SimBackend.console_write
-    from_table = getattr(demo_app.StepperDemo, command_costs.TABLE_PRINT)
-
-    def h_write(self, data, cpu_after=None):  # type: ignore[no-untyped-def]
-        log.append((bytes(data), list(cpu_after) if cpu_after else None, in_table[0]))
-        return write(self, data, cpu_after)
-
-    def h_table(self, data, scan):  # type: ignore[no-untyped-def]
-        in_table[0] = True
-        try:
-            return from_table(self, data, scan)
-        finally:
-            in_table[0] = False
-
-    monkeypatch.setattr(sim_backend.SimBackend, "console_write", h_write)
-    monkeypatch.setattr(demo_app.StepperDemo, command_costs.TABLE_PRINT, h_table)
-    res = run_file(ROOT / "sequences" / "conformance" / f"{name}.toml")
+    with command_costs.model_hooks() as log:
+        res = run_file(ROOT / "sequences" / "conformance" / f"{name}.toml")
     assert res.error is None, res.error
-    return log
+    return log["write_data"]
 
 
 def test_a_buffer_prints_characters_cost_107_the_tables_are_unchanged(
         monkeypatch: pytest.MonkeyPatch) -> None:
     _d_with(monkeypatch, ["D33", "P30"])
-    before = _writes(monkeypatch, "d34")
+    before = _writes("d34")
     d_corpus.set_build_d(d_corpus.VARIANTS["P39"])
-    after = _writes(monkeypatch, "d34")
+    after = _writes("d34")
     assert [w[0] for w in after][:40] == [w[0] for w in before][:40]
     buffer = table = 0
     for (data, cpu0, tab0), (data1, cpu1, tab1) in zip(before[:40], after[:40], strict=True):
