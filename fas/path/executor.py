@@ -220,6 +220,7 @@ class Segment:
             p = pieces[0]
             s0, s1, t0, t1, v0 = p.s0, p.s1, p.t0, p.t1, p.v0
             vv, a2 = v0 * v0, 2.0 * p.a
+        keep = out.append
         for j in range(j0, j1 if end else j1 + 1):
             s = (j - phase) * pitch
             if s > s1:
@@ -233,18 +234,16 @@ class Segment:
                     past = True
                     s1 = math.inf
             if past:
-                t = t_done
-            else:
-                d = s - s0
-                if d <= 0.0:
-                    t = t0
-                else:
-                    root = vv + a2 * d
-                    den = v0 + sqrt(root if root > 0.0 else 0.0)
-                    t = t0 + 2.0 * d / den if den > 0.0 else t1
-                    if t > t1:
-                        t = t1
-            out.append(int(t + 0.5))
+                keep(int(t_done + 0.5))
+                continue
+            d = s - s0
+            if d <= 0.0:
+                keep(int(t0 + 0.5))
+                continue
+            root = vv + a2 * d
+            den = v0 + sqrt(root if root > 0.0 else 0.0)
+            t = t0 + 2.0 * d / den if den > 0.0 else t1
+            keep(int((t1 if t > t1 else t) + 0.5))
         if end:
             out.append(self.end_tick)
         return out
