@@ -492,9 +492,10 @@ class AxisWriter:
         reach: list[int] | None = None
         #: where each segment's steps begin in ``exact``: (index, seq, its step there)
         spans: list[tuple[int, int, int]] = []
+        tol = self.tol
         for cur in chain:
             j = j0 if cur is seg else cur.first[i]
-            kn = cur.known(i)
+            kn = cur.steps[i] if cur.blend else cur.known(i)  # (BlendSegment.known)
             if cur is out and kn > j + BLEND_RUN:
                 kn = j + BLEND_RUN
             if j >= kn:
@@ -509,7 +510,7 @@ class AxisWriter:
                 ahead = bl.dirs[i][j:kn]
                 turn = (not up) in ahead
                 n = ahead.index(not up) + 1 if turn else kn - j
-                if self.tol > 0.0 and bl.times is not bl.exact:
+                if tol > 0.0 and bl.times is not bl.exact:
                     if reach is None:
                         reach = list(exact)
                     exact.extend(bl.ticks(i, True)[j:j + n])
