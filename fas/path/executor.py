@@ -277,8 +277,8 @@ class BlendSegment(Segment):
         self.times = (self.exact if leads is None
                       else [[t * ticks_per_s for t in ts] for ts in leads])
         self.dirs = [[d > 0 for _t, d in steps] for _m, steps, _f in per_axis]
-        self.steps = tuple(len(x) for x in self.times)
-        self.ups = tuple(d[0] if d else block.delta[i] > 0 for i, d in enumerate(self.dirs))
+        self.steps = tuple([len(x) for x in self.times])
+        self.ups = tuple([d[0] if d else block.delta[i] > 0 for i, d in enumerate(self.dirs)])
         n = len(self.steps)
         self.pitch = (0.0,) * n
         self.first = (0,) * n
@@ -574,8 +574,8 @@ class Executor:
                             leads)
         bseg.tag = block.tag  # the corner ends the block in
         # the steps each axis's blocks would have made in the blend and did not
-        bseg.saved = tuple(abs(d) - m + f - len(st)
-                           for d, (m, st, f) in zip(block.delta, per, strict=True))
+        bseg.saved = tuple([abs(d) - m + f - len(st)
+                            for d, (m, st, f) in zip(block.delta, per, strict=True)])
         if self.blends is not None:
             self.blends.append((nxt.start, bseg))
         self.next_seq += 1

@@ -575,17 +575,20 @@ class AxisWriter:
         periods: list[int] = []
         keep = periods.append
         if reach is None:  # (the loop below with f = e: most groups)
+            # ``int(hi)`` as whole numbers: the least ``(e_k - t0) // k`` (ticks are
+            # integers below 2^53, so the quotient's float never rounds up to the
+            # next integer; where it is negative both break at once: below fastest)
+            period = 1 << 62
             for k, e in enumerate(exact, 1):
                 if k >= n:
                     break
                 d = e - t0
-                h = d / k
-                if h < hi:
-                    hi = h
+                h = d // k
+                if h < period:
+                    period = h
                 low = (d - tol * (e - prev)) / k
                 if low > lo:
                     lo = low
-                period = int(hi)
                 if period < lo or period < fastest:
                     break
                 prev = e
