@@ -598,9 +598,9 @@ class AxisWriter:
             for k, (e, f) in enumerate(zip(exact, reach, strict=False), 1):
                 if k >= n:
                     break
-                h = (e - t0) / k
-                if h < hi:
-                    hi = h
+                hf = (e - t0) / k
+                if hf < hi:
+                    hi = hf
                 # (``f``: the earliest counts from where the blend reaches the step)
                 d = f - t0
                 low = (d - tol * (f - prev)) / k
