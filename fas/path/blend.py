@@ -342,12 +342,16 @@ def axis_crossings(x0: float, v0: float, a: float, duration: float, p0: int,
         b = s * a
         span = tb - ta
         last = k == len(bounds) - 2
+        ww = w0 * w0  # (the same products as in the loop, made once)
+        b2 = 2.0 * b
+        sqrt = math.sqrt
+        keep = out.append
         while True:
             gap = s * (p + s - xa)  # how far the next integer lies ahead
             if gap < 0.0:  # already past it (rounding at a piece's start)
                 gap = 0.0
-            root = w0 * w0 + 2.0 * b * gap
-            den = w0 + math.sqrt(root) if root > 0.0 else w0
+            root = ww + b2 * gap
+            den = w0 + sqrt(root) if root > 0.0 else w0
             tau = 2.0 * gap / den if den > 0.0 else math.inf
             if tau > span:
                 if last and x_end is not None and s * (x_end - (p + s)) >= -END_EPS:
@@ -355,7 +359,7 @@ def axis_crossings(x0: float, v0: float, a: float, duration: float, p0: int,
                 else:
                     break
             p += s
-            out.append((ta + tau, s))
+            keep((ta + tau, s))
     return out, p
 
 

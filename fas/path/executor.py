@@ -220,6 +220,7 @@ class Segment:
             p = pieces[0]
             s0, s1, t0, t1, v0 = p.s0, p.s1, p.t0, p.t1, p.v0
             vv, a2 = v0 * v0, 2.0 * p.a
+        keep = out.append
         for j in range(j0, j1 if end else j1 + 1):
             s = (j - phase) * pitch
             if s > s1:
@@ -233,18 +234,16 @@ class Segment:
                     past = True
                     s1 = math.inf
             if past:
-                t = t_done
-            else:
-                d = s - s0
-                if d <= 0.0:
-                    t = t0
-                else:
-                    root = vv + a2 * d
-                    den = v0 + sqrt(root if root > 0.0 else 0.0)
-                    t = t0 + 2.0 * d / den if den > 0.0 else t1
-                    if t > t1:
-                        t = t1
-            out.append(int(t + 0.5))
+                keep(int(t_done + 0.5))
+                continue
+            d = s - s0
+            if d <= 0.0:
+                keep(int(t0 + 0.5))
+                continue
+            root = vv + a2 * d
+            den = v0 + sqrt(root if root > 0.0 else 0.0)
+            t = t0 + 2.0 * d / den if den > 0.0 else t1
+            keep(int((t1 if t > t1 else t) + 0.5))
         if end:
             out.append(self.end_tick)
         return out
@@ -278,8 +277,8 @@ class BlendSegment(Segment):
         self.times = (self.exact if leads is None
                       else [[t * ticks_per_s for t in ts] for ts in leads])
         self.dirs = [[d > 0 for _t, d in steps] for _m, steps, _f in per_axis]
-        self.steps = tuple(len(x) for x in self.times)
-        self.ups = tuple(d[0] if d else block.delta[i] > 0 for i, d in enumerate(self.dirs))
+        self.steps = tuple([len(x) for x in self.times])
+        self.ups = tuple([d[0] if d else block.delta[i] > 0 for i, d in enumerate(self.dirs)])
         n = len(self.steps)
         self.pitch = (0.0,) * n
         self.first = (0,) * n
@@ -575,8 +574,8 @@ class Executor:
                             leads)
         bseg.tag = block.tag  # the corner ends the block in
         # the steps each axis's blocks would have made in the blend and did not
-        bseg.saved = tuple(abs(d) - m + f - len(st)
-                           for d, (m, st, f) in zip(block.delta, per, strict=True))
+        bseg.saved = tuple([abs(d) - m + f - len(st)
+                            for d, (m, st, f) in zip(block.delta, per, strict=True)])
         if self.blends is not None:
             self.blends.append((nxt.start, bseg))
         self.next_seq += 1

@@ -83,6 +83,12 @@ class Wrote(IntEnum):
     ERROR = 3  # the queue refused a command for good
 
 
+# the members as module constants (the same objects; a class attribute look-up of an
+# enum member costs more, and these are compared for every command written)
+_OK, _WAIT, _FULL, _ERROR = Wrote.OK, Wrote.WAIT, Wrote.FULL, Wrote.ERROR
+_STEP, _UNKNOWN, _END = Found.STEP, Found.UNKNOWN, Found.END
+
+
 class AxisStats:
     """What one axis wrote."""
 
@@ -180,21 +186,21 @@ class AxisWriter:
         (the next runs make more of the path final: longer commands); a channel that
         takes up its last entry before more is written runs dry."""
         if self.done:
-            return Wrote.OK
+            return _OK
         self._deep = now + low_water
         q = self.queue
         self.free = q.queue_len - q.queue_entries()
         while True:
             free = self.free
             if free < 2:
-                return Wrote.FULL
+                return _FULL
             if not self.pending:
                 found, seq, j, tick = self._next()
                 self.seq, self.j = seq, j
-                if found == Found.END:
+                if found == _END:
                     self.done = True
-                    return Wrote.OK
-                if found == Found.UNKNOWN:
+                    return _OK
+                if found == _UNKNOWN:
                     return self._pause_ahead(free)
                 self.t_pend = tick
                 self.pending = True
@@ -204,13 +210,13 @@ class AxisWriter:
                     seg = self.ex.segment(self.seq)
                     assert seg is not None
                     res = self._pauses(gap, seg.step_up(self.axis, self.j), free)
-                    if res != Wrote.OK:
+                    if res != _OK:
                         return res
                     continue
                 self._shift(gap)  # too close for a pause (or late): the step moves
                 self.t_pend = self.w_end
             res = self._step()
-            if res != Wrote.OK:
+            if res != _OK:
                 return res
 
     def _next(self) -> tuple[Found, int, int, int]:
@@ -226,13 +232,13 @@ class AxisWriter:
             if j < n:
                 if j < seg.known(i):
                     if seg.blend and self.tol == 0.0:  # exact: a blend's own ticks
-                        return (Found.STEP, seq, j + 1,
+                        return (_STEP, seq, j + 1,
                                 cast(BlendSegment, seg).exact_tick(i, j + 1))
-                    return Found.STEP, seq, j + 1, seg.step_tick(i, j + 1)
+                    return _STEP, seq, j + 1, seg.step_tick(i, j + 1)
                 if not seg.complete:
-                    return Found.UNKNOWN, seq, j, 0
+                    return _UNKNOWN, seq, j, 0
             elif not seg.complete:
-                return Found.UNKNOWN, seq, j, 0
+                return _UNKNOWN, seq, j, 0
             nxt = ex.segment(seq + 1)
             if nxt is None:  # not made yet: stay at this one's end (a blend before
                 j = n  # the next may have made its first steps)
@@ -240,7 +246,7 @@ class AxisWriter:
             seq += 1
             seg = nxt
             j = seg.first[i]
-        return (Found.END if ex.final else Found.UNKNOWN), seq, j, 0
+        return (_END if ex.final else _UNKNOWN), seq, j, 0
 
     def _step(self) -> Wrote:
         """Write the pending step (due at ``w_end``) with the steps it groups with."""
@@ -306,7 +312,7 @@ class AxisWriter:
         if not complete:  # the steps end a command's time before the horizon
             back = int(seg.dist_at(ex.t - min_cmd) / pitch + phase)  # (steps_by)
             if back <= j0 and self.last_start > self._deep:
-                return Wrote.WAIT  # (cut at j0 + 1 below: the queue is deep)
+                return _WAIT  # (cut at j0 + 1 below: the queue is deep)
         t0 = self.w_end
         # The tick ``t_lim`` up to which a group from ``t0`` may go, ``slowing``:
         # whether the path slows down there.  Grouped steps stay within ``tol`` steps
@@ -365,7 +371,7 @@ class AxisWriter:
             cut = True
             jh = back if back > j0 else j0 + 1
         if cut and self.last_start > self._deep:
-            return Wrote.WAIT  # the queue is deep: the next run makes it longer
+            return _WAIT  # the queue is deep: the next run makes it longer
         th = seg.step_tick(i, jh)
         if th - t0 < min_cmd:  # too short for a command: take more steps
             ahead = seg.steps_by(i, seg.dist_at(t0 + min_cmd))
@@ -376,7 +382,7 @@ class AxisWriter:
                 jh += 1
                 th = seg.step_tick(i, jh)
             if th - t0 < min_cmd and not seg.complete:
-                return Wrote.WAIT  # the steps that make it long enough are not final
+                return _WAIT  # the steps that make it long enough are not final
         n = seg.steps[i]
         if seg.complete and jh < n and seg.end == seg.length:
             tn = seg.step_tick(i, n)
@@ -433,9 +439,9 @@ class AxisWriter:
         else:
             return None
         if self.free < len(cmds):
-            return Wrote.FULL
+            return _FULL
         res = self._write_all(cmds, up, seg)
-        if res != Wrote.OK:
+        if res != _OK:
             return res
         st = self.stats
         for k in range(len(exact) - 1):  # the segments' last steps inside the group
@@ -447,7 +453,7 @@ class AxisWriter:
         self.seq, self.j = where[-1]
         self.t_pend = exact[-1]
         self.pending = True
-        return Wrote.OK
+        return _OK
 
     def _blend_group(self, seg: Segment) -> Wrote:
         """The pending step is in a corner blend or among the last ``BLEND_LEAD``
@@ -463,18 +469,22 @@ class AxisWriter:
         j0 = self.j
         up = seg.step_up(i, j0)
         chain = [seg]
+        segs = ex.segments  # (ex.segment written out)
+        first_seq = ex.first_seq
         if not seg.blend:
-            nxt = ex.segment(self.seq + 1)
+            at = self.seq + 1 - first_seq
+            nxt = segs[at] if 0 <= at < len(segs) else None
             assert nxt is not None and nxt.blend
             chain.append(nxt)
-        out = ex.segment(chain[-1].seq + 1)  # the segment after the blend
+        at = chain[-1].seq + 1 - first_seq
+        out = segs[at] if 0 <= at < len(segs) else None  # the segment after the blend
         if out is None:
             cut = not ex.final
         else:
             chain.append(out)
             cut = not out.complete and out.known(i) - out.first[i] < BLEND_RUN
         if cut and self.last_start > self._deep:
-            return Wrote.WAIT  # the queue is deep: the next run makes the group longer
+            return _WAIT  # the queue is deep: the next run makes the group longer
         exact: list[int] = []
         #: the blends' own ticks where their steps are led (``exact``: the led ones,
         #: the latest placement; ``reach``: where the blend reaches them, from which
@@ -482,9 +492,10 @@ class AxisWriter:
         reach: list[int] | None = None
         #: where each segment's steps begin in ``exact``: (index, seq, its step there)
         spans: list[tuple[int, int, int]] = []
+        tol = self.tol
         for cur in chain:
             j = j0 if cur is seg else cur.first[i]
-            kn = cur.known(i)
+            kn = cur.steps[i] if cur.blend else cur.known(i)  # (BlendSegment.known)
             if cur is out and kn > j + BLEND_RUN:
                 kn = j + BLEND_RUN
             if j >= kn:
@@ -494,13 +505,12 @@ class AxisWriter:
             spans.append((len(exact), cur.seq, j + 1))
             if cur.blend:
                 bl = cast(BlendSegment, cur)
-                try:  # the first step the other way ends it
-                    n = bl.dirs[i].index(not up, j, kn) + 1 - j
-                    turn = True
-                except ValueError:
-                    n = kn - j
-                    turn = False
-                if self.tol > 0.0 and bl.times is not bl.exact:
+                # the first step the other way ends it (looked for without raising:
+                # most blends have none)
+                ahead = bl.dirs[i][j:kn]
+                turn = (not up) in ahead
+                n = ahead.index(not up) + 1 if turn else kn - j
+                if tol > 0.0 and bl.times is not bl.exact:
                     if reach is None:
                         reach = list(exact)
                     exact.extend(bl.ticks(i, True)[j:j + n])
@@ -531,9 +541,9 @@ class AxisWriter:
         cmds = [(period, m - 1), (exact[m - 1] - t0 - (m - 1) * period, 1)]
         del exact[m:]
         if self.free < len(cmds):
-            return Wrote.FULL
+            return _FULL
         res = self._write_all(cmds, up, seg)
-        if res != Wrote.OK:
+        if res != _OK:
             return res
         last = len(exact) - 1
         for at, sq, jf in reversed(spans):
@@ -542,7 +552,7 @@ class AxisWriter:
                 break
         self.t_pend = exact[-1]
         self.pending = True
-        return Wrote.OK
+        return _OK
 
     def _longest(self, t0: int, exact: list[int], reach: list[int] | None = None
                  ) -> tuple[int, int]:
@@ -564,24 +574,43 @@ class AxisWriter:
         #: the period at step k (periods[k - 1]) while the range holds
         periods: list[int] = []
         keep = periods.append
-        # (``reach`` may go on past ``exact``'s cut at MAX_STEPS)
-        for k, (e, f) in enumerate(zip(exact, exact if reach is None else reach,
-                                       strict=False), 1):
-            if k >= n:
-                break
-            h = (e - t0) / k
-            if h < hi:
-                hi = h
-            # (``f``: the earliest counts from where the blend reaches the step)
-            d = f - t0
-            low = (d - tol * (f - prev)) / k
-            if low > lo:
-                lo = low
-            period = int(hi)
-            if period < lo or period < fastest:
-                break
-            prev = f
-            keep(period)
+        if reach is None:  # (the loop below with f = e: most groups)
+            # ``int(hi)`` as whole numbers: the least ``(e_k - t0) // k`` (ticks are
+            # integers below 2^53, so the quotient's float never rounds up to the
+            # next integer; where it is negative both break at once: below fastest)
+            period = 1 << 62
+            for k, e in enumerate(exact, 1):
+                if k >= n:
+                    break
+                d = e - t0
+                h = d // k
+                if h < period:
+                    period = h
+                low = (d - tol * (e - prev)) / k
+                if low > lo:
+                    lo = low
+                if period < lo or period < fastest:
+                    break
+                prev = e
+                keep(period)
+        else:
+            # (``reach`` may go on past ``exact``'s cut at MAX_STEPS)
+            for k, (e, f) in enumerate(zip(exact, reach, strict=False), 1):
+                if k >= n:
+                    break
+                hf = (e - t0) / k
+                if hf < hi:
+                    hi = hf
+                # (``f``: the earliest counts from where the blend reaches the step)
+                d = f - t0
+                low = (d - tol * (f - prev)) / k
+                if low > lo:
+                    lo = low
+                period = int(hi)
+                if period < lo or period < fastest:
+                    break
+                prev = f
+                keep(period)
         # the most steps whose commands are legal: steps 0..k-1 at the period of
         # step k-1, then the wait up to step k's tick (step k begins the next command)
         min_wait = self.min_wait
@@ -669,14 +698,14 @@ class AxisWriter:
             wait = max(th - self.w_end, self.min_wait)
             cmds = [(t, 1 if k == 0 else 0) for k, t in enumerate(split_ticks(wait))]
         if self.free < len(cmds):
-            return Wrote.FULL
+            return _FULL
         res = self._write_all(cmds, up, seg)
-        if res != Wrote.OK:
+        if res != _OK:
             return res
         self.j = jh
         self.t_pend = th
         self.pending = True
-        return Wrote.OK
+        return _OK
 
     def _commands(self, span: int, m: int) -> list[tuple[int, int]] | None:
         """Commands ``(ticks, steps)`` for ``m`` steps over ``span`` ticks (None: a
@@ -716,11 +745,11 @@ class AxisWriter:
         """The pending step is its segment's last and the axis does not go on in the
         next segment the same way: one step, then wait for the next step."""
         found, seq, j, tick = self._next()
-        if found == Found.UNKNOWN:
+        if found == _UNKNOWN:
             return self._provisional(seg)
         i = self.axis
         up = seg.step_up(i, self.j)
-        if found == Found.END:
+        if found == _END:
             cmds = [(self.min_wait, 1)]  # the last step of the run: the queue runs out
         else:
             wait = tick - self.w_end
@@ -729,10 +758,10 @@ class AxisWriter:
             parts = split_ticks(wait)
             cmds = [(t, 1 if k == 0 else 0) for k, t in enumerate(parts)]
         if self.free < len(cmds):
-            return Wrote.FULL
-        if found == Found.END:
+            return _FULL
+        if found == _END:
             res = self._write_all(cmds, up, seg)
-            if res == Wrote.OK:
+            if res == _OK:
                 self.pending = False
                 self.done = True
                 if self.listener is not None and i == seg.dominant:
@@ -741,26 +770,26 @@ class AxisWriter:
         nseg = self.ex.segment(seq)
         assert nseg is not None
         res = self._write_all(cmds[:1], up, seg)
-        if res == Wrote.OK and len(cmds) > 1:
+        if res == _OK and len(cmds) > 1:
             res = self._write_all(cmds[1:], nseg.step_up(i, j), seg)
-        if res != Wrote.OK:
+        if res != _OK:
             return res
         self.seq, self.j, self.t_pend = seq, j, tick
         self.pending = True
-        return Wrote.OK
+        return _OK
 
     def _provisional(self, seg: Segment) -> Wrote:
         """The pending step's successor is beyond the horizon: a wait that ends at least
         one minimum command time before the horizon (pauses extend it later)."""
         if self.last_start > self._deep:
-            return Wrote.WAIT  # the queue is deep: the next step may be final then
+            return _WAIT  # the queue is deep: the next step may be final then
         wait = int(self.ex.t) - self.min_cmd - self.w_end
         if wait > MAX_TICKS:
             wait = MAX_TICKS
         if wait < self.min_wait:
-            return Wrote.WAIT
+            return _WAIT
         res = self._write_all([(wait, 1)], seg.step_up(self.axis, self.j), seg)
-        if res == Wrote.OK:
+        if res == _OK:
             self.pending = False
         return res
 
@@ -768,7 +797,7 @@ class AxisWriter:
         """No step is final: pauses up to one minimum command time before the horizon."""
         gap = int(self.ex.t) - self.min_cmd - self.w_end
         if gap < self.min_wait or self.last_start > self._deep:
-            return Wrote.WAIT
+            return _WAIT
         parts = split_ticks(gap)[:free - 1]
         return self._write_all([(t, 0) for t in parts], self.up, None)
 
@@ -778,7 +807,7 @@ class AxisWriter:
         the rest on the next runs; every part is at least half a longest command)."""
         parts = split_ticks(gap)
         if free < 2:
-            return Wrote.FULL
+            return _FULL
         return self._write_all([(t, 0) for t in parts[:free - 1]], up, None)
 
     def _shift(self, by: int) -> None:
@@ -800,10 +829,10 @@ class AxisWriter:
             res = write(ticks, steps, up, False)
             if res != ok:
                 if res.retry:
-                    return Wrote.FULL  # pragma: no cover - room was checked
+                    return _FULL  # pragma: no cover - room was checked
                 st.errors += 1
                 self.host.report_abort(res, (ticks, steps, up))
-                return Wrote.ERROR
+                return _ERROR
             if listener is not None and steps and seg is not None:
                 listener(w_end, seg.speed_at(w_end) * self.tps * 60.0, seg.tag)
             self.free -= 1
@@ -826,4 +855,4 @@ class AxisWriter:
                 self.step_last = last_start
             else:
                 st.pauses += 1
-        return Wrote.OK
+        return _OK
