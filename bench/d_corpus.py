@@ -8,7 +8,7 @@ A setting is ``FIELD=VALUE`` (or ``FIELD=+N`` / ``-N``) of :class:`fas.sim.timin
 or StepperDemo's :class:`stepperdemo.demo.build.DemoBuild`; it reaches build d's
 ATmega328P (the default build's AVR figures, and its time-measurement build of upstream's
 timing tests); the scenario files then run as ``python3 -m stepperdemo run FILES...``
-runs them (its exit status).  Since the fortieth pass build d's figures read from its
+runs them (its exit status).  Since the fortieth pass (build d), build d's figures read from its
 replica (D33 P30 L34 W34 C37 P39 T39) are the default: those variants set what is
 already set; ``FIT`` (first) goes back to the figures fitted before it, to look at a
 reading alone.
@@ -28,13 +28,13 @@ from fas.sim import timing as sim_timing_module  # noqa: E402
 from stepperdemo.demo import build as demo_build_module  # noqa: E402
 from stepperdemo.front.cli import main as stepperdemo_main  # noqa: E402
 
-# the setting that puts back build d's 328P figures fitted before the fortieth pass (the
-# variant FIT); a variant after it reads them piece by piece again
+# the setting that puts back build d's 328P figures fitted before the fortieth pass
+# (build d; the variant FIT); a variant after it reads them piece by piece again
 FITTED = "build_d=fitted"
 
-# build d's figures read from its replica, by pass (the default since the fortieth: on the
-# default each is a no-op, after FIT it reads its piece alone).  Every setting is absolute:
-# none adds to what is set, so none applies twice
+# build d's figures read from its replica, by pass (the default since the fortieth pass
+# (build d): on the default each is a no-op, after FIT it reads its piece alone).  Every
+# setting is absolute: none adds to what is set, so none applies twice
 VARIANTS: dict[str, list[str]] = {
     "FIT": [FITTED],
     # build d's ramp task read from its replica and both its phases (fas.sim.timing's
@@ -66,12 +66,13 @@ VARIANTS: dict[str, list[str]] = {
     "T39": [f"cmd_tail_ticks.{k}={v}"
             for k, v in demo_build_module.BUILD_D_REPLICA_TAILS_P39.items()],
 }
-# the variants that make build d's default (fortieth pass)
+# the variants that make build d's default (fortieth pass (build d))
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]
 
 
 def set_fitted() -> None:
-    """Build d's ATmega328P figures as fitted before the fortieth pass, for this process."""
+    """Build d's ATmega328P figures as fitted before the fortieth pass (build d), for this
+    process."""
     sim_timing_module.BY_FAMILY["avr"] = sim_timing_module.AVR_TIMING
     sim_timing_module.BY_BUILD["d_time_measurement"]["atmega328p"] = dataclasses.replace(
         sim_timing_module.AVR_TIMING, **sim_timing_module.TIME_MEASUREMENT_STEP_ISR)

@@ -2,7 +2,7 @@
 "thirty-ninth pass"): StepperDemo's ``DemoBuild.buffer_char_ticks`` (variant P39 of
 ``bench/d_corpus.py``), the tails read again under it (T39), and the corpus files that
 build d's read variants close with it.  All of them are build d's default since the fortieth
-pass (``READ`` on top of the fitted figures, the variant FIT, is that default)."""
+pass (build d) (``READ`` on top of the fitted figures, the variant FIT, is that default)."""
 
 from __future__ import annotations
 
@@ -100,7 +100,7 @@ def _check(name: str, what: str) -> object:
 
 
 # the four former known deviations of build d's 328P (docs/api-coverage.md until the
-# fortieth pass) and the files the read variants left out before the body (test_sd_07,
+# fortieth pass (build d)) and the files the read variants left out before the body (test_sd_07,
 # dm09) or closed (d34, test_sd_18): build d's default as read meets the firmware
 @pytest.mark.parametrize("name,what", [
     ("d14", "A pulse high total us"),

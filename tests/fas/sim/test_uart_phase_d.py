@@ -2,8 +2,8 @@
 (docs/timing-model.md, "thirty-first pass"): the block's length (landed), the line's start
 after a hand-over (``SimTiming.uart_idle_start_ticks``, off by default), and the corpus
 files that the measured phases move on the figures fitted before the fortieth pass (build
-d's default since then reads its ramp task and both phases), with the firmware's figures and
-tolerances."""
+d) (build d's default since then reads its ramp task and both phases), with the firmware's
+figures and tolerances."""
 
 from __future__ import annotations
 
@@ -75,7 +75,7 @@ def test_a_load_held_by_a_blocked_section_starts_at_its_end() -> None:
 
 
 def _measured_d(monkeypatch: pytest.MonkeyPatch, uart: int) -> None:
-    """Build d's 328P as fitted before the fortieth pass with both phases as the replica
+    """Build d's 328P as fitted before the fortieth pass (build d) with both phases as the replica
     measures them (the ramp task 217 ticks later with its entry 217 shorter, timer 0 405;
     thirtieth pass) and the UART's line ``uart`` ticks after a hand-over."""
     _fitted(monkeypatch)
@@ -86,7 +86,8 @@ def _measured_d(monkeypatch: pytest.MonkeyPatch, uart: int) -> None:
 
 
 def _fitted(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Build d's 328P as fitted before the fortieth pass (``bench/d_corpus.py``'s FIT)."""
+    """Build d's 328P as fitted before the fortieth pass (build d) (``bench/d_corpus.py``'s
+    FIT)."""
     import sys  # noqa: PLC0415
 
     from stepperdemo.demo import build as demo_build_module  # noqa: PLC0415
@@ -124,7 +125,7 @@ def test_d30_with_the_measured_phases(monkeypatch: pytest.MonkeyPatch, uart: int
 
 
 # both phases close two deviations of the fitted figures (known deviations until the
-# fortieth pass; the firmware's figures and tolerances)
+# fortieth pass (build d); the firmware's figures and tolerances)
 @pytest.mark.parametrize("name, fitted, measured", [("d14", 208, 205), ("d38", 11588, 11537)])
 def test_known_deviations_close_with_the_measured_phases(
         monkeypatch: pytest.MonkeyPatch, name: str, fitted: int, measured: int) -> None:
@@ -184,9 +185,9 @@ def test_with_the_e_check_the_blocks_lie_as_far_apart_as_the_replicas(
 
 
 @pytest.mark.xfail(strict=True, reason="with the e check (4 / 1) d30 50 612 us against "
-                   "49 248 +- 710 (build d's figures read, fortieth pass; 48 307 with those "
-                   "fitted before): the windows' starts and the blocks per window are not "
-                   "the replica's yet (thirty-first pass)")
+                   "49 248 +- 710 (build d's figures read, fortieth pass (build d); 48 307 "
+                   "with those fitted before): the windows' starts and the blocks per window "
+                   "are not the replica's yet (thirty-first pass)")
 def test_d30_with_the_e_check(monkeypatch: pytest.MonkeyPatch) -> None:
     _e_check_in_build_d(monkeypatch)
     check = _check("d30")
