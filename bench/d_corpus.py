@@ -1,14 +1,17 @@
 """The scenario corpus with build d's ATmega328P figures changed: the landing rule's
 corpus check for build d's figures (docs/timing-model.md, "thirty-third pass").
 
-    python3 bench/d_corpus.py --variant D33 [--set FIELD=VALUE ...] \\
+    python3 bench/d_corpus.py --variant FIT --variant D33 [--set FIELD=VALUE ...] \\
         sequences/conformance sequences/upstream sequences/gcode sequences/examples
 
 A setting is ``FIELD=VALUE`` (or ``FIELD=+N`` / ``-N``) of :class:`fas.sim.timing.SimTiming`
 or StepperDemo's :class:`stepperdemo.demo.build.DemoBuild`; it reaches build d's
 ATmega328P (the default build's AVR figures, and its time-measurement build of upstream's
 timing tests); the scenario files then run as ``python3 -m stepperdemo run FILES...``
-runs them (its exit status).
+runs them (its exit status).  Since the fortieth pass (build d), build d's figures read from its
+replica (D33 P30 L34 W34 C37 P39 T39) are the default: those variants set what is
+already set; ``FIT`` (first) goes back to the figures fitted before it, to look at a
+reading alone.
 """
 
 from __future__ import annotations
@@ -25,21 +28,32 @@ from fas.sim import timing as sim_timing_module  # noqa: E402
 from stepperdemo.demo import build as demo_build_module  # noqa: E402
 from stepperdemo.front.cli import main as stepperdemo_main  # noqa: E402
 
-# build d's ramp task read from its replica and both its phases (fas.sim.timing's
-# BUILD_D_REPLICA_TASK and BUILD_D_REPLICA_PHASES; the phase of the task is added)
+# the setting that puts back build d's 328P figures fitted before the fortieth pass
+# (build d; the variant FIT); a variant after it reads them piece by piece again
+FITTED = "build_d=fitted"
+
+# build d's figures read from its replica, by pass (the default since the fortieth pass
+# (build d): on the default each is a no-op, after FIT it reads its piece alone).  Every
+# setting is absolute: none adds to what is set, so none applies twice
 VARIANTS: dict[str, list[str]] = {
+    "FIT": [FITTED],
+    # build d's ramp task read from its replica and both its phases (fas.sim.timing's
+    # BUILD_D_REPLICA_TASK and BUILD_D_REPLICA_PHASES; the task's phase is the fitted one
+    # plus the difference read)
     "D33": [f"{k}={v}" for k, v in sim_timing_module.BUILD_D_REPLICA_TASK.items()],
-    "P30": [f"{k}={'+' if k == 'task_phase_ticks' else ''}{v}"
+    "P30": [f"{k}={sim_timing_module.AVR_TIMING.task_phase_ticks + v}"
+            if k == "task_phase_ticks" else f"{k}={v}"
             for k, v in sim_timing_module.BUILD_D_REPLICA_PHASES.items()],
     # build d's commands' CPU to their first print, read from its replica (StepperDemo's
     # BUILD_D_REPLICA_COMMANDS)
     "L34": [f"cmd_ticks.{k}={v}" for k, v in demo_build_module.BUILD_D_REPLICA_COMMANDS.items()],
-    # ... and their tails after the print (BUILD_D_REPLICA_COMMAND_TAILS)
+    # ... and their tails after the print (BUILD_D_REPLICA_COMMAND_TAILS; superseded by T39)
     "T34": [f"cmd_tail_ticks.{k}={v}"
             for k, v in demo_build_module.BUILD_D_REPLICA_COMMAND_TAILS.items()],
     # ... and the pass that ends a `w<ms>` before its message (BUILD_D_REPLICA_PAUSE_END_TICKS)
     "W34": [f"pause_end_ticks={demo_build_module.BUILD_D_REPLICA_PAUSE_END_TICKS}"],
-    # ... and `H` / `X` given while a stepper runs (BUILD_D_REPLICA_RUNNING_TAILS)
+    # ... and `H` / `X` given while a stepper runs (BUILD_D_REPLICA_RUNNING_TAILS;
+    # superseded by T39)
     "T37": [f"cmd_tail_ticks.{k}={v}"
             for k, v in demo_build_module.BUILD_D_REPLICA_RUNNING_TAILS.items()],
     # a coast is a command planned without a conversion (SimTiming.fill_coast_unconverted;
@@ -52,6 +66,17 @@ VARIANTS: dict[str, list[str]] = {
     "T39": [f"cmd_tail_ticks.{k}={v}"
             for k, v in demo_build_module.BUILD_D_REPLICA_TAILS_P39.items()],
 }
+# the variants that make build d's default (fortieth pass (build d))
+DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]
+
+
+def set_fitted() -> None:
+    """Build d's ATmega328P figures as fitted before the fortieth pass (build d), for this
+    process."""
+    sim_timing_module.BY_FAMILY["avr"] = sim_timing_module.AVR_TIMING
+    sim_timing_module.BY_BUILD["d_time_measurement"]["atmega328p"] = dataclasses.replace(
+        sim_timing_module.AVR_TIMING, **sim_timing_module.TIME_MEASUREMENT_STEP_ISR)
+    demo_build_module.BY_PROFILE["atmega328p"] = demo_build_module.ATMEGA328P_FITTED_BUILD
 
 
 def set_build_d(settings: list[str]) -> None:
@@ -60,6 +85,9 @@ def set_build_d(settings: list[str]) -> None:
     t_fields = {f.name for f in dataclasses.fields(sim_timing_module.SimTiming)}
     d_fields = {f.name for f in dataclasses.fields(demo_build_module.DemoBuild)}
     for setting in settings:
+        if setting == FITTED:
+            set_fitted()
+            continue
         name, sep, value = setting.partition("=")
         table_name, dot, letter = name.partition(".")
         if sep and dot and table_name in ("cmd_ticks", "cmd_tail_ticks") and len(letter) == 1:
@@ -106,6 +134,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="a named set of --set; repeatable")
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                     help="a figure of build d's ATmega328P; repeatable")
+    ap.add_argument("-v", "--verbose", action="store_true",
+                    help="every check of every file (the runner's -v)")
     ap.add_argument("paths", nargs="+", help="scenario files or folders")
     args = ap.parse_args(argv)
     try:
@@ -113,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"d_corpus: {exc}", file=sys.stderr)
         return 2
-    return stepperdemo_main(["run", *args.paths])
+    return stepperdemo_main(["run", *(["-v"] if args.verbose else []), *args.paths])
 
 
 if __name__ == "__main__":

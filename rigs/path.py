@@ -380,6 +380,11 @@ def first_within_a_step(ins: Sequence[tuple[int, tuple[int, ...]]], i: int,
     return j
 
 
+def _same_block(a, b) -> bool:
+    """Two blend records whose block out is the same move (planned again after a hold)."""
+    return a.block.start == b.block.start and a.block.delta == b.block.delta
+
+
 def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
                 ins: Sequence[tuple[int, tuple[int, ...]]], spu: Sequence[float],
                 samples: int = 8) -> list[tuple[float, tuple[float, ...]]]:
@@ -393,7 +398,13 @@ def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
     i = 0  # instants
     for n, v in enumerate(vertices):
         v = tuple(v)
-        if n and k < len(blends) and tuple(blends[k][0]) == v:
+        # a corner can have several records (of one block out, planned again): a feed
+        # hold that stops near a corner it was blending blends it again when it resumes
+        # (each is run)
+        blended = False
+        while n and k < len(blends) and tuple(blends[k][0]) == v and (
+                not blended or _same_block(blends[k][1], blends[k - 1][1])):
+            blended = True
             seg = blends[k][1]
             b = seg.b
             for m in range(samples + 1):
@@ -405,6 +416,7 @@ def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
             while i < len(ins) and ins[i][0] <= t_mid:
                 i += 1
             k += 1
+        if blended:
             continue
         if n == 0:
             out.append((ins[0][0] - 1 if ins else 0, tuple(float(c) for c in v)))
@@ -457,6 +469,10 @@ def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
     for v in vertices:
         v = tuple(v)
         if k < len(blends) and tuple(blends[k][0]) == v:
+            # (several records of one corner, path_as_run: the last one takes it)
+            while (k + 1 < len(blends) and tuple(blends[k + 1][0]) == v
+                   and _same_block(blends[k + 1][1], blends[k][1])):
+                k += 1
             seg = blends[k][1]
             t = int((seg.t_start + seg.t_done) / 2)
             out.append(t)

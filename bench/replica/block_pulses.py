@@ -27,8 +27,11 @@ field of :class:`fas.sim.timing.SimTiming` or of StepperDemo's
 :class:`stepperdemo.demo.build.DemoBuild`; ``+N`` / ``-N`` add to the current value::
 
     python3 bench/replica/block_pulses.py --work /tmp/fas-replica --tag Os-nolto-inall-pad1 d30
-    python3 bench/replica/block_pulses.py ... --set task_phase_ticks=+217 \\
+    python3 bench/replica/block_pulses.py ... --set build_d=fitted --set task_phase_ticks=+217 \\
         --set fill_entry_ticks=-217 --set timer0_lag_ticks=405 --set timer0_data_align=2 d30
+
+(``build_d=fitted`` first: the figures fitted before build d's read ones became the
+default, fortieth pass (build d); ``bench/d_corpus.py``'s variant FIT.)
 """
 
 from __future__ import annotations

@@ -18,6 +18,7 @@ ATmega328P the figures are calibrated against the AVR-simulator runs in
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 from ..arch import ATMEGA2560, ATMEGA2560_VARIANTS, Profile
 from .builds import check_build
@@ -205,8 +206,9 @@ class SimTiming:
     # copy above), setup() where it was, plus the bytes that round the copy up to
     # timer0_data_align.  Build d's replica (60 runs) puts timer 0's overflow 405 ticks
     # after the model's, 414 where the copy is odd: 405 and 2 make all 60 to the tick.
-    # Off (0) everywhere: with them the corpus fails d25, test_sd_09 and test_sd_14's
-    # pulse-high totals (docs/timing-model.md, "twenty-ninth pass")
+    # Build d's ATmega328P since the fortieth pass (build d), with its ramp task read (alone
+    # they failed d25, test_sd_09 and test_sd_14's pulse-high totals: "twenty-ninth pass");
+    # 0 elsewhere
     timer0_lag_ticks: int = 0
     timer0_data_align: int = 1
     # a character handed to the UART while its line is idle goes onto the wire this
@@ -286,11 +288,11 @@ AVR_TIMING = SimTiming(
     boot_data_align=2,
 )
 
-# the default build with the library's SIMAVR_TIME_MEASUREMENT (upstream's timing
-# tests): the step interrupt sets a port bit on entry (sbi, before it clears the step pin)
-# and toggles it before it returns
-AVR_TIME_MEASUREMENT_TIMING = replace(AVR_TIMING, isr_latency_ticks=(62, 73, 73),
-                                      isr_duration_by_channel=(126, 152, 152))
+# the library built with SIMAVR_TIME_MEASUREMENT (upstream's timing tests): the step
+# interrupt sets a port bit on entry (sbi, before it clears the step pin) and toggles it
+# before it returns
+TIME_MEASUREMENT_STEP_ISR: dict[str, Any] = {
+    "isr_latency_ticks": (62, 73, 73), "isr_duration_by_channel": (126, 152, 152)}
 
 # the build of the runs e01-e18 (fas.sim.builds): the library's code takes fewer cycles.
 # A running stepper's fill costs 226 + 100 per queued entry, and 100 more when it goes
@@ -332,9 +334,9 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
 # writes 136 less than that plus its commands (the solve over 27 594 tasks); a lone
 # start's first write 2 581 (436 + 2 145, its one-step commands 36 above a running
 # ramp's), its last write to the task's end 976 + 621 (1 030 after a command of several
-# steps).  Not set in any build: with them and both phases (below) the corpus fails
-# d34, dm09 and test_sd_18, each a call one ramp-task slot off (the loop's chain, not
-# read for build d yet), and meets d14, d35 and d38 (the pass's table)
+# steps).  Build d's ATmega328P default (AVR_D_328P_TIMING below, fortieth pass (build d)); alone
+# with both phases the corpus failed d34, dm09 and test_sd_18 (the thirty-third pass's
+# table): StepperDemo's commands read as well close them (stepperdemo.demo.build)
 BUILD_D_REPLICA_TASK: dict[str, int] = {
     "fill_entry_ticks": 376, "fill_exit_ticks": 228, "idle_task_ticks": 436,
     "fill_stepper_ticks": 209 - 136, "fill_queued_entry_ticks": 75,
@@ -349,11 +351,32 @@ BUILD_D_REPLICA_TASK: dict[str, int] = {
     "fill_bare_pause_ticks": (585 + 517 + 152) // 2, "fill_charges_after_writes": 1,
 }
 # ... and build d's two phases as its replica measures them (thirtieth pass): the ramp
-# task 217 ticks after the model's (with the entry read, no longer taken off the entry),
-# timer 0 405 (the copy rounded to even bytes)
+# task 217 ticks after the fitted phase (with the entry read, no longer taken off the
+# entry; a difference: added once, in AVR_D_328P_TIMING), timer 0 405 (the copy rounded
+# to even bytes)
 BUILD_D_REPLICA_PHASES: dict[str, int] = {
     "task_phase_ticks": 217, "timer0_lag_ticks": 405, "timer0_data_align": 2,
 }
+
+# build d's ATmega328P as read from its replica (docs/timing-model.md, "fortieth pass (build d)";
+# the default since then): AVR_TIMING's figures with the ramp task above (the pieces of
+# the thirty-third pass), both phases (the task's 217 ticks added to the fitted phase:
+# applied here once, nowhere else) and a coast charged as a command planned without a
+# conversion (thirty-seventh pass).  AVR_TIMING stays the figures fitted on build d's
+# runs: the other AVR chips' tables and the other builds start from it
+_BUILD_D_TASK_FIELDS: dict[str, Any] = {
+    k: bool(v) if k in ("fill_skips_done_ramps", "fill_charges_after_writes") else v
+    for k, v in BUILD_D_REPLICA_TASK.items()}
+AVR_D_328P_TIMING = replace(
+    AVR_TIMING,
+    **_BUILD_D_TASK_FIELDS,
+    task_phase_ticks=AVR_TIMING.task_phase_ticks + BUILD_D_REPLICA_PHASES["task_phase_ticks"],
+    timer0_lag_ticks=BUILD_D_REPLICA_PHASES["timer0_lag_ticks"],
+    timer0_data_align=BUILD_D_REPLICA_PHASES["timer0_data_align"],
+    fill_coast_unconverted=True)
+# ... and the same build with SIMAVR_TIME_MEASUREMENT (upstream's timing tests
+# test_sd_04_timing_*)
+AVR_TIME_MEASUREMENT_TIMING = replace(AVR_D_328P_TIMING, **TIME_MEASUREMENT_STEP_ISR)
 
 # upstream's own simulator-tested sketches (FastAccelStepper 1.2.7's examples/Issue*,
 # built by its test suite with SIMAVR_TIME_MEASUREMENT): the step interrupt as in
@@ -364,7 +387,7 @@ BUILD_D_REPLICA_PHASES: dict[str, int] = {
 # 1 209 943 us for Issue208; the model makes 187 755 / 1 242 566 us with these costs,
 # 233 016 / 1 630 530 with the default build's (docs/timing-model.md, "Builds")
 AVR_UPSTREAM_TM_TIMING = replace(
-    AVR_TIME_MEASUREMENT_TIMING, task_phase_ticks=LOCAL_BUILD_TASK_PHASE_TICKS,
+    AVR_TIMING, **TIME_MEASUREMENT_STEP_ISR, task_phase_ticks=LOCAL_BUILD_TASK_PHASE_TICKS,
     boot_data_align=1,
     **{name: getattr(AVR_E_TIMING, name) for name in (
         "fill_entry_ticks", "fill_stepper_ticks", "fill_queued_entry_ticks", "fill_plan_ticks",
@@ -482,8 +505,10 @@ PICO_TIMING = replace(ESP32_TIMING, uart_byte_ticks=0, char_ticks=8,
 
 MEGA_NAMES = tuple(p.name for p in (ATMEGA2560, *ATMEGA2560_VARIANTS))
 
+# (the AVR family's entry answers for the ATmega328P alone: the ATmega2560s and the
+# ATmega32U4 have their own in BY_PROFILE, every other build its own 328P entry)
 BY_FAMILY: dict[str, SimTiming] = {
-    "avr": AVR_TIMING,
+    "avr": AVR_D_328P_TIMING,
     "esp32": ESP32_TIMING,
     "sam": SAM_TIMING,
     "rp2040": PICO_TIMING,

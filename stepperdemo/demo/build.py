@@ -100,16 +100,18 @@ class DemoBuild:
     # executing a command, by letter, without its prints and argument parsing
     cmd_ticks: dict[str, int] = field(default_factory=dict, compare=False)
     # ... and, by letter, the command's CPU after its prints: the rest of the pass that ran
-    # it (empty: none; build d's replica, docs/timing-model.md, "thirty-sixth pass": off)
+    # it (empty: none; build d's 328P: its replica's, docs/timing-model.md, "thirty-sixth",
+    # "thirty-ninth" and "fortieth pass (build d)")
     cmd_tail_ticks: dict[str, int] = field(default_factory=dict, compare=False)
     irq_block_ticks: int = 0  # `e`: length of one blocked section
     # the pass that ends a `w<ms>` pause: its CPU before `Wait complete`'s first character
     # beyond the message table's look-up (the pass's head, millis(), the check), spent
-    # there (0: none; build d's replica, docs/timing-model.md, "thirty-sixth pass": off)
+    # there (0: none; build d's 328P: its replica's, docs/timing-model.md, "thirty-sixth pass")
     pause_end_ticks: int = 0
     # a print's body from a buffer in RAM (Print::write's loop: a number, a status line's
     # pieces), CPU per character handed to the serial driver; 0: the timing's char_ticks
-    # (build d's replica: 107 against 121; docs/timing-model.md, "thirty-ninth pass": off)
+    # (build d's 328P: its replica's 107 against 121; docs/timing-model.md, "thirty-ninth
+    # pass", the default since the fortieth pass (build d))
     buffer_char_ticks: int = 0
     # an idle loop woken by a deadline of millis() (timer 0's overflow) reads millis()
     # where the pass the overflow interrupted gets to it: on average half a pass later
@@ -154,10 +156,10 @@ class DemoBuild:
 # process_cmd() entry to the command's first character handed to the serial driver
 # (interrupts out), less what the model charges there beside cmd_ticks (the argument's
 # characters, the message table's look-up before the first character, a number's
-# digits): the median over the runs.  Not set in any build (the pass's corpus table:
-# with it d34, dm09 and test_sd_18 still fail: the rest of their chain lies in the `w`
-# end's anchor, the interrupts' phase and the command pass's tail below).  '+', '-' and
-# '?' are not read (their first character waits for the step or for room in the serial
+# digits): the median over the runs.  Build d's ATmega328P default (ATMEGA328P_BUILD,
+# fortieth pass (build d); alone it left d34, dm09 and test_sd_18 failing: the rest of their chain
+# lay in the `w` end's anchor, the coasts and the tails below).  '+', '-' and '?' are not
+# read (their first character waits for the step or for room in the serial
 # buffer)
 BUILD_D_REPLICA_COMMANDS: dict[str, int] = {
     "M": 515 + 64, "A": 680 - 165, "V": 528 - 15, "R": 552 - 87, "P": 596 - 118,
@@ -170,35 +172,37 @@ BUILD_D_REPLICA_COMMANDS: dict[str, int] = {
 # room): from the command's last write call to the next command's process_cmd(), the
 # replica's CPU less the model's charges there (the library call that follows the print:
 # A's setAcceleration(), S's stopMove(); the rest of the command's pass): the median.
-# Not set in any build (with them the corpus is as with the commands alone)
+# Superseded by BUILD_D_REPLICA_TAILS_P39 (read again under the print body)
 BUILD_D_REPLICA_COMMAND_TAILS: dict[str, int] = {
     "A": 296, "S": 347, "V": 158, "R": 136, "U": 41, "K": 25, "f": 59, "P": 14, "a": 14,
 }
 # ... and two letters given while a stepper runs, read on build d's replica of the runs
 # dm01-dm12 (their firmware is build d's but for the input's define in the library and
 # one byte of data: the same steps, 643-677 ticks earlier): `H` 749 (8 commands, 737-757:
-# the speed's division after its print), `X` 1 058 (3, 966-1 066).  Not set in any build
-# (docs/timing-model.md, thirty-seventh pass)
+# the speed's division after its print), `X` 1 058 (3, 966-1 066) (docs/timing-model.md,
+# thirty-seventh pass; superseded by BUILD_D_REPLICA_TAILS_P39)
 BUILD_D_REPLICA_RUNNING_TAILS: dict[str, int] = {"H": 749, "X": 1058}
 # ... and a print's body from a buffer, CPU per character between two calls of
 # HardwareSerial::write(unsigned char), interrupts out, read on build d's replica (1 990
 # prints of dm01-dm12, d21, d34, test_sd_07 without a wait for room: 107, the model's 121
 # less 14 in every one).  The message table's texts keep the timing's figure: their plain
-# characters cost 114, but the look-ups between their fragments make up the rest.  Not set
-# in any build (docs/timing-model.md, thirty-ninth pass)
+# characters cost 114, but the look-ups between their fragments make up the rest
+# (docs/timing-model.md, thirty-ninth pass; build d's ATmega328P default since the
+# fortieth pass (build d))
 BUILD_D_REPLICA_PRINT_BODY: dict[str, int] = {"buffer_char_ticks": 107}
 # ... and under that body, the tails (COMMAND_TAILS and RUNNING_TAILS) read again with
 # `command_costs.py --tails` over the d-runs and dm01-dm12: a command whose last print is
 # a number's or a line end's from a buffer (A, S, V, R, f, H, X) reads 14 ticks more (its
-# last character 107, not 121), the others (U, K, P, a) the same.  Not set in any build
+# last character 107, not 121), the others (U, K, P, a) the same.  Build d's ATmega328P
+# default (fortieth pass (build d))
 BUILD_D_REPLICA_TAILS_P39: dict[str, int] = {
     "A": 310, "S": 361, "V": 172, "R": 150, "U": 41, "K": 25, "f": 73, "P": 14, "a": 14,
     "H": 763, "X": 1072,
 }
 # ... and the pass that ends a `w<ms>`: its CPU from the pass's start to `Wait complete`'s
 # first character less the model's look-up of that message (9 329): 284 ticks, the median
-# of all 44 such passes of the runs (276-376) - for pause_end_ticks.  Not set in any build
-# (with it and the three above the corpus fails test_sd_07's pulse-high total)
+# of all 44 such passes of the runs (276-376) - for pause_end_ticks.  Build d's ATmega328P
+# default (fortieth pass (build d))
 BUILD_D_REPLICA_PAUSE_END_TICKS = 284
 AVR_COSTS = DemoBuild(
     has_stray_digital_read=True,
@@ -265,7 +269,7 @@ SAM_COSTS = DemoBuild(
 )
 
 # -------------------------------------------------------------------------------- AVR
-ATMEGA328P_BUILD = replace(
+ATMEGA328P_FITTED_BUILD = replace(
     AVR_COSTS,
     steppers=(
         DemoStepper(step=9, enable_low_active=6, direction=5, on_delay_us=500_000,
@@ -290,6 +294,18 @@ ATMEGA328P_BUILD = replace(
     # `W` holding the input: the command's pass 467 ticks against the letter's 330 (d21;
     # d30 in an `e` window 2 070 against 1 933, its blocks of 1 599 apart)
     cmd_ticks={**AVR_COSTS.cmd_ticks, "W": 137},
+)
+# ... and build d's StepperDemo as read from its replica (docs/timing-model.md, "fortieth
+# pass (build d)": the default since then): each command's CPU to its first print, its tail after
+# the prints (read under the print body below), the pass that ends a `w<ms>`, a print's
+# body from a buffer.  ATMEGA328P_FITTED_BUILD keeps the fitted figures (build e's table
+# starts from it)
+ATMEGA328P_BUILD = replace(
+    ATMEGA328P_FITTED_BUILD,
+    cmd_ticks={**ATMEGA328P_FITTED_BUILD.cmd_ticks, **BUILD_D_REPLICA_COMMANDS},
+    cmd_tail_ticks=dict(BUILD_D_REPLICA_TAILS_P39),
+    pause_end_ticks=BUILD_D_REPLICA_PAUSE_END_TICKS,
+    buffer_char_ticks=BUILD_D_REPLICA_PRINT_BODY["buffer_char_ticks"],
 )
 
 
@@ -456,7 +472,7 @@ BY_PROFILE: dict[str, DemoBuild] = {
 # the firmware builds whose StepperDemo costs differ from the default build's
 # (fas.sim.builds), by profile name
 BY_BUILD: dict[str, dict[str, DemoBuild]] = {
-    "e": {"atmega328p": replace(ATMEGA328P_BUILD, loop_pass_ticks=220, setup_head_ticks=1450,
+    "e": {"atmega328p": replace(ATMEGA328P_FITTED_BUILD, loop_pass_ticks=220, setup_head_ticks=1450,
                                 irq_block_ticks=AVR_COSTS.irq_block_ticks,
                                 loop_pause_ticks=AVR_COSTS.loop_pause_ticks,
                                 loop_running_stepper_ticks=10, loop_idle_stepper_ticks=40,

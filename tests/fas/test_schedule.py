@@ -97,7 +97,21 @@ def _idle_then_move(backend: SimBackend | SerialBackend) -> None:
 
 
 def test_the_simulated_backend_runs_the_engine_on_it() -> None:
-    _idle_then_move(SimBackend("atmega328p"))
+    # build e's 328P: an idle task costs no CPU there, so the schedule sleeps
+    _idle_then_move(SimBackend("atmega328p", build="e"))
+
+
+def test_build_ds_idle_tasks_are_run_for_their_cpu() -> None:
+    """Build d's 328P charges an idle task its CPU (idle_task_ticks, read from its
+    replica; the default since the fortieth pass (build d)): no run is skipped."""
+    backend = SimBackend("atmega328p")
+    assert backend.machine.timing.idle_task_ticks > 0
+    engine = Engine(backend)
+    engine.init()
+    tasks = backend.tasks
+    backend.app_spend(3 * backend.task_period_ticks)
+    # runs 0 and 1 are done (the first at the task's phase, 68 350 ticks), run 2 is next
+    assert backend.task_runs == 2 and tasks.last == 1 and tasks.next == 2
 
 
 def test_the_serial_backend_runs_the_engine_on_it() -> None:

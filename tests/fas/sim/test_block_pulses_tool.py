@@ -90,7 +90,7 @@ def test_the_tasks_own_cpu_leaves_out_the_interrupts_nested_in_it() -> None:
 
 def test_the_models_tasks_carry_the_cpu_they_charge() -> None:
     tasks = block_pulses.model_tasks("M1 A2000 V40 R40 W")
-    entry = sim_timing_module.AVR_TIMING.fill_entry_ticks
+    entry = sim_timing_module.BY_FAMILY["avr"].fill_entry_ticks  # build d's 328P
     assert len(tasks) > 10 and all(cpu >= entry for _, cpu in tasks)
 
 

@@ -2,7 +2,9 @@
 "thirty-seventh pass"): ``SimTiming.fill_coast_unconverted`` (variant C37 of
 ``bench/d_corpus.py``: a coast is a command the ramp planned without a conversion),
 StepperDemo's ``BUILD_D_REPLICA_RUNNING_TAILS`` (T37: `H` and `X` given while a stepper
-runs), and the corpus files they close or leave open."""
+runs), and the corpus files they close or leave open.  Both are build d's default since the
+fortieth pass (build d): each test starts from the figures fitted before it (the variant FIT) and
+reads its pieces on top."""
 
 from __future__ import annotations
 
@@ -27,13 +29,15 @@ D = sim_timing_module.BUILD_D_REPLICA_TASK
 
 
 def _d_with(monkeypatch: pytest.MonkeyPatch, variants: list[str], *sets: str) -> None:
-    """Build d's ATmega328P figures with ``variants`` (and ``sets``) for this test."""
+    """Build d's ATmega328P figures as fitted before the fortieth pass (build d) with ``variants``
+    (and ``sets``) for this test."""
     for table, key in ((sim_timing_module.BY_FAMILY, "avr"),
                        (sim_timing_module.BY_BUILD["d_time_measurement"], "atmega328p")):
         monkeypatch.setitem(table, key, table[key])
     monkeypatch.setitem(demo_build_module.BY_PROFILE, "atmega328p",
                         demo_build_module.BY_PROFILE["atmega328p"])
-    d_corpus.set_build_d([s for v in variants for s in d_corpus.VARIANTS[v]] + list(sets))
+    d_corpus.set_build_d([s for v in ["FIT", *variants] for s in d_corpus.VARIANTS[v]]
+                         + list(sets))
 
 
 def _task_cpu(monkeypatch: pytest.MonkeyPatch, run: str) -> tuple[int, int]:
@@ -69,10 +73,13 @@ def test_a_true_coast_is_a_coast_either_way(monkeypatch: pytest.MonkeyPatch) -> 
     assert coasts > 0 and coasts % 1000 == 0
 
 
-def test_the_field_is_off_in_every_build() -> None:
+def test_the_field_is_on_in_build_ds_328p_alone() -> None:
     tables = [sim_timing_module.BY_FAMILY, sim_timing_module.BY_PROFILE,
               *sim_timing_module.BY_BUILD.values()]
-    assert not any(t.fill_coast_unconverted for table in tables for t in table.values())
+    on = {id(t) for table in tables for t in table.values() if t.fill_coast_unconverted}
+    assert on == {id(sim_timing_module.BY_FAMILY["avr"]),
+                  id(sim_timing_module.BY_BUILD["d_time_measurement"]["atmega328p"])}
+    assert not sim_timing_module.AVR_TIMING.fill_coast_unconverted  # the fitted figures
 
 
 def test_the_running_tails_are_the_dm_runs_readings() -> None:
@@ -81,7 +88,10 @@ def test_the_running_tails_are_the_dm_runs_readings() -> None:
     # replica of dm01-dm12
     assert BUILD_D_REPLICA_RUNNING_TAILS == {"H": 749, "X": 1058}
     assert d_corpus.VARIANTS["T37"] == ["cmd_tail_ticks.H=749", "cmd_tail_ticks.X=1058"]
-    assert not demo_build_module.BY_PROFILE["atmega328p"].cmd_tail_ticks  # off by default
+    # build d's default carries them as read again under the print body (T39)
+    tails = demo_build_module.BY_PROFILE["atmega328p"].cmd_tail_ticks
+    assert {k: tails[k] for k in "HX"} == {"H": 749 + 14, "X": 1058 + 14}
+    assert not demo_build_module.ATMEGA328P_FITTED_BUILD.cmd_tail_ticks
 
 
 def _check(name: str, what: str) -> object:

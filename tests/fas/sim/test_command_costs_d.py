@@ -1,7 +1,9 @@
 """Build d's console commands read from its replica (docs/timing-model.md, "thirty-sixth
 pass"): the reader of ``bench/replica/command_costs.py`` on written logs, StepperDemo's
 ``BUILD_D_REPLICA_COMMANDS`` against the replica's readings (the variant L34 of
-``bench/d_corpus.py``), the command's tail field, and the corpus files it leaves open."""
+``bench/d_corpus.py``), the command's tail field, and the corpus files it leaves open.  Build
+d's default since the fortieth pass (build d): the tests read it on top of the figures fitted before
+it (the variant FIT)."""
 
 from __future__ import annotations
 
@@ -111,6 +113,11 @@ def test_the_commands_read_are_the_replicas_less_the_models_median() -> None:
     for letter, med in medians.items():
         assert BUILD_D_REPLICA_COMMANDS[letter] == AVR_COSTS.cmd_ticks[letter] - med
     assert not set("+-?W") & set(BUILD_D_REPLICA_COMMANDS)  # not read: they wait
+    # build d's 328P answers with them (fortieth pass (build d)); the other AVR chips keep the fit
+    d = demo_build_module.BY_PROFILE["atmega328p"].cmd_ticks
+    assert {k: d[k] for k in BUILD_D_REPLICA_COMMANDS} == BUILD_D_REPLICA_COMMANDS
+    assert d["W"] == 137 and d["@"] == AVR_COSTS.cmd_ticks["@"]  # not read: as fitted
+    assert demo_build_module.BY_PROFILE["atmega2560"].cmd_ticks == AVR_COSTS.cmd_ticks
 
 
 def test_the_tails_read_are_the_running_rows_medians() -> None:
@@ -120,9 +127,14 @@ def test_the_tails_read_are_the_running_rows_medians() -> None:
     assert BUILD_D_REPLICA_COMMAND_TAILS == {"A": 296, "S": 347, "V": 158, "R": 136,
                                              "U": 41, "K": 25, "f": 59, "P": 14, "a": 14}
     assert BUILD_D_REPLICA_PAUSE_END_TICKS == 284  # 44 pause ends, 276-376
-    builds = [*demo_build_module.BY_PROFILE.values(),
+    # build d's 328P carries the pause end and the tails (read again under the print body,
+    # T39); no other build or chip
+    d = demo_build_module.BY_PROFILE["atmega328p"]
+    assert d.pause_end_ticks == 284
+    assert d.cmd_tail_ticks == demo_build_module.BUILD_D_REPLICA_TAILS_P39
+    others = [*(b for name, b in demo_build_module.BY_PROFILE.items() if name != "atmega328p"),
               *(b for table in demo_build_module.BY_BUILD.values() for b in table.values())]
-    assert all(b.cmd_tail_ticks == {} and b.pause_end_ticks == 0 for b in builds)  # off
+    assert all(b.cmd_tail_ticks == {} and b.pause_end_ticks == 0 for b in others)
 
 
 def _d_with(monkeypatch: pytest.MonkeyPatch, variants: list[str]) -> None:
@@ -131,7 +143,7 @@ def _d_with(monkeypatch: pytest.MonkeyPatch, variants: list[str]) -> None:
         monkeypatch.setitem(table, key, table[key])
     monkeypatch.setitem(demo_build_module.BY_PROFILE, "atmega328p",
                         demo_build_module.BY_PROFILE["atmega328p"])
-    d_corpus.set_build_d([s for v in variants for s in d_corpus.VARIANTS[v]])
+    d_corpus.set_build_d([s for v in ["FIT", *variants] for s in d_corpus.VARIANTS[v]])
 
 
 # d34's commands on its build-d replica (fw-f85dc055c128): CPU from process_cmd() to the

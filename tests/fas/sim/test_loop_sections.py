@@ -85,12 +85,16 @@ def _pulse_high(name: str):
 
 # with build d's own loop passes (its replica, twenty-seventh pass; build e's gave 207
 # and 11 481)
-# (thirty-first pass: with build d's block and loop passes as its replica measures them,
-# the default now; before them 205 and 11 464)
-@pytest.mark.parametrize("name, off, on", [("d14", 208, 206), ("d38", 11588, 11470)])
-def test_build_d_known_deviations_close_with_the_sections(monkeypatch, name, off, on) -> None:
+# (thirty-first pass: with build d's block and loop passes as its replica measures them;
+# before them 205 and 11 464.  Fortieth pass: build d's figures read, the default, meet
+# both without the sections; with the figures fitted before, 208 and 11 588 without them
+# and 206 and 11 470 with them)
+@pytest.mark.parametrize("name, off, on", [("d14", 205, 204), ("d38", 11518, 11384)])
+def test_build_d_former_known_deviations_stay_met_with_the_sections(
+        monkeypatch, name, off, on) -> None:
     check = _pulse_high(name)
-    assert check.known and check.measured == off  # the file's known deviation
+    assert not check.known and check.measured == off
+    assert abs(check.measured - check.expected) <= check.tolerance
     _sections_in_build_d(monkeypatch)
     check = _pulse_high(name)
     assert check.measured == on
@@ -103,8 +107,10 @@ def test_build_d_known_deviations_close_with_the_sections(monkeypatch, name, off
 @pytest.mark.parametrize("name", [
     "d12", "test_sd_07_328p",
     pytest.param("test_sd_14_328p", marks=pytest.mark.xfail(
-        strict=True, reason="with the sections 311 189 us against 312 737 +- 1 000 (main "
-                            "313 415; the replica of build d 312 737.4)")),
+        strict=True, reason="with the sections 310 870 us against 312 737 +- 1 000 (build "
+                            "d's figures read, fortieth pass (build d): 313 033 without "
+                            "them; 311 189 with the figures fitted before; the replica of build d "
+                            "312 737.4)")),
 ])
 def test_build_d_checks_with_the_sections(monkeypatch, name) -> None:
     _sections_in_build_d(monkeypatch)

@@ -1,7 +1,8 @@
 """Build d's print body from a buffer read from its replica (docs/timing-model.md,
 "thirty-ninth pass"): StepperDemo's ``DemoBuild.buffer_char_ticks`` (variant P39 of
 ``bench/d_corpus.py``), the tails read again under it (T39), and the corpus files that
-build d's read variants close with it."""
+build d's read variants close with it.  All of them are build d's default since the fortieth
+pass (build d) (``READ`` on top of the fitted figures, the variant FIT, is that default)."""
 
 from __future__ import annotations
 
@@ -60,13 +61,16 @@ def test_a_buffer_prints_characters_cost_107_the_tables_are_unchanged(
     assert buffer >= 10 and table >= 3
 
 
-def test_the_body_is_the_replicas_and_off_in_every_build() -> None:
+def test_the_body_is_the_replicas_and_build_ds_328ps_alone() -> None:
     # 1 990 prints from a buffer without a wait for room, each 14 ticks a gap under 121
     # (bench/replica/command_costs.py's marks on build d's replica of dm01-dm12, d21,
     # d34, test_sd_07)
     assert BUILD_D_REPLICA_PRINT_BODY == {"buffer_char_ticks": 107}
     assert d_corpus.VARIANTS["P39"] == ["buffer_char_ticks=107"]
-    assert not any(b.buffer_char_ticks for b in demo_build_module.BY_PROFILE.values())
+    builds = [*demo_build_module.BY_PROFILE.items(),
+              *(item for table in demo_build_module.BY_BUILD.values() for item in table.items())]
+    assert [(name, b.buffer_char_ticks) for name, b in builds if b.buffer_char_ticks] == [
+        ("atmega328p", 107)]  # build d's (build e's 328P keeps the timing's char_ticks)
 
 
 def test_the_tails_read_under_the_body_are_14_more_where_a_buffer_print_ends() -> None:
@@ -95,8 +99,9 @@ def _check(name: str, what: str) -> object:
     return check
 
 
-# the four known deviations of build d's 328P (docs/api-coverage.md) and the files the
-# read variants left out before the body (test_sd_07, dm09) or closed (d34, test_sd_18)
+# the four former known deviations of build d's 328P (docs/api-coverage.md until the
+# fortieth pass (build d)) and the files the read variants left out before the body (test_sd_07,
+# dm09) or closed (d34, test_sd_18): build d's default as read meets the firmware
 @pytest.mark.parametrize("name,what", [
     ("d14", "A pulse high total us"),
     ("d21", "A position"),
@@ -108,10 +113,8 @@ def _check(name: str, what: str) -> object:
     ("d34", "A position"),
     ("test_sd_18_328p", "A step time max |dev| us"),
 ])
-def test_build_d_as_read_meets_the_firmware(monkeypatch: pytest.MonkeyPatch, name: str,
-                                            what: str) -> None:
-    _d_with(monkeypatch, READ)
-    check = _check(name, what)
+def test_build_d_as_read_meets_the_firmware(name: str, what: str) -> None:
+    check = _check(name, what)  # build d's default figures
     assert abs(check.measured - check.expected) <= check.tolerance  # type: ignore[attr-defined]
 
 
@@ -120,3 +123,31 @@ def test_without_the_body_test_sd_07_is_412(monkeypatch: pytest.MonkeyPatch) -> 
     assert round(_check("test_sd_07_328p", "A pulse high total us").measured) == 412  # type: ignore[attr-defined]
     d_corpus.set_build_d(d_corpus.VARIANTS["P39"])
     assert round(_check("test_sd_07_328p", "A pulse high total us").measured) == 416  # type: ignore[attr-defined]
+
+
+def test_the_read_variants_on_the_fitted_figures_are_build_ds_default(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """One source of truth: the fitted figures with the variants read make the default's
+    tables, and the variants once more change nothing (the task's phase, a difference
+    read against the fitted one, is not added twice)."""
+    from fas.sim import timing as sim_timing_module  # noqa: PLC0415
+
+    tm = sim_timing_module.BY_BUILD["d_time_measurement"]
+    default = (sim_timing_module.BY_FAMILY["avr"], tm["atmega328p"],
+               demo_build_module.BY_PROFILE["atmega328p"])
+    assert READ == d_corpus.DEFAULT_READ
+    assert default[0].task_phase_ticks == sim_timing_module.AVR_TIMING.task_phase_ticks + 217
+
+    def now() -> tuple[object, ...]:
+        b = demo_build_module.BY_PROFILE["atmega328p"]
+        return (sim_timing_module.BY_FAMILY["avr"], tm["atmega328p"], b, b.cmd_ticks,
+                b.cmd_tail_ticks)
+
+    want = (*default, default[2].cmd_ticks, default[2].cmd_tail_ticks)
+    _d_with(monkeypatch, READ)  # (FIT first)
+    assert now() == want
+    d_corpus.set_build_d([s for v in READ for s in d_corpus.VARIANTS[v]])
+    assert now() == want
+    d_corpus.set_build_d(d_corpus.VARIANTS["FIT"])
+    assert sim_timing_module.BY_FAMILY["avr"] is sim_timing_module.AVR_TIMING
+    assert demo_build_module.BY_PROFILE["atmega328p"] is demo_build_module.ATMEGA328P_FITTED_BUILD

@@ -1,7 +1,8 @@
 """Timer 0's start in build d (docs/timing-model.md, "twenty-ninth pass"): build d's
 replica puts timer 0's overflow 405 ticks after the model's (60 runs, each to the tick;
 414 where the start-up copied an odd number of bytes until the model rounded its copy up
-to even, "thirtieth pass"); ``SimTiming.timer0_lag_ticks`` (off by default) holds it."""
+to even, "thirtieth pass"); ``SimTiming.timer0_lag_ticks`` holds it (build d's default
+since the fortieth pass (build d))."""
 
 from __future__ import annotations
 
@@ -30,10 +31,14 @@ def _phase(n: int) -> tuple[int, int]:
 @pytest.mark.parametrize("n", sorted(FIRMWARE))
 def test_the_lag_puts_timer_0_at_the_firmwares_start(n: int,
                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    lagged = sim_timing.BY_FAMILY["avr"]  # build d's 328P
+    assert (lagged.timer0_lag_ticks, lagged.timer0_data_align) == (405, 2)
+    monkeypatch.setitem(sim_timing.BY_FAMILY, "avr",
+                        replace(lagged, timer0_lag_ticks=0, timer0_data_align=1))
     base, task = _phase(n)
-    # early by the lag, for either parity: the start-up's copy is rounded up to even bytes
-    # (boot_data_align, thirtieth pass; before it 414 where the line's length was even)
+    # without the lag early by it, for either parity: the start-up's copy is rounded up
+    # to even bytes (boot_data_align, thirtieth pass; before it 414 where the line's
+    # length was even)
     assert FIRMWARE[n] - base == 405
-    lagged = replace(sim_timing.AVR_TIMING, timer0_lag_ticks=405, timer0_data_align=2)
     monkeypatch.setitem(sim_timing.BY_FAMILY, "avr", lagged)
     assert _phase(n) == (FIRMWARE[n], task)  # setup() where it was

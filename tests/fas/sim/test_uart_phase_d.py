@@ -1,7 +1,9 @@
 """Build d's `e` block and the UART's phase, read on build d's replica
 (docs/timing-model.md, "thirty-first pass"): the block's length (landed), the line's start
 after a hand-over (``SimTiming.uart_idle_start_ticks``, off by default), and the corpus
-files that the measured phases move, with the firmware's figures and tolerances."""
+files that the measured phases move on the figures fitted before the fortieth pass (build
+d) (build d's default since then reads its ramp task and both phases), with the firmware's
+figures and tolerances."""
 
 from __future__ import annotations
 
@@ -73,13 +75,31 @@ def test_a_load_held_by_a_blocked_section_starts_at_its_end() -> None:
 
 
 def _measured_d(monkeypatch: pytest.MonkeyPatch, uart: int) -> None:
-    """Build d's 328P with both phases as the replica measures them (the ramp task 217
-    ticks later with its entry 217 shorter, timer 0 405; thirtieth pass) and the UART's
-    line ``uart`` ticks after a hand-over."""
+    """Build d's 328P as fitted before the fortieth pass (build d) with both phases as the replica
+    measures them (the ramp task 217 ticks later with its entry 217 shorter, timer 0 405;
+    thirtieth pass) and the UART's line ``uart`` ticks after a hand-over."""
+    _fitted(monkeypatch)
     t = sim_timing_module.BY_FAMILY["avr"]
     monkeypatch.setitem(sim_timing_module.BY_FAMILY, "avr", replace(
         t, task_phase_ticks=t.task_phase_ticks + 217, fill_entry_ticks=t.fill_entry_ticks - 217,
         timer0_lag_ticks=405, timer0_data_align=2, uart_idle_start_ticks=uart))
+
+
+def _fitted(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Build d's 328P as fitted before the fortieth pass (build d) (``bench/d_corpus.py``'s
+    FIT)."""
+    import sys  # noqa: PLC0415
+
+    from stepperdemo.demo import build as demo_build_module  # noqa: PLC0415
+
+    sys.path.insert(0, str(ROOT / "bench"))
+    import d_corpus  # noqa: PLC0415
+
+    for table, key in ((sim_timing_module.BY_FAMILY, "avr"),
+                       (sim_timing_module.BY_BUILD["d_time_measurement"], "atmega328p"),
+                       (demo_build_module.BY_PROFILE, "atmega328p")):
+        monkeypatch.setitem(table, key, table[key])
+    d_corpus.set_build_d(d_corpus.VARIANTS["FIT"])
 
 
 def _check(name: str, what: str = "A pulse high total us"):
@@ -104,11 +124,14 @@ def test_d30_with_the_measured_phases(monkeypatch: pytest.MonkeyPatch, uart: int
     assert abs(check.measured - check.expected) <= check.tolerance
 
 
-# both phases close two known deviations (the firmware's figures and tolerances)
-@pytest.mark.parametrize("name, measured", [("d14", 205), ("d38", 11537)])
+# both phases close two deviations of the fitted figures (known deviations until the
+# fortieth pass (build d); the firmware's figures and tolerances)
+@pytest.mark.parametrize("name, fitted, measured", [("d14", 208, 205), ("d38", 11588, 11537)])
 def test_known_deviations_close_with_the_measured_phases(
-        monkeypatch: pytest.MonkeyPatch, name: str, measured: int) -> None:
-    assert _check(name).known
+        monkeypatch: pytest.MonkeyPatch, name: str, fitted: int, measured: int) -> None:
+    _fitted(monkeypatch)
+    check = _check(name)
+    assert check.measured == fitted and abs(check.measured - check.expected) > check.tolerance
     _measured_d(monkeypatch, 0)
     check = _check(name)
     assert check.measured == measured
@@ -161,11 +184,12 @@ def test_with_the_e_check_the_blocks_lie_as_far_apart_as_the_replicas(
     assert {g for g, _ in gaps.most_common(2)} == {1599 + 330 + 4, 1599 + 467 + 4}
 
 
-@pytest.mark.xfail(strict=True, reason="with the e check (4 / 1) d30 48 307 us against "
-                   "49 248 +- 710: the windows' starts and the blocks per window are not "
-                   "the replica's yet (thirty-first pass)")
+@pytest.mark.xfail(strict=True, reason="with the e check (4 / 1) d30 50 612 us against "
+                   "49 248 +- 710 (build d's figures read, fortieth pass (build d); 48 307 "
+                   "with those fitted before): the windows' starts and the blocks per window "
+                   "are not the replica's yet (thirty-first pass)")
 def test_d30_with_the_e_check(monkeypatch: pytest.MonkeyPatch) -> None:
     _e_check_in_build_d(monkeypatch)
     check = _check("d30")
-    assert check.measured == 48307  # (the value the reason names)
+    assert check.measured == 50612  # (the value the reason names)
     assert abs(check.measured - check.expected) <= check.tolerance
