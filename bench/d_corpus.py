@@ -8,7 +8,7 @@ A setting is ``FIELD=VALUE`` (or ``FIELD=+N`` / ``-N``) of :class:`fas.sim.timin
 or StepperDemo's :class:`stepperdemo.demo.build.DemoBuild`; it reaches build d's
 ATmega328P (the default build's AVR figures, and its time-measurement build of upstream's
 timing tests); the scenario files then run as ``python3 -m stepperdemo run FILES...``
-runs them (its exit status).  Since the fortieth pass (build d), build d's figures read from its
+runs them (its exit status).  Since the fortieth pass, build d's figures read from its
 replica (D33 P30 L34 W34 C37 P39 T39) are the default: those variants set what is
 already set; ``FIT`` (first) goes back to the figures fitted before it, to look at a
 reading alone.
@@ -66,12 +66,12 @@ VARIANTS: dict[str, list[str]] = {
     "T39": [f"cmd_tail_ticks.{k}={v}"
             for k, v in demo_build_module.BUILD_D_REPLICA_TAILS_P39.items()],
 }
-# the variants that make build d's default (fortieth pass (build d))
+# the variants that make build d's default (fortieth pass)
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]
 
 
 def set_fitted() -> None:
-    """Build d's ATmega328P figures as fitted before the fortieth pass (build d), for this
+    """Build d's ATmega328P figures as fitted before the fortieth pass, for this
     process."""
     sim_timing_module.BY_FAMILY["avr"] = sim_timing_module.AVR_TIMING
     sim_timing_module.BY_BUILD["d_time_measurement"]["atmega328p"] = dataclasses.replace(

@@ -172,7 +172,7 @@ def test_isr_block_costs_one_timer_wrap_per_gap():
     assert wraps(out) == []
     # each missed compare costs one wrap plus the step period (100 us); a chain of two
     # comes where the compare after a wrap meets a blocked section again (none with build
-    # d's figures read, fortieth pass (build d): 8 of 37 with those fitted before)
+    # d's figures read, fortieth pass: 8 of 37 with those fitted before)
     assert len(wraps(back)) == 40
     assert all(4196 <= g * 1e6 / tps < 4200 for g in wraps(back))
     assert (back[-1] - back[0]) - (out[-1] - out[0]) == 40 * wrap

@@ -31,7 +31,7 @@ field of :class:`fas.sim.timing.SimTiming` or of StepperDemo's
         --set fill_entry_ticks=-217 --set timer0_lag_ticks=405 --set timer0_data_align=2 d30
 
 (``build_d=fitted`` first: the figures fitted before build d's read ones became the
-default, fortieth pass (build d); ``bench/d_corpus.py``'s variant FIT.)
+default, fortieth pass; ``bench/d_corpus.py``'s variant FIT.)
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """What one more input character costs the firmware: two replica runs of the same build
-whose inputs differ by a character, side by side (docs/timing-model.md, "fortieth pass").
+whose inputs differ by a character, side by side (docs/timing-model.md, "forty-first pass").
 
 Per run pair (``replica.py steps`` writes ``CASE.ev`` and ``CASE.pins``; e.g. e09's input
 with one more space and a control of the same length with the space at the line's end):

@@ -206,7 +206,7 @@ class SimTiming:
     # copy above), setup() where it was, plus the bytes that round the copy up to
     # timer0_data_align.  Build d's replica (60 runs) puts timer 0's overflow 405 ticks
     # after the model's, 414 where the copy is odd: 405 and 2 make all 60 to the tick.
-    # Build d's ATmega328P since the fortieth pass (build d), with its ramp task read (alone
+    # Build d's ATmega328P since the fortieth pass, with its ramp task read (alone
     # they failed d25, test_sd_09 and test_sd_14's pulse-high totals: "twenty-ninth pass");
     # 0 elsewhere
     timer0_lag_ticks: int = 0
@@ -334,7 +334,7 @@ AVR_E_TIMING = replace(AVR_TIMING, fill_entry_ticks=433, fill_stepper_ticks=226,
 # writes 136 less than that plus its commands (the solve over 27 594 tasks); a lone
 # start's first write 2 581 (436 + 2 145, its one-step commands 36 above a running
 # ramp's), its last write to the task's end 976 + 621 (1 030 after a command of several
-# steps).  Build d's ATmega328P default (AVR_D_328P_TIMING below, fortieth pass (build d)); alone
+# steps).  Build d's ATmega328P default (AVR_D_328P_TIMING below, fortieth pass); alone
 # with both phases the corpus failed d34, dm09 and test_sd_18 (the thirty-third pass's
 # table): StepperDemo's commands read as well close them (stepperdemo.demo.build)
 BUILD_D_REPLICA_TASK: dict[str, int] = {
@@ -358,7 +358,7 @@ BUILD_D_REPLICA_PHASES: dict[str, int] = {
     "task_phase_ticks": 217, "timer0_lag_ticks": 405, "timer0_data_align": 2,
 }
 
-# build d's ATmega328P as read from its replica (docs/timing-model.md, "fortieth pass (build d)";
+# build d's ATmega328P as read from its replica (docs/timing-model.md, "fortieth pass";
 # the default since then): AVR_TIMING's figures with the ramp task above (the pieces of
 # the thirty-third pass), both phases (the task's 217 ticks added to the fitted phase:
 # applied here once, nowhere else) and a coast charged as a command planned without a

@@ -101,7 +101,7 @@ class DemoBuild:
     cmd_ticks: dict[str, int] = field(default_factory=dict, compare=False)
     # ... and, by letter, the command's CPU after its prints: the rest of the pass that ran
     # it (empty: none; build d's 328P: its replica's, docs/timing-model.md, "thirty-sixth",
-    # "thirty-ninth" and "fortieth pass (build d)")
+    # "thirty-ninth" and "fortieth pass")
     cmd_tail_ticks: dict[str, int] = field(default_factory=dict, compare=False)
     irq_block_ticks: int = 0  # `e`: length of one blocked section
     # the pass that ends a `w<ms>` pause: its CPU before `Wait complete`'s first character
@@ -111,7 +111,7 @@ class DemoBuild:
     # a print's body from a buffer in RAM (Print::write's loop: a number, a status line's
     # pieces), CPU per character handed to the serial driver; 0: the timing's char_ticks
     # (build d's 328P: its replica's 107 against 121; docs/timing-model.md, "thirty-ninth
-    # pass", the default since the fortieth pass (build d))
+    # pass", the default since the fortieth pass)
     buffer_char_ticks: int = 0
     # an idle loop woken by a deadline of millis() (timer 0's overflow) reads millis()
     # where the pass the overflow interrupted gets to it: on average half a pass later
@@ -157,7 +157,7 @@ class DemoBuild:
 # (interrupts out), less what the model charges there beside cmd_ticks (the argument's
 # characters, the message table's look-up before the first character, a number's
 # digits): the median over the runs.  Build d's ATmega328P default (ATMEGA328P_BUILD,
-# fortieth pass (build d); alone it left d34, dm09 and test_sd_18 failing: the rest of their chain
+# fortieth pass; alone it left d34, dm09 and test_sd_18 failing: the rest of their chain
 # lay in the `w` end's anchor, the coasts and the tails below).  '+', '-' and '?' are not
 # read (their first character waits for the step or for room in the serial
 # buffer)
@@ -188,13 +188,13 @@ BUILD_D_REPLICA_RUNNING_TAILS: dict[str, int] = {"H": 749, "X": 1058}
 # less 14 in every one).  The message table's texts keep the timing's figure: their plain
 # characters cost 114, but the look-ups between their fragments make up the rest
 # (docs/timing-model.md, thirty-ninth pass; build d's ATmega328P default since the
-# fortieth pass (build d))
+# fortieth pass)
 BUILD_D_REPLICA_PRINT_BODY: dict[str, int] = {"buffer_char_ticks": 107}
 # ... and under that body, the tails (COMMAND_TAILS and RUNNING_TAILS) read again with
 # `command_costs.py --tails` over the d-runs and dm01-dm12: a command whose last print is
 # a number's or a line end's from a buffer (A, S, V, R, f, H, X) reads 14 ticks more (its
 # last character 107, not 121), the others (U, K, P, a) the same.  Build d's ATmega328P
-# default (fortieth pass (build d))
+# default (fortieth pass)
 BUILD_D_REPLICA_TAILS_P39: dict[str, int] = {
     "A": 310, "S": 361, "V": 172, "R": 150, "U": 41, "K": 25, "f": 73, "P": 14, "a": 14,
     "H": 763, "X": 1072,
@@ -202,7 +202,7 @@ BUILD_D_REPLICA_TAILS_P39: dict[str, int] = {
 # ... and the pass that ends a `w<ms>`: its CPU from the pass's start to `Wait complete`'s
 # first character less the model's look-up of that message (9 329): 284 ticks, the median
 # of all 44 such passes of the runs (276-376) - for pause_end_ticks.  Build d's ATmega328P
-# default (fortieth pass (build d))
+# default (fortieth pass)
 BUILD_D_REPLICA_PAUSE_END_TICKS = 284
 AVR_COSTS = DemoBuild(
     has_stray_digital_read=True,

@@ -30,7 +30,7 @@ def test_every_profile_has_a_simulated_timing_and_a_usb_console_costs_no_line_ti
 
 def test_the_atmega32u4_has_its_own_timing_beside_its_family():
     # (the AVR family's figures as fitted on build d: the ATmega328P's build d reads its
-    # replica's since the fortieth pass (build d), the 32U4 has no replica)
+    # replica's since the fortieth pass, the 32U4 has no replica)
     from fas.sim.timing import AVR_TIMING as avr
 
     usb = sim_timing(get_profile("atmega32u4"))
@@ -52,7 +52,7 @@ def test_a_firmware_build_changes_only_the_figures_it_lists():
     assert sim_timing(get_profile("esp32"), "e") is sim_timing(get_profile("esp32"))
     e = sim_timing(ATMEGA328P, "e")
     # its code is leaner (against build d's entry as fitted, in the same terms: build d's
-    # 328P reads its entry, exit and idle task apart since the fortieth pass (build d))
+    # 328P reads its entry, exit and idle task apart since the fortieth pass)
     from fas.sim.timing import AVR_TIMING
 
     assert e.fill_entry_ticks < AVR_TIMING.fill_entry_ticks

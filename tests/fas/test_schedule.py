@@ -103,7 +103,7 @@ def test_the_simulated_backend_runs_the_engine_on_it() -> None:
 
 def test_build_ds_idle_tasks_are_run_for_their_cpu() -> None:
     """Build d's 328P charges an idle task its CPU (idle_task_ticks, read from its
-    replica; the default since the fortieth pass (build d)): no run is skipped."""
+    replica; the default since the fortieth pass): no run is skipped."""
     backend = SimBackend("atmega328p")
     assert backend.machine.timing.idle_task_ticks > 0
     engine = Engine(backend)

@@ -51,7 +51,7 @@ def test_the_sheet_gathers_every_room_of_a_chip():
     assert sheet.quickstep.timer().number == 2
     assert sheet.outputs.user_digital_pins == (2, 4, 12, 14)
     assert sheet.sim.uart_byte_ticks == 1496
-    # (R: build d's replica's 465, fortieth pass (build d); the figure fitted before it 552)
+    # (R: build d's replica's 465, fortieth pass; the figure fitted before it 552)
     assert sheet.demo.cmd_ticks["R"] == 465 and sheet.demo.debug_led_pin == 13
     bare = chip_sheet("rp2040")
     assert bare.quickstep is NO_QUICKSTEP and bare.outputs is NO_OUTPUTS

@@ -1,5 +1,5 @@
 """``bench/replica/char_shift.py``: two replica runs whose inputs differ by one character,
-side by side (docs/timing-model.md, "fortieth pass")."""
+side by side (docs/timing-model.md, "forty-first pass")."""
 
 from __future__ import annotations
 
@@ -66,7 +66,7 @@ def test_window_rows_part_where_one_side_has_fewer_wraps() -> None:
 
 # the replica of e09 (build e) while `W` waits, 1 600-1 700 ms: its loop's reads of
 # millis() come 242 and 343 ticks apart, commonest first (a pass of `W`'s character and of
-# its command in turn, outside the `e` windows; docs/timing-model.md, "fortieth pass")
+# its command in turn, outside the `e` windows; docs/timing-model.md, "forty-first pass")
 REPLICA_W_PITCHES = [242, 343]
 
 

@@ -3,7 +3,7 @@
 ``bench/d_corpus.py``: a coast is a command the ramp planned without a conversion),
 StepperDemo's ``BUILD_D_REPLICA_RUNNING_TAILS`` (T37: `H` and `X` given while a stepper
 runs), and the corpus files they close or leave open.  Both are build d's default since the
-fortieth pass (build d): each test starts from the figures fitted before it (the variant FIT) and
+fortieth pass: each test starts from the figures fitted before it (the variant FIT) and
 reads its pieces on top."""
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ D = sim_timing_module.BUILD_D_REPLICA_TASK
 
 
 def _d_with(monkeypatch: pytest.MonkeyPatch, variants: list[str], *sets: str) -> None:
-    """Build d's ATmega328P figures as fitted before the fortieth pass (build d) with ``variants``
+    """Build d's ATmega328P figures as fitted before the fortieth pass with ``variants``
     (and ``sets``) for this test."""
     for table, key in ((sim_timing_module.BY_FAMILY, "avr"),
                        (sim_timing_module.BY_BUILD["d_time_measurement"], "atmega328p")):

@@ -2,7 +2,7 @@
 pass"): the reader of ``bench/replica/command_costs.py`` on written logs, StepperDemo's
 ``BUILD_D_REPLICA_COMMANDS`` against the replica's readings (the variant L34 of
 ``bench/d_corpus.py``), the command's tail field, and the corpus files it leaves open.  Build
-d's default since the fortieth pass (build d): the tests read it on top of the figures fitted before
+d's default since the fortieth pass: the tests read it on top of the figures fitted before
 it (the variant FIT)."""
 
 from __future__ import annotations
@@ -113,7 +113,7 @@ def test_the_commands_read_are_the_replicas_less_the_models_median() -> None:
     for letter, med in medians.items():
         assert BUILD_D_REPLICA_COMMANDS[letter] == AVR_COSTS.cmd_ticks[letter] - med
     assert not set("+-?W") & set(BUILD_D_REPLICA_COMMANDS)  # not read: they wait
-    # build d's 328P answers with them (fortieth pass (build d)); the other AVR chips keep the fit
+    # build d's 328P answers with them (fortieth pass); the other AVR chips keep the fit
     d = demo_build_module.BY_PROFILE["atmega328p"].cmd_ticks
     assert {k: d[k] for k in BUILD_D_REPLICA_COMMANDS} == BUILD_D_REPLICA_COMMANDS
     assert d["W"] == 137 and d["@"] == AVR_COSTS.cmd_ticks["@"]  # not read: as fitted

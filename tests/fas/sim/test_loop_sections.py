@@ -108,7 +108,7 @@ def test_build_d_former_known_deviations_stay_met_with_the_sections(
     "d12", "test_sd_07_328p",
     pytest.param("test_sd_14_328p", marks=pytest.mark.xfail(
         strict=True, reason="with the sections 310 870 us against 312 737 +- 1 000 (build "
-                            "d's figures read, fortieth pass (build d): 313 033 without "
+                            "d's figures read, fortieth pass: 313 033 without "
                             "them; 311 189 with the figures fitted before; the replica of build d "
                             "312 737.4)")),
 ])

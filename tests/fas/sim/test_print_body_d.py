@@ -100,7 +100,7 @@ def _check(name: str, what: str) -> object:
 
 
 # the four former known deviations of build d's 328P (docs/api-coverage.md until the
-# fortieth pass (build d)) and the files the read variants left out before the body (test_sd_07,
+# fortieth pass) and the files the read variants left out before the body (test_sd_07,
 # dm09) or closed (d34, test_sd_18): build d's default as read meets the firmware
 @pytest.mark.parametrize("name,what", [
     ("d14", "A pulse high total us"),

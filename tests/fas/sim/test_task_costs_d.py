@@ -1,7 +1,7 @@
 """Build d's ramp task read piece by piece from its replica
 (``bench/replica/task_costs.py``; docs/timing-model.md, "thirty-third pass"): the
 reader on written tasks, the figures (``fas.sim.timing.BUILD_D_REPLICA_TASK``, build d's
-ATmega328P default since the fortieth pass (build d)) against the replica's readings they come from,
+ATmega328P default since the fortieth pass) against the replica's readings they come from,
 and the corpus files they move together with both measured phases on top of the figures
 fitted before (``bench/d_corpus.py --variant FIT --variant D33 --variant P30``), with the
 firmware's figures and tolerances."""
@@ -142,7 +142,7 @@ def test_the_wrappers_settings_reach_build_ds_328p(monkeypatch: pytest.MonkeyPat
 
 
 def _fitted_d(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Build d's 328P (and its timing build) as fitted before the fortieth pass (build d)."""
+    """Build d's 328P (and its timing build) as fitted before the fortieth pass."""
     _keep_tables(monkeypatch)
     d_corpus.set_build_d(d_corpus.VARIANTS["FIT"])
 
@@ -164,7 +164,7 @@ def _check(name: str, what: str):
     return check
 
 
-# two deviations of the fitted figures (known deviations until the fortieth pass (build d)) close
+# two deviations of the fitted figures (known deviations until the fortieth pass) close
 # with the task read and both phases (firmware's figures)
 @pytest.mark.parametrize("name, fitted, measured", [("d14", 208, 205), ("d38", 11588, 11532)])
 def test_known_deviations_close_with_the_task_read_and_the_phases(
@@ -241,7 +241,7 @@ def collections_counter(it):
 
 def test_the_corpus_wrapper_runs_scenario_files_under_build_ds_variants() -> None:
     """`bench/d_corpus.py` as a user runs it: d14 with the figures fitted before the
-    fortieth pass (build d) (FIT) misses the firmware's 204 +- 3.9 with 208 us; with D33 P30
+    fortieth pass (FIT) misses the firmware's 204 +- 3.9 with 208 us; with D33 P30
     read on top it meets it with 205 (as build d's default does)."""
     import os  # noqa: PLC0415
     import subprocess  # noqa: PLC0415

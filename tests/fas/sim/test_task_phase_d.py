@@ -2,7 +2,7 @@
 task's fitted entry cost gives those ticks back (docs/timing-model.md, "twenty-third
 pass"): a move started on a quiet console keeps its first step, and a move the loop
 starts within those 144 ticks after the local build's task is planned by that task.  Since
-the fortieth pass (build d) build d's default reads its task from its replica (entry, exit, idle run
+the fortieth pass build d's default reads its task from its replica (entry, exit, idle run
 apart, and its phase): the fitted relation is tested on the figures fitted before (the
 variant FIT of ``bench/d_corpus.py``)."""
 
@@ -30,7 +30,7 @@ LAG = sim_timing_module.CONFORMANCE_TASK_LAG_TICKS
 
 
 def _fitted(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Build d's 328P as fitted before the fortieth pass (build d)."""
+    """Build d's 328P as fitted before the fortieth pass."""
     for table, key in ((sim_timing_module.BY_FAMILY, "avr"),
                        (sim_timing_module.BY_BUILD["d_time_measurement"], "atmega328p"),
                        (demo_build_module.BY_PROFILE, "atmega328p")):
@@ -77,7 +77,7 @@ def test_test_sequence_02_plans_its_move_at_44_77_s_in_the_earlier_task(
     after the previous move's stop (952 before build d's loop passes were read from its
     replica, thirty-first pass); the firmware's first step comes from the task 1 009
     ticks after that stop (the local build's task, 865, was too early for the call before).
-    With build d's figures read (fortieth pass (build d): the task's phase 217 ticks later,
+    With build d's figures read (fortieth pass: the task's phase 217 ticks later,
     its steps as the replica's) the task comes 1 136 ticks after the model's stop, the call still
     825: the same task plans the move."""
     line = "t M1 02 I R W"

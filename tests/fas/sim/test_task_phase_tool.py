@@ -56,7 +56,7 @@ def test_signed_folds_around_the_period() -> None:
 # d01, d21
 FIRMWARE = {11: (6500, 11713), 18: (6572, 11785), 21: (6590, 11803), 30: (6680, 11893)}
 # model - firmware, every run but one: with build d's phases read (the default since the
-# fortieth pass (build d); -217 and -405 with the phases fitted before)
+# fortieth pass; -217 and -405 with the phases fitted before)
 MEASURED_TASK, MEASURED_TIMER0 = -14, 0
 
 
@@ -85,7 +85,7 @@ def test_the_models_phases_lie_one_constant_from_the_firmwares(n: int) -> None:
 
 
 @pytest.mark.xfail(strict=True, reason="build d's ramp task lies 14 ticks before the "
-                   "firmware's, timer 0 at it (fortieth pass (build d): both phases read, with the "
+                   "firmware's, timer 0 at it (fortieth pass: both phases read, with the "
                    "ramp task read; 217 and 405 before, docs/timing-model.md, thirtieth "
                    "and thirty-first passes)")
 @pytest.mark.parametrize("n", sorted(FIRMWARE))

@@ -2,7 +2,7 @@
 replica puts timer 0's overflow 405 ticks after the model's (60 runs, each to the tick;
 414 where the start-up copied an odd number of bytes until the model rounded its copy up
 to even, "thirtieth pass"); ``SimTiming.timer0_lag_ticks`` holds it (build d's default
-since the fortieth pass (build d))."""
+since the fortieth pass)."""
 
 from __future__ import annotations
 

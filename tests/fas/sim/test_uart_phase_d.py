@@ -75,7 +75,7 @@ def test_a_load_held_by_a_blocked_section_starts_at_its_end() -> None:
 
 
 def _measured_d(monkeypatch: pytest.MonkeyPatch, uart: int) -> None:
-    """Build d's 328P as fitted before the fortieth pass (build d) with both phases as the replica
+    """Build d's 328P as fitted before the fortieth pass with both phases as the replica
     measures them (the ramp task 217 ticks later with its entry 217 shorter, timer 0 405;
     thirtieth pass) and the UART's line ``uart`` ticks after a hand-over."""
     _fitted(monkeypatch)
@@ -86,7 +86,7 @@ def _measured_d(monkeypatch: pytest.MonkeyPatch, uart: int) -> None:
 
 
 def _fitted(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Build d's 328P as fitted before the fortieth pass (build d) (``bench/d_corpus.py``'s
+    """Build d's 328P as fitted before the fortieth pass (``bench/d_corpus.py``'s
     FIT)."""
     import sys  # noqa: PLC0415
 
@@ -125,7 +125,7 @@ def test_d30_with_the_measured_phases(monkeypatch: pytest.MonkeyPatch, uart: int
 
 
 # both phases close two deviations of the fitted figures (known deviations until the
-# fortieth pass (build d); the firmware's figures and tolerances)
+# fortieth pass; the firmware's figures and tolerances)
 @pytest.mark.parametrize("name, fitted, measured", [("d14", 208, 205), ("d38", 11588, 11537)])
 def test_known_deviations_close_with_the_measured_phases(
         monkeypatch: pytest.MonkeyPatch, name: str, fitted: int, measured: int) -> None:
@@ -185,7 +185,7 @@ def test_with_the_e_check_the_blocks_lie_as_far_apart_as_the_replicas(
 
 
 @pytest.mark.xfail(strict=True, reason="with the e check (4 / 1) d30 50 612 us against "
-                   "49 248 +- 710 (build d's figures read, fortieth pass (build d); 48 307 "
+                   "49 248 +- 710 (build d's figures read, fortieth pass; 48 307 "
                    "with those fitted before): the windows' starts and the blocks per window "
                    "are not the replica's yet (thirty-first pass)")
 def test_d30_with_the_e_check(monkeypatch: pytest.MonkeyPatch) -> None:

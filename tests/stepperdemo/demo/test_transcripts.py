@@ -203,7 +203,7 @@ def test_boot_time_grows_with_the_built_in_line_as_in_the_firmware():
     assert origins[2][1] - origins[0][1] == 2 * per_byte
     boot = sim_timing(ATMEGA328P).boot_ticks
     # ... and timer 0 starts 405 ticks after that (build d's replica, timer0_lag_ticks:
-    # the default since the fortieth pass (build d))
+    # the default since the fortieth pass)
     lag = sim_timing(ATMEGA328P).timer0_lag_ticks
     assert lag == 405
     assert origins[0][1] == boot + (len("M1 A1000 V100 R100 W ") + 1) * per_byte + lag

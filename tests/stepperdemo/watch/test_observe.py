@@ -192,7 +192,7 @@ def test_report_of_a_clean_move(tmp_path):
 
 @pytest.mark.xfail(strict=True, reason="the longest pulse 156 ticks (9.75 us: 9 whole us) "
                    "against the firmware's Max High 10 us (conformance test_sd_01a_328p) with "
-                   "build d's figures read (fortieth pass (build d); 171 ticks with those "
+                   "build d's figures read (fortieth pass; 171 ticks with those "
                    "fitted before)")
 def test_clean_moves_longest_pulse_as_the_firmware(tmp_path):
     m, _ = figures(README_MOVE, tmp_path)
