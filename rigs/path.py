@@ -403,7 +403,8 @@ def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
         # (each is run)
         blended = False
         while n and k < len(blends) and tuple(blends[k][0]) == v and (
-                not blended or _same_block(blends[k][1], blends[k - 1][1])):
+                _same_block(blends[k][1], blends[k - 1][1]) if blended
+                else not _reached_before(ins, i, v, blends[k][1].t_start)):
             blended = True
             seg = blends[k][1]
             b = seg.b
@@ -462,13 +463,17 @@ def timed_deviation(ins: Sequence[tuple[int, tuple[int, ...]]],
 def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
                   ins: Sequence[tuple[int, tuple[int, ...]]]) -> list[int]:
     """The tick of each vertex: the instant it is reached, or where a blend takes the
-    corner, the middle of the blend."""
+    corner, the middle of the blend.  A vertex the path visits more than once may be
+    blended at one visit and not at another (plain corners, PathSettings.
+    plain_corner_steps): the next blend at that vertex takes it only if the vertex
+    is not reached before that blend begins."""
     out = []
     k = 0
     i = 0
     for v in vertices:
         v = tuple(v)
-        if k < len(blends) and tuple(blends[k][0]) == v:
+        if k < len(blends) and tuple(blends[k][0]) == v and not _reached_before(
+                ins, i, v, blends[k][1].t_start):
             # (several records of one corner, path_as_run: the last one takes it)
             while (k + 1 < len(blends) and tuple(blends[k + 1][0]) == v
                    and _same_block(blends[k + 1][1], blends[k][1])):
@@ -491,6 +496,16 @@ def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
         out.append(ins[i][0])
         i += 1
     return out
+
+
+def _reached_before(ins: Sequence[tuple[int, tuple[int, ...]]], i: int,
+                    v: tuple[int, ...], tick: float) -> bool:
+    """Is ``v`` an instant's position from ``ins[i]`` on, before ``tick``?"""
+    while i < len(ins) and ins[i][0] < tick:
+        if ins[i][1] == v:
+            return True
+        i += 1
+    return False
 
 
 def commanded_deviation(ins: Sequence[tuple[int, tuple[int, ...]]],

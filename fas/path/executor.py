@@ -22,12 +22,21 @@ Time is in ticks (float, absolute), distance in units, speeds in units/tick.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Sequence
 
-from .blend import Blend, corner_blend, corner_steps, exit_window, hold_blend, slowing_blend
+from .blend import (
+    Blend,
+    corner_blend,
+    corner_steps,
+    exit_window,
+    hold_blend,
+    plain_offsets,
+    slowing_blend,
+)
 from .lookahead import Block, Lookahead
-from .settings import GROUP_TOLERANCE_STEPS
+from .settings import GROUP_TOLERANCE_STEPS, TURN_EXACT_S
 
 #: pieces shorter than this (ticks) are not cut off at the horizon: the next run
 #: takes them with what follows
@@ -411,6 +420,14 @@ class Executor:
         self.blends: list[tuple[tuple[int, ...], BlendSegment]] | None = None
         #: a blend ended inside the next block: (where, each axis's first step)
         self._enter: tuple[float, tuple[int, ...]] | None = None
+        #: a plain corner (PathSettings.plain_corner_steps) before the next block:
+        #: (its blend's reach into it, units; the speed, units/tick)
+        self._cruise: tuple[float, float] | None = None
+        #: the plain corners made final: (the tick its blend would begin, end, each
+        #: axis's largest offset from that blend, steps) - the grouping's tolerance
+        #: near one shrinks by its offset (:meth:`tolerance_near`)
+        self.plain: list[tuple[float, float, tuple[float, ...]]] = []
+        self._plain_ends: list[float] = []  # (each one's end + TURN_EXACT_S, sorted)
 
     # ------------------------------------------------------------ a run
     def begin(self, t0: float) -> None:
@@ -423,6 +440,9 @@ class Executor:
         self.final = False
         self.stop_segment = None
         self._enter = None
+        self._cruise = None
+        self.plain.clear()
+        self._plain_ends.clear()
 
     def shift(self, ticks: int) -> None:
         """Move everything made final so far ``ticks`` later (a start that came later)."""
@@ -435,6 +455,8 @@ class Executor:
             for piece in seg.pieces:
                 piece.t0 += ticks
                 piece.t1 += ticks
+        self.plain = [(a + ticks, b + ticks, d) for a, b, d in self.plain]
+        self._plain_ends = [e + ticks for e in self._plain_ends]
 
     def segment(self, seq: int) -> Segment | None:
         i = seq - self.first_seq
@@ -464,6 +486,11 @@ class Executor:
                 if self._enter is not None:  # a blend before it: from its end on
                     seg.s_done, seg.first = self._enter
                     self._enter = None
+                elif self._cruise is not None:  # a plain corner before it: at the
+                    reach_out, v_c = self._cruise  # blend's clock up to where it ends
+                    self._cruise = None
+                    self._piece(seg, reach_out, self.t + reach_out / v_c, v_c, 0.0)
+                    self.v = v_c
                 self.next_seq += 1
                 self.segments.append(seg)
                 self.cur = seg
@@ -536,11 +563,19 @@ class Executor:
                 self.v = 0.0
                 break
             blend = slowing
+            plain = None
             if blend is None and k > 0.0 and exit2 > 0.0:
-                blend = corner_blend(block.unit, la.blocks[1].unit, math.sqrt(exit2),
-                                     la.accel)
+                out_unit = la.blocks[1].unit
+                if la.plain_steps > 0.0:
+                    plain = plain_offsets(block.unit, out_unit, k, exit2, la.spu,
+                                          la.plain_steps)
+                if plain is not None:  # no step tells its blend from Grbl's corner
+                    self._plain(seg, math.sqrt(exit2), k * exit2, plain)
+                else:
+                    blend = corner_blend(block.unit, out_unit, math.sqrt(exit2), la.accel)
             if blend is None:
-                seg.s_done = seg.end = seg.length
+                if plain is None:
+                    seg.s_done = seg.end = seg.length
             else:
                 seg.end = seg.s_done  # the blend goes on from here
                 if blend.speed_out != blend.speed:  # (a hold's: it leaves slower)
@@ -582,6 +617,46 @@ class Executor:
         self.segments.append(bseg)
         self.t = bseg.t_done
         self._enter = (blend.reach_out, tuple(f for _m, _s, f in per))
+
+    def _plain(self, seg: Segment, speed: float, reach: float,
+               offsets: tuple[float, ...]) -> None:
+        """The corner after ``seg`` as Grbl's corner at the clock of its blend (at
+        ``speed`` units/s, ``reach`` units along either block): the block in at that
+        speed up to the corner, the block out as far as the blend would reach into it
+        (:attr:`_cruise`); each axis's own steps."""
+        tps = self.tps
+        v = speed / tps  # units/tick
+        t_begin = self.t
+        rest = seg.length - seg.s_done
+        if rest > 0.0:
+            self._piece(seg, rest, self.t + rest / v, v, 0.0)
+        seg.s_done = seg.end = seg.length
+        seg.end_tick = int(self.t + 0.5)
+        t_end = self.t + reach / v
+        self._cruise = (reach, v)
+        self.plain.append((t_begin, t_end, offsets))
+        self._plain_ends.append(t_end + TURN_EXACT_S * tps)
+
+    def tolerance_near(self, axis: int, t0: float, t1: float, tol: float) -> float:
+        """The grouping tolerance ``tol`` (steps) of ``axis`` for steps between ticks
+        ``t0`` and ``t1``: less by the largest offset of a plain corner whose blend's
+        time, widened by TURN_EXACT_S on both sides, meets them (docs/path-planner.md,
+        "Corners no step can tell apart")."""
+        ends = self._plain_ends
+        if not ends:
+            return tol
+        k = bisect.bisect_left(ends, t0)
+        plain = self.plain
+        widen = TURN_EXACT_S * self.tps
+        out = tol
+        while k < len(plain):
+            a, _b, d = plain[k]
+            if a - widen > t1:
+                break
+            if tol - d[axis] < out:
+                out = tol - d[axis]
+            k += 1
+        return out if out > 0.0 else 0.0
 
     def _take(self, seg: Segment, phases: Sequence[tuple[float, float, float]],
               horizon: float) -> bool:
