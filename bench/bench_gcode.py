@@ -223,7 +223,16 @@ def la_run(lines: list[str], motion: int, record: bool, corners: bool = False,
     mids: dict[int, int] = {}  # id(move) -> the middle of the blend at its end
     seen: set[int] = set()  # segments' seq (unique across runs)
     trim = path_executor.Executor.trim
+    begin = path_executor.Executor.begin
+    #: the corners taken plain ($173): (corner in steps, its tick), in order
+    plain: list = []
     if corners:
+        def recording_begin(ex, t0: float) -> None:
+            ex.plain_log = plain
+            begin(ex, t0)
+
+        path_executor.Executor.begin = recording_begin  # type: ignore[method-assign]
+
         def recording_trim(ex, keep_from: int) -> None:
             for seg in ex.segments:
                 if seg.seq >= keep_from or not seg.complete or seg.seq in seen:
@@ -249,13 +258,15 @@ def la_run(lines: list[str], motion: int, record: bool, corners: bool = False,
         cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     finally:
         path_executor.Executor.trim = trim  # type: ignore[method-assign]
+        path_executor.Executor.begin = begin  # type: ignore[method-assign]
     tps = backend.profile.ticks_per_s
     build = demo_build(backend.profile)
     steps = [backend.recorder.rising(c.step) for c in build.steppers[:2]] if record else []
     end = max(st[-1] for st in steps) if steps else backend.now()
     start = m.motion_log[0][0]
     out = {"motion_s": (end - start) / tps, "cpu_s": cpu, "wall_s": wall, "moves": moves,
-           "exits": exits, "blends": blends, "mids": mids, "errors": m.errors,
+           "exits": exits, "blends": blends, "plain": plain, "mids": mids,
+           "errors": m.errors,
            "executor": m.executor.kind,
            "positions": m.positions(), "backend": backend, "steppers": m.steppers}
     out["rtf"] = out["motion_s"] / cpu
@@ -475,10 +486,11 @@ def lookahead_mode(lines: list[str], repeat: int, blends: bool, exact_stop_s: fl
     ins = instants([[(t, d) for t, d in a] for a in axes], tuple(verts[0]))
     slack = int(0.02 * tps)
     print(f"  largest distance from the commanded path: "
-          f"{commanded_deviation(ins, verts, traced['blends'], slack):.3f} steps "
+          f"{commanded_deviation(ins, verts, traced['blends'], slack, traced['plain']):.3f} steps "
           f"(Chebyshev, at every step; target <= 1)")
     if blends:
-        run_path = path_as_run(verts, traced["blends"], ins, (bp.SPU, bp.SPU))
+        run_path = path_as_run(verts, traced["blends"], ins, (bp.SPU, bp.SPU),
+                               plain=traced["plain"])
         print(f"  largest distance from the path as run (the commanded path, its corners "
               f"blended: {len(traced['blends'])} blends): "
               f"{timed_deviation(ins, run_path, slack):.3f} steps (Chebyshev, at every step)")

@@ -418,6 +418,8 @@ class Executor:
         self.stop_segment: Segment | None = None  # where a feed hold stopped
         #: when a list: every corner blend made final, (corner in steps, its segment)
         self.blends: list[tuple[tuple[int, ...], BlendSegment]] | None = None
+        #: when a list: every plain corner made final, (corner in steps, its tick)
+        self.plain_log: list[tuple[tuple[int, ...], float]] | None = None
         #: a blend ended inside the next block: (where, each axis's first step)
         self._enter: tuple[float, tuple[int, ...]] | None = None
         #: a plain corner (PathSettings.plain_corner_steps) before the next block:
@@ -632,10 +634,20 @@ class Executor:
             self._piece(seg, rest, self.t + rest / v, v, 0.0)
         seg.s_done = seg.end = seg.length
         seg.end_tick = int(self.t + 0.5)
+        if self.plain_log is not None:
+            block = seg.block
+            self.plain_log.append((tuple([s + d for s, d in zip(block.start, block.delta,
+                                                                 strict=True)]), self.t))
         t_end = self.t + reach / v
         self._cruise = (reach, v)
+        self.note_plain(t_begin, t_end, offsets)
+
+    def note_plain(self, t_begin: float, t_end: float, offsets: tuple[float, ...]) -> None:
+        """A plain corner whose blend would last from tick ``t_begin`` to ``t_end``,
+        each axis's offset from it (steps): the grouping near it keeps within the
+        tolerance less that offset (:meth:`tolerance_near`)."""
         self.plain.append((t_begin, t_end, offsets))
-        self._plain_ends.append(t_end + TURN_EXACT_S * tps)
+        self._plain_ends.append(t_end + TURN_EXACT_S * self.tps)
 
     def tolerance_near(self, axis: int, t0: float, t1: float, tol: float) -> float:
         """The grouping tolerance ``tol`` (steps) of ``axis`` for steps between ticks
