@@ -154,3 +154,34 @@ def test_with_plain_corners_every_axis_within_its_acceleration_from_the_pins(bot
         a, at = edge_accel(tk, xs, tps, ACC_WINDOW_S)
         assert a <= BENCH_LIMITS.acceleration * SPU + SLACK, (i, a / SPU, at / tps)
         assert a > 0.5 * BENCH_LIMITS.acceleration * SPU  # it measures something
+
+
+@pytest.mark.parametrize("seed", [3, 5])
+def test_holds_and_resumes_at_random_moments_with_plain_corners(seed):
+    """test_path_blends' random holds with plain corners at 1/8 step: a hold never
+    takes a corner plain (its corner slows down: a blend of its own), a plain corner
+    made final before the hold keeps its constant-speed piece into the block out; the
+    path ends exactly at its end, every step within one step of the path as run (with
+    each hold's stop point) and within $11 + 1 step of the commanded polyline."""
+    import random
+
+    from rigs.path import random_path, run_with_random_holds
+
+    limits = AxisLimits(SPU, 6000.0, 500.0)
+    rnd = random.Random(seed)
+    backend, engine, group, pins, dirs = make_group(
+        limits=limits, junction_deviation=0.02, queue_blocks=8, corner_blends=True,
+        plain_corner_steps=GROUP_TOLERANCE_STEPS)
+    pts = random_path(rnd)
+    stops = run_with_random_holds(backend, group, pts, rnd)
+    assert len(stops) > 20
+    ins = instants(axis_steps(backend, pins, dirs), (0, 0))
+    assert ins[-1][1] == pts[-1]
+    verts = [(0, 0)] + [p for k, p in enumerate(pts) if k == 0 or p != pts[k - 1]]
+    plain = group.executor.plain_log
+    assert plain and group.blend_log
+    path = sorted(path_as_run(verts, group.blend_log, ins, (SPU, SPU), plain=plain)
+                  + [(t, tuple(float(c) for c in p)) for t, p in stops])
+    assert timed_deviation(ins, path, int(0.02 * group.tps)) <= 1.0
+    dev = commanded_deviation(ins, verts, group.blend_log, int(0.02 * group.tps), plain)
+    assert dev <= 0.02 * SPU + 1.0, dev
