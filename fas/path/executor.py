@@ -429,7 +429,9 @@ class Executor:
         #: axis's largest offset from that blend, steps) - the grouping's tolerance
         #: near one shrinks by its offset (:meth:`tolerance_near`)
         self.plain: list[tuple[float, float, tuple[float, ...]]] = []
-        self._plain_ends: list[float] = []  # (each one's end + TURN_EXACT_S, sorted)
+        #: each one's end + TURN_EXACT_S (sorted: the writers' cursors walk it)
+        self.plain_ends: list[float] = []
+        self.plain_widen = TURN_EXACT_S * ticks_per_s  # (ticks)
 
     # ------------------------------------------------------------ a run
     def begin(self, t0: float) -> None:
@@ -444,7 +446,7 @@ class Executor:
         self._enter = None
         self._cruise = None
         self.plain.clear()
-        self._plain_ends.clear()
+        self.plain_ends.clear()
 
     def shift(self, ticks: int) -> None:
         """Move everything made final so far ``ticks`` later (a start that came later)."""
@@ -458,7 +460,7 @@ class Executor:
                 piece.t0 += ticks
                 piece.t1 += ticks
         self.plain = [(a + ticks, b + ticks, d) for a, b, d in self.plain]
-        self._plain_ends = [e + ticks for e in self._plain_ends]
+        self.plain_ends = [e + ticks for e in self.plain_ends]
 
     def segment(self, seq: int) -> Segment | None:
         i = seq - self.first_seq
@@ -647,19 +649,22 @@ class Executor:
         each axis's offset from it (steps): the grouping near it keeps within the
         tolerance less that offset (:meth:`tolerance_near`)."""
         self.plain.append((t_begin, t_end, offsets))
-        self._plain_ends.append(t_end + TURN_EXACT_S * self.tps)
+        self.plain_ends.append(t_end + self.plain_widen)
 
-    def tolerance_near(self, axis: int, t0: float, t1: float, tol: float) -> float:
+    def tolerance_near(self, axis: int, t0: float, t1: float, tol: float,
+                       k: int | None = None) -> float:
         """The grouping tolerance ``tol`` (steps) of ``axis`` for steps between ticks
         ``t0`` and ``t1``: less by the largest offset of a plain corner whose blend's
         time, widened by TURN_EXACT_S on both sides, meets them (docs/path-planner.md,
-        "Corners no step can tell apart")."""
-        ends = self._plain_ends
+        "Corners no step can tell apart").  ``k``: the first plain corner that can
+        (``plain_ends[k] >= t0``), where the caller knows it."""
+        ends = self.plain_ends
         if not ends:
             return tol
-        k = bisect.bisect_left(ends, t0)
+        if k is None:
+            k = bisect.bisect_left(ends, t0)
         plain = self.plain
-        widen = TURN_EXACT_S * self.tps
+        widen = self.plain_widen
         out = tol
         while k < len(plain):
             a, _b, d = plain[k]

@@ -132,6 +132,9 @@ class AxisWriter:
         #: less than TURN_EXACT_S ago (:meth:`_step`)
         self.exact_until = 0
         self.turn_ticks = round(TURN_EXACT_S * self.tps)
+        #: the first of the executor's plain corners that may lie near this axis's
+        #: next group (Executor.plain_ends; its steps only go on in time)
+        self.plain_k = 0
         self.step_dir: bool | None = None  # the direction of the last step written
         self.step_last = 0  # ... and its tick
         self.stats = AxisStats()
@@ -155,6 +158,7 @@ class AxisWriter:
         is taken up by the channel at ``last_start``."""
         self.seq = self.ex.first_seq
         self.j = 0
+        self.plain_k = 0
         self.pending = False
         self.w_end = start_tick
         self.last_start = last_start
@@ -352,11 +356,21 @@ class AxisWriter:
                     break
             factor = 2.0 if slowing else 8.0
         t_lim = self._limit(t0, a, cruise_end, factor, boundary)
-        if ex.plain:  # near a plain corner the tolerance shrinks by its offset
-            tol = ex.tolerance_near(i, t0, t_lim, self.tol)
-            if tol < self.tol:
-                self.tol = tol
-                t_lim = self._limit(t0, a, cruise_end, factor, boundary)
+        plain = ex.plain
+        if plain:  # near a plain corner the tolerance shrinks by its offset
+            ends = ex.plain_ends
+            n = len(ends)
+            k = self.plain_k
+            if k > n:  # (a new run)
+                k = 0
+            while k < n and ends[k] < t0:
+                k += 1
+            self.plain_k = k
+            if k < n and plain[k][0] - ex.plain_widen <= t_lim:
+                tol = ex.tolerance_near(i, t0, t_lim, self.tol, k)
+                if tol < self.tol:
+                    self.tol = tol
+                    t_lim = self._limit(t0, a, cruise_end, factor, boundary)
         jmax = j0 + MAX_STEPS
         if known < jmax:
             jmax = known
