@@ -41,6 +41,8 @@ from .settings import GROUP_TOLERANCE_STEPS, TURN_EXACT_S
 #: pieces shorter than this (ticks) are not cut off at the horizon: the next run
 #: takes them with what follows
 MIN_PIECE_TICKS = 1.0
+#: plain corners kept before trim forgets the ones no axis can reach any more
+PLAIN_KEEP = 64
 
 
 class Piece:
@@ -432,6 +434,7 @@ class Executor:
         #: each one's end + TURN_EXACT_S (sorted: the writers' cursors walk it)
         self.plain_ends: list[float] = []
         self.plain_widen = TURN_EXACT_S * ticks_per_s  # (ticks)
+        self.plain_base = 0  # plain corners forgotten before plain[0] (trim)
 
     # ------------------------------------------------------------ a run
     def begin(self, t0: float) -> None:
@@ -447,6 +450,7 @@ class Executor:
         self._cruise = None
         self.plain.clear()
         self.plain_ends.clear()
+        self.plain_base = 0
 
     def shift(self, ticks: int) -> None:
         """Move everything made final so far ``ticks`` later (a start that came later)."""
@@ -473,6 +477,15 @@ class Executor:
         if drop > 0:
             del self.segments[:drop]
             self.first_seq = keep_from
+        if len(self.plain_ends) > PLAIN_KEEP and self.segments:
+            # plain corners no axis's group can reach any more (a group begins at or
+            # before its first step's tick, less than a window early)
+            gone = bisect.bisect_left(self.plain_ends,
+                                      self.segments[0].t_start - self.plain_widen)
+            if gone:
+                del self.plain[:gone]
+                del self.plain_ends[:gone]
+                self.plain_base += gone
 
     # ------------------------------------------------------------ making final
     def commit(self, horizon: float) -> None:
@@ -657,7 +670,8 @@ class Executor:
         ``t0`` and ``t1``: less by the largest offset of a plain corner whose blend's
         time, widened by TURN_EXACT_S on both sides, meets them (docs/path-planner.md,
         "Corners no step can tell apart").  ``k``: the first plain corner that can
-        (``plain_ends[k] >= t0``), where the caller knows it."""
+        (``plain_ends[k] >= t0``, an index into :attr:`plain`), where the caller
+        knows it."""
         ends = self.plain_ends
         if not ends:
             return tol

@@ -360,12 +360,13 @@ class AxisWriter:
         if plain:  # near a plain corner the tolerance shrinks by its offset
             ends = ex.plain_ends
             n = len(ends)
-            k = self.plain_k
-            if k > n:  # (a new run)
+            base = ex.plain_base
+            k = self.plain_k - base  # (the cursor counts the forgotten ones too)
+            if k < 0 or k > n:  # (a new run)
                 k = 0
             while k < n and ends[k] < t0:
                 k += 1
-            self.plain_k = k
+            self.plain_k = k + base
             if k < n and plain[k][0] - ex.plain_widen <= t_lim:
                 tol = ex.tolerance_near(i, t0, t_lim, self.tol, k)
                 if tol < self.tol:
