@@ -36,7 +36,11 @@ Grouped steps come early along the motion, so across an axis's turn their errors
 change sign; for :data:`fas.path.settings.TURN_EXACT_S` after its last step before a
 turn the axis's steps come on their own ticks (``tol`` 0), so that its acceleration
 measured from the pins over step edges >= W apart stays within the limit + ``2 tol /
-W^2`` (W up to that time) at the turn too.
+W^2`` (W up to that time) at the turn too.  Near a corner the executor took plain
+(``PathSettings.plain_corner_steps``: Grbl's corner where its blend would differ by
+at most that much) a group keeps within ``tol`` less the corner's offset in this axis
+(:meth:`fas.path.executor.Executor.tolerance_near`), so that the offset and the
+grouping together stay within ``tol`` of the blend.
 
 A step that cannot be placed on its tick (a command would be shorter than the minimum
 command time, or a period not a whole number where the two-command split is too
