@@ -167,12 +167,21 @@ def acc_resolution(window_ms: int) -> float:
     return 2 * ACC_EARLY_STEPS / (window_ms * 1e-3) ** 2
 
 
+#: with blends: ``$173`` (``--plain-corners``), corners within this many steps of their
+#: blend taken as Grbl's corner (docs/path-planner.md, "Corners no step can tell apart");
+#: None: the machine's default
+PLAIN_CORNERS: float | None = None
+#: the corner modes section 4 runs (False: Grbl's junctions, True: blends)
+LA_MODES: tuple[bool, ...] = (False, True)
+
+
 def la_setup(motion: int, blends: bool = False) -> list[str]:
     import bench_path as bp
 
+    plain = [f"$173={PLAIN_CORNERS:g}"] if blends and PLAIN_CORNERS is not None else []
     return ([f"$10{i}={bp.SPU}" for i in range(2)] + [f"$11{i}={bp.MAX_RATE}" for i in range(2)]
             + [f"$12{i}={bp.ACCEL}" for i in range(2)]
-            + [f"$11={bp.JUNCTION}", f"$171={motion}", f"$172={int(blends)}"])
+            + [f"$11={bp.JUNCTION}", f"$171={motion}", f"$172={int(blends)}"] + plain)
 
 
 def la_program(backend, motion: int, blends: bool = False) -> tuple:
@@ -214,7 +223,16 @@ def la_run(lines: list[str], motion: int, record: bool, corners: bool = False,
     mids: dict[int, int] = {}  # id(move) -> the middle of the blend at its end
     seen: set[int] = set()  # segments' seq (unique across runs)
     trim = path_executor.Executor.trim
+    begin = path_executor.Executor.begin
+    #: the corners taken plain ($173): (corner in steps, its tick), in order
+    plain: list = []
     if corners:
+        def recording_begin(ex, t0: float) -> None:
+            ex.plain_log = plain
+            begin(ex, t0)
+
+        path_executor.Executor.begin = recording_begin  # type: ignore[method-assign]
+
         def recording_trim(ex, keep_from: int) -> None:
             for seg in ex.segments:
                 if seg.seq >= keep_from or not seg.complete or seg.seq in seen:
@@ -240,13 +258,15 @@ def la_run(lines: list[str], motion: int, record: bool, corners: bool = False,
         cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     finally:
         path_executor.Executor.trim = trim  # type: ignore[method-assign]
+        path_executor.Executor.begin = begin  # type: ignore[method-assign]
     tps = backend.profile.ticks_per_s
     build = demo_build(backend.profile)
     steps = [backend.recorder.rising(c.step) for c in build.steppers[:2]] if record else []
     end = max(st[-1] for st in steps) if steps else backend.now()
     start = m.motion_log[0][0]
     out = {"motion_s": (end - start) / tps, "cpu_s": cpu, "wall_s": wall, "moves": moves,
-           "exits": exits, "blends": blends, "mids": mids, "errors": m.errors,
+           "exits": exits, "blends": blends, "plain": plain, "mids": mids,
+           "errors": m.errors,
            "executor": m.executor.kind,
            "positions": m.positions(), "backend": backend, "steppers": m.steppers}
     out["rtf"] = out["motion_s"] / cpu
@@ -437,14 +457,16 @@ def lookahead_section(segments: int, repeat: int) -> None:
     print(f"  planner alone: {p['blocks_per_s']:.0f} blocks/s")
     t = la_run(lines, 1, record=False)
     print(f"  exact stop ($171=1): motion {t['motion_s']:.3f} s ({t['executor']})")
-    for blends in (False, True):
+    for blends in LA_MODES:
         lookahead_mode(lines, repeat, blends, t["motion_s"])
 
 
 def lookahead_mode(lines: list[str], repeat: int, blends: bool, exact_stop_s: float) -> None:
     import bench_path as bp
 
-    print(f" corners: {'blends ($172=1)' if blends else 'Grbl junctions ($172=0, default)'}")
+    plain = f", $173={PLAIN_CORNERS:g}" if PLAIN_CORNERS is not None else ""
+    mode = f"blends ($172=1{plain})" if blends else "Grbl junctions ($172=0, default)"
+    print(f" corners: {mode}")
     runs = [la_run(lines, 0, record=False, blends=blends) for _ in range(repeat)]
     r = min(runs, key=lambda x: x["cpu_s"])
     print(f"  motion {r['motion_s']:.3f} s in {r['cpu_s']:.2f} s CPU ({r['wall_s']:.2f} s wall): "
@@ -464,10 +486,11 @@ def lookahead_mode(lines: list[str], repeat: int, blends: bool, exact_stop_s: fl
     ins = instants([[(t, d) for t, d in a] for a in axes], tuple(verts[0]))
     slack = int(0.02 * tps)
     print(f"  largest distance from the commanded path: "
-          f"{commanded_deviation(ins, verts, traced['blends'], slack):.3f} steps "
+          f"{commanded_deviation(ins, verts, traced['blends'], slack, traced['plain']):.3f} steps "
           f"(Chebyshev, at every step; target <= 1)")
     if blends:
-        run_path = path_as_run(verts, traced["blends"], ins, (bp.SPU, bp.SPU))
+        run_path = path_as_run(verts, traced["blends"], ins, (bp.SPU, bp.SPU),
+                               plain=traced["plain"])
         print(f"  largest distance from the path as run (the commanded path, its corners "
               f"blended: {len(traced['blends'])} blends): "
               f"{timed_deviation(ins, run_path, slack):.3f} steps (Chebyshev, at every step)")
@@ -640,7 +663,17 @@ def main() -> None:
                     help="only section 4 (issue 25's look-ahead figures)")
     ap.add_argument("--device-only", action="store_true",
                     help="only section 5 (the look-ahead program through --port)")
+    ap.add_argument("--plain-corners", type=float, default=None, metavar="STEPS",
+                    help="blend mode's $173: corners within STEPS of their blend taken as "
+                         "Grbl's corner (default: the machine's)")
+    ap.add_argument("--blends-only", action="store_true",
+                    help="with --lookahead-only: only the corner-blend mode")
     args = ap.parse_args()
+    global PLAIN_CORNERS
+    PLAIN_CORNERS = args.plain_corners
+    if args.blends_only:
+        global LA_MODES
+        LA_MODES = (True,)
     if args.lookahead_only:
         lookahead_section(args.segments, args.repeat)
         return

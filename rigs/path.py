@@ -20,10 +20,12 @@ from rigs.pins import steps_by_pins
 def make_group(profile: str = "atmega328p", axes: int = 2, *,
                limits: AxisLimits | None = None, junction_deviation: float = 0.05,
                arc_tolerance: float = 0.002, queue_blocks: int = 32,
-               record: bool = True, start_delay_ms: int = 50, corner_blends: bool = False):
+               record: bool = True, start_delay_ms: int = 50, corner_blends: bool = False,
+               plain_corner_steps: float = 0.0):
     """(backend, engine, group, step pins, direction pins): ``axes`` steppers on the
     first step pin of the profile's first channels, joined into a path group
-    (``corner_blends``: PathSettings', off - Grbl's junctions - by default)."""
+    (``corner_blends``, ``plain_corner_steps``: PathSettings', off - Grbl's junctions -
+    by default)."""
     backend = SimBackend(profile, record=record)
     engine = Engine(backend)
     engine.init()
@@ -39,10 +41,12 @@ def make_group(profile: str = "atmega328p", axes: int = 2, *,
     limits = limits or AxisLimits(80.0, 6000.0, 500.0)
     settings = PathSettings(axes=(limits,) * axes, junction_deviation=junction_deviation,
                             arc_tolerance=arc_tolerance, queue_blocks=queue_blocks,
-                            start_delay_ms=start_delay_ms, corner_blends=corner_blends)
+                            start_delay_ms=start_delay_ms, corner_blends=corner_blends,
+                            plain_corner_steps=plain_corner_steps)
     group = PathGroup(steppers, settings)
     assert group.attach() == PathResult.OK
     group.blend_log = group.executor.blends = []  # the blends: the path as run
+    group.executor.plain_log = []  # ... and the corners taken plain among them
     return backend, engine, group, pins, dirs
 
 
@@ -380,21 +384,46 @@ def first_within_a_step(ins: Sequence[tuple[int, tuple[int, ...]]], i: int,
     return j
 
 
+def reached(ins: Sequence[tuple[int, tuple[int, ...]]], i: int, v: tuple[int, ...]) -> int:
+    """The index of the instant from ``i`` on that reaches the vertex ``v`` (on whole
+    steps): the first at ``v`` while the path is within a step of it, else (a tiny
+    block's last step a little early in one axis, so that the axes are never at ``v``
+    together - Grbl's corners, plain ones with blends) the first within a step."""
+    j = first_within_a_step(ins, i, v)
+    k = j
+    while k < len(ins) and max(abs(a - c) for a, c in zip(ins[k][1], v, strict=True)) <= 1:
+        if ins[k][1] == v:
+            return k
+        k += 1
+    return j
+
+
 def _same_block(a, b) -> bool:
     """Two blend records whose block out is the same move (planned again after a hold)."""
     return a.block.start == b.block.start and a.block.delta == b.block.delta
 
 
+def _plain_next(plain: Sequence[tuple], q: int, v: tuple[int, ...],
+                blends: Sequence[tuple], k: int) -> bool:
+    """Is the next corner record at ``v`` the plain corner ``plain[q]`` (the
+    executor's ``plain_log``: (corner, tick)) rather than the blend ``blends[k]`` - a
+    vertex visited more than once, taken plain at one visit and blended at another?"""
+    return (q < len(plain) and tuple(plain[q][0]) == v
+            and (k >= len(blends) or plain[q][1] < blends[k][1].t_start))
+
+
 def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
                 ins: Sequence[tuple[int, tuple[int, ...]]], spu: Sequence[float],
-                samples: int = 8) -> list[tuple[float, tuple[float, ...]]]:
+                samples: int = 8, plain: Sequence[tuple] = ()
+                ) -> list[tuple[float, tuple[float, ...]]]:
     """The path as executed, with times: ``(tick, point)`` for each vertex - where the
     executor blended it (``blends``: its record, in order) the blend's curve in
     ``samples`` chords (off it by ``T^2 |a| / (8 samples^2)``, far below a step) at
     their ticks, else the instant the axes reach it (the first vertex at the first
-    instant)."""
+    instant; ``plain``: the executor's plain corners, in order)."""
     out: list[tuple[float, tuple[float, ...]]] = []
     k = 0  # blends
+    q = 0  # plain corners
     i = 0  # instants
     for n, v in enumerate(vertices):
         v = tuple(v)
@@ -402,6 +431,12 @@ def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
         # hold that stops near a corner it was blending blends it again when it resumes
         # (each is run)
         blended = False
+        if n and _plain_next(plain, q, v, blends, k):
+            q += 1
+            i = reached(ins, i, v)
+            out.append((ins[i][0], tuple(float(c) for c in v)))
+            i += 1
+            continue
         while n and k < len(blends) and tuple(blends[k][0]) == v and (
                 not blended or _same_block(blends[k][1], blends[k - 1][1])):
             blended = True
@@ -426,9 +461,7 @@ def path_as_run(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
             out.append((ins[j][0], tuple(float(c) for c in v)))
             i = j
             continue
-        while i < len(ins) and ins[i][1] != v:
-            i += 1
-        assert i < len(ins), f"vertex {v} neither reached nor blended"
+        i = reached(ins, i, v)
         out.append((ins[i][0], tuple(float(c) for c in v)))
         i += 1
     assert k == len(blends), f"blend {k} not on the path"
@@ -460,15 +493,21 @@ def timed_deviation(ins: Sequence[tuple[int, tuple[int, ...]]],
 
 
 def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
-                  ins: Sequence[tuple[int, tuple[int, ...]]]) -> list[int]:
+                  ins: Sequence[tuple[int, tuple[int, ...]]],
+                  plain: Sequence[tuple] = ()) -> list[int]:
     """The tick of each vertex: the instant it is reached, or where a blend takes the
-    corner, the middle of the blend."""
+    corner, the middle of the blend.  ``plain``: the executor's plain corners
+    (PathSettings.plain_corner_steps), in order - a vertex the path visits more than
+    once may be blended at one visit and not at another."""
     out = []
     k = 0
+    q = 0
     i = 0
     for v in vertices:
         v = tuple(v)
-        if k < len(blends) and tuple(blends[k][0]) == v:
+        if _plain_next(plain, q, v, blends, k):
+            q += 1
+        elif k < len(blends) and tuple(blends[k][0]) == v:
             # (several records of one corner, path_as_run: the last one takes it)
             while (k + 1 < len(blends) and tuple(blends[k + 1][0]) == v
                    and _same_block(blends[k + 1][1], blends[k][1])):
@@ -485,9 +524,7 @@ def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
             out.append(ins[j][0])
             i = j
             continue
-        while i < len(ins) and ins[i][1] != v:
-            i += 1
-        assert i < len(ins), f"vertex {v} neither reached nor blended"
+        i = reached(ins, i, v)
         out.append(ins[i][0])
         i += 1
     return out
@@ -495,12 +532,13 @@ def blended_ticks(vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
 
 def commanded_deviation(ins: Sequence[tuple[int, tuple[int, ...]]],
                         vertices: Sequence[Sequence[int]], blends: Sequence[tuple],
-                        slack: int) -> float:
+                        slack: int, plain: Sequence[tuple] = ()) -> float:
     """With corner blends: the largest Chebyshev distance (steps) of the instants from
     the *commanded* polyline (its corners not blended), each against the segments
     within ``slack`` ticks of its time - a vertex's time the instant it is reached,
-    or the middle of the blend that takes it (:func:`blended_ticks`)."""
-    ticks = blended_ticks(vertices[1:], blends, ins)
+    or the middle of the blend that takes it (:func:`blended_ticks`; ``plain``: the
+    executor's plain corners)."""
+    ticks = blended_ticks(vertices[1:], blends, ins, plain)
     path = [(float(ins[0][0] - 1), tuple(float(c) for c in vertices[0]))]
     path += [(float(t), tuple(float(c) for c in v))
              for t, v in zip(ticks, vertices[1:], strict=True)]

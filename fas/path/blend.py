@@ -131,6 +131,30 @@ def corner_blend(u: Sequence[float], w: Sequence[float], speed: float,
                  speed * duration * n / 8.0, zone, speed, reach)
 
 
+def plain_offsets(u: Sequence[float], w: Sequence[float], zone: float, speed_sqr: float,
+                  spu: Sequence[float], threshold: float) -> tuple[float, ...] | None:
+    """Each axis's largest offset (steps) between the blend at the corner from ``u``
+    into ``w`` (``zone``: :func:`zone_coefficient`, at speed squared ``speed_sqr``)
+    and Grbl's corner at the blend's clock, where every one is at most ``threshold``
+    steps; else None.
+
+    At the blend's clock the commanded corner (the block in at ``v`` up to the
+    corner, then the block out) and the blend differ in axis ``i`` by ``v (w_i -
+    u_i) t^2 / (2 T)`` over the first half and symmetrically after: one sign, largest
+    at the middle, ``v T |w_i - u_i| / 8`` units there - the blend's ``inside``
+    times ``|w_i - u_i| / |w - u|``, and with ``T = 2 k v`` that is ``k v^2 |w_i -
+    u_i| / 4``.  Both end at the same place and time, so where that is below
+    ``threshold`` in every axis, no step of Grbl's corner comes more than
+    ``threshold`` steps from where the blend reaches it (docs/path-planner.md,
+    "Corners no step can tell apart")."""
+    scale = 0.25 * zone * speed_sqr
+    out = tuple([scale * abs(b - a) * k for a, b, k in zip(u, w, spu, strict=True)])
+    for d in out:
+        if d > threshold:
+            return None
+    return out
+
+
 def _nearest(p0: Sequence[float], p2: Sequence[float]) -> float:
     """The least distance from the origin of the quadratic Bezier from ``p0`` to
     ``p2`` with the origin as its control point: ``|(1 - s)^2 p0 + s^2 p2|`` over

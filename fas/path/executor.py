@@ -22,16 +22,27 @@ Time is in ticks (float, absolute), distance in units, speeds in units/tick.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Sequence
 
-from .blend import Blend, corner_blend, corner_steps, exit_window, hold_blend, slowing_blend
+from .blend import (
+    Blend,
+    corner_blend,
+    corner_steps,
+    exit_window,
+    hold_blend,
+    plain_offsets,
+    slowing_blend,
+)
 from .lookahead import Block, Lookahead
-from .settings import GROUP_TOLERANCE_STEPS
+from .settings import GROUP_TOLERANCE_STEPS, TURN_EXACT_S
 
 #: pieces shorter than this (ticks) are not cut off at the horizon: the next run
 #: takes them with what follows
 MIN_PIECE_TICKS = 1.0
+#: plain corners kept before trim forgets the ones no axis can reach any more
+PLAIN_KEEP = 64
 
 
 class Piece:
@@ -409,8 +420,21 @@ class Executor:
         self.stop_segment: Segment | None = None  # where a feed hold stopped
         #: when a list: every corner blend made final, (corner in steps, its segment)
         self.blends: list[tuple[tuple[int, ...], BlendSegment]] | None = None
+        #: when a list: every plain corner made final, (corner in steps, its tick)
+        self.plain_log: list[tuple[tuple[int, ...], float]] | None = None
         #: a blend ended inside the next block: (where, each axis's first step)
         self._enter: tuple[float, tuple[int, ...]] | None = None
+        #: a plain corner (PathSettings.plain_corner_steps) before the next block:
+        #: (its blend's reach into it, units; the speed, units/tick)
+        self._cruise: tuple[float, float] | None = None
+        #: the plain corners made final: (the tick its blend would begin, end, each
+        #: axis's largest offset from that blend, steps) - the grouping's tolerance
+        #: near one shrinks by its offset (:meth:`tolerance_near`)
+        self.plain: list[tuple[float, float, tuple[float, ...]]] = []
+        #: each one's end + TURN_EXACT_S (sorted: the writers' cursors walk it)
+        self.plain_ends: list[float] = []
+        self.plain_widen = TURN_EXACT_S * ticks_per_s  # (ticks)
+        self.plain_base = 0  # plain corners forgotten before plain[0] (trim)
 
     # ------------------------------------------------------------ a run
     def begin(self, t0: float) -> None:
@@ -423,6 +447,10 @@ class Executor:
         self.final = False
         self.stop_segment = None
         self._enter = None
+        self._cruise = None
+        self.plain.clear()
+        self.plain_ends.clear()
+        self.plain_base = 0
 
     def shift(self, ticks: int) -> None:
         """Move everything made final so far ``ticks`` later (a start that came later)."""
@@ -435,6 +463,8 @@ class Executor:
             for piece in seg.pieces:
                 piece.t0 += ticks
                 piece.t1 += ticks
+        self.plain = [(a + ticks, b + ticks, d) for a, b, d in self.plain]
+        self.plain_ends = [e + ticks for e in self.plain_ends]
 
     def segment(self, seq: int) -> Segment | None:
         i = seq - self.first_seq
@@ -447,6 +477,15 @@ class Executor:
         if drop > 0:
             del self.segments[:drop]
             self.first_seq = keep_from
+        if len(self.plain_ends) > PLAIN_KEEP and self.segments:
+            # plain corners no axis's group can reach any more (a group begins at or
+            # before its first step's tick, less than a window early)
+            gone = bisect.bisect_left(self.plain_ends,
+                                      self.segments[0].t_start - self.plain_widen)
+            if gone:
+                del self.plain[:gone]
+                del self.plain_ends[:gone]
+                self.plain_base += gone
 
     # ------------------------------------------------------------ making final
     def commit(self, horizon: float) -> None:
@@ -464,6 +503,11 @@ class Executor:
                 if self._enter is not None:  # a blend before it: from its end on
                     seg.s_done, seg.first = self._enter
                     self._enter = None
+                elif self._cruise is not None:  # a plain corner before it: at the
+                    reach_out, v_c = self._cruise  # blend's clock up to where it ends
+                    self._cruise = None
+                    self._piece(seg, reach_out, self.t + reach_out / v_c, v_c, 0.0)
+                    self.v = v_c
                 self.next_seq += 1
                 self.segments.append(seg)
                 self.cur = seg
@@ -536,11 +580,19 @@ class Executor:
                 self.v = 0.0
                 break
             blend = slowing
+            plain = None
             if blend is None and k > 0.0 and exit2 > 0.0:
-                blend = corner_blend(block.unit, la.blocks[1].unit, math.sqrt(exit2),
-                                     la.accel)
+                out_unit = la.blocks[1].unit
+                if la.plain_steps > 0.0:
+                    plain = plain_offsets(block.unit, out_unit, k, exit2, la.spu,
+                                          la.plain_steps)
+                if plain is not None:  # no step tells its blend from Grbl's corner
+                    self._plain(seg, math.sqrt(exit2), k * exit2, plain)
+                else:
+                    blend = corner_blend(block.unit, out_unit, math.sqrt(exit2), la.accel)
             if blend is None:
-                seg.s_done = seg.end = seg.length
+                if plain is None:
+                    seg.s_done = seg.end = seg.length
             else:
                 seg.end = seg.s_done  # the blend goes on from here
                 if blend.speed_out != blend.speed:  # (a hold's: it leaves slower)
@@ -582,6 +634,60 @@ class Executor:
         self.segments.append(bseg)
         self.t = bseg.t_done
         self._enter = (blend.reach_out, tuple(f for _m, _s, f in per))
+
+    def _plain(self, seg: Segment, speed: float, reach: float,
+               offsets: tuple[float, ...]) -> None:
+        """The corner after ``seg`` as Grbl's corner at the clock of its blend (at
+        ``speed`` units/s, ``reach`` units along either block): the block in at that
+        speed up to the corner, the block out as far as the blend would reach into it
+        (:attr:`_cruise`); each axis's own steps."""
+        tps = self.tps
+        v = speed / tps  # units/tick
+        t_begin = self.t
+        rest = seg.length - seg.s_done
+        if rest > 0.0:
+            self._piece(seg, rest, self.t + rest / v, v, 0.0)
+        seg.s_done = seg.end = seg.length
+        seg.end_tick = int(self.t + 0.5)
+        if self.plain_log is not None:
+            block = seg.block
+            self.plain_log.append((tuple([s + d for s, d in zip(block.start, block.delta,
+                                                                 strict=True)]), self.t))
+        t_end = self.t + reach / v
+        self._cruise = (reach, v)
+        self.note_plain(t_begin, t_end, offsets)
+
+    def note_plain(self, t_begin: float, t_end: float, offsets: tuple[float, ...]) -> None:
+        """A plain corner whose blend would last from tick ``t_begin`` to ``t_end``,
+        each axis's offset from it (steps): the grouping near it keeps within the
+        tolerance less that offset (:meth:`tolerance_near`)."""
+        self.plain.append((t_begin, t_end, offsets))
+        self.plain_ends.append(t_end + self.plain_widen)
+
+    def tolerance_near(self, axis: int, t0: float, t1: float, tol: float,
+                       k: int | None = None) -> float:
+        """The grouping tolerance ``tol`` (steps) of ``axis`` for steps between ticks
+        ``t0`` and ``t1``: less by the largest offset of a plain corner whose blend's
+        time, widened by TURN_EXACT_S on both sides, meets them (docs/path-planner.md,
+        "Corners no step can tell apart").  ``k``: the first plain corner that can
+        (``plain_ends[k] >= t0``, an index into :attr:`plain`), where the caller
+        knows it."""
+        ends = self.plain_ends
+        if not ends:
+            return tol
+        if k is None:
+            k = bisect.bisect_left(ends, t0)
+        plain = self.plain
+        widen = self.plain_widen
+        out = tol
+        while k < len(plain):
+            a, _b, d = plain[k]
+            if a - widen > t1:
+                break
+            if tol - d[axis] < out:
+                out = tol - d[axis]
+            k += 1
+        return out if out > 0.0 else 0.0
 
     def _take(self, seg: Segment, phases: Sequence[tuple[float, float, float]],
               horizon: float) -> bool:

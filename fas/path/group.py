@@ -103,6 +103,7 @@ class PathGroup:
         self.lookahead = Lookahead(settings.axes, settings.junction_deviation,
                                    settings.queue_blocks,
                                    blend_share=BLEND_SHARE if settings.corner_blends else 0.0)
+        self.lookahead.plain_steps = settings.plain_corner_steps
         self.backend: Backend | None = None
         self.tps = 1
         self.executor = Executor(self.lookahead, 1)
@@ -215,6 +216,7 @@ class PathGroup:
         self.settings = settings
         self.lookahead.size = settings.queue_blocks
         self.lookahead.blend_share = BLEND_SHARE if settings.corner_blends else 0.0
+        self.lookahead.plain_steps = settings.plain_corner_steps
         self._configure_lookahead()
         return PathResult.OK
 

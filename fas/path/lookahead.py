@@ -146,6 +146,9 @@ class Lookahead:
 
         self.size = size
         self.blend_share = blend_share
+        #: with blends: a corner whose blend no axis's step tells from Grbl's corner
+        #: by more than this (steps) is written as Grbl's (PathSettings.plain_corner_steps)
+        self.plain_steps = 0.0
         self._zone_coefficient = zone_coefficient  # (_reserve's, imported once)
         self.blocks: list[Block] = []
         self.planned = 0  # blocks before this index (and its entry) are final

@@ -40,6 +40,14 @@ GROUP_TOLERANCE_STEPS = 0.125
 #: its tick) the bound 2 e / W^2 holds at every step for every window W up to this
 #: one - the acceptance's 20 ms.
 TURN_EXACT_S = 0.020
+#: with corner blends on: a corner whose blend differs from Grbl's corner (at the
+#: blend's clock) by at most this many steps in every axis is written as Grbl's corner
+#: - the blocks' own steps, no blend (PathSettings.plain_corner_steps).  At most
+#: GROUP_TOLERANCE_STEPS: the acceleration measured from the pins then keeps its
+#: resolution 2 e / W^2 (e = GROUP_TOLERANCE_STEPS) because the grouping's tolerance
+#: near such a corner shrinks by its offset (docs/path-planner.md, "Corners no step
+#: can tell apart").  0: every turning corner is a blend.
+PLAIN_CORNER_STEPS = 0.0
 
 
 @dataclass(frozen=True)
@@ -74,7 +82,11 @@ class PathSettings:
     each axis's velocity jumping there; True takes every turning corner on whole
     steps as a blend at constant acceleration (:mod:`fas.path.blend`): every axis
     within its acceleration, the path up to ``junction_deviation`` inside the corner
-    (docs/path-planner.md, "Corners: blends")."""
+    (docs/path-planner.md, "Corners: blends").  ``plain_corner_steps`` (with
+    blends): a corner whose blend differs from Grbl's corner by at most that many
+    steps in every axis is taken as Grbl's corner at the blend's clock
+    (:data:`PLAIN_CORNER_STEPS`; docs/path-planner.md, "Corners no step can tell
+    apart")."""
 
     axes: tuple[AxisLimits, ...] = field(default_factory=tuple)
     junction_deviation: float = DEFAULT_JUNCTION_DEVIATION
@@ -82,6 +94,7 @@ class PathSettings:
     queue_blocks: int = DEFAULT_QUEUE_BLOCKS
     start_delay_ms: int = DEFAULT_START_DELAY_MS
     corner_blends: bool = False
+    plain_corner_steps: float = PLAIN_CORNER_STEPS
 
     def problem(self, axes: int) -> str | None:
         """Why these settings do not fit a group of ``axes`` axes (None: they do)."""
@@ -99,6 +112,8 @@ class PathSettings:
             return "queue_blocks must be 2 .. 1024"
         if not 0 <= self.start_delay_ms <= 60_000:
             return "start_delay_ms must be 0 .. 60000"
+        if not 0.0 <= self.plain_corner_steps <= GROUP_TOLERANCE_STEPS:
+            return f"plain_corner_steps must be 0 .. {GROUP_TOLERANCE_STEPS}"
         return None
 
 

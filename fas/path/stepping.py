@@ -36,7 +36,11 @@ Grouped steps come early along the motion, so across an axis's turn their errors
 change sign; for :data:`fas.path.settings.TURN_EXACT_S` after its last step before a
 turn the axis's steps come on their own ticks (``tol`` 0), so that its acceleration
 measured from the pins over step edges >= W apart stays within the limit + ``2 tol /
-W^2`` (W up to that time) at the turn too.
+W^2`` (W up to that time) at the turn too.  Near a corner the executor took plain
+(``PathSettings.plain_corner_steps``: Grbl's corner where its blend would differ by
+at most that much) a group keeps within ``tol`` less the corner's offset in this axis
+(:meth:`fas.path.executor.Executor.tolerance_near`), so that the offset and the
+grouping together stay within ``tol`` of the blend.
 
 A step that cannot be placed on its tick (a command would be shorter than the minimum
 command time, or a period not a whole number where the two-command split is too
@@ -132,6 +136,9 @@ class AxisWriter:
         #: less than TURN_EXACT_S ago (:meth:`_step`)
         self.exact_until = 0
         self.turn_ticks = round(TURN_EXACT_S * self.tps)
+        #: the first of the executor's plain corners that may lie near this axis's
+        #: next group (Executor.plain_ends; its steps only go on in time)
+        self.plain_k = 0
         self.step_dir: bool | None = None  # the direction of the last step written
         self.step_last = 0  # ... and its tick
         self.stats = AxisStats()
@@ -155,6 +162,7 @@ class AxisWriter:
         is taken up by the channel at ``last_start``."""
         self.seq = self.ex.first_seq
         self.j = 0
+        self.plain_k = 0
         self.pending = False
         self.w_end = start_tick
         self.last_start = last_start
@@ -329,9 +337,11 @@ class AxisWriter:
         k = 0
         while k < count and pieces[k].t1 <= t0:
             k += 1
-        if k == count:
-            t_lim = t0 + math.sqrt(2.0 * self.tol / a)
+        if k == count:  # (past the final pieces: as slowing down, 2 tol / a)
+            cruise_end = None
             slowing = False
+            factor = 2.0
+            boundary = math.inf
         else:
             first = pieces[k]
             slowing = first.a < 0.0
@@ -348,12 +358,24 @@ class AxisWriter:
                     cruise_end = p.t1
                 elif pa != 0.0 and cruise_end is not None:
                     break
-            if cruise_end is not None:
-                t_lim = cruise_end + math.sqrt(2.0 * self.tol / a)
-            else:
-                t_lim = t0 + math.sqrt((2.0 if slowing else 8.0) * self.tol / a)
-            if t_lim >= boundary:
-                t_lim = boundary
+            factor = 2.0 if slowing else 8.0
+        t_lim = self._limit(t0, a, cruise_end, factor, boundary)
+        plain = ex.plain
+        if plain:  # near a plain corner the tolerance shrinks by its offset
+            ends = ex.plain_ends
+            n = len(ends)
+            base = ex.plain_base
+            k = self.plain_k - base  # (the cursor counts the forgotten ones too)
+            if k < 0 or k > n:  # (a new run)
+                k = 0
+            while k < n and ends[k] < t0:
+                k += 1
+            self.plain_k = k + base
+            if k < n and plain[k][0] - ex.plain_widen <= t_lim:
+                tol = ex.tolerance_near(i, t0, t_lim, self.tol, k)
+                if tol < self.tol:
+                    self.tol = tol
+                    t_lim = self._limit(t0, a, cruise_end, factor, boundary)
         jmax = j0 + MAX_STEPS
         if known < jmax:
             jmax = known
@@ -399,6 +421,25 @@ class AxisWriter:
                 return res
         return self._group(seg, jh - j0, th - t0, jh, th, slowing)
 
+    def _limit(self, t0: int, a: float, cruise_end: float | None, factor: float,
+               boundary: float) -> float:
+        """The tick up to which a group from ``t0`` stays within ``tol`` steps (see
+        :meth:`_step`): ``a`` the axis's acceleration (steps/tick^2), ``cruise_end``
+        where a cruise from ``t0`` ends (None: none; then ``sqrt(factor tol / a)``
+        from ``t0``), ``boundary`` where the path turns from slowing down to not or
+        back."""
+        if cruise_end is not None:
+            t_lim = cruise_end + math.sqrt(2.0 * self.tol / a)
+        else:
+            t_lim = t0 + math.sqrt(factor * self.tol / a)
+        return boundary if t_lim >= boundary else t_lim
+
+    def _near_plain(self, t0: int, t1: int) -> None:
+        """The tolerance for steps from ``t0`` to ``t1``, near a plain corner."""
+        ex = self.ex
+        if ex.plain:
+            self.tol = ex.tolerance_near(self.axis, t0, t1, self.tol)
+
     def _across(self, seg: Segment, j0: int, t0: int) -> Wrote | None:
         """A group that would end at its segment's last step, too short to keep the
         queue deep (tiny segments): it goes on into the segments after it while the
@@ -430,6 +471,7 @@ class AxisWriter:
                 break
             cur = nxt
         first_end = seg.steps[i] - j0  # steps up to this segment's last
+        self._near_plain(t0, exact[-1])
         while len(exact) > first_end:
             cmds, placed = self._placement(t0, exact)
             if cmds is not None:
@@ -535,6 +577,7 @@ class AxisWriter:
         if not exact:
             return self._single(seg)
         t0 = self.w_end
+        self._near_plain(t0, exact[-1])
         m, period = self._longest(t0, exact, reach)
         if m < 2:
             return self._single(seg)

@@ -62,6 +62,8 @@ Settings ($$ lists them, $N=value or --set '$N=value' changes one):
   $170      status report shows Dout:/Aout:                    default 0
   $171      motion: 0 look-ahead, 1 stop at every block        default 0
   $172      corners: 0 Grbl's junctions, 1 corner blends       default 0
+  $173      with $172=1: corners within this many steps of     default 0
+            their blend taken as Grbl's (0 .. 0.125)
 With one step per unit, X/Y/Z are in steps and F in steps per minute.
 
 exit codes: 0 ok, 1 a line was answered with an error, 2 bad arguments,

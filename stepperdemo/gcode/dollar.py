@@ -28,6 +28,7 @@ from .settings import (
     FIXED,
     KEEP_ENABLED,
     KEPT,
+    PLAIN_CORNER_MAX,
     SWITCHES,
     GcodeSettings,
     axis_setting,
@@ -243,6 +244,12 @@ def set_setting(m: GcodeMachine, number: int, value: float) -> None:
             raise GcodeError(Err.INVALID_STATEMENT, msg.GCODE_ERR_SETTING_RANGE.format(
                 n=number, range="0 or 1"))
         st.corner_blends = bool(value)
+        return
+    if number == 173:  # with blends: corners no step tells from Grbl's (fas.path)
+        if not 0.0 <= value <= PLAIN_CORNER_MAX:
+            raise GcodeError(Err.INVALID_STATEMENT, msg.GCODE_ERR_SETTING_RANGE.format(
+                n=number, range=f"0 .. {PLAIN_CORNER_MAX:g}"))
+        st.plain_corner_steps = float(value)
         return
     axis = axis_setting(number)
     if axis is not None:

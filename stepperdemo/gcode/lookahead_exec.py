@@ -55,7 +55,8 @@ def path_settings(st: GcodeSettings, axes: int, blocks: int) -> PathSettings:
     tolerance = st.arc_tolerance if st.arc_tolerance > 0 else DEFAULT_ARC_TOLERANCE
     return PathSettings(axes=limits, junction_deviation=st.junction_deviation,
                         arc_tolerance=tolerance, queue_blocks=max(2, blocks),
-                        corner_blends=st.corner_blends)
+                        corner_blends=st.corner_blends,
+                        plain_corner_steps=st.plain_corner_steps)
 
 
 def lookahead_fits(steppers: list) -> bool:

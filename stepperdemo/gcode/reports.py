@@ -159,6 +159,7 @@ def settings_lines(m: GcodeMachine) -> list[str]:
     lines.append(f"$170={int(st.report_outputs)}")
     lines.append(f"$171={st.motion}")
     lines.append(f"$172={int(st.corner_blends)}")
+    lines.append(f"$173={_plain(st.plain_corner_steps)}")
     return lines
 
 

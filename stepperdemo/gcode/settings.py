@@ -2,7 +2,7 @@
 
 ``$$`` lists Grbl 1.1's numbers in its order (senders read ``$10``, ``$13``,
 ``$100``-``$132`` ...) with the values this machine really has, then the project's
-own (``$140``-``$172``).  The axis groups always show X, Y and Z (senders expect
+own (``$140``-``$173``).  The axis groups always show X, Y and Z (senders expect
 three), and A, B, C when the machine has those axes.
 
 =========  ==========================================================  ===========
@@ -36,6 +36,10 @@ three), and A, B, C when the machine has those axes.
             axis's velocity jumps at a corner), 1 corner blends (every
             axis within its acceleration, the path up to $11 inside
             the corner; docs/path-planner.md "Corners: blends")
+ $173       with $172=1: a corner whose blend no axis's step tells     0
+            from Grbl's corner by more than this many steps (0 ..
+            0.125) is taken as Grbl's corner at the blend's clock
+            (docs/path-planner.md "Corners no step can tell apart")
 =========  ==========================================================  ===========
 
 The machine executes its blocks with look-ahead (:mod:`.lookahead_exec`) unless
@@ -50,6 +54,8 @@ to the stepper's top speed.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
+from fas.path.settings import GROUP_TOLERANCE_STEPS, PLAIN_CORNER_STEPS
 
 from .parser import AXES
 
@@ -73,6 +79,8 @@ SWITCHES = (20, 22)
 JUNCTION_DEVIATION, ARC_TOLERANCE = 11, 12
 #: $171: how blocks are executed
 MOTION_LOOKAHEAD, MOTION_EXACT_STOP = 0, 1
+#: $173's largest value (steps): the grouping's tolerance, the acceleration line's budget
+PLAIN_CORNER_MAX = GROUP_TOLERANCE_STEPS
 
 
 @dataclass
@@ -88,6 +96,8 @@ class GcodeSettings:
     report_outputs: bool = False  # $170
     motion: int = MOTION_LOOKAHEAD  # $171
     corner_blends: bool = False  # $172: Grbl's junctions (0) or corner blends (1)
+    #: $173: with blends, a corner within this many steps of its blend is Grbl's corner
+    plain_corner_steps: float = PLAIN_CORNER_STEPS
     kept: dict[int, float] = field(
         default_factory=lambda: {n: v for n, (v, _d) in KEPT.items()})
     startup: list[str] = field(default_factory=lambda: ["", ""])  # $N0, $N1

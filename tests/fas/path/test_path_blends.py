@@ -59,7 +59,8 @@ def blended_dev(ins, group, poly, stops=()) -> float:
     ``stops``, (tick, point), where a feed hold stopped), each instant against the
     path's pieces within 20 ms of its time."""
     spu = [a.steps_per_unit for a in group.settings.axes]
-    path = sorted(path_as_run(poly, group.blend_log, ins, spu)
+    path = sorted(path_as_run(poly, group.blend_log, ins, spu,
+                              plain=group.executor.plain_log or ())
                   + [(t, tuple(float(c) for c in p)) for t, p in stops])
     return timed_deviation(ins, path, int(0.02 * group.tps))
 

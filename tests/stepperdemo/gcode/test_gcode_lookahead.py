@@ -451,3 +451,43 @@ def test_a_feed_hold_with_172_stops_where_the_deceleration_takes_it_through_a_co
 def status(g: RawGrbl) -> str:
     g.send(b"?")
     return g.take().decode().split("\r\n")[-2]
+
+
+# ------------------------------------------- $173: plain corners with blends (opt-in)
+def test_173_sets_plain_corners_lists_and_refuses_bad_values():
+    """``$173``: with ``$172=1``, corners whose blend no step tells from Grbl's corner
+    by more than this many steps are taken as Grbl's corner (0, the default: none);
+    ``$$`` lists it, 0 .. 0.125 (the grouping's tolerance) or Grbl's error:3 (a
+    negative value error:4), nothing changed; the group gets it."""
+    g = grbl()
+    g.send(b"$$\n")
+    assert "$173=0" in g.take().decode().split("\r\n")
+    for bad, answer in ((b"0.2", "0 .. 0.125]"), (b"1", "0 .. 0.125]"), (b"-1", ">= 0]")):
+        g.send(b"$173=" + bad + b"\n")
+        assert g.settle()
+        err = "error:4" if bad == b"-1" else "error:3"
+        assert g.take().decode().split("\r\n")[-3:] == [
+            "[MSG:$173 must be " + answer, err, ""]
+    assert g.machine.settings.plain_corner_steps == 0.0
+    g.send(b"$172=1\n$173=0.125\n")
+    assert g.settle()
+    assert g.take().decode().split("\r\n")[-3:] == ["ok", "ok", ""]
+    g.send(b"$$\n")
+    assert "$173=0.125" in g.take().decode().split("\r\n")
+    g.send(b"G1 X20 F6000\nG1 Y20\n")
+    assert g.settle()
+    assert g.machine.executor.group.settings.plain_corner_steps == 0.125
+
+
+def test_the_same_program_through_port_with_blends_and_plain_corners():
+    """The CAM program on the Python device with ``$172=1 $173=0.125``: one run, no
+    underrun, fewer blends than with blends alone, within one step of the commanded
+    path (docs/path-planner.md, "Corners no step can tell apart")."""
+    from rigs.path import commanded_deviation
+
+    m, verts, points, blends = cam_on_the_python_device(["$172=1"])
+    m2, verts2, points2, blends2 = cam_on_the_python_device(["$172=1", "$173=0.125"])
+    assert 0 < len(blends2) < len(blends)
+    assert points2[-1][1] == verts2[-1] == tuple(m2.positions())
+    # (the plain corners are not logged here: a vertex is matched at its visit)
+    assert commanded_deviation(points2, verts2, blends2, int(0.02 * TPS)) <= 1.0
