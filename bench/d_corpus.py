@@ -76,6 +76,9 @@ VARIANTS: dict[str, list[str]] = {
     # auto enable's enableOutputs() in a command's write charged to the ramp task
     # (SimTiming.fill_enable_ticks; forty-second pass)
     "E42": ["fill_enable_ticks=311"],
+    # a held W's every pass while a stepper runs and the pass's CPU before a status line
+    # (StepperDemo's DemoBuild.w_every_pass, status_lead_ticks; forty-second pass)
+    "S42": ["w_every_pass=1", "status_lead_ticks=257"],
 }
 # the variants that make build d's default (fortieth pass)
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]
