@@ -108,7 +108,7 @@ class ModelRun:
         self.writes: list[int] = []
         writes = self.writes
 
-        class Records(deque):  # the UART's records: each appended one is a hand-over
+        class Records(deque[list[int]]):  # the UART's records: each appended one is a hand-over
             def append(self, x: list[int]) -> None:
                 writes.append(x[0])
                 super().append(x)

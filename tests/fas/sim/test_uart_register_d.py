@@ -63,7 +63,7 @@ def _first_char(text: str) -> tuple[int, int]:
     uart = backend.machine.uart
     writes: list[int] = []
 
-    class Records(deque):  # the UART's records: each appended one is a hand-over
+    class Records(deque[list[int]]):  # the UART's records: each appended one is a hand-over
         def append(self, x: list[int]) -> None:
             writes.append(x[0])
             super().append(x)
@@ -172,7 +172,7 @@ def _status_after_timer0(text: str) -> list[int]:
     m = backend.machine
     writes: list[int] = []
 
-    class Records(deque):
+    class Records(deque[list[int]]):
         def append(self, x: list[int]) -> None:
             writes.append(x[0])
             super().append(x)
