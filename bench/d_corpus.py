@@ -65,6 +65,20 @@ VARIANTS: dict[str, list[str]] = {
     # ... and the tails read again under it (T34 and T37 in one; BUILD_D_REPLICA_TAILS_P39)
     "T39": [f"cmd_tail_ticks.{k}={v}"
             for k, v in demo_build_module.BUILD_D_REPLICA_TAILS_P39.items()],
+    # the UART transmitter as the simulator has it (SimTiming.uart_tx_single_register:
+    # one register, no shift register; 63 places in the ring) with the banner's first
+    # character and the ramp task's phase read again under it (docs/timing-model.md,
+    # forty-second pass): StepperDemo's setup() to its banner 1 461 ticks (every
+    # character of the replica's start-up then to the tick), the task 257 ticks earlier
+    # after engine.init() (the transmit interrupts no longer one character early)
+    "U42": ["uart_tx_single_register=1", "uart_tx_buffer=63", "setup_head_ticks=1461",
+            f"task_phase_ticks={sim_timing_module.AVR_D_328P_TIMING.task_phase_ticks - 257}"],
+    # auto enable's enableOutputs() in a command's write charged to the ramp task
+    # (SimTiming.fill_enable_ticks; forty-second pass)
+    "E42": ["fill_enable_ticks=311"],
+    # a held W's every pass while a stepper runs and the pass's CPU before a status line
+    # (StepperDemo's DemoBuild.w_every_pass, status_lead_ticks; forty-second pass)
+    "S42": ["w_every_pass=1", "status_lead_ticks=257"],
 }
 # the variants that make build d's default (fortieth pass)
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]

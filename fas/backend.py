@@ -288,6 +288,11 @@ class Backend(ABC):
         """The main loop busy-waits ``ticks`` with interrupts disabled."""
         self.app_spend(ticks)
 
+    def auto_enabled(self) -> None:  # noqa: B027 - optional: no-op by default
+        """Auto enable switched a driver's outputs on while a command was written (the
+        library's ``enableOutputs()`` inside ``addQueueEntry()``): a backend that counts
+        CPU time charges it here."""
+
     def stray_read(self, pins: tuple[int, ...]) -> None:  # noqa: B027 - optional: no-op by default
         """The main loop reads step pins with a stray ``digitalRead()``."""
 

@@ -227,6 +227,7 @@ class Drive:
         if self.auto_enable and self.auto_disable_delay_counter == 0:
             if not self.enable_outputs():
                 return AqeResult.WAIT_FOR_ENABLE_PIN_ACTIVE
+            self._engine.backend.auto_enabled()
             if self.on_delay_ticks > 0:
                 delay = self.on_delay_ticks
                 if delay < self.dir_change_delay_ticks and q.queue_end_count_up != count_up:

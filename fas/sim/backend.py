@@ -264,6 +264,13 @@ class SimBackend(Backend):
     def write_pin(self, pin: int, level: int) -> None:
         self.machine.pins.set(pin, level, self.machine.cpu_now())
 
+    def auto_enabled(self) -> None:
+        """Auto enable's ``enableOutputs()`` in a command's write: in the ramp task it
+        costs the task ``SimTiming.fill_enable_ticks`` before the write."""
+        m = self.machine
+        if m.in_task and m.timing.fill_enable_ticks:
+            m.task_offset += m.timing.fill_enable_ticks
+
     def read_pin(self, pin: int) -> int:
         found = False
         for ch in self.channels:  # (a QuickStep stepper has two: its FIFO's and the idle one)

@@ -126,7 +126,8 @@ class Machine:
         self.pins = PinBank()
         self.outputs = SimOutputs(self.pins)  # user outputs: digital pins, PWM waves
         self.uart = Uart(self.timing.uart_byte_ticks, self.timing.uart_tx_buffer,
-                         self.timing.uart_idle_start_ticks)
+                         self.timing.uart_idle_start_ticks,
+                         self.timing.uart_tx_single_register)
         # the last blocked section [from, until) (none yet: far in the past)
         self.irq_blocked_from = self.irq_blocked_until = -(1 << 62)
         self.irq_block_windows = 0

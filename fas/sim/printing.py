@@ -27,6 +27,7 @@ def print_chars(m: Machine, data: bytes, cpu_after: Sequence[int] | None,
     heap = m.events
     byte_ticks = uart.byte_ticks
     idle_start = uart.idle_start
+    reg = uart.register_ticks
     loads = uart.loads
     # the interrupts that take time from the loop, followed between events by the
     # machine's IsrClock (asked again after events ran); QuickStep's timers are not
@@ -55,7 +56,7 @@ def print_chars(m: Machine, data: bytes, cpu_after: Sequence[int] | None,
         # Uart.put(now), written out
         t = m.now
         prev = uart.last_start
-        load = t if t > prev else prev
+        load = t if t > prev + reg else prev + reg
         start = prev + byte_ticks
         if load > start:  # the line is idle (Uart.idle_start)
             start = load + idle_start

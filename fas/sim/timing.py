@@ -170,6 +170,12 @@ class SimTiming:
     # a pause the library writes itself before the first command (auto enable's delay):
     # a bare queue write, no ramp step planned (0: as fill_pause_ticks)
     fill_bare_pause_ticks: int = 0
+    # auto enable switching a driver on in a command's write (FastAccelStepper's
+    # addQueueEntry() calling enableOutputs()): the ramp task's CPU before that write.
+    # Build d's replica: the first write of test_sd_07's first move (outputs off) comes
+    # 311 ticks later after its library call than the second move's (outputs on):
+    # 559 against 248 ("forty-second pass").  0 (not charged) by default
+    fill_enable_ticks: int = 0
     # CPU time of one write call to the console's serial driver beyond char_ticks per
     # character (the ATmega32U4's USB CDC driver)
     console_call_ticks: int = 0
@@ -218,6 +224,14 @@ class SimTiming:
     # the replica's the corpus fails d29's and test_sd_07's pulse-high totals and d30's
     # (docs/timing-model.md, "thirty-first pass")
     uart_idle_start_ticks: int = 0
+    # the transmitter as the simulator that made the conformance runs has it: the data
+    # register frees only when its character is done on the wire (no separate shift
+    # register), so the transmit interrupt loads character k when k-1 ends, and a write
+    # into a full buffer waits for character k-63's load (uart_tx_buffer 63: the ring's
+    # 63 places).  Build d's replica: every transmit interrupt 1 496 ticks after the
+    # write of the line's first character, then every 1 496 ("forty-second pass").
+    # Off (False: a real chip's data register and shift register) by default
+    uart_tx_single_register: bool = False
 
     def isr_latency(self, channel: int) -> int:
         """The step pulse width of queue ``channel`` when its interrupt enters at once."""

@@ -25,11 +25,17 @@ _load = itemgetter(1)  # the load tick of a character record
 
 class Uart:
     __slots__ = ("byte_ticks", "capacity", "records", "last_start", "chars", "loads", "_pos",
-                 "idle_start")
+                 "idle_start", "register_ticks")
 
-    def __init__(self, byte_ticks: int, capacity: int, idle_start: int = 0) -> None:
+    def __init__(self, byte_ticks: int, capacity: int, idle_start: int = 0,
+                 single_register: bool = False) -> None:
         self.byte_ticks = byte_ticks
         self.capacity = capacity
+        # ``single_register`` (SimTiming.uart_tx_single_register): the data register
+        # frees only when its character is done on the wire (simavr's transmitter: no
+        # separate shift register), so a character is loaded when the one before it
+        # ends, not when it starts
+        self.register_ticks = byte_ticks if single_register else 0
         # a character the loop hands over while the line is idle goes onto the wire
         # this much later (SimTiming.uart_idle_start_ticks): the transmit interrupts
         # that follow keep that phase (a load held by a blocked section does not)
@@ -54,7 +60,7 @@ class Uart:
     def put(self, t: int) -> None:
         """Hand over one character at tick ``t`` (``t >= room_at()``)."""
         prev = self.last_start
-        load = max(t, prev)
+        load = max(t, prev + self.register_ticks)
         start = prev + self.byte_ticks
         if load > start:  # the line is idle
             start = load + self.idle_start
@@ -79,8 +85,9 @@ class Uart:
             return  # every character was loaded before the window
         moved = [chars[i] for i in range(k, len(chars))]
         prev_start = moved[0][3]
+        reg = self.register_ticks
         for ch in moved:
-            load = max(ch[0], prev_start)
+            load = max(ch[0], prev_start + reg)
             if begin <= load < end:
                 load = end
             start = prev_start + self.byte_ticks

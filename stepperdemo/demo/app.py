@@ -582,6 +582,10 @@ class StepperDemo(LoopProgram):
                         path += build.loop_idle_stepper_ticks
             if running and ((ms - self.last_time) & 0xFFFFFFFF) >= 100:
                 if self.verbose:
+                    lead = build.status_lead_ticks
+                    if lead:  # the pass's CPU before the status line's first character
+                        b.app_spend(lead)
+                        path -= lead
                     self.output_info(True)
                 self.last_time = ms
             if not self.stopped and not running:
@@ -646,6 +650,9 @@ class StepperDemo(LoopProgram):
         if self.simulate_blocked_isr and (self.build.e_every_pass
                                           or (self.backend.millis() & 0xFF) < 0x40):
             return False  # every pass blocks interrupts in this window
+        if (self.build.w_every_pass and self.mode == _NORMAL and not self.simulate_blocked_isr
+                and self._held_by_w() and self.any_running()):
+            return False  # every pass of a held W reads millis() where its chain is
         if not self._input_idle():
             return False
         if self.mode == _TEST and self.test_ongoing:

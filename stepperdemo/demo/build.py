@@ -122,6 +122,18 @@ class DemoBuild:
     # interrupts lead to (the loop's phase kept; False: idle passes skipped to the
     # deadline; docs/timing-model.md, "sixteenth pass")
     e_every_pass: bool = False
+    # a held `W` (the built-in line's W puts itself back while the stepper runs) runs
+    # every pass while a stepper runs, in the normal mode without `e` (whose passes
+    # e_every_pass governs): the pass that reads a status line's deadline is the one the
+    # pass chain leads to (docs/timing-model.md, "forty-second pass"; False: idle passes
+    # skipped to the deadline)
+    w_every_pass: bool = False
+    # ... and the pass's CPU before a running stepper's status line (its millis() read,
+    # the steppers' isRunning(), output_info()'s head), taken out of the pass's own
+    # charge: build d's replica puts the line's first character 408-854 ticks after
+    # timer 0's overflow (35 lines of the README move), the model with every pass of W
+    # 151-597: 257 (forty-second pass; 0: at the pass's start)
+    status_lead_ticks: int = 0
     # `e` on, outside a window: a pass that skips the block is this much shorter than a
     # window's pass less its block (the replica of e01: 267 against 1 852 - 1 582)
     e_outside_saved_ticks: int = 0
