@@ -375,13 +375,13 @@ BUILD_D_REPLICA_PHASES: dict[str, int] = {
 # build d's plain step pulse as its replica measures it (docs/timing-model.md, "forty-third
 # pass"; bench/replica/plain_pulse.py over the 60 build-d runs): the pin falls 60 ticks
 # after the compare match on channel A, 70 on B, where the step interrupt enters at once
-# (the entry and the vector's jump 5, the prologue's 13 saves 28, the queue check 7, the
+# (the vector table's jmp 3, the prologue's 14 pushes 30, the queue check 7, the
 # entry's address and the timer's mode 20 up to the force-compare write); with
 # SIMAVR_TIME_MEASUREMENT 62 / 72 (the entry's sbi, 2 more on both channels).  The model's
 # 61 / 71 (62 / 73) were fitted: they stand for the entries that wait 1-14 ticks behind
 # an instruction or a short section with interrupts off (millis(), queueEntries()) and the
 # ramp task's own sections, which the default does not model.  Variant P43 of
-# bench/d_corpus.py; off: alone the corpus fails 10 pulse-high totals, all short
+# bench/d_corpus.py; off: alone the corpus fails 9 files' pulse-high totals, all short
 BUILD_D_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (60, 70, 70)
 BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (62, 72, 72)
 

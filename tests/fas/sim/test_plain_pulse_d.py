@@ -102,7 +102,7 @@ def test_s42_with_p43_meets_d11s_pulse_high_total(monkeypatch: pytest.MonkeyPatc
                    "against the firmware's 1 156 +- 17.6: the replica's 300 pulses hold 503 "
                    "ticks beyond the plain 60 (the ramp task's own sections 152, timer 0 "
                    "136, the loop's millis() 97 and queueEntries() 51, the UART 67), the "
-                   "model's 176 (forty-third pass)")
+                   "model's 191 (forty-third pass)")
 def test_s42_with_p43_meets_d02s_pulse_high_total(monkeypatch: pytest.MonkeyPatch) -> None:
     _default_with(monkeypatch, "S42", "P43")
     high = _high_us(D02)
