@@ -87,6 +87,10 @@ VARIANTS: dict[str, list[str]] = {
                 map(str, sim_timing_module.BUILD_D_REPLICA_PLAIN_PULSE_TICKS)),
             "tm.isr_latency_ticks=" + ",".join(
                 map(str, sim_timing_module.BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS))],
+    # build d's ramp task's own sections per command, read from d02's replica
+    # (BUILD_D_REPLICA_CMD_MASK_SECTIONS; forty-third pass)
+    "K43": ["fill_cmd_mask_sections=" + ",".join(
+        f"{b}:{t}" for b, t in sim_timing_module.BUILD_D_REPLICA_CMD_MASK_SECTIONS)],
 }
 # the variants that make build d's default (fortieth pass)
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]
@@ -133,8 +137,9 @@ def set_build_d(settings: list[str]) -> None:
             if isinstance(current, bool):
                 new: object = value.lower() in ("1", "true", "yes")
             elif isinstance(current, tuple):
-                try:
-                    new = tuple(int(v) for v in value.split(","))
+                try:  # figures, or pairs BEFORE:TICKS (fill_cmd_mask_sections)
+                    new = tuple(tuple(int(x) for x in v.split(":")) if ":" in v else int(v)
+                                for v in value.split(","))
                 except ValueError:
                     raise ValueError(f"--set {setting!r}: {value!r} is not numbers "
                                      "separated by commas") from None
