@@ -3,7 +3,9 @@ pass"): 60 ticks on channel A, 70 on B, 62 / 72 with SIMAVR_TIME_MEASUREMENT
 (``BUILD_D_REPLICA_PLAIN_PULSE_TICKS``, variant P43 of ``bench/d_corpus.py``).  Off by
 default: alone it makes the corpus's pulse-high totals short (the model has no entry
 waiting behind an instruction or the loop's and the ramp task's own sections); with S42 it
-meets d11, which S42 alone fails, and fails d02 - strict xfails naming the values."""
+meets d11, which S42 alone fails, and fails d02.  Build d's ramp task's own sections per
+command (``BUILD_D_REPLICA_CMD_MASK_SECTIONS``, variant K43, off) close d02; test_sd_14
+stays short.  Strict xfails name the values."""
 
 from __future__ import annotations
 
