@@ -15,8 +15,18 @@ branch not taken), its cycles by piece::
     python3 bench/replica/plain_pulse.py --work /tmp/fas-replica --tag Os-nolto-inall-pad1 \\
         --elf /tmp/fas-replica/fw-6c42e8b7b36c/fw.elf
 
+With ``--sections``, the ramp task's own sections with interrupts off in runs made with
+``TASK_SECTIONS=1`` in the runner's environment (``sketch_replica.task_sections``): its
+entry to its ``sei``, its last ``cli`` to its ``reti``, and per ``cli`` address the
+commonest width and the commonest distance (the task's own CPU) to its next queue write::
+
+    TASK_SECTIONS=1 python3 bench/replica/replica.py --fas FAS --simavr SIMAVR --build d \
+        --no-lto --input-everywhere --data-pad 1 --work /tmp/s34rep steps d02
+    python3 bench/replica/plain_pulse.py --work /tmp/s34rep --sections d02
+
 The model: ``SimTiming.isr_latency_ticks`` (build d's read figures:
-``BUILD_D_REPLICA_PLAIN_PULSE_TICKS``, variant P43 of ``bench/d_corpus.py``).
+``BUILD_D_REPLICA_PLAIN_PULSE_TICKS``, variant P43 of ``bench/d_corpus.py``) and
+``fill_cmd_mask_sections`` (``BUILD_D_REPLICA_CMD_MASK_SECTIONS``, variant K43).
 """
 
 from __future__ import annotations
@@ -118,13 +128,38 @@ def path_cycles(listing: str, vector: int) -> list[tuple[str, int]]:
     raise ValueError(f"no force-compare write in __vector_{vector}")
 
 
+def report_sections(work: Path, tag: str, cases: list[str]) -> int:
+    """Each case's ramp-task sections (``TASK_SECTIONS`` runs), one line per section."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import sketch_replica  # noqa: PLC0415 (a sibling script)
+    from replica import QUEUE_WRITE  # noqa: PLC0415
+    for case in cases:
+        prefix = work / f"{case}-{tag}"
+        if not prefix.with_name(prefix.name + ".ev").exists():
+            print(f"plain_pulse: no replica run {prefix}.ev", file=sys.stderr)
+            return 2
+        out = sketch_replica.task_sections(prefix, 13, write_mark=QUEUE_WRITE)
+        print(f"## {case}: entry to sei {out['entry'].most_common(1)}, "
+              f"last cli to reti {out['exit'].most_common(1)}")
+        for pc in sorted(k for k in out if k not in ("entry", "exit")
+                         and not k.startswith("before:")):
+            before = out.get(f"before:{pc}")
+            print(f"{pc}: {sum(out[pc].values())} sections, width {out[pc].most_common(1)}"
+                  + (f", before the next write {before.most_common(2)}" if before else ""))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--work", type=Path, default=Path("/tmp/fas-replica"))
     ap.add_argument("--tag", default="Os-nolto-inall-pad1")
     ap.add_argument("--elf", type=Path, help="the build's ELF: the vector's path, by piece")
+    ap.add_argument("--sections", action="store_true",
+                    help="the ramp task's own sections (runs made with TASK_SECTIONS=1)")
     ap.add_argument("cases", nargs="*", help="case names (default: every run with the tag)")
     args = ap.parse_args(argv)
+    if args.sections:
+        return report_sections(args.work, args.tag, args.cases)
     runs = ([args.work / f"{c}-{args.tag}.pins" for c in args.cases] if args.cases
             else sorted(args.work.glob(f"*-{args.tag}.pins")))
     if not runs or not all(p.exists() for p in runs):
