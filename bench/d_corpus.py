@@ -87,6 +87,10 @@ VARIANTS: dict[str, list[str]] = {
                 map(str, sim_timing_module.BUILD_D_REPLICA_PLAIN_PULSE_TICKS)),
             "tm.isr_latency_ticks=" + ",".join(
                 map(str, sim_timing_module.BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS))],
+    # the loop's sections (the replica's figures measured with them, and the loop's
+    # polls), each pass of a held W under S42 with them (DemoBuild.w_pass_millis_before_end;
+    # forty-third pass)
+    "L43": ["loop_section_widths=1", "loop_sections=1", "w_pass_millis_before_end=123"],
     # build d's ramp task's own sections per command, read from d02's replica
     # (BUILD_D_REPLICA_CMD_MASK_SECTIONS; forty-third pass)
     "K43": ["fill_cmd_mask_sections=" + ",".join(
