@@ -4,8 +4,9 @@ pass"): 60 ticks on channel A, 70 on B, 62 / 72 with SIMAVR_TIME_MEASUREMENT
 default: alone it makes the corpus's pulse-high totals short (the model has no entry
 waiting behind an instruction or the loop's and the ramp task's own sections); with S42 it
 meets d11, which S42 alone fails, and fails d02.  Build d's ramp task's own sections per
-command (``BUILD_D_REPLICA_CMD_MASK_SECTIONS``, variant K43, off) close d02; test_sd_14
-stays short.  Strict xfails name the values."""
+command (``BUILD_D_REPLICA_CMD_MASK_SECTIONS``, variant K43, off) close d02; with the
+loop's sections in a held W's passes as well (variant L43) the corpus fails test_sd_14
+only.  Strict xfails name the values."""
 
 from __future__ import annotations
 
