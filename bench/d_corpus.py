@@ -4,14 +4,15 @@ corpus check for build d's figures (docs/timing-model.md, "thirty-third pass").
     python3 bench/d_corpus.py --variant FIT --variant D33 [--set FIELD=VALUE ...] \\
         sequences/conformance sequences/upstream sequences/gcode sequences/examples
 
-A setting is ``FIELD=VALUE`` (or ``FIELD=+N`` / ``-N``) of :class:`fas.sim.timing.SimTiming`
-or StepperDemo's :class:`stepperdemo.demo.build.DemoBuild`; it reaches build d's
-ATmega328P (the default build's AVR figures, and its time-measurement build of upstream's
-timing tests); the scenario files then run as ``python3 -m stepperdemo run FILES...``
-runs them (its exit status).  Since the fortieth pass, build d's figures read from its
-replica (D33 P30 L34 W34 C37 P39 T39) are the default: those variants set what is
-already set; ``FIT`` (first) goes back to the figures fitted before it, to look at a
-reading alone.
+A setting is ``FIELD=VALUE`` (or ``FIELD=+N`` / ``-N``; a tuple's figures separated by
+commas) of :class:`fas.sim.timing.SimTiming` or StepperDemo's
+:class:`stepperdemo.demo.build.DemoBuild`; it reaches build d's ATmega328P (the default
+build's AVR figures, and its time-measurement build of upstream's timing tests;
+``tm.FIELD=VALUE`` that build's table alone); the scenario files then run as
+``python3 -m stepperdemo run FILES...`` runs them (its exit status).  Since the fortieth
+pass, build d's figures read from its replica (D33 P30 L34 W34 C37 P39 T39) are the
+default: those variants set what is already set; ``FIT`` (first) goes back to the
+figures fitted before it, to look at a reading alone.
 """
 
 from __future__ import annotations
@@ -79,6 +80,21 @@ VARIANTS: dict[str, list[str]] = {
     # a held W's every pass while a stepper runs and the pass's CPU before a status line
     # (StepperDemo's DemoBuild.w_every_pass, status_lead_ticks; forty-second pass)
     "S42": ["w_every_pass=1", "status_lead_ticks=257"],
+    # build d's plain step pulse read from its replica (60 / 70 ticks; with
+    # SIMAVR_TIME_MEASUREMENT 62 / 72: fas.sim.timing's BUILD_D_REPLICA_PLAIN_PULSE_TICKS;
+    # forty-third pass)
+    "P43": ["isr_latency_ticks=" + ",".join(
+                map(str, sim_timing_module.BUILD_D_REPLICA_PLAIN_PULSE_TICKS)),
+            "tm.isr_latency_ticks=" + ",".join(
+                map(str, sim_timing_module.BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS))],
+    # the loop's sections (the replica's figures measured with them, and the loop's
+    # polls), each pass of a held W under S42 with them (DemoBuild.w_pass_millis_before_end;
+    # forty-third pass)
+    "L43": ["loop_section_widths=1", "loop_sections=1", "w_pass_millis_before_end=123"],
+    # build d's ramp task's own sections per command, read from d02's replica
+    # (BUILD_D_REPLICA_CMD_MASK_SECTIONS; forty-third pass)
+    "K43": ["fill_cmd_mask_sections=" + ",".join(
+        f"{b}:{t}" for b, t in sim_timing_module.BUILD_D_REPLICA_CMD_MASK_SECTIONS)],
 }
 # the variants that make build d's default (fortieth pass)
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]
@@ -103,6 +119,9 @@ def set_build_d(settings: list[str]) -> None:
             set_fitted()
             continue
         name, sep, value = setting.partition("=")
+        tm_only = name.startswith("tm.")  # the time-measurement build's table alone
+        if tm_only:
+            name = name[3:]
         table_name, dot, letter = name.partition(".")
         if sep and dot and table_name in ("cmd_ticks", "cmd_tail_ticks") and len(letter) == 1:
             _set_cmd_ticks(setting, table_name, letter, value)
@@ -110,13 +129,24 @@ def set_build_d(settings: list[str]) -> None:
         if not sep or name not in t_fields | d_fields:
             raise ValueError(f"--set {setting!r}: not FIELD=VALUE with a SimTiming or "
                              "DemoBuild field")
-        places = ([(sim_timing_module.BY_FAMILY, "avr"),
+        if tm_only and name not in t_fields:
+            raise ValueError(f"--set {setting!r}: tm. takes a SimTiming field")
+        places = ([(sim_timing_module.BY_BUILD["d_time_measurement"], "atmega328p")]
+                  if tm_only else
+                  [(sim_timing_module.BY_FAMILY, "avr"),
                    (sim_timing_module.BY_BUILD["d_time_measurement"], "atmega328p")]
                   if name in t_fields else [(demo_build_module.BY_PROFILE, "atmega328p")])
         for table, key in places:
             current = getattr(table[key], name)
             if isinstance(current, bool):
                 new: object = value.lower() in ("1", "true", "yes")
+            elif isinstance(current, tuple):
+                try:  # figures, or pairs BEFORE:TICKS (fill_cmd_mask_sections)
+                    new = tuple(tuple(int(x) for x in v.split(":")) if ":" in v else int(v)
+                                for v in value.split(","))
+                except ValueError:
+                    raise ValueError(f"--set {setting!r}: {value!r} is not numbers "
+                                     "separated by commas") from None
             elif not isinstance(current, int):
                 raise ValueError(f"--set {setting!r}: {name} is not a number")
             else:

@@ -372,6 +372,28 @@ BUILD_D_REPLICA_PHASES: dict[str, int] = {
     "task_phase_ticks": 217, "timer0_lag_ticks": 405, "timer0_data_align": 2,
 }
 
+# build d's plain step pulse as its replica measures it (docs/timing-model.md, "forty-third
+# pass"; bench/replica/plain_pulse.py over the 60 build-d runs): the pin falls 60 ticks
+# after the compare match on channel A, 70 on B, where the step interrupt enters at once
+# (the vector table's jmp 3, the prologue's 14 pushes 30, the queue check 7, the
+# entry's address and the timer's mode 20 up to the force-compare write); with
+# SIMAVR_TIME_MEASUREMENT 62 / 72 (the entry's sbi, 2 more on both channels).  The model's
+# 61 / 71 (62 / 73) were fitted: they stand for the entries that wait 1-14 ticks behind
+# an instruction or a short section with interrupts off (millis(), queueEntries()) and the
+# ramp task's own sections, which the default does not model.  Variant P43 of
+# bench/d_corpus.py; off: alone the corpus fails 9 files' pulse-high totals, all short
+BUILD_D_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (60, 70, 70)
+BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (62, 72, 72)
+# build d's ramp task's own sections with interrupts off, per command it writes, as
+# (ticks of the task's own CPU before the write, ticks): read on d02's replica rebuilt with
+# TASK_SECTIONS=1 (480 writes in 714 tasks; bench/replica/sketch_replica.task_sections, the
+# commonest distance; docs/timing-model.md, "forty-third pass"): seven after the previous
+# write (2, 13, 6, 51, 2, 15, 2), the queue's fill level (10), the ramp's state (40), three
+# of 2 and the write's own (8 at 53).  Off (fill_cmd_mask_sections empty) in build d
+BUILD_D_REPLICA_CMD_MASK_SECTIONS: tuple[tuple[int, int], ...] = (
+    (1418, 2), (1406, 13), (1328, 6), (1075, 51), (1004, 2), (949, 15), (927, 2),
+    (721, 10), (600, 40), (458, 2), (276, 2), (129, 2), (53, 8))
+
 # build d's ATmega328P as read from its replica (docs/timing-model.md, "fortieth pass";
 # the default since then): AVR_TIMING's figures with the ramp task above (the pieces of
 # the thirty-third pass), both phases (the task's 217 ticks added to the fitted phase:

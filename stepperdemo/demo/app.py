@@ -593,7 +593,26 @@ class StepperDemo(LoopProgram):
                 if self.usage_info:
                     self.usage()
             self.stopped = not running
-        b.app_spend(self.build.loop_pass_ticks + path)
+        ticks = self.build.loop_pass_ticks + path
+        sections = self._w_pass_sections(ticks)
+        if sections:
+            b.app_spend_in(ticks, (ticks, sections))
+        else:
+            b.app_spend(ticks)
+
+    def _w_pass_sections(self, ticks: int) -> tuple[tuple[int, int], ...]:
+        """The sections with interrupts off of a held W's pass of ``ticks`` run one by one
+        (DemoBuild.w_every_pass with loop_sections and w_pass_millis_before_end; empty:
+        none followed)."""
+        build = self.build
+        before_end = build.w_pass_millis_before_end
+        poll = build.loop_poll_running
+        if (not before_end or not build.loop_sections or poll is None
+                or not build.w_every_pass or self.mode != _NORMAL or self.simulate_blocked_isr
+                or not self._held_by_w() or not self.any_running()):
+            return ()
+        width = poll[1][0][1]
+        return ((0, width), (max(width, ticks - before_end), width))
 
     def _spend_command(self, cmd: bytes) -> None:
         """CPU time of parsing and executing a command, without its prints."""

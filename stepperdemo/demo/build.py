@@ -134,6 +134,12 @@ class DemoBuild:
     # timer 0's overflow (35 lines of the README move), the model with every pass of W
     # 151-597: 257 (forty-second pass; 0: at the pass's start)
     status_lead_ticks: int = 0
+    # ... and with loop_sections, each such pass's own sections with interrupts off, as
+    # the idle polls place them (loop_poll_running's widths): isRunning()'s queue read at
+    # the pass's start and millis() this many ticks before its end (build d's replica:
+    # passes of 330 / 467 with millis() at 207 / 344, both 123 before the end;
+    # docs/timing-model.md, "forty-third pass"; 0: a held W's passes carry no sections)
+    w_pass_millis_before_end: int = 0
     # `e` on, outside a window: a pass that skips the block is this much shorter than a
     # window's pass less its block (the replica of e01: 267 against 1 852 - 1 582)
     e_outside_saved_ticks: int = 0
