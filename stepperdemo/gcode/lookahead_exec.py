@@ -35,7 +35,6 @@ allow it; otherwise the machine uses the exact-stop executor
 
 from __future__ import annotations
 
-from itertools import islice
 from typing import TYPE_CHECKING
 
 from fas.codes import PIN_UNDEFINED
@@ -203,8 +202,10 @@ class LookaheadExecutor(MotionExecutor):
         b = self.host.backend
         g = self.group
         queued = self._queued
-        if self.handed < len(queued) and g.room() > 0:
-            return b.now()
+        if self.handed < len(queued):
+            la = g.lookahead
+            if la.size - len(la.blocks) > 0:  # (g.room())
+                return b.now()
         if queued or g.run_active or g.lookahead.blocks or self.moving():
             return b.now() + b.task_period_ticks
         if self.group.attached and self._hold == HoldState.NONE:
@@ -229,9 +230,9 @@ class LookaheadExecutor(MotionExecutor):
 
     def _hand(self) -> None:
         """Blocks not yet planned go to the group while it has room."""
-        queued = len(self._queued)
-        if self.handed >= queued:
-            self.handed = queued
+        n = len(self._queued)
+        if self.handed >= n:
+            self.handed = n
             return
         g = self.group
         blocks = self.blocks
@@ -254,7 +255,9 @@ class LookaheadExecutor(MotionExecutor):
             self.host.enable_drivers()
         handed_any = False
         la = g.lookahead  # (configure may have made it anew)
-        for move in islice(self._queued, self.handed, None):
+        queued = self._queued
+        while self.handed < len(queued):  # (the blocks after the handed ones, in order)
+            move = queued[self.handed]
             if la.size - len(la.blocks) <= 0:  # (the group's room)
                 break
             if (move.laser is not None and g.speed_listener is None

@@ -175,9 +175,10 @@ class GcodeMachine:
         cur = self.executor.current()
         if cur is not None and cur.jog:
             return True
-        for b in self.blocks.items:  # (loops: this is asked before every line)
-            if b.jog:
-                return True
+        if self.blocks.jogs_pushed:  # (none ever pushed: none queued - asked before every line)
+            for b in self.blocks.items:
+                if b.jog:
+                    return True
         if self.pending is not None:
             for a in self.pending.actions:
                 if isinstance(a, Move) and a.jog:
@@ -365,9 +366,16 @@ class GcodeMachine:
         if self.jog_cancel and self.executor.hold_state() == HoldState.HELD:
             self._finish_jog_cancel()
         rx = self.rx
+        blocks = self.blocks
         while True:
             run = self.pending
             if run is not None:
+                # (_advance's commonest wait first: the line's next action a move and
+                # no room for it in the block queue - nothing to do, nothing changes)
+                if (len(blocks.items) == blocks.size and run.index < len(run.actions)
+                        and isinstance(run.actions[run.index], Move)
+                        and not self.check_mode):
+                    break
                 if not self._advance(run, now):
                     break
                 self.pending = None

@@ -61,6 +61,8 @@ class BlockQueue:
         self._blocks: deque[Move] = deque()
         #: the same deque, to read (hot paths take its length without a call)
         self.items = self._blocks
+        #: jog moves ever pushed (while none was, no block is a jog: not looked for)
+        self.jogs_pushed = 0
 
     def __len__(self) -> int:
         return len(self._blocks)
@@ -76,6 +78,8 @@ class BlockQueue:
         blocks = self._blocks
         if len(blocks) == self.size:  # (no room)
             raise OverflowError("block queue full")  # the machine checks room first
+        if block.jog:
+            self.jogs_pushed += 1
         blocks.append(block)
 
     def peek(self) -> Move | None:

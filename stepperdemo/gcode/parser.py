@@ -26,9 +26,9 @@ MAX_LINE = 255  # characters of one block after filtering (Grbl_ESP32/FluidNC; G
 MAX_LINE_NUMBER = 9_999_999  # Grbl's N range
 # the number after a letter: optional sign, digits with an optional point
 _NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)")
-#: a line of well-formed words only, and its words (letter, number): the words the
+#: a word (letter, number): a line of well-formed words only is the words ``findall``
+#: finds, end to end (their lengths add up to the line's), and they are the words the
 #: loop of :func:`parse_line` reads, one after the other, from such a line
-_WELL_FORMED = re.compile(r"(?:[A-Z][+-]?(?:\d+\.?\d*|\.\d+))*")
 _WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))")
 AXES = "XYZABC"  # axis words, steppers 1..6
 # value words Grbl reads (A B C are axes when the machine has them); E and Q are
@@ -102,9 +102,13 @@ def parse_line(line: str, filtered: bool = False) -> Block:
     if len(text) > MAX_LINE:
         raise GcodeError(Err.OVERFLOW, msg.GCODE_ERR_LONG.format(n=MAX_LINE))
     block = Block(line, [], [], {})
-    if _WELL_FORMED.fullmatch(text):  # (the common case: the same checks, word by word)
+    words = _WORD.findall(text)
+    size = len(words)  # (the letters)
+    for _letter, number in words:
+        size += len(number)
+    if size == len(text):  # (the common case - nothing but words: the same checks)
         values = block.values
-        for letter, number in _WORD.findall(text):
+        for letter, number in words:
             value = float(number)
             # (_take_word's common cases written out: a value word read the first time,
             # a G or M code that is a whole number - round(value, 4) is the value)

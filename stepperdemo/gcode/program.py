@@ -25,6 +25,7 @@ from fas import Engine
 from fas.backend import Backend
 
 from ..demo.build import demo_build
+from ..messages import GCODE_OK
 from ..program import EndReason, Program
 from .machine import GcodeMachine
 from .parser import AXES, strip_comments
@@ -32,6 +33,8 @@ from .settings import GcodeSettings
 
 DEFAULT_AXES = 3
 CRLF = "\r\n"
+#: the answer to almost every line, encoded once
+_OK_LINE = (GCODE_OK + CRLF).encode("utf-8")
 
 COMPLETIONS = [
     ("G0", "rapid move: G0 X.. Y.."), ("G1", "line at feed F: G1 X.. F.."),
@@ -90,7 +93,7 @@ class GcodeProgram(Program):
 
     # ------------------------------------------------------------- output
     def _write(self, line: str) -> None:
-        data = (line + CRLF).encode("utf-8")
+        data = _OK_LINE if line == GCODE_OK else (line + CRLF).encode("utf-8")
         self.transcript += data
         if self.output is not None:
             self.output(data)
