@@ -113,6 +113,20 @@ def feed_all(backend, group: PathGroup, targets: Sequence[Sequence[int]],
 
 
 
+def circles_of_chords(count: int, spu: float) -> list[tuple[int, int]]:
+    """bench_path's circles in steps (``spu`` steps/mm): ``count`` circles of chords within
+    0.002 mm, radius 4, 6, 8 .. mm, all from (0, 0) (centre to the right), the direction
+    chosen by the number of chords so far - where it flips, the path turns back on itself."""
+    from fas.path import Plane, arc_points
+
+    pts: list[tuple[int, int]] = []
+    for k in range(count):
+        for p in arc_points((0.0, 0.0), (0.0, 0.0), (4.0 + 2 * k, 0.0), Plane.XY,
+                            len(pts) % 2 == 0, 0.002):
+            pts.append((round(p[0] * spu), round(p[1] * spu)))
+    return pts
+
+
 def random_path(rnd, count: int = 120) -> list[tuple[int, int]]:
     """``count`` random 2-axis targets in steps, moves of 2 to 400 steps each."""
     pos = [0, 0]

@@ -38,6 +38,7 @@ from rigs.path import (
     run_with_random_holds,
     timed_deviation,
 )
+from rigs.path import circles_of_chords as rig_circles
 
 SPU = 80.0
 LIMITS = AxisLimits(SPU, 6000.0, 500.0)  # 100 mm/s, 500 mm/s^2 per axis
@@ -70,17 +71,7 @@ def limit_along(limit: float, unit) -> float:
 
 
 def circles_of_chords(count: int) -> list[tuple[int, int]]:
-    """bench_path's circles: ``count`` circles of chords within 0.002 mm, radius 4, 6,
-    8 .. mm, all from (0, 0) (centre to the right), the direction chosen by the
-    number of chords so far - where it flips, the path turns back on itself."""
-    from fas.path import Plane, arc_points
-
-    pts: list[tuple[int, int]] = []
-    for k in range(count):
-        for p in arc_points((0.0, 0.0), (0.0, 0.0), (4.0 + 2 * k, 0.0), Plane.XY,
-                            len(pts) % 2 == 0, 0.002):
-            pts.append((round(p[0] * SPU), round(p[1] * SPU)))
-    return pts
+    return rig_circles(count, SPU)
 
 
 @pytest.fixture(scope="module")

@@ -28,6 +28,7 @@ from rigs.path import (
     path_as_run,
     timed_deviation,
 )
+from rigs.path import circles_of_chords as rig_circles
 
 SPU = 80.0
 BENCH_LIMITS = AxisLimits(SPU, 12000.0, 1000.0)  # issue 25's program figures
@@ -36,15 +37,7 @@ SLACK = 2 * GROUP_TOLERANCE_STEPS / ACC_WINDOW_S ** 2  # the grouping's 2 e / W^
 
 
 def circles_of_chords(count: int) -> list[tuple[int, int]]:
-    """bench_path's circles (as tests/fas/path/test_path_blends.py)."""
-    from fas.path import Plane, arc_points
-
-    pts: list[tuple[int, int]] = []
-    for k in range(count):
-        for p in arc_points((0.0, 0.0), (0.0, 0.0), (4.0 + 2 * k, 0.0), Plane.XY,
-                            len(pts) % 2 == 0, 0.002):
-            pts.append((round(p[0] * SPU), round(p[1] * SPU)))
-    return pts
+    return rig_circles(count, SPU)
 
 
 def run_circles(plain: float):

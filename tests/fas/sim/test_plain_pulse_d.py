@@ -20,7 +20,6 @@ from fas.sim import SimBackend
 from fas.sim import timing as sim_timing_module
 from fas.sim.timing import sim_timing
 from rigs import ROOT
-from stepperdemo.demo import build as demo_build_module
 from stepperdemo.program import make_program
 
 sys.path.insert(0, str(ROOT / "bench"))
@@ -29,6 +28,8 @@ sys.path.insert(0, str(ROOT / "bench" / "replica"))
 import d_corpus  # noqa: E402
 import plain_pulse  # noqa: E402
 import pulse_widths  # noqa: E402
+
+from .build_d_with import default_with  # noqa: E402
 
 # the conformance inputs (sequences/conformance/d11.toml, d02.toml) and the firmware's
 # Total High of stepper A with the corpus's tolerance (1.44 % + 1 us: upstream's widest
@@ -42,16 +43,6 @@ TOLERANCE = 0.0144
 def _within(high: float, firmware: int) -> bool:
     return abs(high - firmware) <= TOLERANCE * firmware + 1
 TWO = "M1 A1000 V100 R200 M2 A1000 V100 R200 W"  # both channels step, one after the other
-
-
-def _default_with(monkeypatch: pytest.MonkeyPatch, *variants: str) -> None:
-    """Build d's ATmega328P default with ``variants`` of bench/d_corpus.py for this test."""
-    for table, key in ((sim_timing_module.BY_FAMILY, "avr"),
-                       (sim_timing_module.BY_BUILD["d_time_measurement"], "atmega328p")):
-        monkeypatch.setitem(table, key, table[key])
-    monkeypatch.setitem(demo_build_module.BY_PROFILE, "atmega328p",
-                        demo_build_module.BY_PROFILE["atmega328p"])
-    d_corpus.set_build_d([s for v in variants for s in d_corpus.VARIANTS[v]])
 
 
 def _pulses(text: str, build: str = "d") -> dict[str, list[tuple[int, int]]]:
@@ -72,7 +63,7 @@ def _high_us(text: str) -> float:
 def test_p43_sets_build_ds_tables_and_leaves_the_other_builds(
         monkeypatch: pytest.MonkeyPatch) -> None:
     e_before = sim_timing(ATMEGA328P, "e").isr_latency_ticks
-    _default_with(monkeypatch, "P43")
+    default_with(monkeypatch, "P43")
     assert sim_timing(ATMEGA328P, "d").isr_latency_ticks == (60, 70, 70)
     assert sim_timing(ATMEGA328P, "d_time_measurement").isr_latency_ticks == (62, 72, 72)
     assert sim_timing(ATMEGA328P, "e").isr_latency_ticks == e_before
@@ -80,7 +71,7 @@ def test_p43_sets_build_ds_tables_and_leaves_the_other_builds(
 
 def test_p43_makes_both_channels_plain_pulses_the_replicas(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    _default_with(monkeypatch, "P43")
+    default_with(monkeypatch, "P43")
     pulses = _pulses(TWO)
     assert len(pulses["A"]) == len(pulses["B"]) == 200
     assert (_plain(pulses["A"]), _plain(pulses["B"])) == (60, 70)
@@ -96,7 +87,7 @@ def test_the_defaults_plain_pulses_are_the_replicas() -> None:
 
 
 def test_s42_with_p43_meets_d11s_pulse_high_total(monkeypatch: pytest.MonkeyPatch) -> None:
-    _default_with(monkeypatch, "S42", "P43")
+    default_with(monkeypatch, "S42", "P43")
     high = _high_us(D11)
     assert _within(high, FIRMWARE_HIGH_US[D11])
 
@@ -107,7 +98,7 @@ def test_s42_with_p43_meets_d11s_pulse_high_total(monkeypatch: pytest.MonkeyPatc
                    "136, the loop's millis() 97 and queueEntries() 51, the UART 67), the "
                    "model's 191 (forty-third pass)")
 def test_s42_with_p43_meets_d02s_pulse_high_total(monkeypatch: pytest.MonkeyPatch) -> None:
-    _default_with(monkeypatch, "S42", "P43")
+    default_with(monkeypatch, "S42", "P43")
     high = _high_us(D02)
     assert int(high) == 1136  # (the value named)
     assert _within(high, FIRMWARE_HIGH_US[D02])
@@ -167,7 +158,7 @@ def test_plain_pulse_walks_the_vector_to_the_force_compare_write() -> None:
 
 def test_s42_with_p43_keeps_the_readme_moves_longest_pulse_the_firmwares_whole_us(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    _default_with(monkeypatch, "S42", "P43")
+    default_with(monkeypatch, "S42", "P43")
     longest = max(b - a for a, b in _pulses("M1 A1000 V100 R3200 W")["A"])
     # the firmware's Max High (test_sd_01a_328p: 10 us, truncated to whole us by
     # upstream's eval.awk; the replica of this line: 174 ticks)
@@ -176,7 +167,7 @@ def test_s42_with_p43_keeps_the_readme_moves_longest_pulse_the_firmwares_whole_u
 
 def test_d_corpus_sets_a_tuple_and_the_time_measurement_table_alone(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    _default_with(monkeypatch)
+    default_with(monkeypatch)
     d_corpus.set_build_d(["isr_latency_ticks=59,69", "tm.isr_latency_ticks=63,74,74"])
     assert sim_timing(ATMEGA328P, "d").isr_latency_ticks == (59, 69)
     assert sim_timing(ATMEGA328P, "d_time_measurement").isr_latency_ticks == (63, 74, 74)
@@ -194,7 +185,7 @@ SD14_HIGH_US = 312737
 def test_k43_sets_build_ds_task_sections_and_leaves_the_other_builds(
         monkeypatch: pytest.MonkeyPatch) -> None:
     e_before = sim_timing(ATMEGA328P, "e").fill_cmd_mask_sections
-    _default_with(monkeypatch, "K43")
+    default_with(monkeypatch, "K43")
     sections = sim_timing(ATMEGA328P, "d").fill_cmd_mask_sections
     assert sections == sim_timing_module.BUILD_D_REPLICA_CMD_MASK_SECTIONS
     assert sum(t for _, t in sections) == 155  # the thirteen widths read, per command
@@ -203,14 +194,14 @@ def test_k43_sets_build_ds_task_sections_and_leaves_the_other_builds(
 
 def test_s42_p43_k43_meet_d02s_and_d11s_pulse_high_totals(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    _default_with(monkeypatch, "S42", "P43", "K43")
+    default_with(monkeypatch, "S42", "P43", "K43")
     assert _within(_high_us(D02), FIRMWARE_HIGH_US[D02])
     assert _within(_high_us(D11), FIRMWARE_HIGH_US[D11])
 
 
 def test_l43_puts_the_loops_sections_into_the_passes_of_a_held_w(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    _default_with(monkeypatch, "S42", "K43", "L43")
+    default_with(monkeypatch, "S42", "K43", "L43")
     with_sections = _pulses(D02)["A"]
     d_corpus.set_build_d(["w_pass_millis_before_end=0"])
     without = _pulses(D02)["A"]
@@ -228,7 +219,7 @@ def test_l43_puts_the_loops_sections_into_the_passes_of_a_held_w(
                    "pass)")
 def test_s42_p43_k43_l43_meet_test_sd_14s_pulse_high_total(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    _default_with(monkeypatch, "S42", "P43", "K43", "L43")
+    default_with(monkeypatch, "S42", "P43", "K43", "L43")
     high = _high_us(SD14)
     assert int(high) == 310688  # (the value named)
     assert abs(high - SD14_HIGH_US) <= 1000

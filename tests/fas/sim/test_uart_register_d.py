@@ -15,18 +15,17 @@ import pytest
 
 from fas.arch import ATMEGA328P
 from fas.sim import SimBackend
-from fas.sim import timing as sim_timing_module
 from fas.sim.timing import sim_timing
 from fas.sim.uart import Uart
 from rigs import ROOT
-from stepperdemo.demo import build as demo_build_module
 from stepperdemo.program import make_program
 
 sys.path.insert(0, str(ROOT / "bench"))
 sys.path.insert(0, str(ROOT / "bench" / "replica"))
 
-import d_corpus  # noqa: E402
 import pulse_widths  # noqa: E402
+
+from .build_d_with import default_with  # noqa: E402
 
 BYTE = 1496  # one character on the simulator's line (11 bits at 136 cycles)
 SD07 = "M1 V40 A1000000 R53 w1000 R53 w1000 ? W"  # test_sd_07_328p's input
@@ -44,16 +43,6 @@ README_MOVE = "M1 A1000 V100 R3200 W"
 # 29 within 408-854 - the pass of W that reads the new millis(), then output_info() -
 # and 6 later, a ramp task or a longer print in between)
 STATUS_AFTER_TIMER0 = (408, 4030)
-
-
-def _default_with(monkeypatch: pytest.MonkeyPatch, *variants: str) -> None:
-    """Build d's ATmega328P default with ``variants`` of bench/d_corpus.py for this test."""
-    for table, key in ((sim_timing_module.BY_FAMILY, "avr"),
-                       (sim_timing_module.BY_BUILD["d_time_measurement"], "atmega328p")):
-        monkeypatch.setitem(table, key, table[key])
-    monkeypatch.setitem(demo_build_module.BY_PROFILE, "atmega328p",
-                        demo_build_module.BY_PROFILE["atmega328p"])
-    d_corpus.set_build_d([s for v in variants for s in d_corpus.VARIANTS[v]])
 
 
 def _first_char(text: str) -> tuple[int, int]:
@@ -120,7 +109,7 @@ def test_one_register_a_full_ring_of_63_waits_for_the_load_of_the_character_63_b
 @pytest.mark.parametrize("text", [SD07, SD01A])
 def test_u42_hands_the_banners_first_character_over_at_the_replicas_tick(
         monkeypatch: pytest.MonkeyPatch, text: str) -> None:
-    _default_with(monkeypatch, "U42")
+    default_with(monkeypatch, "U42")
     first, load = _first_char(text)
     assert first == FIRST_CHAR[text]
     assert load == first + BYTE  # the replica: every transmit interrupt on this grid
@@ -139,14 +128,14 @@ def test_the_default_hands_the_banner_over_at_the_replicas_tick() -> None:
 
 def test_u42_keeps_the_ramp_tasks_phase_and_the_moves(monkeypatch: pytest.MonkeyPatch) -> None:
     before = _first_steps(SD07)
-    _default_with(monkeypatch, "U42")
+    default_with(monkeypatch, "U42")
     assert _first_steps(SD07) == before  # engine.init() moves, the task's phase with it
 
 
 def test_e42_charges_auto_enable_in_the_first_moves_start_task_only(
         monkeypatch: pytest.MonkeyPatch) -> None:
     before = _first_steps(SD07)
-    _default_with(monkeypatch, "E42")
+    default_with(monkeypatch, "E42")
     after = _first_steps(SD07)
     # the first move turns the outputs on: its start task 311 ticks longer, and one
     # more transmit interrupt (114) falls into it; the second finds them on
@@ -163,7 +152,6 @@ def test_sd07s_second_move_starts_as_the_firmwares_after_its_first() -> None:
     steps = _first_steps(SD07)
     assert steps[53] - steps[0] == 16121970  # (the value the reason names)
     assert steps[53] - steps[0] == SD07_FIRST_STEPS[1] - SD07_FIRST_STEPS[0]
-
 
 
 def _status_after_timer0(text: str) -> list[int]:
@@ -188,7 +176,7 @@ def _status_after_timer0(text: str) -> list[int]:
 
 def test_s42_starts_the_status_lines_where_the_replicas_passes_do(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    _default_with(monkeypatch, "S42")
+    default_with(monkeypatch, "S42")
     after = sorted(_status_after_timer0(README_MOVE))
     assert len(after) == 35
     assert after[0] >= STATUS_AFTER_TIMER0[0]
@@ -197,7 +185,7 @@ def test_s42_starts_the_status_lines_where_the_replicas_passes_do(
 
 def test_s42_makes_the_readme_moves_longest_pulse_the_firmwares_whole_us(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    _default_with(monkeypatch, "S42")
+    default_with(monkeypatch, "S42")
     backend = SimBackend("atmega328p", record=True, build="d")
     app = make_program("demo", backend, scripted=True)
     app.run_script(README_MOVE, firmware_end=True)
