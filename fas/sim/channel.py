@@ -367,8 +367,14 @@ class SimChannel(QueueChannel):
         if per_single == per_entry:
             return per_entry * queued
         n = q.queue_len
-        singles = sum(1 for k in range(1, queued + 1)
-                      if q.entries[(rp + k) % n].total_steps <= 1)
+        entries = q.entries
+        first = (rp + 1) % n
+        last = first + queued  # the queued entries from ``first``, the ring wrapping at n
+        singles = 0
+        for e in (entries[first:last] if last <= n
+                  else entries[first:] + entries[:last - n]):
+            if e.total_steps <= 1:
+                singles += 1
         return per_single * singles + per_entry * (queued - singles)
 
     def earliest_start_tick(self) -> int:
