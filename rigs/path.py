@@ -387,6 +387,17 @@ def edge_accel(ticks: Sequence[int], xs: Sequence[int], tps: int,
     return worst, at
 
 
+def axes_edge_accel(steps: Sequence[Sequence[tuple[int, int]]], tps: int,
+                    window_s: float) -> list[tuple[float, int]]:
+    """:func:`edge_accel` of every axis of a run (``steps``: each axis's (tick, +1/-1)):
+    per axis, its largest |acceleration| in steps/s^2 and the tick of its middle step."""
+    out = []
+    for axis in steps:
+        tk, xs = axis_motion(axis)
+        out.append(edge_accel(tk, xs, tps, window_s))
+    return out
+
+
 def first_within_a_step(ins: Sequence[tuple[int, tuple[int, ...]]], i: int,
                         v: Sequence[float]) -> int:
     """The index of the first instant from ``i`` on within one step (Chebyshev) of the

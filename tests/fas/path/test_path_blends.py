@@ -23,6 +23,7 @@ from fas.path import AxisLimits, PathResult, PathState
 from fas.path.settings import GROUP_TOLERANCE_STEPS
 from rigs.path import (
     Stream,
+    axes_edge_accel,
     axis_motion,
     axis_steps,
     blended_ticks,
@@ -298,9 +299,7 @@ def test_every_axis_within_its_acceleration_from_the_pins_at_the_corners_too(cor
     the blends."""
     backend, pts, steps, _group = corner_run
     tps = backend.profile.ticks_per_s
-    for i in range(2):
-        tk, xs = axis_motion(steps[i])
-        a, at = edge_accel(tk, xs, tps, ACC_WINDOW_S)
+    for i, (a, at) in enumerate(axes_edge_accel(steps[:2], tps, ACC_WINDOW_S)):
         assert a <= BENCH_LIMITS.acceleration * SPU + SLACK, (i, a / SPU, at / tps)
         assert a > 0.5 * BENCH_LIMITS.acceleration * SPU  # it measures something
 
@@ -328,9 +327,7 @@ def test_every_axis_within_its_acceleration_from_the_pins_where_it_turns_round()
     steps = axis_steps(backend, pins, dirs)
     assert instants(steps, (0, 0))[-1][1] == pts[-1]
     tps = backend.profile.ticks_per_s
-    for i in range(2):
-        tk, xs = axis_motion(steps[i])
-        a, at = edge_accel(tk, xs, tps, ACC_WINDOW_S)
+    for i, (a, at) in enumerate(axes_edge_accel(steps[:2], tps, ACC_WINDOW_S)):
         assert a <= BENCH_LIMITS.acceleration * SPU + SLACK, (i, a / SPU, at / tps)
 
 

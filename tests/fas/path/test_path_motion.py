@@ -19,6 +19,7 @@ from fas.path import AxisLimits, PathResult, PathState
 from fas.path.settings import GROUP_TOLERANCE_STEPS
 from rigs.path import (
     Stream,
+    axes_edge_accel,
     axis_motion,
     axis_steps,
     edge_accel,
@@ -496,9 +497,7 @@ def test_every_axis_within_its_acceleration_from_the_pins_at_the_corners_too():
     backend, pts, steps = corner_run()
     tps = backend.profile.ticks_per_s
     slack = 2 * GROUP_TOLERANCE_STEPS / ACC_WINDOW_S ** 2
-    for i in range(2):
-        tk, xs = axis_motion(steps[i])
-        a, at = edge_accel(tk, xs, tps, ACC_WINDOW_S)
+    for i, (a, at) in enumerate(axes_edge_accel(steps[:2], tps, ACC_WINDOW_S)):
         assert a <= BENCH_LIMITS.acceleration * SPU + slack, (i, a / SPU, at / tps)
 
 

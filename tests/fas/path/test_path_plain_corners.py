@@ -18,10 +18,9 @@ from fas.path.executor import Executor
 from fas.path.lookahead import Lookahead
 from fas.path.settings import GROUP_TOLERANCE_STEPS, PLAIN_CORNER_STEPS, PathSettings
 from rigs.path import (
-    axis_motion,
+    axes_edge_accel,
     axis_steps,
     commanded_deviation,
-    edge_accel,
     feed_all,
     instants,
     make_group,
@@ -142,9 +141,7 @@ def test_with_plain_corners_every_axis_within_its_acceleration_from_the_pins(bot
     the limit + 2 e / W^2 (Y 1002.6 mm/s^2; 1001.6 with blends only)."""
     _r0, (backend, _group, _pts, steps) = both_runs
     tps = backend.profile.ticks_per_s
-    for i in range(2):
-        tk, xs = axis_motion(steps[i])
-        a, at = edge_accel(tk, xs, tps, ACC_WINDOW_S)
+    for i, (a, at) in enumerate(axes_edge_accel(steps[:2], tps, ACC_WINDOW_S)):
         assert a <= BENCH_LIMITS.acceleration * SPU + SLACK, (i, a / SPU, at / tps)
         assert a > 0.5 * BENCH_LIMITS.acceleration * SPU  # it measures something
 
