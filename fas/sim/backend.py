@@ -167,6 +167,8 @@ class SimBackend(Backend):
             m.in_task = False
         m.stolen_ticks += cost
         exit_ticks = p.fill_mask_exit_ticks
+        if p.fill_tail_mask_ticks and m.profile.irq_block_delays_steps:
+            self._tail_sections(m.now + cost, engine)
         if exit_ticks and m.profile.irq_block_delays_steps:  # its exit: from cli to reti
             # (Machine.mask, written out: this runs for every run of the task)
             end = m.now + cost
@@ -192,6 +194,23 @@ class SimBackend(Backend):
             self._task_event = None  # suspended until wake_task()
         else:
             self._schedule_task(nxt)
+
+    def _tail_sections(self, end: int, engine: TaskEngine) -> None:
+        """The ramp task's two sections with interrupts off before its exit
+        (SimTiming.fill_tail_mask_ticks), the task ending at ``end``."""
+        m = self.machine
+        last, last_before, before, fill, done, idle = m.timing.fill_tail_mask_ticks
+        running = [ch for ch in self.channels if ch.running]
+        if not running:
+            width = idle
+        else:
+            planning = engine.planning_queues()
+            width = fill if any(q is ch.q for ch in running for q in planning) else done
+        for start, stop in ((end - before - width, end - before),
+                            (end - last_before - last, end - last_before)):
+            start = max(start, m.exit_ends[-1] if m.exit_ends else start)
+            if start < stop:
+                m.mask(start, stop)
 
     def wake_task(self) -> None:
         if self._engine is None:
