@@ -103,6 +103,10 @@ VARIANTS: dict[str, list[str]] = {
     # forty-fourth pass)
     "T44": ["fill_tail_mask_ticks=" + ",".join(
         map(str, sim_timing_module.BUILD_D_REPLICA_TAIL_MASK_TICKS))],
+    # a continuous run's commands cost less than a move's
+    # (SimTiming.fill_continuous_saved_ticks; forty-fourth pass)
+    "F44": ["fill_continuous_saved_ticks=" + ",".join(
+        map(str, sim_timing_module.BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS))],
 }
 # the variants that make build d's default (fortieth pass)
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]

@@ -465,6 +465,10 @@ class SimChannel(QueueChannel):
             if (steps and p.fill_unstarted_cmd_extra_ticks and not self.running
                     and not (steps > 1 and p.fill_unstarted_multi_cmd_ticks)):
                 m.task_offset += p.fill_unstarted_cmd_extra_ticks
+            if p.fill_continuous_saved_ticks and self.ramp_continuous:
+                first, other = p.fill_continuous_saved_ticks
+                m.task_offset -= (first if not self.running
+                                  and ((wp - 1 - q.read_idx) & 0xFF) == 0 else other)
             if p.fill_no_dir_pin_saved_ticks and q.dir_pin == PIN_UNDEFINED:
                 first, stopped, running = p.fill_no_dir_pin_saved_ticks
                 # no direction checks (the first write also sets no pin)

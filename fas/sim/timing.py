@@ -121,6 +121,12 @@ class SimTiming:
     # replica, test_sd_14's start and run with and without `u`: 154, 123, 44 (every write
     # alike; docs/timing-model.md, "forty-fourth pass"; empty: off)
     fill_no_dir_pin_saved_ticks: tuple[int, ...] = ()
+    # a command of a continuous run (runForward / runBackward: the ramp keeps running)
+    # costs less than a move's, as (the first write to an empty stopped queue, any other
+    # write); build d's replica, test_sd_14's input without `u` against d35 (the same ramp
+    # as a move): 67, then 32 each, stopped or running (docs/timing-model.md, "forty-fourth
+    # pass"; empty: off)
+    fill_continuous_saved_ticks: tuple[int, ...] = ()
     # the step interrupt takes this much more CPU when it takes up the next queue entry
     isr_next_entry_ticks: int = 0
     # a command at the speed of the one before (the ramp coasts; 0: as fill_cmd_ticks)
@@ -420,6 +426,8 @@ BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS: tuple[int, int, int] = (154, 123, 44)
 # ... and the ramp task's two sections before its exit, every run (fill_tail_mask_ticks;
 # variant T44)
 BUILD_D_REPLICA_TAIL_MASK_TICKS: tuple[int, ...] = (28, 79, 116, 56, 28, 116)
+# ... and a continuous run's commands (fill_continuous_saved_ticks; variant F44)
+BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS: tuple[int, int] = (67, 32)
 
 # build d's ATmega328P as read from its replica (docs/timing-model.md, "fortieth pass";
 # the default since then): AVR_TIMING's figures with the ramp task above (the pieces of

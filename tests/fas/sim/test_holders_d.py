@@ -1,10 +1,12 @@
 """What holds build d's step pulses, the model beside its replica (docs/timing-model.md,
 "forty-fourth pass"): a command to a stepper without a direction pin skips the library's
 direction checks (``BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS``, variant N44 of
-``bench/d_corpus.py``), and the ramp task ends every run with two sections with
-interrupts off before its exit (``BUILD_D_REPLICA_TAIL_MASK_TICKS``, variant T44).  Both
-off by default; with S42 P43 K43 L43 and N44 test_sd_14 meets the firmware, and the README
-move's longest pulse is then 179 ticks (a strict xfail names it)."""
+``bench/d_corpus.py``), a continuous run's commands cost less than a move's
+(``BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS``, variant F44), and the ramp task ends every
+run with two sections with interrupts off before its exit
+(``BUILD_D_REPLICA_TAIL_MASK_TICKS``, variant T44).  All off by default; with S42 P43 K43
+L43 and N44 (and F44, T44) test_sd_14 meets the firmware, and the README move's longest
+pulse is then 179 ticks (a strict xfail names it)."""
 
 from __future__ import annotations
 
@@ -45,17 +47,20 @@ def _pulses(text: str) -> list[tuple[int, int]]:
     return pulse_widths.backend_pulses(backend)["A"]
 
 
-def test_n44_and_t44_set_build_ds_table_and_leave_the_other_builds(
+def test_n44_f44_t44_set_build_ds_table_and_leave_the_other_builds(
         monkeypatch: pytest.MonkeyPatch) -> None:
     e_before = sim_timing(ATMEGA328P, "e")
-    default_with(monkeypatch, "N44", "T44")
+    default_with(monkeypatch, "N44", "F44", "T44")
     d = sim_timing(ATMEGA328P, "d")
+    assert d.fill_continuous_saved_ticks == (67, 32)
     assert d.fill_no_dir_pin_saved_ticks == (154, 123, 44)
     assert d.fill_no_dir_pin_saved_ticks == sim_timing_module.BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS
     assert d.fill_tail_mask_ticks == sim_timing_module.BUILD_D_REPLICA_TAIL_MASK_TICKS
     e = sim_timing(ATMEGA328P, "e")
-    assert (e.fill_no_dir_pin_saved_ticks, e.fill_tail_mask_ticks) == (
-        e_before.fill_no_dir_pin_saved_ticks, e_before.fill_tail_mask_ticks)
+    assert (e.fill_no_dir_pin_saved_ticks, e.fill_continuous_saved_ticks,
+            e.fill_tail_mask_ticks) == (e_before.fill_no_dir_pin_saved_ticks,
+                                        e_before.fill_continuous_saved_ticks,
+                                        e_before.fill_tail_mask_ticks)
 
 
 def test_the_default_starts_test_sd_14_late_by_its_direction_checks() -> None:
@@ -106,4 +111,40 @@ def test_t44_ends_each_task_with_its_two_sections(monkeypatch: pytest.MonkeyPatc
     # 28 in every task; 56 where the fill ran, 116 where no stepper runs, 28 where the
     # running stepper's ramp is done
     assert {28, 56, 116} <= widths
-    assert len(holders.masks) >= 2 * backend.task_runs - 4
+    assert backend.task_runs <= len(holders.masks) <= 2 * backend.task_runs
+    # none begins while the UART's interrupt holds the CPU (the task runs on after it)
+    m = backend.machine
+    hold = m.timing.uart_isr_ticks
+    loads = m.uart.loads
+    assert loads
+    assert not any(load <= a < load + hold for a, _ in holders.masks for load in loads
+                   if load <= a)
+
+
+def test_the_planner_tells_the_channel_whether_its_ramp_runs_continuously() -> None:
+    for text, continuous in (("M1 A1000 V100 f w50", True), ("M1 A1000 V100 R200 W", False)):
+        backend = SimBackend("atmega328p", build="d")
+        app = make_program("demo", backend, scripted=True)
+        app.run_script(text, firmware_end=True)
+        channel = next(ch for ch in backend.channels if ch.q.index == 0)
+        assert channel.ramp_continuous is continuous
+
+
+def test_f44_moves_a_continuous_runs_start_and_not_a_moves(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    default_with(monkeypatch, "N44")
+    late = _pulses(SD14)[0][0]
+    move = _pulses(D02)
+    default_with(monkeypatch, "N44", "F44")
+    # 67 + 13 x 32 less CPU before test_sd_14's first step (and the interrupts nested)
+    assert 450 <= late - _pulses(SD14)[0][0] <= 650
+    assert _pulses(D02) == move
+
+
+def test_all_seven_meet_test_sd_14s_pulse_high_total(monkeypatch: pytest.MonkeyPatch) -> None:
+    default_with(monkeypatch, *ALL, "F44", "T44")
+    pulses = _pulses(SD14)
+    # the first step within the model's usual start (d35, the same ramp: -368)
+    assert abs(pulses[0][0] - SD14_FIRST_STEP) < 400
+    high = sum(b - a for a, b in pulses) / 16
+    assert all(abs(high - firmware) <= 1000 for firmware in SD14_HIGH_US)
