@@ -204,8 +204,10 @@ class SimBackend(Backend):
         at the reti); none reaches into the exit."""
         m = self.machine
         timing = m.timing
-        last, last_before, before, fill, done, idle = timing.fill_tail_mask_ticks
+        per, last_before, gap, fill, done, idle = timing.fill_tail_mask_ticks
         running = [ch for ch in self.channels if ch.running]
+        last = per * max(1, len(running))
+        before = last_before + last + gap
         if not running:
             width = idle
         else:

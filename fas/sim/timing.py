@@ -76,11 +76,12 @@ class SimTiming:
     # ticks with interrupts off), the earliest first (none: fill_cmd_mask_ticks alone)
     fill_cmd_mask_sections: tuple[tuple[int, int], ...] = ()
     # ... and in two sections before its exit, every run (off: empty): (the last one's
-    # width, its end before the task's end, the one before it: its end before the task's
-    # end, then its width where a stepper's fill ran, where the running steppers' ramps
-    # are done, where no stepper runs).  Build d's replica: 28 ending 79 ticks before the
-    # reti, 56 / 28 / 116 ending 116 before it, in each of 2 171 tasks of d02 and
-    # test_sd_14 (docs/timing-model.md, "forty-fourth pass")
+    # width per running stepper, at least one; its end before the task's end; the ticks
+    # between the one before it and it; then that one's width where a stepper's fill ran,
+    # where the running steppers' ramps are done, where no stepper runs).  Build d's
+    # replica: 28 ending 79 ticks before the reti, 56 / 28 / 116 ending 116 before it in
+    # every task of d02, test_sd_14 and the README move; with two steppers running (d11)
+    # 56 ending 79 and 56 ending 144 (docs/timing-model.md, "forty-fourth pass")
     fill_tail_mask_ticks: tuple[int, ...] = ()
     # the ramp task's work for each running stepper before its first command ...
     fill_stepper_ticks: int = 0
@@ -425,7 +426,7 @@ BUILD_D_REPLICA_CMD_MASK_SECTIONS: tuple[tuple[int, int], ...] = (
 BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS: tuple[int, int, int] = (154, 123, 44)
 # ... and the ramp task's two sections before its exit, every run (fill_tail_mask_ticks;
 # variant T44)
-BUILD_D_REPLICA_TAIL_MASK_TICKS: tuple[int, ...] = (28, 79, 116, 56, 28, 116)
+BUILD_D_REPLICA_TAIL_MASK_TICKS: tuple[int, ...] = (28, 79, 9, 56, 28, 116)
 # ... and a continuous run's commands (fill_continuous_saved_ticks; variant F44)
 BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS: tuple[int, int] = (67, 32)
 

@@ -10,6 +10,7 @@ pulse is then 179 ticks (a strict xfail names it)."""
 
 from __future__ import annotations
 
+import collections
 import sys
 
 import pytest
@@ -108,8 +109,8 @@ def test_t44_ends_each_task_with_its_two_sections(monkeypatch: pytest.MonkeyPatc
         app = make_program("demo", backend, scripted=True)
         app.run_script(D02, firmware_end=True)
     widths = {b - a for a, b in holders.masks}
-    # 28 in every task; 56 where the fill ran, 116 where no stepper runs, 28 where the
-    # running stepper's ramp is done
+    # 28 in every task (one stepper); 56 where the fill ran, 116 where no stepper runs,
+    # 28 where the running stepper's ramp is done
     assert {28, 56, 116} <= widths
     assert backend.task_runs <= len(holders.masks) <= 2 * backend.task_runs
     # none begins while the UART's interrupt holds the CPU (the task runs on after it)
@@ -148,3 +149,21 @@ def test_all_seven_meet_test_sd_14s_pulse_high_total(monkeypatch: pytest.MonkeyP
     assert abs(pulses[0][0] - SD14_FIRST_STEP) < 400
     high = sum(b - a for a, b in pulses) / 16
     assert all(abs(high - firmware) <= 1000 for firmware in SD14_HIGH_US)
+
+
+def test_t44s_last_section_is_28_ticks_a_running_stepper(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # d11's two steppers (the replica: 56 ending 79 ticks before the reti, 56 ending 144)
+    default_with(monkeypatch, "T44")
+    backend = SimBackend("atmega328p", build="d")
+    holders = pulse_holders.ModelHolders(backend)
+    with pulse_holders.entries_logged([holders]):
+        app = make_program("demo", backend, scripted=True)
+        app.run_script("M1 A1000 V100 R400 M2 A1000 V100 R-400 W M1 W", firmware_end=True)
+    # a task's two sections: one, 9 ticks, the last
+    masks = holders.masks
+    pairs = collections.Counter((b1 - a1, b2 - a2) for (a1, b1), (a2, b2)
+                                in zip(masks[:-1], masks[1:], strict=True) if a2 - b1 == 9)
+    assert pairs[(56, 56)] > 100  # both running, a fill ran
+    assert pairs[(116, 28)] > 0  # none running
+    assert sum(pairs.values()) > backend.task_runs // 2
