@@ -5,6 +5,9 @@ logs and the model's side on the simulator's own records (docs/timing-model.md,
 from __future__ import annotations
 
 import sys
+from pathlib import Path
+
+import pytest
 
 from rigs import ROOT
 
@@ -49,10 +52,14 @@ LOG = """1000 V 16
 6020 R
 7000 V 11
 7020 R
+8000 V 11
+8020 R
+9000 V 11
+9020 R
 """
-# stepper A's pin: a plain pulse (6000), and pulses held by timer 0 (rise 1010), the task's
-# entry (2010), its own section (2310), its exit (2570), the UART (3010), millis() (4003)
-# and queueEntries() (5004)
+# stepper A's pin: plain pulses (6000, 8000, 9000), and pulses held by timer 0 (rise
+# 1010), the task's entry (2010), its own section (2310), its exit (2570), the UART (3010),
+# millis() (4003) and queueEntries() (5004)
 PINS = """1010 B1 1
 1156 B1 0
 2010 B1 1
@@ -69,6 +76,10 @@ PINS = """1010 B1 1
 5072 B1 0
 6000 B1 1
 6060 B1 0
+8000 B1 1
+8060 B1 0
+9000 B1 1
+9060 B1 0
 """
 
 
@@ -110,7 +121,7 @@ def test_a_chain_runs_from_the_rise_to_the_step_interrupts_entry() -> None:
 def test_the_tables_count_each_held_pulse_once_and_split_its_chain() -> None:
     log = _log()
     rep = pulse_holders.replica_pulses(PINS.splitlines(), "B1", 0)
-    assert len(rep) == 8
+    assert len(rep) == 10
     widths = [b - a for a, b in rep]
     chains = [log.chain(a, "11") if w > 60 else [] for (a, _), w in zip(rep, widths, strict=True)]
     first, split = pulse_holders.tables(widths, 60, chains)
@@ -140,3 +151,25 @@ def test_the_models_held_pulses_are_all_attributed() -> None:
     assert "?" not in first and "?" not in split
     assert set(first) <= {"UART", "timer 0", "task entry", "task exit", "task sections",
                           "step B", "loop: queueEntries()", "loop: millis()"}
+
+
+def test_the_tool_prints_both_sides_in_the_same_rows(tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "conf" / "x").mkdir(parents=True)
+    (tmp_path / "conf" / "x" / "input.txt").write_text("M1 A500 V80 R300 W \n")
+    (tmp_path / "x-t.ev").write_text(LOG)
+    (tmp_path / "x-t.pins").write_text(PINS)
+    assert pulse_holders.main(["--work", str(tmp_path), "--tag", "t", "--lag", "0",
+                               "--conformance", str(tmp_path / "conf"), "--longest", "2",
+                               "x"]) == 0
+    out = capsys.readouterr().out
+    assert "replica: 10 pulses, plain 60" in out
+    assert "model (default): 300 pulses, plain 61" in out
+    assert "| first holder | replica: pulses / ticks | model default: pulses / ticks |" in out
+    assert "| timer 0 | 1 / 86 |" in out
+    assert "| replica pulse | ticks | rise | held by |" in out
+    assert "first rise: replica 1010, model " in out
+    # no replica run: a one-line error
+    assert pulse_holders.main(["--work", str(tmp_path), "--tag", "none",
+                               "--conformance", str(tmp_path / "conf"), "x"]) == 2
+    assert "no replica run" in capsys.readouterr().err
