@@ -95,6 +95,18 @@ VARIANTS: dict[str, list[str]] = {
     # (BUILD_D_REPLICA_CMD_MASK_SECTIONS; forty-third pass)
     "K43": ["fill_cmd_mask_sections=" + ",".join(
         f"{b}:{t}" for b, t in sim_timing_module.BUILD_D_REPLICA_CMD_MASK_SECTIONS)],
+    # a command to a stepper without a direction pin (`u`) skips the library's direction
+    # checks (SimTiming.fill_no_dir_pin_saved_ticks; forty-fourth pass)
+    "N44": ["fill_no_dir_pin_saved_ticks=" + ",".join(
+        map(str, sim_timing_module.BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS))],
+    # the ramp task's two sections before its exit (SimTiming.fill_tail_mask_ticks;
+    # forty-fourth pass)
+    "T44": ["fill_tail_mask_ticks=" + ",".join(
+        map(str, sim_timing_module.BUILD_D_REPLICA_TAIL_MASK_TICKS))],
+    # a continuous run's commands cost less than a move's
+    # (SimTiming.fill_continuous_saved_ticks; forty-fourth pass)
+    "F44": ["fill_continuous_saved_ticks=" + ",".join(
+        map(str, sim_timing_module.BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS))],
 }
 # the variants that make build d's default (fortieth pass)
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]

@@ -111,6 +111,9 @@ class QueueChannel(ABC):
     detached: bool = False
     #: where the channel counts its pulses (None: no counter attached)
     pulse_counter: PulseCounter | None = None
+    #: the ramp that plans the commands written now runs continuously (``keep_running``:
+    #: set by the ramp planner at each fill; a backend whose CPU time follows it reads it)
+    ramp_continuous: bool = False
 
     # ------------------------------------------------------- every channel
     @abstractmethod

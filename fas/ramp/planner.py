@@ -208,6 +208,7 @@ class RampPlanner(Planner):
             if cmd.ticks != 0:
                 if converted is not None:  # the command's period came from the ramp step
                     q.channel.ramp_converted(*converted)
+                q.channel.ramp_continuous = cfg.parameters.keep_running
                 res = write(cmd.ticks, cmd.steps, cmd.count_up, not delayed_start)
                 generated += 1
             if res == AQE_OK:

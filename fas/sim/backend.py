@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import heapq
+from bisect import bisect_right
 from typing import TYPE_CHECKING, Callable, Sequence
 
 from ..arch import Profile, get_profile
@@ -167,6 +168,8 @@ class SimBackend(Backend):
             m.in_task = False
         m.stolen_ticks += cost
         exit_ticks = p.fill_mask_exit_ticks
+        if p.fill_tail_mask_ticks and m.profile.irq_block_delays_steps:
+            self._tail_sections(m.now + cost, engine)
         if exit_ticks and m.profile.irq_block_delays_steps:  # its exit: from cli to reti
             # (Machine.mask, written out: this runs for every run of the task)
             end = m.now + cost
@@ -192,6 +195,55 @@ class SimBackend(Backend):
             self._task_event = None  # suspended until wake_task()
         else:
             self._schedule_task(nxt)
+
+    def _tail_sections(self, end: int, engine: TaskEngine) -> None:
+        """The ramp task's two sections with interrupts off before its exit
+        (SimTiming.fill_tail_mask_ticks), the task ending at ``end``.  A section that
+        would begin while timer 0's or the UART's interrupt holds the CPU begins after
+        that routine's reti (the task runs on only then, behind a step interrupt pending
+        at the reti); none reaches into the exit."""
+        m = self.machine
+        timing = m.timing
+        per, last_before, gap, fill, done, idle = timing.fill_tail_mask_ticks
+        running = [ch for ch in self.channels if ch.running]
+        last = per * max(1, len(running))
+        before = last_before + last + gap
+        if not running:
+            width = idle
+        else:
+            planning = engine.planning_queues()
+            width = fill if any(q is ch.q for ch in running for q in planning) else done
+        limit = end - timing.fill_mask_exit_ticks
+        for start, ticks in ((end - before - width, width), (end - last_before - last, last)):
+            start = max(self._after_holds(start, ticks),
+                        m.exit_ends[-1] if m.exit_ends else start)
+            stop = min(start + ticks, limit)
+            if start < stop:
+                m.mask(start, stop)
+
+    def _after_holds(self, start: int, ticks: int) -> int:
+        """Where a section of the task of ``ticks`` planned at ``start`` begins: after
+        the timer-0 and UART interrupts that would hold the CPU in it."""
+        m = self.machine
+        timing = m.timing
+        after = timing.reti_next_ticks + 1
+        hold = m._uart_hold  # noqa: SLF001
+        ms = timing.millis_isr_ticks if m._millis_started else 0  # noqa: SLF001
+        for _ in range(8):
+            moved = start
+            loads = m.uart.loads
+            if hold and loads:
+                i = bisect_right(loads, start + ticks - 1) - 1
+                if i >= 0 and loads[i] + hold > start:
+                    start = loads[i] + hold + after
+            x = start + ticks - 1
+            if ms and x >= m._millis_first:  # noqa: SLF001
+                r = x - (x - m._millis_phase) % timing.millis_overflow_ticks  # noqa: SLF001
+                if r >= m._millis_first and r + ms > start:  # noqa: SLF001
+                    start = r + ms + after
+            if start == moved:
+                break
+        return start
 
     def wake_task(self) -> None:
         if self._engine is None:

@@ -31,6 +31,7 @@ from heapq import heappush
 from typing import TYPE_CHECKING
 
 from ..channel import PulseCounter, QueueChannel
+from ..codes import PIN_UNDEFINED
 from .machine import LATE_ENTRY, PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
 from .ramp_cost import conversion_ticks
 
@@ -464,6 +465,15 @@ class SimChannel(QueueChannel):
             if (steps and p.fill_unstarted_cmd_extra_ticks and not self.running
                     and not (steps > 1 and p.fill_unstarted_multi_cmd_ticks)):
                 m.task_offset += p.fill_unstarted_cmd_extra_ticks
+            if p.fill_continuous_saved_ticks and self.ramp_continuous:
+                first, other = p.fill_continuous_saved_ticks
+                m.task_offset -= (first if not self.running
+                                  and ((wp - 1 - q.read_idx) & 0xFF) == 0 else other)
+            if p.fill_no_dir_pin_saved_ticks and q.dir_pin == PIN_UNDEFINED:
+                first, stopped, running = p.fill_no_dir_pin_saved_ticks
+                # no direction checks (the first write also sets no pin)
+                m.task_offset -= (running if self.running else
+                                  first if ((wp - 1 - q.read_idx) & 0xFF) == 0 else stopped)
             if p.fill_cmd_mask_ticks and self.contention:
                 # the command is written to the queue with interrupts off
                 end = m.now + m.task_offset

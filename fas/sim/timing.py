@@ -75,6 +75,14 @@ class SimTiming:
     # ... or in these sections per command written, as (ticks before the write's end,
     # ticks with interrupts off), the earliest first (none: fill_cmd_mask_ticks alone)
     fill_cmd_mask_sections: tuple[tuple[int, int], ...] = ()
+    # ... and in two sections before its exit, every run (off: empty): (the last one's
+    # width per running stepper, at least one; its end before the task's end; the ticks
+    # between the one before it and it; then that one's width where a stepper's fill ran,
+    # where the running steppers' ramps are done, where no stepper runs).  Build d's
+    # replica: 28 ending 79 ticks before the reti, 56 / 28 / 116 ending 116 before it in
+    # every task of d02, test_sd_14 and the README move; with two steppers running (d11)
+    # 56 ending 79 and 56 ending 144 (docs/timing-model.md, "forty-fourth pass")
+    fill_tail_mask_ticks: tuple[int, ...] = ()
     # the ramp task's work for each running stepper before its first command ...
     fill_stepper_ticks: int = 0
     # ... where it first sums the ticks of its queued entries (all but the running
@@ -106,6 +114,20 @@ class SimTiming:
     # replica: a starting ramp's one-step commands 1 862-1 872 ticks on the ATmega328P,
     # 1 799-1 813 in a running one)
     fill_unstarted_cmd_extra_ticks: int = 0
+    # a command costs less where its stepper has no direction pin (StepperDemo's `u`): the
+    # library skips its direction checks (the engine's isDirPinBusy() loop over its
+    # steppers before a write to a stopped queue, the direction pin set at the first
+    # write, the queue's direction state).  As (the first write to an empty stopped
+    # queue, a later write to a stopped queue, a write to a running queue); build d's
+    # replica, test_sd_14's start and run with and without `u`: 154, 123, 44 (every write
+    # alike; docs/timing-model.md, "forty-fourth pass"; empty: off)
+    fill_no_dir_pin_saved_ticks: tuple[int, ...] = ()
+    # a command of a continuous run (runForward / runBackward: the ramp keeps running)
+    # costs less than a move's, as (the first write to an empty stopped queue, any other
+    # write); build d's replica, test_sd_14's input without `u` against d35 (the same ramp
+    # as a move): 67, then 32 each, stopped or running (docs/timing-model.md, "forty-fourth
+    # pass"; empty: off)
+    fill_continuous_saved_ticks: tuple[int, ...] = ()
     # the step interrupt takes this much more CPU when it takes up the next queue entry
     isr_next_entry_ticks: int = 0
     # a command at the speed of the one before (the ramp coasts; 0: as fill_cmd_ticks)
@@ -393,6 +415,20 @@ BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (62, 72, 72)
 BUILD_D_REPLICA_CMD_MASK_SECTIONS: tuple[tuple[int, int], ...] = (
     (1418, 2), (1406, 13), (1328, 6), (1075, 51), (1004, 2), (949, 15), (927, 2),
     (721, 10), (600, 40), (458, 2), (276, 2), (129, 2), (53, 8))
+
+# a command's saving where its stepper has no direction pin (`u`), read on build d's
+# replica (docs/timing-model.md, "forty-fourth pass"): test_sd_14's input and
+# `M1 u A1000000 V40 R20000 W` against d35 (the same ramp with a direction pin) - the
+# first write to an empty stopped queue 154 ticks less, a later write to a stopped queue
+# 123 (13 writes alike), a write to a running queue 44 (173 tasks of two writes: 88);
+# d29's start after `u`, 127-128 a write (pauses and one-step commands).  Variant N44 of
+# bench/d_corpus.py (SimTiming.fill_no_dir_pin_saved_ticks; off)
+BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS: tuple[int, int, int] = (154, 123, 44)
+# ... and the ramp task's two sections before its exit, every run (fill_tail_mask_ticks;
+# variant T44)
+BUILD_D_REPLICA_TAIL_MASK_TICKS: tuple[int, ...] = (28, 79, 9, 56, 28, 116)
+# ... and a continuous run's commands (fill_continuous_saved_ticks; variant F44)
+BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS: tuple[int, int] = (67, 32)
 
 # build d's ATmega328P as read from its replica (docs/timing-model.md, "fortieth pass";
 # the default since then): AVR_TIMING's figures with the ramp task above (the pieces of

@@ -213,10 +213,10 @@ def test_l43_puts_the_loops_sections_into_the_passes_of_a_held_w(
 
 @pytest.mark.xfail(strict=True, reason="with S42 P43 K43 L43 (every build-d figure read "
                    "here) test_sd_14's pulse-high total is 310 688 us against the "
-                   "firmware's 312 737 +- 1 000, the corpus's one failure; the missing "
-                   "time is not the loop's sections (the model's add 46 990 ticks, the "
-                   "replica holds 38 591 behind them) and not yet attributed (forty-third "
-                   "pass)")
+                   "firmware's 312 737 +- 1 000, the corpus's one failure: its start task "
+                   "charges the direction checks a stepper without a direction pin skips "
+                   "(its steps 2 203 ticks late, so timer 0 and the task hold other pulses; "
+                   "forty-fourth pass: with N44 it is met, test_holders_d)")
 def test_s42_p43_k43_l43_meet_test_sd_14s_pulse_high_total(
         monkeypatch: pytest.MonkeyPatch) -> None:
     default_with(monkeypatch, "S42", "P43", "K43", "L43")
