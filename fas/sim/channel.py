@@ -364,17 +364,14 @@ class SimChannel(QueueChannel):
         per_entry = p.fill_queued_entry_ticks
         per_single = p.fill_queued_single_ticks or per_entry
         queued = (wp - rp - 1) & 0xFF if wp != rp else 0
-        if per_single == per_entry:
+        if per_single == per_entry or not queued:
             return per_entry * queued
         n = q.queue_len
-        entries = q.entries
         first = (rp + 1) % n
         last = first + queued  # the queued entries from ``first``, the ring wrapping at n
-        singles = 0
-        for e in (entries[first:last] if last <= n
-                  else entries[first:] + entries[:last - n]):
-            if e.total_steps <= 1:
-                singles += 1
+        flags = q.singles  # (per slot: 1 where total_steps <= 1)
+        singles = (sum(flags[first:last]) if last <= n
+                   else sum(flags[first:]) + sum(flags[:last - n]))
         return per_single * singles + per_entry * (queued - singles)
 
     def earliest_start_tick(self) -> int:
@@ -721,16 +718,21 @@ class SimChannel(QueueChannel):
         m = self.m
         m.stolen_ticks += self.cost
         c = self.pending_compare
-        now = m.now
+        now = m.now  # entered now (at or after the compare)
         contention = self.contention
         if contention:  # entered now: the pin falls lat later
-            now += self.lat
-            if now - self.lat > c and now - self.lat != m.blocked_end:  # held behind a
-                now += self.after_reti  # routine: after its reti, one instruction
-            if now - self.lat == c and m.loop_polling:  # ... or at the end of the loop's cli
+            if now > c:
+                if now != m.irq_blocked_until + m.timing.sei_ticks:  # (m.blocked_end)
+                    # held behind a routine: after its reti, one instruction
+                    now += self.lat + self.after_reti
+                else:
+                    now += self.lat
+            elif now == c and m.loop_polling:  # ... or at the end of the loop's cli
                 q = self.q
-                now += m.loop_hold(c, q.entries[q.read_idx % q.queue_len].ticks or 1,
-                                   self.isr_ticks)
+                now += self.lat + m.loop_hold(c, q.entries[q.read_idx % q.queue_len].ticks
+                                              or 1, self.isr_ticks)
+            else:
+                now += self.lat
         if self.pending_pulse:
             self.pending_pulse = False
             # (_emit and PinBank.pulses of one pulse, written out: this runs for every single pulse)
@@ -789,10 +791,9 @@ class SimChannel(QueueChannel):
                         self.pending_pulse = True
                         self.cost = cost
                         # (compare > now >= m.now here)
-                        ev.time = compare
+                        ev.time = compare  # (its owner: this channel, _event)
                         ev.isr = True
                         ev.enter = cost
-                        ev.owner = self
                         self.event = ev
                         seq = m.seq + 1
                         m.seq = seq
