@@ -70,6 +70,10 @@ class StepperQueue:
         # one step or a pause) - what the ramp task sums over the queue every run
         # (ticks_in_queue); the channel changes only the entry it executes
         self.durations = [0] * length
+        # per slot: 1 where its command makes at most one step (a pause too), as written
+        # (total_steps <= 1) - what the ramp task's fill counts over the queue every run
+        # on build d (fas.sim's SimChannel.queue_sum_ticks)
+        self.singles = [0] * length
         self.read_idx = 0
         self.next_write_idx = 0
         self.queue_end_pos = 0
@@ -240,6 +244,7 @@ class StepperQueue:
         e.total_steps = steps
         e.ticks = ticks
         self.durations[slot] = duration
+        self.singles[slot] = 1 if steps <= 1 else 0
         e.count_up = count_up
         e.toggle_dir = toggle_dir
         e.dir_level = dir_level

@@ -178,6 +178,7 @@ class DeviceQueues:
         e.steps = e.total_steps = m.steps
         e.ticks = m.ticks
         q.durations[wp % q.queue_len] = m.ticks * m.steps if m.steps > 1 else m.ticks
+        q.singles[wp % q.queue_len] = 1 if m.steps <= 1 else 0
         e.count_up = m.count_up
         e.toggle_dir = m.toggle_dir
         e.dir_level = m.dir_level

@@ -126,5 +126,6 @@ class OrderQueue(StepperQueue):
         removed = self.channel.shorten(e, keep_steps)
         if removed > 0:
             e.total_steps -= removed
+            self.singles[w % RING] = 1 if e.total_steps <= 1 else 0  # (StepperQueue.singles)
             e.end_pos = i32(e.end_pos - removed if e.count_up else e.end_pos + removed)
             self.queue_end_pos = e.end_pos

@@ -23,6 +23,15 @@ if TYPE_CHECKING:  # pragma: no cover
 DEFAULT_WAIT_LIMIT_S = 3600
 
 
+def _among(q: StepperQueue, queues: Sequence[StepperQueue]) -> bool:
+    """``q`` is one of ``queues`` (by identity; a loop, not any() over a generator: this
+    runs for every running stepper in every run of the ramp task)."""
+    for x in queues:  # noqa: SIM110
+        if x is q:
+            return True
+    return False
+
+
 class SimBackend(Backend):
     """Virtual time: ``run_for``/``run_until`` jump from event to event."""
 
@@ -132,19 +141,23 @@ class SimBackend(Backend):
         may_stop = engine.may_stop_without_channel()
         m.in_task = True
         m.task_offset = p.fill_entry_ticks
-        if p.idle_task_ticks and not any(ch.running for ch in self.channels):
-            m.task_offset = p.idle_task_ticks  # no stepper runs (a command may start one)
-        per_entry = p.fill_queued_entry_ticks
+        channels = self.channels
+        if p.idle_task_ticks:
+            for ch in channels:
+                if ch.running:
+                    break
+            else:  # no stepper runs (a command may start one)
+                m.task_offset = p.idle_task_ticks
         if p.task_nested_isrs and m.step_isrs_between is None:
             m.step_isrs_between = lambda lo, hi: sum(c.isr_cpu_between(lo, hi)
                                                      for c in self.channels)
-        if per_entry or p.fill_stepper_ticks:
+        if p.fill_queued_entry_ticks or p.fill_stepper_ticks:
             # a stepper whose ramp has planned everything: its fill returns at once
             planning = engine.planning_queues() if p.fill_skips_done_ramps else None
-            for ch in self.channels:  # a running stepper's fill first sums its queue
+            for ch in channels:  # a running stepper's fill first sums its queue
                 if ch.running:
                     q = ch.q
-                    if planning is not None and not any(q is x for x in planning):
+                    if planning is not None and not _among(q, planning):
                         continue
                     ch.plan_pending = bool(p.fill_plan_ticks)
                     if p.fill_reads_queue_live:
@@ -157,9 +170,12 @@ class SimBackend(Backend):
             engine.manage_steppers()
         finally:
             if p.fill_charges_after_writes:  # the last fills' work, and those that never ran
-                m.fills_done.extend(ch for ch in self.channels if ch.fill_charge)
+                done = m.fills_done
+                for ch in channels:
+                    if ch.fill_charge:
+                        done.append(ch)
                 flush_fills(m)
-            for ch in self.channels:
+            for ch in channels:
                 ch.plan_pending = False
             # the task's own CPU time; the UART interrupts that run inside it are
             # counted as such by the loop (Machine.consume)

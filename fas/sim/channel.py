@@ -365,17 +365,14 @@ class SimChannel(QueueChannel):
         per_entry = p.fill_queued_entry_ticks
         per_single = p.fill_queued_single_ticks or per_entry
         queued = (wp - rp - 1) & 0xFF if wp != rp else 0
-        if per_single == per_entry:
+        if per_single == per_entry or not queued:
             return per_entry * queued
         n = q.queue_len
-        entries = q.entries
         first = (rp + 1) % n
         last = first + queued  # the queued entries from ``first``, the ring wrapping at n
-        singles = 0
-        for e in (entries[first:last] if last <= n
-                  else entries[first:] + entries[:last - n]):
-            if e.total_steps <= 1:
-                singles += 1
+        flags = q.singles  # (per slot: 1 where total_steps <= 1)
+        singles = (sum(flags[first:last]) if last <= n
+                   else sum(flags[first:]) + sum(flags[:last - n]))
         return per_single * singles + per_entry * (queued - singles)
 
     def earliest_start_tick(self) -> int:
@@ -731,16 +728,21 @@ class SimChannel(QueueChannel):
         m = self.m
         m.stolen_ticks += self.cost
         c = self.pending_compare
-        now = m.now
+        now = m.now  # entered now (at or after the compare)
         contention = self.contention
         if contention:  # entered now: the pin falls lat later
-            now += self.lat
-            if now - self.lat > c and now - self.lat != m.blocked_end:  # held behind a
-                now += self.after_reti  # routine: after its reti, one instruction
-            if now - self.lat == c and m.loop_polling:  # ... or at the end of the loop's cli
+            if now > c:
+                if now != m.irq_blocked_until + m.timing.sei_ticks:  # (m.blocked_end)
+                    # held behind a routine: after its reti, one instruction
+                    now += self.lat + self.after_reti
+                else:
+                    now += self.lat
+            elif now == c and m.loop_polling:  # ... or at the end of the loop's cli
                 q = self.q
-                now += m.loop_hold(c, q.entries[q.read_idx % q.queue_len].ticks or 1,
-                                   self.isr_ticks)
+                now += self.lat + m.loop_hold(c, q.entries[q.read_idx % q.queue_len].ticks
+                                              or 1, self.isr_ticks)
+            else:
+                now += self.lat
         if self.pending_pulse:
             self.pending_pulse = False
             # (_emit and PinBank.pulses of one pulse, written out: this runs for every single pulse)
@@ -799,18 +801,147 @@ class SimChannel(QueueChannel):
                         self.pending_pulse = True
                         self.cost = cost
                         # (compare > now >= m.now here)
-                        ev.time = compare
+                        ev.time = compare  # (its owner: this channel, _event)
                         ev.isr = True
                         ev.enter = cost
-                        ev.owner = self
                         self.event = ev
                         seq = m.seq + 1
                         m.seq = seq
+                        if (compare <= m.run_limit and not self.precounted
+                                and self.pulse_counter is None and self._made_plain
+                                and not self.detached and not self.pins.sinks):
+                            self._go_on(ev, e, compare, cost)
+                            return
                         heappush(m.events, (compare, self.prio, seq, ev))
                         return
         if ev is not None:
             self._spare = ev  # (run: free for the next interrupt's event)
         self._isr(c, now)
+
+    def _go_on(self, ev: Event, e: QueueEntry, compare: int, cost: int) -> None:
+        """The single pulses of entry ``e`` (the running one) from the request at
+        ``compare`` on (its event ``ev``, set but not pushed), inside
+        :meth:`Machine.run_until`, nobody watching the pin's edges or counting pulses:
+        while the next request is the next event run_until would run and the CPU is
+        free for it at once, its interrupt runs here - run_until's work between two
+        events and :meth:`_single_isr`'s for the pulse, written out, the pin's figures
+        kept until the run ends.  Then the event is pushed, or the entry's last pulse
+        goes on as _single_isr's does (:meth:`_isr`).  (A channel beside another one's
+        block of pulses makes every pulse an event: this is where that costs.)"""
+        m = self.m
+        heap = m.events
+        act = m.run_activity
+        limit = m.run_limit
+        if act is not None and m.activity != act:  # run_until stops before it
+            heappush(heap, (compare, self.prio, m.seq, ev))
+            return
+        lat, ocr, ticks = self.lat, self.ocr, e.ticks
+        isr_ticks, isr_next = self.isr_ticks, self.isr_next_ticks
+        loads = m.uart.loads  # (changed in place only)
+        uart_window = m._uart_window  # noqa: SLF001
+        ms_first, ms_phase = m._millis_first, m._millis_phase  # noqa: SLF001
+        ms_ov, ms_window = m.timing.millis_overflow_ticks, m._ms_window  # noqa: SLF001
+        starts, ends = m.isr_starts, m.isr_ends  # (likewise)
+        polling = m.loop_polling
+        bc = m.batch_channel
+        other = bc is not None and bc is not self
+        block = other and bc.batch  # type: ignore[union-attr]
+        if block:
+            c0, period, bn2, bcost = bc.b_c0, bc.b_t, bc.b_n - 2, bc.isr_ticks  # type: ignore[union-attr]
+        pins = self.pins
+        pin = self.step_pin
+        made = 0
+        high = 0
+        longest = pins.high_max.get(pin, 0)
+        while True:
+            # the request at ``compare``: the next event, entered at once?
+            if compare > limit or (heap and heap[0][0] <= compare):
+                break
+            if not (compare >= m._quiet_from or m._none_holds(compare)):  # noqa: SLF001
+                break
+            if loads and compare < loads[-1] + uart_window:
+                break
+            if compare >= ms_first and (compare - ms_phase) % ms_ov < ms_window:
+                break
+            if block and compare >= c0:  # (block_isr_running_at's quick answers first)
+                j = (compare - c0) // period
+                if j > bn2:
+                    j = bn2
+                cb = c0 + j * period
+                if not (j < 0 or compare - cb >= bcost + LATE_ENTRY
+                        or (cb == bc.entry_req  # type: ignore[union-attr]
+                            and compare >= bc.entry_tick + bcost  # type: ignore[union-attr]
+                            and (not j or compare - cb + period >= bcost + LATE_ENTRY))):
+                    end = bc.block_isr_running_at(compare)  # type: ignore[union-attr]
+                    if end is not None and end > compare:
+                        break
+            # run_until between the two events: the routine that ran holds the CPU
+            stolen = m.stolen_ticks
+            mark = m.stolen_mark
+            if stolen != mark:
+                busy = m.busy_until
+                t0 = m.now
+                m.busy_until = (busy if busy > t0 else t0) + stolen - mark
+            m.now = compare
+            if len(starts) > 4096:
+                m._forget_isrs()  # noqa: SLF001
+            end = compare + cost
+            starts.append(compare)
+            ends.append(end)
+            if end > m._quiet_from:  # noqa: SLF001
+                m._quiet_from = end  # noqa: SLF001
+            m.events_run += 1
+            m.stolen_mark = stolen
+            # the interrupt, entered at its request: the pin falls lat later
+            m.stolen_ticks = stolen + cost
+            c = compare
+            now = c + lat
+            if polling:  # ... or at the end of the loop's cli
+                now += m.loop_hold(c, ticks or 1, isr_ticks)
+            made += 1
+            width = now - c
+            high += width
+            if width > longest:
+                longest = width
+            steps = e.steps
+            compare = c + ticks
+            if steps > 1 and compare > now + ocr:
+                # (beside no other block: the next pulses make a block, _isr does it)
+                cost = isr_next if steps == 2 else isr_ticks if other else 0
+                if cost:
+                    e.steps = steps - 1
+                    self.pending_compare = compare
+                    self.cost = cost
+                    ev.time = compare
+                    ev.isr = True
+                    ev.enter = cost
+                    m.seq += 1
+                    continue
+            # the entry's last pulse, or its next compare is missed: as _single_isr
+            self._made_pulses(made, high, longest)
+            self.pending_pulse = False
+            self.event = None
+            self._spare = ev
+            self._isr(c, now)
+            return
+        self._made_pulses(made, high, longest)
+        heappush(heap, (compare, self.prio, m.seq, ev))
+
+    def _made_pulses(self, n: int, high: int, longest: int) -> None:
+        """``n`` single pulses made by :meth:`_go_on`, ``high`` ticks high in all, the
+        longest (of the pin's) ``longest``: the pin's figures (PinBank.pulses)."""
+        if not n:
+            return
+        self.pulses += n
+        pins = self.pins
+        pin = self.step_pin
+        rise, fall, total = pins.rise, pins.fall, pins.high_total
+        rise[pin] = rise.get(pin, 0) + n
+        fall[pin] = fall.get(pin, 0) + n
+        total[pin] = total.get(pin, 0) + high
+        if longest > pins.high_max.get(pin, 0):
+            pins.high_max[pin] = longest
+        pins.level[pin] = 0
 
     def _isr(self, c: int, now: int) -> None:
         """FastAccelStepper's compare ISR, for the compare at ``c`` running at ``now``."""

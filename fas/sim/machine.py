@@ -135,6 +135,13 @@ class Machine:
         self.block_listeners: list[Callable[[int, int], None]] = []
         self.stolen_ticks = 0  # CPU time of interrupt routines not yet charged to the loop
         self.busy_until = 0  # interrupt routines run as events keep the CPU until here
+        # inside run_until: its tick, the activity at its start where it stops on
+        # activity (else None) and stolen_ticks before the event that runs (its CPU
+        # time: busy_until) - a step interrupt whose next request is the next event goes
+        # on with it itself, as run_until would (SimChannel._go_on); -1: outside
+        self.run_limit = -1
+        self.run_activity: int | None = None
+        self.stolen_mark = 0
         # counts events after which a stepper may have started or stopped (a channel
         # started or stopped, or a ramp task ran while a channel stood): a program
         # waiting for that need not look after every other event
@@ -229,6 +236,10 @@ class Machine:
         # timer 0 (start_millis runs from the application, never inside an event)
         millis_first, millis_phase = self._millis_first, self._millis_phase
         starts, ends = self.isr_starts, self.isr_ends  # (likewise)
+        # (a run inside an event's function gives the outer one its own back)
+        outer = self.run_limit, self.run_activity, self.stolen_mark
+        self.run_limit = t
+        self.run_activity = activity if stop_on_activity else None
         while heap and heap[0][0] <= t:
             time, prio, _, ev = pop(heap)
             if ev.cancelled:
@@ -287,6 +298,7 @@ class Machine:
             if time > self.now:
                 if stop_on_activity and self.activity != activity:
                     heapq.heappush(heap, (time, prio, _, ev))
+                    self.run_limit, self.run_activity, self.stolen_mark = outer
                     return True
                 self.now = time
             if enter:  # (enter_isr, written out: this runs for every step interrupt)
@@ -297,12 +309,16 @@ class Machine:
                 ends.append(end)
                 if end > self._quiet_from:
                     self._quiet_from = end
-            self.events_run += 1
-            stolen = self.stolen_ticks
+            run = self.events_run = self.events_run + 1
+            self.stolen_mark = self.stolen_ticks
             ev.fn()
+            stolen = self.stolen_mark
             if self.stolen_ticks != stolen:  # an interrupt routine: the CPU is busy
                 busy = self.busy_until
+                if self.events_run != run:  # it went on with later requests: the last's
+                    time = self.now
                 self.busy_until = (busy if busy > time else time) + self.stolen_ticks - stolen
+        self.run_limit, self.run_activity, self.stolen_mark = outer
         if stop_on_activity and self.activity != activity:
             return True
         if t > self.now:
