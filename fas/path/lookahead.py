@@ -36,6 +36,9 @@ from collections.abc import Sequence
 
 from .settings import MINIMUM_FEED, AxisLimits
 
+#: |w - u| below this: straight on, nothing to blend (fas.path.blend)
+STRAIGHT = 1e-9
+
 BIG = 1e30  # an unlimited speed squared (a straight continuation)
 COS_STRAIGHT = -0.999999  # cos(angle) below this: a straight continuation
 COS_REVERSAL = 0.999999  # above this: a full reversal (the junction speed is 0)
@@ -150,6 +153,9 @@ class Lookahead:
         #: by more than this (steps) is written as Grbl's (PathSettings.plain_corner_steps)
         self.plain_steps = 0.0
         self._zone_coefficient = zone_coefficient  # (_reserve's, imported once)
+        #: junction_sqr's last corner: (unit in, unit out, |out - in|, the acceleration
+        #: along out - in) - zone_coefficient's figures for the same corner
+        self._bisector: tuple[Sequence[float], Sequence[float], float, float] | None = None
         self.blocks: list[Block] = []
         self.planned = 0  # blocks before this index (and its entry) are final
         self.configure(axes, junction_deviation, top_rates)
@@ -208,8 +214,16 @@ class Lookahead:
         if length == 0.0:
             return None
         unit = tuple([x / length for x in d_units])
-        acceleration = limit_along(self.accel, unit)
-        rapid = limit_along(self.max_rate, unit)
+        acceleration = rapid = BIG  # (limit_along for both, written out)
+        for lim, rate, u in zip(self.accel, self.max_rate, unit, strict=True):
+            if u != 0.0:
+                au = abs(u)
+                v = lim / au
+                if v < acceleration:
+                    acceleration = v
+                v = rate / au
+                if v < rapid:
+                    rapid = v
         block = Block(start, delta, unit, length, acceleration, rapid, rapid, tag, feed,
                       override, origin, span, through)
         block.nominal_speed = self.nominal(block)
@@ -276,7 +290,12 @@ class Lookahead:
         if (blocks and self.prev_unit is not None and block.max_junction_sqr > 0.0
                 and on_steps(blocks[-1])):
             prev = blocks[-1]
-            k = self._zone_coefficient(prev.unit, block.unit, self.accel)
+            c = self._bisector
+            if (c is not None and c[0] is prev.unit and c[1] is block.unit
+                    and not c[2] < STRAIGHT):  # (zone_coefficient from junction_sqr's)
+                k = c[2] / (2.0 * c[3])
+            else:
+                k = self._zone_coefficient(prev.unit, block.unit, self.accel)
             if k > 0.0:
                 fit = share * min(prev.length, block.length) / k
                 if block.max_junction_sqr > fit:
@@ -311,6 +330,7 @@ class Lookahead:
         bisector = [y - x for x, y in zip(a, b, strict=True)]
         norm = math.sqrt(sum([v * v for v in bisector]))
         accel = limit_along(self.accel, [v / norm for v in bisector])
+        self._bisector = (a, b, norm, accel)  # (_reserve's zone coefficient: the same)
         sin_half = math.sqrt(0.5 * (1.0 - cos_theta))
         return accel * self.junction_deviation * sin_half / (1.0 - sin_half)
 

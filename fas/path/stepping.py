@@ -359,7 +359,18 @@ class AxisWriter:
                 elif pa != 0.0 and cruise_end is not None:
                     break
             factor = 2.0 if slowing else 8.0
-        t_lim = self._limit(t0, a, cruise_end, factor, boundary)
+        jmax = j0 + MAX_STEPS
+        if known < jmax:
+            jmax = known
+        deep = self.last_start > self._deep
+        tol = self.tol
+        # (_limit written out)
+        if cruise_end is not None:
+            t_lim = cruise_end + math.sqrt(2.0 * tol / a)
+        else:
+            t_lim = t0 + math.sqrt(factor * tol / a)
+        if t_lim >= boundary:
+            t_lim = boundary
         plain = ex.plain
         if plain:  # near a plain corner the tolerance shrinks by its offset
             ends = ex.plain_ends
@@ -371,16 +382,32 @@ class AxisWriter:
             while k < n and ends[k] < t0:
                 k += 1
             self.plain_k = k + base
-            if k < n and plain[k][0] - ex.plain_widen <= t_lim:
-                tol = ex.tolerance_near(i, t0, t_lim, self.tol, k)
-                if tol < self.tol:
-                    self.tol = tol
-                    t_lim = self._limit(t0, a, cruise_end, factor, boundary)
-        jmax = j0 + MAX_STEPS
-        if known < jmax:
-            jmax = known
-        jh = int((seg.s_done if t_lim >= seg.t_done else seg.dist_at(t_lim)) / pitch
-                 + phase)  # (steps_by)
+            widen = ex.plain_widen
+            if k < n and plain[k][0] - widen <= t_lim:
+                # (Executor.tolerance_near from k, written out)
+                near = tol
+                while k < n:
+                    pk = plain[k]
+                    if pk[0] - widen > t_lim:
+                        break
+                    x = tol - pk[2][i]
+                    if x < near:
+                        near = x
+                    k += 1
+                if not near > 0.0:  # (at least 0.0)
+                    near = 0.0
+                if near < tol:
+                    self.tol = tol = near
+                    if cruise_end is not None:
+                        t_lim = cruise_end + math.sqrt(2.0 * tol / a)
+                    else:
+                        t_lim = t0 + math.sqrt(factor * tol / a)
+                    if t_lim >= boundary:
+                        t_lim = boundary
+        if t_lim >= seg.t_done:
+            jh = int(seg.s_done / pitch + phase)  # (steps_by)
+        else:
+            jh = int(seg.dist_at(t_lim) / pitch + phase)
         if jh > jmax:
             jh = jmax
         elif jh <= j0:
@@ -392,7 +419,7 @@ class AxisWriter:
         if not complete and back < jh:
             cut = True
             jh = back if back > j0 else j0 + 1
-        if cut and self.last_start > self._deep:
+        if cut and deep:
             return _WAIT  # the queue is deep: the next run makes it longer
         th = seg.step_tick(i, jh)
         if th - t0 < min_cmd:  # too short for a command: take more steps
