@@ -329,7 +329,13 @@ class Lookahead:
             return BIG
         bisector = [y - x for x, y in zip(a, b, strict=True)]
         norm = math.sqrt(sum([v * v for v in bisector]))
-        accel = limit_along(self.accel, [v / norm for v in bisector])
+        accel = BIG  # (limit_along(self.accel, bisector / norm), written out)
+        for lim, v in zip(self.accel, bisector, strict=True):
+            u = v / norm
+            if u != 0.0:
+                x = lim / abs(u)
+                if x < accel:
+                    accel = x
         self._bisector = (a, b, norm, accel)  # (_reserve's zone coefficient: the same)
         sin_half = math.sqrt(0.5 * (1.0 - cos_theta))
         return accel * self.junction_deviation * sin_half / (1.0 - sin_half)
@@ -344,26 +350,35 @@ class Lookahead:
             return  # one block left to plan: the first stays as executed
         self.recalculations += 1
         cur = blocks[last]
-        cur.entry_sqr = min(cur.max_entry_sqr, 2.0 * cur.acceleration * cur.remaining)
-        i = last - 1
-        while i > planned:  # reverse: as fast as each can still slow down to the next
-            nxt = cur
+        e = min(cur.max_entry_sqr, 2.0 * cur.acceleration * cur.remaining)
+        cur.entry_sqr = e
+        # reverse: as fast as each can still slow down to the next (``e``: the entry
+        # of the block after ``cur``)
+        for i in range(last - 1, planned, -1):
             cur = blocks[i]
-            if cur.entry_sqr != cur.max_entry_sqr:
-                e = nxt.entry_sqr + 2.0 * cur.acceleration * cur.remaining
-                cur.entry_sqr = e if e < cur.max_entry_sqr else cur.max_entry_sqr
-            i -= 1
-        nxt = blocks[planned]
-        for i in range(planned + 1, last + 1):  # forward: what acceleration reaches
-            cur = nxt
+            m = cur.max_entry_sqr
+            if cur.entry_sqr != m:
+                e = e + 2.0 * cur.acceleration * cur.remaining
+                if e >= m:
+                    e = m
+                cur.entry_sqr = e
+            else:
+                e = m
+        # forward: what acceleration reaches (``e``: the entry of ``cur``)
+        cur = blocks[planned]
+        e = cur.entry_sqr
+        for i in range(planned + 1, last + 1):
             nxt = blocks[i]
-            if cur.entry_sqr < nxt.entry_sqr:
-                e = cur.entry_sqr + 2.0 * cur.acceleration * cur.remaining
-                if e < nxt.entry_sqr:
-                    nxt.entry_sqr = e
+            x = nxt.entry_sqr
+            if e < x:
+                r = e + 2.0 * cur.acceleration * cur.remaining
+                if r < x:
+                    nxt.entry_sqr = x = r
                     planned = i  # full acceleration: nothing before can improve
-            if nxt.entry_sqr == nxt.max_entry_sqr:
+            if x == nxt.max_entry_sqr:
                 planned = i  # at its junction's limit: the plan before it is final
+            cur = nxt
+            e = x
         self.pass_steps += 2 * (last - self.planned)
         self.planned = planned
 
