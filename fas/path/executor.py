@@ -447,10 +447,6 @@ class Executor:
         #: each one's end + TURN_EXACT_S (sorted: the writers' cursors walk it)
         self.plain_ends: list[float] = []
         self.plain_widen = TURN_EXACT_S * ticks_per_s  # (ticks)
-        #: each one's beginning - TURN_EXACT_S (sorted) and, per axis, its offsets:
-        #: plain's figures as lists (tolerance_near looks them up in C)
-        self.plain_from: list[float] = []
-        self.plain_off: list[list[float]] = []
         self.plain_base = 0  # plain corners forgotten before plain[0] (trim)
 
     # ------------------------------------------------------------ a run
@@ -467,8 +463,6 @@ class Executor:
         self._cruise = None
         self.plain.clear()
         self.plain_ends.clear()
-        self.plain_from.clear()
-        self.plain_off = []
         self.plain_base = 0
 
     def shift(self, ticks: int) -> None:
@@ -484,8 +478,6 @@ class Executor:
                 piece.t1 += ticks
         self.plain = [(a + ticks, b + ticks, d) for a, b, d in self.plain]
         self.plain_ends = [e + ticks for e in self.plain_ends]
-        widen = self.plain_widen
-        self.plain_from = [a - widen for a, _b, _d in self.plain]
 
     def segment(self, seq: int) -> Segment | None:
         i = seq - self.first_seq
@@ -506,9 +498,6 @@ class Executor:
             if gone:
                 del self.plain[:gone]
                 del self.plain_ends[:gone]
-                del self.plain_from[:gone]
-                for off in self.plain_off:
-                    del off[:gone]
                 self.plain_base += gone
 
     # ------------------------------------------------------------ making final
@@ -687,11 +676,6 @@ class Executor:
         tolerance less that offset (:meth:`tolerance_near`)."""
         self.plain.append((t_begin, t_end, offsets))
         self.plain_ends.append(t_end + self.plain_widen)
-        self.plain_from.append(t_begin - self.plain_widen)
-        if not self.plain_off:
-            self.plain_off = [[] for _ in offsets]
-        for off, d in zip(self.plain_off, offsets, strict=True):
-            off.append(d)
 
     def tolerance_near(self, axis: int, t0: float, t1: float, tol: float,
                        k: int | None = None) -> float:
@@ -706,14 +690,16 @@ class Executor:
             return tol
         if k is None:
             k = bisect.bisect_left(ends, t0)
-        # the corners from k up to the first whose widened time begins after t1; the
-        # least of tol - d is tol less the largest d (rounding keeps the order)
-        end = bisect.bisect_right(self.plain_from, t1, k)
+        plain = self.plain
+        widen = self.plain_widen
         out = tol
-        if end > k:
-            x = tol - max(self.plain_off[axis][k:end])
-            if x < out:
-                out = x
+        while k < len(plain):
+            a, _b, d = plain[k]
+            if a - widen > t1:
+                break
+            if tol - d[axis] < out:
+                out = tol - d[axis]
+            k += 1
         return out if out > 0.0 else 0.0
 
     def _take(self, seg: Segment, phases: Sequence[tuple[float, float, float]],

@@ -51,7 +51,6 @@ short) is moved to the nearest tick a command allows; :class:`AxisStats` counts 
 from __future__ import annotations
 
 import math
-from bisect import bisect_right
 from collections.abc import Callable
 from enum import IntEnum
 from typing import TYPE_CHECKING, cast
@@ -318,22 +317,8 @@ class AxisWriter:
         complete = seg.complete
         pitch = seg.pitch[i]
         phase = seg.phase[i]
-        pieces = seg.pieces
         if not complete:  # the steps end a command's time before the horizon
-            tb = ex.t - min_cmd
-            sb = seg.s_done
-            if tb < seg.t_done:
-                for p in pieces:  # (Segment.dist_at written out)
-                    if tb <= p.t1:
-                        tau = tb - p.t0
-                        if tau <= 0.0:
-                            sb = p.s0
-                        else:
-                            sb = p.s0 + tau * (p.v0 + 0.5 * p.a * tau)
-                            if sb >= p.s1:
-                                sb = p.s1
-                        break
-            back = int(sb / pitch + phase)  # (steps_by)
+            back = int(seg.dist_at(ex.t - min_cmd) / pitch + phase)  # (steps_by)
             if back <= j0 and self.last_start > self._deep:
                 return _WAIT  # (cut at j0 + 1 below: the queue is deep)
         t0 = self.w_end
@@ -347,6 +332,7 @@ class AxisWriter:
         # down into one that does not, nor back: its steps are placed early on one
         # side and that side differs (:meth:`_group`).
         a = seg.accel / pitch  # steps/tick^2
+        pieces = seg.pieces
         count = len(pieces)
         k = 0
         while k < count and pieces[k].t1 <= t0:
@@ -396,10 +382,18 @@ class AxisWriter:
             while k < n and ends[k] < t0:
                 k += 1
             self.plain_k = k + base
-            starts = ex.plain_from
-            if k < n and starts[k] <= t_lim:
+            widen = ex.plain_widen
+            if k < n and plain[k][0] - widen <= t_lim:
                 # (Executor.tolerance_near from k, written out)
-                near = tol - max(ex.plain_off[i][k:bisect_right(starts, t_lim, k)])
+                near = tol
+                while k < n:
+                    pk = plain[k]
+                    if pk[0] - widen > t_lim:
+                        break
+                    x = tol - pk[2][i]
+                    if x < near:
+                        near = x
+                    k += 1
                 if not near > 0.0:  # (at least 0.0)
                     near = 0.0
                 if near < tol:
@@ -897,47 +891,38 @@ class AxisWriter:
         """Write ``cmds`` in direction ``up``; a command that makes steps of the
         dominant axis of ``seg`` tells the speed listener."""
         write = self.host.write
+        st = self.stats
         listener = self.listener if seg is not None and seg.dominant == self.axis else None
         ok = AqeResult.OK
         w_end = self.w_end
-        last_start = step_last = self.last_start
-        written = stepped = steps_sum = 0
-        res = ok
-        ticks = steps = 0
         for ticks, steps in cmds:
             res = write(ticks, steps, up, False)
             if res != ok:
-                break
-            if steps:
-                if listener is not None and seg is not None:
-                    listener(w_end, seg.speed_at(w_end) * self.tps * 60.0, seg.tag)
-                last_start = step_last = w_end + (steps - 1) * ticks if steps > 1 else w_end
+                if res.retry:
+                    return _FULL  # pragma: no cover - room was checked
+                st.errors += 1
+                self.host.report_abort(res, (ticks, steps, up))
+                return _ERROR
+            if listener is not None and steps and seg is not None:
+                listener(w_end, seg.speed_at(w_end) * self.tps * 60.0, seg.tag)
+            self.free -= 1
+            if steps > 1:
+                last_start = w_end + (steps - 1) * ticks
                 w_end += ticks * steps
-                stepped += 1
-                steps_sum += steps
             else:
                 last_start = w_end
                 w_end += ticks
-            written += 1
-        if written:  # (the state per command, once for all of them)
-            self.free -= written
             self.last_start = last_start
             self.w_end = w_end
             self.up = up
-            st = self.stats
-            st.pauses += written - stepped
-            if stepped:
-                st.commands += stepped
-                st.steps += steps_sum
+            if steps:
+                st.commands += 1
+                st.steps += steps
                 if up != self.step_dir:  # a turn (a step not through _step)
                     if self.step_dir is not None:
                         self.exact_until = self.step_last + self.turn_ticks
                     self.step_dir = up
-                self.step_last = step_last
-        if res != ok:
-            if res.retry:
-                return _FULL  # pragma: no cover - room was checked
-            self.stats.errors += 1
-            self.host.report_abort(res, (ticks, steps, up))
-            return _ERROR
+                self.step_last = last_start
+            else:
+                st.pauses += 1
         return _OK

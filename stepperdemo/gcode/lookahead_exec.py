@@ -35,8 +35,6 @@ allow it; otherwise the machine uses the exact-stop executor
 
 from __future__ import annotations
 
-from itertools import repeat
-from operator import attrgetter, is_
 from typing import TYPE_CHECKING
 
 from fas.codes import PIN_UNDEFINED
@@ -48,8 +46,6 @@ from .motion import BlockQueue, HoldState, MotionExecutor, MotionHost, SpeedList
 
 if TYPE_CHECKING:  # pragma: no cover
     from .settings import GcodeSettings
-
-_TAG = attrgetter("tag")  # (a block's tag: _retire's look-up)
 
 def path_settings(st: GcodeSettings, axes: int, blocks: int) -> PathSettings:
     """The group's figures from the machine's ``$`` settings."""
@@ -226,9 +222,9 @@ class LookaheadExecutor(MotionExecutor):
             front = queued[0]
             if planned and planned[0].tag is front:
                 return  # (the common case: the group's first block)
-            # (any block of the group's with it as its tag, looked for in C)
-            if any(map(is_, map(_TAG, planned), repeat(front))):
-                return
+            for b in planned:
+                if b.tag is front:
+                    return
             queued.popleft()
             self.handed -= 1
 
