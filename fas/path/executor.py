@@ -508,7 +508,7 @@ class Executor:
         while not self.final and self.t < horizon:
             seg = self.cur
             if seg is None:
-                block = la.first()
+                block = la.blocks[0] if la.blocks else None  # (la.first())
                 if block is None:
                     self.final = True  # nothing queued: the path ends (at rest)
                     break
@@ -612,7 +612,7 @@ class Executor:
                     exit2 = blend.speed_out * blend.speed_out
                     self.v = blend.speed_out / tps
             la.pop_first()
-            nxt = la.first()
+            nxt = la.blocks[0] if la.blocks else None  # (la.first())
             if nxt is not None:
                 nxt.entry_sqr = exit2
             if blend is not None and nxt is not None:
