@@ -295,8 +295,11 @@ class AxisWriter:
             nxt = segs[at] if at < len(segs) else None
             if nxt is not None and nxt.blend:  # it goes on into the blend's steps
                 return self._blend_group(seg)
+            kn = 0  # (nxt.known(i), asked once)
             if (nxt is not None and seg.end == seg.length and nxt.steps[i]
-                    and nxt.ups[i] == seg.ups[i] and nxt.known(i) >= 1
+                    and nxt.ups[i] == seg.ups[i]):
+                kn = nxt.known(i)
+            if (nxt is not None and kn >= 1
                     and (seg.on_end[i]
                          or nxt.step_tick(i, 1) - self.w_end < self.min_wait)):
                 # the same step is the start of the next segment (where the path
@@ -305,7 +308,7 @@ class AxisWriter:
                 self.seq += 1
                 self.j = 0
                 seg = nxt
-                known = seg.known(i)
+                known = kn
             else:
                 # a joint between steps: the step and a wait up to the next segment's
                 # first step, whose steps then follow their own spacing
