@@ -45,11 +45,10 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from .lookahead import limit_along
+# (STRAIGHT: |w - u| below this is straight on, nothing to blend - any turn above it
+# is blended: a velocity jump of v |w - u| would show in the acceleration from the pins)
+from .lookahead import STRAIGHT, limit_along
 
-#: |w - u| below this: straight on, nothing to blend (any turn above it is blended:
-#: a velocity jump of v |w - u| would show in the acceleration from the pins)
-STRAIGHT = 1e-9
 #: an integer this close to a blend's exact end (steps) is reached at the end
 END_EPS = 1e-9
 #: exit_window's rounding: relative to the squared speeds (and to 1 for 1 - 2 a k)

@@ -208,7 +208,20 @@ class Segment:
         if (j == self.steps[axis] and self.complete and self.end == self.length
                 and self.on_end[axis]):
             return self.end_tick
-        return int(self.time_at((j - self.phase[axis]) * self.pitch[axis]) + 0.5)
+        s = (j - self.phase[axis]) * self.pitch[axis]
+        for p in self.pieces:  # (time_at and Piece.time_at written out)
+            if s <= p.s1:
+                d = s - p.s0
+                if d <= 0.0:
+                    return int(p.t0 + 0.5)
+                v0 = p.v0
+                root = v0 * v0 + 2.0 * p.a * d
+                den = v0 + math.sqrt(root if root > 0.0 else 0.0)
+                if den <= 0.0:
+                    return int(p.t1 + 0.5)
+                t = p.t0 + 2.0 * d / den
+                return int((t if t < p.t1 else p.t1) + 0.5)
+        return int(self.t_done + 0.5)
 
     def step_ticks(self, axis: int, j0: int, j1: int) -> list[int]:
         """The ticks of ``axis``'s steps ``j0`` to ``j1`` (>= 1), as :meth:`step_tick`."""
@@ -495,7 +508,7 @@ class Executor:
         while not self.final and self.t < horizon:
             seg = self.cur
             if seg is None:
-                block = la.first()
+                block = la.blocks[0] if la.blocks else None  # (la.first())
                 if block is None:
                     self.final = True  # nothing queued: the path ends (at rest)
                     break
@@ -599,7 +612,7 @@ class Executor:
                     exit2 = blend.speed_out * blend.speed_out
                     self.v = blend.speed_out / tps
             la.pop_first()
-            nxt = la.first()
+            nxt = la.blocks[0] if la.blocks else None  # (la.first())
             if nxt is not None:
                 nxt.entry_sqr = exit2
             if blend is not None and nxt is not None:
@@ -693,6 +706,7 @@ class Executor:
               horizon: float) -> bool:
         """Make ``phases`` (units, seconds) final up to ``horizon``; True if all are."""
         tps = self.tps
+        pieces = seg.pieces
         for v_s, a_s, d in phases:
             v = v_s / tps
             a = a_s / (tps * tps)
@@ -704,18 +718,32 @@ class Executor:
                 den = v + v1
                 dur = 2.0 * d / den if den > 0.0 else 0.0
             t0 = self.t
-            if t0 + dur > horizon:
+            t1 = t0 + dur
+            cut = t1 > horizon
+            if cut:
                 tau = horizon - t0
                 if tau < MIN_PIECE_TICKS:
                     return False
                 dd = tau * (v + 0.5 * a * tau)
                 if dd <= 0.0 or dd >= d:
                     return False
-                self._piece(seg, dd, horizon, v, a)
-                self.v = v + a * tau
-                return False
-            self._piece(seg, d, t0 + dur, v, a)
+                d = dd
+                t1 = horizon
+                v1 = v + a * tau
+            # (_piece written out)
+            s0 = seg.s_done
+            last = pieces[-1] if pieces else None
+            if (last is not None and last.a == a and last.t1 == t0
+                    and abs(last.v0 + a * (last.t1 - last.t0) - v) <= 1e-9 * (abs(v) + 1e-12)):
+                last.s1 = s0 + d
+                last.t1 = t1
+            else:
+                pieces.append(Piece(s0, s0 + d, t0, t1, v, a))
+            seg.s_done = s0 + d
+            seg.t_done = self.t = t1
             self.v = v1
+            if cut:
+                return False
         return True
 
     def _piece(self, seg: Segment, d: float, t1: float, v: float, a: float) -> None:

@@ -259,9 +259,11 @@ class PathGroup:
         every axis on the step nearest to the path all the way."""
         if not self.attached:
             return PathResult.ERR_NOT_ATTACHED
-        if self.lookahead.full():
+        la = self.lookahead
+        if len(la.blocks) >= la.size:  # (la.full())
             return PathResult.QUEUE_FULL
-        n = len(self.axes)
+        axes = self.axes
+        n = len(axes)
         if len(target) != n:
             return PathResult.ERR_AXES
         if feed is not None and not (feed > 0 and math.isfinite(feed)):
@@ -270,12 +272,13 @@ class PathGroup:
         for t in target:
             if not (isfinite(t) and INT32_MIN <= t <= INT32_MAX):
                 return PathResult.ERR_RANGE
-        for a in self.axes:
+        for a in axes:
             if a.base.is_active():  # the stepper's own planner has motion to plan
                 return PathResult.ERR_AXIS_BUSY
-        if not self.busy():  # the path begins where the axes are, at their top speed now
-            self._sync_position()
+        if not (self.run_active or la.blocks):  # (not busy()): the path begins where
+            self._sync_position()  # the axes are, at their top speed now
             self._configure_lookahead()
+            la = self.lookahead  # (made anew)
         start = tuple(self.position)
         origin = tuple(self.exact)
         ints: tuple[int, ...] | None = None
@@ -293,15 +296,15 @@ class PathGroup:
                           for p, x0, x1 in zip(start, origin, exact, strict=True)])
             path = tuple([x1 - x0 for x1, x0 in zip(exact, origin, strict=True)])
         delta = tuple([t - s for t, s in zip(ints, start, strict=True)])
-        for d, a in zip(delta, self.axes, strict=True):
+        for d, a in zip(delta, axes, strict=True):
             if d < 0 and not a.host.has_direction_pin():
                 return PathResult.ERR_NO_DIRECTION_PIN
-        block = self.lookahead.make_block(start, delta, feed, tag, override,
-                                          None if path is None else origin, path, through)
+        block = la.make_block(start, delta, feed, tag, override,
+                              None if path is None else origin, path, through)
         if block is None:
             return PathResult.EMPTY_BLOCK
-        was_empty = not self.lookahead.blocks and not self.run_active
-        self.lookahead.add(block)
+        was_empty = not la.blocks and not self.run_active
+        la.add(block)
         self.position = list(ints)
         self.exact = list(exact)
         self.stats.blocks += 1
@@ -425,8 +428,13 @@ class PathGroup:
         return not self.busy()
 
     def planning(self) -> bool:
-        return bool(self.lookahead.blocks) or (
-            self.run_active and not all(w.done for w in self.writers))
+        if self.lookahead.blocks:
+            return True
+        if self.run_active:
+            for w in self.writers:  # (not all(w.done ...), written out)
+                if not w.done:
+                    return True
+        return False
 
     def needs_task(self) -> bool:
         return self.run_active or (bool(self.lookahead.blocks) and not self.held)
@@ -505,18 +513,33 @@ class PathGroup:
             if self._may_start(now):
                 self._start_run(now)
             return
-        if self._underrun():
-            return
+        # a queue ran dry inside the run (one writer per axis)
+        for w, a in zip(self.writers, self.axes, strict=False):
+            if not w.done and a.queue.is_queue_empty():
+                self._underran()
+                return
         ex = self.executor
         if self.holding and self.hold_start is None:
             seg = ex.cur
             self.hold_start = HoldStart(ex.t, ex.v * self.tps,
                                         seg.block if seg is not None else None,
                                         seg.s_done if seg is not None else 0.0)
-        ex.commit(self._horizon(now))
+        axes = self.axes  # (_horizon written out)
+        fp = axes[0].host.settings.forward_planning_ticks
+        for a in axes:
+            f = a.host.settings.forward_planning_ticks
+            if f > fp:
+                fp = f
+        backend = axes[0].host.backend
+        ex.commit(float(now + fp + backend.planning_extra_ticks + backend.task_period_ticks))
         self._write(now)
-        if (ex.final and all(w.done for w in self.writers)
-                and not any(a.queue.is_running() for a in self.axes)):
+        if ex.final:
+            for w in self.writers:
+                if not w.done:
+                    return
+            for a in self.axes:
+                if a.queue.is_running():
+                    return
             self._finish_run()
 
     def _write(self, now: int | None = None) -> None:
@@ -633,17 +656,14 @@ class PathGroup:
         for a in self.axes:
             a.queue.force_stop()
 
-    def _underrun(self) -> bool:
-        """A queue ran dry inside the run (its commands came too late): the axes left
-        their common timeline.  Stop at once and plan the rest again from rest."""
-        for w, a in zip(self.writers, self.axes, strict=False):  # (one writer per axis)
-            if not w.done and a.queue.is_queue_empty():
-                self.stats.underruns += 1
-                self._stop_axes_now()
-                self._requeue()
-                self._restart = True
-                return True
-        return False
+    def _underran(self) -> None:
+        """A queue ran dry inside the run (its commands came too late: run_task): the
+        axes left their common timeline.  Stop at once and plan the rest again from
+        rest."""
+        self.stats.underruns += 1
+        self._stop_axes_now()
+        self._requeue()
+        self._restart = True
 
     def _finish_run(self) -> None:
         """Every queue ran out: the run is over."""

@@ -36,6 +36,9 @@ from collections.abc import Sequence
 
 from .settings import MINIMUM_FEED, AxisLimits
 
+#: |w - u| below this: straight on, nothing to blend (fas.path.blend)
+STRAIGHT = 1e-9
+
 BIG = 1e30  # an unlimited speed squared (a straight continuation)
 COS_STRAIGHT = -0.999999  # cos(angle) below this: a straight continuation
 COS_REVERSAL = 0.999999  # above this: a full reversal (the junction speed is 0)
@@ -150,6 +153,9 @@ class Lookahead:
         #: by more than this (steps) is written as Grbl's (PathSettings.plain_corner_steps)
         self.plain_steps = 0.0
         self._zone_coefficient = zone_coefficient  # (_reserve's, imported once)
+        #: junction_sqr's last corner: (unit in, unit out, |out - in|, the acceleration
+        #: along out - in) - zone_coefficient's figures for the same corner
+        self._bisector: tuple[Sequence[float], Sequence[float], float, float] | None = None
         self.blocks: list[Block] = []
         self.planned = 0  # blocks before this index (and its entry) are final
         self.configure(axes, junction_deviation, top_rates)
@@ -208,8 +214,16 @@ class Lookahead:
         if length == 0.0:
             return None
         unit = tuple([x / length for x in d_units])
-        acceleration = limit_along(self.accel, unit)
-        rapid = limit_along(self.max_rate, unit)
+        acceleration = rapid = BIG  # (limit_along for both, written out)
+        for lim, rate, u in zip(self.accel, self.max_rate, unit, strict=True):
+            if u != 0.0:
+                au = abs(u)
+                v = lim / au
+                if v < acceleration:
+                    acceleration = v
+                v = rate / au
+                if v < rapid:
+                    rapid = v
         block = Block(start, delta, unit, length, acceleration, rapid, rapid, tag, feed,
                       override, origin, span, through)
         block.nominal_speed = self.nominal(block)
@@ -276,7 +290,12 @@ class Lookahead:
         if (blocks and self.prev_unit is not None and block.max_junction_sqr > 0.0
                 and on_steps(blocks[-1])):
             prev = blocks[-1]
-            k = self._zone_coefficient(prev.unit, block.unit, self.accel)
+            c = self._bisector
+            if (c is not None and c[0] is prev.unit and c[1] is block.unit
+                    and not c[2] < STRAIGHT):  # (zone_coefficient from junction_sqr's)
+                k = c[2] / (2.0 * c[3])
+            else:
+                k = self._zone_coefficient(prev.unit, block.unit, self.accel)
             if k > 0.0:
                 fit = share * min(prev.length, block.length) / k
                 if block.max_junction_sqr > fit:
@@ -310,7 +329,14 @@ class Lookahead:
             return BIG
         bisector = [y - x for x, y in zip(a, b, strict=True)]
         norm = math.sqrt(sum([v * v for v in bisector]))
-        accel = limit_along(self.accel, [v / norm for v in bisector])
+        accel = BIG  # (limit_along(self.accel, bisector / norm), written out)
+        for lim, v in zip(self.accel, bisector, strict=True):
+            u = v / norm
+            if u != 0.0:
+                x = lim / abs(u)
+                if x < accel:
+                    accel = x
+        self._bisector = (a, b, norm, accel)  # (_reserve's zone coefficient: the same)
         sin_half = math.sqrt(0.5 * (1.0 - cos_theta))
         return accel * self.junction_deviation * sin_half / (1.0 - sin_half)
 
@@ -324,26 +350,35 @@ class Lookahead:
             return  # one block left to plan: the first stays as executed
         self.recalculations += 1
         cur = blocks[last]
-        cur.entry_sqr = min(cur.max_entry_sqr, 2.0 * cur.acceleration * cur.remaining)
-        i = last - 1
-        while i > planned:  # reverse: as fast as each can still slow down to the next
-            nxt = cur
+        e = min(cur.max_entry_sqr, 2.0 * cur.acceleration * cur.remaining)
+        cur.entry_sqr = e
+        # reverse: as fast as each can still slow down to the next (``e``: the entry
+        # of the block after ``cur``)
+        for i in range(last - 1, planned, -1):
             cur = blocks[i]
-            if cur.entry_sqr != cur.max_entry_sqr:
-                e = nxt.entry_sqr + 2.0 * cur.acceleration * cur.remaining
-                cur.entry_sqr = e if e < cur.max_entry_sqr else cur.max_entry_sqr
-            i -= 1
-        nxt = blocks[planned]
-        for i in range(planned + 1, last + 1):  # forward: what acceleration reaches
-            cur = nxt
+            m = cur.max_entry_sqr
+            if cur.entry_sqr != m:
+                e = e + 2.0 * cur.acceleration * cur.remaining
+                if e >= m:
+                    e = m
+                cur.entry_sqr = e
+            else:
+                e = m
+        # forward: what acceleration reaches (``e``: the entry of ``cur``)
+        cur = blocks[planned]
+        e = cur.entry_sqr
+        for i in range(planned + 1, last + 1):
             nxt = blocks[i]
-            if cur.entry_sqr < nxt.entry_sqr:
-                e = cur.entry_sqr + 2.0 * cur.acceleration * cur.remaining
-                if e < nxt.entry_sqr:
-                    nxt.entry_sqr = e
+            x = nxt.entry_sqr
+            if e < x:
+                r = e + 2.0 * cur.acceleration * cur.remaining
+                if r < x:
+                    nxt.entry_sqr = x = r
                     planned = i  # full acceleration: nothing before can improve
-            if nxt.entry_sqr == nxt.max_entry_sqr:
+            if x == nxt.max_entry_sqr:
                 planned = i  # at its junction's limit: the plan before it is final
+            cur = nxt
+            e = x
         self.pass_steps += 2 * (last - self.planned)
         self.planned = planned
 

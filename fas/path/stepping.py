@@ -234,7 +234,9 @@ class AxisWriter:
         ex = self.ex
         i = self.axis
         seq, j = self.seq, self.j
-        seg = ex.segment(seq)
+        segs = ex.segments  # (ex.segment written out)
+        at = seq - ex.first_seq
+        seg = segs[at] if 0 <= at < len(segs) else None
         while seg is not None:
             n = seg.steps[i]
             if j < n:
@@ -247,7 +249,8 @@ class AxisWriter:
                     return _UNKNOWN, seq, j, 0
             elif not seg.complete:
                 return _UNKNOWN, seq, j, 0
-            nxt = ex.segment(seq + 1)
+            at += 1
+            nxt = segs[at] if at < len(segs) else None
             if nxt is None:  # not made yet: stay at this one's end (a blend before
                 j = n  # the next may have made its first steps)
                 break
@@ -288,11 +291,15 @@ class AxisWriter:
             if k < known:
                 known = k
         if complete and self.j >= known:  # the segment's last step
-            nxt = ex.segment(self.seq + 1)
+            at += 1
+            nxt = segs[at] if at < len(segs) else None
             if nxt is not None and nxt.blend:  # it goes on into the blend's steps
                 return self._blend_group(seg)
+            kn = 0  # (nxt.known(i), asked once)
             if (nxt is not None and seg.end == seg.length and nxt.steps[i]
-                    and nxt.ups[i] == seg.ups[i] and nxt.known(i) >= 1
+                    and nxt.ups[i] == seg.ups[i]):
+                kn = nxt.known(i)
+            if (nxt is not None and kn >= 1
                     and (seg.on_end[i]
                          or nxt.step_tick(i, 1) - self.w_end < self.min_wait)):
                 # the same step is the start of the next segment (where the path
@@ -301,7 +308,7 @@ class AxisWriter:
                 self.seq += 1
                 self.j = 0
                 seg = nxt
-                known = seg.known(i)
+                known = kn
             else:
                 # a joint between steps: the step and a wait up to the next segment's
                 # first step, whose steps then follow their own spacing
@@ -318,7 +325,20 @@ class AxisWriter:
         pitch = seg.pitch[i]
         phase = seg.phase[i]
         if not complete:  # the steps end a command's time before the horizon
-            back = int(seg.dist_at(ex.t - min_cmd) / pitch + phase)  # (steps_by)
+            tb = ex.t - min_cmd
+            sb = seg.s_done
+            if tb < seg.t_done:
+                for p in seg.pieces:  # (Segment.dist_at written out)
+                    if tb <= p.t1:
+                        tau = tb - p.t0
+                        if tau <= 0.0:
+                            sb = p.s0
+                        else:
+                            sb = p.s0 + tau * (p.v0 + 0.5 * p.a * tau)
+                            if sb >= p.s1:
+                                sb = p.s1
+                        break
+            back = int(sb / pitch + phase)  # (steps_by)
             if back <= j0 and self.last_start > self._deep:
                 return _WAIT  # (cut at j0 + 1 below: the queue is deep)
         t0 = self.w_end
@@ -359,7 +379,18 @@ class AxisWriter:
                 elif pa != 0.0 and cruise_end is not None:
                     break
             factor = 2.0 if slowing else 8.0
-        t_lim = self._limit(t0, a, cruise_end, factor, boundary)
+        jmax = j0 + MAX_STEPS
+        if known < jmax:
+            jmax = known
+        deep = self.last_start > self._deep
+        tol = self.tol
+        # (_limit written out)
+        if cruise_end is not None:
+            t_lim = cruise_end + math.sqrt(2.0 * tol / a)
+        else:
+            t_lim = t0 + math.sqrt(factor * tol / a)
+        if t_lim >= boundary:
+            t_lim = boundary
         plain = ex.plain
         if plain:  # near a plain corner the tolerance shrinks by its offset
             ends = ex.plain_ends
@@ -371,16 +402,32 @@ class AxisWriter:
             while k < n and ends[k] < t0:
                 k += 1
             self.plain_k = k + base
-            if k < n and plain[k][0] - ex.plain_widen <= t_lim:
-                tol = ex.tolerance_near(i, t0, t_lim, self.tol, k)
-                if tol < self.tol:
-                    self.tol = tol
-                    t_lim = self._limit(t0, a, cruise_end, factor, boundary)
-        jmax = j0 + MAX_STEPS
-        if known < jmax:
-            jmax = known
-        jh = int((seg.s_done if t_lim >= seg.t_done else seg.dist_at(t_lim)) / pitch
-                 + phase)  # (steps_by)
+            widen = ex.plain_widen
+            if k < n and plain[k][0] - widen <= t_lim:
+                # (Executor.tolerance_near from k, written out)
+                near = tol
+                while k < n:
+                    pk = plain[k]
+                    if pk[0] - widen > t_lim:
+                        break
+                    x = tol - pk[2][i]
+                    if x < near:
+                        near = x
+                    k += 1
+                if not near > 0.0:  # (at least 0.0)
+                    near = 0.0
+                if near < tol:
+                    self.tol = tol = near
+                    if cruise_end is not None:
+                        t_lim = cruise_end + math.sqrt(2.0 * tol / a)
+                    else:
+                        t_lim = t0 + math.sqrt(factor * tol / a)
+                    if t_lim >= boundary:
+                        t_lim = boundary
+        if t_lim >= seg.t_done:
+            jh = int(seg.s_done / pitch + phase)  # (steps_by)
+        else:
+            jh = int(seg.dist_at(t_lim) / pitch + phase)
         if jh > jmax:
             jh = jmax
         elif jh <= j0:
@@ -392,9 +439,28 @@ class AxisWriter:
         if not complete and back < jh:
             cut = True
             jh = back if back > j0 else j0 + 1
-        if cut and self.last_start > self._deep:
+        if cut and deep:
             return _WAIT  # the queue is deep: the next run makes it longer
-        th = seg.step_tick(i, jh)
+        if jh == seg.steps[i] and complete and seg.end == seg.length and seg.on_end[i]:
+            th = seg.end_tick
+        else:  # (Segment.step_tick written out: jh >= 1)
+            s = (jh - phase) * pitch
+            th = int(seg.t_done + 0.5)
+            for p in pieces:
+                if s <= p.s1:
+                    d = s - p.s0
+                    if d <= 0.0:
+                        th = int(p.t0 + 0.5)
+                        break
+                    v0 = p.v0
+                    root = v0 * v0 + 2.0 * p.a * d
+                    den = v0 + math.sqrt(root if root > 0.0 else 0.0)
+                    if den <= 0.0:
+                        th = int(p.t1 + 0.5)
+                        break
+                    t = p.t0 + 2.0 * d / den
+                    th = int((t if t < p.t1 else p.t1) + 0.5)
+                    break
         if th - t0 < min_cmd:  # too short for a command: take more steps
             ahead = seg.steps_by(i, seg.dist_at(t0 + min_cmd))
             if ahead > jh:
