@@ -209,6 +209,7 @@ def starts_logged(backend: Any, into: list[Start]) -> Iterator[None]:
                                    "dir": q.dir_pin != PIN_UNDEFINED,
                                    "en": bool(e is not None and e.steps == 0 and e.bare),
                                    "steps": e.total_steps if e is not None else 0,
+                                   "end": bool(self.ramp_ended),
                                    "in_task": bool(m.in_task)}, pieces))
 
     SimChannel.start = start  # type: ignore[method-assign]
@@ -274,7 +275,8 @@ def kind_text(kind: dict[str, Any]) -> str:
     if not kind:
         return "?"
     return " ".join(("run" if kind["run"] else "move",
-                     "dir" if kind["dir"] else "no dir") + (("en",) if kind["en"] else ()))
+                     "dir" if kind["dir"] else "no dir") + (("en",) if kind["en"] else ())
+                    + (("end",) if kind.get("end") else ()))
 
 
 @dataclass

@@ -322,6 +322,8 @@ class SimBackend(Backend):
         m = self.machine
         if m.in_task and m.timing.fill_enable_ticks:
             m.task_offset += m.timing.fill_enable_ticks
+        if m.in_task and m.timing.fill_first_write_enable_ticks:
+            m.task_offset += m.timing.fill_first_write_enable_ticks
 
     def read_pin(self, pin: int) -> int:
         found = False

@@ -189,6 +189,12 @@ class SimTiming:
     # -> startQueue() 1 027 ticks after such a command, 975 after one step or a pause
     # (+ 70 to the model's compare: 1 097).  Off (0) everywhere
     fill_start_after_cmd_ticks: int = 0
+    # a queue start whose fill wrote the ramp's last command (the whole move written in
+    # the start task: the ramp generator's end, QueueChannel.ramp_ended): this on top of
+    # the start's figure above.  Build d's replica: the last write -> the first step 575-601
+    # ticks longer than the model's in all six such starts of d14, test_sd_06 and test_sd_07
+    # (bench/replica/start_steps.py, "forty-fifth pass").  Off (0) everywhere
+    fill_start_ramp_end_ticks: int = 0
     # a pause the library writes itself before the first command (auto enable's delay):
     # a bare queue write, no ramp step planned (0: as fill_pause_ticks)
     fill_bare_pause_ticks: int = 0
@@ -198,6 +204,13 @@ class SimTiming:
     # 311 ticks later after its library call than the second move's (outputs on):
     # 559 against 248 ("forty-second pass").  0 (not charged) by default
     fill_enable_ticks: int = 0
+    # the same read on starts: the first write of a start (to an empty stopped queue) is
+    # charged this less, and auto enable's enableOutputs() (a write with the outputs off)
+    # this more - the model's figures were read on first moves, whose outputs were off.
+    # Build d's replica: a later start with the outputs still on writes its first command
+    # 137-194 ticks sooner after the task's entry than the same run's first start (nine
+    # runs; bench/replica/start_steps.py, "forty-fifth pass").  Off (0) everywhere
+    fill_first_write_enable_ticks: int = 0
     # CPU time of one write call to the console's serial driver beyond char_ticks per
     # character (the ATmega32U4's USB CDC driver)
     console_call_ticks: int = 0
@@ -429,6 +442,10 @@ BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS: tuple[int, int, int] = (154, 123, 44)
 BUILD_D_REPLICA_TAIL_MASK_TICKS: tuple[int, ...] = (28, 79, 9, 56, 28, 116)
 # ... and a continuous run's commands (fill_continuous_saved_ticks; variant F44)
 BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS: tuple[int, int] = (67, 32)
+# ... and a start whose fill ended the ramp (fill_start_ramp_end_ticks; variant E45)
+BUILD_D_REPLICA_START_RAMP_END_TICKS = 598
+# ... and the first write's enableOutputs() (fill_first_write_enable_ticks; variant O45)
+BUILD_D_REPLICA_FIRST_WRITE_ENABLE_TICKS = 189
 
 # build d's ATmega328P as read from its replica (docs/timing-model.md, "fortieth pass";
 # the default since then): AVR_TIMING's figures with the ramp task above (the pieces of

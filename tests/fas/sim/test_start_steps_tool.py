@@ -81,7 +81,8 @@ def test_the_models_start_d35_by_default() -> None:
     src = text.read_text().strip() if text.exists() else "M1 A1000000 V40 e R20000 W"
     (s,) = start_steps.model_starts(src)
     assert s.stepper == 0 and s.writes == 14
-    assert s.kind == {"run": False, "dir": True, "en": False, "steps": 1, "in_task": True}
+    assert s.kind == {"run": False, "dir": True, "en": False, "steps": 1, "end": False,
+                      "in_task": True}
     assert s.to_step == sum(s.pieces.values())
 
 
