@@ -95,8 +95,9 @@ def replica_starts(ev: Iterable[str], pins: Iterable[str], lag: int) -> list[Sta
     ``lag``, each with its task's own CPU (interrupts nested in it left out) at each
     queue write of the started queue and at the call.  The started stepper: the pin
     whose rise follows the call within ``RISE_WINDOW`` (a vote over the run's starts of
-    the same queue; a queue that never shows one: the other stepper than a known one,
-    else A for the lower of two addresses)."""
+    the same queue; a queue that never shows one - its starts begin with auto enable's
+    pause: the other stepper than a known one, else the pin that rises first after its
+    calls, else A for the lower of two addresses)."""
     # entry, call (wall), queue address, the queue's writes' CPU, the call's CPU
     calls: list[tuple[int, int, int, list[int], int]] = []
     stack: list[str] = []
@@ -149,10 +150,17 @@ def replica_starts(ev: Iterable[str], pins: Iterable[str], lag: int) -> list[Sta
     for q in addresses:
         if votes[q]:
             which[q] = votes[q].most_common(1)[0][0]
-    for q in addresses:
+    for q in addresses:  # a queue whose starts begin with a pause (auto enable's delay)
         if q not in which:
             other = [which[x] for x in which]
-            which[q] = (1 - other[0]) if other else (0 if q == addresses[0] else 1)
+            near: collections.Counter[int] = collections.Counter()
+            for _, call, q2, _, _ in calls:
+                rs = [(r - call, s) for s in (0, 1) if q2 == q
+                      and (r := first_after(s, call)) is not None]
+                if rs:
+                    near[min(rs)[1]] += 1
+            which[q] = ((1 - other[0]) if other else near.most_common(1)[0][0] if near
+                        else 0 if q == addresses[0] else 1)
     out = []
     for entry_, call, q, ws, call_cpu in calls:
         s = which[q]

@@ -112,3 +112,10 @@ def test_a_missing_run_is_a_one_line_error(capsys: pytest.CaptureFixture[str],
     assert start_steps.main(["--work", str(tmp_path), "nothing"]) == 2
     assert capsys.readouterr().err.strip().count("\n") == 0
     assert start_steps.main(["--config", "Z99", "x"]) == 2
+
+
+def test_a_queue_whose_start_begins_with_a_pause_is_the_pin_that_rises_after_it() -> None:
+    # stepper B alone, its first entry auto enable's pause: no rise within the window
+    pins = "0 B1 0\n0 B2 0\n40000 B2 1\n40070 B2 0\n"
+    (s,) = start_steps.replica_starts(EV.splitlines(), pins.splitlines(), LAG)
+    assert s.stepper == 1 and s.rise == 40000 - LAG
