@@ -112,7 +112,8 @@ VARIANTS: dict[str, list[str]] = {
     # bench/replica/start_steps.py, forty-fifth pass)
     "I45": ["task_nested_isrs=2"],
     # a start whose fill wrote the ramp's last command costs more before its first step
-    # (SimTiming.fill_start_ramp_end_ticks; forty-fifth pass)
+    # (SimTiming.fill_start_ramp_end_ticks; forty-fifth pass; build d's default since,
+    # absolute: changes nothing on the default)
     "E45": [f"fill_start_ramp_end_ticks={sim_timing_module.BUILD_D_REPLICA_START_RAMP_END_TICKS}"],
     # a start's first write costs its enableOutputs() only where the outputs are off
     # (SimTiming.fill_first_write_enable_ticks; forty-fifth pass)
