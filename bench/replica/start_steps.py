@@ -58,8 +58,10 @@ RISE_WINDOW = (40, 160)  # a start's own compare rises this far after the call (
 
 @dataclass
 class Start:
-    """One start: the stepper (0 = A), the task's entry, the start (the call / the
-    model's start tick), the first rise after it (None: none), the writes before it."""
+    """One start: the stepper (0 = A), the entry of the task that made it, the start
+    (the replica's call; the model's compare time), the stepper's first rise after the
+    entry (None: none), the commands written before it, its kind (the model's record)
+    and its pieces (:func:`pieces_of`, ``start``: the call to the rise)."""
 
     stepper: int
     entry: int
@@ -231,7 +233,7 @@ def starts_logged(backend: Any, into: list[Start]) -> Iterator[None]:
 
 def model_starts(text: str) -> list[Start]:
     """The model's starts of ``text`` in build d (the current figures), each with the
-    first rise of its pin at or after its start tick."""
+    first rise of its pin after its task's entry."""
     from pulse_widths import backend_pulses
 
     from fas.sim import SimBackend
