@@ -111,6 +111,9 @@ VARIANTS: dict[str, list[str]] = {
     # task move its writes and queue starts as the UART's do (SimTiming.task_nested_isrs;
     # bench/replica/start_steps.py, forty-fifth pass)
     "I45": ["task_nested_isrs=2"],
+    # ... in the tasks that run while no stepper runs only (the start tasks;
+    # SimTiming.start_task_nested_isrs)
+    "J45": ["start_task_nested_isrs=1"],
     # a start whose fill wrote the ramp's last command costs more before its first step
     # (SimTiming.fill_start_ramp_end_ticks; forty-fifth pass; build d's default since,
     # absolute: changes nothing on the default)

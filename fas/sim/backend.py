@@ -134,6 +134,8 @@ class SimBackend(Backend):
         m.task_offset = p.fill_entry_ticks
         if p.idle_task_ticks and not any(ch.running for ch in self.channels):
             m.task_offset = p.idle_task_ticks  # no stepper runs (a command may start one)
+        if p.start_task_nested_isrs:
+            m.nest_timer0 = not any(ch.running for ch in self.channels)
         per_entry = p.fill_queued_entry_ticks
         if p.task_nested_isrs and m.step_isrs_between is None:
             m.step_isrs_between = lambda lo, hi: sum(c.isr_cpu_between(lo, hi)
@@ -166,6 +168,7 @@ class SimBackend(Backend):
             cost = m.task_offset + p.fill_exit_ticks
             m.task_offset = 0
             m.in_task = False
+            m.nest_timer0 = False
         m.stolen_ticks += cost
         exit_ticks = p.fill_mask_exit_ticks
         if p.fill_tail_mask_ticks and m.profile.irq_block_delays_steps:

@@ -212,6 +212,11 @@ class SimTiming:
     # 137-194 ticks sooner after the task's entry than the same run's first start (nine
     # runs; bench/replica/start_steps.py, "forty-fifth pass").  Off (0) everywhere
     fill_first_write_enable_ticks: int = 0
+    # a ramp task that runs while no stepper runs (it may start one) nests timer 0's
+    # overflows (and the UART's) in its time line as task_nested_isrs 2 does in every
+    # task: build d's replica nests 98 of timer 0's overflows (92 ticks) in its 75 start
+    # tasks ("forty-fifth pass").  Off everywhere
+    start_task_nested_isrs: bool = False
     # CPU time of one write call to the console's serial driver beyond char_ticks per
     # character (the ATmega32U4's USB CDC driver)
     console_call_ticks: int = 0

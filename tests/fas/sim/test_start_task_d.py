@@ -145,3 +145,16 @@ def _pulses_a(text: str) -> list[tuple[int, int]]:
     app = make_program("demo", backend, scripted=True)
     app.run_script(text, firmware_end=True)
     return pulse_widths.backend_pulses(backend)["A"]
+
+
+def test_j45_nests_timer_0_in_the_start_tasks_alone(monkeypatch: pytest.MonkeyPatch) -> None:
+    e_before = sim_timing(ATMEGA328P, "e")
+    d35 = _first_steps(D35)
+    default_with(monkeypatch, "J45")
+    assert sim_timing(ATMEGA328P, "d").start_task_nested_isrs
+    assert not sim_timing(ATMEGA328P, "e").start_task_nested_isrs
+    assert e_before.start_task_nested_isrs is False
+    # d35's start task (fourteen writes, ~37 900 ticks) takes two of timer 0's overflows
+    # (96 ticks each in the model)
+    moved = _first_steps(D35)
+    assert moved[0] - d35[0] == 2 * sim_timing(ATMEGA328P, "d").millis_isr_ticks
