@@ -107,9 +107,24 @@ VARIANTS: dict[str, list[str]] = {
     # (SimTiming.fill_continuous_saved_ticks; forty-fourth pass)
     "F44": ["fill_continuous_saved_ticks=" + ",".join(
         map(str, sim_timing_module.BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS))],
+    # timer 0's overflows (and a running stepper's step interrupts) nested in the ramp
+    # task move its writes and queue starts as the UART's do (SimTiming.task_nested_isrs;
+    # bench/replica/start_steps.py, forty-fifth pass)
+    "I45": ["task_nested_isrs=2"],
+    # ... in the tasks that run while no stepper runs only (the start tasks;
+    # SimTiming.start_task_nested_isrs)
+    "J45": ["start_task_nested_isrs=1"],
+    # a start whose fill wrote the ramp's last command costs more before its first step
+    # (SimTiming.fill_start_ramp_end_ticks; forty-fifth pass; build d's default since,
+    # absolute: changes nothing on the default)
+    "E45": [f"fill_start_ramp_end_ticks={sim_timing_module.BUILD_D_REPLICA_START_RAMP_END_TICKS}"],
+    # a start's first write costs its enableOutputs() only where the outputs are off
+    # (SimTiming.fill_first_write_enable_ticks; forty-fifth pass)
+    "O45": ["fill_first_write_enable_ticks="
+            f"{sim_timing_module.BUILD_D_REPLICA_FIRST_WRITE_ENABLE_TICKS}"],
 }
-# the variants that make build d's default (fortieth pass)
-DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39"]
+# the variants that make build d's default (fortieth pass; E45 since the forty-fifth)
+DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39", "E45"]
 
 
 def set_fitted() -> None:

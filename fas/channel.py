@@ -114,6 +114,9 @@ class QueueChannel(ABC):
     #: the ramp that plans the commands written now runs continuously (``keep_running``:
     #: set by the ramp planner at each fill; a backend whose CPU time follows it reads it)
     ramp_continuous: bool = False
+    #: the ramp planner's last fill wrote the ramp's last command (the ramp ended in it;
+    #: set at each fill; a backend whose CPU time follows it reads it)
+    ramp_ended: bool = False
 
     # ------------------------------------------------------- every channel
     @abstractmethod

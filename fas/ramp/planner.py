@@ -190,6 +190,7 @@ class RampPlanner(Planner):
         snaps = self._snapshots
         cfg = rg.config
         cfg.take_converted()  # none from before this fill
+        q.channel.ramp_ended = False
         write = host.write
         generated = 0
         queue_len = q.queue_len
@@ -218,6 +219,7 @@ class RampPlanner(Planner):
                 need_delayed_start = delayed_start
                 ticks_prepared += cmd.ticks * cmd.steps if cmd.steps > 1 else cmd.ticks
             if cmd.ticks == 0:
+                q.channel.ramp_ended = True  # the ramp's end (no more commands)
                 break
             if res != AQE_OK:
                 if res.retry:

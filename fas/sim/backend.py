@@ -148,6 +148,13 @@ class SimBackend(Backend):
                     break
             else:  # no stepper runs (a command may start one)
                 m.task_offset = p.idle_task_ticks
+        if p.start_task_nested_isrs:
+            for ch in channels:
+                if ch.running:
+                    m.nest_timer0 = False
+                    break
+            else:
+                m.nest_timer0 = True
         if p.task_nested_isrs and m.step_isrs_between is None:
             m.step_isrs_between = lambda lo, hi: sum(c.isr_cpu_between(lo, hi)
                                                      for c in self.channels)
@@ -182,6 +189,7 @@ class SimBackend(Backend):
             cost = m.task_offset + p.fill_exit_ticks
             m.task_offset = 0
             m.in_task = False
+            m.nest_timer0 = False
         m.stolen_ticks += cost
         exit_ticks = p.fill_mask_exit_ticks
         if p.fill_tail_mask_ticks and m.profile.irq_block_delays_steps:
@@ -338,6 +346,8 @@ class SimBackend(Backend):
         m = self.machine
         if m.in_task and m.timing.fill_enable_ticks:
             m.task_offset += m.timing.fill_enable_ticks
+        if m.in_task and m.timing.fill_first_write_enable_ticks:
+            m.task_offset += m.timing.fill_first_write_enable_ticks
 
     def read_pin(self, pin: int) -> int:
         found = False

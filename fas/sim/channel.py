@@ -153,6 +153,8 @@ class SimChannel(QueueChannel):
             m.task_offset += (p.fill_start_after_cmd_ticks
                               if p.fill_start_after_cmd_ticks and last.total_steps > 1
                               else p.fill_start_ticks)
+            if p.fill_start_ramp_end_ticks and self.ramp_ended:
+                m.task_offset += p.fill_start_ramp_end_ticks  # the ramp ended in this fill
         t = m.cpu_now()
         if e.toggle_dir:
             self._toggle_dir(t)
@@ -466,6 +468,11 @@ class SimChannel(QueueChannel):
                 first, other = p.fill_continuous_saved_ticks
                 m.task_offset -= (first if not self.running
                                   and ((wp - 1 - q.read_idx) & 0xFF) == 0 else other)
+            if (p.fill_first_write_enable_ticks and not self.running
+                    and ((wp - 1 - q.read_idx) & 0xFF) == 0):
+                # the first write's figure less its enableOutputs() (charged by the
+                # backend where auto enable switches the outputs on)
+                m.task_offset -= p.fill_first_write_enable_ticks
             if p.fill_no_dir_pin_saved_ticks and q.dir_pin == PIN_UNDEFINED:
                 first, stopped, running = p.fill_no_dir_pin_saved_ticks
                 # no direction checks (the first write also sets no pin)

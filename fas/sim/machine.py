@@ -152,6 +152,8 @@ class Machine:
         self.cpu_sources: list[CpuSource] = []
         self.task_offset = 0  # CPU time used so far by the running periodic task
         self.in_task = False
+        # the running task nests timer 0 in its time line too (SimTiming.start_task_nested_isrs)
+        self.nest_timer0 = False
         # fill_charges_after_writes: the channels whose fill ran in this task and whose
         # fixed work is still to charge (at the next fill's start or the task's end)
         self.fills_done: list[SimChannel] = []
@@ -639,7 +641,7 @@ class Machine:
         """Tick at which code running right now takes effect (inside a task: later)."""
         if not self.task_offset:
             return self.now
-        if self.timing.task_nested_isrs >= 2:
+        if self.timing.task_nested_isrs >= 2 or self.nest_timer0:
             return self.now + self.nested_stretched(self.task_offset)
         return self.now + self.stretched(self.task_offset)
 

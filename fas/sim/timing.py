@@ -189,6 +189,13 @@ class SimTiming:
     # -> startQueue() 1 027 ticks after such a command, 975 after one step or a pause
     # (+ 70 to the model's compare: 1 097).  Off (0) everywhere
     fill_start_after_cmd_ticks: int = 0
+    # a queue start whose fill wrote the ramp's last command (the whole move written in
+    # the start task: the ramp generator's end, QueueChannel.ramp_ended): this on top of
+    # the start's figure above.  Build d's replica: the last write -> the first step 575-601
+    # ticks longer than the model's in all six such starts of d14, test_sd_06 and test_sd_07
+    # (bench/replica/start_steps.py, "forty-fifth pass").  Build d's ATmega328P
+    # (AVR_D_328P_TIMING) charges it by default; 0 everywhere else
+    fill_start_ramp_end_ticks: int = 0
     # a pause the library writes itself before the first command (auto enable's delay):
     # a bare queue write, no ramp step planned (0: as fill_pause_ticks)
     fill_bare_pause_ticks: int = 0
@@ -198,6 +205,18 @@ class SimTiming:
     # 311 ticks later after its library call than the second move's (outputs on):
     # 559 against 248 ("forty-second pass").  0 (not charged) by default
     fill_enable_ticks: int = 0
+    # the same read on starts: the first write of a start (to an empty stopped queue) is
+    # charged this less, and auto enable's enableOutputs() (a write with the outputs off)
+    # this more - the model's figures were read on first moves, whose outputs were off.
+    # Build d's replica: a later start with the outputs still on writes its first command
+    # 137-194 ticks sooner after the task's entry than the same run's first start (nine
+    # runs; bench/replica/start_steps.py, "forty-fifth pass").  Off (0) everywhere
+    fill_first_write_enable_ticks: int = 0
+    # a ramp task that runs while no stepper runs (it may start one) nests timer 0's
+    # overflows (and the UART's) in its time line as task_nested_isrs 2 does in every
+    # task: build d's replica nests 98 of timer 0's overflows (92 ticks) in its 75 start
+    # tasks ("forty-fifth pass").  Off everywhere
+    start_task_nested_isrs: bool = False
     # CPU time of one write call to the console's serial driver beyond char_ticks per
     # character (the ATmega32U4's USB CDC driver)
     console_call_ticks: int = 0
@@ -429,6 +448,10 @@ BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS: tuple[int, int, int] = (154, 123, 44)
 BUILD_D_REPLICA_TAIL_MASK_TICKS: tuple[int, ...] = (28, 79, 9, 56, 28, 116)
 # ... and a continuous run's commands (fill_continuous_saved_ticks; variant F44)
 BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS: tuple[int, int] = (67, 32)
+# ... and a start whose fill ended the ramp (fill_start_ramp_end_ticks; variant E45)
+BUILD_D_REPLICA_START_RAMP_END_TICKS = 598
+# ... and the first write's enableOutputs() (fill_first_write_enable_ticks; variant O45)
+BUILD_D_REPLICA_FIRST_WRITE_ENABLE_TICKS = 189
 
 # build d's ATmega328P as read from its replica (docs/timing-model.md, "fortieth pass";
 # the default since then): AVR_TIMING's figures with the ramp task above (the pieces of
@@ -445,7 +468,9 @@ AVR_D_328P_TIMING = replace(
     task_phase_ticks=AVR_TIMING.task_phase_ticks + BUILD_D_REPLICA_PHASES["task_phase_ticks"],
     timer0_lag_ticks=BUILD_D_REPLICA_PHASES["timer0_lag_ticks"],
     timer0_data_align=BUILD_D_REPLICA_PHASES["timer0_data_align"],
-    fill_coast_unconverted=True)
+    fill_coast_unconverted=True,
+    # the ramp's end in a start task (forty-fifth pass; the corpus passes with it)
+    fill_start_ramp_end_ticks=BUILD_D_REPLICA_START_RAMP_END_TICKS)
 # ... and the same build with SIMAVR_TIME_MEASUREMENT (upstream's timing tests
 # test_sd_04_timing_*)
 AVR_TIME_MEASUREMENT_TIMING = replace(AVR_D_328P_TIMING, **TIME_MEASUREMENT_STEP_ISR)
