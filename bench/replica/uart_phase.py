@@ -44,6 +44,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent.parent))
 sys.path.insert(0, str(HERE.parent))
 
+import pulse_holders  # noqa: E402
 from d_corpus import VARIANTS, set_build_d  # noqa: E402
 
 WRITE_PCS = ("1064", "1074")  # HardwareSerial::write's critical sections (buffer, register)
@@ -80,20 +81,9 @@ def replica_vector(events: list[list[str]], vector: str, lag: int) -> list[int]:
 
 
 def replica_pulses(pins: Path, lag: int) -> list[tuple[int, int]]:
-    out: list[tuple[int, int]] = []
-    rise = None
-    level = None
-    for line in pins.open():
-        t, pin, v = line.split()
-        if pin != STEP_PIN or int(v) == level:
-            continue
-        level = int(v)
-        if level:
-            rise = int(t) - lag
-        elif rise is not None:
-            out.append((rise, int(t) - lag))
-            rise = None
-    return out
+    """(rise, fall) of every step pulse of stepper A in a ``.pins`` file, less ``lag``."""
+    with pins.open() as f:
+        return pulse_holders.replica_pulses(f, STEP_PIN, lag)
 
 
 class ModelRun:

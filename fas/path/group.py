@@ -524,14 +524,7 @@ class PathGroup:
             self.hold_start = HoldStart(ex.t, ex.v * self.tps,
                                         seg.block if seg is not None else None,
                                         seg.s_done if seg is not None else 0.0)
-        axes = self.axes  # (_horizon written out)
-        fp = axes[0].host.settings.forward_planning_ticks
-        for a in axes:
-            f = a.host.settings.forward_planning_ticks
-            if f > fp:
-                fp = f
-        backend = axes[0].host.backend
-        ex.commit(float(now + fp + backend.planning_extra_ticks + backend.task_period_ticks))
+        ex.commit(self._horizon(now))
         self._write(now)
         if ex.final:
             for w in self.writers:
