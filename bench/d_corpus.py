@@ -122,6 +122,13 @@ VARIANTS: dict[str, list[str]] = {
     # (SimTiming.fill_first_write_enable_ticks; forty-fifth pass)
     "O45": ["fill_first_write_enable_ticks="
             f"{sim_timing_module.BUILD_D_REPLICA_FIRST_WRITE_ENABLE_TICKS}"],
+    # the ramp config's update() with linear acceleration (`J`: s_h > 0) charged before
+    # the command it planned (SimTiming.fill_cubic_update_ticks; forty-sixth pass)
+    "H46": [f"fill_cubic_update_ticks={sim_timing_module.BUILD_D_REPLICA_CUBIC_UPDATE_TICKS}"],
+    # a start's jump (`j`: calculate_ticks(s_jump), and calculate_ramp_steps() where it
+    # is clipped) charged before its first command (SimTiming.fill_jump_start_ticks)
+    "Q46": ["fill_jump_start_ticks=" + ",".join(
+        str(v) for v in sim_timing_module.BUILD_D_REPLICA_JUMP_START_TICKS)],
 }
 # the variants that make build d's default (fortieth pass; E45 since the forty-fifth)
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39", "E45"]

@@ -117,6 +117,11 @@ class QueueChannel(ABC):
     #: the ramp planner's last fill wrote the ramp's last command (the ramp ended in it;
     #: set at each fill; a backend whose CPU time follows it reads it)
     ramp_ended: bool = False
+    #: the ramp generator's extra arithmetic before the next command written (set by the
+    #: ramp planner; a backend whose CPU time follows it reads and clears it): the ramp
+    #: config's update() with linear acceleration, a start's jump (RampGenerator.jump_maths)
+    ramp_cubic_update: bool = False
+    ramp_jump_maths: int = 0
 
     # ------------------------------------------------------- every channel
     @abstractmethod

@@ -29,7 +29,8 @@ _IDLE = int(RampState.IDLE)  # (an Enum member read per call costs a metaclass l
 
 class RampGenerator:
     __slots__ = ("_parameters", "config", "target_pos", "force_stop", "force_immediate_stop",
-                 "rw", "_ticks_per_s", "_ticks_per_us", "_min_cmd_ticks")
+                 "rw", "_ticks_per_s", "_ticks_per_us", "_min_cmd_ticks", "cubic_updated",
+                 "jump_maths")
 
     def __init__(self, ticks_per_s: int, min_cmd_ticks: int, log2_ticks_per_s: int,
                  log2_ticks_div_sqrt2: int, log2_accel_factor: int,
@@ -44,6 +45,13 @@ class RampGenerator:
         self.force_stop = False
         self.force_immediate_stop = False
         self.rw = RampRw()
+        # what the last get_next_command computed beyond a command (a backend whose CPU
+        # time follows the library's reads it): update() with linear acceleration
+        # (s_h > 0: the cubic ramp's figures), and a start's jump (0: none, 1:
+        # calculate_ticks(s_jump), 2: and calculate_ramp_steps where the jump is over
+        # the maximum speed)
+        self.cubic_updated = False
+        self.jump_maths = 0
 
     @property
     def acceleration(self) -> int:
@@ -184,6 +192,8 @@ class RampGenerator:
         cfg = self.config
         was_keep_running = cfg.parameters.keep_running
         app = self._parameters
+        self.cubic_updated = False
+        self.jump_maths = 0
         if app.apply:
             cfg.parameters = app.copy()
             app.apply = False
@@ -192,6 +202,7 @@ class RampGenerator:
             app.move_absolute = False
             app.recalc_ramp_steps = False
             cfg.update()
+            self.cubic_updated = cfg.parameters.s_h > 0
             # a new move command clears an immediate stop
             if self.force_immediate_stop:
                 p = cfg.parameters
@@ -206,8 +217,11 @@ class RampGenerator:
         curr_ticks = rw.curr_ticks
         if curr_ticks == TICKS_FOR_STOPPED_MOTOR:
             s_jump = p.s_jump
-            if s_jump != 0 and cfg.calculate_ticks(s_jump) < p.min_travel_ticks:
-                s_jump = cfg.calculate_ramp_steps(p.min_travel_ticks)
+            if s_jump != 0:
+                self.jump_maths = 1
+                if cfg.calculate_ticks(s_jump) < p.min_travel_ticks:
+                    s_jump = cfg.calculate_ramp_steps(p.min_travel_ticks)
+                    self.jump_maths = 2
             rw.performed_ramp_up_steps = s_jump
             p.recalc_ramp_steps = False
 

@@ -190,7 +190,10 @@ class RampPlanner(Planner):
         snaps = self._snapshots
         cfg = rg.config
         cfg.take_converted()  # none from before this fill
-        q.channel.ramp_ended = False
+        ch = q.channel
+        ch.ramp_ended = False
+        ch.ramp_cubic_update = False
+        ch.ramp_jump_maths = 0
         write = host.write
         generated = 0
         queue_len = q.queue_len
@@ -206,6 +209,10 @@ class RampPlanner(Planner):
             res = AQE_OK
             cmd = rg.get_next_command(q.queue_end_pos, q.queue_end_count_up)
             converted = cfg.take_converted()
+            if rg.cubic_updated:
+                ch.ramp_cubic_update = True
+            if rg.jump_maths:
+                ch.ramp_jump_maths = rg.jump_maths
             if cmd.ticks != 0:
                 if converted is not None:  # the command's period came from the ramp step
                     q.channel.ramp_converted(*converted)

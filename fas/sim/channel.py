@@ -429,6 +429,12 @@ class SimChannel(QueueChannel):
             e = q.entries[(wp - 1) % q.queue_len]
             steps = e.total_steps
             p = m.timing
+            if self.ramp_cubic_update:  # update()'s cubic figures before this command
+                self.ramp_cubic_update = False
+                m.task_offset += p.fill_cubic_update_ticks
+            if self.ramp_jump_maths:  # a start's jump before this command
+                jump, self.ramp_jump_maths = self.ramp_jump_maths, 0
+                m.task_offset += sum(p.fill_jump_start_ticks[:jump])
             if self.plan_pending:
                 self.plan_pending = False
                 if p.fill_charges_after_writes:

@@ -212,6 +212,18 @@ class SimTiming:
     # 137-194 ticks sooner after the task's entry than the same run's first start (nine
     # runs; bench/replica/start_steps.py, "forty-fifth pass").  Off (0) everywhere
     fill_first_write_enable_ticks: int = 0
+    # the ramp config's update() with linear acceleration (s_h > 0: the cubic ramp's
+    # figures - log2_pow_div_3, log2_sqrt, ... - at a move's first command): charged
+    # before the command it planned.  Build d's replica: 314 / 323 / 331 ticks at `J100` /
+    # `J10` / `J1000` (A2000 V400, the first write from rest against the same input
+    # without `J`; docs/timing-model.md, "forty-sixth pass").  Off (0) everywhere
+    fill_cubic_update_ticks: int = 0
+    # a start from rest with a jump (s_jump > 0): calculate_ticks(s_jump), and where
+    # the jump is over the maximum speed calculate_ramp_steps() too; charged before
+    # the command it planned (figures: the first, the second on top).  Build d's
+    # replica: 311-376 (`j3` `j30` `j1000`) and 684 / 724 (`j5000` / `j100000`) at A2000
+    # V400 ("forty-sixth pass").  Off (()) everywhere
+    fill_jump_start_ticks: tuple[int, ...] = ()
     # a ramp task that runs while no stepper runs (it may start one) nests timer 0's
     # overflows (and the UART's) in its time line as task_nested_isrs 2 does in every
     # task: build d's replica nests 98 of timer 0's overflows (92 ticks) in its 75 start
@@ -452,6 +464,16 @@ BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS: tuple[int, int] = (67, 32)
 BUILD_D_REPLICA_START_RAMP_END_TICKS = 598
 # ... and the first write's enableOutputs() (fill_first_write_enable_ticks; variant O45)
 BUILD_D_REPLICA_FIRST_WRITE_ENABLE_TICKS = 189
+# ... and update()'s cubic figures with linear acceleration (fill_cubic_update_ticks;
+# variant H46): the median of `J10` `J100` `J1000` (323, 314, 331) on `M1 A2000 V400 ...
+# R3000 W` against the same without `J` (bench/replica/replica.py --profile; the
+# first write from rest; "forty-sixth pass")
+BUILD_D_REPLICA_CUBIC_UPDATE_TICKS = 323
+# ... and a start's jump (fill_jump_start_ticks; variant Q46): calculate_ticks(s_jump),
+# the median of `j3` `j30` `j1000` (376, 311, 341), and calculate_ramp_steps() on top
+# where the jump is clipped to the maximum speed, `j5000` / `j100000` (684 / 724) less
+# 341: 363 (their mean)
+BUILD_D_REPLICA_JUMP_START_TICKS: tuple[int, int] = (341, 363)
 
 # build d's ATmega328P as read from its replica (docs/timing-model.md, "fortieth pass";
 # the default since then): AVR_TIMING's figures with the ramp task above (the pieces of
