@@ -130,8 +130,9 @@ VARIANTS: dict[str, list[str]] = {
     "Q46": ["fill_jump_start_ticks=" + ",".join(
         str(v) for v in sim_timing_module.BUILD_D_REPLICA_JUMP_START_TICKS)],
 }
-# the variants that make build d's default (fortieth pass; E45 since the forty-fifth)
-DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39", "E45"]
+# the variants that make build d's default (fortieth pass; E45 since the forty-fifth,
+# H46 and Q46 since the forty-sixth)
+DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39", "E45", "H46", "Q46"]
 
 
 def set_fitted() -> None:

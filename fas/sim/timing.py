@@ -492,7 +492,11 @@ AVR_D_328P_TIMING = replace(
     timer0_data_align=BUILD_D_REPLICA_PHASES["timer0_data_align"],
     fill_coast_unconverted=True,
     # the ramp's end in a start task (forty-fifth pass; the corpus passes with it)
-    fill_start_ramp_end_ticks=BUILD_D_REPLICA_START_RAMP_END_TICKS)
+    fill_start_ramp_end_ticks=BUILD_D_REPLICA_START_RAMP_END_TICKS,
+    # update()'s cubic figures and a start's jump (forty-sixth pass; read on inputs of
+    # their own, the corpus passes with them)
+    fill_cubic_update_ticks=BUILD_D_REPLICA_CUBIC_UPDATE_TICKS,
+    fill_jump_start_ticks=BUILD_D_REPLICA_JUMP_START_TICKS)
 # ... and the same build with SIMAVR_TIME_MEASUREMENT (upstream's timing tests
 # test_sd_04_timing_*)
 AVR_TIME_MEASUREMENT_TIMING = replace(AVR_D_328P_TIMING, **TIME_MEASUREMENT_STEP_ISR)

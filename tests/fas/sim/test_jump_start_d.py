@@ -4,7 +4,8 @@ beside its replica (docs/timing-model.md, "forty-sixth pass"): the ramp config's
 (``BUILD_D_REPLICA_CUBIC_UPDATE_TICKS``, variant H46 of ``bench/d_corpus.py``), a start
 from rest computes ``calculate_ticks(s_jump)`` where s_jump > 0, and
 ``calculate_ramp_steps()`` where that jump is over the maximum speed
-(``BUILD_D_REPLICA_JUMP_START_TICKS``, variant Q46).  Both off by default."""
+(``BUILD_D_REPLICA_JUMP_START_TICKS``, variant Q46).  Both build d's default since the
+forty-sixth pass (the corpus passes with them); the other chips and builds keep 0."""
 
 from __future__ import annotations
 
@@ -17,7 +18,10 @@ from fas.sim import timing as sim_timing_module
 from fas.sim.timing import sim_timing
 from stepperdemo.program import make_program
 
-from .build_d_with import default_with
+from .build_d_with import d_corpus, default_with
+
+#: both charges off on build d's default (the model before the forty-sixth pass)
+OFF = ["fill_cubic_update_ticks=0", "fill_jump_start_ticks=0,0"]
 
 # the firmware's first step of each run (steps_A.tsv: 234 581.500, 235 167.875,
 # 235 060.938 and 230 613.062 us) in ticks
@@ -53,9 +57,17 @@ def _first_rise_of(text: str) -> int:
 
 def test_h46_q46_set_build_ds_table_alone(monkeypatch: pytest.MonkeyPatch) -> None:
     d = sim_timing(ATMEGA328P, "d")
-    assert (d.fill_cubic_update_ticks, d.fill_jump_start_ticks) == (0, ())  # off
+    assert d.fill_cubic_update_ticks == sim_timing_module.BUILD_D_REPLICA_CUBIC_UPDATE_TICKS
+    assert d.fill_jump_start_ticks == sim_timing_module.BUILD_D_REPLICA_JUMP_START_TICKS
+    # the other AVR chips and builds keep the fitted table's 0
+    fitted = sim_timing_module.AVR_TIMING
+    assert (fitted.fill_cubic_update_ticks, fitted.fill_jump_start_ticks) == (0, ())
     e_before = sim_timing(ATMEGA328P, "e")
-    default_with(monkeypatch, "H46", "Q46")
+    default_with(monkeypatch)
+    d_corpus.set_build_d(OFF)
+    d = sim_timing(ATMEGA328P, "d")
+    assert (d.fill_cubic_update_ticks, sum(d.fill_jump_start_ticks)) == (0, 0)
+    default_with(monkeypatch, "H46", "Q46")  # absolute: back to the default's figures
     d = sim_timing(ATMEGA328P, "d")
     assert d.fill_cubic_update_ticks == sim_timing_module.BUILD_D_REPLICA_CUBIC_UPDATE_TICKS
     assert d.fill_jump_start_ticks == sim_timing_module.BUILD_D_REPLICA_JUMP_START_TICKS
@@ -90,13 +102,15 @@ def test_the_generator_says_what_it_computed_for_a_moves_first_command(
 
 def test_h46_q46_move_the_first_steps_toward_the_firmware(
         monkeypatch: pytest.MonkeyPatch) -> None:
+    default_with(monkeypatch)
+    d_corpus.set_build_d(OFF)
     before = _offsets()
-    # the default: the first step early by the computation's cost (the replica's first
+    # without them: the first step early by the computation's cost (the replica's first
     # write -289 / -286 / -641 ticks, forty-fifth pass); d01 (neither) as it was
     assert [before[t] for t in FIRMWARE_FIRST_STEP] == [-355, -388, -882, -77]
-    default_with(monkeypatch, "H46")
+    d_corpus.set_build_d(["fill_jump_start_ticks=0,0"] + d_corpus.VARIANTS["H46"])
     h46 = _offsets()
-    default_with(monkeypatch, "Q46")  # on top of H46
+    default_with(monkeypatch, "H46", "Q46")  # the default
     both = _offsets()
     d05, d06, d07, d01 = FIRMWARE_FIRST_STEP
     # H46 moves the runs with `J` by its figure and the one without nothing
