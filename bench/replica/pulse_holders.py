@@ -480,14 +480,21 @@ def print_longest(side: str, pulses: list[tuple[int, int]], chains: list[Chain],
         print(f"| {i} | {b - a} | {a} | {chain_text(chains[i])} |")
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def add_run_args(ap: argparse.ArgumentParser) -> None:
+    """The options of a model run beside a build-d replica run, shared by the replica
+    tools (uart_phase.py): the replica's folder, tag and lag, the conformance data, and
+    the model's variants and settings."""
     ap.add_argument("--work", type=Path, default=Path("/tmp/fas-replica"))
     ap.add_argument("--tag", default="Os-nolto-inall-pad1")
     ap.add_argument("--lag", type=int, default=96, help="replica minus firmware, ticks")
     ap.add_argument("--conformance", type=Path, default=Path("/work/shared/conformance"))
     ap.add_argument("--variant", action="append", default=[], choices=sorted(VARIANTS))
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_run_args(ap)
     ap.add_argument("--stepper", default="A", choices=("A", "B"))
     ap.add_argument("--model-only", action="store_true", help="no replica run")
     ap.add_argument("--text", help="the input (instead of CASE/input.txt)")

@@ -255,12 +255,7 @@ def report_longest(events: list[list[str]], pins: Path, run: ModelRun, lag: int,
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--work", type=Path, default=Path("/tmp/fas-replica"))
-    ap.add_argument("--tag", default="Os-nolto-inall-pad1")
-    ap.add_argument("--lag", type=int, default=96, help="replica minus firmware, ticks")
-    ap.add_argument("--conformance", type=Path, default=Path("/work/shared/conformance"))
-    ap.add_argument("--variant", action="append", default=[], choices=sorted(VARIANTS))
-    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE")
+    pulse_holders.add_run_args(ap)
     ap.add_argument("--count", type=int, default=8, help="longest: pulses listed")
     ap.add_argument("-v", "--verbose", action="store_true")
     ap.add_argument("what", choices=("chars", "status", "longest"))
