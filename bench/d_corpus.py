@@ -207,6 +207,17 @@ def _set_cmd_ticks(setting: str, table_name: str, letter: str, value: str) -> No
         build, **{table_name: {**table, letter: new}})
 
 
+def set_build_d_from_args(args: argparse.Namespace, prog: str) -> bool:
+    """Build d's figures from a tool's ``--variant`` and ``--set`` options (shared by
+    this tool and the replica tools); a bad setting is one line on stderr and False."""
+    try:
+        set_build_d([s for v in args.variant for s in VARIANTS[v]] + args.set)
+    except ValueError as exc:
+        print(f"{prog}: {exc}", file=sys.stderr)
+        return False
+    return True
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--variant", action="append", default=[], choices=sorted(VARIANTS),
@@ -217,10 +228,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="every check of every file (the runner's -v)")
     ap.add_argument("paths", nargs="+", help="scenario files or folders")
     args = ap.parse_args(argv)
-    try:
-        set_build_d([s for v in args.variant for s in VARIANTS[v]] + args.set)
-    except ValueError as exc:
-        print(f"d_corpus: {exc}", file=sys.stderr)
+    if not set_build_d_from_args(args, "d_corpus"):
         return 2
     return stepperdemo_main(["run", *(["-v"] if args.verbose else []), *args.paths])
 

@@ -56,7 +56,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent.parent))
 sys.path.insert(0, str(HERE.parent))
 
-from d_corpus import VARIANTS, set_build_d  # noqa: E402
+from d_corpus import VARIANTS, set_build_d_from_args  # noqa: E402
 
 STEP_VECTORS = {"A": "11", "B": "12"}
 STEP_PINS = {"A": "B1", "B": "B2"}
@@ -502,10 +502,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="also the N longest pulses of each side with their chains")
     ap.add_argument("cases", nargs="*")
     args = ap.parse_args(argv)
-    try:
-        set_build_d([s for v in args.variant for s in VARIANTS[v]] + args.set)
-    except ValueError as exc:
-        print(f"pulse_holders: {exc}", file=sys.stderr)
+    if not set_build_d_from_args(args, "pulse_holders"):
         return 2
     cases = args.cases or ([args.text] if args.text else [])
     if not cases:

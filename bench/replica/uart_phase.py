@@ -45,7 +45,7 @@ sys.path.insert(0, str(HERE.parent.parent))
 sys.path.insert(0, str(HERE.parent))
 
 import pulse_holders  # noqa: E402
-from d_corpus import VARIANTS, set_build_d  # noqa: E402
+from d_corpus import set_build_d_from_args  # noqa: E402
 
 WRITE_PCS = ("1064", "1074")  # HardwareSerial::write's critical sections (buffer, register)
 UART_VECTOR, TIMER0_VECTOR, TASK_VECTOR = "19", "16", "13"
@@ -261,10 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("what", choices=("chars", "status", "longest"))
     ap.add_argument("cases", nargs="+")
     args = ap.parse_args(argv)
-    try:
-        set_build_d([s for v in args.variant for s in VARIANTS[v]] + args.set)
-    except ValueError as exc:
-        print(f"uart_phase: {exc}", file=sys.stderr)
+    if not set_build_d_from_args(args, "uart_phase"):
         return 2
     for case in args.cases:
         prefix = args.work / (f"{case}-{args.tag}" if args.tag else case)
