@@ -246,29 +246,29 @@ class Drive:
                 if res != AQE_OK:
                     return res
 
-        dir_change_needed = dir_pin != PIN_UNDEFINED and q.queue_end_count_up != count_up
-        if dir_pin != PIN_UNDEFINED and dir_pin & PIN_EXTERNAL_FLAG:
-            if dir_change_needed and not self._set_external_direction(count_up):
-                res = q.add_queue_entry(self._profile.us_to_ticks(2000), 0, count_up,
-                                        start=start)
-                return AqeResult.DIR_PIN_2MS_PAUSE_ADDED if res == AQE_OK else res
-        elif dir_change_needed and steps != 0:
-            pool = self.pool
-            before_delay = pool.before_dir_change_ticks if pool is not None else 0
-            after_delay = self.dir_change_delay_ticks
-            if pool is not None:
-                after_delay = max(after_delay, pool.after_dir_change_ticks)
-            if q.last_command_ticks >= before_delay:
-                before_delay = 0  # the last command already lasts long enough
-            needed = 1 + (before_delay > 0) + (after_delay > 0)
-            if q.queue_entries() >= q.queue_len - needed:
-                return AqeResult.DIR_PIN_IS_BUSY
-            for delay in (before_delay, after_delay):
-                if delay > 0:
-                    res = q.add_queue_entry(max(delay, self._profile.min_cmd_ticks), 0,
-                                            count_up, start=start)
-                    if res != AQE_OK:
-                        return res
+        if dir_pin != PIN_UNDEFINED and q.queue_end_count_up != count_up:  # a direction change
+            if dir_pin & PIN_EXTERNAL_FLAG:
+                if not self._set_external_direction(count_up):
+                    res = q.add_queue_entry(self._profile.us_to_ticks(2000), 0, count_up,
+                                            start=start)
+                    return AqeResult.DIR_PIN_2MS_PAUSE_ADDED if res == AQE_OK else res
+            elif steps != 0:
+                pool = self.pool
+                before_delay = pool.before_dir_change_ticks if pool is not None else 0
+                after_delay = self.dir_change_delay_ticks
+                if pool is not None:
+                    after_delay = max(after_delay, pool.after_dir_change_ticks)
+                if q.last_command_ticks >= before_delay:
+                    before_delay = 0  # the last command already lasts long enough
+                needed = 1 + (before_delay > 0) + (after_delay > 0)
+                if q.queue_entries() >= q.queue_len - needed:
+                    return AqeResult.DIR_PIN_IS_BUSY
+                for delay in (before_delay, after_delay):
+                    if delay > 0:
+                        res = q.add_queue_entry(max(delay, self._profile.min_cmd_ticks), 0,
+                                                count_up, start=start)
+                        if res != AQE_OK:
+                            return res
 
         res = q.add_queue_entry(ticks, steps, count_up, start)
         if res == AQE_OK and self.auto_enable:

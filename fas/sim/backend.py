@@ -161,12 +161,13 @@ class SimBackend(Backend):
         if p.fill_queued_entry_ticks or p.fill_stepper_ticks:
             # a stepper whose ramp has planned everything: its fill returns at once
             planning = engine.planning_queues() if p.fill_skips_done_ramps else None
+            plan = bool(p.fill_plan_ticks)
             for ch in channels:  # a running stepper's fill first sums its queue
                 if ch.running:
                     q = ch.q
                     if planning is not None and not _among(q, planning):
                         continue
-                    ch.plan_pending = bool(p.fill_plan_ticks)
+                    ch.plan_pending = plan
                     if p.fill_reads_queue_live:
                         continue  # charged when its fill reads the queue (fill_begins)
                     if p.fill_charges_after_writes:  # charged after its writes
@@ -179,11 +180,13 @@ class SimBackend(Backend):
             if p.fill_charges_after_writes:  # the last fills' work, and those that never ran
                 done = m.fills_done
                 for ch in channels:
+                    ch.plan_pending = False
                     if ch.fill_charge:
                         done.append(ch)
                 flush_fills(m)
-            for ch in channels:
-                ch.plan_pending = False
+            else:
+                for ch in channels:
+                    ch.plan_pending = False
             # the task's own CPU time; the UART interrupts that run inside it are
             # counted as such by the loop (Machine.consume)
             cost = m.task_offset + p.fill_exit_ticks

@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 from ..channel import PulseCounter, QueueChannel
 from ..codes import PIN_UNDEFINED
 from .machine import LATE_ENTRY, PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
+from .pins import EdgeRecorder
 from .ramp_cost import conversion_ticks
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -47,6 +48,21 @@ ENTRY_RESTART = 2  # an entry that arrived after the queue had run dry
 
 
 class SimChannel(QueueChannel):
+    # (slots: the event loop and the ramp task read and write these for every pulse
+    # and command)
+    __slots__ = ("m", "q", "pins", "_made_plain", "_isr_plain", "step_pin", "lat", "wrap",
+                 "start_ticks", "prio", "isr_ticks", "isr_next_ticks", "cost",
+                 "irq_sensitive", "contention", "ocr", "ocr_next", "after_reti", "running",
+                 "no_more", "mode_one", "event", "_spare", "_single_isr_fn",
+                 "_batch_end_fn", "pending_compare", "pending_pulse", "batch", "b_entry",
+                 "b_c0", "b_t", "b_n", "b_counted", "block_isrs_done", "entry_req",
+                 "entry_tick", "precounted", "pulse_counter", "detached", "pulses",
+                 "starts", "dry", "missed_compares", "entry_listeners", "maths_ticks",
+                 "converted", "fast_acc_below", "_noted", "plan_pending", "_start_event",
+                 "_start_tick", "entry_guard", "on_halt", "on_idle", "fill_charge",
+                 "fill_read_tick", "ramp_continuous", "ramp_ended", "ramp_cubic_update",
+                 "ramp_jump_maths")
+
     def __init__(self, machine: Machine, queue: StepperQueue) -> None:
         p = machine.profile
         self.m = machine
@@ -127,6 +143,16 @@ class SimChannel(QueueChannel):
         self.entry_guard: Callable[[QueueEntry], bool] | None = None
         self.on_halt: Callable[[], None] | None = None
         self.on_idle: Callable[[], None] | None = None  # the queue ran dry (fas.sync)
+        # fill_charges_after_writes: this running stepper's fixed fill work, charged
+        # after its writes (SimBackend._task sets it; flush_fills charges it)
+        self.fill_charge = 0
+        self.fill_read_tick = 0  # the tick of the fill's last live read of this queue
+        # (fill_begins; bench tools)
+        # the ramp's notes (QueueChannel's), as slots here
+        self.ramp_continuous = False
+        self.ramp_ended = False
+        self.ramp_cubic_update = False
+        self.ramp_jump_maths = 0
         if self.irq_sensitive:
             machine.block_listeners.append(self._on_block)
 
@@ -310,10 +336,6 @@ class SimChannel(QueueChannel):
                 count += j1 - j0 + 1
         return count * self.isr_ticks
 
-    # fill_charges_after_writes: this running stepper's fixed fill work, charged after
-    # its writes (SimBackend._task sets it; flush_fills charges it)
-    fill_charge = 0
-
     def fill_begins(self) -> int:
         m = self.m
         p = m.timing
@@ -353,9 +375,6 @@ class SimChannel(QueueChannel):
         # the library then sums the entries after the one running by then
         m.task_offset += self.queue_sum_ticks(rp)
         return skipped
-
-    # the tick of the fill's last live read of this queue (fill_begins; bench tools)
-    fill_read_tick = 0
 
     def queue_sum_ticks(self, rp: int) -> int:
         """The fill's CPU time summing the queue entries after entry ``rp`` (the one
@@ -820,9 +839,12 @@ class SimChannel(QueueChannel):
                         self.event = ev
                         seq = m.seq + 1
                         m.seq = seq
+                        sinks = self.pins.sinks
                         if (compare <= m.run_limit and not self.precounted
                                 and self.pulse_counter is None and self._made_plain
-                                and not self.detached and not self.pins.sinks):
+                                and not self.detached
+                                and (not sinks or (len(sinks) == 1
+                                                   and type(sinks[0]) is EdgeRecorder))):
                             self._go_on(ev, e, compare, cost)
                             return
                         heappush(m.events, (compare, self.prio, seq, ev))
@@ -834,7 +856,9 @@ class SimChannel(QueueChannel):
     def _go_on(self, ev: Event, e: QueueEntry, compare: int, cost: int) -> None:
         """The single pulses of entry ``e`` (the running one) from the request at
         ``compare`` on (its event ``ev``, set but not pushed), inside
-        :meth:`Machine.run_until`, nobody watching the pin's edges or counting pulses:
+        :meth:`Machine.run_until`, nobody counting pulses or watching the pins' edges
+        but an :class:`EdgeRecorder` (it keeps each pin's edges in order, however they
+        come in: they are handed on when the run ends):
         while the next request is the next event run_until would run and the CPU is
         free for it at once, its interrupt runs here - run_until's work between two
         events and :meth:`_single_isr`'s for the pulse, written out, the pin's figures
@@ -866,6 +890,7 @@ class SimChannel(QueueChannel):
         made = 0
         high = 0
         longest = pins.high_max.get(pin, 0)
+        edges: list[int] | None = [] if pins.sinks else None  # (for the EdgeRecorder)
         while True:
             # the request at ``compare``: the next event, entered at once?
             if compare > limit or (heap and heap[0][0] <= compare):
@@ -912,6 +937,8 @@ class SimChannel(QueueChannel):
             if polling:  # ... or at the end of the loop's cli
                 now += m.loop_hold(c, ticks or 1, isr_ticks)
             made += 1
+            if edges is not None:
+                edges += (c, now)
             width = now - c
             high += width
             if width > longest:
@@ -931,20 +958,23 @@ class SimChannel(QueueChannel):
                     m.seq += 1
                     continue
             # the entry's last pulse, or its next compare is missed: as _single_isr
-            self._made_pulses(made, high, longest)
+            self._made_pulses(made, high, longest, edges)
             self.pending_pulse = False
             self.event = None
             self._spare = ev
             self._isr(c, now)
             return
-        self._made_pulses(made, high, longest)
+        self._made_pulses(made, high, longest, edges)
         heappush(heap, (compare, self.prio, m.seq, ev))
 
-    def _made_pulses(self, n: int, high: int, longest: int) -> None:
+    def _made_pulses(self, n: int, high: int, longest: int, edges: list[int] | None) -> None:
         """``n`` single pulses made by :meth:`_go_on`, ``high`` ticks high in all, the
-        longest (of the pin's) ``longest``: the pin's figures (PinBank.pulses)."""
+        longest (of the pin's) ``longest``: the pin's figures (PinBank.pulses), and
+        their ``edges`` (rise, fall, ...) for the pins' one sink, an EdgeRecorder."""
         if not n:
             return
+        if edges is not None:
+            self.pins.sinks[0].edges(self.step_pin, edges, b"\x01\x00" * n)
         self.pulses += n
         pins = self.pins
         pin = self.step_pin

@@ -113,6 +113,19 @@ class Event:
 
 
 class Machine:
+    # (slots: the event loop reads and writes these for every event; __dict__: any
+    # other attribute a tool sets)
+    __slots__ = ("profile", "build", "timing", "now", "events", "seq", "pins", "outputs",
+                 "uart", "irq_blocked_from", "irq_blocked_until", "irq_block_windows",
+                 "irq_blocked_ticks", "block_listeners", "stolen_ticks", "busy_until",
+                 "run_limit", "run_activity", "stolen_mark", "activity", "block_sources",
+                 "cpu_sources", "task_offset", "in_task", "nest_timer0", "fills_done",
+                 "step_isrs_between", "events_run", "_millis_phase", "_millis_started",
+                 "_clock", "_clock_key", "_tick_at_ms", "_quiet_from", "_millis_first",
+                 "isr_starts", "isr_ends", "exit_starts", "exit_ends", "batch_channel",
+                 "_late_isrs", "_ms_window", "_uart_hold", "_uart_window", "loop_polls",
+                 "loop_polling", "_ms_cost", "__dict__")
+
     def __init__(self, profile: Profile, build: str | None = None) -> None:
         self.profile = profile
         self.build = check_build(build)  # the firmware build (fas.sim.builds)

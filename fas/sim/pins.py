@@ -11,12 +11,19 @@ from __future__ import annotations
 
 from array import array
 from collections.abc import Sequence
+from itertools import compress
+from struct import pack
 from typing import Protocol
 
 
 class EdgeSink(Protocol):
     def edges(self, pin: int, times: Sequence[int], levels: bytes) -> None:
         """Edges of one pin, in time order (levels 0/1)."""
+
+
+# EdgeRecorder: from this many edges on, a list of them is packed into the array's
+# bytes (struct) rather than appended item by item
+PACKED_FROM = 16
 
 
 class EdgeRecorder:
@@ -31,7 +38,11 @@ class EdgeRecorder:
         if t is None:
             t = self.times[pin] = array("q")
             self.levels[pin] = bytearray()
-        t.extend(times)
+        if len(times) > PACKED_FROM and type(times) is list:
+            # (a block's edges: packed at once - array.extend converts each item on its own)
+            t.frombytes(pack(f"{len(times)}q", *times))
+        else:
+            t.extend(times)
         self.levels[pin].extend(levels)
 
     def pin_edges(self, pin: int) -> tuple[array[int], bytearray]:
@@ -39,7 +50,7 @@ class EdgeRecorder:
 
     def rising(self, pin: int) -> list[int]:
         times, levels = self.pin_edges(pin)
-        return [t for t, lv in zip(times, levels, strict=True) if lv]
+        return list(compress(times, levels))  # (the times whose level is 1)
 
 
 class PinBank:

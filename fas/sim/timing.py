@@ -24,7 +24,7 @@ from ..arch import ATMEGA2560, ATMEGA2560_VARIANTS, Profile
 from .builds import check_build
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class SimTiming:
     """The simulated chip's timing (ticks of its profile)."""
 
