@@ -44,6 +44,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import repeat
+from operator import mul, sub, truediv
 
 # (STRAIGHT: |w - u| below this is straight on, nothing to blend - any turn above it
 # is blended: a velocity jump of v |w - u| would show in the acceleration from the pins)
@@ -147,7 +149,8 @@ def plain_offsets(u: Sequence[float], w: Sequence[float], zone: float, speed_sqr
     ``threshold`` steps from where the blend reaches it (docs/path-planner.md,
     "Corners no step can tell apart")."""
     scale = 0.25 * zone * speed_sqr
-    out = tuple([scale * abs(b - a) * k for a, b, k in zip(u, w, spu, strict=True)])
+    out = tuple([scale * abs(w[i] - a) * spu[i] for i, a in enumerate(u)])  # (no zip
+    # with its keyword: that costs more than the comprehension)
     for d in out:
         if d > threshold:
             return None
@@ -311,11 +314,11 @@ def zone_coefficient(u: Sequence[float], w: Sequence[float],
                      axis_accel: Sequence[float]) -> float:
     """``k``: a blend at this corner at speed ``v`` takes ``k v^2`` of each block
     (units per (units/s)^2); 0 straight on."""
-    diff = [b - a for a, b in zip(u, w, strict=True)]
-    n = math.sqrt(sum(x * x for x in diff))
+    diff = list(map(sub, w, u))  # (w - u; map: no zip with its keyword, which costs more)
+    n = math.sqrt(sum(map(mul, diff, diff)))
     if n < STRAIGHT:
         return 0.0
-    return n / (2.0 * limit_along(axis_accel, [x / n for x in diff]))
+    return n / (2.0 * limit_along(axis_accel, list(map(truediv, diff, repeat(n)))))
 
 
 def fit_sqr(u: Sequence[float], w: Sequence[float], axis_accel: Sequence[float],
@@ -505,16 +508,24 @@ def exit_window(v_sqr: float, rest: float, accel: float, zone: float
     ``(lo, hi)``, or None where no exit is possible (not even a stop)."""
     two_a = 2.0 * accel
     hi = (v_sqr + two_a * rest) / (1.0 + two_a * zone)  # acceleration reaches it
+    # (min and max below written out: a builtin's call costs more than the comparison;
+    # the first operand on a tie, as theirs)
     if zone > 0.0:
-        hi = min(hi, rest / zone)  # the zone fits
+        fits = rest / zone  # the zone fits
+        if fits < hi:
+            hi = fits
     lo = 0.0
     slope = 1.0 - two_a * zone  # e (1 - 2 a k) >= v^2 - 2 a rest: it can slow down
     # (rounding: an executor on its way to an exit meets the bound with equality)
     need = v_sqr - two_a * rest - WINDOW_EPS * (v_sqr + two_a * rest)
     if slope > WINDOW_EPS:
-        lo = max(0.0, need / slope)
+        low = need / slope
+        if low > lo:
+            lo = low
     elif slope < -WINDOW_EPS:
-        hi = min(hi, need / slope)
+        high = need / slope
+        if high < hi:
+            hi = high
     elif need > 0.0:
         return None
     if lo > hi:

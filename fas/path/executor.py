@@ -448,6 +448,9 @@ class Executor:
         self.plain_ends: list[float] = []
         self.plain_widen = TURN_EXACT_S * ticks_per_s  # (ticks)
         self.plain_base = 0  # plain corners forgotten before plain[0] (trim)
+        #: the largest offset any plain corner ever noted has (steps; never lowered):
+        #: below an axis's tolerance, no plain corner shrinks it to 0
+        self.plain_most = 0.0
 
     # ------------------------------------------------------------ a run
     def begin(self, t0: float) -> None:
@@ -676,6 +679,9 @@ class Executor:
         tolerance less that offset (:meth:`tolerance_near`)."""
         self.plain.append((t_begin, t_end, offsets))
         self.plain_ends.append(t_end + self.plain_widen)
+        for d in offsets:
+            if d > self.plain_most:
+                self.plain_most = d
 
     def tolerance_near(self, axis: int, t0: float, t1: float, tol: float,
                        k: int | None = None) -> float:

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from operator import sub
 from typing import TYPE_CHECKING
 
 from ..codes import PIN_UNDEFINED
@@ -53,6 +54,11 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..stepper import Stepper
 
 INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
+
+#: enum members a task or a line returns or compares with, bound once (a class
+#: attribute look-up of an enum member costs about ten times a global's)
+_OK = PathResult.OK
+_WROTE_ERROR = Wrote.ERROR
 
 
 class PathStats:
@@ -295,9 +301,9 @@ class PathGroup:
             ints = tuple([pin_after(p, x0, x1)
                           for p, x0, x1 in zip(start, origin, exact, strict=True)])
             path = tuple([x1 - x0 for x1, x0 in zip(exact, origin, strict=True)])
-        delta = tuple([t - s for t, s in zip(ints, start, strict=True)])
-        for d, a in zip(delta, axes, strict=True):
-            if d < 0 and not a.host.has_direction_pin():
+        delta = tuple(map(sub, ints, start))  # (no zip with its keyword: it costs more)
+        for i, d in enumerate(delta):  # (by index: see run_task)
+            if d < 0 and not axes[i].host.has_direction_pin():
                 return PathResult.ERR_NO_DIRECTION_PIN
         block = la.make_block(start, delta, feed, tag, override,
                               None if path is None else origin, path, through)
@@ -311,7 +317,7 @@ class PathGroup:
         if was_empty:
             self.first_block_tick = self._now()
         self._wake()
-        return PathResult.OK
+        return _OK
 
     def line_units(self, target: Sequence[float], feed: float | None = None, *,
                    tag: object = None, override: bool = True,
@@ -368,7 +374,7 @@ class PathGroup:
         self.executor.holding = False
         self.flushing = True  # start at once
         self._wake()
-        return PathResult.OK
+        return _OK
 
     def cancel(self) -> None:
         """Stop along the path (a feed hold) and drop every block after the stop."""
@@ -513,9 +519,11 @@ class PathGroup:
             if self._may_start(now):
                 self._start_run(now)
             return
-        # a queue ran dry inside the run (one writer per axis)
-        for w, a in zip(self.writers, self.axes, strict=False):
-            if not w.done and a.queue.is_queue_empty():
+        # a queue ran dry inside the run (one writer per axis; by index: a zip with
+        # its keyword costs more than the loop)
+        axes = self.axes
+        for i, w in enumerate(self.writers):
+            if not w.done and axes[i].queue.is_queue_empty():
                 self._underran()
                 return
         ex = self.executor
@@ -540,7 +548,7 @@ class PathGroup:
             now = self._now()
         backend = self.axes[0].host.backend  # (a device: plus the link's lead)
         low_water = 2 * backend.task_period_ticks + backend.planning_extra_ticks
-        error = Wrote.ERROR
+        error = _WROTE_ERROR
         writers = self.writers
         for w in writers:
             if w.fill(now, low_water) == error:

@@ -33,6 +33,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from itertools import repeat
+from operator import mul, sub, truediv
 
 from .settings import MINIMUM_FEED, AxisLimits
 
@@ -208,20 +210,21 @@ class Lookahead:
         between steps (:class:`Block`); its length and direction are theirs;
         ``through``: :attr:`Block.through`."""
         spu = self.spu
-        d_units = [d / s for d, s in zip(delta if span is None else span, spu,
-                                         strict=True)]
-        length = math.sqrt(sum([x * x for x in d_units]))
+        # (map in place of zips with their keyword, which cost more; the same figures)
+        d_units = list(map(truediv, delta if span is None else span, spu))
+        length = math.sqrt(sum(map(mul, d_units, d_units)))
         if length == 0.0:
             return None
-        unit = tuple([x / length for x in d_units])
+        unit = tuple(map(truediv, d_units, repeat(length)))
         acceleration = rapid = BIG  # (limit_along for both, written out)
-        for lim, rate, u in zip(self.accel, self.max_rate, unit, strict=True):
+        accel, max_rate = self.accel, self.max_rate
+        for i, u in enumerate(unit):  # (by index: a zip with its keyword costs more)
             if u != 0.0:
                 au = abs(u)
-                v = lim / au
+                v = accel[i] / au
                 if v < acceleration:
                     acceleration = v
-                v = rate / au
+                v = max_rate[i] / au
                 if v < rapid:
                     rapid = v
         block = Block(start, delta, unit, length, acceleration, rapid, rapid, tag, feed,
@@ -236,7 +239,10 @@ class Lookahead:
         if block.feed is None:
             return rapid * self.rapid_scale if block.override else rapid
         feed = block.feed * self.feed_scale if block.override else block.feed
-        return min(max(feed, MINIMUM_FEED) / 60.0, rapid)
+        # (min(max(feed, MINIMUM_FEED) / 60.0, rapid) written out: a builtin's call costs
+        # more than the comparison - here and below, the same operand on a tie)
+        speed = (MINIMUM_FEED if feed < MINIMUM_FEED else feed) / 60.0
+        return rapid if rapid < speed else speed
 
     def set_overrides(self, feed_scale: float, rapid_scale: float) -> None:
         """New override factors: every queued block's speed and junction limits are
@@ -266,8 +272,11 @@ class Lookahead:
         else:
             block.max_junction_sqr = self.junction_sqr(prev_unit, block.unit)
         nominal = block.nominal_speed
-        top = min(nominal, self.prev_nominal) if blocks else nominal
-        block.max_entry_sqr = min(top * top, block.max_junction_sqr)
+        top = nominal
+        if blocks and self.prev_nominal < nominal:  # (min(nominal, prev_nominal))
+            top = self.prev_nominal
+        top2, limit = top * top, block.max_junction_sqr
+        block.max_entry_sqr = limit if limit < top2 else top2  # (min(top2, limit))
         share = self.blend_share
         if share > 0.0:
             self._reserve(block, share)
@@ -297,13 +306,19 @@ class Lookahead:
             else:
                 k = self._zone_coefficient(prev.unit, block.unit, self.accel)
             if k > 0.0:
-                fit = share * min(prev.length, block.length) / k
+                shorter = block.length if block.length < prev.length else prev.length
+                fit = share * shorter / k
                 if block.max_junction_sqr > fit:
                     block.max_junction_sqr = fit
                 if block.max_entry_sqr > fit:
                     block.max_entry_sqr = fit
-            top = min(block.nominal_speed, prev.nominal_speed)
-            m = min(block.max_junction_sqr, top * top)
+            top = block.nominal_speed  # (min(block's, prev's), written out)
+            if prev.nominal_speed < top:
+                top = prev.nominal_speed
+            top2 = top * top
+            m = block.max_junction_sqr  # (min(m, top2))
+            if top2 < m:
+                m = top2
             res = k * m  # (an override that raises the speeds: the executor's window)
             prev.remaining += prev.reserve_out - res
             prev.reserve_out = res
@@ -321,19 +336,20 @@ class Lookahead:
     def junction_sqr(self, a: Sequence[float], b: Sequence[float]) -> float:
         """The largest speed squared at the corner from direction ``a`` to ``b``."""
         cos_theta = 0.0  # cosine of the angle between the segments (-1: straight on)
-        for x, y in zip(a, b, strict=True):
-            cos_theta -= x * y
+        for i, x in enumerate(a):  # (by index: a zip with its keyword costs more)
+            cos_theta -= x * b[i]
         if cos_theta > COS_REVERSAL:
             return 0.0
         if cos_theta < COS_STRAIGHT:
             return BIG
-        bisector = [y - x for x, y in zip(a, b, strict=True)]
-        norm = math.sqrt(sum([v * v for v in bisector]))
+        bisector = list(map(sub, b, a))  # (b - a; map: no zip with its keyword)
+        norm = math.sqrt(sum(map(mul, bisector, bisector)))
         accel = BIG  # (limit_along(self.accel, bisector / norm), written out)
-        for lim, v in zip(self.accel, bisector, strict=True):
+        limits = self.accel
+        for i, v in enumerate(bisector):  # (by index, as above)
             u = v / norm
             if u != 0.0:
-                x = lim / abs(u)
+                x = limits[i] / abs(u)
                 if x < accel:
                     accel = x
         self._bisector = (a, b, norm, accel)  # (_reserve's zone coefficient: the same)
@@ -350,7 +366,10 @@ class Lookahead:
             return  # one block left to plan: the first stays as executed
         self.recalculations += 1
         cur = blocks[last]
-        e = min(cur.max_entry_sqr, 2.0 * cur.acceleration * cur.remaining)
+        e = cur.max_entry_sqr  # (min(e, stop), written out)
+        stop = 2.0 * cur.acceleration * cur.remaining
+        if stop < e:
+            e = stop
         cur.entry_sqr = e
         # reverse: as fast as each can still slow down to the next (``e``: the entry
         # of the block after ``cur``)
@@ -392,7 +411,8 @@ class Lookahead:
     def pop_first(self) -> Block:
         """The first block was executed to its end: drop it."""
         block = self.blocks.pop(0)
-        self.planned = max(0, self.planned - 1)
+        planned = self.planned - 1  # (max(0, planned), written out)
+        self.planned = planned if planned > 0 else 0
         if not self.blocks:
             self.prev_unit = None  # a block queued now starts from rest
         return block

@@ -91,6 +91,7 @@ class Wrote(IntEnum):
 # enum member costs more, and these are compared for every command written)
 _OK, _WAIT, _FULL, _ERROR = Wrote.OK, Wrote.WAIT, Wrote.FULL, Wrote.ERROR
 _STEP, _UNKNOWN, _END = Found.STEP, Found.UNKNOWN, Found.END
+_QUEUED = AqeResult.OK  # (the queue's answer to a command written, as above)
 
 
 class AxisStats:
@@ -184,7 +185,9 @@ class AxisWriter:
     @property
     def min_wait(self) -> int:
         """The shortest command: a step and its wait, or a pause."""
-        return max(self.min_cmd, self.queue.max_speed_in_ticks)
+        least = self.min_cmd  # (max(least, fastest) written out: a builtin's call
+        fastest = self.queue.max_speed_in_ticks  # costs more than the comparison)
+        return fastest if fastest > least else least
 
     # ---------------------------------------------------------------- writing
     def fill(self, now: int, low_water: int) -> Wrote:
@@ -339,8 +342,13 @@ class AxisWriter:
                                 sb = p.s1
                         break
             back = int(sb / pitch + phase)  # (steps_by)
-            if back <= j0 and self.last_start > self._deep:
-                return _WAIT  # (cut at j0 + 1 below: the queue is deep)
+            if self.last_start > self._deep:
+                if back <= j0:
+                    return _WAIT  # (cut at j0 + 1 below: the queue is deep)
+                last = seg.pieces[-1] if seg.pieces else None
+                if (last is not None and last.a == 0.0 and last.t0 <= self.w_end < last.t1
+                        and self._cruise_cut(seg, j0, known, back, pitch, phase)):
+                    return _WAIT  # (the same as below, found sooner)
         t0 = self.w_end
         # The tick ``t_lim`` up to which a group from ``t0`` may go, ``slowing``:
         # whether the path slows down there.  Grouped steps stay within ``tol`` steps
@@ -486,6 +494,34 @@ class AxisWriter:
             if res is not None:
                 return res
         return self._group(seg, jh - j0, th - t0, jh, th, slowing)
+
+    def _cruise_cut(self, seg: Segment, j0: int, known: int, back: int, pitch: float,
+                    phase: float) -> bool:
+        """Whether the group :meth:`_step` makes from ``w_end`` in ``seg`` (not complete)
+        is cut by the horizon where the path cruises from ``w_end`` to the end of what
+        is final: its limit ``t_lim`` (a cruise's end plus ``sqrt(2 tol / a)``) then lies
+        at or past ``seg.t_done`` whatever the tolerance near a plain corner, so the
+        group reaches the last known step - the figures :meth:`_step` finds, without
+        its look through the pieces and the plain corners.  (The tolerance is left as
+        set: where the queue is deep and the group cut, the next :meth:`_step` sets it
+        again; only :meth:`_next` reads it between, after a new run's ``begin``, and
+        only whether it is 0 - which no plain corner makes it here, every offset being
+        below it.)  False: not found this way (:meth:`_step` goes on)."""
+        pieces = seg.pieces  # (the caller found w_end in the last piece, a cruise)
+        if pieces[-1].t1 < seg.t_done or (len(pieces) > 1 and pieces[-2].t1 > self.w_end):
+            return False  # (w_end not in a cruise that is the last piece)
+        tol = self.tol
+        if tol != 0.0 and self.ex.plain and not self.ex.plain_most < tol:
+            return False  # (a plain corner might shrink the tolerance to 0)
+        jh = int(seg.s_done / pitch + phase)  # (steps_by)
+        jmax = j0 + MAX_STEPS
+        if known < jmax:
+            jmax = known
+        if jh > jmax:
+            jh = jmax
+        elif jh <= j0:
+            jh = j0 + 1
+        return jh >= known or back < jh
 
     def _limit(self, t0: int, a: float, cruise_end: float | None, factor: float,
                boundary: float) -> float:
@@ -932,7 +968,7 @@ class AxisWriter:
         write = self.host.write
         st = self.stats
         listener = self.listener if seg is not None and seg.dominant == self.axis else None
-        ok = AqeResult.OK
+        ok = _QUEUED
         w_end = self.w_end
         for ticks, steps in cmds:
             res = write(ticks, steps, up, False)

@@ -47,6 +47,12 @@ from .motion import BlockQueue, HoldState, MotionExecutor, MotionHost, SpeedList
 if TYPE_CHECKING:  # pragma: no cover
     from .settings import GcodeSettings
 
+#: enum members a line compares with, bound once (a class attribute look-up of an
+#: enum member costs about ten times a global's)
+_PATH_OK, _QUEUE_FULL, _EMPTY_BLOCK = PathResult.OK, PathResult.QUEUE_FULL, PathResult.EMPTY_BLOCK
+_HOLD_NONE = HoldState.NONE
+
+
 def path_settings(st: GcodeSettings, axes: int, blocks: int) -> PathSettings:
     """The group's figures from the machine's ``$`` settings."""
     limits = tuple(AxisLimits(st.steps_per_unit[i], st.max_rate[i], st.acceleration[i])
@@ -267,15 +273,15 @@ class LookaheadExecutor(MotionExecutor):
                          None if move.rapid else move.feed, tag=move,
                          through=move.exact is not None,
                          override=not move.jog)
-            if res == PathResult.QUEUE_FULL:
+            if res == _QUEUE_FULL:
                 break
-            if res not in (PathResult.OK, PathResult.EMPTY_BLOCK):
+            if res != _PATH_OK and res != _EMPTY_BLOCK:
                 self.host.motion_failed(_Refused(res.name))
                 return
             self.handed += 1
             self._last = move
             handed_any = True
-        if self._hold != HoldState.NONE and not g.holding:
+        if self._hold != _HOLD_NONE and not g.holding:
             g.hold()  # queued while held: they wait for the resume
         if handed_any:
             g.flush()  # Grbl's auto cycle start: everything received is in
