@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING
 from ..channel import PulseCounter, QueueChannel
 from ..codes import PIN_UNDEFINED
 from .machine import LATE_ENTRY, PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
-from .ramp_cost import conversion_ticks
+from .ramp_cost import conversion_ticks, start_pitch_ticks
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..queue import QueueEntry, StepperQueue
@@ -450,6 +450,9 @@ class SimChannel(QueueChannel):
             elif p.fill_unstarted_multi_cmd_ticks and not self.running:
                 # a starting ramp's command of several steps: one figure, all in
                 m.task_offset += p.fill_unstarted_multi_cmd_ticks
+                if p.fill_start_pitch_ticks:  # ... and by the ramp's branches
+                    m.task_offset += start_pitch_ticks(p.fill_start_pitch_ticks,
+                                                       self.ramp_path)
             elif (p.fill_coast_cmd_ticks
                   and (not converted if p.fill_coast_unconverted
                        else (((wp - 1 - q.read_idx) & 0xFF)
