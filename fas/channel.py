@@ -123,7 +123,7 @@ class QueueChannel(ABC):
     ramp_cubic_update: bool = False
     ramp_jump_maths: int = 0
     #: the branches the ramp's arithmetic took for the command written now
-    #: (NextCommand.path: fas.ramp.control.PATH_*; set by the ramp planner before each
+    #: (NextCommand.path: fas.codes.PATH_*; set by the ramp planner before each
     #: write, a backend whose CPU time follows it reads it)
     ramp_path: int = 0
 

@@ -72,7 +72,7 @@ class NextCommand:
         self.steps = steps
         self.count_up = count_up
         self.rw = rw
-        #: the branches the planning took (PATH_* bits; a backend whose CPU time
+        #: the branches the planning took (fas.codes.PATH_* bits; a backend whose CPU time
         #: follows the library's arithmetic reads them)
         self.path = path
 
