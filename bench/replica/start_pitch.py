@@ -16,7 +16,8 @@ what ``_getNextCommand()`` did for it:
 * ``maths``: ``ramp_config_s::calculate_ticks()`` ran (a coast takes the current period
   and skips it);
 * ``near``: the period before (``rw->curr_ticks``) under two ``MIN_CMD_TICKS`` (1 280
-  ticks: the branch that looks at the ramp's coast);
+  ticks: the accelerating branch that looks at the ramp's coast; read on the period
+  alone, so a coast at the travel speed is ``near`` here too);
 * ``check``: the ramp's coast check multiplied (``__mulsi3``: at a period under two
   ``MIN_CMD_TICKS`` with 1..510 steps possible to coast, ``possible_coast_steps *
   curr_ticks``);
