@@ -129,6 +129,11 @@ VARIANTS: dict[str, list[str]] = {
     # is clipped) charged before its first command (SimTiming.fill_jump_start_ticks)
     "Q46": ["fill_jump_start_ticks=" + ",".join(
         str(v) for v in sim_timing_module.BUILD_D_REPLICA_JUMP_START_TICKS)],
+    # a starting ramp's commands by the branches their planning took (the coast check's
+    # multiplication, a coast without calculate_ticks(), ...: the pitch;
+    # SimTiming.fill_start_pitch_ticks; forty-seventh pass)
+    "R47": ["fill_start_pitch_ticks=" + ",".join(
+        str(v) for v in sim_timing_module.BUILD_D_REPLICA_START_PITCH_TICKS)],
 }
 # the variants that make build d's default (fortieth pass; E45 since the forty-fifth,
 # H46 and Q46 since the forty-sixth)

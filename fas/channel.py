@@ -122,6 +122,10 @@ class QueueChannel(ABC):
     #: config's update() with linear acceleration, a start's jump (RampGenerator.jump_maths)
     ramp_cubic_update: bool = False
     ramp_jump_maths: int = 0
+    #: the branches the ramp's arithmetic took for the command written now
+    #: (NextCommand.path: fas.codes.PATH_*; set by the ramp planner before each
+    #: write, a backend whose CPU time follows it reads it)
+    ramp_path: int = 0
 
     # ------------------------------------------------------- every channel
     @abstractmethod

@@ -204,3 +204,10 @@ def to_string(code: AqeResult | MoveResult | MoveTimedResult | DelayResult) -> s
     if isinstance(code, AqeResult):
         return _AQE_TEXT.get(code, _UNKNOWN)
     raise TypeError(f"to_string: not a FastAccelStepper result code: {code!r}")
+
+
+# the branches of _getNextCommand() a command's planning took (NextCommand.path, bits):
+# the accelerating branch at a period under two MIN_CMD_TICKS (it looks at the ramp's
+# coast), that look's multiplication (1..510 steps possible to coast), the period kept (a
+# coast: no calculate_ticks()), the decelerating branch's calculate_ticks()
+PATH_NEAR, PATH_CHECK, PATH_COAST, PATH_DEC = 1, 2, 4, 8

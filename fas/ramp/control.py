@@ -11,6 +11,10 @@ exact integer results (step counts, periods, the moment a ramp turns).
 from __future__ import annotations
 
 from ..codes import (
+    PATH_CHECK,
+    PATH_COAST,
+    PATH_DEC,
+    PATH_NEAR,
     RAMP_DIRECTION_COUNT_DOWN,
     RAMP_DIRECTION_COUNT_UP,
     RAMP_STATE_ACCELERATING_FLAG,
@@ -60,13 +64,17 @@ class RampRw:
 class NextCommand:
     """A queue command plus the ramp state that holds once it is queued."""
 
-    __slots__ = ("ticks", "steps", "count_up", "rw")
+    __slots__ = ("ticks", "steps", "count_up", "rw", "path")
 
-    def __init__(self, ticks: int, steps: int, count_up: bool, rw: RampRw) -> None:
+    def __init__(self, ticks: int, steps: int, count_up: bool, rw: RampRw,
+                 path: int = 0) -> None:
         self.ticks = ticks
         self.steps = steps
         self.count_up = count_up
         self.rw = rw
+        #: the branches the planning took (fas.codes.PATH_* bits; a backend whose CPU time
+        #: follows the library's arithmetic reads them)
+        self.path = path
 
     def __repr__(self) -> str:  # pragma: no cover - debugging aid
         return (f"NextCommand(ticks={self.ticks}, steps={self.steps}, "
@@ -115,6 +123,7 @@ def next_command(config: RampConfig, target_pos: int, rw: RampRw, qe_pos: int,
 
     curr_ticks = rw.curr_ticks
     min_travel_ticks = params.min_travel_ticks
+    path = 0
 
     # forward planning of 2 ms or more at slow speed
     if curr_ticks < ticks_per_s // 1000:
@@ -136,10 +145,12 @@ def next_command(config: RampConfig, target_pos: int, rw: RampRw, qe_pos: int,
         if curr_ticks < 2 * min_cmd_ticks:
             # avoid generating commands that are too short:
             # 1 part accelerate, 2 parts coast, 1 part decelerate
+            path = PATH_NEAR
             possible_coast_steps = (remaining_steps - prus) >> 2
-            if (0 < possible_coast_steps <= 510
-                    and possible_coast_steps * curr_ticks < 2 * min_cmd_ticks):
-                this_state = _COAST
+            if 0 < possible_coast_steps <= 510:
+                path = PATH_NEAR | PATH_CHECK
+                if possible_coast_steps * curr_ticks < 2 * min_cmd_ticks:
+                    this_state = _COAST
             if planning_steps > remaining_steps - prus:
                 this_state = _DECELERATE
         elif (remaining_steps - prus < 2 * planning_steps
@@ -175,12 +186,14 @@ def next_command(config: RampConfig, target_pos: int, rw: RampRw, qe_pos: int,
         if prus == 1:
             d_ticks_new = min_travel_ticks
         else:
+            path |= PATH_DEC
             rs = planning_steps if prus <= planning_steps else prus - planning_steps
             d_ticks_new = config.calculate_ticks(rs)
             # cannot decelerate further down the ramp: clip to the travel speed (#150)
             if rs == 1 and min_travel_ticks > d_ticks_new:
                 d_ticks_new = min_travel_ticks
     else:
+        path |= PATH_COAST
         d_ticks_new = curr_ticks
         coast_steps = remaining_steps - prus
         if coast_steps < 256 and coast_steps < 2 * orig_planning_steps:
@@ -263,4 +276,4 @@ def next_command(config: RampConfig, target_pos: int, rw: RampRw, qe_pos: int,
     out.performed_ramp_up_steps = prus
     out.pause_ticks_left = pause_ticks_left
     out.curr_ticks = pause_ticks_left + next_ticks
-    return NextCommand(next_ticks, steps, count_up, out)
+    return NextCommand(next_ticks, steps, count_up, out, path)

@@ -217,6 +217,7 @@ class RampPlanner(Planner):
                 if converted is not None:  # the command's period came from the ramp step
                     q.channel.ramp_converted(*converted)
                 q.channel.ramp_continuous = cfg.parameters.keep_running
+                ch.ramp_path = cmd.path
                 res = write(cmd.ticks, cmd.steps, cmd.count_up, not delayed_start)
                 generated += 1
             if res == AQE_OK:

@@ -34,7 +34,7 @@ from ..channel import PulseCounter, QueueChannel
 from ..codes import PIN_UNDEFINED
 from .machine import LATE_ENTRY, PRIO_PLAIN, PRIO_STEP_ISR, Event, Machine
 from .pins import EdgeRecorder
-from .ramp_cost import conversion_ticks
+from .ramp_cost import conversion_ticks, start_pitch_ticks
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..queue import QueueEntry, StepperQueue
@@ -61,7 +61,7 @@ class SimChannel(QueueChannel):
                  "converted", "fast_acc_below", "_noted", "plan_pending", "_start_event",
                  "_start_tick", "entry_guard", "on_halt", "on_idle", "fill_charge",
                  "fill_read_tick", "ramp_continuous", "ramp_ended", "ramp_cubic_update",
-                 "ramp_jump_maths")
+                 "ramp_jump_maths", "ramp_path")
 
     def __init__(self, machine: Machine, queue: StepperQueue) -> None:
         p = machine.profile
@@ -153,6 +153,7 @@ class SimChannel(QueueChannel):
         self.ramp_ended = False
         self.ramp_cubic_update = False
         self.ramp_jump_maths = 0
+        self.ramp_path = 0
         if self.irq_sensitive:
             machine.block_listeners.append(self._on_block)
 
@@ -469,6 +470,9 @@ class SimChannel(QueueChannel):
             elif p.fill_unstarted_multi_cmd_ticks and not self.running:
                 # a starting ramp's command of several steps: one figure, all in
                 m.task_offset += p.fill_unstarted_multi_cmd_ticks
+                if p.fill_start_pitch_ticks:  # ... and by the ramp's branches
+                    m.task_offset += start_pitch_ticks(p.fill_start_pitch_ticks,
+                                                       self.ramp_path)
             elif (p.fill_coast_cmd_ticks
                   and (not converted if p.fill_coast_unconverted
                        else (((wp - 1 - q.read_idx) & 0xFF)

@@ -12,6 +12,7 @@ the build's table, :class:`fas.sim.timing.SimTiming`).
 
 from __future__ import annotations
 
+from ..codes import PATH_CHECK, PATH_COAST, PATH_DEC, PATH_NEAR
 from .timing import SimTiming
 
 
@@ -51,3 +52,12 @@ def conversion_ticks(timing: SimTiming, ramp_step: int, log2_ticks: int) -> int:
     if log2_ticks & 1:
         ticks += timing.ramp_log2_interp_ticks
     return ticks
+
+
+def start_pitch_ticks(figures: tuple[int, ...], path: int) -> int:
+    """A starting ramp's command of several steps beyond its one figure, by the
+    branches its planning took (``figures``: plain, near, check, coast, dec;
+    :attr:`fas.sim.timing.SimTiming.fill_start_pitch_ticks`)."""
+    plain, near, check, coast, dec = figures
+    return (plain + (near if path & PATH_NEAR else 0) + (check if path & PATH_CHECK else 0)
+            + (coast if path & PATH_COAST else 0) + (dec if path & PATH_DEC else 0))

@@ -224,6 +224,14 @@ class SimTiming:
     # replica: 311-376 (`j3` `j30` `j1000`) and 684 / 724 (`j5000` / `j100000`) at A2000
     # V400 ("forty-sixth pass").  Off (()) everywhere
     fill_jump_start_ticks: tuple[int, ...] = ()
+    # a starting ramp's command of several steps (fill_unstarted_multi_cmd_ticks) by the
+    # branches _getNextCommand() took for it (QueueChannel.ramp_path): on top of that
+    # figure (plain, near, check, coast, dec) - every such command, the accelerating
+    # branch at a period under two MIN_CMD_TICKS, its coast check's multiplication, a
+    # coast (the period kept: no calculate_ticks()), the decelerating calculate_ticks().
+    # Build d's replica: -7 / +34 / +83 / -356 / +58 ("forty-seventh pass",
+    # bench/replica/start_pitch.py).  Off (()) everywhere
+    fill_start_pitch_ticks: tuple[int, ...] = ()
     # a ramp task that runs while no stepper runs (it may start one) nests timer 0's
     # overflows (and the UART's) in its time line as task_nested_isrs 2 does in every
     # task: build d's replica nests 98 of timer 0's overflows (92 ticks) in its 75 start
@@ -474,6 +482,17 @@ BUILD_D_REPLICA_CUBIC_UPDATE_TICKS = 323
 # where the jump is clipped to the maximum speed, `j5000` / `j100000` (684 / 724) less
 # 341: 363 (their mean)
 BUILD_D_REPLICA_JUMP_START_TICKS: tuple[int, int] = (341, 363)
+# ... and a starting ramp's commands by the branches their planning took
+# (fill_start_pitch_ticks; variant R47): bench/replica/start_pitch.py over the start
+# tasks' 602 commands of several steps in 17 runs ("forty-seventh pass").  Plain: the
+# median over the 12 runs of moves with a direction pin of their accelerating
+# commands' mean (2 380) less the one figure 2 387; the others each a difference within
+# a run against its plain commands: near +34 (34.0 in d35, d36, test_sd_11, test_sd_12,
+# test_sd_14; 27.4 in test_sd_02, test_sd_03), the check's multiplication +83 on that
+# (d23 86, test_sd_09 80), a coast -356 (test_sd_02 -366, test_sd_07 -356,
+# test_seq_sd_01 -354), the decelerating calculate_ticks() +58 (test_sd_07 58.3,
+# test_seq_sd_01 58.7)
+BUILD_D_REPLICA_START_PITCH_TICKS: tuple[int, ...] = (-7, 34, 83, -356, 58)
 
 # build d's ATmega328P as read from its replica (docs/timing-model.md, "fortieth pass";
 # the default since then): AVR_TIMING's figures with the ramp task above (the pieces of
