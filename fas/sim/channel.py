@@ -1094,7 +1094,15 @@ class SimChannel(QueueChannel):
         if compare <= now + self.ocr_next:
             compare = self._next_compare(compare, now, self.ocr_next)
         steps = e.steps
-        if steps < 2 or not self.contention:
+        if steps < 2:
+            if self.contention:  # (_program's single pulse, written out: every entry)
+                self.pending_compare = compare
+                self.pending_pulse = self.mode_one
+                self._schedule_single(compare)
+                return
+            self._program(compare, e)
+            return
+        if not self.contention:
             self._program(compare, e)
             return
         m = self.m
