@@ -312,4 +312,8 @@ class Engine:
     def planning_queues(self) -> list[StepperQueue]:
         """The queues whose stepper has motion still to plan: the others' fill returns at
         its first check in the next run of the periodic task."""
-        return [q for q, planner in self._motion if planner.is_active()]
+        out = []  # (a loop: a comprehension is a call of its own, every task)
+        for q, planner in self._motion:
+            if planner.is_active():
+                out.append(q)
+        return out

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 from ..codes import RAMP_DIRECTION_COUNT_UP, MoveResult
 from ..planner import Planner, PlannerChange, PlannerHost
 from ..queue import AQE_OK, i32
-from .generator import RampGenerator
+from .generator import _IDLE, RampGenerator
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..motion import MotionSettings
@@ -175,7 +175,8 @@ class RampPlanner(Planner):
     def fill(self) -> int:
         """Plan commands until the queue holds the forward-planning time; returns count."""
         rg = self.rg
-        if not rg.is_ramp_generator_active() or not rg.has_valid_config():
+        # (rg.is_ramp_generator_active(), written out: every task, for every stepper)
+        if rg.rw.ramp_state == _IDLE or not rg.has_valid_config():
             return 0
         host = self.host
         q = self.queue

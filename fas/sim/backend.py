@@ -23,15 +23,6 @@ if TYPE_CHECKING:  # pragma: no cover
 DEFAULT_WAIT_LIMIT_S = 3600
 
 
-def _among(q: StepperQueue, queues: Sequence[StepperQueue]) -> bool:
-    """``q`` is one of ``queues`` (by identity; a loop, not any() over a generator: this
-    runs for every running stepper in every run of the ramp task)."""
-    for x in queues:  # noqa: SIM110
-        if x is q:
-            return True
-    return False
-
-
 class SimBackend(Backend):
     """Virtual time: ``run_for``/``run_until`` jump from event to event."""
 
@@ -165,8 +156,15 @@ class SimBackend(Backend):
             for ch in channels:  # a running stepper's fill first sums its queue
                 if ch.running:
                     q = ch.q
-                    if planning is not None and not _among(q, planning):
-                        continue
+                    if planning is not None:
+                        # (among them by identity: a loop, neither any() over a
+                        # generator nor a call - this runs for every running stepper in
+                        # every run of the ramp task)
+                        for x in planning:
+                            if x is q:
+                                break
+                        else:
+                            continue
                     ch.plan_pending = plan
                     if p.fill_reads_queue_live:
                         continue  # charged when its fill reads the queue (fill_begins)

@@ -583,7 +583,16 @@ class SimChannel(QueueChannel):
         if self.contention:
             if compare < m.now:
                 compare = m.now
-            ev = self._event(compare, self._single_isr_fn, cost)
+            ev = self._spare  # (_event, written out: this runs for every single pulse)
+            if ev is None:
+                ev = Event(compare, self.prio, self._single_isr_fn, cost > 0, cost, self)
+            else:
+                self._spare = None
+                ev.time = compare
+                ev.fn = self._single_isr_fn
+                ev.isr = cost > 0
+                ev.enter = cost
+                ev.owner = self
         else:
             compare += self.lat
             if compare < m.now:
@@ -790,9 +799,16 @@ class SimChannel(QueueChannel):
                 pins = self.pins
                 pin = self.step_pin
                 width = now - c
-                rise, fall, total, high_max = pins.rise, pins.fall, pins.high_total, pins.high_max
+                # (one by one: four names at once build a tuple and unpack it)
+                rise = pins.rise
+                fall = pins.fall
+                total = pins.high_total
+                high_max = pins.high_max
                 try:  # (the pin has had a pulse before: its figures are there)
-                    r, f, h, longest = rise[pin], fall[pin], total[pin], high_max[pin]
+                    r = rise[pin]
+                    f = fall[pin]
+                    h = total[pin]
+                    longest = high_max[pin]
                 except KeyError:
                     r, f, h, longest = (rise.get(pin, 0), fall.get(pin, 0), total.get(pin, 0),
                                         high_max.get(pin, 0))
@@ -873,7 +889,9 @@ class SimChannel(QueueChannel):
         heap = m.events
         act = m.run_activity
         limit = m.run_limit
-        if act is not None and m.activity != act:  # run_until stops before it
+        if ((act is not None and m.activity != act)  # run_until stops before it
+                or compare > limit or (heap and heap[0][0] <= compare)):
+            # (... or the loop below would stop at its first check: nothing to set up)
             heappush(heap, (compare, self.prio, m.seq, ev))
             return
         lat, ocr, ticks = self.lat, self.ocr, e.ticks
@@ -888,7 +906,10 @@ class SimChannel(QueueChannel):
         other = bc is not None and bc is not self
         block = other and bc.batch  # type: ignore[union-attr]
         if block:
-            c0, period, bn2, bcost = bc.b_c0, bc.b_t, bc.b_n - 2, bc.isr_ticks  # type: ignore[union-attr]
+            c0 = bc.b_c0  # type: ignore[union-attr]
+            period = bc.b_t  # type: ignore[union-attr]
+            bn2 = bc.b_n - 2  # type: ignore[union-attr]
+            bcost = bc.isr_ticks  # type: ignore[union-attr]
         pins = self.pins
         pin = self.step_pin
         made = 0
@@ -1073,7 +1094,15 @@ class SimChannel(QueueChannel):
         if compare <= now + self.ocr_next:
             compare = self._next_compare(compare, now, self.ocr_next)
         steps = e.steps
-        if steps < 2 or not self.contention:
+        if steps < 2:
+            if self.contention:  # (_program's single pulse, written out: every entry)
+                self.pending_compare = compare
+                self.pending_pulse = self.mode_one
+                self._schedule_single(compare)
+                return
+            self._program(compare, e)
+            return
+        if not self.contention:
             self._program(compare, e)
             return
         m = self.m
@@ -1096,10 +1125,19 @@ class SimChannel(QueueChannel):
         cost = self.cost = self.isr_next_ticks  # the last pulse's: the next entry
         if last < m.now:
             last = m.now
-        ev = self._event(last, self._batch_end_fn, cost)
-        self.event = ev
+        bev = self._spare  # (_event, written out: this runs for every block of pulses)
+        if bev is None:
+            bev = Event(last, self.prio, self._batch_end_fn, cost > 0, cost, self)
+        else:
+            self._spare = None
+            bev.time = last
+            bev.fn = self._batch_end_fn
+            bev.isr = cost > 0
+            bev.enter = cost
+            bev.owner = self
+        self.event = bev
         m.seq += 1
-        heappush(m.events, (last, self.prio, m.seq, ev))
+        heappush(m.events, (last, self.prio, m.seq, bev))
 
     def _event(self, time: int, fn: Callable[[], None], cost: int) -> Event:
         """This channel's next interrupt event: the running interrupt's, reused when it
