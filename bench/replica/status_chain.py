@@ -50,7 +50,7 @@ sys.path.insert(0, str(HERE.parent.parent))
 sys.path.insert(0, str(HERE.parent))
 
 import pulse_holders  # noqa: E402
-from d_corpus import VARIANTS, set_build_d_from_args  # noqa: E402
+from d_corpus import set_build_d_from_args  # noqa: E402
 
 READ_PC = "c4a"  # the main program's millis() section
 UART_VECTOR, TIMER0_VECTOR = "19", "16"
@@ -341,12 +341,7 @@ def report_pieces(rep: ReplicaRun, mod: ModelRun, k: int) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--work", type=Path, default=Path("/tmp/fas-replica"))
-    ap.add_argument("--tag", default="Os-nolto-inall-pad1")
-    ap.add_argument("--lag", type=int, default=96, help="replica minus firmware, ticks")
-    ap.add_argument("--conformance", type=Path, default=Path("/work/shared/conformance"))
-    ap.add_argument("--variant", action="append", default=[], choices=sorted(VARIANTS))
-    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE")
+    pulse_holders.add_run_args(ap)
     ap.add_argument("--pieces", type=int, metavar="K",
                     help="also line K's CPU character by character")
     ap.add_argument("cases", nargs="+")
