@@ -492,6 +492,17 @@ def add_run_args(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE")
 
 
+def run_files(args: argparse.Namespace, case: str, prog: str) -> tuple[Path, Path, str] | None:
+    """A case's replica run under ``add_run_args``' options: its event and pin logs and
+    the conformance input; None (one line on stderr) where the run was not made."""
+    prefix = args.work / (f"{case}-{args.tag}" if args.tag else case)
+    ev, pins = prefix.with_name(prefix.name + ".ev"), prefix.with_name(prefix.name + ".pins")
+    if not ev.exists():
+        print(f"{prog}: no replica run {ev}", file=sys.stderr)
+        return None
+    return ev, pins, (args.conformance / case / "input.txt").read_text().strip()
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_run_args(ap)

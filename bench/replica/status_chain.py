@@ -350,12 +350,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     label = "(" + " ".join(args.variant + args.set) + ")" if args.variant or args.set else ""
     for case in args.cases:
-        prefix = args.work / (f"{case}-{args.tag}" if args.tag else case)
-        ev, pins = prefix.with_name(prefix.name + ".ev"), prefix.with_name(prefix.name + ".pins")
-        if not ev.exists():
-            print(f"status_chain: no replica run {ev}", file=sys.stderr)
+        found = pulse_holders.run_files(args, case, "status_chain")
+        if found is None:
             return 2
-        text = (args.conformance / case / "input.txt").read_text().strip()
+        ev, pins, text = found
         with ev.open() as f_ev, pins.open() as f_pins:
             rep = ReplicaRun(list(f_ev), list(f_pins), args.lag)
         mod = ModelRun(text)

@@ -264,12 +264,10 @@ def main(argv: list[str] | None = None) -> int:
     if not set_build_d_from_args(args, "uart_phase"):
         return 2
     for case in args.cases:
-        prefix = args.work / (f"{case}-{args.tag}" if args.tag else case)
-        ev, pins = prefix.with_name(prefix.name + ".ev"), prefix.with_name(prefix.name + ".pins")
-        if not ev.exists():
-            print(f"uart_phase: no replica run {ev}", file=sys.stderr)
+        found = pulse_holders.run_files(args, case, "uart_phase")
+        if found is None:
             return 2
-        text = (args.conformance / case / "input.txt").read_text().strip()
+        ev, pins, text = found
         events = replica_events(ev)
         run = ModelRun(text)
         print(f"## {case}")
