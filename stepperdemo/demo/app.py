@@ -73,6 +73,7 @@ class StepperDemo(LoopProgram):
         self.script_pos = 0
         self.script_loaded = False
         self.input_consumed_at: int | None = None
+        self.input_dropped = 0
         self.test_failed_count = 0
         self.tests_completed = 0
         self.passes = 0
@@ -501,6 +502,7 @@ class StepperDemo(LoopProgram):
         if ch:
             if ((self.write_ptr + 1) & 0xFF) == self.read_ptr:
                 self.read_ptr = (self.read_ptr + 1) & 0xFF
+                self.input_dropped += 1  # the oldest unread byte, as the firmware's ring
             self.in_buffer[self.write_ptr] = ch
             self.write_ptr = (self.write_ptr + 1) & 0xFF
 
@@ -903,3 +905,6 @@ class StepperDemo(LoopProgram):
 
     def exit_code(self) -> int:
         return 1 if self.test_failed_count or self.gcode_failures else 0
+
+    def dropped_input(self) -> int:
+        return self.input_dropped
