@@ -7,7 +7,7 @@ from bisect import bisect_right
 from typing import TYPE_CHECKING, Callable, Sequence
 
 from ..arch import Profile, get_profile
-from ..backend import Backend, OutputChange, PinStates, PulseCounter, TaskEngine
+from ..backend import AppPoll, Backend, OutputChange, PinStates, PulseCounter, TaskEngine
 from ..pwm import PwmSetting
 from ..queue import StepperQueue
 from ..schedule import TaskSchedule
@@ -479,6 +479,10 @@ class SimBackend(Backend):
         m.poll_begin(*poll)
         m.consume(ticks)
         m.poll_end()
+
+    def app_spend_passes(self, passes: Sequence[tuple[int, int, AppPoll | None]],
+                         before: int, changed: Callable[[], bool]) -> int:
+        return self.machine.consume_passes(passes, before, changed)
 
     def app_polls(self, poll: tuple[int, tuple[tuple[int, int], ...]] | None) -> None:
         self._poll = poll

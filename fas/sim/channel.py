@@ -638,9 +638,7 @@ class SimChannel(QueueChannel):
                 out.append((j, free - c + (self.after_reti if free != m.blocked_end
                                            else 0)))
         if m.loop_polls and m.loop_polls[-1][1] > c0 + j0 * t:
-            held = {j for j, _ in out}
-            loop = [(j, w) for j in range(j0, j1) if j not in held
-                    and (w := m.loop_hold(c0 + j * t, t, self.isr_ticks))]
+            loop = m.loop_holds(c0, t, j0, j1, self.isr_ticks, {j for j, _ in out})
             if loop:
                 out = sorted(out + loop)
         return out
