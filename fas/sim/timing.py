@@ -121,13 +121,13 @@ class SimTiming:
     # queue, a later write to a stopped queue, a write to a running queue); build d's
     # replica, test_sd_14's start and run with and without `u`: 154, 123, 44 (every write
     # alike; docs/timing-model.md, "forty-fourth pass"; empty: off; build d's ATmega328P
-    # since the forty-ninth pass)
+    # since the fiftieth pass)
     fill_no_dir_pin_saved_ticks: tuple[int, ...] = ()
     # a command of a continuous run (runForward / runBackward: the ramp keeps running)
     # costs less than a move's, as (the first write to an empty stopped queue, any other
     # write); build d's replica, test_sd_14's input without `u` against d35 (the same ramp
     # as a move): 67, then 32 each, stopped or running (docs/timing-model.md, "forty-fourth
-    # pass"; empty: off; build d's ATmega328P since the forty-ninth pass)
+    # pass"; empty: off; build d's ATmega328P since the fiftieth pass)
     fill_continuous_saved_ticks: tuple[int, ...] = ()
     # the step interrupt takes this much more CPU when it takes up the next queue entry
     isr_next_entry_ticks: int = 0
@@ -231,7 +231,7 @@ class SimTiming:
     # branch at a period under two MIN_CMD_TICKS, its coast check's multiplication, a
     # coast (the period kept: no calculate_ticks()), the decelerating calculate_ticks().
     # Build d's replica: -7 / +34 / +83 / -356 / +58 ("forty-seventh pass",
-    # bench/replica/start_pitch.py).  Build d's ATmega328P since the forty-ninth pass;
+    # bench/replica/start_pitch.py).  Build d's ATmega328P since the fiftieth pass;
     # off (()) everywhere else
     fill_start_pitch_ticks: tuple[int, ...] = ()
     # a ramp task that runs while no stepper runs (it may start one) nests timer 0's
@@ -259,7 +259,7 @@ class SimTiming:
     # sim_timing() gives the chip LOOP_SECTIONS_FIGURES (the plain widths, the next
     # compare's write, reti_next_ticks, the UART's hold); StepperDemo follows the loop's
     # sections with DemoBuild.loop_sections (both together: the variant of `78087fe`).
-    # Build d's ATmega328P since the forty-ninth pass (with S42 P43 K43 N44 F44 T44 R47);
+    # Build d's ATmega328P since the fiftieth pass (with S42 P43 K43 N44 F44 T44 R47);
     # off everywhere else
     loop_section_widths: bool = False
     # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
@@ -446,7 +446,7 @@ BUILD_D_REPLICA_PHASES: dict[str, int] = {
 # an instruction or a short section with interrupts off (millis(), queueEntries()) and the
 # ramp task's own sections, which the default did not model.  Variant P43 of
 # bench/d_corpus.py: alone the corpus fails 9 files' pulse-high totals, all short; build
-# d's ATmega328P default since the forty-ninth pass, with the other seven (the sections)
+# d's ATmega328P default since the fiftieth pass, with the other seven (the sections)
 BUILD_D_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (60, 70, 70)
 BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (62, 72, 72)
 # build d's ramp task's own sections with interrupts off, per command it writes, as
@@ -455,7 +455,7 @@ BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (62, 72, 72)
 # commonest distance; docs/timing-model.md, "forty-third pass"): seven after the previous
 # write (2, 13, 6, 51, 2, 15, 2), the queue's fill level (10), the ramp's state (40), three
 # of 2 and the write's own (8 at 53).  Variant K43; build d's default since the
-# forty-ninth pass
+# fiftieth pass
 BUILD_D_REPLICA_CMD_MASK_SECTIONS: tuple[tuple[int, int], ...] = (
     (1418, 2), (1406, 13), (1328, 6), (1075, 51), (1004, 2), (949, 15), (927, 2),
     (721, 10), (600, 40), (458, 2), (276, 2), (129, 2), (53, 8))
@@ -467,7 +467,7 @@ BUILD_D_REPLICA_CMD_MASK_SECTIONS: tuple[tuple[int, int], ...] = (
 # 123 (13 writes alike), a write to a running queue 44 (173 tasks of two writes: 88);
 # d29's start after `u`, 127-128 a write (pauses and one-step commands).  Variant N44 of
 # bench/d_corpus.py (SimTiming.fill_no_dir_pin_saved_ticks; build d's default since the
-# forty-ninth pass, as T44, F44 and R47 below)
+# fiftieth pass, as T44, F44 and R47 below)
 BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS: tuple[int, int, int] = (154, 123, 44)
 # ... and the ramp task's two sections before its exit, every run (fill_tail_mask_ticks;
 # variant T44)
@@ -523,7 +523,7 @@ AVR_D_328P_TIMING = replace(
     fill_cubic_update_ticks=BUILD_D_REPLICA_CUBIC_UPDATE_TICKS,
     fill_jump_start_ticks=BUILD_D_REPLICA_JUMP_START_TICKS,
     # the eight read on its replica in the forty-second to forty-seventh passes (bench/
-    # d_corpus.py's R47 S42 P43 K43 L43 N44 F44 T44; the default since the forty-ninth
+    # d_corpus.py's R47 S42 P43 K43 L43 N44 F44 T44; the default since the fiftieth
     # pass, together: a part alone fails the corpus).  The plain pulse (P43; with the
     # loop's sections LOOP_SECTIONS_FIGURES gives build d the same), the ramp task's own
     # sections per command (K43) and before its exit (T44), the loop's sections (L43;

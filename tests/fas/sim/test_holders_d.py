@@ -4,9 +4,9 @@ direction checks (``BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS``, variant N44 of
 ``bench/d_corpus.py``), a continuous run's commands cost less than a move's
 (``BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS``, variant F44), and the ramp task ends every
 run with two sections with interrupts off before its exit
-(``BUILD_D_REPLICA_TAIL_MASK_TICKS``, variant T44).  Off until the forty-ninth pass; with S42
+(``BUILD_D_REPLICA_TAIL_MASK_TICKS``, variant T44).  Off until the fiftieth pass; with S42
 P43 K43 L43 and N44 (and F44, T44) test_sd_14 meets the firmware, and the README move's
-longest pulse is then 179 ticks (a strict xfail names it).  Since the forty-ninth pass all
+longest pulse is then 179 ticks (a strict xfail names it).  Since the fiftieth pass all
 eight (with R47) are build d's default: the tests of a variant start from the figures
 before it (variant PRE49 of bench/d_corpus.py), and the default's own are below."""
 
@@ -73,7 +73,7 @@ def test_n44_f44_t44_set_build_ds_table_and_leave_the_other_builds(
 
 def test_the_figures_before_the_eight_start_test_sd_14_late_by_its_direction_checks(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    # (the default until the forty-ninth pass) 14 writes to the stopped queue of a stepper
+    # (the default until the fiftieth pass) 14 writes to the stopped queue of a stepper
     # without a direction pin, each charged as with one: the first step 2 203 ticks after
     # the firmware's
     default_with(monkeypatch, "PRE49")
@@ -81,7 +81,7 @@ def test_the_figures_before_the_eight_start_test_sd_14_late_by_its_direction_che
 
 
 def test_the_default_starts_test_sd_14_and_meets_its_pulse_high_total() -> None:
-    # the eight as build d's default (forty-ninth pass): the first step 182 ticks before
+    # the eight as build d's default (fiftieth pass): the first step 182 ticks before
     # the firmware's (the model's value; +2 203 before), within the model's usual start
     # (d35, the same ramp: -368), and the Total High within upstream's 1 000 us of both
     pulses = _pulses(SD14)

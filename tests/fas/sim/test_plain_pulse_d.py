@@ -6,7 +6,7 @@ waiting behind an instruction or the loop's and the ramp task's own sections); w
 meets d11, which S42 alone fails, and fails d02.  Build d's ramp task's own sections per
 command (``BUILD_D_REPLICA_CMD_MASK_SECTIONS``, variant K43, off) close d02; with the
 loop's sections in a held W's passes as well (variant L43) the corpus fails test_sd_14
-only.  Strict xfails name the values.  Since the forty-ninth pass the four are build d's
+only.  Strict xfails name the values.  Since the fiftieth pass the four are build d's
 default (with R47 N44 F44 T44): the tests of a variant start from the figures before it
 (variant PRE49), where their values were read."""
 
@@ -81,7 +81,7 @@ def test_p43_makes_both_channels_plain_pulses_the_replicas(
 
 def test_the_defaults_plain_pulses_are_the_replicas(monkeypatch: pytest.MonkeyPatch) -> None:
     # every build-d replica run's: 60 / 70 (bench/replica/plain_pulse.py, forty-third
-    # pass); the default's since the forty-ninth pass (a strict xfail before: 61 / 71, a
+    # pass); the default's since the fiftieth pass (a strict xfail before: 61 / 71, a
     # fitted figure, which PRE49 puts back)
     pulses = _pulses(TWO)
     assert (_plain(pulses["A"]), _plain(pulses["B"])) == (60, 70)

@@ -31,7 +31,7 @@ from .test_coast_tails_d import _d_with  # noqa: E402
 
 # build d as read from its replica, with the print body and the tails read under it
 READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39", "E45", "H46", "Q46",
-        # ... and the eight of the forty-second to forty-seventh passes (forty-ninth)
+        # ... and the eight of the forty-second to forty-seventh passes (fiftieth)
         "R47", "S42", "P43", "K43", "L43", "N44", "F44", "T44"]
 
 

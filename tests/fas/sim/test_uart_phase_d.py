@@ -185,7 +185,7 @@ def test_with_the_e_check_the_blocks_lie_as_far_apart_as_the_replicas(
 
 
 @pytest.mark.xfail(strict=True, reason="with the e check (4 / 1) d30 50 506 us against "
-                   "49 248 +- 710 (the eight as build d's default, forty-ninth pass; 50 612 "
+                   "49 248 +- 710 (the eight as build d's default, fiftieth pass; 50 612 "
                    "before, with build d's figures read, fortieth pass; 48 307 "
                    "with those fitted before): the windows' starts and the blocks per window "
                    "are not the replica's yet (thirty-first pass)")

@@ -127,7 +127,7 @@ def test_the_default_hands_the_banner_over_at_the_replicas_tick() -> None:
 
 
 def test_u42_keeps_the_ramp_tasks_phase_and_the_moves(monkeypatch: pytest.MonkeyPatch) -> None:
-    # (on the figures before the forty-ninth pass, where it was read: with the eight of
+    # (on the figures before the fiftieth pass, where it was read: with the eight of
     # the default since, U42 moves test_sd_07's steps 114 ticks - a transmit interrupt
     # fewer in its start task)
     default_with(monkeypatch, "PRE49")
@@ -150,7 +150,7 @@ def test_e42_charges_auto_enable_in_the_first_moves_start_task_only(
 
 @pytest.mark.xfail(strict=True, reason="test_sd_07_328p's second move starts 189 ticks "
                    "late against its first (the firmware's 16 121 667 ticks apart, the "
-                   "model's 16 121 856 with the eight as build d's default, forty-ninth "
+                   "model's 16 121 856 with the eight as build d's default, fiftieth "
                    "pass; 16 121 970 before); the first move's start task lacks auto "
                    "enable's 311 ticks and the start tasks' fit absorbed them (-122 with "
                    "E42 before the eight, forty-second pass)")
@@ -192,7 +192,7 @@ def test_s42_starts_the_status_lines_where_the_replicas_passes_do(
 def test_s42_makes_the_readme_moves_longest_pulse_the_firmwares_whole_us(
         monkeypatch: pytest.MonkeyPatch) -> None:
     # S42 alone on the figures before the eight (with all eight, the default since the
-    # forty-ninth pass: 179 ticks, a strict xfail in tests/stepperdemo/watch/test_observe.py)
+    # fiftieth pass: 179 ticks, a strict xfail in tests/stepperdemo/watch/test_observe.py)
     default_with(monkeypatch, "PRE49", "S42")
     backend = SimBackend("atmega328p", record=True, build="d")
     app = make_program("demo", backend, scripted=True)
@@ -206,7 +206,7 @@ def test_s42_makes_the_readme_moves_longest_pulse_the_firmwares_whole_us(
 def test_readme_moves_status_lines_start_where_the_replicas_do(
         monkeypatch: pytest.MonkeyPatch) -> None:
     # build d's replica: 408-854 ticks after timer 0's overflow (W's pass chain reads
-    # millis() where it is, then output_info()); the default's since the forty-ninth pass
+    # millis() where it is, then output_info()); the default's since the fiftieth pass
     # (S42 in it).  Before, a strict xfail: every line 146 ticks after the overflow (an
     # idle W woke at the deadline itself), which PRE49 puts back
     after = sorted(_status_after_timer0(README_MOVE))

@@ -178,7 +178,7 @@ def test_report_of_a_clean_move(tmp_path):
     assert 1750 < 16_000_000 / m.period_min < 1800
     assert 900 < m.acc_max < 1200 and 900 < m.dec_max < 1200
     # the pin falls 60 ticks after the step interrupt enters (build d's plain pulse read
-    # from its replica, the default since the forty-ninth pass; 61 before); where timer
+    # from its replica, the default since the fiftieth pass; 61 before); where timer
     # 0's or the UART's interrupt holds the CPU at the compare, the pulse waits for it (up
     # to the rest of that interrupt; the firmware's longest: test_clean_moves_longest_pulse)
     assert m.high_min == 60
@@ -194,7 +194,7 @@ def test_report_of_a_clean_move(tmp_path):
 @pytest.mark.xfail(strict=True, reason="the longest pulse 179 ticks (11.19 us: 11 whole us) "
                    "against the firmware's Max High 10 us (conformance test_sd_01a_328p) with "
                    "the eight of the forty-second to forty-seventh passes as build d's "
-                   "default (forty-ninth pass; 156 ticks, 9 whole us, before them, 171 with "
+                   "default (fiftieth pass; 156 ticks, 9 whole us, before them, 171 with "
                    "the figures fitted before the fortieth).  Build d's replica of this very "
                    "line: 174 ticks, held by the UART's transmit interrupt entered 10 ticks "
                    "before the rise (test_sd_01a's own: 163, the same); the model's: a "
@@ -215,7 +215,7 @@ def test_report_shows_the_e_injection_as_late_steps_gaps_and_long_pulses(tmp_pat
     assert m.gaps == missed
     # the falling edge waited for the blocked interrupt (1 599 ticks with interrupts off):
     # longer than any other routine holds it (the UART's 122, timer 0's 96, the ramp
-    # task's sections up to 116).  The model's longest 1 557 ticks since the forty-ninth
+    # task's sections up to 116).  The model's longest 1 557 ticks since the fiftieth
     # pass (the earliest compare 102 ticks into a block); 100 us and more before
     assert m.high_max > 1000
     assert m.position == 20000  # and no step is lost

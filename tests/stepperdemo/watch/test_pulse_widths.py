@@ -32,10 +32,10 @@ def test_report_and_vcd_show_pulses_lengthened_by_other_interrupts(tmp_path):
     assert m, res.stdout
     low, high = float(m.group(1)), float(m.group(2))
     # the step interrupt entered at once: build d's plain pulse read from its replica, 60
-    # ticks (the default since the forty-ninth pass; 61 before)
+    # ticks (the default since the fiftieth pass; 61 before)
     assert low == 60 / 16
     # behind timer 0 (96 ticks) or a UART interrupt (its request to the held entry 122,
-    # and the instruction after its reti 2; 114 + 1 before the forty-ninth pass): at most
+    # and the instruction after its reti 2; 114 + 1 before the fiftieth pass): at most
     # one of them plus the 60 ticks, and longer than the plain pulse
     assert 60 / 16 < high <= (60 + 122 + 2) / 16
     vcd = read_vcd_pyvcd(str(vcd_path))
