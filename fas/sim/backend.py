@@ -26,9 +26,15 @@ DEFAULT_WAIT_LIMIT_S = 3600
 class SimBackend(Backend):
     """Virtual time: ``run_for``/``run_until`` jump from event to event."""
 
+    # Backend.task_period_ticks as a plain attribute, set where the period is (the path
+    # planner and the G-code layer read it three times a task; a property's call costs
+    # about eight times an attribute's look-up)
+    task_period_ticks: int = 0
+
     def __init__(self, profile: Profile | str | None = None, record: bool = False,
                  build: str | None = None) -> None:
         self.profile = get_profile(profile)
+        self.task_period_ticks = self.profile.fill_period_ticks
         # ``build``: the firmware build whose CPU costs the chip runs (fas.sim.builds)
         self.machine = Machine(self.profile, build)
         self.build = self.machine.build
@@ -78,6 +84,7 @@ class SimBackend(Backend):
     def set_task_period(self, ticks: int) -> None:
         """``engine.task_rate()``: runs after the last one follow the new period."""
         super().set_task_period(ticks)
+        self.task_period_ticks = self._task_period or self.profile.fill_period_ticks
         if self._engine is None:
             return
         self.tasks.set_period(self.task_period_ticks)
@@ -305,6 +312,7 @@ class SimBackend(Backend):
         self.tasks.stop()
         self._engine = None
         self._task_period = None
+        self.task_period_ticks = self.profile.fill_period_ticks
         t = m.cpu_now()
         for pin in list(m.outputs.waves):  # PWM timers stop: the pins go LOW
             m.outputs.set_digital(pin, 0, t)

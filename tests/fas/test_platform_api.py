@@ -241,6 +241,20 @@ def test_task_rate_sets_the_ramp_task_period():
         Engine(SimBackend("sam_due")).init(cpu_core=0)
 
 
+def test_sim_task_period_follows_the_task_rate_and_a_reset():
+    # SimBackend keeps task_period_ticks as a plain attribute (a property's call on the
+    # planner's per-task path costs): the period set, then the profile's after a reset
+    backend = SimBackend("esp32")
+    p = backend.profile
+    assert backend.task_period_ticks == p.fill_period_ticks == 4 * p.ticks_per_ms
+    e = Engine(backend)
+    e.init(cpu_core=1)
+    e.task_rate(10)
+    assert backend.task_period_ticks == 10 * p.ticks_per_ms
+    backend.reset_chip()
+    assert backend.task_period_ticks == p.fill_period_ticks
+
+
 @pytest.mark.parametrize("arch,half_period_ms", [
     ("atmega328p", 122 * 65536 // 16000),  # 122 timer overflows: ~1 Hz
     ("esp32", 50 * 4), ("rp2040", 50 * 4), ("sam_due", 50 * 2)])  # 50 task runs
