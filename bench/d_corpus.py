@@ -11,10 +11,12 @@ build's AVR figures, and its time-measurement build of upstream's timing tests;
 ``tm.FIELD=VALUE`` that build's table alone); the scenario files then run as
 ``python3 -m stepperdemo run FILES...`` runs them (its exit status).  Since the fortieth
 pass, build d's figures read from its replica (D33 P30 L34 W34 C37 P39 T39) are the
-default, since the fiftieth the eight of the forty-second to forty-seventh passes
-(R47 S42 P43 K43 L43 N44 F44 T44) as well: those variants set what is already set;
-``FIT`` (first) goes back to the figures fitted before the fortieth pass, ``PRE49`` to
-the eight's before the fiftieth, to look at a reading alone.
+default, since the fiftieth six of the eight of the forty-second to forty-seventh
+passes (R47 S42 P43 L43 N44 F44) as well: those variants set what is already set; K43
+and T44 (the ramp task's own sections) stay off (they cost the G-code run 11 % and 6 %
+of its instructions, issue 25; docs/timing-model.md, fiftieth pass).  ``FIT`` (first)
+goes back to the figures fitted before the fortieth pass, ``PRE49`` to the eight's
+before the fiftieth (all off), to look at a reading alone.
 """
 
 from __future__ import annotations
@@ -81,7 +83,8 @@ VARIANTS: dict[str, list[str]] = {
     "E42": ["fill_enable_ticks=311"],
     # a held W's every pass while a stepper runs and the pass's CPU before a status line
     # (StepperDemo's DemoBuild.w_every_pass, status_lead_ticks; forty-second pass; the
-    # default since the fiftieth, as the seven below: no-ops on the default)
+    # default since the fiftieth, as P43 L43 N44 F44 R47 below: no-ops on the default;
+    # K43 and T44 are not)
     "S42": ["w_every_pass=1",
             f"status_lead_ticks={demo_build_module.BUILD_D_REPLICA_STATUS_LEAD_TICKS}"],
     # build d's plain step pulse read from its replica (60 / 70 ticks; with
@@ -142,11 +145,12 @@ VARIANTS: dict[str, list[str]] = {
         str(v) for v in sim_timing_module.BUILD_D_REPLICA_START_PITCH_TICKS)],
 }
 # the variants that make build d's default (fortieth pass; E45 since the forty-fifth,
-# H46 and Q46 since the forty-sixth; the eight of the forty-second to forty-seventh
-# passes since the fiftieth)
+# H46 and Q46 since the forty-sixth; six of the eight of the forty-second to
+# forty-seventh passes since the fiftieth: all but the ramp task's sections, K43 and T44)
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39", "E45", "H46", "Q46"]
 EIGHT = ["R47", "S42", "P43", "K43", "L43", "N44", "F44", "T44"]
-DEFAULT_READ += EIGHT
+SIX = [v for v in EIGHT if v not in ("K43", "T44")]
+DEFAULT_READ += SIX
 # the eight's figures as they were before the fiftieth pass (all off, the plain pulse
 # fitted): the variant PRE49, to look at the default without them, or one of them alone
 # (``--variant PRE49 --variant N44``)

@@ -259,8 +259,8 @@ class SimTiming:
     # sim_timing() gives the chip LOOP_SECTIONS_FIGURES (the plain widths, the next
     # compare's write, reti_next_ticks, the UART's hold); StepperDemo follows the loop's
     # sections with DemoBuild.loop_sections (both together: the variant of `78087fe`).
-    # Build d's ATmega328P since the fiftieth pass (with S42 P43 K43 N44 F44 T44 R47);
-    # off everywhere else
+    # Build d's ATmega328P since the fiftieth pass (with S42 P43 N44 F44 R47); off
+    # everywhere else
     loop_section_widths: bool = False
     # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
     # (the ATmega32U4's USBDevice.attach())
@@ -454,8 +454,9 @@ BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (62, 72, 72)
 # TASK_SECTIONS=1 (480 writes in 714 tasks; bench/replica/sketch_replica.task_sections, the
 # commonest distance; docs/timing-model.md, "forty-third pass"): seven after the previous
 # write (2, 13, 6, 51, 2, 15, 2), the queue's fill level (10), the ramp's state (40), three
-# of 2 and the write's own (8 at 53).  Variant K43; build d's default since the
-# fiftieth pass
+# of 2 and the write's own (8 at 53).  Variant K43, off in the default: it costs the
+# G-code look-ahead run 11 % of its instructions (issue 25) and the corpus passes without
+# it (docs/timing-model.md, "fiftieth pass")
 BUILD_D_REPLICA_CMD_MASK_SECTIONS: tuple[tuple[int, int], ...] = (
     (1418, 2), (1406, 13), (1328, 6), (1075, 51), (1004, 2), (949, 15), (927, 2),
     (721, 10), (600, 40), (458, 2), (276, 2), (129, 2), (53, 8))
@@ -467,10 +468,10 @@ BUILD_D_REPLICA_CMD_MASK_SECTIONS: tuple[tuple[int, int], ...] = (
 # 123 (13 writes alike), a write to a running queue 44 (173 tasks of two writes: 88);
 # d29's start after `u`, 127-128 a write (pauses and one-step commands).  Variant N44 of
 # bench/d_corpus.py (SimTiming.fill_no_dir_pin_saved_ticks; build d's default since the
-# fiftieth pass, as T44, F44 and R47 below)
+# fiftieth pass, as F44 and R47 below)
 BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS: tuple[int, int, int] = (154, 123, 44)
 # ... and the ramp task's two sections before its exit, every run (fill_tail_mask_ticks;
-# variant T44)
+# variant T44, off in the default as K43: 6 % of the G-code run's instructions)
 BUILD_D_REPLICA_TAIL_MASK_TICKS: tuple[int, ...] = (28, 79, 9, 56, 28, 116)
 # ... and a continuous run's commands (fill_continuous_saved_ticks; variant F44)
 BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS: tuple[int, int] = (67, 32)
@@ -522,20 +523,20 @@ AVR_D_328P_TIMING = replace(
     # their own, the corpus passes with them)
     fill_cubic_update_ticks=BUILD_D_REPLICA_CUBIC_UPDATE_TICKS,
     fill_jump_start_ticks=BUILD_D_REPLICA_JUMP_START_TICKS,
-    # the eight read on its replica in the forty-second to forty-seventh passes (bench/
-    # d_corpus.py's R47 S42 P43 K43 L43 N44 F44 T44; the default since the fiftieth
-    # pass, together: a part alone fails the corpus).  The plain pulse (P43; with the
-    # loop's sections LOOP_SECTIONS_FIGURES gives build d the same), the ramp task's own
-    # sections per command (K43) and before its exit (T44), the loop's sections (L43;
-    # StepperDemo's half in stepperdemo.demo.build), the direction checks of a stepper
-    # without a direction pin (N44), a continuous run's commands (F44), a starting
-    # ramp's commands by their branches (R47).  Before: (61, 71, 71), the rest off
+    # six of the eight read on its replica in the forty-second to forty-seventh passes
+    # (bench/d_corpus.py's R47 S42 P43 L43 N44 F44; the default since the fiftieth pass,
+    # together: the corpus passes with them, not with every part alone).  The plain pulse
+    # (P43; with the loop's sections LOOP_SECTIONS_FIGURES gives build d the same), the
+    # loop's sections (L43; StepperDemo's half in stepperdemo.demo.build), the direction
+    # checks of a stepper without a direction pin (N44), a continuous run's commands
+    # (F44), a starting ramp's commands by their branches (R47).  Before: (61, 71, 71),
+    # the rest off.  The ramp task's own sections per command (K43) and before its exit
+    # (T44) stay variants: the corpus passes without them and they cost the G-code run
+    # 11 % and 6 % of its instructions (issue 25)
     isr_latency_ticks=BUILD_D_REPLICA_PLAIN_PULSE_TICKS,
-    fill_cmd_mask_sections=BUILD_D_REPLICA_CMD_MASK_SECTIONS,
     loop_section_widths=True,
     fill_no_dir_pin_saved_ticks=BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS,
     fill_continuous_saved_ticks=BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS,
-    fill_tail_mask_ticks=BUILD_D_REPLICA_TAIL_MASK_TICKS,
     fill_start_pitch_ticks=BUILD_D_REPLICA_START_PITCH_TICKS)
 # ... and the same build with SIMAVR_TIME_MEASUREMENT (upstream's timing tests
 # test_sd_04_timing_*): its plain pulse read as well (P43: 62 / 72; before, 62 / 73)

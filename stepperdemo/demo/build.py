@@ -334,7 +334,7 @@ ATMEGA328P_BUILD = replace(
     cmd_tail_ticks=dict(BUILD_D_REPLICA_TAILS_P39),
     pause_end_ticks=BUILD_D_REPLICA_PAUSE_END_TICKS,
     buffer_char_ticks=BUILD_D_REPLICA_PRINT_BODY["buffer_char_ticks"],
-    # ... and since the fiftieth pass (with fas.sim.timing's half of the eight): a held
+    # ... and since the fiftieth pass (with fas.sim.timing's half of the six): a held
     # W's every pass while a stepper runs and its CPU before a status line (S42), the
     # loop's critical sections with each such pass's millis() 123 ticks before its end
     # (L43).  Before: all off
