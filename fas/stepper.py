@@ -78,6 +78,9 @@ class Stepper:
         _, planner = planners.lookup(PLANNER_FAS)(self._host, None, None)
         assert planner is not None
         self._planner: Planner = planner
+        #: the planner in use (:mod:`fas.planner`); read only (:meth:`use_planner` sets
+        #: it, with ``_planner``): a plain attribute, read per G-code move
+        self.planner: Planner = planner
         self._planners[PLANNER_FAS] = planner
         planner.attach(None)
 
@@ -523,11 +526,6 @@ class Stepper:
 
     # --------------------------------------------------------------- planner
     @property
-    def planner(self) -> Planner:
-        """The planner in use (:mod:`fas.planner`)."""
-        return self._planner
-
-    @property
     def planner_name(self) -> str:
         """The registry name of the planner in use (:mod:`fas.planners`)."""
         return self._planner_name
@@ -554,7 +552,7 @@ class Stepper:
             return old
         planner.queue.take_over(old.queue)
         old.detach()
-        self._planner = planner
+        self._planner = self.planner = planner
         self._planner_name = name or next(
             (n for n, p in self._planners.items() if p is planner), type(planner).__name__)
         self._queue = planner.queue
