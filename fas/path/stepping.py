@@ -200,7 +200,8 @@ class AxisWriter:
             return _OK
         self._deep = now + low_water
         q = self.queue
-        self.free = q.queue_len - q.queue_entries()
+        q.channel.sync()  # (q.queue_entries() written out: every task)
+        self.free = q.queue_len - ((q.next_write_idx - q.read_idx) & 0xFF)
         while True:
             free = self.free
             if free < 2:
