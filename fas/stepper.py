@@ -54,6 +54,8 @@ class Stepper:
         self._step_pin = queue.step_pin
         # direction and enable inputs of the driver, and writing a command (fas.drive)
         self._drive = drive = Drive(engine, pool, queue, lambda: self._queue, self.is_running)
+        #: the same, read only: the engine's periodic task reads its auto disable counter
+        self.drive: Drive = drive
         # the engine's periodic task asks these of every stepper (its Drive answers)
         self.count_down_auto_disable: Callable[[], None] = drive.count_down_auto_disable
         self.agrees_to_auto_disable: Callable[[], bool] = drive.agrees_to_auto_disable
