@@ -286,7 +286,9 @@ class Engine:
         for hook in self.task_hooks:
             hook.run_task()
         for i, s in enumerate(steppers):
-            if s is None or not s.auto_disable_due():
+            # (the counter first: auto_disable_due() asks it first, and the stepper's
+            # is_running only at 1 - most runs call neither method)
+            if s is None or s.drive.auto_disable_delay_counter != 1 or not s.auto_disable_due():
                 continue
             high_pin = s.get_enable_pin_high_active()
             low_pin = s.get_enable_pin_low_active()
@@ -303,8 +305,8 @@ class Engine:
                                                 or current.uses_enable_pin(low_pin)):
                         current.disable_outputs()
         for s in steppers:
-            if s is not None:
-                s.count_down_auto_disable()
+            if s is not None and s.drive.auto_disable_delay_counter > 1:
+                s.count_down_auto_disable()  # (which counts down from 2 only)
         if self.sync.active():
             self.sync.progress()
         return generated

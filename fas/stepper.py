@@ -54,6 +54,8 @@ class Stepper:
         self._step_pin = queue.step_pin
         # direction and enable inputs of the driver, and writing a command (fas.drive)
         self._drive = drive = Drive(engine, pool, queue, lambda: self._queue, self.is_running)
+        #: the same, read only: the engine's periodic task reads its auto disable counter
+        self.drive: Drive = drive
         # the engine's periodic task asks these of every stepper (its Drive answers)
         self.count_down_auto_disable: Callable[[], None] = drive.count_down_auto_disable
         self.agrees_to_auto_disable: Callable[[], bool] = drive.agrees_to_auto_disable
@@ -78,6 +80,9 @@ class Stepper:
         _, planner = planners.lookup(PLANNER_FAS)(self._host, None, None)
         assert planner is not None
         self._planner: Planner = planner
+        #: the planner in use (:mod:`fas.planner`); read only (:meth:`use_planner` sets
+        #: it, with ``_planner``): a plain attribute, read per G-code move
+        self.planner: Planner = planner
         self._planners[PLANNER_FAS] = planner
         planner.attach(None)
 
@@ -523,11 +528,6 @@ class Stepper:
 
     # --------------------------------------------------------------- planner
     @property
-    def planner(self) -> Planner:
-        """The planner in use (:mod:`fas.planner`)."""
-        return self._planner
-
-    @property
     def planner_name(self) -> str:
         """The registry name of the planner in use (:mod:`fas.planners`)."""
         return self._planner_name
@@ -554,7 +554,7 @@ class Stepper:
             return old
         planner.queue.take_over(old.queue)
         old.detach()
-        self._planner = planner
+        self._planner = self.planner = planner
         self._planner_name = name or next(
             (n for n, p in self._planners.items() if p is planner), type(planner).__name__)
         self._queue = planner.queue

@@ -514,18 +514,22 @@ class PathGroup:
         """The group's part of one periodic task (from the lead axis's fill)."""
         if not self.attached:
             return
-        now = self._now()
+        backend = self.backend  # (self._now() written out: every task)
+        now = backend.now() if backend is not None else 0
         if not self.run_active:
             if self._may_start(now):
                 self._start_run(now)
             return
         # a queue ran dry inside the run (one writer per axis; by index: a zip with
-        # its keyword costs more than the loop)
+        # its keyword costs more than the loop; the queue's is_queue_empty written out)
         axes = self.axes
         for i, w in enumerate(self.writers):
-            if not w.done and axes[i].queue.is_queue_empty():
-                self._underran()
-                return
+            if not w.done:
+                q = axes[i].queue
+                q.channel.sync()
+                if q.next_write_idx == q.read_idx:
+                    self._underran()
+                    return
         ex = self.executor
         if self.holding and self.hold_start is None:
             seg = ex.cur

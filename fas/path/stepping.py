@@ -200,7 +200,8 @@ class AxisWriter:
             return _OK
         self._deep = now + low_water
         q = self.queue
-        self.free = q.queue_len - q.queue_entries()
+        q.channel.sync()  # (q.queue_entries() written out: every task)
+        self.free = q.queue_len - ((q.next_write_idx - q.read_idx) & 0xFF)
         while True:
             free = self.free
             if free < 2:
@@ -758,8 +759,8 @@ class AxisWriter:
                 keep(period)
         # the most steps whose commands are legal: steps 0..k-1 at the period of
         # step k-1, then the wait up to step k's tick (step k begins the next command)
-        min_wait = self.min_wait
         min_cmd = self.min_cmd
+        min_wait = fastest if fastest > min_cmd else min_cmd  # (self.min_wait written out)
         k = len(periods)
         while k:
             period = periods[k - 1]
@@ -832,8 +833,10 @@ class AxisWriter:
         if slowing and m > 1:
             first = seg.step_tick(i, self.j + 1) - self.w_end
             rest = span - (m - 1) * first
-            if (first >= self.queue.max_speed_in_ticks and first <= MAX_TICKS
-                    and self._legal(first, m - 1) and self.min_wait <= rest <= MAX_TICKS):
+            fastest = self.queue.max_speed_in_ticks
+            least = self.min_cmd  # (self.min_wait written out below)
+            if (first >= fastest and first <= MAX_TICKS and self._legal(first, m - 1)
+                    and (fastest if fastest > least else least) <= rest <= MAX_TICKS):
                 cmds = [(first, m - 1), (rest, 1)]
         if cmds is None:
             cmds = self._commands(span, m)
@@ -856,7 +859,10 @@ class AxisWriter:
         """Commands ``(ticks, steps)`` for ``m`` steps over ``span`` ticks (None: a
         period beyond 65535 ticks)."""
         if m == 1:
-            lo = self.min_wait
+            lo = self.min_cmd  # (self.min_wait written out)
+            fastest = self.queue.max_speed_in_ticks
+            if fastest > lo:
+                lo = fastest
             if span > MAX_TICKS:
                 return None
             if span < lo:
@@ -940,8 +946,10 @@ class AxisWriter:
 
     def _pause_ahead(self, free: int) -> Wrote:
         """No step is final: pauses up to one minimum command time before the horizon."""
-        gap = int(self.ex.t) - self.min_cmd - self.w_end
-        if gap < self.min_wait or self.last_start > self._deep:
+        least = self.min_cmd
+        gap = int(self.ex.t) - least - self.w_end
+        fastest = self.queue.max_speed_in_ticks  # (self.min_wait written out)
+        if gap < (fastest if fastest > least else least) or self.last_start > self._deep:
             return _WAIT
         parts = split_ticks(gap)[:free - 1]
         return self._write_all([(t, 0) for t in parts], self.up, None)

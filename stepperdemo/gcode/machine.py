@@ -208,12 +208,12 @@ class GcodeMachine:
     def idle(self) -> bool:
         """Nothing to do: no line in execution or waiting, nothing moving or queued."""
         return (self.pending is None and not self.executor.busy()
-                and (self.input_held or not self.rx.pending) and not self.startup_queue
+                and (self.input_held or not self.rx.ring) and not self.startup_queue
                 and not self.engine.sync.active() and not self.executor.moving())
 
     def can_take_line(self) -> bool:
         """Would the parser read a line now (a file is fed a line at a time)?"""
-        return self.pending is None and self._reading() and not self.rx.pending
+        return self.pending is None and self._reading() and not self.rx.ring
 
     def can_read(self) -> bool:
         """Would the parser read a line now (not held, no line in execution)?"""
