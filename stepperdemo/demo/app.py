@@ -16,6 +16,7 @@ takes characters as they are typed.
 from __future__ import annotations
 
 from collections import deque
+from dataclasses import replace
 from typing import Callable
 
 from fas import Engine
@@ -61,6 +62,10 @@ class StepperDemo(LoopProgram):
         # the firmware build the simulated chip runs (fas.sim.builds; None elsewhere)
         self.firmware_build: str | None = getattr(backend, "build", None)
         self.build = demo_build(self.profile, self.firmware_build)
+        if self.firmware_build is None and self.build.w_every_pass:
+            # a held W's every pass is the simulated chip's loop (its sections, its status
+            # lines' phase); beside a device this program is the host's and skips them
+            self.build = replace(self.build, w_every_pass=False)
         self._timing = sim_timing(self.profile, self.firmware_build)
         # a write call to the console's serial driver (USB CDC: not nothing)
         self._call_ticks = self._timing.console_call_ticks

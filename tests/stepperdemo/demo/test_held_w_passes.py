@@ -18,12 +18,11 @@ from stepperdemo.demo.build import demo_build
 
 LINES = [
     "M1 A1000 V100 R3200 W",  # the README's move
-    "M1 A1000 V100 R3200 W t W",
     "M1 A10000 V100 R5000 M2 A5000 V200 R-3000 W M1 W",
-    "M1 A20000 V40 R20000 M2 A20000 V60 R-20000 W",  # two fast steppers
+    "M1 A20000 V40 R6000 M2 A20000 V60 R-6000 W",  # two fast steppers
     "M1 A1000 V100 R800 w50 R-800 W",
     "M1 A5000 V300 f w200 S W",  # a continuous run stopped: W ends at the stop
-    "M1 A3000 V80 R4000 W M2 A3000 V90 R-100 W",
+    "M1 A3000 V80 R1500 W M2 A3000 V90 R-100 W t",
 ]
 
 
@@ -134,3 +133,13 @@ def test_the_holds_of_a_block_are_loop_hold_of_each_request() -> None:
         want = [(j, w) for j in range(j0, j1)
                 if j not in skip and (w := m.loop_hold(c0 + j * period, period, cost))]
         assert m.loop_holds(c0, period, j0, j1, cost, skip) == want
+
+
+def test_beside_a_device_a_held_w_skips_its_passes() -> None:
+    from fas.device.loopback import Loopback
+
+    with Loopback() as lb:
+        app = StepperDemo(lb.backend, scripted=True)
+        # the host's loop is no chip's: its held W waits for the stop (no pass by pass)
+        assert app.firmware_build is None and not app.build.w_every_pass
+    assert StepperDemo(SimBackend(ATMEGA328P), scripted=True).build.w_every_pass
