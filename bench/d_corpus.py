@@ -11,8 +11,12 @@ build's AVR figures, and its time-measurement build of upstream's timing tests;
 ``tm.FIELD=VALUE`` that build's table alone); the scenario files then run as
 ``python3 -m stepperdemo run FILES...`` runs them (its exit status).  Since the fortieth
 pass, build d's figures read from its replica (D33 P30 L34 W34 C37 P39 T39) are the
-default: those variants set what is already set; ``FIT`` (first) goes back to the
-figures fitted before it, to look at a reading alone.
+default, since the fiftieth six of the eight of the forty-second to forty-seventh
+passes (R47 S42 P43 L43 N44 F44) as well: those variants set what is already set; K43
+and T44 (the ramp task's own sections) stay off (they cost the G-code run 11 % and 6 %
+of its instructions, issue 25; docs/timing-model.md, fiftieth pass).  ``FIT`` (first)
+goes back to the figures fitted before the fortieth pass, ``PRE49`` to the eight's
+before the fiftieth (all off), to look at a reading alone.
 """
 
 from __future__ import annotations
@@ -78,8 +82,11 @@ VARIANTS: dict[str, list[str]] = {
     # (SimTiming.fill_enable_ticks; forty-second pass)
     "E42": ["fill_enable_ticks=311"],
     # a held W's every pass while a stepper runs and the pass's CPU before a status line
-    # (StepperDemo's DemoBuild.w_every_pass, status_lead_ticks; forty-second pass)
-    "S42": ["w_every_pass=1", "status_lead_ticks=257"],
+    # (StepperDemo's DemoBuild.w_every_pass, status_lead_ticks; forty-second pass; the
+    # default since the fiftieth, as P43 L43 N44 F44 R47 below: no-ops on the default;
+    # K43 and T44 are not)
+    "S42": ["w_every_pass=1",
+            f"status_lead_ticks={demo_build_module.BUILD_D_REPLICA_STATUS_LEAD_TICKS}"],
     # build d's plain step pulse read from its replica (60 / 70 ticks; with
     # SIMAVR_TIME_MEASUREMENT 62 / 72: fas.sim.timing's BUILD_D_REPLICA_PLAIN_PULSE_TICKS;
     # forty-third pass)
@@ -90,7 +97,8 @@ VARIANTS: dict[str, list[str]] = {
     # the loop's sections (the replica's figures measured with them, and the loop's
     # polls), each pass of a held W under S42 with them (DemoBuild.w_pass_millis_before_end;
     # forty-third pass)
-    "L43": ["loop_section_widths=1", "loop_sections=1", "w_pass_millis_before_end=123"],
+    "L43": ["loop_section_widths=1", "loop_sections=1", "w_pass_millis_before_end="
+            f"{demo_build_module.BUILD_D_REPLICA_W_PASS_MILLIS_BEFORE_END}"],
     # build d's ramp task's own sections per command, read from d02's replica
     # (BUILD_D_REPLICA_CMD_MASK_SECTIONS; forty-third pass)
     "K43": ["fill_cmd_mask_sections=" + ",".join(
@@ -131,13 +139,29 @@ VARIANTS: dict[str, list[str]] = {
         str(v) for v in sim_timing_module.BUILD_D_REPLICA_JUMP_START_TICKS)],
     # a starting ramp's commands by the branches their planning took (the coast check's
     # multiplication, a coast without calculate_ticks(), ...: the pitch;
-    # SimTiming.fill_start_pitch_ticks; forty-seventh pass)
+    # SimTiming.fill_start_pitch_ticks; forty-seventh pass; the default since the
+    # fiftieth)
     "R47": ["fill_start_pitch_ticks=" + ",".join(
         str(v) for v in sim_timing_module.BUILD_D_REPLICA_START_PITCH_TICKS)],
 }
 # the variants that make build d's default (fortieth pass; E45 since the forty-fifth,
-# H46 and Q46 since the forty-sixth)
+# H46 and Q46 since the forty-sixth; six of the eight of the forty-second to
+# forty-seventh passes since the fiftieth: all but the ramp task's sections, K43 and T44)
 DEFAULT_READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39", "E45", "H46", "Q46"]
+EIGHT = ["R47", "S42", "P43", "K43", "L43", "N44", "F44", "T44"]
+SIX = [v for v in EIGHT if v not in ("K43", "T44")]
+DEFAULT_READ += SIX
+# the eight's figures as they were before the fiftieth pass (all off, the plain pulse
+# fitted): the variant PRE49, to look at the default without them, or one of them alone
+# (``--variant PRE49 --variant N44``)
+VARIANTS["PRE49"] = [
+    "fill_start_pitch_ticks=", "w_every_pass=0", "status_lead_ticks=0",
+    "isr_latency_ticks=" + ",".join(map(str, sim_timing_module.AVR_TIMING.isr_latency_ticks)),
+    "tm.isr_latency_ticks=" + ",".join(
+        map(str, sim_timing_module.TIME_MEASUREMENT_STEP_ISR["isr_latency_ticks"])),
+    "fill_cmd_mask_sections=", "loop_section_widths=0", "loop_sections=0",
+    "w_pass_millis_before_end=0", "fill_no_dir_pin_saved_ticks=",
+    "fill_continuous_saved_ticks=", "fill_tail_mask_ticks="]
 
 
 def set_fitted() -> None:
@@ -181,9 +205,9 @@ def set_build_d(settings: list[str]) -> None:
             if isinstance(current, bool):
                 new: object = value.lower() in ("1", "true", "yes")
             elif isinstance(current, tuple):
-                try:  # figures, or pairs BEFORE:TICKS (fill_cmd_mask_sections)
+                try:  # figures, or pairs BEFORE:TICKS (fill_cmd_mask_sections); none: off
                     new = tuple(tuple(int(x) for x in v.split(":")) if ":" in v else int(v)
-                                for v in value.split(","))
+                                for v in value.split(",")) if value else ()
                 except ValueError:
                     raise ValueError(f"--set {setting!r}: {value!r} is not numbers "
                                      "separated by commas") from None

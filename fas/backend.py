@@ -21,7 +21,11 @@ if TYPE_CHECKING:  # pragma: no cover
     from .pwm import PwmSetting
     from .queue import StepperQueue
 
-__all__ = ["Backend", "EngineStepper", "OutputChange", "OrderChannel", "PulseCounter",
+#: how the main loop polls: its pass length and the sections (offset, ticks) of a pass
+#: with interrupts off (:meth:`Backend.app_spend_in`)
+AppPoll = tuple[int, tuple[tuple[int, int], ...]]
+
+__all__ = ["AppPoll", "Backend", "EngineStepper", "OutputChange", "OrderChannel", "PulseCounter",
            "QueueChannel", "InputListener", "LimitListener", "PinRecording", "PinStates",
            "TaskEngine"]
 
@@ -264,6 +268,19 @@ class Backend(ABC):
         the sections ``poll[1]`` (offset, ticks): a loop that reads something under
         ``cli`` again and again."""
         self.app_spend(ticks)
+
+    def app_spend_passes(self, passes: Sequence[tuple[int, int, AppPoll | None]],
+                         before: int, changed: Callable[[], bool]) -> int:
+        """The main loop runs the same round of passes again and again while nothing it
+        looks at changes: each pass ``(head, ticks, poll)`` spends ``head`` ticks, makes
+        its reads, then spends ``ticks`` (``poll``: as :meth:`app_spend_in`'s, None: as
+        :meth:`app_spend`).  A pass is spent only if its reads come before tick
+        ``before`` and nothing of the library's happens before them in it; after a pass
+        in which something happened, the backend stops once ``changed()`` holds.
+        Returns how many passes were spent, from the round's first: spending them one
+        by one, as the loop would, ends at the same tick with the same effects.  A
+        backend that cannot tell spends none (0): the caller runs its passes itself."""
+        return 0
 
     @abstractmethod
     def app_wait_until(self, tick: int, until: Callable[[], bool] | None = None) -> bool:

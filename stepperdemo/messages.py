@@ -284,6 +284,9 @@ RUN_TIMING_REPORT_HEAD = "--- timing report: {name} ---"
 CLI_MAX_TIME = ("stopped after {seconds:g} s of simulated time (--max-time): "
                 "a stepper was still running or the input was still held")
 CLI_ERROR = "stepperdemo: {problem}"
+CLI_INPUT_DROPPED = ("stepperdemo: {n} input characters dropped, as the firmware drops them: "
+                     "its 256-byte input ring was full while a W held the line; "
+                     "split lines longer than 256 characters")
 CLI_BAD_NUMBER = "{option} {value:g}: give {what}"
 LINK_NO_FOLDER = "--link {path}: no folder {folder} to make the link in"
 LINK_IS_FOLDER = "--link {path}: a folder is in its place"

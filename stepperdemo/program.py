@@ -105,6 +105,11 @@ class Program(ABC):
         """0 when a scripted run succeeded; non-zero (1) when it reported a failure."""
         return 0
 
+    def dropped_input(self) -> int:
+        """Input bytes the program's firmware dropped unread (a full input buffer); the
+        scripted console says so on stderr, the transcript stays the firmware's."""
+        return 0
+
     # ----------------------------------------------------- watching a run
     def trace_signals(self) -> dict[int, list[str]]:
         """Pins of the program's own (inputs, outputs) to trace beside the steppers'."""

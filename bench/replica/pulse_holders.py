@@ -262,9 +262,12 @@ class ModelHolders:
         m = self.m
         for start, end, period, sections in reversed(m.loop_polls):
             if start <= c < end:
-                d = c - start
-                d -= step_cost * (d // step_period) + m._ms_cost * (d >> 14)  # noqa: SLF001
-                phase = d % period
+                if period < 0:  # a run of passes nothing met (Machine.consume_rounds)
+                    phase = (c - start) % -period
+                else:
+                    d = c - start
+                    d -= step_cost * (d // step_period) + m._ms_cost * (d >> 14)  # noqa: SLF001
+                    phase = d % period
                 for offset, ticks in sections:
                     if offset <= phase < offset + ticks:
                         return "loop: queueEntries()" if offset == 0 else "loop: millis()"

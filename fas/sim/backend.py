@@ -7,7 +7,7 @@ from bisect import bisect_right
 from typing import TYPE_CHECKING, Callable, Sequence
 
 from ..arch import Profile, get_profile
-from ..backend import Backend, OutputChange, PinStates, PulseCounter, TaskEngine
+from ..backend import AppPoll, Backend, OutputChange, PinStates, PulseCounter, TaskEngine
 from ..pwm import PwmSetting
 from ..queue import StepperQueue
 from ..schedule import TaskSchedule
@@ -237,19 +237,26 @@ class SimBackend(Backend):
         m = self.machine
         timing = m.timing
         per, last_before, gap, fill, done, idle = timing.fill_tail_mask_ticks
-        running = [ch for ch in self.channels if ch.running]
+        running = [ch.q for ch in self.channels if ch.running]
         last = per * max(1, len(running))
         before = last_before + last + gap
         if not running:
             width = idle
         else:
-            planning = engine.planning_queues()
-            width = fill if any(q is ch.q for ch in running for q in planning) else done
+            width = done
+            for q in engine.planning_queues():  # (any(...), written out: every task)
+                if q in running:
+                    width = fill
+                    break
         limit = end - timing.fill_mask_exit_ticks
+        ends = m.exit_ends
         for start, ticks in ((end - before - width, width), (end - last_before - last, last)):
-            start = max(self._after_holds(start, ticks),
-                        m.exit_ends[-1] if m.exit_ends else start)
-            stop = min(start + ticks, limit)
+            start = self._after_holds(start, ticks)
+            if ends and ends[-1] > start:
+                start = ends[-1]
+            stop = start + ticks
+            if stop > limit:
+                stop = limit
             if start < stop:
                 m.mask(start, stop)
 
@@ -487,6 +494,10 @@ class SimBackend(Backend):
         m.poll_begin(*poll)
         m.consume(ticks)
         m.poll_end()
+
+    def app_spend_passes(self, passes: Sequence[tuple[int, int, AppPoll | None]],
+                         before: int, changed: Callable[[], bool]) -> int:
+        return self.machine.consume_passes(passes, before, changed)
 
     def app_polls(self, poll: tuple[int, tuple[tuple[int, int], ...]] | None) -> None:
         self._poll = poll

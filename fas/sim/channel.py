@@ -26,7 +26,9 @@ without such a sink the pin statistics count a block's pulses at their plain wid
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from collections.abc import Callable, Iterator
+from functools import lru_cache
 from heapq import heappush
 from typing import TYPE_CHECKING
 
@@ -45,6 +47,20 @@ RESTART_TICKS = 10  # the step ISR's "do it immediately" delay after the queue r
 ENTRY_START = 0  # first entry after the channel was started (a new motion)
 ENTRY_NEXT = 1  # the following entry of the queue
 ENTRY_RESTART = 2  # an entry that arrived after the queue had run dry
+
+
+@lru_cache(maxsize=8)
+def _sections_in_order(sections: tuple[tuple[int, int], ...]
+                       ) -> tuple[tuple[int, ...], tuple[int, ...], tuple[int, ...]] | None:
+    """A command's mask sections ``(before, ticks)`` (before its write's end) as their
+    starts' and ends' distances before it, and the ends' negated (ascending: to find the
+    first that ends after a tick), if each begins at or after the one before it ends and
+    none is empty (None: not so)."""
+    if not sections or not all(t > 0 for _, t in sections) or not all(
+            b1 <= b0 - t0 for (b0, t0), (b1, _) in zip(sections, sections[1:], strict=False)):
+        return None
+    return (tuple(b for b, _ in sections), tuple(b - t for b, t in sections),
+            tuple(t - b for b, t in sections))
 
 
 class SimChannel(QueueChannel):
@@ -513,11 +529,42 @@ class SimChannel(QueueChannel):
                 m.mask(end - p.fill_cmd_mask_ticks, end)
             elif p.fill_cmd_mask_sections and self.contention:
                 end = m.now + m.task_offset
-                for before, ticks in p.fill_cmd_mask_sections:
-                    # (a short command: not before the sections already known)
-                    start = max(end - before, m.exit_ends[-1] if m.exit_ends else 0)
-                    if start < end - before + ticks:
-                        m.mask(start, end - before + ticks)
+                # (Machine.mask of each, written out: 13 sections a command on build d)
+                starts, ends = m.exit_starts, m.exit_ends
+                last = ends[-1] if ends else 0
+                sections = p.fill_cmd_mask_sections
+                order = _sections_in_order(sections)
+                # the first section that ends after the sections known: the ones before
+                # it lie in them, it is cut to their end, the rest go in whole
+                k = bisect_right(order[2], last - end) if order is not None else 0
+                n = len(sections)
+                if order is not None and k == n:
+                    pass  # (all of them within the sections known)
+                elif order is not None and len(starts) + n - k <= 1025:  # no list full
+                    starts_before, ends_before, _ = order
+                    start = end - starts_before[k]
+                    starts.append(start if start > last else last)
+                    ends.append(end - ends_before[k])
+                    if k + 1 < n:
+                        starts += map(end.__sub__, starts_before[k + 1:])
+                        ends += map(end.__sub__, ends_before[k + 1:])
+                    if ends[-1] > m._quiet_from:  # noqa: SLF001
+                        m._quiet_from = ends[-1]  # noqa: SLF001
+                else:
+                    for before, ticks in sections:
+                        # (a short command: not before the sections already known)
+                        start = end - before
+                        stop = start + ticks
+                        if start < last:
+                            start = last
+                        if start < stop:
+                            if len(starts) > 1024:
+                                m._forget_isrs()  # noqa: SLF001
+                            starts.append(start)
+                            ends.append(stop)
+                            last = stop
+                            if stop > m._quiet_from:  # noqa: SLF001
+                                m._quiet_from = stop  # noqa: SLF001
 
     def step_pin_high(self) -> bool:
         """Is a step pulse on the pin at this very tick?"""
@@ -638,9 +685,7 @@ class SimChannel(QueueChannel):
                 out.append((j, free - c + (self.after_reti if free != m.blocked_end
                                            else 0)))
         if m.loop_polls and m.loop_polls[-1][1] > c0 + j0 * t:
-            held = {j for j, _ in out}
-            loop = [(j, w) for j in range(j0, j1) if j not in held
-                    and (w := m.loop_hold(c0 + j * t, t, self.isr_ticks))]
+            loop = m.loop_holds(c0, t, j0, j1, self.isr_ticks, {j for j, _ in out})
             if loop:
                 out = sorted(out + loop)
         return out

@@ -34,7 +34,13 @@ from .timing import sim_timing
 from .uart import Uart
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from .channel import SimChannel
+
+#: the main loop's passes while it polls: a pass's ticks and its sections (offset, ticks)
+#: with interrupts off (:meth:`Machine.poll_begin`)
+Poll = tuple[int, tuple[tuple[int, int], ...]]
 
 PRIO_STEP_ISR = 10  # + channel index: TIMER1_COMPA before COMPB ...
 PRIO_TASK = 30  # timer overflow: after the compare interrupts
@@ -391,15 +397,65 @@ class Machine:
             if c >= end:
                 return 0
             if c >= start:
-                d = c - start
-                d -= step_cost * (d // step_period) + self._ms_cost * (d >> 14)
-                phase = d % period
+                if period < 0:  # a run of passes nothing met (consume_passes): exact
+                    phase = (c - start) % -period
+                else:
+                    d = c - start
+                    d -= step_cost * (d // step_period) + self._ms_cost * (d >> 14)
+                    phase = d % period
                 for offset, ticks in sections:
                     if offset <= phase < offset + ticks:
                         return offset + ticks - phase
                 return 0
             i -= 1
         return 0
+
+    def loop_holds(self, c0: int, period: int, j0: int, j1: int, step_cost: int,
+                   skip: set[int] | frozenset[int] = frozenset()) -> list[tuple[int, int]]:
+        """:meth:`loop_hold` of the requests ``c0 + j * period``, ``j0 <= j < j1`` (a
+        channel's block of pulses, ``step_cost`` ticks each), but those in ``skip``:
+        ``(j, ticks)`` for each that waits, in order.  The requests and the polls go
+        forward together (the polls are in order and do not overlap)."""
+        polls = self.loop_polls
+        n = len(polls)
+        out: list[tuple[int, int]] = []
+        if not n:
+            return out
+        c = c0 + j0 * period
+        lo, hi = 0, n  # the first poll that ends after c
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if polls[mid][1] <= c:
+                lo = mid + 1
+            else:
+                hi = mid
+        i = lo
+        ms_cost = self._ms_cost
+        j = j0
+        while j < j1 and i < n:
+            start, end, pass_ticks, sections = polls[i]
+            i += 1
+            first = c0 + j * period
+            if first < start:  # the first request in this poll
+                first = c0 + (-(-(start - c0) // period)) * period
+            last = c0 + (j1 - 1) * period  # ... and the last
+            if last >= end:
+                last = c0 + ((end - 1 - c0) // period) * period
+            for c in range(first, last + 1, period):
+                if pass_ticks < 0:
+                    phase = (c - start) % -pass_ticks
+                else:
+                    d = c - start
+                    d -= step_cost * (d // period) + ms_cost * (d >> 14)
+                    phase = d % pass_ticks
+                for offset, ticks in sections:
+                    if offset <= phase < offset + ticks:
+                        k = (c - c0) // period
+                        if k not in skip:
+                            out.append((k, offset + ticks - phase))
+                        break
+            j = (last - c0) // period + 1 if last >= first else j
+        return out
 
     @property
     def blocked_end(self) -> int:
@@ -728,6 +784,104 @@ class Machine:
             if not ticks:
                 return
         self.consume_counting(ticks)
+
+    def consume_passes(self, passes: Sequence[tuple[int, int, Poll | None]], before: int,
+                       changed: Callable[[], bool]) -> int:
+        """The main loop's passes, the same round of ``passes`` again and again: each
+        pass ``(head, ticks, poll)`` spends ``head`` ticks, then makes its reads, then
+        spends ``ticks`` (``poll``: its sections, as :meth:`poll_begin`'s; None: none),
+        each span as :meth:`consume` would.  A pass is spent when no event falls due in
+        its head and its reads come before tick ``before`` (else it is taken back and
+        the call returns); events in its ``ticks`` run as in :meth:`consume`, and after
+        a pass in which one ran the call returns once ``changed()`` holds.  Returns how
+        many passes were spent, from the round's first.
+
+        Rounds in which no interrupt takes time from the loop (before the next tick of
+        a train, the UART's next load and the next event) follow each other at the
+        round's length: they are spent at once, and the polls of one pass of each kept
+        as one entry of :attr:`loop_polls` with the round's length negated as its period
+        (its passes ``-period`` apart from its start, each exactly: :meth:`loop_hold`).
+        A machine with ``cpu_sources`` counts every span itself: it spends none here."""
+        if self.cpu_sources or not passes:
+            return 0
+        polls = self.loop_polls
+        heap = self.events
+        count = len(passes)
+        length = sum(head + ticks for head, ticks, _ in passes)
+        polled = [i for i, (_, ticks, poll) in enumerate(passes) if poll is not None and ticks]
+        run: tuple[int, int, tuple[tuple[int, int], ...]] | None = None  # (offset, ticks, sections)
+        bulk = length > 0 and not polled
+        if len(polled) == 1:
+            i = polled[0]
+            head, ticks, poll = passes[i]
+            if poll is not None and poll[0] == ticks:  # sections of the pass's own length
+                bulk = True
+                run = (sum(h + t for h, t, _ in passes[:i]) + head, ticks, poll[1])
+        done = 0
+        i = 0
+        while True:
+            clock = self.isr_clock()
+            now = self.now
+            if i == 0 and bulk and not self.stolen_ticks:  # the rounds nothing meets, at once
+                trains = clock.trains
+                horizon = before
+                if heap and heap[0][0] < horizon:
+                    horizon = heap[0][0]
+                for tr in trains:
+                    nxt = tr[0]
+                    if nxt <= now:
+                        nxt = tr[0] = next_after(now, tr[1], tr[2], tr[3])
+                    if nxt < horizon:
+                        horizon = nxt
+                if clock.uart_cost:
+                    loads = clock.loads
+                    li = clock.li
+                    n_loads = len(loads)
+                    if li and (li > n_loads or loads[li - 1] > now):
+                        li = bisect_right(loads, now)
+                    while li < n_loads and loads[li] <= now:
+                        li += 1
+                    clock.li = li
+                    if li < n_loads and loads[li] < horizon:
+                        horizon = loads[li]
+                k = (horizon - 1 - now) // length
+                if k > 0:
+                    self.now = now + k * length
+                    done += k * count
+                    if run is not None:
+                        if len(polls) > 4096:  # (as poll_begin)
+                            del polls[:len(polls) - 64]
+                        offset, ticks, sections = run
+                        polls.append((now + offset, now + (k - 1) * length + offset + ticks,
+                                      -length, sections))
+                    now = self.now
+            head, ticks, poll = passes[i]
+            if head:  # no event in it, the reads before ``before``: else taken back
+                stolen0 = self.stolen_ticks
+                trains = clock.trains
+                cursors = [tr[0] for tr in trains]
+                li0, quiet0 = clock.li, clock.quiet
+                if clock.spend(head) or self.now >= before:
+                    self.now, self.stolen_ticks = now, stolen0
+                    for tr, nxt in zip(trains, cursors, strict=True):
+                        tr[0] = nxt
+                    clock.li, clock.quiet = li0, quiet0
+                    return done
+            elif now >= before:
+                return done
+            if poll is not None:
+                self.poll_begin(*poll)
+            left = clock.spend(ticks)
+            if left:
+                self.consume_counting(left)
+            if poll is not None:
+                self.poll_end()
+            done += 1
+            i += 1
+            if i == count:
+                i = 0
+            if left and changed():
+                return done
 
     def loop_trains(self) -> list[Train]:
         """The periodic interrupts that take CPU time from the loop until the next

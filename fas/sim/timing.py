@@ -120,13 +120,14 @@ class SimTiming:
     # write, the queue's direction state).  As (the first write to an empty stopped
     # queue, a later write to a stopped queue, a write to a running queue); build d's
     # replica, test_sd_14's start and run with and without `u`: 154, 123, 44 (every write
-    # alike; docs/timing-model.md, "forty-fourth pass"; empty: off)
+    # alike; docs/timing-model.md, "forty-fourth pass"; empty: off; build d's ATmega328P
+    # since the fiftieth pass)
     fill_no_dir_pin_saved_ticks: tuple[int, ...] = ()
     # a command of a continuous run (runForward / runBackward: the ramp keeps running)
     # costs less than a move's, as (the first write to an empty stopped queue, any other
     # write); build d's replica, test_sd_14's input without `u` against d35 (the same ramp
     # as a move): 67, then 32 each, stopped or running (docs/timing-model.md, "forty-fourth
-    # pass"; empty: off)
+    # pass"; empty: off; build d's ATmega328P since the fiftieth pass)
     fill_continuous_saved_ticks: tuple[int, ...] = ()
     # the step interrupt takes this much more CPU when it takes up the next queue entry
     isr_next_entry_ticks: int = 0
@@ -230,7 +231,8 @@ class SimTiming:
     # branch at a period under two MIN_CMD_TICKS, its coast check's multiplication, a
     # coast (the period kept: no calculate_ticks()), the decelerating calculate_ticks().
     # Build d's replica: -7 / +34 / +83 / -356 / +58 ("forty-seventh pass",
-    # bench/replica/start_pitch.py).  Off (()) everywhere
+    # bench/replica/start_pitch.py).  Build d's ATmega328P since the fiftieth pass;
+    # off (()) everywhere else
     fill_start_pitch_ticks: tuple[int, ...] = ()
     # a ramp task that runs while no stepper runs (it may start one) nests timer 0's
     # overflows (and the UART's) in its time line as task_nested_isrs 2 does in every
@@ -257,7 +259,8 @@ class SimTiming:
     # sim_timing() gives the chip LOOP_SECTIONS_FIGURES (the plain widths, the next
     # compare's write, reti_next_ticks, the UART's hold); StepperDemo follows the loop's
     # sections with DemoBuild.loop_sections (both together: the variant of `78087fe`).
-    # Off by default: not landed
+    # Build d's ATmega328P since the fiftieth pass (with S42 P43 N44 F44 R47); off
+    # everywhere else
     loop_section_widths: bool = False
     # the Arduino core's main() between init() (timer 0, millis(), starts) and setup()
     # (the ATmega32U4's USBDevice.attach())
@@ -441,8 +444,9 @@ BUILD_D_REPLICA_PHASES: dict[str, int] = {
 # SIMAVR_TIME_MEASUREMENT 62 / 72 (the entry's sbi, 2 more on both channels).  The model's
 # 61 / 71 (62 / 73) were fitted: they stand for the entries that wait 1-14 ticks behind
 # an instruction or a short section with interrupts off (millis(), queueEntries()) and the
-# ramp task's own sections, which the default does not model.  Variant P43 of
-# bench/d_corpus.py; off: alone the corpus fails 9 files' pulse-high totals, all short
+# ramp task's own sections, which the default did not model.  Variant P43 of
+# bench/d_corpus.py: alone the corpus fails 9 files' pulse-high totals, all short; build
+# d's ATmega328P default since the fiftieth pass, with the other seven (the sections)
 BUILD_D_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (60, 70, 70)
 BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (62, 72, 72)
 # build d's ramp task's own sections with interrupts off, per command it writes, as
@@ -450,7 +454,9 @@ BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS: tuple[int, ...] = (62, 72, 72)
 # TASK_SECTIONS=1 (480 writes in 714 tasks; bench/replica/sketch_replica.task_sections, the
 # commonest distance; docs/timing-model.md, "forty-third pass"): seven after the previous
 # write (2, 13, 6, 51, 2, 15, 2), the queue's fill level (10), the ramp's state (40), three
-# of 2 and the write's own (8 at 53).  Off (fill_cmd_mask_sections empty) in build d
+# of 2 and the write's own (8 at 53).  Variant K43, off in the default: it costs the
+# G-code look-ahead run 11 % of its instructions (issue 25) and the corpus passes without
+# it (docs/timing-model.md, "fiftieth pass")
 BUILD_D_REPLICA_CMD_MASK_SECTIONS: tuple[tuple[int, int], ...] = (
     (1418, 2), (1406, 13), (1328, 6), (1075, 51), (1004, 2), (949, 15), (927, 2),
     (721, 10), (600, 40), (458, 2), (276, 2), (129, 2), (53, 8))
@@ -461,10 +467,11 @@ BUILD_D_REPLICA_CMD_MASK_SECTIONS: tuple[tuple[int, int], ...] = (
 # first write to an empty stopped queue 154 ticks less, a later write to a stopped queue
 # 123 (13 writes alike), a write to a running queue 44 (173 tasks of two writes: 88);
 # d29's start after `u`, 127-128 a write (pauses and one-step commands).  Variant N44 of
-# bench/d_corpus.py (SimTiming.fill_no_dir_pin_saved_ticks; off)
+# bench/d_corpus.py (SimTiming.fill_no_dir_pin_saved_ticks; build d's default since the
+# fiftieth pass, as F44 and R47 below)
 BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS: tuple[int, int, int] = (154, 123, 44)
 # ... and the ramp task's two sections before its exit, every run (fill_tail_mask_ticks;
-# variant T44)
+# variant T44, off in the default as K43: 6 % of the G-code run's instructions)
 BUILD_D_REPLICA_TAIL_MASK_TICKS: tuple[int, ...] = (28, 79, 9, 56, 28, 116)
 # ... and a continuous run's commands (fill_continuous_saved_ticks; variant F44)
 BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS: tuple[int, int] = (67, 32)
@@ -515,10 +522,27 @@ AVR_D_328P_TIMING = replace(
     # update()'s cubic figures and a start's jump (forty-sixth pass; read on inputs of
     # their own, the corpus passes with them)
     fill_cubic_update_ticks=BUILD_D_REPLICA_CUBIC_UPDATE_TICKS,
-    fill_jump_start_ticks=BUILD_D_REPLICA_JUMP_START_TICKS)
+    fill_jump_start_ticks=BUILD_D_REPLICA_JUMP_START_TICKS,
+    # six of the eight read on its replica in the forty-second to forty-seventh passes
+    # (bench/d_corpus.py's R47 S42 P43 L43 N44 F44; the default since the fiftieth pass,
+    # together: the corpus passes with them, not with every part alone).  The plain pulse
+    # (P43; with the loop's sections LOOP_SECTIONS_FIGURES gives build d the same), the
+    # loop's sections (L43; StepperDemo's half in stepperdemo.demo.build), the direction
+    # checks of a stepper without a direction pin (N44), a continuous run's commands
+    # (F44), a starting ramp's commands by their branches (R47).  Before: (61, 71, 71),
+    # the rest off.  The ramp task's own sections per command (K43) and before its exit
+    # (T44) stay variants: the corpus passes without them and they cost the G-code run
+    # 11 % and 6 % of its instructions (issue 25)
+    isr_latency_ticks=BUILD_D_REPLICA_PLAIN_PULSE_TICKS,
+    loop_section_widths=True,
+    fill_no_dir_pin_saved_ticks=BUILD_D_REPLICA_NO_DIR_PIN_SAVED_TICKS,
+    fill_continuous_saved_ticks=BUILD_D_REPLICA_CONTINUOUS_SAVED_TICKS,
+    fill_start_pitch_ticks=BUILD_D_REPLICA_START_PITCH_TICKS)
 # ... and the same build with SIMAVR_TIME_MEASUREMENT (upstream's timing tests
-# test_sd_04_timing_*)
-AVR_TIME_MEASUREMENT_TIMING = replace(AVR_D_328P_TIMING, **TIME_MEASUREMENT_STEP_ISR)
+# test_sd_04_timing_*): its plain pulse read as well (P43: 62 / 72; before, 62 / 73)
+AVR_TIME_MEASUREMENT_TIMING = replace(
+    AVR_D_328P_TIMING, **{**TIME_MEASUREMENT_STEP_ISR,
+                          "isr_latency_ticks": BUILD_D_TM_REPLICA_PLAIN_PULSE_TICKS})
 
 # upstream's own simulator-tested sketches (FastAccelStepper 1.2.7's examples/Issue*,
 # built by its test suite with SIMAVR_TIME_MEASUREMENT): the step interrupt as in
@@ -705,8 +729,20 @@ def sim_timing(profile: Profile, build: str | None = None) -> SimTiming:
     if timing.loop_section_widths:
         figures = LOOP_SECTIONS_FIGURES.get(build, {}).get(profile.name)
         if figures:
-            timing = replace(timing, **figures)  # type: ignore[arg-type]
+            # one table per table and figures: the same object on every call, as a table
+            # without them (a variant's new table gets its own)
+            key = (build, profile.name)
+            made = _WITH_SECTIONS.get(key)
+            if made is None or made[0] is not timing:
+                made = (timing, replace(timing, **figures))  # type: ignore[arg-type]
+                _WITH_SECTIONS[key] = made
+            timing = made[1]
     return timing
+
+
+# sim_timing()'s tables with the loop's sections' figures, by build and profile name: (the
+# table they were made from, the table with them)
+_WITH_SECTIONS: dict[tuple[str, str], tuple[SimTiming, SimTiming]] = {}
 
 
 def _sim_timing(profile: Profile, build: str) -> SimTiming:

@@ -16,6 +16,7 @@ takes characters as they are typed.
 from __future__ import annotations
 
 from collections import deque
+from dataclasses import replace
 from typing import Callable
 
 from fas import Engine
@@ -61,6 +62,10 @@ class StepperDemo(LoopProgram):
         # the firmware build the simulated chip runs (fas.sim.builds; None elsewhere)
         self.firmware_build: str | None = getattr(backend, "build", None)
         self.build = demo_build(self.profile, self.firmware_build)
+        if self.firmware_build is None and self.build.w_every_pass:
+            # a held W's every pass is the simulated chip's loop (its sections, its status
+            # lines' phase); beside a device this program is the host's and skips them
+            self.build = replace(self.build, w_every_pass=False)
         self._timing = sim_timing(self.profile, self.firmware_build)
         # a write call to the console's serial driver (USB CDC: not nothing)
         self._call_ticks = self._timing.console_call_ticks
@@ -73,6 +78,7 @@ class StepperDemo(LoopProgram):
         self.script_pos = 0
         self.script_loaded = False
         self.input_consumed_at: int | None = None
+        self.input_dropped = 0
         self.test_failed_count = 0
         self.tests_completed = 0
         self.passes = 0
@@ -501,6 +507,7 @@ class StepperDemo(LoopProgram):
         if ch:
             if ((self.write_ptr + 1) & 0xFF) == self.read_ptr:
                 self.read_ptr = (self.read_ptr + 1) & 0xFF
+                self.input_dropped += 1  # the oldest unread byte, as the firmware's ring
             self.in_buffer[self.write_ptr] = ch
             self.write_ptr = (self.write_ptr + 1) & 0xFF
 
@@ -804,7 +811,49 @@ class StepperDemo(LoopProgram):
                 changed = b.app_wait_until(wake, self._watch() if waited else None)
                 if waited and not changed and self._wake_by_clock and self.build.wake_mid_pass:
                     b.app_spend(self._idle_pass_ticks() // 2)
+        elif self.build.w_every_pass:
+            self._held_w_passes(limit)
+            if b.now() >= limit:  # (the passes reached it: the caller's next pass is not run)
+                return
         self.loop_pass()
+
+    def _held_w_passes(self, limit: int) -> None:
+        """A held W's passes while nothing they look at changes (DemoBuild.w_every_pass),
+        spent by the backend in rounds of two: the pass that takes the `W` and the pass
+        whose terminator runs it, which rewinds the input to the `W` again - what
+        :meth:`loop_pass` would spend in them, its reads (a stepper running, ``millis()``)
+        between each pass's head and rest.  The backend stops before a pass whose reads
+        come at the next status line's ``millis()`` or at ``limit``, or that an event
+        meets before its reads, and after an event that started or stopped a stepper;
+        :meth:`loop_pass` goes on from there."""
+        if (self.mode != _NORMAL or self.waiting_interactive or self.simulate_blocked_isr
+                or self.simulate_digital_read_error or self.pause_ms or self.qs_hold is not None
+                or self.restart_pending or self.stopped or not self.scripted
+                or self.script_pos < len(self.script)):
+            return
+        if (((self.write_ptr - self.read_ptr) & 0xFF) < 2 or not self._held_by_w()
+                or not self.any_running()):
+            return  # (the W's terminator read: _held_by_w; the selected stepper runs)
+        b = self.backend
+        build = self.build
+        ticks = build.loop_pass_ticks
+        for s in self.steppers:
+            if s is not None:
+                ticks += (build.loop_running_stepper_ticks if s.is_running()
+                          else build.loop_idle_stepper_ticks)
+        command = (build.cmd_ticks.get("W", build.cmd_default_ticks)
+                   + (build.cmd_tail_ticks.get("W", 0) if build.cmd_tail_ticks else 0))
+        sections = self._w_pass_sections(ticks)
+        passes = [(build.loop_char_ticks, ticks, None),
+                  (command, ticks, (ticks, sections) if sections else None)]
+        before = min(limit, b.tick_at_millis(self.last_time + 100))
+        n = b.app_spend_passes(passes, before, self._watch())
+        if n:
+            self.passes += n
+            self.commands += n // 2
+            if n & 1:  # the last pass took the W: its command comes next
+                self.read_ptr = (self.read_ptr + 1) & 0xFF
+                self.out_buffer.append(0x57)
 
     def _idle_pass_ticks(self) -> int:
         """CPU time of an idle pass as :meth:`loop_pass` charges it (a held `W`: its
@@ -903,3 +952,6 @@ class StepperDemo(LoopProgram):
 
     def exit_code(self) -> int:
         return 1 if self.test_failed_count or self.gcode_failures else 0
+
+    def dropped_input(self) -> int:
+        return self.input_dropped

@@ -126,19 +126,21 @@ class DemoBuild:
     # every pass while a stepper runs, in the normal mode without `e` (whose passes
     # e_every_pass governs): the pass that reads a status line's deadline is the one the
     # pass chain leads to (docs/timing-model.md, "forty-second pass"; False: idle passes
-    # skipped to the deadline)
+    # skipped to the deadline; build d's ATmega328P since the fiftieth pass)
     w_every_pass: bool = False
     # ... and the pass's CPU before a running stepper's status line (its millis() read,
     # the steppers' isRunning(), output_info()'s head), taken out of the pass's own
     # charge: build d's replica puts the line's first character 408-854 ticks after
     # timer 0's overflow (35 lines of the README move), the model with every pass of W
-    # 151-597: 257 (forty-second pass; 0: at the pass's start)
+    # 151-597: 257 (forty-second pass; 0: at the pass's start; 257 in build d's
+    # ATmega328P since the fiftieth pass)
     status_lead_ticks: int = 0
     # ... and with loop_sections, each such pass's own sections with interrupts off, as
     # the idle polls place them (loop_poll_running's widths): isRunning()'s queue read at
     # the pass's start and millis() this many ticks before its end (build d's replica:
     # passes of 330 / 467 with millis() at 207 / 344, both 123 before the end;
-    # docs/timing-model.md, "forty-third pass"; 0: a held W's passes carry no sections)
+    # docs/timing-model.md, "forty-third pass"; 0: a held W's passes carry no sections;
+    # 123 in build d's ATmega328P since the fiftieth pass)
     w_pass_millis_before_end: int = 0
     # `e` on, outside a window: a pass that skips the block is this much shorter than a
     # window's pass less its block (the replica of e01: 267 against 1 852 - 1 582)
@@ -153,8 +155,9 @@ class DemoBuild:
     # follows the read at once; docs/timing-model.md, "twenty-second pass")
     e_read_block_ticks: int = 0
     # the loop's own critical sections (docs/timing-model.md, fourteenth and twenty-sixth
-    # passes) followed: off by default, not landed (the chip's figures measured with
-    # them: fas.sim.timing's SimTiming.loop_section_widths)
+    # passes) followed: build d's ATmega328P since the fiftieth pass, off elsewhere
+    # (the chip's figures measured with them: fas.sim.timing's
+    # SimTiming.loop_section_widths)
     loop_sections: bool = False
     # those sections while the loop polls with a stepper running, as (pass length,
     # ((offset in the pass, ticks with interrupts off), ...)): during a `w<ms>` and
@@ -222,6 +225,13 @@ BUILD_D_REPLICA_TAILS_P39: dict[str, int] = {
 # of all 44 such passes of the runs (276-376) - for pause_end_ticks.  Build d's ATmega328P
 # default (fortieth pass)
 BUILD_D_REPLICA_PAUSE_END_TICKS = 284
+# ... and a held W's pass before a running stepper's status line: the line's first
+# character 408-854 ticks after timer 0's overflow on the replica (35 lines of the README
+# move), the model with every pass of W 151-597: 257 (forty-second pass, S42); each such
+# pass's millis() 123 ticks before its end (passes of 330 / 467, millis() at 207 / 344:
+# forty-third pass, L43).  Build d's ATmega328P default since the fiftieth pass
+BUILD_D_REPLICA_STATUS_LEAD_TICKS = 257
+BUILD_D_REPLICA_W_PASS_MILLIS_BEFORE_END = 123
 AVR_COSTS = DemoBuild(
     has_stray_digital_read=True,
     setup_head_ticks=2700,
@@ -324,6 +334,14 @@ ATMEGA328P_BUILD = replace(
     cmd_tail_ticks=dict(BUILD_D_REPLICA_TAILS_P39),
     pause_end_ticks=BUILD_D_REPLICA_PAUSE_END_TICKS,
     buffer_char_ticks=BUILD_D_REPLICA_PRINT_BODY["buffer_char_ticks"],
+    # ... and since the fiftieth pass (with fas.sim.timing's half of the six): a held
+    # W's every pass while a stepper runs and its CPU before a status line (S42), the
+    # loop's critical sections with each such pass's millis() 123 ticks before its end
+    # (L43).  Before: all off
+    w_every_pass=True,
+    status_lead_ticks=BUILD_D_REPLICA_STATUS_LEAD_TICKS,
+    loop_sections=True,
+    w_pass_millis_before_end=BUILD_D_REPLICA_W_PASS_MILLIS_BEFORE_END,
 )
 
 

@@ -80,6 +80,8 @@ def run_scripted(args: argparse.Namespace, title: str | None = None) -> int:
         for line in lines:
             print(line)
         sys.stdout.flush()
+    if app.dropped_input():  # the firmware's transcript says nothing of it; the console does
+        print(msg.CLI_INPUT_DROPPED.format(n=app.dropped_input()), file=sys.stderr)
     if problem is not None:  # (checked before the run: a disk full, a folder gone)
         print(msg.CLI_ERROR.format(problem=problem), file=sys.stderr)
         return EXIT_USAGE

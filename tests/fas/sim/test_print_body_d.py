@@ -30,7 +30,10 @@ import d_corpus  # noqa: E402
 from .test_coast_tails_d import _d_with  # noqa: E402
 
 # build d as read from its replica, with the print body and the tails read under it
-READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39", "E45", "H46", "Q46"]
+READ = ["D33", "P30", "L34", "W34", "C37", "P39", "T39", "E45", "H46", "Q46",
+        # ... and six of the eight of the forty-second to forty-seventh passes (fiftieth;
+        # not the ramp task's sections K43 and T44)
+        "R47", "S42", "P43", "L43", "N44", "F44"]
 
 
 def _writes(name: str) -> list[tuple[bytes, list[int] | None, bool]]:

@@ -82,9 +82,13 @@ def _first_rise(backend: SimBackend) -> int:
 
 
 def test_r47_sets_build_ds_table_alone(monkeypatch: pytest.MonkeyPatch) -> None:
-    assert sim_timing(ATMEGA328P, "d").fill_start_pitch_ticks == ()  # off by default
+    # build d's default since the fiftieth pass; PRE49 puts back the figures before it
+    assert (sim_timing(ATMEGA328P, "d").fill_start_pitch_ticks
+            == sim_timing_module.BUILD_D_REPLICA_START_PITCH_TICKS)
     assert sim_timing_module.AVR_TIMING.fill_start_pitch_ticks == ()  # the fitted table
     e_before = sim_timing(ATMEGA328P, "e")
+    default_with(monkeypatch, "PRE49")
+    assert sim_timing(ATMEGA328P, "d").fill_start_pitch_ticks == ()  # off before
     default_with(monkeypatch, "R47")
     d = sim_timing(ATMEGA328P, "d")
     assert d.fill_start_pitch_ticks == sim_timing_module.BUILD_D_REPLICA_START_PITCH_TICKS
@@ -112,7 +116,9 @@ def test_the_planner_tells_the_branches_of_each_starting_command(text: str) -> N
 
 def test_r47_moves_each_start_by_its_commands_and_a_slow_start_not_at_all(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    default_with(monkeypatch)
+    # (against the figures before the fiftieth pass, which made R47 and the seven
+    # others build d's default: their values below)
+    default_with(monkeypatch, "PRE49")
     before = {text: _start_task(text) for text in [*STARTS, SLOW]}
     default_with(monkeypatch, "R47")
     after = {text: _start_task(text) for text in [*STARTS, SLOW]}
@@ -144,6 +150,7 @@ def test_r47_charges_the_start_tasks_commands_only(monkeypatch: pytest.MonkeyPat
         return saved(figures, path)
 
     monkeypatch.setattr(channel_module, "start_pitch_ticks", counted)
+    default_with(monkeypatch, "PRE49")  # the figures before the fiftieth pass
     _start_task("M1 A1000000 V40 e R20000 W")
     assert calls == []  # off: not called
     default_with(monkeypatch, "R47")

@@ -245,3 +245,12 @@ def test_reference_transcripts_get_markers_for_version_and_usage():
     app, _ = run("")
     assert tr.ours_marked(app.transcript).startswith("StepperDemo Version <version>\n")
     assert "<usage>" in tr.ours_marked(app.transcript)
+
+
+def test_the_input_ring_full_behind_a_held_w_counts_what_the_rewind_skips():
+    app, reason = run(" ".join(["M1 A1000 V100 R10 W"] * 20))
+    assert reason == EndReason.IDLE
+    assert app.steppers[0].get_current_position() == 80
+    assert app.dropped_input() == 256  # one whole ring, the held W with it
+    app, _ = run(" ".join(["M1 A1000 V100 R10 W"] * 13))
+    assert app.steppers[0].get_current_position() == 130 and app.dropped_input() == 0

@@ -108,3 +108,21 @@ def test_pin_config_answers_the_esp32_prompt_and_bad_values_get_one_line():
         lines = err.decode().splitlines()
         assert proc.returncode == 2 and out == b"" and len(lines) == 1
         assert problem in lines[0] and "Traceback" not in lines[0]
+
+
+def test_a_line_longer_than_the_firmwares_ring_behind_a_held_w_says_what_it_dropped():
+    # StepperDemo's 256-byte input ring: a held W re-reads itself while the line behind
+    # it keeps coming in; once the ring is full the W's rewind skips a whole ring, as on
+    # the chip.  The transcript stays the firmware's; stderr says what was lost.
+    long_line = " ".join(["M1 A1000 V100 R10 W"] * 20)  # 399 characters
+    proc = stepperdemo("-c", long_line)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0
+    assert b">> M1: @80 " in out  # 8 of the 20 moves: the rest was skipped
+    assert err.decode().strip() == (
+        "stepperdemo: 256 input characters dropped, as the firmware drops them: its 256-byte "
+        "input ring was full while a W held the line; split lines longer than 256 characters")
+    fits = " ".join(["M1 A1000 V100 R10 W"] * 13)  # 259 characters: the ring keeps up
+    proc = stepperdemo("-c", fits)
+    out, err = proc.communicate(timeout=120)
+    assert b">> M1: @130 " in out and err == b""
