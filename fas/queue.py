@@ -214,46 +214,7 @@ class StepperQueue:
                 command_rate_ticks = ticks
             return self._append(wp, ticks, steps, count_up, start, command_rate_ticks, bare)
 
-        # (_append written out: a call less for every command written)
-        slot = wp % self.queue_len
-        e = self.entries[slot]
-        dir_level = count_up == self.dir_high_counts_up
-        toggle_dir = False
-        if self.dir_pin != PIN_UNDEFINED:
-            if (wp == self.read_idx and not self.is_running()
-                    and (self.dir_pin & PIN_EXTERNAL_FLAG) == 0):
-                self.backend.write_pin(self.dir_pin, 1 if dir_level else 0)
-                self.queue_end_dir = dir_level
-            else:
-                toggle_dir = dir_level != self.queue_end_dir
-        e.steps = steps
-        e.total_steps = steps
-        e.ticks = ticks
-        self.durations[slot] = command_rate_ticks
-        self.singles[slot] = 1 if steps <= 1 else 0
-        e.count_up = count_up
-        e.toggle_dir = toggle_dir
-        e.dir_level = dir_level
-        e.bare = bare
-        end_pos = self.queue_end_pos + (steps if count_up else -steps)
-        if not -0x80000000 <= end_pos <= 0x7FFFFFFF:
-            end_pos = i32(end_pos)
-        e.end_pos = end_pos
-        if not self.ignore_commands:
-            wp = (wp + 1) & 0xFF
-            self.next_write_idx = wp
-            self.queue_end_pos = end_pos
-            self.queue_end_dir = dir_level
-            self.queue_end_count_up = count_up
-            self.entries_added += 1
-            fill = (wp - self.read_idx) & 0xFF
-            if fill > self.max_fill:
-                self.max_fill = fill
-            channel.entry_added()
-        if start and not self.is_running():
-            channel.start()
-        self.last_command_ticks = ticks
-        return AQE_OK
+        return self._append(wp, ticks, steps, count_up, start, command_rate_ticks, bare)
 
     def _restart_loses_toggle(self, wp: int, count_up: bool) -> bool:
         """An entry written now follows a queue that ran dry while its channel runs,
@@ -266,9 +227,7 @@ class StepperQueue:
     def _append(self, wp: int, ticks: int, steps: int, count_up: bool, start: bool,
                 duration: int, bare: bool = False) -> AqeResult:
         """Write the command at write index ``wp`` (there is room), advance the queue's
-        end unless commands are ignored, tell the channel and start it if asked (the
-        same steps are written out at the end of :meth:`add_queue_entry`: keep both
-        alike)."""
+        end unless commands are ignored, tell the channel and start it if asked."""
         slot = wp % self.queue_len
         e = self.entries[slot]
         dir_level = count_up == self.dir_high_counts_up
