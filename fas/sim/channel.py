@@ -538,9 +538,7 @@ class SimChannel(QueueChannel):
                 # it lie in them, it is cut to their end, the rest go in whole
                 k = bisect_right(order[2], last - end) if order is not None else 0
                 n = len(sections)
-                if order is not None and k == n:
-                    pass  # (all of them within the sections known)
-                elif order is not None and len(starts) + n - k <= 1025:  # no list full
+                if order is not None and k < n and len(starts) + n - k <= 1025:  # no list full
                     starts_before, ends_before, _ = order
                     start = end - starts_before[k]
                     starts.append(start if start > last else last)
@@ -550,7 +548,7 @@ class SimChannel(QueueChannel):
                         ends += map(end.__sub__, ends_before[k + 1:])
                     if ends[-1] > m._quiet_from:  # noqa: SLF001
                         m._quiet_from = ends[-1]  # noqa: SLF001
-                else:
+                elif order is None or k < n:  # (k == n: all within the sections known)
                     for before, ticks in sections:
                         # (a short command: not before the sections already known)
                         start = end - before
