@@ -390,32 +390,16 @@ class Machine:
         The passes run one after another from the poll's start in the loop's own CPU
         time: the step interrupts of the asking channel (``step_cost`` ticks every
         ``step_period``) and timer 0's overflows are taken from it."""
-        polls = self.loop_polls
-        i = len(polls) - 1
-        while i >= 0:
-            start, end, period, sections = polls[i]
-            if c >= end:
-                return 0
-            if c >= start:
-                if period < 0:  # a run of passes nothing met (consume_passes): exact
-                    phase = (c - start) % -period
-                else:
-                    d = c - start
-                    d -= step_cost * (d // step_period) + self._ms_cost * (d >> 14)
-                    phase = d % period
-                for offset, ticks in sections:
-                    if offset <= phase < offset + ticks:
-                        return offset + ticks - phase
-                return 0
-            i -= 1
-        return 0
+        holds = self.loop_holds(c, step_period, 0, 1, step_cost)
+        return holds[0][1] if holds else 0
 
     def loop_holds(self, c0: int, period: int, j0: int, j1: int, step_cost: int,
                    skip: set[int] | frozenset[int] = frozenset()) -> list[tuple[int, int]]:
         """:meth:`loop_hold` of the requests ``c0 + j * period``, ``j0 <= j < j1`` (a
         channel's block of pulses, ``step_cost`` ticks each), but those in ``skip``:
         ``(j, ticks)`` for each that waits, in order.  The requests and the polls go
-        forward together (the polls are in order and do not overlap)."""
+        forward together (the polls are in order and do not overlap).  The one place
+        that reads a poll's passes (:meth:`loop_hold` asks it for one request)."""
         polls = self.loop_polls
         n = len(polls)
         out: list[tuple[int, int]] = []
@@ -438,6 +422,8 @@ class Machine:
             first = c0 + j * period
             if first < start:  # the first request in this poll
                 first = c0 + (-(-(start - c0) // period)) * period
+                if first > c0 + (j1 - 1) * period:
+                    break  # (the later polls begin later still)
             last = c0 + (j1 - 1) * period  # ... and the last
             if last >= end:
                 last = c0 + ((end - 1 - c0) // period) * period
